@@ -1,0 +1,182 @@
+"""The ``labkit`` command line.
+
+Subcommands defined here: ``robots``, ``fk``, ``ik``. Other modules contribute
+their own subcommands through :data:`PLUGINS`: each entry names a module that
+defines ``add_cli(subparsers)``; the module is imported only when the CLI is
+built, so ``import labkit`` stays light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import sys
+
+import numpy as np
+
+from labkit.exceptions import LabkitError
+
+#: modules that add subcommands (``add_cli(subparsers)``), in help order
+PLUGINS = (
+    "labkit.sim",  # labkit sim: serve the virtual arm on a pty
+    "labkit.render",  # labkit run / labkit render: notebooks and reports
+)
+
+
+def _angle_unit(args):
+    return "deg" if args.deg else "rad"
+
+
+def _len_scale(args):
+    return 1e3 if args.mm else 1.0
+
+
+def _fmt_table(header, rows):
+    widths = [max(len(str(h)), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+    line = "  ".join(str(h).rjust(w) for h, w in zip(header, widths))
+    out = [line, "  ".join("-" * w for w in widths)]
+    out += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(out)
+
+
+def _cmd_robots(args):
+    from labkit.dh import Robot, bundled_robots
+
+    rows = []
+    for name, path in bundled_robots().items():
+        try:
+            r = Robot.load(path)
+            rows.append((name, str(r.n), r.convention.value, r.title))
+        except LabkitError as exc:  # a broken file in LABKIT_ROBOT_PATH must not hide the rest
+            rows.append((name, "?", "?", f"ERROR: {exc}"))
+    print(_fmt_table(("name", "joints", "DH", "description"), rows))
+    return 0
+
+
+def _joint_values(robot, values, deg, mm):
+    q = np.array(values, dtype=float)
+    if q.shape != (robot.n,):
+        raise LabkitError(f"{robot.name} has {robot.n} joints; expected {robot.n} joint values, got {q.size}")
+    rev = robot.is_revolute
+    if deg:
+        q[rev] = np.radians(q[rev])
+    if mm:
+        q[~rev] = q[~rev] / 1e3
+    return q
+
+
+def _print_pose(T, args):
+    s = _len_scale(args)
+    unit = "mm" if args.mm else "m"
+    p = T[:3, 3] * s
+    print(f"position [{unit}]:  x = {p[0]:.6g}   y = {p[1]:.6g}   z = {p[2]:.6g}")
+    print("transform (rotation | position [" + unit + "]):")
+    for i in range(4):
+        row = [f"{T[i, j]: .6f}" for j in range(3)] + [f"{T[i, 3] * (s if i < 3 else 1): .6g}"]
+        print("  [" + "  ".join(row) + "]")
+
+
+def _cmd_fk(args):
+    from labkit.dh import Robot
+    from labkit.kinematics import fk
+
+    robot = Robot.load(args.robot)
+    q = _joint_values(robot, args.q, args.deg, args.mm)
+    robot.check_limits(q)
+    _print_pose(fk(robot, q), args)
+    return 0
+
+
+def _cmd_ik(args):
+    from labkit import ik as ikmod
+    from labkit.dh import Robot
+
+    robot = Robot.load(args.robot)
+    s = _len_scale(args)
+    target = np.array(args.target, dtype=float)
+    if target.size < 3:
+        raise LabkitError(f"expected at least x y z (or x y phi), got {target.size} values")
+    target = target.copy()
+    kind = ikmod.target_kind(robot)
+    if kind == "planar":
+        target[:2] /= s
+        if args.deg:
+            target[2] = math.radians(target[2])
+    elif kind == "pose":
+        if target.size != 6:
+            raise LabkitError("expected x y z roll pitch yaw for a 6-DOF arm")
+        from labkit.rotations import matrix_from_rpy
+
+        rpy = np.radians(target[3:]) if args.deg else target[3:]
+        T = np.eye(4)
+        T[:3, :3] = matrix_from_rpy(rpy)
+        T[:3, 3] = target[:3] / s
+        target = T
+    else:
+        target = target[:3] / s
+    sols = ikmod.ik_all(robot, target)
+    conv = np.degrees if args.deg else (lambda v: v)
+    rows = []
+    for k, name in enumerate(sols.branches):
+        if not sols.reachable[k] if np.ndim(sols.reachable) else False:
+            continue
+        q = np.array(sols.q[k], dtype=float)
+        shown = np.where(robot.is_revolute, conv(q), q * s)
+        status = "ok" if sols.valid[k] else "outside joint limits"
+        rows.append((name, *(f"{v:.4f}" for v in shown), status))
+    if not rows:
+        print("target unreachable", file=sys.stderr)
+        return 1
+    unit = "deg" if args.deg else "rad"
+    print(_fmt_table(("branch", *(f"{n} [{unit}]" for n in robot.joint_names), "status"), rows))
+    return 0
+
+
+def build_parser():
+    """The argparse parser of the ``labkit`` command (with plugin subcommands)."""
+    p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
+    sub = p.add_subparsers(dest="command", required=True)
+    sp = sub.add_parser("robots", help="list the bundled robot files")
+    sp.set_defaults(func=_cmd_robots)
+
+    units = argparse.ArgumentParser(add_help=False)
+    units.add_argument("--deg", action="store_true", help="angles in degrees (default radians)")
+    units.add_argument("--mm", action="store_true", help="lengths in millimetres (default metres)")
+
+    sp = sub.add_parser("fk", parents=[units], help="forward kinematics of a robot at joint values q")
+    sp.add_argument("robot", help="bundled robot name or robot file")
+    sp.add_argument("q", nargs="+", type=float, help="joint values")
+    sp.set_defaults(func=_cmd_fk)
+
+    sp = sub.add_parser(
+        "ik", parents=[units],
+        help="inverse kinematics: all solutions for x y z (3-DOF), x y phi (planar), x y z roll pitch yaw (6-DOF)",
+    )
+    sp.add_argument("robot", help="bundled robot name or robot file")
+    sp.add_argument("target", nargs="+", type=float, help="target coordinates")
+    sp.set_defaults(func=_cmd_ik)
+
+    for mod in PLUGINS:
+        try:
+            module = importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if exc.name != mod:
+                raise
+            continue
+        module.add_cli(sub)
+    return p
+
+
+def main(argv=None):
+    """Entry point of the ``labkit`` console script."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except LabkitError as exc:
+        print(f"labkit {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,88 @@
+"""The one exception hierarchy of labkit.
+
+Every error labkit raises derives from :class:`LabkitError` and also from the
+builtin type callers already catch (``ValueError`` for bad input,
+``OSError`` for the device link), the way ``control.exception`` and
+``serial.serialutil`` do it.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "LabkitError",
+    "ShapeError",
+    "RobotFileError",
+    "UnreachableError",
+    "JointLimitError",
+    "TrajectoryError",
+    "MeasurementError",
+    "DeviceError",
+    "ProtocolError",
+]
+
+
+class LabkitError(Exception):
+    """Base class of every error raised by labkit."""
+
+
+class ShapeError(LabkitError, ValueError):
+    """An array had the wrong shape, dtype or non-finite values."""
+
+
+class RobotFileError(LabkitError, ValueError):
+    """A robot file is missing, malformed or inconsistent.
+
+    The message names the file, the field and what was expected.
+    """
+
+    def __init__(self, path, field, message):
+        self.path = str(path)
+        self.field = field
+        super().__init__(f"{self.path}: field '{field}': {message}")
+
+
+class UnreachableError(LabkitError, ValueError):
+    """A Cartesian target lies outside the workspace.
+
+    Attributes
+    ----------
+    distance : float
+        How far the target lies outside the reachable set [m] (a lower bound
+        where the exact distance is not known in closed form).
+    """
+
+    def __init__(self, message, distance=float("nan"), index=None):
+        self.distance = float(distance)
+        self.index = index
+        super().__init__(message)
+
+
+class JointLimitError(LabkitError, ValueError):
+    """A joint value, or every IK solution of a target, violates joint limits.
+
+    Attributes
+    ----------
+    joint : int
+        Index (0-based) of the first offending joint.
+    """
+
+    def __init__(self, message, joint=None, index=None):
+        self.joint = joint
+        self.index = index
+        super().__init__(message)
+
+
+class TrajectoryError(LabkitError, ValueError):
+    """A trajectory cannot be built or violates speed/acceleration limits."""
+
+
+class MeasurementError(LabkitError, ValueError):
+    """A measurement record or table is malformed (names row and column)."""
+
+
+class DeviceError(LabkitError, OSError):
+    """The link to the arm failed: timeout, garbled reply, vanished port."""
+
+
+class ProtocolError(DeviceError):
+    """The board answered, but not with a valid protocol reply."""
