@@ -26,7 +26,7 @@ from labkit.exceptions import RobotFileError
 
 _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "joint", "tool", "base", "gripper"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration"}
-_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us"}
+_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
 _FRAME_KEYS = {"translation", "rpy"}
 
 
@@ -135,6 +135,7 @@ def parse(data, path):
                 direction=direction,
                 angle_range=(ar[0] * qscale, ar[1] * qscale),
                 pulse_range=pr,
+                feedback_adc=_pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
             )
         links.append(
             Link(
@@ -230,7 +231,8 @@ def dump(robot, length_unit="m", angle_unit="rad"):
             out.append(
                 f"servo = {{ channel = {s.channel}, zero = {_fmt(s.zero / qs)}, direction = {s.direction}, "
                 f"range = [{_fmt(s.angle_range[0] / qs)}, {_fmt(s.angle_range[1] / qs)}], "
-                f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}] }}"
+                f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
+                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}] }}"
             )
         out.append("")
     for name in ("base", "tool"):

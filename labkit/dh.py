@@ -74,6 +74,9 @@ class ServoCalibration:
         Servo angle range (min, max) [rad] covered by ``pulse_range``.
     pulse_range : tuple of float
         Pulse widths (min, max) [us] for ``angle_range``.
+    feedback_adc : tuple of float
+        ADC counts (0-1023 on a 5 V Uno) read on the servo's potentiometer tap
+        at the two ends of ``angle_range`` (default 0.5 V -> 4.5 V).
     """
 
     channel: int
@@ -81,6 +84,7 @@ class ServoCalibration:
     direction: int = 1
     angle_range: tuple = (0.0, math.pi)
     pulse_range: tuple = (500.0, 2500.0)
+    feedback_adc: tuple = (102.3, 920.7)
 
     def servo_angle(self, q):
         """Servo angle [rad] for joint value ``q`` [rad]."""
@@ -109,6 +113,19 @@ class ServoCalibration:
             )
         p0, p1 = self.pulse_range
         return p0 + (a - lo) / (hi - lo) * (p1 - p0)
+
+    def joint_from_adc(self, counts):
+        """Joint value [rad] sensed from feedback ADC ``counts``."""
+        lo, hi = self.angle_range
+        c0, c1 = self.feedback_adc
+        a = lo + (np.asarray(counts, dtype=float) - c0) / (c1 - c0) * (hi - lo)
+        return self.joint_from_servo_angle(a)
+
+    def adc_from_joint(self, q):
+        """Feedback ADC counts (float) for joint value ``q`` [rad]."""
+        lo, hi = self.angle_range
+        c0, c1 = self.feedback_adc
+        return c0 + (self.servo_angle(q) - lo) / (hi - lo) * (c1 - c0)
 
     def joint_from_pulse(self, pulse_us):
         """Joint value [rad] commanded by ``pulse_us`` [us]."""
