@@ -7,6 +7,7 @@ radians.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -23,6 +24,7 @@ from labkit.dh import (
     ServoCalibration,
 )
 from labkit.exceptions import RobotFileError
+from labkit.rotations import matrix_from_rpy, rpy_from_matrix
 
 _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "joint", "tool", "base", "gripper"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration"}
@@ -61,8 +63,6 @@ def _check_keys(path, where, table, allowed):
 
 
 def _frame(path, field, table, L, A):
-    from labkit.rotations import matrix_from_rpy
-
     T = np.eye(4)
     if table is None:
         return T
@@ -182,12 +182,9 @@ def parse(data, path):
     )
 
 
-def _rpy(R):
-    """One XYZ-fixed (roll, pitch, yaw) triple of ``R`` (yaw = 0 at gimbal lock)."""
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if math.hypot(R[0, 0], R[1, 0]) < 1e-12:
-        return math.atan2(R[0, 1] * math.copysign(1, -R[2, 0]), R[1, 1]), pitch, 0.0
-    return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
+def _toml_str(text):
+    """A TOML basic string (JSON string syntax is valid TOML)."""
+    return json.dumps(str(text), ensure_ascii=False)
 
 
 def _fmt(x):
@@ -202,9 +199,9 @@ def dump(robot, length_unit="m", angle_unit="rad"):
     L, A = _LENGTH_UNITS[length_unit], _ANGLE_UNITS[angle_unit]
     out = [
         f'format = "{FORMAT}"',
-        f"name = {robot.name!r}".replace("'", '"'),
-        f"title = {robot.title!r}".replace("'", '"'),
-        f"source = {robot.source!r}".replace("'", '"'),
+        f"name = {_toml_str(robot.name)}",
+        f"title = {_toml_str(robot.title)}",
+        f"source = {_toml_str(robot.source)}",
         f'convention = "{robot.convention.value}"',
         f'units = {{ length = "{length_unit}", angle = "{angle_unit}" }}',
         "",
@@ -214,7 +211,7 @@ def dump(robot, length_unit="m", angle_unit="rad"):
         qs = A if rev else L
         out += [
             "[[joint]]",
-            f'name = "{lk.name}"',
+            f"name = {_toml_str(lk.name)}",
             f'type = "{lk.joint_type.value}"',
             f"a = {_fmt(lk.a / L)}",
             f"alpha = {_fmt(lk.alpha / A)}",
@@ -238,7 +235,7 @@ def dump(robot, length_unit="m", angle_unit="rad"):
     for name in ("base", "tool"):
         T = getattr(robot, name)
         if not np.allclose(T, np.eye(4), atol=0, rtol=0):
-            rpy = _rpy(T[:3, :3])
+            rpy = rpy_from_matrix(T[:3, :3])
             out += [
                 f"[{name}]",
                 "translation = [" + ", ".join(_fmt(v / L) for v in T[:3, 3]) + "]",

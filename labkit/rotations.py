@@ -1,13 +1,67 @@
-"""Rotation matrices: elementary rotations (batched).
+"""Rotation matrices: elementary rotations, compositions, Euler/RPY angles (batched).
 
-All angles in radians; matrices have shape ``(..., 3, 3)``.
+All angles are in radians and matrices have shape ``(..., 3, 3)``; every
+function broadcasts over leading batch dimensions.
+
+Two readings of a sequence of elementary rotations
+---------------------------------------------------
+* **moving (current) frame** - each rotation is about an axis of the frame
+  produced by the previous rotations: the matrices are *post*-multiplied,
+  ``R = R_1 R_2 ... R_k`` (:func:`compose_moving_frame`);
+* **fixed frame** - each rotation is about an axis of the fixed (reference)
+  frame: the matrices are *pre*-multiplied, ``R = R_k ... R_2 R_1``
+  (:func:`compose_fixed_frame`).
+
+Rotating about ``x`` then ``y`` in the moving frame gives the same matrix as
+rotating about ``y`` then ``x`` in the fixed frame.
+
+Angle sets (:class:`EulerConvention`)
+-------------------------------------
+* ``"xyz_fixed"`` (= roll-pitch-yaw): angles ``(gamma, beta, alpha)`` about the
+  fixed x, y, z axes, ``R = Rz(alpha) Ry(beta) Rx(gamma)``;
+* ``"zyx"`` Euler: angles ``(alpha, beta, gamma)`` about the moving z, y', x''
+  axes, the same matrix ``Rz(alpha) Ry(beta) Rx(gamma)``;
+* ``"zyz"`` Euler: angles ``(alpha, beta, gamma)``, ``R = Rz(alpha) Ry(beta) Rz(gamma)``.
+
+:func:`euler_from_matrix` returns *both* angle triples of a matrix and flags
+gimbal lock (where infinitely many triples exist).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from enum import Enum
+
 import numpy as np
 
-__all__ = ["rotation_x", "rotation_y", "rotation_z", "matrix_from_rpy"]
+from labkit._validation import as_batch
+from labkit.exceptions import LabkitError, ShapeError
+
+__all__ = [
+    "rotation_x",
+    "rotation_y",
+    "rotation_z",
+    "rotation_about",
+    "compose_moving_frame",
+    "compose_fixed_frame",
+    "EulerConvention",
+    "EulerAngles",
+    "matrix_from_euler",
+    "euler_from_matrix",
+    "matrix_from_rpy",
+    "rpy_from_matrix",
+    "wrap_angle",
+    "is_rotation",
+    "check_rotation",
+    "nearest_rotation",
+    "RotationMatrixError",
+]
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+class RotationMatrixError(LabkitError, ValueError):
+    """A 3x3 matrix is not a proper rotation (not orthonormal or det != +1)."""
 
 
 def _elementary(angle, axis):
@@ -85,6 +139,343 @@ def rotation_z(angle):
     return _elementary(angle, 2)
 
 
+def _axis_index(axis):
+    key = str(axis).lower()
+    if key not in _AXES:
+        raise ValueError(f"expected an axis 'x', 'y' or 'z', got {axis!r}")
+    return _AXES[key]
+
+
+def rotation_about(axis, angle):
+    """Elementary rotation about a named axis.
+
+    Parameters
+    ----------
+    axis : {"x", "y", "z"}
+        Rotation axis.
+    angle : array_like, shape (...)
+        Rotation angle [rad].
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+
+    Examples
+    --------
+    >>> np.allclose(rotation_about("y", 0.2), rotation_y(0.2))
+    True
+    """
+    return _elementary(angle, _axis_index(axis))
+
+
+def _sequence(sequence, angles):
+    axes = [_axis_index(a) for a in sequence]
+    if not axes:
+        raise ValueError("expected a non-empty sequence of axes such as 'zyx', got an empty one")
+    angles = as_batch(angles, (len(axes),), "angles")
+    return axes, angles
+
+
+def compose_moving_frame(sequence, angles):
+    """Compose elementary rotations about the axes of the *moving* (current) frame.
+
+    Each rotation is about an axis of the frame obtained after the previous
+    ones, so the matrices are post-multiplied:
+    ``R = R_{s1}(angles[0]) @ R_{s2}(angles[1]) @ ...``.
+
+    Parameters
+    ----------
+    sequence : str or sequence of {"x", "y", "z"}
+        Axes in the order the rotations are performed, e.g. ``"zyz"`` or
+        ``("y", "x", "z")``.
+    angles : array_like, shape (..., k)
+        One angle per axis [rad], ``k = len(sequence)``.
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    ValueError
+        For an unknown axis name; :class:`~labkit.exceptions.ShapeError` if
+        ``angles`` does not end in ``k``.
+
+    Examples
+    --------
+    Seed 002 problem 1(a): pi/4 about x, then pi/6 about the new y axis.
+
+    >>> np.round(compose_moving_frame("xy", [np.pi / 4, np.pi / 6]), 4)
+    array([[ 0.866 ,  0.    ,  0.5   ],
+           [ 0.3536,  0.7071, -0.6124],
+           [-0.3536,  0.7071,  0.6124]])
+    """
+    axes, angles = _sequence(sequence, angles)
+    R = _elementary(angles[..., 0], axes[0])
+    for k in range(1, len(axes)):
+        R = R @ _elementary(angles[..., k], axes[k])
+    return R
+
+
+def compose_fixed_frame(sequence, angles):
+    """Compose elementary rotations about the axes of the *fixed* (reference) frame.
+
+    Each rotation is about an axis of the fixed frame, so the matrices are
+    pre-multiplied: ``R = ... @ R_{s2}(angles[1]) @ R_{s1}(angles[0])``.
+
+    Parameters
+    ----------
+    sequence : str or sequence of {"x", "y", "z"}
+        Axes in the order the rotations are performed.
+    angles : array_like, shape (..., k)
+        One angle per axis [rad].
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+
+    Examples
+    --------
+    Seed 002 problem 1(a) read in the fixed frame: pi/6 about y, then pi/4
+    about the fixed x axis (the same matrix as ``compose_moving_frame("xy", ...)``).
+
+    >>> R = compose_fixed_frame("yx", [np.pi / 6, np.pi / 4])
+    >>> np.allclose(R, compose_moving_frame("xy", [np.pi / 4, np.pi / 6]))
+    True
+    """
+    axes, angles = _sequence(sequence, angles)
+    R = _elementary(angles[..., 0], axes[0])
+    for k in range(1, len(axes)):
+        R = _elementary(angles[..., k], axes[k]) @ R
+    return R
+
+
+class EulerConvention(str, Enum):
+    """Angle sets understood by :func:`matrix_from_euler` / :func:`euler_from_matrix`.
+
+    ``XYZ_FIXED`` (alias ``"rpy"``): ``(gamma, beta, alpha)`` = (roll, pitch,
+    yaw) about the fixed x, y, z axes, ``R = Rz(alpha) Ry(beta) Rx(gamma)``.
+    ``ZYX``: Euler ``(alpha, beta, gamma)`` about moving z, y', x'',
+    ``R = Rz(alpha) Ry(beta) Rx(gamma)``.
+    ``ZYZ``: Euler ``(alpha, beta, gamma)``, ``R = Rz(alpha) Ry(beta) Rz(gamma)``.
+    """
+
+    XYZ_FIXED = "xyz_fixed"
+    ZYX = "zyx"
+    ZYZ = "zyz"
+
+
+def _convention(convention):
+    if isinstance(convention, EulerConvention):
+        return convention
+    key = str(convention).lower()
+    if key == "rpy":
+        return EulerConvention.XYZ_FIXED
+    try:
+        return EulerConvention(key)
+    except ValueError:
+        valid = [c.value for c in EulerConvention] + ["rpy"]
+        raise ValueError(f"expected an Euler convention in {valid}, got {convention!r}") from None
+
+
+_FAMILY = {
+    EulerConvention.XYZ_FIXED: (
+        "gimbal lock at beta = +-pi/2: R depends only on gamma - alpha (beta = +pi/2) "
+        "or gamma + alpha (beta = -pi/2); the representative has alpha (yaw) = 0"
+    ),
+    EulerConvention.ZYX: (
+        "gimbal lock at beta = +-pi/2: R depends only on gamma - alpha (beta = +pi/2) "
+        "or gamma + alpha (beta = -pi/2); the representative has alpha = 0"
+    ),
+    EulerConvention.ZYZ: (
+        "gimbal lock at beta = 0 or pi: R depends only on alpha + gamma (beta = 0) "
+        "or gamma - alpha (beta = pi); the representative has alpha = 0"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class EulerAngles:
+    """Both angle triples of a rotation matrix (result of :func:`euler_from_matrix`).
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (..., 2, 3)
+        ``solutions[..., 0, :]`` and ``solutions[..., 1, :]``, the two angle
+        triples [rad] in the order of the convention (``(gamma, beta, alpha)``
+        for ``xyz_fixed``; ``(alpha, beta, gamma)`` for ``zyx`` and ``zyz``),
+        each angle wrapped to ``(-pi, pi]``. The first solution has
+        ``beta`` in ``[-pi/2, pi/2]`` (Tait-Bryan) or ``[0, pi]`` (ZYZ).
+    gimbal_lock : ndarray of bool, shape (...)
+        True where the matrix is at a singularity of the angle set. There
+        infinitely many triples give the matrix (see :attr:`family`); both rows
+        then hold the same representative.
+    convention : EulerConvention
+    """
+
+    solutions: np.ndarray
+    gimbal_lock: np.ndarray
+    convention: EulerConvention
+
+    @property
+    def first(self):
+        """First solution, shape (..., 3) [rad]."""
+        return self.solutions[..., 0, :]
+
+    @property
+    def second(self):
+        """Second solution, shape (..., 3) [rad] (equal to the first at gimbal lock)."""
+        return self.solutions[..., 1, :]
+
+    @property
+    def family(self):
+        """Text describing the one-parameter family of solutions at gimbal lock."""
+        return _FAMILY[self.convention]
+
+
+def wrap_angle(angle):
+    """Wrap angles to ``(-pi, pi]``.
+
+    Parameters
+    ----------
+    angle : array_like, shape (...)
+        Angles [rad].
+
+    Returns
+    -------
+    wrapped : ndarray, shape (...)
+
+    Examples
+    --------
+    >>> float(wrap_angle(-np.pi)) == float(np.pi)
+    True
+    """
+    a = np.asarray(angle, dtype=float)
+    w = np.mod(a + np.pi, 2 * np.pi) - np.pi
+    return np.where(w <= -np.pi, w + 2 * np.pi, w)
+
+
+def matrix_from_euler(angles, convention):
+    """Rotation matrix from three angles of a given convention.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        Angles [rad] in the order of the convention (see :class:`EulerConvention`).
+    convention : {"xyz_fixed", "rpy", "zyx", "zyz"} or EulerConvention
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+
+    Examples
+    --------
+    Seed 002 problem 1(b): XYZ fixed angles (gamma, beta, alpha) = (pi/4, pi/6, 0).
+
+    >>> np.round(matrix_from_euler([np.pi / 4, np.pi / 6, 0], "xyz_fixed"), 4)
+    array([[ 0.866 ,  0.3536,  0.3536],
+           [ 0.    ,  0.7071, -0.7071],
+           [-0.5   ,  0.6124,  0.6124]])
+    """
+    conv = _convention(convention)
+    angles = as_batch(angles, (3,), "angles")
+    if conv is EulerConvention.XYZ_FIXED:
+        return compose_fixed_frame("xyz", angles)
+    return compose_moving_frame(conv.value, angles)
+
+
+def _as_matrices(R):
+    return as_batch(R, (3, 3), "R")
+
+
+def _tait_bryan_zyx(R, tol):
+    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rx(gamma)."""
+    r11, r21, r31 = R[..., 0, 0], R[..., 1, 0], R[..., 2, 0]
+    r32, r33 = R[..., 2, 1], R[..., 2, 2]
+    r12, r22 = R[..., 0, 1], R[..., 1, 1]
+    cb = np.hypot(r11, r21)
+    lock = cb < tol
+    beta = np.arctan2(-r31, cb)
+    alpha = np.arctan2(r21, r11)
+    gamma = np.arctan2(r32, r33)
+    # gimbal lock: alpha = 0 representative
+    up = -r31 > 0
+    g_lock = np.where(up, np.arctan2(r12, r22), np.arctan2(-r12, r22))
+    beta_lock = np.where(up, np.pi / 2, -np.pi / 2)
+    alpha = np.where(lock, 0.0, alpha)
+    gamma = np.where(lock, g_lock, gamma)
+    beta = np.where(lock, beta_lock, beta)
+    first = np.stack([alpha, beta, gamma], axis=-1)
+    second = np.stack([alpha + np.pi, np.pi - beta, gamma + np.pi], axis=-1)
+    second = np.where(lock[..., None], first, second)
+    return wrap_angle(np.stack([first, second], axis=-2)), lock
+
+
+def _proper_zyz(R, tol):
+    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rz(gamma)."""
+    r13, r23, r33 = R[..., 0, 2], R[..., 1, 2], R[..., 2, 2]
+    r31, r32 = R[..., 2, 0], R[..., 2, 1]
+    r11, r12, r21 = R[..., 0, 0], R[..., 0, 1], R[..., 1, 0]
+    sb = np.hypot(r31, r32)
+    lock = sb < tol
+    beta = np.arctan2(sb, r33)
+    alpha = np.arctan2(r23, r13)
+    gamma = np.arctan2(r32, -r31)
+    top = r33 > 0
+    g_lock = np.where(top, np.arctan2(r21, r11), np.arctan2(r12, -r11))
+    beta_lock = np.where(top, 0.0, np.pi)
+    alpha = np.where(lock, 0.0, alpha)
+    gamma = np.where(lock, g_lock, gamma)
+    beta = np.where(lock, beta_lock, beta)
+    first = np.stack([alpha, beta, gamma], axis=-1)
+    second = np.stack([alpha + np.pi, -beta, gamma + np.pi], axis=-1)
+    second = np.where(lock[..., None], first, second)
+    return wrap_angle(np.stack([first, second], axis=-2)), lock
+
+
+def euler_from_matrix(R, convention, *, tol=1e-9):
+    """Both angle triples of a rotation matrix, with a gimbal-lock flag.
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+        Rotation matrices (not checked; see :func:`check_rotation` and
+        :func:`nearest_rotation` for measured or rounded matrices).
+    convention : {"xyz_fixed", "rpy", "zyx", "zyz"} or EulerConvention
+    tol : float
+        Gimbal lock is declared where ``|cos(beta)|`` (Tait-Bryan) or
+        ``|sin(beta)|`` (ZYZ) is below ``tol``.
+
+    Returns
+    -------
+    EulerAngles
+        ``solutions`` of shape (..., 2, 3) [rad] and the ``gimbal_lock`` flag.
+
+    Examples
+    --------
+    Seed 002 problem 1(b): the matrix ``Rz(30 deg)`` (rounded to 3 decimals)
+    has XYZ-fixed angles (0, 0, 30) deg and (180, 180, -150) deg; the seed
+    prints the second as (-180, -180, -150) deg, the same angles.
+
+    >>> R = [[0.866, -0.5, 0], [0.5, 0.866, 0], [0, 0, 1]]
+    >>> e = euler_from_matrix(R, "xyz_fixed")
+    >>> np.round(np.degrees(e.solutions), 2)
+    array([[   0.,    0.,   30.],
+           [ 180.,  180., -150.]])
+    >>> bool(e.gimbal_lock)
+    False
+    """
+    conv = _convention(convention)
+    R = _as_matrices(R)
+    if conv is EulerConvention.ZYZ:
+        sol, lock = _proper_zyz(R, tol)
+    else:
+        sol, lock = _tait_bryan_zyx(R, tol)
+        if conv is EulerConvention.XYZ_FIXED:
+            sol = sol[..., ::-1]
+    return EulerAngles(solutions=sol, gimbal_lock=lock, convention=conv)
+
+
 def matrix_from_rpy(rpy):
     """Rotation from roll-pitch-yaw = XYZ fixed angles, ``Rz(yaw) Ry(pitch) Rx(roll)``.
 
@@ -105,3 +496,143 @@ def matrix_from_rpy(rpy):
     """
     rpy = np.asarray(rpy, dtype=float)
     return rotation_z(rpy[..., 2]) @ rotation_y(rpy[..., 1]) @ rotation_x(rpy[..., 0])
+
+
+def rpy_from_matrix(R, *, tol=1e-9):
+    """One roll-pitch-yaw (XYZ fixed) triple of a rotation matrix.
+
+    The first solution of :func:`euler_from_matrix` with ``"xyz_fixed"``:
+    pitch in ``[-pi/2, pi/2]``; at gimbal lock yaw = 0.
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+
+    Returns
+    -------
+    rpy : ndarray, shape (..., 3)
+        (roll, pitch, yaw) [rad].
+
+    Examples
+    --------
+    >>> np.round(rpy_from_matrix(matrix_from_rpy([0.1, 0.2, 0.3])), 6)
+    array([0.1, 0.2, 0.3])
+    """
+    return euler_from_matrix(R, EulerConvention.XYZ_FIXED, tol=tol).first
+
+
+def _orthonormality_error(R):
+    RtR = np.swapaxes(R, -1, -2) @ R
+    return np.max(np.abs(RtR - np.eye(3)), axis=(-2, -1))
+
+
+def is_rotation(R, tol=1e-6):
+    """Whether matrices are proper rotations (orthonormal, determinant +1).
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+    tol : float
+        Allowed ``max |R^T R - I|`` and ``|det R - 1|``.
+
+    Returns
+    -------
+    ok : ndarray of bool, shape (...)
+        False also for non-finite entries.
+
+    Examples
+    --------
+    >>> bool(is_rotation(rotation_z(0.4))), bool(is_rotation(np.diag([1.0, 1.0, -1.0])))
+    (True, False)
+    """
+    R = as_batch(R, (3, 3), "R", finite=False)
+    finite = np.all(np.isfinite(R), axis=(-2, -1))
+    Rf = np.where(finite[..., None, None], R, 0.0)
+    return finite & (_orthonormality_error(Rf) <= tol) & (np.abs(np.linalg.det(Rf) - 1.0) <= tol)
+
+
+def check_rotation(R, tol=1e-6):
+    """Return ``R`` as an array, or raise saying why it is not a rotation.
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+    tol : float
+        Allowed ``max |R^T R - I|`` and ``|det R - 1|``.
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    ShapeError
+        Wrong shape or non-finite entries.
+    RotationMatrixError
+        Not orthonormal (columns not unit length / not perpendicular), or a
+        reflection (det = -1); the message gives the size of the defect, the
+        batch index and suggests :func:`nearest_rotation`.
+
+    Examples
+    --------
+    >>> check_rotation([[0.866, -0.5, 0], [0.5, 0.866, 0], [0, 0, 1]], tol=1e-3).shape
+    (3, 3)
+    """
+    R = _as_matrices(R)
+    err = _orthonormality_error(R)
+    det = np.linalg.det(R)
+    bad = err > tol
+    if np.any(bad):
+        idx = tuple(int(i) for i in np.argwhere(bad)[0]) if R.ndim > 2 else ()
+        where = f" at batch index {idx}" if idx else ""
+        Ri = R[idx]
+        norms = np.linalg.norm(Ri, axis=0)
+        raise RotationMatrixError(
+            f"expected an orthonormal matrix (max |R^T R - I| <= {tol:g}), got "
+            f"max |R^T R - I| = {float(err[idx]):.3g}{where} (column norms "
+            f"{np.array2string(norms, precision=4)}); use nearest_rotation() to re-orthonormalise "
+            "a measured or rounded matrix"
+        )
+    refl = np.abs(det - 1.0) > tol
+    if np.any(refl):
+        idx = tuple(int(i) for i in np.argwhere(refl)[0]) if R.ndim > 2 else ()
+        where = f" at batch index {idx}" if idx else ""
+        raise RotationMatrixError(
+            f"expected det R = +1, got det R = {float(det[idx]):.4g}{where}: "
+            "the matrix is a reflection (a left-handed frame), not a rotation"
+        )
+    return R
+
+
+def nearest_rotation(R):
+    """Nearest proper rotation (in the Frobenius norm) to each matrix.
+
+    Re-orthonormalises measured or rounded matrices by the polar
+    decomposition computed with an SVD: ``M = U S V^T`` gives
+    ``R = U diag(1, 1, det(U V^T)) V^T``.
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+        Approximately orthonormal matrices.
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+        Proper rotations (det = +1).
+
+    Examples
+    --------
+    >>> R = nearest_rotation([[0.866, -0.5, 0], [0.5, 0.866, 0], [0, 0, 1]])
+    >>> bool(is_rotation(R, tol=1e-12))
+    True
+    >>> round(float(np.degrees(np.arctan2(R[1, 0], R[0, 0]))), 2)
+    30.0
+    """
+    M = _as_matrices(R)
+    U, _, Vt = np.linalg.svd(M)
+    d = np.sign(np.linalg.det(U @ Vt))
+    d = np.where(d == 0, 1.0, d)
+    U = U.copy()
+    U[..., :, 2] *= d[..., None]
+    return U @ Vt
