@@ -1,0 +1,717 @@
+"""Tidy measurement logs: schema, crash-safe writer and validating CSV loader.
+
+One row per reading (see ``docs/measurements.md``). :class:`MeasurementLog`
+appends records to a CSV file; every :meth:`MeasurementLog.record` call
+returns only after its line is written, flushed and ``fsync``-ed, so a record
+that was acknowledged survives a crash or a ``SIGKILL``. The file is opened in
+append mode and never truncated or rewritten: a crash leaves at most one
+partial last line, which the next writer terminates (it never glues a new
+record onto it) and which :func:`load_measurements` detects by its checksum
+and skips with a warning.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> path = pathlib.Path(tempfile.mkdtemp()) / "fk_joint1.csv"
+>>> with MeasurementLog(path, robot="arduino_arm_3dof", operator="AB") as log:
+...     rec = log.record("j1_45", "x", 18.2, unit="cm", instrument="ruler",
+...                      resolution=0.05, commanded=[0.785398, 0.0, 0.0])
+>>> rec.repeat, rec.record
+(1, 1)
+>>> df = load_measurements(path)
+>>> row = df.iloc[0]
+>>> row["pose_id"], row["quantity"], float(row["value"]), row["unit"]
+('j1_45', 'x', 18.2, 'cm')
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import math
+import os
+import re
+import secrets
+import warnings
+import zlib
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from labkit.exceptions import MeasurementError
+
+__all__ = [
+    "COLUMNS",
+    "REQUIRED_COLUMNS",
+    "UNITS",
+    "MeasurementRecord",
+    "MeasurementLog",
+    "MeasurementWarning",
+    "load_measurements",
+    "quantity_dimension",
+    "to_si",
+    "parse_numbers",
+]
+
+#: Column order of a measurement CSV file written by :class:`MeasurementLog`.
+COLUMNS = (
+    "record", "session", "timestamp", "robot", "pose_id", "commanded", "target",
+    "quantity", "repeat", "value", "unit", "instrument", "resolution",
+    "half_range", "n_readings", "operator", "note", "check",
+)
+#: Columns a file must have; the others may be absent (hand-made files).
+REQUIRED_COLUMNS = ("pose_id", "quantity", "value", "unit", "resolution")
+
+#: Known units: name -> (dimension, factor to SI).
+UNITS = {
+    "m": ("length", 1.0),
+    "cm": ("length", 0.01),
+    "mm": ("length", 0.001),
+    "rad": ("angle", 1.0),
+    "deg": ("angle", math.pi / 180.0),
+}
+SI_UNIT = {"length": "m", "angle": "rad"}
+
+_QUANTITY_PATTERNS = (
+    (re.compile(r"^[xyz]$"), "length"),
+    (re.compile(r"^theta[1-9][0-9]?$"), "angle"),
+    (re.compile(r"^d[1-9][0-9]?$"), "length"),
+)
+_QUANTITY_HELP = "x, y, z (tool point [length]), theta<i> (joint i [angle]), d<i> (prismatic joint i [length])"
+
+
+class MeasurementWarning(UserWarning):
+    """A torn (crash-truncated) line was skipped while loading."""
+
+
+def _error(message, *, path=None, line=None, column=None):
+    where = []
+    if path is not None:
+        where.append(str(path))
+    if line is not None:
+        where.append(f"row {line}")
+    if column is not None:
+        where.append(f"column '{column}'")
+    exc = MeasurementError(": ".join([", ".join(where), message]) if where else message)
+    exc.path = None if path is None else str(path)
+    exc.row = line
+    exc.column = column
+    return exc
+
+
+def quantity_dimension(quantity):
+    """Dimension ("length" or "angle") of a measured quantity name.
+
+    Parameters
+    ----------
+    quantity : str
+        ``"x"``, ``"y"``, ``"z"`` (tool point), ``"theta<i>"`` (revolute joint
+        i, 1-based) or ``"d<i>"`` (prismatic joint i).
+
+    Raises
+    ------
+    MeasurementError
+        For an unknown name (the message lists the valid ones).
+
+    Examples
+    --------
+    >>> quantity_dimension("theta2")
+    'angle'
+    """
+    q = str(quantity)
+    for pattern, dim in _QUANTITY_PATTERNS:
+        if pattern.match(q):
+            return dim
+    raise MeasurementError(f"unknown quantity {quantity!r}; expected one of {_QUANTITY_HELP}")
+
+
+def to_si(value, unit):
+    """Convert ``value`` given in ``unit`` to SI (m or rad).
+
+    Examples
+    --------
+    >>> to_si(180.0, "deg")
+    3.141592653589793
+    """
+    if unit not in UNITS:
+        raise MeasurementError(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}")
+    factor = UNITS[unit][1]
+    if np.ndim(value):
+        return np.asarray(value, dtype=float) * factor
+    return float(value) * factor
+
+
+def parse_numbers(text):
+    """Parse a space-separated list of numbers (``commanded``/``target`` cells).
+
+    Returns ``None`` for an empty cell, else a tuple of float.
+
+    Examples
+    --------
+    >>> parse_numbers("0.1 0 -0.05")
+    (0.1, 0.0, -0.05)
+    """
+    if text is None:
+        return None
+    text = str(text).strip()
+    if not text:
+        return None
+    values = tuple(float(v) for v in text.replace(",", " ").split())
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError("non-finite value")
+    return values
+
+
+def _format_numbers(values):
+    if values is None:
+        return ""
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _checksum(body):
+    return format(zlib.crc32(body.encode("utf-8")) & 0xFFFFFFFF, "08x")
+
+
+@dataclasses.dataclass(frozen=True)
+class MeasurementRecord:
+    """One reading as written to a measurement log.
+
+    Attributes
+    ----------
+    record : int
+        1-based record number within the file (continues on resume).
+    session, timestamp, robot, pose_id, quantity, unit, instrument, operator, note : str
+        ``timestamp`` is ISO 8601 UTC (``2026-11-22T13:50:01.123456Z``).
+    commanded : tuple of float or None
+        Commanded joint values [rad, m].
+    target : tuple of float or None
+        Commanded Cartesian target [m] ((x, y, z) or (x, y, phi [rad]) ...).
+    repeat : int
+        1-based repeat index of this (session, pose_id, quantity).
+    value, resolution : float
+        Reading and instrument resolution, both in ``unit``.
+    half_range : float
+        Half the range of the readings summarised by a summary row (NaN for a raw reading).
+    n_readings : int
+        Number of readings a summary row stands for (1 for a raw reading).
+    """
+
+    record: int
+    session: str
+    timestamp: str
+    robot: str
+    pose_id: str
+    commanded: tuple | None
+    target: tuple | None
+    quantity: str
+    repeat: int
+    value: float
+    unit: str
+    instrument: str
+    resolution: float
+    half_range: float = float("nan")
+    n_readings: int = 1
+    operator: str = ""
+    note: str = ""
+
+    def to_row(self):
+        """The CSV fields (without the checksum), in :data:`COLUMNS` order."""
+        return [
+            str(self.record), self.session, self.timestamp, self.robot, self.pose_id,
+            _format_numbers(self.commanded), _format_numbers(self.target), self.quantity,
+            str(self.repeat), repr(float(self.value)), self.unit, self.instrument,
+            repr(float(self.resolution)),
+            "" if math.isnan(self.half_range) else repr(float(self.half_range)),
+            str(self.n_readings), self.operator, self.note,
+        ]
+
+
+def _one_line(text):
+    return " ".join(str(text).splitlines()).replace("\r", " ")
+
+
+def _encode_line(fields):
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="").writerow(fields)
+    body = buf.getvalue()
+    return f"{body},{_checksum(body)}\n"
+
+
+_HEADER_LINE = ",".join(COLUMNS) + "\n"
+
+
+class MeasurementLog:
+    """Append-only, crash-safe measurement log (a CSV file).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        CSV file; created (with its header) if missing, else resumed.
+    session : str, optional
+        Session id. Default: the last session in an existing file (resume),
+        or a new id ``YYYYmmddTHHMMSSZ-xxxx`` for a new file.
+    robot : Robot or str, optional
+        Robot (or its name) the readings refer to. Default: the resumed
+        session's robot, else "".
+    operator : str, optional
+        Who takes the readings. Default: the resumed session's operator, else "".
+    poses : mapping, optional
+        ``pose_id -> {"commanded": q [rad, m], "target": x [m]}``. When given,
+        :meth:`record` rejects unknown pose ids and fills in the pose's
+        commanded joints / target.
+
+    Notes
+    -----
+    The file is opened with ``O_APPEND`` and locked (``flock``) against a
+    second writer; nothing already written is ever modified. A partial last
+    line left by a crash is terminated with a newline before the first new
+    record, so it stays a separate (skipped) torn line.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "log.csv"
+    >>> log = MeasurementLog(path, session="s1", robot="arduino_arm_3dof")
+    >>> _ = log.record("p1", "theta1", 45.0, unit="deg", instrument="protractor", resolution=0.5)
+    >>> log.close()
+    >>> MeasurementLog(path).record("p1", "theta1", 46.0, unit="deg",
+    ...                             instrument="protractor", resolution=0.5).repeat
+    2
+    """
+
+    def __init__(self, path, *, session=None, robot=None, operator=None, poses=None):
+        import fcntl
+
+        self.path = Path(path)
+        self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
+        self._robot_obj = robot if hasattr(robot, "fk") else None
+        existing = None
+        if self.path.exists() and self.path.stat().st_size > 0:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", MeasurementWarning)
+                existing = load_measurements(self.path, validate=False)
+        created = not self.path.exists()
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise MeasurementError(f"{self.path} is already open by another MeasurementLog writer") from None
+        self._fd = fd
+        if created:
+            _fsync_dir(self.path.parent)
+        size = os.fstat(fd).st_size
+        if size == 0:
+            self._write(_HEADER_LINE)
+        else:
+            with open(self.path, "rb") as f:
+                f.seek(size - 1)
+                if f.read(1) != b"\n":
+                    self._write("\n")  # terminate a torn line from a crash
+                    if existing is None or not len(existing):
+                        # the torn line may be the header itself
+                        with open(self.path, "rb") as g:
+                            first = g.readline().decode("utf-8", "replace")
+                        if first != _HEADER_LINE:
+                            self._write(_HEADER_LINE)
+        self._next_record = 1
+        self._repeats = {}
+        last_session, last_robot, last_operator = None, "", ""
+        if existing is not None and len(existing):
+            rec = existing["record"].dropna()
+            self._next_record = int(rec.max()) + 1 if len(rec) else len(existing) + 1
+            last_session = str(existing["session"].iloc[-1])
+            last_robot = str(existing["robot"].iloc[-1])
+            last_operator = str(existing["operator"].iloc[-1])
+            for (s, p, q), rep in existing.groupby(["session", "pose_id", "quantity"])["repeat"]:
+                rep = rep.dropna()
+                self._repeats[(s, p, q)] = int(rep.max()) if len(rep) else 0
+        if session is None:
+            session = last_session or (
+                datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-" + secrets.token_hex(2)
+            )
+        self.session = _one_line(session)
+        if robot is None:
+            robot = last_robot if session == last_session else ""
+        self.robot = _one_line(getattr(robot, "name", robot))
+        if operator is None:
+            operator = last_operator if session == last_session else ""
+        self.operator = _one_line(operator)
+
+    # -- writing ------------------------------------------------------------
+    def _write(self, text):
+        data = text.encode("utf-8")
+        view = memoryview(data)
+        while view:
+            n = os.write(self._fd, view)
+            view = view[n:]
+        os.fsync(self._fd)
+
+    def record(self, pose_id, quantity, value, *, unit, instrument, resolution,
+               commanded=None, target=None, repeat=None, note="",
+               half_range=None, n_readings=1):
+        """Append one reading; returns after it is written, flushed and fsynced.
+
+        Parameters
+        ----------
+        pose_id : str
+            Pose (or target) identifier.
+        quantity : str
+            ``"x"``, ``"y"``, ``"z"``, ``"theta<i>"`` or ``"d<i>"``.
+        value : float
+            The reading, in ``unit``.
+        unit : {"m", "cm", "mm", "rad", "deg"}
+            Must match the dimension of ``quantity``.
+        instrument : str
+            E.g. ``"ruler"``, ``"protractor"``.
+        resolution : float
+            Instrument resolution in ``unit`` (> 0).
+        commanded : array_like, shape (n,), optional
+            Commanded joint values [rad, m].
+        target : array_like, shape (k,), optional
+            Commanded Cartesian target [m] (angles in rad).
+        repeat : int, optional
+            Repeat index; default: one more than the last of this
+            (session, pose_id, quantity).
+        note : str
+            Operator note (newlines become spaces).
+        half_range, n_readings : float, int, optional
+            Only for a *summary* row that stands for ``n_readings`` readings
+            with mean ``value`` and half range ``half_range`` (in ``unit``).
+
+        Returns
+        -------
+        MeasurementRecord
+
+        Raises
+        ------
+        MeasurementError
+            Naming the column of a bad argument; nothing is written then.
+        """
+        if self._fd is None:
+            raise MeasurementError(f"{self.path}: the log is closed")
+        pose_id = _one_line(pose_id).strip()
+        if not pose_id:
+            raise _error("expected a non-empty pose id", column="pose_id")
+        if self.poses is not None:
+            if pose_id not in self.poses:
+                raise _error(f"unknown pose id {pose_id!r}; known: {sorted(self.poses)}", column="pose_id")
+            pose = self.poses[pose_id]
+            commanded = pose.get("commanded") if commanded is None else commanded
+            target = pose.get("target") if target is None else target
+        quantity = str(quantity)
+        try:
+            dim = quantity_dimension(quantity)
+        except MeasurementError as exc:
+            raise _error(str(exc), column="quantity") from None
+        if unit not in UNITS:
+            raise _error(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}", column="unit")
+        if UNITS[unit][0] != dim:
+            raise _error(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}", column="unit")
+        value = _finite(value, "value")
+        resolution = _finite(resolution, "resolution")
+        if resolution <= 0:
+            raise _error(f"expected a positive resolution, got {resolution!r}", column="resolution")
+        hr = float("nan") if half_range is None else _finite(half_range, "half_range")
+        commanded = _vector(commanded, "commanded")
+        target = _vector(target, "target")
+        robot_n = getattr(self._robot_obj, "n", None)
+        if commanded is not None and robot_n is not None and len(commanded) != robot_n:
+            raise _error(f"expected {robot_n} commanded joint values, got {len(commanded)}", column="commanded")
+        key = (self.session, pose_id, quantity)
+        if repeat is None:
+            repeat = self._repeats.get(key, 0) + 1
+        repeat = int(repeat)
+        if repeat < 1:
+            raise _error(f"expected a repeat index >= 1, got {repeat}", column="repeat")
+        rec = MeasurementRecord(
+            record=self._next_record, session=self.session,
+            timestamp=datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
+            robot=self.robot, pose_id=pose_id, commanded=commanded, target=target,
+            quantity=quantity, repeat=repeat, value=value, unit=unit,
+            instrument=_one_line(instrument), resolution=resolution, half_range=hr,
+            n_readings=int(n_readings), operator=self.operator, note=_one_line(note),
+        )
+        self._write(_encode_line(rec.to_row()))
+        self._next_record += 1
+        self._repeats[key] = max(self._repeats.get(key, 0), repeat)
+        return rec
+
+    def to_dataframe(self, *, all_sessions=False):
+        """The file's records as a DataFrame (this session's only by default)."""
+        df = load_measurements(self.path)
+        if not all_sessions:
+            df = df[df["session"] == self.session].reset_index(drop=True)
+        return df
+
+    def close(self):
+        """Release the lock and close the file (idempotent)."""
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    def __repr__(self):
+        return f"MeasurementLog({str(self.path)!r}, session={self.session!r}, robot={self.robot!r})"
+
+
+def _finite(value, column):
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise _error(f"expected a number, got {value!r}", column=column) from None
+    if not math.isfinite(out):
+        raise _error(f"expected a finite number, got {value!r}", column=column)
+    return out
+
+
+def _vector(values, column):
+    if values is None:
+        return None
+    try:
+        arr = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise _error(f"expected numbers, got {values!r}", column=column) from None
+    if not np.all(np.isfinite(arr)):
+        raise _error(f"expected finite numbers, got {values!r}", column=column)
+    return tuple(float(v) for v in arr)
+
+
+def _fsync_dir(directory):
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+# -- loading -------------------------------------------------------------------
+def load_measurements(path, *, poses=None, validate=True):
+    """Load and validate a measurement CSV file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file written by :class:`MeasurementLog` or made by hand with at
+        least the columns :data:`REQUIRED_COLUMNS`.
+    poses : collection of str or mapping, optional
+        Known pose ids; a row with another pose id is an error.
+    validate : bool
+        Check every row (numbers, units, quantity names). Only the writer's
+        resume logic turns this off.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per reading, columns :data:`COLUMNS` (minus ``check``) plus
+        ``line`` (1-based line number in the file). ``commanded`` and
+        ``target`` hold tuples of float (or None); ``timestamp`` is a UTC
+        datetime (NaT when blank).
+
+    Raises
+    ------
+    MeasurementError
+        For a missing column, a non-numeric reading, an unknown unit or
+        quantity, a unit that does not match the quantity, or an unknown pose
+        id; the message names the row (file line) and the column.
+
+    Warns
+    -----
+    MeasurementWarning
+        When a torn line from a crash (a partial last line, or a line whose
+        checksum does not match) is skipped.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise MeasurementError(f"cannot read measurement file {path}: {exc}") from None
+    lines = raw.split(b"\n")
+    complete_tail = raw.endswith(b"\n")
+    if complete_tail:
+        lines = lines[:-1]
+    header = None
+    rows = []
+    for index, blob in enumerate(lines):
+        lineno = index + 1
+        is_last_partial = index == len(lines) - 1 and not complete_tail
+        text = None
+        try:
+            text = blob.decode("utf-8").rstrip("\r")
+        except UnicodeDecodeError:
+            pass
+        if header is None:
+            if text is None or not text.strip():
+                if text is not None:
+                    continue
+                raise _error("cannot decode the header as UTF-8", path=path, line=lineno)
+            fields = next(csv.reader([text]))
+            fields = [f.strip() for f in fields]
+            if _is_torn_header(fields, lines, index):
+                warnings.warn(f"{path}: row {lineno}: skipping a torn header line", MeasurementWarning, stacklevel=2)
+                continue
+            missing = [c for c in REQUIRED_COLUMNS if c not in fields]
+            if missing:
+                raise _error(f"missing column(s) {missing}; found {fields}", path=path, line=lineno, column=missing[0])
+            header = fields
+            continue
+        if text is not None and not text.strip():
+            continue
+        fields = None
+        if text is not None:
+            try:
+                fields = next(csv.reader([text], strict=True))
+            except (csv.Error, StopIteration):
+                fields = None
+        torn = fields is None or _is_torn(header, fields, text)
+        if torn:
+            if is_last_partial or "check" in header:
+                warnings.warn(
+                    f"{path}: row {lineno}: skipping a torn record (partial line left by a crash)",
+                    MeasurementWarning, stacklevel=2,
+                )
+                continue
+            raise _error(f"expected {len(header)} fields, got {0 if fields is None else len(fields)}",
+                         path=path, line=lineno)
+        if is_last_partial and "check" not in header:
+            warnings.warn(f"{path}: row {lineno}: last line has no newline (partial write?); kept",
+                          MeasurementWarning, stacklevel=2)
+        rows.append((lineno, dict(zip(header, fields))))
+    if header is None:
+        raise _error(f"no header line; expected columns {list(COLUMNS)}", path=path)
+    return _to_frame(path, rows, poses, validate)
+
+
+def _is_torn_header(fields, lines, index):
+    if fields == list(COLUMNS):
+        return False
+    joined = ",".join(fields)
+    canonical = ",".join(COLUMNS)
+    return canonical.startswith(joined) and index + 1 < len(lines)
+
+
+def _is_torn(header, fields, text):
+    if len(fields) != len(header):
+        return True
+    if "check" in header:
+        check = fields[header.index("check")].strip()
+        if check:
+            body = text[: text.rfind(",")] if header[-1] == "check" else None
+            return body is None or _checksum(body) != check
+    return False
+
+
+def _to_frame(path, rows, poses, validate):
+    import pandas as pd
+
+    known_poses = None if poses is None else {str(p) for p in poses}
+    data = {c: [] for c in COLUMNS if c != "check"}
+    data["line"] = []
+    for lineno, row in rows:
+        def cell(col, default=""):
+            v = row.get(col)
+            return default if v is None else v.strip()
+
+        def number(col, *, required, integer=False):
+            text = cell(col)
+            if not text:
+                if required:
+                    raise _error("expected a number, got an empty cell", path=path, line=lineno, column=col)
+                return float("nan")
+            try:
+                v = float(text)
+            except ValueError:
+                raise _error(f"expected a number, got {text!r}", path=path, line=lineno, column=col) from None
+            if not math.isfinite(v):
+                raise _error(f"expected a finite number, got {text!r}", path=path, line=lineno, column=col)
+            if integer and v != int(v):
+                raise _error(f"expected an integer, got {text!r}", path=path, line=lineno, column=col)
+            return v
+
+        pose_id = cell("pose_id")
+        quantity = cell("quantity")
+        unit = cell("unit")
+        if validate:
+            if not pose_id:
+                raise _error("expected a pose id, got an empty cell", path=path, line=lineno, column="pose_id")
+            if known_poses is not None and pose_id not in known_poses:
+                raise _error(f"unknown pose id {pose_id!r}; known: {sorted(known_poses)}",
+                             path=path, line=lineno, column="pose_id")
+            try:
+                dim = quantity_dimension(quantity)
+            except MeasurementError as exc:
+                raise _error(str(exc), path=path, line=lineno, column="quantity") from None
+            if unit not in UNITS:
+                raise _error(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}",
+                             path=path, line=lineno, column="unit")
+            if UNITS[unit][0] != dim:
+                raise _error(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}",
+                             path=path, line=lineno, column="unit")
+        value = number("value", required=validate)
+        resolution = number("resolution", required=validate)
+        if validate and resolution <= 0:
+            raise _error(f"expected a positive resolution, got {resolution!r}", path=path, line=lineno, column="resolution")
+        half_range = number("half_range", required=False)
+        if validate and half_range < 0:
+            raise _error(f"expected half_range >= 0, got {half_range!r}", path=path, line=lineno, column="half_range")
+        n_readings = number("n_readings", required=False, integer=True)
+        record = number("record", required=False, integer=True)
+        repeat = number("repeat", required=False, integer=True)
+        vectors = {}
+        for col in ("commanded", "target"):
+            try:
+                vectors[col] = parse_numbers(cell(col))
+            except ValueError:
+                raise _error(f"expected space-separated numbers, got {cell(col)!r}",
+                             path=path, line=lineno, column=col) from None
+        ts = cell("timestamp")
+        if ts and validate:
+            try:
+                datetime.fromisoformat(ts.replace("Z", "+00:00"))
+            except ValueError:
+                raise _error(f"expected an ISO 8601 timestamp, got {ts!r}", path=path, line=lineno, column="timestamp") from None
+        data["record"].append(record)
+        data["session"].append(cell("session"))
+        data["timestamp"].append(ts or None)
+        data["robot"].append(cell("robot"))
+        data["pose_id"].append(pose_id)
+        data["commanded"].append(vectors["commanded"])
+        data["target"].append(vectors["target"])
+        data["quantity"].append(quantity)
+        data["repeat"].append(repeat)
+        data["value"].append(value)
+        data["unit"].append(unit)
+        data["instrument"].append(cell("instrument"))
+        data["resolution"].append(resolution)
+        data["half_range"].append(half_range)
+        data["n_readings"].append(1.0 if math.isnan(n_readings) else n_readings)
+        data["operator"].append(cell("operator"))
+        data["note"].append(cell("note"))
+        data["line"].append(lineno)
+    df = pd.DataFrame({k: v for k, v in data.items() if k not in ("commanded", "target")})
+    df.insert(5, "commanded", pd.Series(data["commanded"], dtype=object))
+    df.insert(6, "target", pd.Series(data["target"], dtype=object))
+    for col in ("record", "repeat", "n_readings", "line"):
+        df[col] = df[col].astype("Int64") if len(df) else df[col].astype("Int64")
+    df["timestamp"] = pd.to_datetime(df["timestamp"], utc=True, format="ISO8601")
+    return df
