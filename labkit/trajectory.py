@@ -1,0 +1,614 @@
+"""Joint-space trajectories: point-to-point moves, via points, limit checks.
+
+A trajectory is sampled data, the frozen :class:`Trajectory` (``t``, ``q``,
+``qd``, ``qdd`` and, for Cartesian paths, ``x`` and ``xd``), built from a
+:class:`labkit.timelaw.TimeLaw`:
+
+* :func:`joint_trajectory` -- one move between two configurations (cubic,
+  quintic, LSPB), its duration given or chosen from the robot's
+  ``max_velocity`` / ``max_acceleration``;
+* :func:`via_trajectory` -- through via points, either cubic segments with
+  continuous velocity (heuristic or given via velocities) or a cubic spline
+  with continuous acceleration (clamped or natural ends);
+* :func:`check_joint_limits` and :func:`check_speed` -- the first sample
+  outside the joint limits, and speed/acceleration limits with the minimum
+  duration that would respect them.
+
+Cartesian paths (lines, arcs, circles) live in :mod:`labkit.cartesian`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Callable
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline, CubicSpline, PPoly
+
+from labkit._validation import as_batch
+from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError
+from labkit.timelaw import LawKind, TimeLaw, make_law, minimum_duration, time_grid
+
+__all__ = [
+    "Trajectory",
+    "SplineEnds",
+    "joint_trajectory",
+    "via_law",
+    "via_trajectory",
+    "heuristic_velocities",
+    "from_law",
+    "check_joint_limits",
+    "check_speed",
+    "speed_scale",
+]
+
+_ANGLE_AXES = {"phi", "roll", "pitch", "yaw", "rx", "ry", "rz"}
+
+
+def _frozen(a):
+    if a is None:
+        return None
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A sampled trajectory (joint space, and Cartesian where planned so).
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Sample times [s], increasing.
+    q, qd, qdd : ndarray, shape (N, n)
+        Joint positions [rad, m], velocities [rad/s, m/s] and accelerations
+        [rad/s^2, m/s^2].
+    x, xd : ndarray, shape (N, k), optional
+        Cartesian coordinates and rates of the end effector for Cartesian
+        trajectories: ``k = 3`` (x, y, z [m]) for position targets, (x, y [m],
+        phi [rad]) for planar arms, or 6 (x, y, z [m], roll, pitch, yaw [rad],
+        XYZ fixed angles) for poses; ``xd`` holds the linear velocity [m/s]
+        and, for 6, the angular velocity [rad/s] (not the angle rates).
+    joint_names, axis_names : tuple of str
+        Column names of ``q`` and ``x``.
+    revolute : tuple of bool
+        Which joints are revolute (converted by ``to_dataframe(degrees=True)``).
+    law : TimeLaw, optional
+        The joint-space law the samples came from (exact resampling).
+
+    Examples
+    --------
+    >>> traj = joint_trajectory([0.0, 0.0], [1.0, -1.0], 2.0, dt=0.5)
+    >>> traj.q.shape
+    (5, 2)
+    >>> traj.resample(0.25).t.size
+    9
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    x: np.ndarray | None = None
+    xd: np.ndarray | None = None
+    joint_names: tuple = ()
+    axis_names: tuple = ()
+    revolute: tuple = ()
+    law: TimeLaw | None = field(default=None, repr=False)
+    resampler: Callable | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        t = np.asarray(self.t, dtype=float)
+        if t.ndim != 1 or t.size == 0:
+            raise ShapeError(f"expected t with shape (N,), N >= 1, got {t.shape}")
+        if np.any(np.diff(t) <= 0):
+            raise ShapeError("expected strictly increasing sample times t")
+        N = t.size
+        q = np.asarray(self.q, dtype=float)
+        if q.ndim != 2 or q.shape[0] != N:
+            raise ShapeError(f"expected q with shape ({N}, n), got {q.shape}")
+        for name in ("qd", "qdd"):
+            a = np.asarray(getattr(self, name), dtype=float)
+            if a.shape != q.shape:
+                raise ShapeError(f"expected {name} with shape {q.shape}, got {a.shape}")
+        if (self.x is None) != (self.xd is None):
+            raise ShapeError("expected both x and xd, or neither")
+        if self.x is not None:
+            x, xd = np.asarray(self.x, float), np.asarray(self.xd, float)
+            if x.ndim != 2 or x.shape[0] != N or xd.shape != x.shape:
+                raise ShapeError(f"expected x and xd with shape ({N}, k), got {x.shape} and {xd.shape}")
+        for name in ("t", "q", "qd", "qdd", "x", "xd"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        n = q.shape[1]
+        names = tuple(self.joint_names) or tuple(f"q{i + 1}" for i in range(n))
+        if len(names) != n:
+            raise ShapeError(f"expected {n} joint names, got {len(names)}")
+        object.__setattr__(self, "joint_names", names)
+        rev = tuple(bool(r) for r in self.revolute) or (True,) * n
+        object.__setattr__(self, "revolute", rev)
+        if self.x is not None:
+            k = self.x.shape[1]
+            axes = tuple(self.axis_names) or {3: ("x", "y", "z"), 6: ("x", "y", "z", "roll", "pitch", "yaw")}.get(
+                k, tuple(f"x{i + 1}" for i in range(k))
+            )
+            if len(axes) != k:
+                raise ShapeError(f"expected {k} axis names, got {len(axes)}")
+            object.__setattr__(self, "axis_names", tuple(axes))
+
+    # -- views ----------------------------------------------------------------
+    @property
+    def n(self):
+        """Number of joints."""
+        return self.q.shape[1]
+
+    @property
+    def duration(self):
+        """``t[-1] - t[0]`` [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    def __len__(self):
+        return self.t.size
+
+    def to_dataframe(self, *, degrees=False, millimetres=False):
+        """The samples as a pandas DataFrame indexed by time.
+
+        Columns ``<joint>``, ``<joint>_dot``, ``<joint>_ddot`` per joint, then
+        ``<axis>`` and ``<axis>_dot`` per Cartesian axis.
+
+        Parameters
+        ----------
+        degrees : bool
+            Revolute joints and angle axes in degrees (deg/s, deg/s^2)
+            instead of radians: for tables in a report.
+        millimetres : bool
+            Lengths in mm instead of m.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``t`` [s]; ``df.attrs["units"]`` maps columns to units.
+        """
+        import pandas as pd
+
+        ang = 180.0 / math.pi if degrees else 1.0
+        lin = 1e3 if millimetres else 1.0
+        aunit = "deg" if degrees else "rad"
+        lunit = "mm" if millimetres else "m"
+        cols, units = {}, {}
+        for j, name in enumerate(self.joint_names):
+            s, u = (ang, aunit) if self.revolute[j] else (lin, lunit)
+            for suffix, arr, tu in (("", self.q, ""), ("_dot", self.qd, "/s"), ("_ddot", self.qdd, "/s^2")):
+                cols[name + suffix] = arr[:, j] * s
+                units[name + suffix] = u + tu
+        if self.x is not None:
+            for k, name in enumerate(self.axis_names):
+                is_angle = name in _ANGLE_AXES
+                s, u = (ang, aunit) if is_angle else (lin, lunit)
+                cols[name] = self.x[:, k] * s
+                units[name] = u
+                # the angular part of a 6-D xd is an angular velocity, same unit scaling
+                cols[name + "_dot"] = self.xd[:, k] * s
+                units[name + "_dot"] = u + "/s"
+        df = pd.DataFrame(cols, index=pd.Index(self.t, name="t"))
+        df.attrs["units"] = units
+        return df
+
+    def resample(self, dt, *, t0=None, tf=None):
+        """The trajectory at a fixed time step.
+
+        Exact when the trajectory knows how it was made (a joint law or a
+        Cartesian path); otherwise piecewise-cubic Hermite interpolation of
+        ``q`` with ``qd`` (and of ``qd`` with ``qdd``).
+
+        Parameters
+        ----------
+        dt : float
+            Step [s] (seed 000 uses 0.1 s).
+        t0, tf : float, optional
+            Span (default the trajectory's own).
+
+        Returns
+        -------
+        Trajectory
+        """
+        t0 = self.t[0] if t0 is None else t0
+        tf = self.t[-1] if tf is None else tf
+        t = time_grid(t0, tf, dt)
+        if self.resampler is not None:
+            return self.resampler(t)
+        if self.law is not None:
+            return from_law(self.law, t, joint_names=self.joint_names, revolute=self.revolute)
+        if self.t.size < 2:
+            raise TrajectoryError("cannot resample a trajectory with a single sample")
+        tc = np.clip(t, self.t[0], self.t[-1])
+        q = CubicHermiteSpline(self.t, self.q, self.qd, axis=0)(tc)
+        qd = CubicHermiteSpline(self.t, self.qd, self.qdd, axis=0)(tc)
+        qdd = np.stack([np.interp(tc, self.t, self.qdd[:, j]) for j in range(self.n)], axis=-1)
+        x = xd = None
+        if self.x is not None:
+            x = CubicHermiteSpline(self.t, self.x, self.xd, axis=0)(tc)
+            xd = np.stack([np.interp(tc, self.t, self.xd[:, k]) for k in range(self.x.shape[1])], axis=-1)
+        return Trajectory(t, q, qd, qdd, x, xd, self.joint_names, self.axis_names, self.revolute)
+
+    def __repr__(self):
+        extra = f", axes={self.axis_names}" if self.x is not None else ""
+        return (
+            f"Trajectory(N={len(self)}, t=[{self.t[0]:g}, {self.t[-1]:g}] s, "
+            f"joints={self.joint_names}{extra})"
+        )
+
+
+def from_law(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
+    """Sample a joint-space :class:`TimeLaw` into a :class:`Trajectory`.
+
+    Parameters
+    ----------
+    law : TimeLaw
+        Law with values of shape (n,).
+    t : array_like, shape (N,), optional
+        Sample times [s]; default ``time_grid(law.t0, law.tf, dt)``.
+    dt : float
+        Step [s] when ``t`` is not given.
+
+    Returns
+    -------
+    Trajectory
+    """
+    if len(law.shape) != 1:
+        raise ShapeError(f"expected a law with values of shape (n,), got {law.shape}")
+    t = time_grid(law.t0, law.tf, dt) if t is None else np.asarray(t, dtype=float)
+    return Trajectory(
+        t,
+        law.position(t),
+        law.velocity(t),
+        law.acceleration(t),
+        joint_names=joint_names,
+        revolute=revolute,
+        law=law,
+    )
+
+
+def _robot_info(robot, n):
+    if robot is None:
+        return (), ()
+    if robot.n != n:
+        raise ShapeError(f"{robot.name} has {robot.n} joints; expected q with shape (..., {robot.n}), got (..., {n})")
+    return robot.joint_names, tuple(bool(r) for r in robot.is_revolute)
+
+
+def _robot_bounds(robot):
+    v = np.array([lk.max_velocity for lk in robot.links], dtype=float)
+    a = np.array([lk.max_acceleration for lk in robot.links], dtype=float)
+    return v, a
+
+
+def _round_up(T, dt):
+    """Round a duration up to a whole number of steps (to 1e-9)."""
+    k = math.ceil(T / dt - 1e-9)
+    return max(k, 1) * dt
+
+
+def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01, t=None,
+                     check_limits=True, check_speed_limits=False, **law_options):
+    """A point-to-point joint move.
+
+    Parameters
+    ----------
+    q0, qf : array_like, shape (n,)
+        Start and end configurations [rad, m].
+    duration : float, optional
+        Move time [s]. If omitted, the shortest duration that respects the
+        robot's ``max_velocity`` / ``max_acceleration`` for this law, rounded
+        up to a whole number of steps ``dt``.
+    robot : Robot, optional
+        Gives joint names, limits and speed bounds.
+    law : {"cubic", "quintic", "lspb", "linear"}
+        Time law (rest to rest unless ``v0``/``vf``... are passed in
+        ``law_options``).
+    dt : float
+        Sample step [s].
+    t : array_like, shape (N,), optional
+        Explicit sample times instead of ``dt``.
+    check_limits : bool
+        With a robot, raise :class:`JointLimitError` at the first sample
+        outside the joint limits.
+    check_speed_limits : bool
+        With a robot, raise :class:`TrajectoryError` if a joint exceeds its
+        speed/acceleration bound (the message gives the minimum duration).
+    **law_options
+        Passed to the law (``v0``, ``vf``, ``a0``, ``af``, ``v_max``, ...).
+
+    Returns
+    -------
+    Trajectory
+        With ``law`` set (exact :meth:`Trajectory.resample`).
+
+    Examples
+    --------
+    >>> traj = joint_trajectory([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0, dt=0.1)
+    >>> traj.law.coefficients[0, :, 2]  # a0..a3 of joint 3 (seed 003, task 2)
+    array([ 1.57   ,  0.     , -0.0924 ,  0.01232])
+    """
+    q0 = np.atleast_1d(as_batch(q0, (), "q0"))
+    n = q0.shape[-1]
+    if q0.ndim != 1:
+        raise ShapeError(f"expected q0 with shape (n,), got {q0.shape}")
+    qf = as_batch(qf, (n,), "qf")
+    names, rev = _robot_info(robot, n)
+    if duration is None:
+        if robot is None:
+            raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration")
+        v, a = _robot_bounds(robot)
+        kind = law if isinstance(law, str) else LawKind(law).value
+        T = minimum_duration(qf - q0, v_max=v, a_max=a, kind=kind)
+        if T == 0.0 and np.any(qf != q0):
+            raise TrajectoryError(
+                f"{robot.name} gives no max_velocity/max_acceleration: cannot choose a duration, give one"
+            )
+        duration = _round_up(T, dt) if T > 0 else dt
+    tl = make_law(law, q0, qf, duration, **law_options)
+    traj = from_law(tl, t, dt=dt, joint_names=names, revolute=rev)
+    if robot is not None:
+        if check_limits:
+            check_joint_limits(traj, robot)
+        if check_speed_limits:
+            check_speed(traj, robot)
+    return traj
+
+
+class SplineEnds(str, Enum):
+    """End conditions of a via-point spline: ``"clamped"`` (given end
+    velocities, zero by default) or ``"natural"`` (zero end accelerations)."""
+
+    CLAMPED = "clamped"
+    NATURAL = "natural"
+
+
+def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
+    """Via-point velocities by the usual heuristic (Craig, ch. 7).
+
+    At an interior via point the velocity is the mean of the two adjacent
+    segment slopes, or zero where the slope changes sign (the joint turns
+    back there); the end velocities are ``v0`` and ``vf``.
+
+    Parameters
+    ----------
+    points : array_like, shape (m, n)
+        Via points [rad, m], ``m >= 2``.
+    times : array_like, shape (m,)
+        Their times [s], increasing.
+
+    Returns
+    -------
+    ndarray, shape (m, n)
+
+    Examples
+    --------
+    >>> heuristic_velocities([[0.0], [1.0], [3.0], [2.0]], [0.0, 1.0, 2.0, 3.0])[:, 0]
+    array([0. , 1.5, 0. , 0. ])
+    """
+    P = np.asarray(points, dtype=float)
+    t = np.asarray(times, dtype=float)
+    slopes = np.diff(P, axis=0) / np.diff(t)[:, None]
+    V = np.zeros_like(P)
+    if P.shape[0] > 2:
+        left, right = slopes[:-1], slopes[1:]
+        same = np.sign(left) * np.sign(right) > 0
+        V[1:-1] = np.where(same, 0.5 * (left + right), 0.0)
+    V[0] = v0
+    V[-1] = vf
+    return V
+
+
+def _via_times(points, times, durations, robot, law_kind):
+    m = points.shape[0]
+    if times is not None and durations is not None:
+        raise TrajectoryError("give either times or durations, not both")
+    if times is not None:
+        t = np.asarray(times, dtype=float).reshape(-1)
+        if t.shape != (m,):
+            raise ShapeError(f"expected times with shape ({m},), got {t.shape}")
+    else:
+        if durations is None:
+            if robot is None:
+                raise TrajectoryError("give times or durations, or a robot with speed limits")
+            v, a = _robot_bounds(robot)
+            d = np.array([minimum_duration(points[i + 1] - points[i], v_max=v, a_max=a, kind="cubic")
+                          for i in range(m - 1)])
+            if np.any(d == 0) and np.any(np.diff(points, axis=0) != 0):
+                raise TrajectoryError(f"{robot.name} gives no speed limits: give times or durations")
+            d = np.maximum(d, 1e-3)
+        else:
+            d = np.broadcast_to(np.asarray(durations, dtype=float), (m - 1,))
+        t = np.concatenate([[0.0], np.cumsum(d)])
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise TrajectoryError(f"expected strictly increasing finite via times [s], got {t.tolist()}")
+    return t
+
+
+def via_law(points, times=None, *, durations=None, method="via_cubic", velocities=None,
+            ends="clamped", v0=0.0, vf=0.0, robot=None):
+    """A piecewise-cubic law through via points.
+
+    Parameters
+    ----------
+    points : array_like, shape (m, n)
+        Configurations to pass through [rad, m], ``m >= 2``.
+    times : array_like, shape (m,), optional
+        Absolute times of the points [s].
+    durations : float or array_like, shape (m - 1,), optional
+        Segment durations [s] (times start at 0). With neither times nor
+        durations, each segment gets the shortest rest-to-rest cubic duration
+        allowed by the robot's speed/acceleration bounds.
+    method : {"via_cubic", "spline"}
+        ``"via_cubic"``: cubic segments (``CubicHermiteSpline``) with
+        continuous velocity; via velocities given or heuristic. ``"spline"``:
+        a cubic spline (``CubicSpline``) with continuous acceleration.
+    velocities : array_like, shape (m, n), optional
+        Via velocities for ``"via_cubic"`` [rad/s, m/s].
+    ends : {"clamped", "natural"}
+        Spline end conditions (``"spline"`` only).
+    v0, vf : float or array_like, shape (n,)
+        End velocities ("via_cubic" heuristic and clamped spline).
+    robot : Robot, optional
+        Speed bounds for automatic durations.
+
+    Returns
+    -------
+    TimeLaw
+        ``m - 1`` cubic segments; ``law.coefficients`` gives a0..a3 per segment.
+
+    Examples
+    --------
+    >>> law = via_law([[0.0], [1.0], [0.5]], durations=1.0, method="spline", ends="natural")
+    >>> law.n_segments, law.degree
+    (2, 3)
+    """
+    P = np.asarray(points, dtype=float)
+    if P.ndim == 1:
+        P = P[:, None]
+    if P.ndim != 2 or P.shape[0] < 2:
+        raise ShapeError(f"expected via points with shape (m, n), m >= 2, got {np.shape(points)}")
+    if not np.all(np.isfinite(P)):
+        raise ShapeError("expected finite via points")
+    kind = LawKind.parse(method, (LawKind.VIA_CUBIC, LawKind.SPLINE))
+    t = _via_times(P, times, durations, robot, kind)
+    n = P.shape[1]
+    v0 = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
+    vf = np.broadcast_to(np.asarray(vf, dtype=float), (n,))
+    if kind is LawKind.VIA_CUBIC:
+        if velocities is None:
+            V = heuristic_velocities(P, t, v0=v0, vf=vf)
+        else:
+            V = np.asarray(velocities, dtype=float)
+            if V.shape != P.shape:
+                raise ShapeError(f"expected velocities with shape {P.shape}, got {V.shape}")
+        spl = CubicHermiteSpline(t, P, V, axis=0)
+    else:
+        try:
+            end = SplineEnds(ends)
+        except ValueError:
+            raise ValueError(f"expected ends in {{'clamped', 'natural'}}, got {ends!r}") from None
+        bc = ((1, v0), (1, vf)) if end is SplineEnds.CLAMPED else "natural"
+        spl = CubicSpline(t, P, axis=0, bc_type=bc)
+    return TimeLaw(PPoly(spl.c, spl.x), kind)
+
+
+def via_trajectory(points, times=None, *, durations=None, method="via_cubic", velocities=None,
+                   ends="clamped", v0=0.0, vf=0.0, robot=None, dt=0.01, t=None,
+                   check_limits=True, check_speed_limits=False):
+    """A joint trajectory through via points, sampled.
+
+    Parameters are those of :func:`via_law`, plus the sampling (``dt`` or
+    ``t``) and the checks of :func:`joint_trajectory`.
+
+    Returns
+    -------
+    Trajectory
+
+    Examples
+    --------
+    >>> P = np.radians([[0, 0, 0], [20, 30, -10], [40, 45, -30], [30, 60, -45], [10, 70, -60]])
+    >>> traj = via_trajectory(P, durations=1.0, method="spline", dt=0.1)
+    >>> traj.t[-1], traj.law.n_segments
+    (np.float64(4.0), 4)
+    """
+    law = via_law(points, times, durations=durations, method=method, velocities=velocities,
+                  ends=ends, v0=v0, vf=vf, robot=robot)
+    names, rev = _robot_info(robot, law.shape[0])
+    traj = from_law(law, t, dt=dt, joint_names=names, revolute=rev)
+    if robot is not None:
+        if check_limits:
+            check_joint_limits(traj, robot)
+        if check_speed_limits:
+            check_speed(traj, robot)
+    return traj
+
+
+# -- checks ---------------------------------------------------------------------
+
+def check_joint_limits(traj, robot):
+    """Raise at the first sample outside the robot's joint limits.
+
+    Raises
+    ------
+    JointLimitError
+        Naming the time, sample index and joint; ``.joint`` and ``.index`` set.
+    """
+    ok = robot.within_limits(traj.q)
+    if np.all(ok):
+        return
+    i = int(np.argmin(ok))
+    try:
+        robot.check_limits(traj.q[i])
+    except JointLimitError as exc:
+        raise JointLimitError(
+            f"at t = {traj.t[i]:.4g} s (sample {i}): {exc}", joint=exc.joint, index=i
+        ) from None
+
+
+def speed_scale(traj, robot):
+    """Factor by which the trajectory must be slowed to respect speed bounds.
+
+    Uniform time scaling by ``k`` divides velocities by ``k`` and
+    accelerations by ``k**2``; this returns the smallest such ``k`` (1 or
+    less when the bounds already hold) and the joint that sets it.
+
+    Returns
+    -------
+    k : float
+    joint : int
+        Index of the limiting joint.
+    what : str
+        ``"velocity"`` or ``"acceleration"``.
+    """
+    v, a = _robot_bounds(robot)
+    if traj.n != robot.n:
+        raise ShapeError(f"{robot.name} has {robot.n} joints; trajectory has {traj.n}")
+    if traj.law is not None and traj.law.shape == (robot.n,):
+        vpk, apk = traj.law.peak(1), traj.law.peak(2)
+    else:
+        vpk, apk = np.max(np.abs(traj.qd), axis=0), np.max(np.abs(traj.qdd), axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rv = np.where(np.isfinite(v), vpk / v, 0.0)
+        ra = np.sqrt(np.where(np.isfinite(a), apk / a, 0.0))
+    jv, ja = int(np.argmax(rv)), int(np.argmax(ra))
+    if rv[jv] >= ra[ja]:
+        return float(rv[jv]), jv, "velocity"
+    return float(ra[ja]), ja, "acceleration"
+
+
+def check_speed(traj, robot, *, tol=1e-9):
+    """Raise if a joint exceeds its ``max_velocity`` or ``max_acceleration``.
+
+    Raises
+    ------
+    TrajectoryError
+        Naming the joint, the peak, the bound, the time it happens and the
+        minimum duration at which the same path would respect every bound
+        (uniform time scaling); the exception carries ``minimum_duration``
+        [s] and ``joint``.
+    """
+    k, j, what = speed_scale(traj, robot)
+    if k <= 1.0 + tol:
+        return
+    rev = robot.links[j].is_revolute
+    s, unit = (180.0 / math.pi, "deg") if rev else (1.0, "m")
+    if what == "velocity":
+        arr, bound, u = traj.qd[:, j], robot.links[j].max_velocity, unit + "/s"
+    else:
+        arr, bound, u = traj.qdd[:, j], robot.links[j].max_acceleration, unit + "/s^2"
+    i = int(np.argmax(np.abs(arr)))
+    Tmin = traj.duration * k
+    exc = TrajectoryError(
+        f"{robot.name}: joint {j + 1} ({robot.joint_names[j]}) {what} reaches "
+        f"{abs(arr[i]) * s:.4g} {u} at t = {traj.t[i]:.4g} s, above its max_{what} "
+        f"{bound * s:.4g} {u}; slow down by {k:.3g}x: minimum duration {Tmin:.4g} s "
+        f"(now {traj.duration:.4g} s)"
+    )
+    exc.minimum_duration = Tmin
+    exc.joint = j
+    raise exc
