@@ -72,6 +72,8 @@ class Trajectory:
         phi [rad]) for planar arms, or 6 (x, y, z [m], roll, pitch, yaw [rad],
         XYZ fixed angles) for poses; ``xd`` holds the linear velocity [m/s]
         and, for 6, the angular velocity [rad/s] (not the angle rates).
+    xdd : ndarray, shape (N, k), optional
+        Cartesian acceleration [m/s^2, rad/s^2] (where known).
     joint_names, axis_names : tuple of str
         Column names of ``q`` and ``x``.
     revolute : tuple of bool
@@ -94,6 +96,7 @@ class Trajectory:
     qdd: np.ndarray
     x: np.ndarray | None = None
     xd: np.ndarray | None = None
+    xdd: np.ndarray | None = None
     joint_names: tuple = ()
     axis_names: tuple = ()
     revolute: tuple = ()
@@ -120,7 +123,11 @@ class Trajectory:
             x, xd = np.asarray(self.x, float), np.asarray(self.xd, float)
             if x.ndim != 2 or x.shape[0] != N or xd.shape != x.shape:
                 raise ShapeError(f"expected x and xd with shape ({N}, k), got {x.shape} and {xd.shape}")
-        for name in ("t", "q", "qd", "qdd", "x", "xd"):
+            if self.xdd is not None and np.shape(self.xdd) != x.shape:
+                raise ShapeError(f"expected xdd with shape {x.shape}, got {np.shape(self.xdd)}")
+        elif self.xdd is not None:
+            raise ShapeError("xdd given without x and xd")
+        for name in ("t", "q", "qd", "qdd", "x", "xd", "xdd"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         n = q.shape[1]
         names = tuple(self.joint_names) or tuple(f"q{i + 1}" for i in range(n))
@@ -156,7 +163,7 @@ class Trajectory:
         """The samples as a pandas DataFrame indexed by time.
 
         Columns ``<joint>``, ``<joint>_dot``, ``<joint>_ddot`` per joint, then
-        ``<axis>`` and ``<axis>_dot`` per Cartesian axis.
+        ``<axis>``, ``<axis>_dot`` (and ``<axis>_ddot``) per Cartesian axis.
 
         Parameters
         ----------
@@ -192,6 +199,9 @@ class Trajectory:
                 # the angular part of a 6-D xd is an angular velocity, same unit scaling
                 cols[name + "_dot"] = self.xd[:, k] * s
                 units[name + "_dot"] = u + "/s"
+                if self.xdd is not None:
+                    cols[name + "_ddot"] = self.xdd[:, k] * s
+                    units[name + "_ddot"] = u + "/s^2"
         df = pd.DataFrame(cols, index=pd.Index(self.t, name="t"))
         df.attrs["units"] = units
         return df
@@ -227,11 +237,17 @@ class Trajectory:
         q = CubicHermiteSpline(self.t, self.q, self.qd, axis=0)(tc)
         qd = CubicHermiteSpline(self.t, self.qd, self.qdd, axis=0)(tc)
         qdd = np.stack([np.interp(tc, self.t, self.qdd[:, j]) for j in range(self.n)], axis=-1)
-        x = xd = None
+        x = xd = xdd = None
         if self.x is not None:
+            k = self.x.shape[1]
             x = CubicHermiteSpline(self.t, self.x, self.xd, axis=0)(tc)
-            xd = np.stack([np.interp(tc, self.t, self.xd[:, k]) for k in range(self.x.shape[1])], axis=-1)
-        return Trajectory(t, q, qd, qdd, x, xd, self.joint_names, self.axis_names, self.revolute)
+            if self.xdd is not None:
+                xd = CubicHermiteSpline(self.t, self.xd, self.xdd, axis=0)(tc)
+                xdd = np.stack([np.interp(tc, self.t, self.xdd[:, i]) for i in range(k)], axis=-1)
+            else:
+                xd = np.stack([np.interp(tc, self.t, self.xd[:, i]) for i in range(k)], axis=-1)
+        return Trajectory(t, q, qd, qdd, x, xd, xdd, joint_names=self.joint_names,
+                          axis_names=self.axis_names, revolute=self.revolute)
 
     def __repr__(self):
         extra = f", axes={self.axis_names}" if self.x is not None else ""

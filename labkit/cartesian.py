@@ -1,0 +1,577 @@
+"""Cartesian paths: lines, arcs, circles and waypoints, timed and solved by IK.
+
+A :class:`Path` is geometry only: a point ``p(s)`` for a path parameter
+``s`` in ``[0, s_max]`` (1 for a line, arc or circle; the number of segments
+for waypoints). A time law ``s(t)`` (cubic by default, any of
+:mod:`labkit.timelaw`) gives the timing, so
+``x(t) = p(s(t))``, ``xd = p'(s) s'``, ``xdd = p''(s) s'^2 + p'(s) s''``.
+:func:`cartesian_trajectory` then solves inverse kinematics
+(:func:`labkit.ik.ik`) at every sample on one consistent branch and returns a
+:class:`labkit.trajectory.Trajectory` holding both joint and Cartesian
+samples, raising on the first unreachable sample (time, point, by how much)
+or joint-limit violation.
+
+Orientation: planar arms take ``phi`` [rad] (held, or interpolated between
+keys); 6-DOF arms take rotation matrices (held, or slerped with
+:class:`scipy.spatial.transform.Slerp`); position-only arms (the 3-DOF
+Arduino arm) ignore orientation.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import PPoly
+from scipy.spatial.transform import Rotation, Slerp
+
+from labkit._validation import as_batch
+from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError, UnreachableError
+from labkit.timelaw import TimeLaw, make_law, time_grid
+from labkit.trajectory import Trajectory, check_joint_limits, check_speed
+
+__all__ = [
+    "Path",
+    "line",
+    "arc",
+    "circle",
+    "waypoints",
+    "path_law",
+    "cartesian_trajectory",
+]
+
+
+def _point3(p, name):
+    p = np.asarray(p, dtype=float)
+    if p.shape == (2,):
+        p = np.append(p, 0.0)  # planar: the x-y plane
+    return as_batch(p, (3,), name).reshape(3)
+
+
+@dataclass(frozen=True, eq=False)
+class Path:
+    """Geometry of a Cartesian path, parameterised by ``s`` in ``[0, s_max]``.
+
+    Attributes
+    ----------
+    kind : str
+        ``"line"``, ``"arc"``, ``"circle"`` or ``"waypoints"``.
+    points : ndarray, shape (m, 3)
+        Line ends or waypoints [m]; for arcs, the start and end points.
+    center : ndarray, shape (3,) or None
+        Arc centre [m].
+    radius : float
+        Arc radius [m] (0 for lines).
+    axes : ndarray, shape (2, 3) or None
+        Orthonormal in-plane axes ``u, v`` of an arc;
+        ``p = c + r (cos(theta) u + sin(theta) v)``.
+    start_angle, sweep : float
+        Arc angles [rad]: ``theta = start_angle + s sweep``.
+    """
+
+    kind: str
+    points: np.ndarray
+    center: np.ndarray | None = None
+    radius: float = 0.0
+    axes: np.ndarray | None = None
+    start_angle: float = 0.0
+    sweep: float = 0.0
+
+    @property
+    def s_max(self):
+        """End value of the path parameter (1, or the number of segments)."""
+        return float(self.points.shape[0] - 1) if self.kind == "waypoints" else 1.0
+
+    @property
+    def length(self):
+        """Path length [m]."""
+        if self.kind in ("arc", "circle"):
+            return abs(self.sweep) * self.radius
+        return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=-1)))
+
+    @property
+    def normal(self):
+        """Unit normal of an arc's plane (``u x v``; sweep > 0 turns about it)."""
+        if self.axes is None:
+            return None
+        return np.cross(self.axes[0], self.axes[1])
+
+    def evaluate(self, s):
+        """Point and its first two derivatives with respect to ``s``.
+
+        Parameters
+        ----------
+        s : array_like, shape (N,)
+
+        Returns
+        -------
+        p, dp, ddp : ndarray, shape (N, 3)
+            ``p(s)`` [m], ``dp/ds`` and ``d2p/ds2`` [m].
+        """
+        s = np.asarray(s, dtype=float).reshape(-1)
+        if self.kind in ("arc", "circle"):
+            u, v = self.axes
+            th = self.start_angle + s * self.sweep
+            c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
+            radial = c * u + sn * v
+            p = self.center + self.radius * radial
+            dp = self.radius * self.sweep * (-sn * u + c * v)
+            ddp = -self.radius * self.sweep**2 * radial
+            return p, dp, ddp
+        P = self.points
+        seg = np.clip(np.floor(s).astype(int), 0, P.shape[0] - 2)
+        frac = (s - seg)[:, None]
+        d = P[seg + 1] - P[seg]
+        return P[seg] + frac * d, d, np.zeros_like(d)
+
+    def point(self, s):
+        """``p(s)``, shape (N, 3) [m]."""
+        return self.evaluate(s)[0]
+
+    def distance_from(self, x):
+        """Distance of points ``x`` (N, 3) from the path [m] (checks, tests)."""
+        x = np.asarray(x, dtype=float).reshape(-1, 3)
+        if self.kind in ("arc", "circle"):
+            rel = x - self.center
+            n = self.normal
+            off = rel @ n
+            inplane = rel - off[:, None] * n
+            return np.hypot(off, np.linalg.norm(inplane, axis=-1) - self.radius)
+        best = np.full(x.shape[0], np.inf)
+        for a, b in zip(self.points[:-1], self.points[1:]):
+            d = b - a
+            L2 = float(d @ d)
+            f = np.clip(((x - a) @ d) / L2, 0.0, 1.0) if L2 > 0 else np.zeros(x.shape[0])
+            best = np.minimum(best, np.linalg.norm(x - (a + f[:, None] * d), axis=-1))
+        return best
+
+
+def line(start, end):
+    """Straight line from ``start`` to ``end``.
+
+    Parameters
+    ----------
+    start, end : array_like, shape (3,) or (2,)
+        Points [m]; 2-D points lie in the x-y plane (planar arms).
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> line([0, 0.18, -0.094], [0.1, 0.15, -0.2]).length.round(4)
+    np.float64(0.1488)
+    """
+    return Path("line", np.stack([_point3(start, "start"), _point3(end, "end")]))
+
+
+def _plane_axes(normal, axes):
+    if axes is not None:
+        if normal is not None:
+            raise ShapeError("give the arc plane by normal or by axes, not both")
+        A = np.asarray(axes, dtype=float)
+        if A.shape == (2, 2):
+            A = np.concatenate([A, np.zeros((2, 1))], axis=1)
+        A = as_batch(A, (2, 3), "axes")
+        u = A[0] / np.linalg.norm(A[0])
+        v = A[1] - (A[1] @ u) * u  # Gram-Schmidt: v orthogonal to u
+        nv = np.linalg.norm(v)
+        if nv < 1e-12:
+            raise ShapeError("expected two non-parallel in-plane axes, got parallel vectors")
+        return np.stack([u, v / nv])
+    n = np.array([0.0, 0.0, 1.0]) if normal is None else as_batch(normal, (3,), "normal").reshape(3)
+    nn = np.linalg.norm(n)
+    if nn < 1e-12:
+        raise ShapeError("expected a non-zero plane normal")
+    n = n / nn
+    ref = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = ref - (ref @ n) * n
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)])
+
+
+def arc(center, radius, start_angle, sweep, *, normal=None, axes=None):
+    """Circular arc.
+
+    ``p(s) = center + radius (cos(theta) u + sin(theta) v)`` with
+    ``theta = start_angle + s * sweep``, ``s`` in [0, 1].
+
+    Parameters
+    ----------
+    center : array_like, shape (3,) or (2,)
+        Centre [m] (2-D: in the x-y plane).
+    radius : float
+        [m], positive.
+    start_angle, sweep : float
+        [rad]; a positive sweep turns counter-clockwise about the normal.
+    normal : array_like, shape (3,), optional
+        Plane normal (default +z: the x-y plane, ``u = x``, ``v = y``). The
+        in-plane axis ``u`` is the world x axis projected on the plane (y if
+        the normal is close to x), and ``v = normal x u``.
+    axes : array_like, shape (2, 3), optional
+        In-plane axes ``u, v`` instead of a normal (``v`` is orthogonalised).
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> a = arc([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2)  # seed 004, part D
+    >>> a.point([0.0, 1.0]).round(3)
+    array([[0.1 , 0.  , 0.  ],
+           [0.35, 0.25, 0.  ]])
+    """
+    c = _point3(center, "center")
+    r = float(radius)
+    if not math.isfinite(r) or r <= 0:
+        raise ShapeError(f"expected a positive radius [m], got {radius!r}")
+    th0, sw = float(start_angle), float(sweep)
+    if not (math.isfinite(th0) and math.isfinite(sw)) or sw == 0:
+        raise ShapeError(f"expected finite angles and a non-zero sweep [rad], got {start_angle!r}, {sweep!r}")
+    A = _plane_axes(normal, axes)
+    kind = "circle" if abs(abs(sw) - 2 * math.pi) < 1e-12 else "arc"
+    ends = c + r * np.stack([math.cos(t) * A[0] + math.sin(t) * A[1] for t in (th0, th0 + sw)])
+    return Path(kind, ends, c, r, A, th0, sw)
+
+
+def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise=False):
+    """Full circle (an arc sweeping 2 pi) starting at ``start_angle``.
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> circle([0, 0, 0.5], 0.1).length.round(6)
+    0.628319
+    """
+    return arc(center, radius, start_angle, -2 * math.pi if clockwise else 2 * math.pi,
+               normal=normal, axes=axes)
+
+
+def waypoints(points):
+    """Straight segments through a sequence of points (stopping at each).
+
+    Parameters
+    ----------
+    points : array_like, shape (m, 3) or (m, 2)
+        ``m >= 2`` waypoints [m].
+
+    Returns
+    -------
+    Path
+        ``s`` runs from 0 to ``m - 1``; waypoint ``k`` is at ``s = k``.
+
+    Examples
+    --------
+    >>> waypoints([[0, 0.2, 0.1], [0.1, 0.2, 0.1], [0.1, 0.2, 0.0]]).s_max
+    2.0
+    """
+    P = np.asarray(points, dtype=float)
+    if P.ndim == 2 and P.shape[1] == 2:
+        P = np.concatenate([P, np.zeros((P.shape[0], 1))], axis=1)
+    P = as_batch(P, (3,), "points")
+    if P.ndim != 2 or P.shape[0] < 2:
+        raise ShapeError(f"expected waypoints with shape (m, 3), m >= 2, got {np.shape(points)}")
+    return Path("waypoints", P)
+
+
+def path_law(path, duration, law="cubic", *, t0=0.0, **options):
+    """Time law ``s(t)`` for a path: rest to rest from 0 to ``path.s_max``.
+
+    For waypoints, one rest-to-rest law per segment (the arm stops at each
+    waypoint); ``duration`` is then the total (split in proportion to
+    segment length) or one duration per segment.
+
+    Parameters
+    ----------
+    path : Path
+    duration : float or array_like, shape (m - 1,)
+        [s].
+    law : {"cubic", "quintic", "lspb", "linear"} or TimeLaw
+        A ready-made scalar :class:`TimeLaw` from 0 to ``s_max`` is used as is.
+
+    Returns
+    -------
+    TimeLaw
+        Scalar law of ``s``.
+
+    Examples
+    --------
+    >>> path_law(line([0, 0, 0], [1, 0, 0]), 2.0).coefficients[0]
+    array([ 0.  ,  0.  ,  0.75, -0.25])
+    """
+    if isinstance(law, TimeLaw):
+        if law.shape != () or abs(law.position(law.t0) - 0) > 1e-12 or abs(law.position(law.tf) - path.s_max) > 1e-9:
+            raise TrajectoryError(f"expected a scalar time law from s = 0 to s = {path.s_max:g}, got {law!r}")
+        return law
+    m = int(round(path.s_max))
+    if path.kind != "waypoints" or m == 1:
+        return make_law(law, 0.0, path.s_max, float(np.sum(duration)), t0=t0, **options)
+    d = np.asarray(duration, dtype=float)
+    if d.ndim == 0:
+        seg = np.linalg.norm(np.diff(path.points, axis=0), axis=-1)
+        d = float(d) * (seg / seg.sum() if seg.sum() > 0 else np.full(m, 1.0 / m))
+    if d.shape != (m,):
+        raise ShapeError(f"expected one duration or {m} segment durations, got shape {d.shape}")
+    starts = t0 + np.concatenate([[0.0], np.cumsum(d)])
+    laws = [make_law(law, float(k), float(k + 1), d[k], t0=starts[k], **options) for k in range(m)]
+    kmax = max(lw.degree for lw in laws)
+    cs = [np.concatenate([np.zeros((kmax - lw.degree,) + lw.ppoly.c.shape[1:]), lw.ppoly.c]) for lw in laws]
+    x = np.concatenate([laws[0].breaks] + [lw.breaks[1:] for lw in laws[1:]])
+    return TimeLaw(PPoly(np.concatenate(cs, axis=1), x), laws[0].kind)
+
+
+# -- orientation ----------------------------------------------------------------
+
+def _planar_orientation(orientation, s, path):
+    keys = np.atleast_1d(np.asarray(orientation, dtype=float))
+    if keys.ndim != 1 or not np.all(np.isfinite(keys)):
+        raise ShapeError(f"expected orientation phi [rad] as a float or a 1-D sequence, got {orientation!r}")
+    if keys.size == 1:
+        return np.full(s.shape, keys[0]), np.zeros(s.shape)
+    ks = np.linspace(0.0, path.s_max, keys.size)
+    seg = np.clip(np.searchsorted(ks, s, side="right") - 1, 0, keys.size - 2)
+    slope = (keys[seg + 1] - keys[seg]) / (ks[seg + 1] - ks[seg])
+    return keys[seg] + slope * (s - ks[seg]), slope
+
+
+def _rotations(orientation):
+    if isinstance(orientation, Rotation):
+        return orientation if not orientation.single else Rotation.concatenate([orientation])
+    R = np.asarray(orientation, dtype=float)
+    if R.shape == (3, 3):
+        R = R[None]
+    R = as_batch(R, (3, 3), "orientation")
+    return Rotation.from_matrix(R.reshape(-1, 3, 3))
+
+
+def _pose_orientation(orientation, s, path):
+    """Rotation at each s (slerp between evenly spaced keys) and dR/ds as omega per unit s."""
+    rots = _rotations(orientation)
+    if len(rots) == 1:
+        return Rotation.concatenate([rots] * s.size) if s.size else rots, np.zeros((s.size, 3))
+    ks = np.linspace(0.0, path.s_max, len(rots))
+    R = Slerp(ks, rots)(np.clip(s, 0.0, path.s_max))
+    seg = np.clip(np.searchsorted(ks, s, side="right") - 1, 0, len(rots) - 2)
+    rel = (rots[1:] * rots[:-1].inv()).as_rotvec()  # world-frame rotation per segment
+    omega_per_s = rel[seg] / (ks[1] - ks[0])
+    return R, omega_per_s
+
+
+# -- the trajectory --------------------------------------------------------------
+
+def _ik_module():
+    try:
+        from labkit import ik
+    except ImportError as exc:  # pragma: no cover - only before labkit.ik exists
+        raise TrajectoryError(f"Cartesian trajectories need labkit.ik ({exc})") from None
+    return ik
+
+
+def _choose_branch(ik, robot, target0, q_start):
+    sols = ik.ik_all(robot, target0)
+    valid = np.asarray(sols.valid).reshape(-1)
+    if not np.any(valid):
+        return None  # let ik() raise the precise error for sample 0
+    q = np.asarray(sols.q).reshape(valid.size, robot.n)
+    if q_start is None:
+        idx = int(np.argmax(valid))
+    else:
+        dist = np.linalg.norm(q - np.asarray(q_start, dtype=float), axis=-1)
+        dist[~valid] = np.inf
+        idx = int(np.argmin(dist))
+    return sols.branches[idx]
+
+
+def _fmt_point(p, kind):
+    if kind == "planar":
+        return f"(x, y, phi) = ({p[0] * 1e3:.1f} mm, {p[1] * 1e3:.1f} mm, {math.degrees(p[2]):.1f} deg)"
+    return "(" + ", ".join(f"{v * 1e3:.1f}" for v in p[:3]) + ") mm"
+
+
+def _first_index(exc):
+    idx = exc.index
+    if idx is None:
+        return None
+    if isinstance(idx, (tuple, list, np.ndarray)):
+        idx = np.ravel(idx)
+        return int(idx[0]) if idx.size else None
+    return int(idx)
+
+
+def _solve(ik, robot, kind, targets, t, branch, path):
+    try:
+        return ik.ik(robot, targets, branch=branch)
+    except UnreachableError as exc:
+        i = _first_index(exc)
+        if i is None:
+            raise
+        xi = targets[i][:3, 3] if kind == "pose" else targets[i]
+        raise UnreachableError(
+            f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}, "
+            f"is unreachable: {exc.distance * 1e3:.3g} mm outside the workspace ({exc})",
+            distance=exc.distance,
+            index=i,
+        ) from exc
+    except JointLimitError as exc:
+        i = _first_index(exc)
+        if i is None:
+            raise
+        xi = targets[i][:3, 3] if kind == "pose" else targets[i]
+        raise JointLimitError(
+            f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}: {exc}",
+            joint=exc.joint,
+            index=i,
+        ) from exc
+
+
+def _joint_rates(robot, kind, q, xd, xdd):
+    """qd = J^-1 xd and qdd = J^-1 (xdd - Jdot qd) (Jdot qd by central difference)."""
+    from labkit.kinematics import jacobian
+
+    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
+    J = jacobian(robot, q)[:, rows, :]
+
+    def solve(A, b):
+        if A.shape[-1] == A.shape[-2]:
+            try:
+                return np.linalg.solve(A, b[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                pass
+        return np.einsum("nij,nj->ni", np.linalg.pinv(A), b)
+
+    qd = solve(J, xd)
+    h = 1e-6
+    Jp = jacobian(robot, q + h * qd)[:, rows, :]
+    Jm = jacobian(robot, q - h * qd)[:, rows, :]
+    jdot_qd = np.einsum("nij,nj->ni", (Jp - Jm) / (2 * h), qd)
+    qdd = solve(J, xdd - jdot_qd)
+    return qd, qdd
+
+
+def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=None,
+                         orientation=None, branch=None, q_start=None, check_limits=True,
+                         check_speed_limits=False, max_joint_step=math.pi / 2, **law_options):
+    """Time a Cartesian path and solve IK at every sample on one branch.
+
+    Parameters
+    ----------
+    robot : Robot
+        Any robot :func:`labkit.ik.ik` solves: position targets (3-DOF arm),
+        planar (x, y, phi) targets (planar 3R) or poses (6R).
+    path : Path
+        From :func:`line`, :func:`arc`, :func:`circle` or :func:`waypoints`.
+    duration : float or array_like
+        [s] (per segment for waypoints); ignored when ``law`` is a TimeLaw.
+    law : {"cubic", "quintic", "lspb", "linear"} or TimeLaw
+        Timing of the path parameter (see :func:`path_law`).
+    dt : float
+        Sample step [s]; or give the sample times ``t``.
+    orientation : float, sequence, (3, 3) or (k, 3, 3) array, Rotation
+        Planar arms: ``phi`` [rad] held, or keys interpolated linearly over
+        ``s``. 6-DOF arms: a rotation held, or keys slerped. Ignored for
+        position-only arms. Default: the orientation of ``q_start``.
+    branch : str, optional
+        IK branch (e.g. ``"elbow_up"``); default the branch of the first valid
+        solution at the first sample (nearest ``q_start`` if given), kept for
+        the whole path.
+    q_start : array_like, shape (n,), optional
+        Current configuration: picks the branch and the default orientation.
+    check_limits, check_speed_limits : bool
+        Joint-limit check (the IK already rejects out-of-limit solutions) and
+        speed/acceleration check (raises with the minimum duration).
+    max_joint_step : float
+        Largest joint change between consecutive samples [rad] before the
+        path is declared discontinuous (a branch flip through a singularity).
+
+    Returns
+    -------
+    Trajectory
+        ``q, qd, qdd`` (``qd = J^-1 xd``, ``qdd = J^-1 (xdd - Jdot qd)``),
+        and ``x, xd`` (x, y, z; x, y, phi; or x, y, z, roll, pitch, yaw).
+
+    Raises
+    ------
+    UnreachableError
+        Naming the first unreachable sample: index, time, point and distance.
+    JointLimitError
+        First sample whose solution on the branch violates a joint limit.
+    TrajectoryError
+        Over-speed (with minimum duration) or a discontinuous branch.
+
+    Examples
+    --------
+    >>> from labkit.dh import Robot
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> traj = cartesian_trajectory(arm, line([0, 0.18, -0.094], [0.1, 0.15, -0.2]), 5.0,
+    ...                             dt=0.1, branch="elbow_up")
+    >>> traj.q.shape, round(float(np.linalg.norm(traj.xd, axis=1).max()), 4)
+    ((51, 3), 0.0446)
+    """
+    ik = _ik_module()
+    kind = ik.target_kind(robot)
+    s_law = path_law(path, duration, law, **law_options)
+    t = time_grid(s_law.t0, s_law.tf, dt) if t is None else np.asarray(t, dtype=float).reshape(-1)
+    s, sd, sdd = s_law.position(t), s_law.velocity(t), s_law.acceleration(t)
+    p, dp, ddp = path.evaluate(s)
+    pd = dp * sd[:, None]
+    pdd = ddp * sd[:, None] ** 2 + dp * sdd[:, None]
+    if orientation is None and kind != "position":
+        if q_start is None:
+            raise TrajectoryError(f"{robot.name} needs an orientation (or q_start to hold its orientation)")
+        T0 = robot.fk(np.asarray(q_start, dtype=float))
+        orientation = math.atan2(T0[1, 0], T0[0, 0]) if kind == "planar" else T0[:3, :3]
+    if kind == "position":
+        targets, x, xd, xdd = p, p, pd, pdd
+        axis_names = ("x", "y", "z")
+    elif kind == "planar":
+        phi, dphi = _planar_orientation(orientation, s, path)
+        targets = np.column_stack([p[:, :2], phi])
+        x = targets
+        xd = np.column_stack([pd[:, :2], dphi * sd])
+        xdd = np.column_stack([pdd[:, :2], dphi * sdd])
+        axis_names = ("x", "y", "phi")
+    else:
+        R, omega_s = _pose_orientation(orientation, s, path)
+        targets = np.tile(np.eye(4), (t.size, 1, 1))
+        targets[:, :3, :3] = R.as_matrix()
+        targets[:, :3, 3] = p
+        rpy = np.unwrap(R.as_euler("xyz"), axis=0)
+        x = np.column_stack([p, rpy])
+        xd = np.column_stack([pd, omega_s * sd[:, None]])
+        xdd = np.column_stack([pdd, omega_s * sdd[:, None]])
+        axis_names = ("x", "y", "z", "roll", "pitch", "yaw")
+    if branch is None:
+        branch = _choose_branch(ik, robot, targets[0], q_start)
+    q = np.asarray(_solve(ik, robot, kind, targets, t, branch, path), dtype=float)
+    rev = robot.is_revolute
+    if q.shape[0] > 1:
+        q[:, rev] = np.unwrap(q[:, rev], axis=0)
+        step = np.abs(np.diff(q, axis=0))
+        if np.any(step > max_joint_step):
+            i, j = np.argwhere(step > max_joint_step)[0]
+            raise TrajectoryError(
+                f"{robot.name}: joint {j + 1} ({robot.joint_names[j]}) jumps by "
+                f"{math.degrees(step[i, j]):.1f} deg between t = {t[i]:.4g} s and {t[i + 1]:.4g} s "
+                f"(IK branch {branch!r} flips near a singularity); try another branch or path"
+            )
+    qd, qdd = _joint_rates(robot, kind, q, xd, xdd)
+    resampler = functools.partial(_resample, robot, path, s_law, orientation, branch)
+    traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
+                      axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)
+    if check_limits:
+        check_joint_limits(traj, robot)
+    if check_speed_limits:
+        check_speed(traj, robot)
+    return traj
+
+
+def _resample(robot, path, s_law, orientation, branch, t):
+    return cartesian_trajectory(robot, path, law=s_law, t=t, orientation=orientation, branch=branch,
+                                check_limits=False)
