@@ -1,0 +1,440 @@
+"""Closed-form inverse kinematics (private; the public API is :mod:`labkit.ik`).
+
+The solvers do not parse DH tables by hand. They read the joint axes of the
+robot at ``q = 0`` from :func:`labkit.kinematics.fk_frames` (world frame, base
+and tool transforms included, either DH convention) and solve in that
+geometry, product-of-exponentials style. Three structures are recognised:
+
+``planar_3r``
+    three revolute joints whose axes are all parallel to the world ``+z``
+    axis, with a tool frame whose ``z`` is ``+z`` too. Target ``(x, y, phi)``,
+    ``phi`` the angle of the tool ``x`` axis from world ``x``.
+``yaw_pitch_pitch``
+    three revolute joints: axis 1, axis 2 perpendicular to and intersecting
+    axis 1 (the shoulder), axis 3 parallel to axis 2; the tool point may lie
+    off the arm plane by a constant lateral offset. Target: tool position.
+``spherical_wrist``
+    six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` and axes 4, 5, 6
+    meeting in one point (the wrist centre), 4 not parallel to 5 and 5 not
+    parallel to 6. Target: tool pose. Joints 1-3 place the wrist centre,
+    joints 4-6 are a Paden-Kahan subproblem 2 + subproblem 1.
+
+Every solver returns raw arrays ``q (N, m, n)`` and ``reachable (N, m)`` and an
+out-of-reach distance ``(N,)`` [m]; unreachable entries hold the finite
+configuration obtained by clipping the cosine-law arguments (the arm stretched
+or folded towards the target), never NaN.
+
+Branch naming (geometric, so it does not depend on sign conventions):
+*elbow up* is the branch whose elbow lies on the "up" side of the line from
+the shoulder to the wrist centre (tool point). "Up" is the side of the
+shoulder's horizontal plane (perpendicular to axis 1) that the elbow points to
+at the middle of joint 2's range (the side the arm works on); if that is
+ambiguous (elbow within 0.2 L1 of the plane) it is ``+axis 1``. For the
+Arduino arm of seed 000 (frame 0 ``z`` points down, servos 0-180 deg) this is
+``-z0`` and reproduces the seed's elbow-up formula; for the PUMAs it is
+``+z0``. For ``planar_3r`` elbow up means the elbow lies to the left of the
+line joint 1 -> joint 3 (above it for a target in front, ``x > 0``): the
+relative elbow angle is negative (seed 004's "elbow minus").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_TOL = 1e-9  # geometric tolerance of the structure detection [m or rad]
+_REACH_TOL = 1e-12  # slack on cosine-law arguments
+
+
+class _NotThisStructure(Exception):
+    """The robot does not have the structure a solver needs (reason in args)."""
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def _line_closest(p1, d1, p2, d2):
+    """Closest points of two non-parallel lines; returns (midpoint, distance)."""
+    w = p1 - p2
+    b = d1 @ d2
+    den = 1.0 - b * b
+    t1 = (b * (d2 @ w) - (d1 @ w)) / den
+    t2 = ((d2 @ w) - b * (d1 @ w)) / den
+    c1, c2 = p1 + t1 * d1, p2 + t2 * d2
+    return 0.5 * (c1 + c2), float(np.linalg.norm(c1 - c2))
+
+
+def _axes(robot):
+    """Joint axes (unit directions) and points on them at q = 0, plus the tool frame."""
+    from labkit import kinematics
+    from labkit.dh import Convention
+
+    n = robot.n
+    F = kinematics.fk_frames(robot, np.zeros(n))
+    idx = np.arange(1, n + 1) if robot.convention is Convention.MODIFIED else np.arange(0, n)
+    return F[idx, :3, 2].copy(), F[idx, :3, 3].copy(), F[n + 1]
+
+
+def _scale(robot):
+    return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
+
+
+# --------------------------------------------------------------------------
+# Joint-angle bookkeeping shared by all solvers
+# --------------------------------------------------------------------------
+
+def normalize_angles(q, limits, revolute):
+    """Wrap revolute angles into (-pi, pi], then shift by 2 pi where that enters the limits.
+
+    ``q`` has shape (..., n); returns a new array.
+    """
+    q = np.array(q, dtype=float)
+    if not np.any(revolute):
+        return q
+    lo, hi = limits[:, 0], limits[:, 1]
+    qr = q[..., revolute]
+    qr = np.remainder(qr + np.pi, 2 * np.pi) - np.pi
+    qr = np.where(qr == -np.pi, np.pi, qr)
+    lo_r, hi_r = lo[revolute], hi[revolute]
+    inside = (qr >= lo_r - 1e-9) & (qr <= hi_r + 1e-9)
+    for shift in (2 * np.pi, -2 * np.pi):
+        cand = qr + shift
+        ok = (~inside) & (cand >= lo_r - 1e-9) & (cand <= hi_r + 1e-9)
+        qr = np.where(ok, cand, qr)
+        inside |= ok
+    q[..., revolute] = qr
+    return q
+
+
+# --------------------------------------------------------------------------
+# Planar 3R
+# --------------------------------------------------------------------------
+
+class Planar3R:
+    """Closed-form IK of a planar 3R arm for targets (x, y, phi)."""
+
+    name = "planar_3r"
+    kind = "planar"
+    branches = ("elbow_up", "elbow_down")
+    aliases = {"elbow_minus": "elbow_up", "elbow_plus": "elbow_down", "up": "elbow_up", "down": "elbow_down"}
+
+    def __init__(self, robot):
+        if robot.n != 3 or not np.all(robot.is_revolute):
+            raise _NotThisStructure("needs exactly 3 revolute joints")
+        z, o, tool = _axes(robot)
+        if np.any(np.abs(z[:, 2] - 1.0) > _TOL):
+            raise _NotThisStructure("all joint axes must be parallel to world +z")
+        if abs(tool[2, 2] - 1.0) > _TOL:
+            raise _NotThisStructure("the tool z axis must be world +z")
+        P = o[:, :2]
+        e = P[1] - P[0]
+        f = P[2] - P[1]
+        self.base = P[0]
+        self.L1, self.L2 = float(np.hypot(*e)), float(np.hypot(*f))
+        if self.L1 < _TOL or self.L2 < _TOL:
+            raise _NotThisStructure("links 1 and 2 must have non-zero length")
+        self.g1 = math.atan2(e[1], e[0])
+        self.g2 = math.atan2(f[1], f[0])
+        self.psi0 = math.atan2(tool[1, 0], tool[0, 0])
+        self.t0 = tool[:2, 3] - P[2]  # tool point relative to axis 3 at q = 0
+
+    def solve(self, target):
+        """target (N, 3) -> q (N, 2, 3), reachable (N, 2), distance (N,)."""
+        x, y, phi = target[:, 0], target[:, 1], target[:, 2]
+        rot = phi - self.psi0  # q1 + q2 + q3
+        c, s = np.cos(rot), np.sin(rot)
+        wx = x - (c * self.t0[0] - s * self.t0[1]) - self.base[0]
+        wy = y - (s * self.t0[0] + c * self.t0[1]) - self.base[1]
+        L1, L2 = self.L1, self.L2
+        r2 = wx * wx + wy * wy
+        cb = (r2 - L1 * L1 - L2 * L2) / (2 * L1 * L2)
+        r = np.sqrt(r2)
+        distance = np.maximum(np.maximum(r - (L1 + L2), abs(L1 - L2) - r), 0.0)
+        ok = np.abs(cb) <= 1.0 + _REACH_TOL
+        cb = np.clip(cb, -1.0, 1.0)
+        sb = np.sqrt(1.0 - cb * cb)
+        aw = np.arctan2(wy, wx)
+        q = np.empty((x.shape[0], 2, 3))
+        for k, sign in enumerate((-1.0, 1.0)):  # elbow up: theta_b < 0
+            tb = sign * np.arctan2(sb, cb)
+            ta = aw - np.arctan2(sign * L2 * sb, L1 + L2 * cb)
+            q[:, k, 0] = ta - self.g1
+            q[:, k, 1] = tb - (self.g2 - self.g1)
+            q[:, k, 2] = rot - q[:, k, 0] - q[:, k, 1]
+        return q, np.repeat(ok[:, None], 2, axis=1), distance
+
+
+# --------------------------------------------------------------------------
+# Yaw-pitch-pitch arm (3-DOF position, and the first half of the 6R solver)
+# --------------------------------------------------------------------------
+
+class _Arm:
+    """Geometry of joints 1-3: base yaw, two parallel pitch axes, point W."""
+
+    def __init__(self, robot, z, o, W0):
+        a1, a2, a3 = (_unit(v) for v in z[:3])
+        if abs(a1 @ a2) > _TOL:
+            raise _NotThisStructure("axis 2 must be perpendicular to axis 1")
+        if np.linalg.norm(np.cross(a2, a3)) > _TOL:
+            raise _NotThisStructure("axis 3 must be parallel to axis 2")
+        S, gap = _line_closest(o[0], a1, o[1], a2)
+        scale = _scale(robot)
+        if gap > _TOL * scale:
+            raise _NotThisStructure("axis 2 must intersect axis 1 (no shoulder offset along the normal)")
+        self.S = S
+        self.ev, self.en, self.er = a1, a2, np.cross(a2, a1)
+        self.s3 = 1.0 if a3 @ a2 > 0 else -1.0
+        E = o[2] - S
+        Er, Ev = E @ self.er, E @ self.ev
+        Wd = W0 - S
+        Wr, Wv = Wd @ self.er, Wd @ self.ev
+        self.off = float(Wd @ self.en)
+        self.L1 = float(math.hypot(Er, Ev))
+        self.L2 = float(math.hypot(Wr - Er, Wv - Ev))
+        if self.L1 < _TOL * scale or self.L2 < _TOL * scale:
+            raise _NotThisStructure("the elbow must be away from the shoulder and the wrist")
+        self.g1 = math.atan2(Ev, Er)
+        self.g2 = math.atan2(Wv - Ev, Wr - Er)
+        # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
+        self.front = -1.0 if Wr < -_TOL * scale else 1.0
+        lim = robot.joint_limits[1]
+        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+        v_mid = self.L1 * math.sin(self.g1 - mid)
+        self.up = -1.0 if v_mid < -0.2 * self.L1 else 1.0
+        self.a = (a1, a2, a3)
+
+    def solve(self, W):
+        """W (3, N) -> list of 4 (q1, q2, q3) tuples, reachable (N,) x4, distance (N,).
+
+        Order: front elbow up, front elbow down, back elbow up, back elbow down.
+        """
+        d = W - self.S[:, None]
+        hr = self.er @ d
+        hn = self.en @ d
+        w = self.ev @ d
+        off = self.off
+        rho2 = hr * hr + hn * hn
+        u0 = np.sqrt(np.maximum(rho2 - off * off, 0.0))
+        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - _REACH_TOL
+        L1, L2 = self.L1, self.L2
+        D = np.sqrt(u0 * u0 + w * w)
+        cb = (u0 * u0 + w * w - L1 * L1 - L2 * L2) / (2 * L1 * L2)
+        ok = shoulder_ok & (np.abs(cb) <= 1.0 + _REACH_TOL)
+        distance = np.maximum(np.maximum(D - (L1 + L2), abs(L1 - L2) - D), 0.0)
+        distance = np.maximum(distance, np.maximum(abs(off) - np.sqrt(rho2), 0.0))
+        cb = np.clip(cb, -1.0, 1.0)
+        sb = np.sqrt(1.0 - cb * cb)
+        tb_abs = np.arctan2(sb, cb)
+        beta = np.arctan2(L2 * sb, L1 + L2 * cb)  # interior angle at the shoulder
+        az = np.arctan2(hn, hr)
+        out = []
+        for side in (self.front, -self.front):
+            u = side * u0
+            q1 = az - np.arctan2(off, u)
+            aw = np.arctan2(w, u)
+            for elbow_up in (True, False):
+                # elbow above the shoulder->W line  <=>  (theta_b < 0) == (u > 0), with up = +ev
+                neg = (side > 0) == (self.up > 0)
+                if not elbow_up:
+                    neg = not neg
+                sign = -1.0 if neg else 1.0
+                ta = aw - sign * beta
+                q2 = self.g1 - ta
+                q3 = self.s3 * (self.g2 - self.g1 - sign * tb_abs)
+                out.append((q1, q2, q3))
+        return out, ok, distance
+
+    def rotation(self, q1, q23):
+        """World rotation Rot(a1, q1) Rot(a2, q23) as (N, 3, 3) (q23 = q2 + s3 q3)."""
+        return _rot_batch(self.a[0], q1) @ _rot_batch(self.a[1], q23)
+
+
+def _rot_batch(axis, angle):
+    """Rotation matrices about a fixed unit axis, angle (N,) -> (N, 3, 3)."""
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    C = 1.0 - c
+    R = np.empty(angle.shape + (3, 3))
+    R[..., 0, 0] = c + x * x * C
+    R[..., 0, 1] = x * y * C - z * s
+    R[..., 0, 2] = x * z * C + y * s
+    R[..., 1, 0] = y * x * C + z * s
+    R[..., 1, 1] = c + y * y * C
+    R[..., 1, 2] = y * z * C - x * s
+    R[..., 2, 0] = z * x * C - y * s
+    R[..., 2, 1] = z * y * C + x * s
+    R[..., 2, 2] = c + z * z * C
+    return R
+
+
+def _rotate(axis, angle, v):
+    """Rotate vectors v (3, N) about a fixed unit axis by angle (N,) (Rodrigues)."""
+    c, s = np.cos(angle), np.sin(angle)
+    k = np.asarray(axis)[:, None]
+    kxv = np.cross(k, v, axis=0)
+    return v * c + kxv * s + k * ((k * v).sum(axis=0) * (1.0 - c))
+
+
+def _subproblem1(axis, u, v):
+    """Angle about ``axis`` that turns u (3, N) towards v (3, N) (Paden-Kahan 1)."""
+    k = np.asarray(axis)[:, None]
+    up = u - k * (k * u).sum(axis=0)
+    vp = v - k * (k * v).sum(axis=0)
+    return np.arctan2((k * np.cross(up, vp, axis=0)).sum(axis=0), (up * vp).sum(axis=0))
+
+
+class YawPitchPitch:
+    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm)."""
+
+    name = "yaw_pitch_pitch"
+    kind = "position"
+    branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
+    aliases = {"up": "elbow_up", "down": "elbow_down"}
+
+    def __init__(self, robot):
+        if robot.n != 3 or not np.all(robot.is_revolute):
+            raise _NotThisStructure("needs exactly 3 revolute joints")
+        z, o, tool = _axes(robot)
+        self.arm = _Arm(robot, z, o, tool[:3, 3])
+
+    def solve(self, target):
+        """target (N, 3) -> q (N, 4, 3), reachable (N, 4), distance (N,)."""
+        sols, ok, distance = self.arm.solve(target.T)
+        q = np.empty((target.shape[0], 4, 3))
+        for k, (q1, q2, q3) in enumerate(sols):
+            q[:, k, 0], q[:, k, 1], q[:, k, 2] = q1, q2, q3
+        return q, np.repeat(ok[:, None], 4, axis=1), distance
+
+
+# --------------------------------------------------------------------------
+# 6R with a spherical wrist
+# --------------------------------------------------------------------------
+
+class SphericalWrist:
+    """Closed-form pose IK of a 6R arm with a spherical wrist: all 8 solutions."""
+
+    name = "spherical_wrist"
+    kind = "pose"
+
+    def __init__(self, robot):
+        from labkit.dh import Convention
+
+        if robot.n != 6 or not np.all(robot.is_revolute):
+            raise _NotThisStructure("needs exactly 6 revolute joints")
+        z, o, tool = _axes(robot)
+        a4, a5, a6 = (_unit(v) for v in z[3:])
+        if np.linalg.norm(np.cross(a4, a5)) < 1e-6 or np.linalg.norm(np.cross(a5, a6)) < 1e-6:
+            raise _NotThisStructure("wrist axes 4-5 and 5-6 must not be parallel")
+        # wrist centre: least-squares intersection of axes 4, 5, 6
+        A = np.zeros((3, 3))
+        b = np.zeros(3)
+        for d, p in zip((a4, a5, a6), o[3:]):
+            P = np.eye(3) - np.outer(d, d)
+            A += P
+            b += P @ p
+        C = np.linalg.solve(A, b)
+        scale = _scale(robot)
+        for d, p in zip((a4, a5, a6), o[3:]):
+            if np.linalg.norm(np.cross(C - p, d)) > _TOL * scale:
+                raise _NotThisStructure("wrist axes 4, 5, 6 do not meet in one point")
+        self.arm = _Arm(robot, z, o, C)
+        self.a4, self.a5, self.a6 = a4, a5, a6
+        self.R0 = tool[:3, :3].copy()  # tool orientation at q = 0
+        self.w_tool = tool[:3, :3].T @ (C - tool[:3, 3])  # wrist centre in tool coordinates
+        # a vector perpendicular to axis 6, to recover q6
+        t = np.eye(3)[int(np.argmin(np.abs(a6)))]
+        self.x6 = _unit(t - a6 * (t @ a6))
+        # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
+        alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
+        self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
+        shoulder = ("right", "left")
+        self.branches = tuple(
+            f"{s}_{e}_{w}" for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")
+        )
+        self.aliases = {
+            f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}"
+            for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")
+        }
+
+    def solve(self, T):
+        """T (N, 4, 4) -> q (N, 8, 6), reachable (N, 8), distance (N,)."""
+        N = T.shape[0]
+        R = T[:, :3, :3]
+        W = T[:, :3, 3] + R @ self.w_tool
+        arm_sols, ok, distance = self.arm.solve(W.T)
+        # M = R123^T R R0^T ; its action on a6 and x6 is all the wrist needs
+        RR0t = R @ self.R0.T
+        v6 = RR0t @ self.a6  # (N, 3) world image of a6 before undoing joints 1-3
+        vx = RR0t @ self.x6
+        a1, a2, _ = self.arm.a
+        a4, a5, a6 = self.a4, self.a5, self.a6
+        k12 = a4 @ a5
+        den = k12 * k12 - 1.0
+        cr = np.cross(a4, a5)
+        cr2 = cr @ cr
+        p = a6
+        q = np.empty((N, 8, 6))
+        reach = np.empty((N, 8), dtype=bool)
+        for k, (q1, q2, q3) in enumerate(arm_sols):
+            q23 = q2 + self.arm.s3 * q3
+            # undo joints 1-3: target vectors in the zero-configuration frame
+            m6 = _rotate(a2, -q23, _rotate(a1, -q1, v6.T))
+            mx = _rotate(a2, -q23, _rotate(a1, -q1, vx.T))
+            # subproblem 2: Rot(a4, t4) Rot(a5, t5) p = m6
+            alpha = (k12 * (a5 @ p) - (a4[:, None] * m6).sum(axis=0)) / den
+            beta = (k12 * (a4[:, None] * m6).sum(axis=0) - a5 @ p) / den
+            g2 = (1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / cr2
+            g = np.sqrt(np.maximum(g2, 0.0))
+            for j, gs in enumerate((1.0, -1.0)):
+                c = alpha * a4[:, None] + beta * a5[:, None] + (gs * g) * cr[:, None]
+                t5 = _subproblem1(a5, np.broadcast_to(p[:, None], c.shape), c)
+                t4 = _subproblem1(a4, c, m6)
+                y = _rotate(a5, -t5, _rotate(a4, -t4, mx))
+                t6 = _subproblem1(a6, np.broadcast_to(self.x6[:, None], y.shape), y)
+                col = 2 * k + j
+                q[:, col, 0], q[:, col, 1], q[:, col, 2] = q1, q2, q3
+                q[:, col, 3], q[:, col, 4], q[:, col, 5] = t4, t5, t6
+                reach[:, col] = ok
+            # order the pair (noflip first): swap where q5 has the "flip" sign
+            a, b = 2 * k, 2 * k + 1
+            swap = (np.sin(q[:, a, 4]) * self.noflip_sign) < 0
+            if np.any(swap):
+                qa = q[swap, a].copy()
+                q[swap, a] = q[swap, b]
+                q[swap, b] = qa
+        return q, reach, distance
+
+
+SOLVERS = {cls.name: cls for cls in (YawPitchPitch, Planar3R, SphericalWrist)}
+
+
+def detect(robot):
+    """The analytic solver instance for ``robot`` or None (cached on the robot).
+
+    Returns
+    -------
+    solver or None, dict
+        The solver and, for every solver tried, why it does not apply.
+    """
+    cached = robot.__dict__.get("_ik_analytic")
+    if cached is not None:
+        return cached
+    reasons = {}
+    found = None
+    for name in ("planar_3r", "yaw_pitch_pitch", "spherical_wrist"):
+        try:
+            found = SOLVERS[name](robot)
+            break
+        except _NotThisStructure as exc:
+            reasons[name] = str(exc)
+    result = (found, reasons)
+    object.__setattr__(robot, "_ik_analytic", result)
+    return result
+
+
+def build(robot, name):
+    """Force the analytic solver ``name``; raises _NotThisStructure with the reason."""
+    return SOLVERS[name](robot)
