@@ -162,8 +162,8 @@ def line(start, end):
 
     Examples
     --------
-    >>> line([0, 0.18, -0.094], [0.1, 0.15, -0.2]).length.round(4)
-    np.float64(0.1488)
+    >>> round(line([0, 0.18, -0.094], [0.1, 0.15, -0.2]).length, 4)
+    0.1488
     """
     return Path("line", np.stack([_point3(start, "start"), _point3(end, "end")]))
 
@@ -247,7 +247,7 @@ def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise
 
     Examples
     --------
-    >>> circle([0, 0, 0.5], 0.1).length.round(6)
+    >>> round(circle([0, 0, 0.5], 0.1).length, 6)
     0.628319
     """
     return arc(center, radius, start_angle, -2 * math.pi if clockwise else 2 * math.pi,
@@ -438,19 +438,36 @@ def _joint_rates(robot, kind, q, xd, xdd):
     rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
     J = jacobian(robot, q)[:, rows, :]
 
-    def solve(A, b):
-        if A.shape[-1] == A.shape[-2]:
-            try:
-                return np.linalg.solve(A, b[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                pass
-        return np.einsum("nij,nj->ni", np.linalg.pinv(A), b)
+    Jinv = None
+    if J.shape[-1] == J.shape[-2]:
+        try:
+            Jinv = np.linalg.inv(J)
+        except np.linalg.LinAlgError:  # a singular sample: least squares everywhere
+            Jinv = None
+    if Jinv is None:
+        Jinv = np.linalg.pinv(J)
+
+    def solve(_, b):
+        return np.einsum("nij,nj->ni", Jinv, b)
 
     qd = solve(J, xd)
-    h = 1e-6
-    Jp = jacobian(robot, q + h * qd)[:, rows, :]
-    Jm = jacobian(robot, q - h * qd)[:, rows, :]
-    jdot_qd = np.einsum("nij,nj->ni", (Jp - Jm) / (2 * h), qd)
+    if kind == "pose":
+        h = 1e-6
+        Jp = jacobian(robot, q + h * qd)[:, rows, :]
+        Jm = jacobian(robot, q - h * qd)[:, rows, :]
+        jdot_qd = np.einsum("nij,nj->ni", (Jp - Jm) / (2 * h), qd)
+    else:
+        # Jdot qd of the position rows = qd^T (d2p/dq2) qd: a central second
+        # difference of the tool position along qd (cheaper than two Jacobians);
+        # the planar phi row is linear in q, so its Jdot qd is 0.
+        from labkit.kinematics import fk_position
+
+        speed = np.linalg.norm(qd, axis=1)
+        h = 1e-4 / np.maximum(speed, 1e-12)
+        step = h[:, None] * qd
+        second = fk_position(robot, q + step) + fk_position(robot, q - step) - 2 * fk_position(robot, q)
+        jdot_qd = second / (h * h)[:, None]
+        jdot_qd = jdot_qd if kind == "position" else np.column_stack([jdot_qd[:, :2], np.zeros(len(q))])
     qdd = solve(J, xdd - jdot_qd)
     return qd, qdd
 
