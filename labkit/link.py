@@ -1,0 +1,748 @@
+"""Host link to the arm: a pyserial client of protocol v1 (``docs/protocol.md``).
+
+:class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected),
+the virtual arm (``sim://``) or the firmware simulator (``simavr://``),
+waits out the reset-on-open, shakes hands, and offers the lab operations in SI
+units: joint moves (checked against the robot file's limits and servo ranges
+*before* anything is sent), Cartesian moves through :func:`labkit.ik.ik`,
+trajectories streamed as polynomial segments, gripper, stop, joint read-back
+and feedback streams into pandas.
+
+Reliability rules (``docs/link.md``): every request carries a sequence id and
+a checksum; board lines with a bad checksum or an implausible content are
+dropped and counted, never used; idempotent requests are retried; a motion
+request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
+host asks ``STATUS`` whether it was executed and resends only if it was not;
+anything that cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
+
+Examples
+--------
+>>> with Arm("sim://?clock=lockstep") as arm:
+...     arm.move_joints([0.5, 0.8, 0.3], wait=True)
+...     q = arm.read_joints()
+>>> np.allclose(q, [0.5, 0.8, 0.3], atol=0.02)
+True
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from labkit._validation import as_vector
+from labkit.dh import Robot
+from labkit.exceptions import DeviceError, JointLimitError, ProtocolError
+from labkit.sim import checksum
+
+__all__ = ["Arm", "Link", "BoardInfo", "Status", "LinkStats", "CommandRejected", "TrajectoryReport",
+           "find_ports", "segments_from_trajectory"]
+
+PROTOCOL_VERSION = 1
+_ARDUINO_VIDS = {0x2341, 0x2A03, 0x1A86, 0x0403, 0x10C4, 0x239A}
+_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2})$")
+_NOT_EXECUTED = {1, 2, 3, 4}  # the request never ran (garbled on the way)
+
+
+class CommandRejected(DeviceError):
+    """The board answered ``ERR``: the request had no effect. Attributes ``code``, ``name``."""
+
+    def __init__(self, message, code, name):
+        self.code = code
+        self.name = name
+        super().__init__(message)
+
+
+class _NoReply(Exception):
+    def __init__(self, why, executed=None):
+        self.why = why
+        self.executed = executed  # False: surely not executed; None: unknown
+        super().__init__(why)
+
+
+@dataclass(frozen=True)
+class BoardInfo:
+    """``HELLO`` answer: firmware version, protocol, joints, channels, queue depth, max line length."""
+
+    firmware: str
+    protocol: int
+    joints: int
+    channels: int
+    queue: int
+    maxline: int
+
+
+@dataclass(frozen=True)
+class Status:
+    """``STATUS`` answer in SI units (``q`` [rad], ``t`` [s], ``timeout`` [s])."""
+
+    state: str
+    q: np.ndarray
+    grip_us: int
+    queue: int
+    free: int
+    done: int
+    timeout: float
+    stream_hz: int
+    flags: int
+    mem: int
+    t: float
+
+
+@dataclass
+class LinkStats:
+    """Counters of everything that went wrong on the wire (nothing is hidden)."""
+
+    sent: int = 0
+    replies: int = 0
+    bad_lines: int = 0
+    timeouts: int = 0
+    retries: int = 0
+    verified: int = 0
+    frames: int = 0
+    lost_frames: int = 0
+    rejected_frames: int = 0
+
+
+@dataclass(frozen=True)
+class TrajectoryReport:
+    """Outcome of :meth:`Arm.run_trajectory`: segments sent, retries, underruns, board time [s]."""
+
+    segments: int
+    retries: int
+    queue_full_waits: int
+    underruns: int
+    duration: float
+
+
+@dataclass
+class _Line:
+    kind: str  # OK, ERR, EV, FB
+    seq: int | None
+    tokens: list = field(default_factory=list)
+
+
+def find_ports():
+    """Serial ports that look like an Arduino (USB VID or description), best first.
+
+    Returns
+    -------
+    list of str
+        Device names (``/dev/ttyACM0``, ``COM3`` ...).
+    """
+    from serial.tools import list_ports
+
+    found = []
+    for p in list_ports.comports():
+        text = f"{p.description} {p.manufacturer or ''}".lower()
+        if p.vid in _ARDUINO_VIDS or "arduino" in text or "ch340" in text:
+            found.append(p.device)
+    return sorted(found, key=lambda d: ("ACM" not in d, d))
+
+
+def _cdeg(q):
+    return int(round(math.degrees(float(q)) * 100))
+
+
+def _hermite(q0, v0, a0, q1, v1, a1, T, order):
+    """Normalised-time polynomial coefficients [cdeg] of one joint over ``T`` s (end point exact)."""
+    d0, d1 = math.degrees(q0) * 100, math.degrees(q1) * 100
+    v0, v1 = math.degrees(v0) * 100 * T, math.degrees(v1) * 100 * T
+    if order == 3:
+        c = [d0, v0, 3 * (d1 - d0) - 2 * v0 - v1, -2 * (d1 - d0) + v0 + v1]
+    else:
+        a0, a1 = math.degrees(a0) * 100 * T * T, math.degrees(a1) * 100 * T * T
+        h = d1 - d0
+        c = [d0, v0, a0 / 2, 10 * h - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
+             -15 * h + 8 * v0 + 7 * v1 + 1.5 * a0 - a1, 6 * h - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1]
+    c = [int(round(v)) for v in c]
+    c[-1] = int(round(d1)) - sum(c[:-1])
+    return c
+
+
+def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
+    """Protocol segments ``(dur_ms, order, coefficients)`` of a sampled trajectory.
+
+    Consecutive samples (merged until at least ``min_duration`` apart) become
+    one Hermite polynomial each, matching position and velocity (and
+    acceleration for ``order=5``) at both ends; coefficients are integer
+    centidegrees over normalised time, the end point of each segment is the
+    exact start of the next.
+
+    Parameters
+    ----------
+    traj : labkit.trajectory.Trajectory
+        Samples ``t`` (m,), ``q``/``qd``/``qdd`` (m, n) [s, rad, rad/s, rad/s^2].
+    order : {3, 5}
+    min_duration : float
+        Shortest segment [s].
+
+    Returns
+    -------
+    list of tuple
+        ``(dur_ms, order, coefficients)`` with ``n * (order + 1)`` coefficients.
+    """
+    if order not in (3, 5):
+        raise ValueError(f"expected order 3 or 5, got {order!r}")
+    t = np.asarray(traj.t, float)
+    q, qd = np.asarray(traj.q, float), np.asarray(traj.qd, float)
+    qdd = np.asarray(traj.qdd, float) if traj.qdd is not None else np.zeros_like(q)
+    keep = [0]
+    for k in range(1, len(t)):
+        if t[k] - t[keep[-1]] >= min_duration - 1e-9 or k == len(t) - 1:
+            keep.append(k)
+    segs = []
+    for a, b in zip(keep[:-1], keep[1:]):
+        T = round((t[b] - t[a]) * 1000) / 1000
+        if T <= 0:
+            continue
+        coef = []
+        for j in range(q.shape[1]):
+            coef += _hermite(q[a, j], qd[a, j], qdd[a, j], q[b, j], qd[b, j], qdd[b, j], T, order)
+        segs.append((int(round(T * 1000)), order, coef))
+    return segs
+
+
+class Arm:
+    """A connection to a labkit arm board (real, virtual or simulated firmware).
+
+    Parameters
+    ----------
+    port : str or serial-like, optional
+        Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``,
+        ``simavr://``, any pyserial URL) or an open pyserial-like object;
+        ``None`` auto-detects an Arduino-like port (:func:`find_ports`).
+    robot : Robot or str
+        The robot file whose servo calibrations and limits the host enforces.
+    baudrate : int
+    timeout : float
+        Reply timeout of one request attempt [s].
+    retries : int
+        Extra attempts of a request whose reply was lost or garbled.
+    boot_wait : float
+        How long to wait for the board's ``EV BOOT`` after opening [s].
+    sync_calibration : bool
+        Send the robot file's servo calibrations (``CAL``) after the handshake.
+
+    Raises
+    ------
+    DeviceError
+        No port found, the port cannot be opened, no handshake, wrong protocol
+        version or joint count.
+    """
+
+    def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
+                 boot_wait=2.5, sync_calibration=True):
+        self.robot = Robot.load(robot)
+        self.timeout = float(timeout)
+        self.retries = int(retries)
+        self.stats = LinkStats()
+        self.events = []
+        self._seq = 0
+        self._buf = bytearray()
+        self._lines = []
+        self._frames = None
+        self._booted = False
+        self.port = self._open(port, baudrate)
+        self.name = getattr(self.port, "port", None) or getattr(self.port, "name", repr(self.port))
+        try:
+            self._handshake(boot_wait)
+            if sync_calibration:
+                self.sync_calibration()
+        except BaseException:
+            self.close()
+            raise
+
+    # -- opening ------------------------------------------------------------------------
+    @staticmethod
+    def _open(port, baudrate):
+        import serial
+
+        from labkit.urlhandler import register
+
+        register()
+        if port is not None and not isinstance(port, (str, bytes)):
+            return port
+        if port is None:
+            ports = find_ports()
+            if not ports:
+                raise DeviceError("no Arduino-like serial port found; plug the board in, name the port "
+                                  "(e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'")
+            port = ports[0]
+        try:
+            return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise DeviceError(f"cannot open {port!r}: {exc}") from None
+
+    def _handshake(self, boot_wait):
+        deadline = self._clock() + boot_wait
+        while not self._booted and self._clock() < deadline:
+            self._pump(0.05)
+        self._lines = [ln for ln in self._lines if ln.kind != "ERR"]
+        try:
+            reply = self._transact("HELLO")
+        except DeviceError as exc:
+            raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
+        kv = dict(tok.split("=", 1) for tok in reply.tokens[3:] if "=" in tok)
+        if reply.tokens[2:3] != ["labkit-arm"] or "proto" not in kv:
+            raise ProtocolError(f"{self.name}: not a labkit arm: {' '.join(reply.tokens)}")
+        try:
+            self.info = BoardInfo(kv.get("fw", "?"), int(kv["proto"]), int(kv["joints"]), int(kv["channels"]),
+                                  int(kv["queue"]), int(kv["maxline"]))
+        except (KeyError, ValueError):
+            raise ProtocolError(f"{self.name}: malformed HELLO reply: {' '.join(reply.tokens)}") from None
+        if self.info.protocol != PROTOCOL_VERSION:
+            raise DeviceError(f"{self.name}: board speaks protocol {self.info.protocol}, "
+                              f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+        if self.info.joints != self.robot.n:
+            raise DeviceError(f"{self.name}: board has {self.info.joints} joints, robot "
+                              f"{self.robot.name} has {self.robot.n}")
+
+    def close(self):
+        """Close the port (stopping a feedback stream first if possible)."""
+        port, self.port = getattr(self, "port", None), None
+        if port is not None:
+            try:
+                port.close()
+            except Exception:  # noqa: BLE001 - closing a vanished port must not raise
+                pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return f"Arm({self.name!r}, robot={self.robot.name!r})"
+
+    # -- time --------------------------------------------------------------------------
+    def _clock(self):
+        board = getattr(self.port, "board", None)
+        if board is not None and getattr(self.port, "clock", "") == "lockstep":
+            return board.time
+        return time.monotonic()
+
+    def sleep(self, seconds):
+        """Wait ``seconds`` of board time while handling incoming lines."""
+        end = self._clock() + seconds
+        while (left := end - self._clock()) > 0:
+            self._pump(min(left, 0.05))
+
+    # -- bytes and lines ---------------------------------------------------------------------
+    def _io(self, fn, *args):
+        import serial
+
+        if self.port is None:
+            raise DeviceError("the link is closed")
+        try:
+            return fn(*args)
+        except (serial.SerialException, OSError) as exc:
+            raise DeviceError(f"{self.name}: port vanished or failed: {exc}") from None
+
+    def _send(self, text):
+        data = text.encode("ascii")
+        self._io(self.port.write, data)
+        self.stats.sent += 1
+
+    def _pump(self, timeout):
+        """Read for up to ``timeout`` s (returns early once a line has arrived)."""
+        port = self.port
+        port.timeout = max(timeout, 0.0)
+        waiting = self._io(lambda: port.in_waiting)
+        chunk = self._io(port.read, max(1, waiting))
+        if not chunk:
+            return False
+        self._buf += chunk
+        got = False
+        while True:
+            k = min((i for i in (self._buf.find(b"\n"), self._buf.find(b"\r")) if i >= 0), default=-1)
+            if k < 0:
+                if len(self._buf) > 4 * 160:
+                    self._buf.clear()
+                    self.stats.bad_lines += 1
+                break
+            raw = bytes(self._buf[:k])
+            del self._buf[:k + 1]
+            if raw:
+                self._dispatch(raw)
+                got = True
+        return got
+
+    def _dispatch(self, raw):
+        m = _LINE.match(raw)
+        if not m or int(m.group(2), 16) != checksum(m.group(1)):
+            self.stats.bad_lines += 1
+            return
+        tokens = m.group(1).decode("ascii").split()
+        kind = tokens[0] if tokens else ""
+        if kind == "FB":
+            self._frame(tokens)
+            return
+        if kind == "EV" and len(tokens) >= 2:
+            if tokens[1] == "BOOT":
+                if self._booted and hasattr(self, "info"):
+                    self.events.append(("BOOT-UNEXPECTED", tokens[2:]))
+                self._booted = True
+            self.events.append((tokens[1], tokens[2:]))
+            return
+        if kind in ("OK", "ERR") and len(tokens) >= 2:
+            seq = None
+            if tokens[1].startswith("#"):
+                if not tokens[1][1:].isdigit():
+                    self.stats.bad_lines += 1
+                    return
+                seq = int(tokens[1][1:])
+                tokens = [kind] + tokens[2:]
+            self._lines.append(_Line(kind, seq, tokens))
+            return
+        self.stats.bad_lines += 1
+
+    def _frame(self, tokens):
+        J = self.robot.n
+        if self._frames is None:
+            return
+        try:
+            vals = [int(v) for v in tokens[1:]]
+        except ValueError:
+            vals = []
+        st = self._frames
+        ok = len(vals) == J + 3 and 0 <= vals[0] <= 65535 and all(0 <= a <= 1023 for a in vals[2:])
+        if ok and st["last"] is not None:
+            c0, t0 = st["last"]
+            gap = (vals[0] - c0) % 65536
+            expect = gap * 1000.0 / st["hz"]
+            ok = 1 <= gap < 65536 // 2 and abs((vals[1] - t0) - expect) <= 1.0 + 1e-9 * expect
+        elif ok:
+            ok = vals[0] < 2 * st["hz"]  # first frame after STREAM: a small counter
+        if not ok:
+            self.stats.rejected_frames += 1
+            return
+        if st["last"] is not None:
+            lost = (vals[0] - st["last"][0]) % 65536 - 1
+            st["lost"] += lost
+            self.stats.lost_frames += lost
+        st["last"] = (vals[0], vals[1])
+        st["rows"].append((time.time(), *vals))
+        self.stats.frames += 1
+
+    # -- requests ----------------------------------------------------------------------------
+    def _next_seq(self):
+        self._seq = (self._seq % 65535) + 1
+        return self._seq
+
+    def _await(self, seq):
+        deadline = self._clock() + self.timeout
+        while True:
+            for k, ln in enumerate(self._lines):
+                if ln.seq == seq or (ln.kind == "ERR" and ln.seq is None):
+                    del self._lines[k]
+                    if ln.seq is None:
+                        code = int(ln.tokens[1]) if ln.tokens[1:2] and ln.tokens[1].isdigit() else 0
+                        raise _NoReply(f"board reported a garbled request (ERR {code})",
+                                       executed=False if code in _NOT_EXECUTED else None)
+                    return ln
+            self._lines.clear()  # stale replies to earlier attempts
+            left = deadline - self._clock()
+            if left <= 0:
+                self.stats.timeouts += 1
+                raise _NoReply(f"no valid reply within {self.timeout:g} s")
+            self._pump(left)
+
+    def _transact(self, command, *args, motion=False, verify=None):
+        """Send one request until it is acknowledged; return the reply line."""
+        if any(k == "BOOT-UNEXPECTED" for k, _ in self.events):
+            raise DeviceError(f"{self.name}: the board reset itself (EV BOOT); its state is lost - reconnect")
+        last = None
+        for attempt in range(self.retries + 1):
+            seq = self._next_seq()
+            body = " ".join([f"#{seq}", command, *(str(int(a)) for a in args)])
+            self._send(("\n" if attempt else "") + f"{body}*{checksum(body):02X}\n")
+            try:
+                reply = self._await(seq)
+            except _NoReply as exc:
+                last = exc
+                self.stats.retries += attempt < self.retries
+                if motion and exc.executed is None:
+                    if verify():
+                        self.stats.verified += 1
+                        return _Line("OK", seq, ["OK", command])
+                continue
+            self.stats.replies += 1
+            if reply.kind == "OK":
+                if reply.tokens[1:2] != [command]:
+                    last = _NoReply(f"reply names {reply.tokens[1:2]}, expected {command}")
+                    continue
+                return reply
+            code = int(reply.tokens[1]) if len(reply.tokens) > 1 and reply.tokens[1].isdigit() else 0
+            if code in (2, 3):  # corrupted in transit (labkit never sends bad syntax): nothing ran
+                last = _NoReply(" ".join(reply.tokens))
+                continue
+            name = reply.tokens[2] if len(reply.tokens) > 2 else "?"
+            raise CommandRejected(f"{self.name}: {command} rejected: {' '.join(reply.tokens[1:])}", code, name)
+        raise DeviceError(f"{self.name}: {command} failed after {self.retries + 1} attempts: {last}")
+
+    # -- queries -----------------------------------------------------------------------------
+    def ping(self):
+        """Board clock [s] (also keeps the host-silence timer alive)."""
+        return int(self._transact("PING").tokens[2]) / 1000.0
+
+    def status(self):
+        """The board's state (commanded joints, queue, counters) as a :class:`Status`."""
+        r = self._transact("STATUS")
+        kv = dict(tok.split("=", 1) for tok in r.tokens[2:] if "=" in tok)
+        try:
+            q = [int(v) for v in kv["q"].split(",")]
+            if len(q) != self.robot.n or kv["state"] not in ("IDLE", "RUN", "HOLD"):
+                raise ValueError
+            return Status(kv["state"], np.radians(np.array(q) / 100.0), int(kv["grip"]), int(kv["queue"]),
+                          int(kv["free"]), int(kv["done"]), int(kv["timeout"]) / 1000.0, int(kv["stream"]),
+                          int(kv["flags"], 16), int(kv["mem"]), int(kv["t"]) / 1000.0)
+        except (KeyError, ValueError):
+            raise ProtocolError(f"{self.name}: malformed STATUS reply {' '.join(r.tokens)}") from None
+
+    def commanded_joints(self):
+        """Joint values the servos are commanded to now, shape (n,) [rad]."""
+        return self.status().q
+
+    def read_adc(self):
+        """Raw feedback counts of every joint and the user pot (``READ``), shape (n + 1,)."""
+        r = self._transact("READ")
+        vals = [int(v) for v in r.tokens[2:]]
+        if len(vals) != self.robot.n + 1 or not all(0 <= v <= 1023 for v in vals):
+            raise ProtocolError(f"{self.name}: malformed READ reply {' '.join(r.tokens)}")
+        return np.array(vals)
+
+    def read_joints(self):
+        """Joint values sensed by the feedback pots, shape (n,) [rad]."""
+        adc = self.read_adc()
+        return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
+
+    # -- configuration ---------------------------------------------------------------------
+    def sync_calibration(self):
+        """Send every servo calibration of the robot file to the board (``CAL``, RAM only)."""
+        for j, lk in enumerate(self.robot.links):
+            cal = lk.servo
+            if cal is None:
+                continue
+            lo_a, hi_a = cal.angle_range
+            p0, p1 = cal.pulse_range
+            pmin = round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0))
+            pmax = round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0))
+            lo, hi = (_cdeg(v) for v in lk.limits)
+            self._transact("CAL", cal.channel, pmin, pmax, _cdeg(cal.zero), cal.direction, lo, hi)
+        g = self.robot.gripper
+        if g is not None:
+            self._transact("CAL", g.channel, min(g.open_us, g.closed_us), max(g.open_us, g.closed_us), 0, 1, 0, 18000)
+
+    def set_host_timeout(self, seconds):
+        """Host-silence timeout of the board [s] (0 disables it)."""
+        self._transact("TIMEOUT", int(round(seconds * 1000)))
+
+    # -- motion ----------------------------------------------------------------------------
+    def _check_q(self, q):
+        q = as_vector(q, self.robot.n, "q")
+        if q.ndim != 1:
+            raise JointLimitError(f"expected one configuration q with shape ({self.robot.n},), got {q.shape}")
+        self.robot.check_limits(q)
+        for j, lk in enumerate(self.robot.links):
+            if lk.servo is not None:
+                try:
+                    lk.servo.pulse_us(q[j])
+                except JointLimitError as exc:
+                    raise JointLimitError(f"{self.robot.name}: joint {j + 1}: {exc}", joint=j) from None
+        return q
+
+    def move_joints(self, q, *, wait=False, tol=math.radians(1.0), max_wait=10.0):
+        """Command all joints at once (``MOVE``).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Joint values [rad]; checked against the joint limits and servo
+            ranges before anything is sent.
+        wait : bool
+            Wait until the sensed joints are within ``tol`` [rad] of ``q``
+            (at most ``max_wait`` s).
+
+        Raises
+        ------
+        JointLimitError
+            A joint outside its limits or servo range (nothing is sent).
+        DeviceError
+            The board rejected or did not acknowledge the move.
+        """
+        q = self._check_q(q)
+        target = [_cdeg(v) for v in q]
+
+        def verify():
+            return [_cdeg(v) for v in self.status().q] == target
+
+        self._transact("MOVE", *target, motion=True, verify=verify)
+        if wait:
+            self.wait_settled(q, tol=tol, max_wait=max_wait)
+
+    def wait_settled(self, q, *, tol=math.radians(1.0), max_wait=10.0, interval=0.05):
+        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them."""
+        end = self._clock() + max_wait
+        hits = 0
+        while self._clock() < end:
+            sensed = self.read_joints()
+            hits = hits + 1 if np.all(np.abs(sensed - q) <= tol) else 0
+            if hits >= 2:
+                return sensed
+            self.sleep(interval)
+        raise DeviceError(f"{self.name}: joints did not settle within {max_wait} s at tolerance "
+                          f"{math.degrees(tol):.2f} deg (sensed {np.degrees(sensed).round(2)} deg)")
+
+    def move_to(self, target, *, branch=None, wait=False):
+        """Move the tool to a Cartesian ``target`` through :func:`labkit.ik.ik` (nearest branch by default)."""
+        from labkit.ik import ik
+
+        current = self.commanded_joints()
+        q = ik(self.robot, target, branch=branch, q_near=None if branch else current)
+        self.move_joints(q, wait=wait)
+        return q
+
+    def grip(self, us):
+        """Gripper pulse width [us]."""
+        self._transact("GRIP", int(round(us)))
+
+    def open_gripper(self):
+        """Open the gripper (robot file's ``open_us``)."""
+        self.grip(self._gripper().open_us)
+
+    def close_gripper(self):
+        """Close the gripper (robot file's ``closed_us``)."""
+        self.grip(self._gripper().closed_us)
+
+    def _gripper(self):
+        if self.robot.gripper is None:
+            raise DeviceError(f"robot {self.robot.name} has no gripper in its robot file")
+        return self.robot.gripper
+
+    def stop(self):
+        """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad]."""
+        r = self._transact("STOP")
+        return np.radians(np.array([int(v) for v in r.tokens[2:]]) / 100.0)
+
+    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True):
+        """Stream a trajectory to the board's segment queue, keeping it fed.
+
+        Parameters
+        ----------
+        traj : labkit.trajectory.Trajectory or list of segments
+            A sampled trajectory (checked against the joint limits first) or
+            ``(dur_ms, order, coefficients)`` tuples from
+            :func:`segments_from_trajectory`.
+        progress : callable or bool, optional
+            ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
+        wait : bool
+            Wait for the board's ``EV DONE`` after the last segment.
+
+        Returns
+        -------
+        TrajectoryReport
+        """
+        if isinstance(traj, (list, tuple)):
+            segs = list(traj)
+        else:
+            self.robot.check_limits(np.asarray(traj.q))
+            for row in np.asarray(traj.q):
+                self._check_q(row)
+            segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+        bar = None
+        if progress is True:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=len(segs), unit="seg")
+            progress = lambda k, n: bar.update(1)  # noqa: E731
+        st = self.status()
+        accepted = st.done + st.queue
+        t_start = st.t
+        retries0, qfull, underruns = self.stats.retries, 0, 0
+        dones_seen = len([e for e in self.events if e[0] == "DONE"])
+        for k, (dur, order_k, coef) in enumerate(segs):
+            def verify(expected=accepted):
+                s = self.status()
+                if s.state == "HOLD":
+                    raise DeviceError(f"{self.name}: the board halted the trajectory (host-silence timeout)")
+                total = s.done + s.queue
+                if total not in (expected, expected + 1):
+                    raise DeviceError(f"{self.name}: segment bookkeeping lost (board {total}, host {expected})")
+                return total == expected + 1
+
+            while True:
+                try:
+                    r = self._transact("SEG", dur, order_k, *coef, motion=True, verify=verify)
+                    break
+                except CommandRejected as exc:
+                    if exc.code != 7:
+                        raise
+                    qfull += 1
+                    self.sleep(min(dur / 2000.0, 0.1))
+            accepted += 1
+            if len([e for e in self.events if e[0] == "DONE"]) > dones_seen and k < len(segs):
+                underruns += 1
+                dones_seen = len([e for e in self.events if e[0] == "DONE"])
+            if progress:
+                progress(k + 1, len(segs))
+            free = int(r.tokens[2]) if len(r.tokens) > 2 and r.tokens[2].isdigit() else 1
+            if free == 0:
+                self.sleep(min(dur / 1000.0, 0.1))
+        if bar is not None:
+            bar.close()
+        if wait:
+            end_needed = accepted
+            while True:
+                st = self.status()
+                if st.state == "HOLD":
+                    raise DeviceError(f"{self.name}: the board halted the trajectory (host-silence timeout)")
+                if st.state == "IDLE" and st.done >= end_needed:
+                    break
+                self.sleep(0.1)
+        return TrajectoryReport(len(segs), self.stats.retries - retries0, qfull, underruns,
+                                self.status().t - t_start if wait else float("nan"))
+
+    # -- feedback ---------------------------------------------------------------------------
+    def stream(self, duration, *, hz=50):
+        """Record the feedback stream for ``duration`` seconds of board time.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per frame received intact: ``t`` [s, board clock],
+            ``counter``, ``received`` (host UTC timestamp), ``adc<i>``,
+            ``pot`` and the sensed joints ``q_<name>`` [rad]. ``df.attrs``
+            holds ``lost`` (frames missing from the counter sequence),
+            ``rejected`` (frames dropped as corrupt) and ``hz``.
+        """
+        import pandas as pd
+
+        hz = int(hz)
+        rejected0 = self.stats.rejected_frames + self.stats.bad_lines
+        self._frames = {"hz": hz, "last": None, "lost": 0, "rows": []}
+        try:
+            self._transact("STREAM", hz)
+            t_end = self._clock() + duration
+            while self._clock() < t_end:
+                self._pump(min(t_end - self._clock(), 0.05))
+            self._transact("STREAM", 0)
+        finally:
+            st, self._frames = self._frames, None
+        J = self.robot.n
+        cols = ["received", "counter", "t_ms", *(f"adc{j}" for j in range(J)), "pot"]
+        df = pd.DataFrame(st["rows"], columns=cols)
+        df["received"] = pd.to_datetime(df["received"], unit="s", utc=True)
+        df.insert(0, "t", df.pop("t_ms") / 1000.0)
+        for j, (name, lk) in enumerate(zip(self.robot.joint_names, self.robot.links)):
+            df[f"q_{name}"] = lk.servo.joint_from_adc(df[f"adc{j}"].to_numpy(float))
+        df.attrs.update(lost=st["lost"], rejected=self.stats.rejected_frames + self.stats.bad_lines - rejected0, hz=hz)
+        return df
+
+
+#: alias: ``Link`` and ``Arm`` are the same class
+Link = Arm
