@@ -1,0 +1,135 @@
+// labkit arm firmware for an Arduino Uno (ATmega328P, 16 MHz): thin Arduino glue.
+//
+// Everything that can be tested on a PC lives in labkit_core.c (protocol, limits, calibration,
+// segment queue, EEPROM image). This file only connects it to the hardware:
+//   - Timer1 servo pulse driver (normal mode, compare-A interrupt toggling pins, like the
+//     Arduino Servo library): channel c on digital pin D(2+c), 20 ms frames, 0.5 us ticks;
+//   - UART at 115200 8N1 (Serial), ADC (analogRead), EEPROM (avr-libc), watchdog (500 ms);
+//   - a stack canary for the free-memory report.
+// Protocol: docs/protocol.md. Build: `make -C firmware` (or open this folder in the Arduino IDE).
+#include <Arduino.h>
+#include <avr/eeprom.h>
+#include <avr/wdt.h>
+#include "labkit_core.h"
+
+#define FRAME_TICKS 40000u  // 20 ms at 0.5 us per tick (prescaler 8)
+
+static lk_t lk;
+static volatile uint16_t servo_next[LK_CHANNELS];  // half-us, latched at each frame start
+static uint16_t servo_cur[LK_CHANNELS];
+static volatile uint32_t servo_frames;
+static uint8_t servo_chan = LK_CHANNELS;  // LK_CHANNELS: waiting for the next frame start
+static uint16_t servo_frame_start;
+static uint32_t last_frame;
+uint8_t lk_reset_flags __attribute__((section(".noinit")));
+
+// Runs before main(): save and clear the reset cause, stop a watchdog left running by a WDT reset.
+void lk_early_init(void) __attribute__((naked, used, section(".init3")));
+void lk_early_init(void) {
+  lk_reset_flags = MCUSR;
+  MCUSR = 0;
+  wdt_disable();
+}
+
+// The compare interrupt fires LEAD_TICKS before each edge and waits for the exact tick, so the
+// edges do not jitter with the latency of other interrupts (UART, Timer0); one PORTD write ends
+// the pulse of channel c and starts the one of channel c + 1 at the same instant.
+#define LEAD_TICKS 40  // 20 us
+static uint16_t servo_edge_at;  // Timer1 tick of the edge the pending compare is for
+
+ISR(TIMER1_COMPA_vect) {
+  uint8_t fall = 0, rise = 0;
+  uint16_t at = servo_edge_at, next;
+  if (servo_chan < LK_CHANNELS) {
+    fall = (uint8_t)_BV(2 + servo_chan);
+    servo_chan++;
+  } else {  // start of a servo frame
+    servo_frame_start = at;
+    for (uint8_t c = 0; c < LK_CHANNELS; c++) servo_cur[c] = servo_next[c];
+    servo_frames++;
+    servo_chan = 0;
+  }
+  if (servo_chan < LK_CHANNELS) {
+    rise = (uint8_t)_BV(2 + servo_chan);
+    next = at + servo_cur[servo_chan];
+  } else {
+    next = servo_frame_start + FRAME_TICKS;
+  }
+  while ((int16_t)(TCNT1 - at) < 0) {
+  }
+  PORTD = (uint8_t)((PORTD & (uint8_t)~fall) | rise);
+  servo_edge_at = next;
+  OCR1A = next - LEAD_TICKS;
+}
+
+static void servo_begin(void) {
+  for (uint8_t c = 0; c < LK_CHANNELS; c++) pinMode(2 + c, OUTPUT);
+  TCCR1A = 0;          // normal mode
+  TCCR1B = _BV(CS11);  // clk/8: 0.5 us ticks
+  servo_edge_at = TCNT1 + 400;
+  OCR1A = servo_edge_at - LEAD_TICKS;
+  TIFR1 = _BV(OCF1A);
+  TIMSK1 |= _BV(OCIE1A);
+}
+
+// ---- lk_hw_* functions used by the core ----
+extern "C" {
+void lk_hw_write(const char *buf, uint8_t n) { Serial.write((const uint8_t *)buf, n); }
+uint16_t lk_hw_adc(uint8_t pin) { return (uint16_t)analogRead(pin); }
+uint8_t lk_hw_ee_read(uint16_t addr) { return eeprom_read_byte((const uint8_t *)addr); }
+void lk_hw_ee_write(uint16_t addr, uint8_t value) {
+  wdt_reset();
+  eeprom_update_byte((uint8_t *)addr, value);
+}
+void lk_hw_pulses(const uint16_t *pulse_hus, uint8_t n) {
+  uint8_t sreg = SREG;
+  cli();
+  for (uint8_t c = 0; c < n && c < LK_CHANNELS; c++) servo_next[c] = pulse_hus[c];
+  SREG = sreg;
+}
+
+extern uint8_t __heap_start;
+#define CANARY 0xA5
+uint16_t lk_hw_mem_free(void) {  // bytes above the heap start never touched by the stack
+  const uint8_t *p = &__heap_start;
+  uint16_t n = 0;
+  while (p[n] == CANARY && (uint16_t)(p + n) < SP) n++;
+  return n;
+}
+}
+
+static void paint_stack(void) {
+  uint8_t *p = &__heap_start;
+  uint8_t *top = (uint8_t *)SP - 32;  // leave the live stack alone
+  while (p < top) *p++ = CANARY;
+}
+
+static uint8_t reset_cause(void) {
+  if (lk_reset_flags & _BV(WDRF)) return LK_RESET_WATCHDOG;
+  if (lk_reset_flags & _BV(BORF)) return LK_RESET_BROWNOUT;
+  if (lk_reset_flags & _BV(EXTRF)) return LK_RESET_EXTERNAL;
+  return LK_RESET_POWER;
+}
+
+void setup() {
+  paint_stack();
+  Serial.begin(115200);
+  lk_init(&lk, reset_cause(), millis(), micros());
+  servo_begin();
+  wdt_enable(WDTO_500MS);
+}
+
+void loop() {
+  wdt_reset();
+  int n = Serial.available();
+  while (n-- > 0) lk_rx(&lk, (uint8_t)Serial.read(), millis());
+  uint8_t sreg = SREG;
+  cli();
+  uint32_t f = servo_frames;
+  SREG = sreg;
+  if (f != last_frame) {  // frame f started: program frame f + 1
+    last_frame = f;
+    lk_frame(&lk, f + 1);
+  }
+  lk_poll(&lk, millis(), micros());
+}

@@ -1,0 +1,663 @@
+/* labkit arm firmware core: protocol v1 parser, limits, calibration, segment queue, EEPROM image.
+ * See labkit_core.h and docs/protocol.md. No Arduino headers; avr-libc's pgmspace only on AVR. */
+#include "labkit_core.h"
+
+#include <string.h>
+
+#ifdef __AVR__
+#include <avr/pgmspace.h>
+#define LK_P(s) PSTR(s)
+#define LK_RD(p) ((char)pgm_read_byte(p))
+#else
+#define LK_P(s) (s)
+#define LK_RD(p) (*(const char *)(p))
+#endif
+
+#define LK_MAXARGS (2 + LK_JOINTS * (LK_MAX_ORDER + 1))
+#define LK_COEF_MAX 10000000L
+#define LK_DISCONT_CDEG 50
+#define LK_LIMIT_SAMPLES 32
+#define LK_EE_VERSION 1
+#define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 2 + 2)
+
+/* ------------------------------------------------------------------ output */
+static uint8_t g_cs; /* running XOR of the board line being written */
+
+static void out_n(const char *s, uint8_t n) {
+    uint8_t i;
+    for (i = 0; i < n; i++) g_cs ^= (uint8_t)s[i];
+    lk_hw_write(s, n);
+}
+static void out_c(char c) { out_n(&c, 1); }
+static void out_p(const char *p) { /* string in program memory */
+    char c;
+    while ((c = LK_RD(p++)) != 0) out_c(c);
+}
+static void out_u(uint32_t v) {
+    char b[10];
+    uint8_t n = 0;
+    do { b[9 - n++] = (char)('0' + v % 10); v /= 10; } while (v);
+    out_n(b + 10 - n, n);
+}
+static void out_i(int32_t v) {
+    if (v < 0) { out_c('-'); out_u((uint32_t)(-(v + 1)) + 1u); }
+    else out_u((uint32_t)v);
+}
+static void out_sp_i(int32_t v) { out_c(' '); out_i(v); }
+static char hexdigit(uint8_t v) { return (char)(v < 10 ? '0' + v : 'A' + v - 10); }
+static void out_begin(void) { g_cs = 0; }
+static void out_end(void) {
+    char b[5];
+    b[0] = '*'; b[1] = hexdigit(g_cs >> 4); b[2] = hexdigit(g_cs & 15); b[3] = '\r'; b[4] = '\n';
+    lk_hw_write(b, 5);
+}
+static void out_seq(int32_t seq) {
+    if (seq >= 0) { out_p(LK_P(" #")); out_u((uint32_t)seq); }
+}
+static void ok_begin(int32_t seq, const char *name_p) {
+    out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
+}
+static void err_begin(int32_t seq, uint8_t code) {
+    const char *name;
+    switch (code) {
+    case LK_E_BADCHK: name = LK_P("BADCHK"); break;
+    case LK_E_SYNTAX: name = LK_P("SYNTAX"); break;
+    case LK_E_UNKNOWN: name = LK_P("UNKNOWN"); break;
+    case LK_E_TOOLONG: name = LK_P("TOOLONG"); break;
+    case LK_E_RANGE: name = LK_P("RANGE"); break;
+    case LK_E_LIMIT: name = LK_P("LIMIT"); break;
+    case LK_E_QFULL: name = LK_P("QFULL"); break;
+    case LK_E_BUSY: name = LK_P("BUSY"); break;
+    case LK_E_DISCONT: name = LK_P("DISCONT"); break;
+    default: name = LK_P("EEPROM"); break;
+    }
+    out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_c(' '); out_u(code); out_c(' '); out_p(name);
+}
+static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
+    err_begin(seq, code);
+    if (msg_p) { out_c(' '); out_p(msg_p); }
+    out_end();
+}
+
+/* ------------------------------------------------------------------ helpers */
+uint8_t lk_xor(const char *s, uint8_t n) {
+    uint8_t x = 0;
+    while (n--) x ^= (uint8_t)*s++;
+    return x;
+}
+
+uint16_t lk_crc16(const uint8_t *d, uint16_t n) { /* CRC-16/CCITT-FALSE */
+    uint16_t crc = 0xFFFF;
+    uint8_t i;
+    while (n--) {
+        crc ^= (uint16_t)(*d++) << 8;
+        for (i = 0; i < 8; i++) crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
+    }
+    return crc;
+}
+
+float lk_poly(const float *c, uint8_t order, float s) {
+    float v = c[order];
+    while (order--) v = v * s + c[order];
+    return v;
+}
+
+int32_t lk_round(float x) {
+    if (x >= 2147483000.0f) return 2147483000L;
+    if (x <= -2147483000.0f) return -2147483000L;
+    return (int32_t)(x >= 0 ? x + 0.5f : x - 0.5f);
+}
+
+static int32_t div_round(int32_t num, int32_t den) { /* den > 0 */
+    return num >= 0 ? (num + den / 2) / den : -((-num + den / 2) / den);
+}
+
+uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus) {
+    int32_t servo = (int32_t)cal->zero + (int32_t)cal->dir * q;
+    if (servo < 0 || servo > LK_SERVO_FULL) return 0;
+    *hus = (uint16_t)(2L * cal->pmin + div_round(servo * 2L * ((int32_t)cal->pmax - cal->pmin), LK_SERVO_FULL));
+    return 1;
+}
+
+/* feasible joint interval: limits intersected with the servo range; returns 0 if empty */
+static uint8_t feasible(const lk_cal_t *cal, int32_t *lo, int32_t *hi) {
+    int32_t a, b;
+    if (cal->dir > 0) { a = -(int32_t)cal->zero; b = LK_SERVO_FULL - (int32_t)cal->zero; }
+    else { a = (int32_t)cal->zero - LK_SERVO_FULL; b = cal->zero; }
+    *lo = a > cal->lo ? a : cal->lo;
+    *hi = b < cal->hi ? b : cal->hi;
+    return *lo <= *hi;
+}
+
+static uint8_t joint_ok(const lk_cal_t *cal, int32_t q) {
+    uint16_t h;
+    return q >= cal->lo && q <= cal->hi && lk_pulse_for(cal, q, &h);
+}
+
+static uint8_t grip_ok(const lk_cal_t *cal, int32_t us) {
+    int32_t a = cal->pmin < cal->pmax ? cal->pmin : cal->pmax;
+    int32_t b = cal->pmin < cal->pmax ? cal->pmax : cal->pmin;
+    return us >= a && us <= b;
+}
+
+static void update_pulses(lk_t *lk) {
+    uint8_t j;
+    for (j = 0; j < LK_JOINTS; j++) {
+        if (!lk_pulse_for(&lk->cal[j], lk->q[j], &lk->pulse_hus[j])) { /* cannot happen: q kept valid */
+        }
+    }
+    lk->pulse_hus[LK_JOINTS] = (uint16_t)(2u * lk->grip_us);
+    lk_hw_pulses(lk->pulse_hus, LK_CHANNELS);
+}
+
+/* ------------------------------------------------------------------ EEPROM */
+static void default_cal(lk_cal_t *cal, uint16_t *timeout_ms) {
+    uint8_t c;
+    for (c = 0; c < LK_CHANNELS; c++) {
+        cal[c].pmin = 500; cal[c].pmax = 2500; cal[c].zero = 0;
+        cal[c].dir = 1; cal[c].lo = 0; cal[c].hi = LK_SERVO_FULL;
+    }
+    *timeout_ms = 500;
+}
+
+void lk_defaults(lk_t *lk) { default_cal(lk->cal, &lk->timeout_ms); }
+
+static void put16(uint8_t *b, int16_t v) { b[0] = (uint8_t)v; b[1] = (uint8_t)((uint16_t)v >> 8); }
+static int16_t get16(const uint8_t *b) { return (int16_t)(b[0] | ((uint16_t)b[1] << 8)); }
+
+static void ee_image(const lk_t *lk, uint8_t *b) {
+    uint8_t c, *p = b + 4;
+    uint16_t crc;
+    b[0] = 'L'; b[1] = 'K'; b[2] = LK_EE_VERSION; b[3] = LK_CHANNELS;
+    for (c = 0; c < LK_CHANNELS; c++, p += 11) {
+        const lk_cal_t *k = &lk->cal[c];
+        put16(p, k->pmin); put16(p + 2, k->pmax); put16(p + 4, k->zero);
+        p[6] = (uint8_t)k->dir; put16(p + 7, k->lo); put16(p + 9, k->hi);
+    }
+    put16(p, (int16_t)lk->timeout_ms);
+    crc = lk_crc16(b, LK_EE_SIZE - 2);
+    put16(p + 2, (int16_t)crc);
+}
+
+uint16_t lk_ee_save(const lk_t *lk) {
+    uint8_t b[LK_EE_SIZE];
+    uint16_t i;
+    ee_image(lk, b);
+    for (i = 0; i < LK_EE_SIZE; i++) lk_hw_ee_write(i, b[i]);
+    for (i = 0; i < LK_EE_SIZE; i++)
+        if (lk_hw_ee_read(i) != b[i]) return 0;
+    return LK_EE_SIZE;
+}
+
+static uint8_t cal_valid(const lk_cal_t *k) {
+    return k->pmin >= 400 && k->pmin <= 2600 && k->pmax >= 400 && k->pmax <= 2600 && k->pmin != k->pmax &&
+           k->zero >= -32000 && k->zero <= 32000 && (k->dir == 1 || k->dir == -1) &&
+           k->lo >= -32000 && k->hi <= 32000 && k->lo <= k->hi;
+}
+
+static uint8_t timeout_valid(int32_t t) { return t == 0 || (t >= 50 && t <= 60000); }
+
+uint8_t lk_ee_load(lk_t *lk) {
+    uint8_t b[LK_EE_SIZE], c, *p = b + 4;
+    lk_cal_t cal[LK_CHANNELS];
+    uint16_t i, t;
+    int32_t lo, hi;
+    for (i = 0; i < LK_EE_SIZE; i++) b[i] = lk_hw_ee_read(i);
+    if (b[0] != 'L' || b[1] != 'K' || b[2] != LK_EE_VERSION || b[3] != LK_CHANNELS) return 0;
+    if ((uint16_t)get16(b + LK_EE_SIZE - 2) != lk_crc16(b, LK_EE_SIZE - 2)) return 0;
+    for (c = 0; c < LK_CHANNELS; c++, p += 11) {
+        cal[c].pmin = get16(p); cal[c].pmax = get16(p + 2); cal[c].zero = get16(p + 4);
+        cal[c].dir = (int8_t)p[6]; cal[c].lo = get16(p + 7); cal[c].hi = get16(p + 9);
+        if (!cal_valid(&cal[c])) return 0;
+        if (c < LK_JOINTS && !feasible(&cal[c], &lo, &hi)) return 0;
+    }
+    t = (uint16_t)get16(p);
+    if (!timeout_valid(t)) return 0;
+    memcpy(lk->cal, cal, sizeof cal);
+    lk->timeout_ms = t;
+    return 1;
+}
+
+/* ------------------------------------------------------------------ state changes */
+static void home(lk_t *lk) {
+    uint8_t j;
+    int32_t lo, hi;
+    for (j = 0; j < LK_JOINTS; j++) {
+        feasible(&lk->cal[j], &lo, &hi);
+        lk->q[j] = lo + (hi - lo) / 2;
+    }
+    lk->grip_us = (uint16_t)((lk->cal[LK_JOINTS].pmin + lk->cal[LK_JOINTS].pmax) / 2);
+    update_pulses(lk);
+}
+
+void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us) {
+    uint8_t ok;
+    memset(lk, 0, sizeof *lk);
+    lk->now_ms = now_ms;
+    lk->stream_next_us = now_us;
+    lk->last_accept_ms = now_ms;
+    ok = lk_ee_load(lk);
+    if (!ok) { lk_defaults(lk); lk->flags |= LK_F_EEPROM_DEFAULTS; }
+    if (reset_cause == LK_RESET_WATCHDOG) lk->flags |= LK_F_WATCHDOG_RESET;
+    home(lk);
+    out_begin();
+    out_p(LK_P("EV BOOT labkit-arm fw=" LK_FW_VERSION " proto=1 reset="));
+    switch (reset_cause) {
+    case LK_RESET_EXTERNAL: out_p(LK_P("EXTERNAL")); break;
+    case LK_RESET_WATCHDOG: out_p(LK_P("WATCHDOG")); break;
+    case LK_RESET_BROWNOUT: out_p(LK_P("BROWNOUT")); break;
+    default: out_p(LK_P("POWER")); break;
+    }
+    out_p(ok ? LK_P(" eeprom=OK") : LK_P(" eeprom=DEFAULTS"));
+    out_end();
+}
+
+static void out_q(const lk_t *lk) {
+    uint8_t j;
+    for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk->q[j]);
+}
+
+static void halt(lk_t *lk) { lk->q_count = 0; lk->state = LK_IDLE; }
+
+static void clamp_set(lk_t *lk, uint8_t j, float qf) {
+    int32_t lo, hi, q = lk_round(qf);
+    feasible(&lk->cal[j], &lo, &hi);
+    if (q < lo) { q = lo; lk->flags |= LK_F_CLAMPED; }
+    if (q > hi) { q = hi; lk->flags |= LK_F_CLAMPED; }
+    lk->q[j] = q;
+}
+
+void lk_frame(lk_t *lk, uint32_t frame_index) {
+    uint32_t t = frame_index * LK_FRAME_MS;
+    uint8_t j;
+    lk->next_frame_ms = t + LK_FRAME_MS;
+    if (lk->state != LK_RUN) return;
+    for (;;) {
+        lk_seg_t *seg = &lk->queue[lk->q_head];
+        uint32_t el = t - lk->seg_start_ms;
+        if (el < seg->dur_ms) {
+            float s = (float)el / (float)seg->dur_ms;
+            for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, s));
+            break;
+        }
+        lk->done++;
+        if (lk->q_count == 1) {
+            for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, 1.0f));
+            halt(lk);
+            out_begin(); out_p(LK_P("EV DONE ")); out_u(lk->done); out_end();
+            break;
+        }
+        lk->seg_start_ms += seg->dur_ms;
+        lk->q_head = (uint8_t)((lk->q_head + 1) % LK_QUEUE);
+        lk->q_count--;
+    }
+    update_pulses(lk);
+}
+
+void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us) {
+    lk->now_ms = now_ms;
+    if (lk->state == LK_RUN && lk->timeout_ms && (now_ms - lk->last_accept_ms) > lk->timeout_ms) {
+        halt(lk);
+        lk->state = LK_HOLD;
+        lk->flags |= LK_F_TIMEOUT_HOLD;
+        out_begin(); out_p(LK_P("EV HOLD")); out_q(lk); out_end();
+    }
+    if (lk->stream_arm) { lk->stream_arm = 0; lk->stream_next_us = now_us; }
+    if (lk->stream_hz) {
+        int32_t late = (int32_t)(now_us - lk->stream_next_us);
+        if (late >= 0) {
+            uint8_t j;
+            uint32_t missed;
+            out_begin(); out_p(LK_P("FB ")); out_u(lk->frame_counter); out_c(' '); out_u(now_ms);
+            for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
+            out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
+            out_end();
+            missed = (uint32_t)late / lk->stream_period_us; /* whole periods skipped (board busy) */
+            lk->frame_counter = (uint16_t)(lk->frame_counter + 1 + missed);
+            lk->stream_next_us += (1 + missed) * lk->stream_period_us;
+        }
+    }
+}
+
+/* ------------------------------------------------------------------ parsing */
+static uint8_t is_ws(char c) { return c == ' ' || c == '\t'; }
+static uint8_t hexval(char c) {
+    if (c >= '0' && c <= '9') return (uint8_t)(c - '0');
+    if (c >= 'A' && c <= 'F') return (uint8_t)(c - 'A' + 10);
+    if (c >= 'a' && c <= 'f') return (uint8_t)(c - 'a' + 10);
+    return 0xFF;
+}
+
+static char *next_token(char **p) {
+    char *s = *p, *t;
+    while (*s && is_ws(*s)) s++;
+    if (!*s) { *p = s; return 0; }
+    t = s;
+    while (*s && !is_ws(*s)) s++;
+    if (*s) *s++ = 0;
+    *p = s;
+    return t;
+}
+
+static uint8_t parse_int(const char *s, int32_t *out) {
+    uint32_t v = 0;
+    uint8_t neg = 0, n = 0;
+    if (*s == '+' || *s == '-') neg = (*s++ == '-');
+    while (*s >= '0' && *s <= '9') {
+        uint8_t d = (uint8_t)(*s++ - '0');
+        if (++n > 10 || v > (0x7FFFFFFFu - d) / 10u) return 0;
+        v = v * 10u + d;
+    }
+    if (!n || *s) return 0;
+    *out = neg ? -(int32_t)v : (int32_t)v;
+    return 1;
+}
+
+static uint8_t name_is(const char *tok, const char *name_p) {
+    char a, b;
+    do {
+        a = *tok++; b = LK_RD(name_p++);
+        if (a >= 'a' && a <= 'z') a = (char)(a - 32);
+        if (a != b) return 0;
+    } while (b);
+    return 1;
+}
+
+/* ------------------------------------------------------------------ commands */
+typedef struct {
+    int32_t seq;
+    uint8_t argc;
+    int32_t *a;
+} call_t;
+
+static void cmd_status(lk_t *lk, const call_t *c) {
+    uint8_t j;
+    ok_begin(c->seq, LK_P("STATUS state="));
+    out_p(lk->state == LK_RUN ? LK_P("RUN") : lk->state == LK_HOLD ? LK_P("HOLD") : LK_P("IDLE"));
+    out_p(LK_P(" q="));
+    for (j = 0; j < LK_JOINTS; j++) { if (j) out_c(','); out_i(lk->q[j]); }
+    out_p(LK_P(" grip=")); out_u(lk->grip_us);
+    out_p(LK_P(" queue=")); out_u(lk->q_count);
+    out_p(LK_P(" free=")); out_u(LK_QUEUE - lk->q_count);
+    out_p(LK_P(" done=")); out_u(lk->done);
+    out_p(LK_P(" timeout=")); out_u(lk->timeout_ms);
+    out_p(LK_P(" stream=")); out_u(lk->stream_hz);
+    out_p(LK_P(" flags=")); out_c(hexdigit(lk->flags >> 4)); out_c(hexdigit(lk->flags & 15));
+    out_p(LK_P(" mem=")); out_u(lk_hw_mem_free());
+    out_p(LK_P(" t=")); out_u(lk->now_ms);
+    out_end();
+}
+
+static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const lk_cal_t *cal) {
+    uint8_t j;
+    for (j = 0; j < LK_JOINTS; j++) {
+        if (!joint_ok(&cal[j], q[j])) {
+            err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_sp_i(q[j]);
+            out_p(LK_P(" outside")); out_sp_i(cal[j].lo); out_p(LK_P("..")); out_i(cal[j].hi);
+            if (q[j] >= cal[j].lo && q[j] <= cal[j].hi) out_p(LK_P(" or servo range"));
+            out_end();
+            return 0;
+        }
+    }
+    (void)lk;
+    return 1;
+}
+
+static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
+    const int32_t *a = c->a;
+    uint8_t order, j, k, slot;
+    uint16_t i;
+    lk_seg_t *seg;
+    if (c->argc < 2) { err_msg(c->seq, LK_E_SYNTAX, LK_P("SEG dur_ms order coefficients")); return 0; }
+    if (a[0] < 1 || a[0] > 60000) { err_msg(c->seq, LK_E_RANGE, LK_P("dur_ms 1..60000")); return 0; }
+    if (a[1] != 3 && a[1] != 5) { err_msg(c->seq, LK_E_RANGE, LK_P("order 3 or 5")); return 0; }
+    order = (uint8_t)a[1];
+    if (c->argc != 2 + LK_JOINTS * (order + 1)) {
+        err_begin(c->seq, LK_E_SYNTAX); out_p(LK_P(" expected")); out_sp_i(LK_JOINTS * (order + 1));
+        out_p(LK_P(" coefficients")); out_end();
+        return 0;
+    }
+    for (i = 2; i < c->argc; i++)
+        if (a[i] > LK_COEF_MAX || a[i] < -LK_COEF_MAX) { err_msg(c->seq, LK_E_RANGE, LK_P("coefficient")); return 0; }
+    if (lk->q_count >= LK_QUEUE) { err_msg(c->seq, LK_E_QFULL, LK_P("queue full")); return 0; }
+    slot = (uint8_t)((lk->q_head + lk->q_count) % LK_QUEUE);
+    seg = &lk->queue[slot];
+    seg->dur_ms = (uint16_t)a[0];
+    seg->order = order;
+    for (j = 0; j < LK_JOINTS; j++)
+        for (k = 0; k <= order; k++) seg->c[j][k] = (float)a[2 + j * (order + 1) + k];
+    for (j = 0; j < LK_JOINTS; j++) {
+        float start = seg->c[j][0];
+        float prev = lk->q_count ? lk->tail_q[j] : (float)lk->q[j];
+        float d = start - prev;
+        for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
+            int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
+            if (!joint_ok(&lk->cal[j], q)) {
+                err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" reaches"));
+                out_sp_i(q); out_p(LK_P(" at s=")); out_u(k); out_p(LK_P("/32")); out_end();
+                return 0;
+            }
+        }
+        if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) {
+            err_begin(c->seq, LK_E_DISCONT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" starts at"));
+            out_sp_i(lk_round(start)); out_p(LK_P(" not")); out_sp_i(lk_round(prev)); out_end();
+            return 0;
+        }
+    }
+    for (j = 0; j < LK_JOINTS; j++) lk->tail_q[j] = lk_poly(seg->c[j], order, 1.0f);
+    lk->q_count++;
+    if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
+    ok_begin(c->seq, LK_P("SEG ")); out_u(LK_QUEUE - lk->q_count); out_end();
+    return 1;
+}
+
+static void out_cal(const lk_cal_t *k) {
+    out_sp_i(k->pmin); out_sp_i(k->pmax); out_sp_i(k->zero); out_sp_i(k->dir); out_sp_i(k->lo); out_sp_i(k->hi);
+}
+
+/* check that every current position is valid under calibration `cal` */
+static uint8_t positions_valid(lk_t *lk, const call_t *c, const lk_cal_t *cal) {
+    if (!check_joints(lk, c, lk->q, cal)) return 0;
+    if (!grip_ok(&cal[LK_JOINTS], lk->grip_us)) {
+        err_msg(c->seq, LK_E_LIMIT, LK_P("gripper pulse outside new range")); return 0;
+    }
+    return 1;
+}
+
+static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
+    const int32_t *a = c->a;
+    lk_cal_t cal[LK_CHANNELS];
+    uint8_t ch;
+    if (c->argc != 1 && c->argc != 7) { err_msg(c->seq, LK_E_SYNTAX, LK_P("CAL ch [pmin pmax zero dir lo hi]")); return 0; }
+    if (a[0] < 0 || a[0] >= LK_CHANNELS) { err_msg(c->seq, LK_E_RANGE, LK_P("channel")); return 0; }
+    ch = (uint8_t)a[0];
+    if (c->argc == 7) {
+        lk_cal_t *k = &cal[ch];
+        if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running")); return 0; }
+        if (a[1] < 400 || a[1] > 2600 || a[2] < 400 || a[2] > 2600 || a[1] == a[2] || a[3] < -32000 ||
+            a[3] > 32000 || (a[4] != 1 && a[4] != -1) || a[5] < -32000 || a[6] > 32000 || a[5] > a[6]) {
+            err_msg(c->seq, LK_E_RANGE, LK_P("pmin,pmax 400..2600 differ; zero,lo,hi -32000..32000; dir 1,-1; lo<=hi"));
+            return 0;
+        }
+        memcpy(cal, lk->cal, sizeof cal);
+        k->pmin = (int16_t)a[1]; k->pmax = (int16_t)a[2]; k->zero = (int16_t)a[3];
+        k->dir = (int8_t)a[4]; k->lo = (int16_t)a[5]; k->hi = (int16_t)a[6];
+        if (!positions_valid(lk, c, cal)) return 0;
+        memcpy(lk->cal, cal, sizeof cal);
+        update_pulses(lk);
+    }
+    ok_begin(c->seq, LK_P("CAL ")); out_u(ch); out_cal(&lk->cal[ch]); out_end();
+    return 1;
+}
+
+static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
+    const int32_t *a = c->a;
+    uint8_t j;
+#define NOARGS() if (c->argc) { err_msg(c->seq, LK_E_SYNTAX, LK_P("takes no arguments")); return 0; }
+#define NOTBUSY() if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running, STOP first")); return 0; }
+    if (name_is(cmd, LK_P("HELLO"))) {
+        NOARGS();
+        ok_begin(c->seq, LK_P("HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints="));
+        out_u(LK_JOINTS); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
+        out_u(LK_QUEUE); out_p(LK_P(" maxline=")); out_u(LK_MAXLINE); out_end();
+    } else if (name_is(cmd, LK_P("PING"))) {
+        NOARGS();
+        ok_begin(c->seq, LK_P("PING ")); out_u(lk->now_ms); out_end();
+    } else if (name_is(cmd, LK_P("STATUS"))) {
+        NOARGS();
+        cmd_status(lk, c);
+    } else if (name_is(cmd, LK_P("MOVE"))) {
+        if (c->argc != LK_JOINTS) { err_msg(c->seq, LK_E_SYNTAX, LK_P("MOVE needs one value per joint")); return 0; }
+        NOTBUSY();
+        if (!check_joints(lk, c, a, lk->cal)) return 0;
+        for (j = 0; j < LK_JOINTS; j++) lk->q[j] = a[j];
+        lk->state = LK_IDLE;
+        update_pulses(lk);
+        ok_begin(c->seq, LK_P("MOVE")); out_end();
+    } else if (name_is(cmd, LK_P("GRIP"))) {
+        if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("GRIP us")); return 0; }
+        if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) {
+            err_begin(c->seq, LK_E_RANGE); out_p(LK_P(" gripper pulse outside")); out_sp_i(lk->cal[LK_JOINTS].pmin);
+            out_p(LK_P("..")); out_i(lk->cal[LK_JOINTS].pmax); out_end();
+            return 0;
+        }
+        lk->grip_us = (uint16_t)a[0];
+        update_pulses(lk);
+        ok_begin(c->seq, LK_P("GRIP ")); out_u(lk->grip_us); out_end();
+    } else if (name_is(cmd, LK_P("SEG"))) {
+        return cmd_seg(lk, c);
+    } else if (name_is(cmd, LK_P("STOP"))) {
+        NOARGS();
+        halt(lk);
+        ok_begin(c->seq, LK_P("STOP")); out_q(lk); out_end();
+    } else if (name_is(cmd, LK_P("TIMEOUT"))) {
+        if (c->argc > 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("TIMEOUT [ms]")); return 0; }
+        if (c->argc == 1) {
+            if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout 0 or 50..60000 ms")); return 0; }
+            lk->timeout_ms = (uint16_t)a[0];
+        }
+        ok_begin(c->seq, LK_P("TIMEOUT ")); out_u(lk->timeout_ms); out_end();
+    } else if (name_is(cmd, LK_P("READ"))) {
+        NOARGS();
+        ok_begin(c->seq, LK_P("READ"));
+        for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
+        out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
+        out_end();
+    } else if (name_is(cmd, LK_P("STREAM"))) {
+        if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("STREAM hz")); return 0; }
+        if (a[0] < 0 || a[0] > 200) { err_msg(c->seq, LK_E_RANGE, LK_P("rate 0..200 Hz")); return 0; }
+        lk->stream_hz = (uint8_t)a[0];
+        lk->frame_counter = 0;
+        if (lk->stream_hz) { lk->stream_period_us = 1000000UL / lk->stream_hz; lk->stream_arm = 1; }
+        ok_begin(c->seq, LK_P("STREAM ")); out_u(lk->stream_hz); out_end();
+    } else if (name_is(cmd, LK_P("CAL"))) {
+        return cmd_cal(lk, c);
+    } else if (name_is(cmd, LK_P("DEFAULTS"))) {
+        lk_cal_t cal[LK_CHANNELS];
+        uint16_t timeout_ms;
+        NOARGS();
+        NOTBUSY();
+        default_cal(cal, &timeout_ms);
+        if (!positions_valid(lk, c, cal)) return 0;
+        memcpy(lk->cal, cal, sizeof cal);
+        lk->timeout_ms = timeout_ms;
+        update_pulses(lk);
+        ok_begin(c->seq, LK_P("DEFAULTS")); out_end();
+    } else if (name_is(cmd, LK_P("SAVE"))) {
+        uint16_t n;
+        NOARGS();
+        NOTBUSY();
+        n = lk_ee_save(lk);
+        if (!n) { err_msg(c->seq, LK_E_EEPROM, LK_P("read-back differs")); return 0; }
+        ok_begin(c->seq, LK_P("SAVE ")); out_u(n); out_end();
+    } else {
+        uint8_t n = 0;
+        err_begin(c->seq, LK_E_UNKNOWN); out_c(' ');
+        for (; *cmd && n < 12; cmd++, n++) {
+            char ch = *cmd;
+            out_c((ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') ? ch : '?');
+        }
+        out_end();
+        return 0;
+    }
+    return 1;
+#undef NOARGS
+#undef NOTBUSY
+}
+
+void lk_exec(lk_t *lk, char *line, uint8_t len) {
+    char *p = line, *end = line + len, *star = 0, *r, *cmd, *tok;
+    int32_t args[LK_MAXARGS];
+    call_t c;
+    line[len] = 0;
+    while (p < end && is_ws(*p)) p++;
+    while (end > p && is_ws(end[-1])) end--;
+    if (p == end) return;
+    if (*p == '$') p++;
+    for (r = end; r > p;) {
+        if (*--r == '*') { star = r; break; }
+    }
+    if (star) {
+        uint8_t h1, h2;
+        if (end - star != 3 || (h1 = hexval(star[1])) > 15 || (h2 = hexval(star[2])) > 15) {
+            err_msg(-1, LK_E_BADCHK, LK_P("malformed checksum")); return;
+        }
+        if (((h1 << 4) | h2) != lk_xor(p, (uint8_t)(star - p))) {
+            err_msg(-1, LK_E_BADCHK, LK_P("checksum mismatch")); return;
+        }
+        end = star;
+    }
+    *end = 0;
+    c.seq = -1;
+    c.a = args;
+    c.argc = 0;
+    cmd = next_token(&p);
+    if (cmd && cmd[0] == '#') {
+        int32_t s;
+        const char *d = cmd + 1;
+        uint8_t nd = 0;
+        while (d[nd] >= '0' && d[nd] <= '9') nd++;
+        if (nd < 1 || nd > 5 || d[nd] || !parse_int(d, &s) || s > 65535) {
+            err_msg(-1, LK_E_SYNTAX, LK_P("bad sequence id")); return;
+        }
+        c.seq = s;
+        cmd = next_token(&p);
+    }
+    if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("missing command")); return; }
+    while ((tok = next_token(&p)) != 0) {
+        if (c.argc >= LK_MAXARGS) { err_msg(c.seq, LK_E_SYNTAX, LK_P("too many arguments")); return; }
+        if (!parse_int(tok, &args[c.argc])) {
+            /* an unknown command is reported as such even with odd arguments */
+            uint8_t known = name_is(cmd, LK_P("HELLO")) || name_is(cmd, LK_P("PING")) || name_is(cmd, LK_P("STATUS")) ||
+                            name_is(cmd, LK_P("MOVE")) || name_is(cmd, LK_P("GRIP")) || name_is(cmd, LK_P("SEG")) ||
+                            name_is(cmd, LK_P("STOP")) || name_is(cmd, LK_P("TIMEOUT")) || name_is(cmd, LK_P("READ")) ||
+                            name_is(cmd, LK_P("STREAM")) || name_is(cmd, LK_P("CAL")) ||
+                            name_is(cmd, LK_P("DEFAULTS")) || name_is(cmd, LK_P("SAVE"));
+            if (known) { err_msg(c.seq, LK_E_SYNTAX, LK_P("arguments are integers")); return; }
+            c.argc = 0;
+            break;
+        }
+        c.argc++;
+    }
+    if (dispatch(lk, cmd, &c)) lk->last_accept_ms = lk->now_ms;
+}
+
+void lk_rx(lk_t *lk, uint8_t b, uint32_t now_ms) {
+    lk->now_ms = now_ms;
+    if (b == '\r' || b == '\n') {
+        if (lk->overflow) {
+            lk->flags |= LK_F_INPUT_LOST;
+            err_msg(-1, LK_E_TOOLONG, LK_P("line longer than 160 bytes discarded"));
+        } else if (lk->badchar) {
+            err_msg(-1, LK_E_SYNTAX, LK_P("bad character"));
+        } else {
+            lk_exec(lk, lk->line, lk->len);
+        }
+        lk->len = 0; lk->overflow = 0; lk->badchar = 0;
+        return;
+    }
+    if (lk->overflow) return;
+    if (lk->len >= LK_MAXLINE) { lk->overflow = 1; return; }
+    if (!(b == '\t' || (b >= 0x20 && b <= 0x7E))) lk->badchar = 1;
+    lk->line[lk->len++] = (char)b;
+}

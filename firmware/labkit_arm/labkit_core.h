@@ -1,0 +1,115 @@
+/* labkit arm firmware: hardware-independent core (protocol v1, docs/protocol.md).
+ *
+ * Plain C99, no Arduino headers: the same file builds for the ATmega328P (avr-gcc, Arduino IDE)
+ * and on the host (gcc/clang) for unit tests and fuzzing. The glue (labkit_arm.ino) feeds bytes,
+ * servo-frame ticks and the clock in, and provides the lk_hw_* functions declared below.
+ */
+#ifndef LABKIT_CORE_H
+#define LABKIT_CORE_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define LK_FW_VERSION "1.0.0"
+#define LK_PROTO_VERSION 1
+#ifndef LK_JOINTS
+#define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
+#endif
+#define LK_CHANNELS (LK_JOINTS + 1) /* + gripper, on channel LK_JOINTS */
+#ifndef LK_QUEUE
+#define LK_QUEUE 6 /* segment queue depth */
+#endif
+#define LK_MAXLINE 160  /* longest accepted line, bytes before EOL */
+#define LK_FRAME_MS 20  /* servo frame period */
+#define LK_USER_POT_PIN 5
+#define LK_SERVO_FULL 18000 /* servo travel, centidegrees */
+#define LK_MAX_ORDER 5
+
+#if LK_JOINTS < 1 || LK_JOINTS > 5
+#error "LK_JOINTS must be 1..5"
+#endif
+
+enum lk_error {
+    LK_E_BADCHK = 1, LK_E_SYNTAX = 2, LK_E_UNKNOWN = 3, LK_E_TOOLONG = 4, LK_E_RANGE = 5,
+    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10
+};
+enum lk_state { LK_IDLE = 0, LK_RUN = 1, LK_HOLD = 2 };
+enum lk_flag {
+    LK_F_EEPROM_DEFAULTS = 0x01, LK_F_TIMEOUT_HOLD = 0x02, LK_F_CLAMPED = 0x04,
+    LK_F_WATCHDOG_RESET = 0x08, LK_F_INPUT_LOST = 0x10
+};
+enum lk_reset { LK_RESET_POWER = 0, LK_RESET_EXTERNAL = 1, LK_RESET_WATCHDOG = 2, LK_RESET_BROWNOUT = 3 };
+
+typedef struct {
+    int16_t pmin, pmax; /* pulse width [us] at servo angle 0 and 180 deg */
+    int16_t zero;       /* servo angle at q = 0 [cdeg] */
+    int8_t dir;         /* +1 / -1 */
+    int16_t lo, hi;     /* joint limits [cdeg] */
+} lk_cal_t;
+
+typedef struct {
+    float c[LK_JOINTS][LK_MAX_ORDER + 1]; /* cdeg, over normalised time s = t/T */
+    uint16_t dur_ms;
+    uint8_t order;
+} lk_seg_t;
+
+typedef struct {
+    /* configuration (EEPROM) */
+    lk_cal_t cal[LK_CHANNELS];
+    uint16_t timeout_ms;
+    /* commanded state */
+    int32_t q[LK_JOINTS];        /* cdeg */
+    uint16_t grip_us;
+    uint16_t pulse_hus[LK_CHANNELS]; /* pulse widths in half microseconds */
+    /* trajectory */
+    lk_seg_t queue[LK_QUEUE];
+    uint8_t q_head, q_count;
+    float tail_q[LK_JOINTS];     /* end point of the last queued segment */
+    uint32_t seg_start_ms;       /* frame clock: start of the active segment */
+    uint32_t next_frame_ms;      /* frame clock: start of the next frame to be programmed */
+    uint32_t done;
+    uint8_t state, flags;
+    uint32_t last_accept_ms;
+    /* feedback stream */
+    uint8_t stream_hz, stream_arm;
+    uint16_t frame_counter;
+    uint32_t stream_next_us, stream_period_us;
+    /* line input */
+    char line[LK_MAXLINE + 1];
+    uint8_t len;
+    uint8_t overflow, badchar;
+    uint32_t now_ms;
+} lk_t;
+
+/* ---- provided by the glue (Arduino) or by the host test harness ---- */
+void lk_hw_write(const char *buf, uint8_t n);     /* queue bytes for the UART */
+uint16_t lk_hw_adc(uint8_t pin);                  /* 0..1023 */
+uint8_t lk_hw_ee_read(uint16_t addr);
+void lk_hw_ee_write(uint16_t addr, uint8_t value); /* may block; feeds the watchdog */
+void lk_hw_pulses(const uint16_t *pulse_hus, uint8_t n); /* new pulse widths, half us */
+uint16_t lk_hw_mem_free(void);                    /* smallest free stack/heap gap seen */
+
+/* ---- core API ---- */
+void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us);
+void lk_rx(lk_t *lk, uint8_t byte, uint32_t now_ms); /* one received byte */
+void lk_exec(lk_t *lk, char *line, uint8_t len);     /* one complete line (no EOL), for tests */
+void lk_frame(lk_t *lk, uint32_t frame_index);       /* program servo frame #frame_index */
+void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback stream */
+
+/* helpers exposed for unit tests */
+uint8_t lk_xor(const char *s, uint8_t n);
+uint16_t lk_crc16(const uint8_t *data, uint16_t n);
+float lk_poly(const float *c, uint8_t order, float s);
+int32_t lk_round(float x);
+uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
+uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */
+uint8_t lk_ee_load(lk_t *lk);         /* 1 if a valid image was loaded */
+void lk_defaults(lk_t *lk);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

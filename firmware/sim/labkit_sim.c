@@ -1,0 +1,238 @@
+/* labkit_sim: firmware-in-the-loop harness for the labkit arm firmware on simavr.
+ *
+ * usage: labkit_sim FIRMWARE.elf [--run] [--pace FACTOR]
+ *
+ * Loads the ELF into a simulated ATmega328P at 16 MHz (VCC = AVCC = AREF = 5000 mV), bridges
+ * UART0 to a pseudo terminal and talks to its controller (labkit/firmware_sim.py) through a
+ * line protocol on stdin/stdout. simavr's own messages go to stderr.
+ *
+ * stdout (harness -> controller), one event per line:
+ *   PTY <path>                       pty of UART0 (printed once, first line)
+ *   READY held|running               after start-up
+ *   P <ch> <t_us> <width_us>         servo channel ch (pin D(2+ch)) finished a pulse whose width
+ *                                    differs from the previous one of that channel
+ *   TICK <t_us> <w0> ... <w5>        tick (see `tick`): CPU paused until `go`
+ *   WOKE <t_us>                      simulated time reached a `sleep` deadline
+ *   TIME <t_us> | PULSES <t_us> <w0> ... <w5> | OK <cmd> | ERR <text>
+ *   CRASH <state> <t_us>             the simulated CPU stopped (crashed/done)
+ * stdin (controller -> harness):
+ *   run | hold | reset | quit
+ *   adc <pin 0-5> <millivolts>       analog input voltage
+ *   pace <factor>                    0: free running; f > 0: simulated time = f x wall time
+ *   tick <period_us>                 0: off; else stop every period, print TICK, wait for `go`
+ *   go                               continue after a TICK
+ *   sleep <us>                       print WOKE once `us` more simulated microseconds elapsed
+ *   time | pulses                    query
+ * Times are simulated microseconds since power-on (cycles / 16). The harness never calls
+ * uart_pty_stop() (it can hang); it exits with _exit().
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <poll.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <simavr/avr_adc.h>
+#include <simavr/avr_ioport.h>
+#include <simavr/parts/uart_pty.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+
+#define NCH 6
+#define FIRST_PIN 2
+
+static avr_t *avr;
+static uart_pty_t uart_pty;
+static FILE *ctl; /* control output (the real stdout) */
+static int running;
+static double pace; /* 0 = free */
+static uint64_t tick_period_cycles, next_tick_cycle;
+static uint64_t wake_cycle;
+static int waking;
+static uint64_t rise_cycle[NCH];
+static double width_us[NCH];
+static double wall_ref, sim_ref_us;
+static uint32_t adc_mv[6];
+
+static double now_wall(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+static double sim_us(void) { return (double)avr->cycle * 1e6 / avr->frequency; }
+
+static void say(const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vfprintf(ctl, fmt, ap);
+    va_end(ap);
+    fputc('\n', ctl);
+    fflush(ctl);
+}
+
+static void anchor_pace(void) {
+    wall_ref = now_wall();
+    sim_ref_us = sim_us();
+}
+
+static void pin_changed(struct avr_irq_t *irq, uint32_t value, void *param) {
+    int ch = (int)(intptr_t)param;
+    (void)irq;
+    if (value) {
+        rise_cycle[ch] = avr->cycle;
+    } else if (rise_cycle[ch]) {
+        double w = (double)(avr->cycle - rise_cycle[ch]) * 1e6 / avr->frequency;
+        rise_cycle[ch] = 0;
+        if (w < 5000.0 && (w - width_us[ch] > 0.005 || width_us[ch] - w > 0.005)) {
+            width_us[ch] = w;
+            say("P %d %.2f %.2f", ch, sim_us(), w);
+        }
+    }
+}
+
+static void set_adc(int pin, uint32_t mv) {
+    adc_mv[pin] = mv;
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + pin), mv);
+}
+
+static void print_widths(const char *tag) {
+    char buf[256];
+    int n = snprintf(buf, sizeof buf, "%s %.2f", tag, sim_us());
+    for (int c = 0; c < NCH; c++) n += snprintf(buf + n, sizeof buf - n, " %.2f", width_us[c]);
+    say("%s", buf);
+}
+
+static void do_reset(void) {
+    /* simavr's reset re-initialises the peripherals; EEPROM content is kept by the eeprom
+       module (like a real chip). Pin history is forgotten; analog inputs are re-applied. */
+    avr_reset(avr);
+    for (int c = 0; c < NCH; c++) { rise_cycle[c] = 0; width_us[c] = 0; }
+    for (int p = 0; p < 6; p++) set_adc(p, adc_mv[p]);
+    if (tick_period_cycles) next_tick_cycle = avr->cycle + tick_period_cycles;
+    anchor_pace();
+}
+
+/* returns 1 on `go` (continue after a tick) */
+static int handle(char *line) {
+    char cmd[16];
+    double x = 0;
+    int pin = 0, n;
+    uint32_t mv = 0;
+    if (sscanf(line, "%15s%n", cmd, &n) != 1) return 0;
+    if (!strcmp(cmd, "run")) { running = 1; anchor_pace(); say("OK run"); }
+    else if (!strcmp(cmd, "hold")) { running = 0; say("OK hold %.2f", sim_us()); }
+    else if (!strcmp(cmd, "reset")) { do_reset(); say("OK reset %.2f", sim_us()); }
+    else if (!strcmp(cmd, "quit")) { say("OK quit"); fflush(ctl); _exit(0); }
+    else if (!strcmp(cmd, "adc")) {
+        if (sscanf(line + n, "%d %u", &pin, &mv) != 2 || pin < 0 || pin > 5 || mv > 5500) say("ERR adc <pin 0-5> <mV 0-5500>");
+        else set_adc(pin, mv); /* silent: sent in bulk from tick hooks */
+    } else if (!strcmp(cmd, "pace")) {
+        if (sscanf(line + n, "%lf", &x) != 1 || x < 0) say("ERR pace <factor >= 0>");
+        else { pace = x; anchor_pace(); say("OK pace %g", pace); }
+    } else if (!strcmp(cmd, "tick")) {
+        if (sscanf(line + n, "%lf", &x) != 1 || x < 0) say("ERR tick <period_us>");
+        else {
+            tick_period_cycles = (uint64_t)(x * avr->frequency / 1e6);
+            next_tick_cycle = avr->cycle + tick_period_cycles;
+            say("OK tick %g", x);
+        }
+    } else if (!strcmp(cmd, "go")) { return 1; }
+    else if (!strcmp(cmd, "sleep")) {
+        if (sscanf(line + n, "%lf", &x) != 1 || x < 0) say("ERR sleep <us>");
+        else { wake_cycle = avr->cycle + (uint64_t)(x * avr->frequency / 1e6); waking = 1; say("OK sleep %.2f", sim_us()); }
+    } else if (!strcmp(cmd, "time")) { say("TIME %.2f", sim_us()); }
+    else if (!strcmp(cmd, "pulses")) { print_widths("PULSES"); }
+    else say("ERR unknown command %s", cmd);
+    return 0;
+}
+
+static char inbuf[4096];
+static size_t inlen;
+
+/* read and handle control lines; wait up to timeout_ms (-1: forever) for input */
+static int poll_control(int timeout_ms) {
+    struct pollfd pfd = {0, POLLIN, 0};
+    int got_go = 0;
+    if (poll(&pfd, 1, timeout_ms) <= 0) return 0;
+    ssize_t r = read(0, inbuf + inlen, sizeof inbuf - 1 - inlen);
+    if (r <= 0) { fflush(ctl); _exit(0); } /* controller gone */
+    inlen += (size_t)r;
+    for (;;) {
+        char *nl = memchr(inbuf, '\n', inlen);
+        if (!nl) break;
+        *nl = 0;
+        got_go |= handle(inbuf);
+        size_t used = (size_t)(nl - inbuf) + 1;
+        memmove(inbuf, inbuf + used, inlen - used);
+        inlen -= used;
+    }
+    if (inlen >= sizeof inbuf - 1) inlen = 0; /* absurd line: drop */
+    return got_go;
+}
+
+int main(int argc, char **argv) {
+    elf_firmware_t fw;
+    const char *elf = 0;
+    int start_running = 0;
+    memset(&fw, 0, sizeof fw);
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--run")) start_running = 1;
+        else if (!strcmp(argv[i], "--pace") && i + 1 < argc) pace = atof(argv[++i]);
+        else elf = argv[i];
+    }
+    if (!elf) { fprintf(stderr, "usage: %s FIRMWARE.elf [--run] [--pace FACTOR]\n", argv[0]); return 2; }
+    /* keep the real stdout for the control channel; everything simavr prints goes to stderr */
+    ctl = fdopen(dup(1), "w");
+    dup2(2, 1);
+    if (elf_read_firmware(elf, &fw) != 0) { say("ERR cannot read %s", elf); return 1; }
+    avr = avr_make_mcu_by_name("atmega328p");
+    if (!avr) { say("ERR simavr has no atmega328p"); return 1; }
+    avr_init(avr);
+    avr_load_firmware(avr, &fw);
+    avr->frequency = 16000000;
+    avr->vcc = avr->avcc = avr->aref = 5000;
+    uart_pty_init(avr, &uart_pty);
+    uart_pty_connect(&uart_pty, '0');
+    for (int c = 0; c < NCH; c++)
+        avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), FIRST_PIN + c), pin_changed,
+                                (void *)(intptr_t)c);
+    for (int p = 0; p < 6; p++) set_adc(p, 0);
+    say("PTY %s", uart_pty.pty.slavename);
+    running = start_running;
+    say("READY %s", running ? "running" : "held");
+    anchor_pace();
+    unsigned long steps = 0;
+    for (;;) {
+        if (!running) { poll_control(-1); continue; }
+        int state = avr_run(avr);
+        if (state == cpu_Done || state == cpu_Crashed) {
+            say("CRASH %d %.2f", state, sim_us());
+            running = 0;
+            continue;
+        }
+        if (tick_period_cycles && avr->cycle >= next_tick_cycle) {
+            next_tick_cycle += tick_period_cycles;
+            print_widths("TICK");
+            while (!poll_control(-1)) {
+            }
+        }
+        if (waking && avr->cycle >= wake_cycle) { waking = 0; say("WOKE %.2f", sim_us()); }
+        if (++steps % 4096 == 0) {
+            poll_control(0);
+            if (pace > 0) {
+                double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);
+                if (ahead > 0.0005) {
+                    struct timespec ts = {0, (long)(ahead * 1e9)};
+                    nanosleep(&ts, 0);
+                } else if (ahead < -0.5) {
+                    anchor_pace(); /* fell far behind (slow host): do not race to catch up */
+                }
+            }
+        }
+    }
+}
