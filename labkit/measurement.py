@@ -33,6 +33,7 @@ import math
 import os
 import re
 import secrets
+import threading
 import warnings
 import zlib
 from datetime import datetime, timezone
@@ -41,6 +42,11 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import MeasurementError
+
+try:  # advisory lock against a second writer (POSIX only)
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
 
 __all__ = [
     "COLUMNS",
@@ -282,9 +288,8 @@ class MeasurementLog:
     """
 
     def __init__(self, path, *, session=None, robot=None, operator=None, poses=None):
-        import fcntl
-
         self.path = Path(path)
+        self._lock = threading.Lock()
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
         self._robot_obj = robot if hasattr(robot, "fk") else None
         existing = None
@@ -295,7 +300,8 @@ class MeasurementLog:
         created = not self.path.exists()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            if fcntl is not None:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             os.close(fd)
             raise MeasurementError(f"{self.path} is already open by another MeasurementLog writer") from None
@@ -390,6 +396,13 @@ class MeasurementLog:
         MeasurementError
             Naming the column of a bad argument; nothing is written then.
         """
+        with self._lock:
+            return self._record(pose_id, quantity, value, unit=unit, instrument=instrument,
+                                resolution=resolution, commanded=commanded, target=target,
+                                repeat=repeat, note=note, half_range=half_range, n_readings=n_readings)
+
+    def _record(self, pose_id, quantity, value, *, unit, instrument, resolution, commanded,
+                target, repeat, note, half_range, n_readings):
         if self._fd is None:
             raise MeasurementError(f"{self.path}: the log is closed")
         pose_id = _one_line(pose_id).strip()
@@ -415,6 +428,10 @@ class MeasurementLog:
         if resolution <= 0:
             raise _error(f"expected a positive resolution, got {resolution!r}", column="resolution")
         hr = float("nan") if half_range is None else _finite(half_range, "half_range")
+        if hr < 0:
+            raise _error(f"expected half_range >= 0, got {hr!r}", column="half_range")
+        if int(n_readings) < 1:
+            raise _error(f"expected n_readings >= 1, got {n_readings!r}", column="n_readings")
         commanded = _vector(commanded, "commanded")
         target = _vector(target, "target")
         robot_n = getattr(self._robot_obj, "n", None)
@@ -448,9 +465,9 @@ class MeasurementLog:
 
     def close(self):
         """Release the lock and close the file (idempotent)."""
-        if self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
+        fd, self._fd = getattr(self, "_fd", None), None
+        if fd is not None:
+            os.close(fd)
 
     def __enter__(self):
         return self
