@@ -488,7 +488,7 @@ def seed002_wrist():
         force_t = 10.0        # friction force magnitude, against the tool velocity [N]
         force_n = 10.0        # normal force magnitude, along -z0 [N]
         moment_x3 = 0.04e-3   # moment about x3 [N m]; the seed's "0.04" was in N mm (see below)
-        duration = 6.283185307179586  # one revolution, 2 pi s at theta1_dot = 1 rad/s [s]
+        duration = 6.283185307179586  # one revolution at 1 rad/s [s]
         output_dir = {out_default(LAB002, name)}
         """),
         code("""
