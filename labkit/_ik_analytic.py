@@ -87,26 +87,36 @@ def _scale(robot):
 # --------------------------------------------------------------------------
 
 def normalize_angles(q, limits, revolute):
-    """Wrap revolute angles into (-pi, pi], then shift by 2 pi where that enters the limits.
+    """Wrap revolute angles into [-pi, pi], then shift by 2 pi where that enters the limits.
 
     ``q`` has shape (..., n); returns a new array.
     """
     q = np.array(q, dtype=float)
-    if not np.any(revolute):
-        return q
-    lo, hi = limits[:, 0], limits[:, 1]
-    qr = q[..., revolute]
-    qr = np.remainder(qr + np.pi, 2 * np.pi) - np.pi
-    qr = np.where(qr == -np.pi, np.pi, qr)
-    lo_r, hi_r = lo[revolute], hi[revolute]
-    inside = (qr >= lo_r - 1e-9) & (qr <= hi_r + 1e-9)
-    for shift in (2 * np.pi, -2 * np.pi):
-        cand = qr + shift
-        ok = (~inside) & (cand >= lo_r - 1e-9) & (cand <= hi_r + 1e-9)
-        qr = np.where(ok, cand, qr)
-        inside |= ok
-    q[..., revolute] = qr
+    two_pi = 2 * np.pi
+    for j in np.flatnonzero(revolute):
+        qj = q[..., j]
+        qj -= two_pi * np.rint(qj / two_pi)
+        lo, hi = limits[j]
+        if hi > np.pi:
+            up = qj + two_pi
+            qj[:] = np.where((qj < lo - 1e-9) & (up <= hi + 1e-9), up, qj)
+        if lo < -np.pi:
+            dn = qj - two_pi
+            qj[:] = np.where((qj > hi + 1e-9) & (dn >= lo - 1e-9), dn, qj)
     return q
+
+
+def within_limits(q, limits, tol=1e-9):
+    """Like ``Robot.within_limits`` but column by column (less memory traffic)."""
+    ok = np.ones(q.shape[:-1], dtype=bool)
+    for j in range(q.shape[-1]):
+        lo, hi = limits[j]
+        qj = q[..., j]
+        if np.isfinite(lo):
+            ok &= qj >= lo - tol
+        if np.isfinite(hi):
+            ok &= qj <= hi + tol
+    return ok
 
 
 # --------------------------------------------------------------------------
@@ -270,20 +280,26 @@ def _rot_batch(axis, angle):
     return R
 
 
+def _skew(k):
+    return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+
+
 def _rotate(axis, angle, v):
     """Rotate vectors v (3, N) about a fixed unit axis by angle (N,) (Rodrigues)."""
-    c, s = np.cos(angle), np.sin(angle)
-    k = np.asarray(axis)[:, None]
-    kxv = np.cross(k, v, axis=0)
-    return v * c + kxv * s + k * ((k * v).sum(axis=0) * (1.0 - c))
+    K = _skew(axis)
+    Kv = K @ v
+    return v + np.sin(angle) * Kv + (1.0 - np.cos(angle)) * (K @ Kv)
 
 
 def _subproblem1(axis, u, v):
-    """Angle about ``axis`` that turns u (3, N) towards v (3, N) (Paden-Kahan 1)."""
-    k = np.asarray(axis)[:, None]
-    up = u - k * (k * u).sum(axis=0)
-    vp = v - k * (k * v).sum(axis=0)
-    return np.arctan2((k * np.cross(up, vp, axis=0)).sum(axis=0), (up * vp).sum(axis=0))
+    """Angle about ``axis`` that turns u (3, N) towards v (3, N) (Paden-Kahan 1).
+
+    ``atan2(k . (u x v), u . v - (k . u)(k . v))``; 0 where u or v is parallel to k.
+    """
+    k = np.asarray(axis)
+    num = ((_skew(k) @ u) * v).sum(axis=0)
+    den = (u * v).sum(axis=0) - (k @ u) * (k @ v)
+    return np.arctan2(num, den)
 
 
 class YawPitchPitch:

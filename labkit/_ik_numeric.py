@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit import kinematics
+from labkit import _ik_analytic, kinematics
 
 # rows of the spatial velocity [vx, vy, vz, wx, wy, wz] used per target kind
 ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
@@ -64,8 +64,52 @@ def _random_q(rng, limits, size):
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 
-def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-3):
+def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
+    """Batched LM with restarts, then batched multi-start for the stragglers.
+
+    After ``restarts`` sequential restarts, every target still failing is
+    copied ``K`` times (``K <= multistart``, at most ~8192 copies in all) and
+    the copies iterate together from independent random starts, for up to
+    ``restarts`` more rounds; the first copy that succeeds wins.
+
+    Returns q (N, n), success (N,), iterations (N,), residual (N,).
+    """
+    q, success, iterations, residual = _attempts(
+        robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng
+    )
+    n = robot.n
+    for _ in range(restarts if multistart > 1 else 0):
+        fail = np.flatnonzero(~success)
+        if fail.size == 0:
+            break
+        K = int(min(multistart, max(1, 8192 // fail.size)))
+        if K < 2:
+            break
+        tg = np.repeat(target[fail], K, axis=0)
+        qr, okr, itr, resr = _attempts(
+            robot, kind, tg, None, rows, tol=tol, max_iter=max_iter, restarts=1, rng=rng
+        )
+        okr = okr.reshape(-1, K)
+        resr = resr.reshape(-1, K)
+        pick = np.where(okr.any(axis=1), np.argmax(okr, axis=1), np.argmin(resr, axis=1))
+        rowsel = np.arange(fail.size)
+        qpick = qr.reshape(-1, K, n)[rowsel, pick]
+        rpick = resr[rowsel, pick]
+        iterations[fail] += itr.reshape(-1, K)[rowsel, pick]
+        improve = okr.any(axis=1) | (rpick < residual[fail])
+        q[fail[improve]] = qpick[improve]
+        residual[fail[improve]] = rpick[improve]
+        success[fail] = okr.any(axis=1)
+    return q, success, iterations, residual
+
+
+def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8):
     """Run batched LM; target (N, ...) flattened, q0 (N, n) or None.
+
+    An attempt ends for a target when it converges, after ``max_iter``
+    iterations, or when its squared error has not dropped by 10x over the last
+    ``check_every`` iterations (stalled, typically against a joint limit);
+    it then restarts from a random configuration, up to ``restarts`` times.
 
     Returns q (N, n), success (N,), iterations (N,), residual (N,).
     """
@@ -79,8 +123,14 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1
     residual = np.full(N, np.inf)
     best_q = q.copy()
     eye = np.eye(n)
-    rows = tuple(rows)
+    rows = list(rows)
+    rev = robot.is_revolute
+    free_lo = np.where(rev, -np.inf, lo)
+    free_hi = np.where(rev, np.inf, hi)
     for attempt in range(restarts + 1):
+        # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
+        free = attempt % 2 == 1
+        alo, ahi = (free_lo, free_hi) if free else (lo, hi)
         act = np.flatnonzero(~success)
         if act.size == 0:
             break
@@ -89,29 +139,51 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1
         qa = q[act]
         tg = target[act]
         T, J = kinematics.fk_jacobian(robot, qa)
-        J = J[:, list(rows)]
+        J = J[:, rows]
         e, res = _error(kind, T, tg, rows)
         lam = np.full(act.size, lam0)
         E = 0.5 * (e * e).sum(axis=1)
-        for _ in range(max_iter):
+        E_check = E.copy()
+        for it in range(1, max_iter + 1):
             done = res < tol
-            if np.any(done):
+            if free and np.any(done):
+                qw = qa[done]
+                qw = _ik_analytic.normalize_angles(qw, limits, rev)
+                inside = robot.within_limits(qw)
+                qa[np.flatnonzero(done)] = qw
+                bad = np.flatnonzero(done)[~inside]
+                done[bad] = False
+            else:
+                bad = None
+            stalled = np.zeros_like(done)
+            if bad is not None and bad.size:
+                stalled[bad] = True  # converged outside the limits: restart
+            if it % check_every == 0:
+                stalled |= (~done) & (E > 0.01 * E_check)
+                E_check = E.copy()
+            if np.any(done) or np.any(stalled):
                 idx = act[done]
                 q[idx] = qa[done]
                 success[idx] = True
                 residual[idx] = res[done]
-                keep = ~done
-                act, qa, tg, J, e, res, lam, E = (x[keep] for x in (act, qa, tg, J, e, res, lam, E))
+                s_idx = act[stalled]
+                better = (res[stalled] < residual[s_idx]) & robot.within_limits(qa[stalled])
+                residual[s_idx[better]] = res[stalled][better]
+                best_q[s_idx[better]] = qa[stalled][better]
+                keep = ~(done | stalled)
+                act, qa, tg, J, e, res, lam, E, E_check = (
+                    x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
+                )
             if act.size == 0:
                 break
             iterations[act] += 1
             Jt = np.swapaxes(J, -1, -2)
-            A = Jt @ J + (lam + E)[:, None, None] * eye
+            A = Jt @ J + lam[:, None, None] * eye
             g = (Jt @ e[:, :, None])[:, :, 0]
             dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
-            qn = np.clip(qa + dq, lo, hi)
+            qn = np.clip(qa + dq, alo, ahi)
             Tn, Jn = kinematics.fk_jacobian(robot, qn)
-            Jn = Jn[:, list(rows)]
+            Jn = Jn[:, rows]
             en, resn = _error(kind, Tn, tg, rows)
             En = 0.5 * (en * en).sum(axis=1)
             better = En < E
@@ -121,12 +193,14 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1
             res = np.where(better, resn, res)
             E = np.where(better, En, E)
             lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
-        # record the best so far for the ones still failing
         if act.size:
-            better = res < residual[act]
+            done = (res < tol) & robot.within_limits(qa)
+            success[act[done]] = True
+            better = (res < residual[act]) & robot.within_limits(qa)
             residual[act[better]] = res[better]
             best_q[act[better]] = qa[better]
             q[act] = qa
     fail = ~success
     q[fail] = best_q[fail]
+    q[fail] = np.clip(q[fail], lo, hi)
     return q, success, iterations, residual

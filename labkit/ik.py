@@ -224,10 +224,13 @@ def _targets(robot, target, kind):
         T = as_batch(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        R = T[:, :3, :3]
-        err = np.abs(R @ np.swapaxes(R, -1, -2) - np.eye(3)).max(axis=(1, 2)) if len(T) else np.zeros(0)
-        det = np.linalg.det(R) if len(T) else np.zeros(0)
-        bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1) > 1e-12)
+        c0, c1, c2 = T[:, :3, 0], T[:, :3, 1], T[:, :3, 2]
+        err = np.abs(np.stack([
+            (c0 * c0).sum(axis=1) - 1.0, (c1 * c1).sum(axis=1) - 1.0, (c2 * c2).sum(axis=1) - 1.0,
+            (c0 * c1).sum(axis=1), (c0 * c2).sum(axis=1), (c1 * c2).sum(axis=1),
+        ])).max(axis=0, initial=0.0)
+        det = (np.cross(c0, c1) * c2).sum(axis=1)
+        bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             raise ShapeError(
@@ -319,8 +322,9 @@ def ik_all(robot, target, *, solver="auto"):
         reach[s:s + _CHUNK] = rc
         distance[s:s + _CHUNK] = dc
     distance = np.where(reach.any(axis=1), 0.0, distance)
-    q = np.where(np.isfinite(q), q, 0.0)  # belt and braces: never let NaN out
-    valid = reach & robot.within_limits(q)
+    if not np.isfinite(q.sum()):  # belt and braces: never let NaN out
+        q = np.where(np.isfinite(q), q, 0.0)
+    valid = reach & _ik_analytic.within_limits(q, limits)
     return IKSolutions(
         q.reshape(lead + (m, n)), reach.reshape(lead + (m,)), valid.reshape(lead + (m,)),
         tuple(impl.branches), distance.reshape(lead), impl.name,
