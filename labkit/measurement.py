@@ -293,7 +293,12 @@ class MeasurementLog:
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
         self._robot_obj = robot if hasattr(robot, "fk") else None
         existing = None
-        if self.path.exists() and self.path.stat().st_size > 0:
+        raw = b""
+        if self.path.exists():
+            with open(self.path, "rb") as f:
+                raw = f.read(len(_HEADER_LINE))
+        torn_header = b"\n" not in raw and _HEADER_LINE.encode().startswith(raw)
+        if raw and not torn_header:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", MeasurementWarning)
                 existing = load_measurements(self.path, validate=False)
@@ -316,12 +321,8 @@ class MeasurementLog:
                 f.seek(size - 1)
                 if f.read(1) != b"\n":
                     self._write("\n")  # terminate a torn line from a crash
-                    if existing is None or not len(existing):
-                        # the torn line may be the header itself
-                        with open(self.path, "rb") as g:
-                            first = g.readline().decode("utf-8", "replace")
-                        if first != _HEADER_LINE:
-                            self._write(_HEADER_LINE)
+                    if torn_header:  # the crash cut the header itself
+                        self._write(_HEADER_LINE)
         self._next_record = 1
         self._repeats = {}
         last_session, last_robot, last_operator = None, "", ""
@@ -415,23 +416,11 @@ class MeasurementLog:
             commanded = pose.get("commanded") if commanded is None else commanded
             target = pose.get("target") if target is None else target
         quantity = str(quantity)
-        try:
-            dim = quantity_dimension(quantity)
-        except MeasurementError as exc:
-            raise _error(str(exc), column="quantity") from None
-        if unit not in UNITS:
-            raise _error(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}", column="unit")
-        if UNITS[unit][0] != dim:
-            raise _error(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}", column="unit")
+        _check_quantity_unit(quantity, unit)
         value = _finite(value, "value")
         resolution = _finite(resolution, "resolution")
-        if resolution <= 0:
-            raise _error(f"expected a positive resolution, got {resolution!r}", column="resolution")
         hr = float("nan") if half_range is None else _finite(half_range, "half_range")
-        if hr < 0:
-            raise _error(f"expected half_range >= 0, got {hr!r}", column="half_range")
-        if int(n_readings) < 1:
-            raise _error(f"expected n_readings >= 1, got {n_readings!r}", column="n_readings")
+        _check_ranges(resolution, hr, n_readings)
         commanded = _vector(commanded, "commanded")
         target = _vector(target, "target")
         robot_n = getattr(self._robot_obj, "n", None)
@@ -483,6 +472,27 @@ class MeasurementLog:
 
     def __repr__(self):
         return f"MeasurementLog({str(self.path)!r}, session={self.session!r}, robot={self.robot!r})"
+
+
+def _check_quantity_unit(quantity, unit, **where):
+    try:
+        dim = quantity_dimension(quantity)
+    except MeasurementError as exc:
+        raise _error(str(exc), column="quantity", **where) from None
+    if unit not in UNITS:
+        raise _error(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}", column="unit", **where)
+    if UNITS[unit][0] != dim:
+        raise _error(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}",
+                     column="unit", **where)
+
+
+def _check_ranges(resolution, half_range, n_readings, **where):
+    if not resolution > 0:
+        raise _error(f"expected a positive resolution, got {resolution!r}", column="resolution", **where)
+    if half_range < 0:
+        raise _error(f"expected half_range >= 0, got {half_range!r}", column="half_range", **where)
+    if not n_readings >= 1:
+        raise _error(f"expected n_readings >= 1, got {n_readings!r}", column="n_readings", **where)
 
 
 def _finite(value, column):
@@ -553,8 +563,10 @@ def load_measurements(path, *, poses=None, validate=True):
     Warns
     -----
     MeasurementWarning
-        When a torn line from a crash (a partial last line, or a line whose
-        checksum does not match) is skipped.
+        When a torn line from a crash is skipped: a partial last line, or a
+        line that is a prefix of a record (too few fields, or a cut
+        checksum) which a resuming writer terminated. A complete line whose
+        checksum does not match is an error (column ``check``), not skipped.
     """
     import pandas as pd
 
@@ -600,8 +612,13 @@ def load_measurements(path, *, poses=None, validate=True):
                 fields = next(csv.reader([text], strict=True))
             except (csv.Error, StopIteration):
                 fields = None
-        torn = fields is None or _is_torn(header, fields, text)
-        if torn:
+        state = "torn" if fields is None else _line_state(header, fields, text)
+        if state == "corrupt":
+            raise _error("checksum does not match the line (edited or corrupted after logging; "
+                         "blank the check cell to accept a hand edit)", path=path, line=lineno, column="check")
+        if state == "extra":
+            raise _error(f"expected {len(header)} fields, got {len(fields)}", path=path, line=lineno)
+        if state == "torn":
             if is_last_partial or "check" in header:
                 warnings.warn(
                     f"{path}: row {lineno}: skipping a torn record (partial line left by a crash)",
@@ -627,108 +644,77 @@ def _is_torn_header(fields, lines, index):
     return canonical.startswith(joined) and index + 1 < len(lines)
 
 
-def _is_torn(header, fields, text):
-    if len(fields) != len(header):
-        return True
+def _line_state(header, fields, text):
+    """"ok", "torn" (a prefix of a record: crash) or "corrupt" (full checksum that does not match)."""
+    if len(fields) < len(header):
+        return "torn"
+    if len(fields) > len(header):
+        return "extra"
     if "check" in header:
         check = fields[header.index("check")].strip()
-        if check:
-            body = text[: text.rfind(",")] if header[-1] == "check" else None
-            return body is None or _checksum(body) != check
-    return False
+        if check and header[-1] == "check":
+            if len(check) < 8:
+                return "torn"  # cut inside the checksum itself
+            return "ok" if _checksum(text[: text.rfind(",")]) == check else "corrupt"
+    return "ok"
 
 
 def _to_frame(path, rows, poses, validate):
     import pandas as pd
 
-    known_poses = None if poses is None else {str(p) for p in poses}
+    known = None if poses is None else {str(p) for p in poses}
+    text_cols = ("session", "timestamp", "robot", "pose_id", "quantity", "unit", "instrument", "operator", "note")
+    number_cols = ("record", "repeat", "value", "resolution", "half_range", "n_readings")
     data = {c: [] for c in COLUMNS if c != "check"}
     data["line"] = []
     for lineno, row in rows:
-        def cell(col, default=""):
-            v = row.get(col)
-            return default if v is None else v.strip()
-
-        def number(col, *, required, integer=False):
-            text = cell(col)
+        where = dict(path=path, line=lineno)
+        cells = {c: (row.get(c) or "").strip() for c in text_cols + number_cols + ("commanded", "target")}
+        numbers = {}
+        for col in number_cols:
+            text = cells[col]
+            required = validate and col in ("value", "resolution")
             if not text:
                 if required:
-                    raise _error("expected a number, got an empty cell", path=path, line=lineno, column=col)
-                return float("nan")
+                    raise _error("expected a number, got an empty cell", column=col, **where)
+                numbers[col] = float("nan")
+                continue
             try:
                 v = float(text)
             except ValueError:
-                raise _error(f"expected a number, got {text!r}", path=path, line=lineno, column=col) from None
-            if not math.isfinite(v):
-                raise _error(f"expected a finite number, got {text!r}", path=path, line=lineno, column=col)
-            if integer and v != int(v):
-                raise _error(f"expected an integer, got {text!r}", path=path, line=lineno, column=col)
-            return v
-
-        pose_id = cell("pose_id")
-        quantity = cell("quantity")
-        unit = cell("unit")
+                raise _error(f"expected a number, got {text!r}", column=col, **where) from None
+            if not math.isfinite(v) or (col in ("record", "repeat", "n_readings") and v != int(v)):
+                kind = "a finite number" if col in ("value", "resolution", "half_range") else "an integer"
+                raise _error(f"expected {kind}, got {text!r}", column=col, **where)
+            numbers[col] = v
+        if math.isnan(numbers["n_readings"]):
+            numbers["n_readings"] = 1.0
         if validate:
-            if not pose_id:
-                raise _error("expected a pose id, got an empty cell", path=path, line=lineno, column="pose_id")
-            if known_poses is not None and pose_id not in known_poses:
-                raise _error(f"unknown pose id {pose_id!r}; known: {sorted(known_poses)}",
-                             path=path, line=lineno, column="pose_id")
-            try:
-                dim = quantity_dimension(quantity)
-            except MeasurementError as exc:
-                raise _error(str(exc), path=path, line=lineno, column="quantity") from None
-            if unit not in UNITS:
-                raise _error(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}",
-                             path=path, line=lineno, column="unit")
-            if UNITS[unit][0] != dim:
-                raise _error(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}",
-                             path=path, line=lineno, column="unit")
-        value = number("value", required=validate)
-        resolution = number("resolution", required=validate)
-        if validate and resolution <= 0:
-            raise _error(f"expected a positive resolution, got {resolution!r}", path=path, line=lineno, column="resolution")
-        half_range = number("half_range", required=False)
-        if validate and half_range < 0:
-            raise _error(f"expected half_range >= 0, got {half_range!r}", path=path, line=lineno, column="half_range")
-        n_readings = number("n_readings", required=False, integer=True)
-        record = number("record", required=False, integer=True)
-        repeat = number("repeat", required=False, integer=True)
-        vectors = {}
+            if not cells["pose_id"]:
+                raise _error("expected a pose id, got an empty cell", column="pose_id", **where)
+            if known is not None and cells["pose_id"] not in known:
+                raise _error(f"unknown pose id {cells['pose_id']!r}; known: {sorted(known)}",
+                             column="pose_id", **where)
+            _check_quantity_unit(cells["quantity"], cells["unit"], **where)
+            _check_ranges(numbers["resolution"], numbers["half_range"], numbers["n_readings"], **where)
+            if cells["timestamp"]:
+                try:
+                    datetime.fromisoformat(cells["timestamp"].replace("Z", "+00:00"))
+                except ValueError:
+                    raise _error(f"expected an ISO 8601 timestamp, got {cells['timestamp']!r}",
+                                 column="timestamp", **where) from None
         for col in ("commanded", "target"):
             try:
-                vectors[col] = parse_numbers(cell(col))
+                cells[col] = parse_numbers(cells[col])
             except ValueError:
-                raise _error(f"expected space-separated numbers, got {cell(col)!r}",
-                             path=path, line=lineno, column=col) from None
-        ts = cell("timestamp")
-        if ts and validate:
-            try:
-                datetime.fromisoformat(ts.replace("Z", "+00:00"))
-            except ValueError:
-                raise _error(f"expected an ISO 8601 timestamp, got {ts!r}", path=path, line=lineno, column="timestamp") from None
-        data["record"].append(record)
-        data["session"].append(cell("session"))
-        data["timestamp"].append(ts or None)
-        data["robot"].append(cell("robot"))
-        data["pose_id"].append(pose_id)
-        data["commanded"].append(vectors["commanded"])
-        data["target"].append(vectors["target"])
-        data["quantity"].append(quantity)
-        data["repeat"].append(repeat)
-        data["value"].append(value)
-        data["unit"].append(unit)
-        data["instrument"].append(cell("instrument"))
-        data["resolution"].append(resolution)
-        data["half_range"].append(half_range)
-        data["n_readings"].append(1.0 if math.isnan(n_readings) else n_readings)
-        data["operator"].append(cell("operator"))
-        data["note"].append(cell("note"))
-        data["line"].append(lineno)
+                raise _error(f"expected space-separated numbers, got {cells[col]!r}", column=col, **where) from None
+        cells["timestamp"] = cells["timestamp"] or None
+        for col in data:
+            data[col].append(lineno if col == "line" else numbers[col] if col in numbers else cells[col])
     df = pd.DataFrame({k: v for k, v in data.items() if k not in ("commanded", "target")})
     df.insert(5, "commanded", pd.Series(data["commanded"], dtype=object))
     df.insert(6, "target", pd.Series(data["target"], dtype=object))
     for col in ("record", "repeat", "n_readings", "line"):
-        df[col] = df[col].astype("Int64") if len(df) else df[col].astype("Int64")
+        df[col] = df[col].astype("Int64")
     df["timestamp"] = pd.to_datetime(df["timestamp"], utc=True, format="ISO8601")
     return df

@@ -133,3 +133,12 @@ def test_parameter_names_and_errors(arm):
     q = np.zeros((1, 3))
     with pytest.raises(MeasurementError, match="more measured components"):
         calibrate((q, predict_positions(arm, q)), arm)
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import labkit.calibration
+
+    result = doctest.testmod(labkit.calibration)
+    assert result.attempted > 0 and result.failed == 0

@@ -258,3 +258,12 @@ def test_audit_bad_published_value(tmp_path, arm):
     path.write_text("pose_id,quantity,published,unit,commanded\na,z,zero,m,0 0 0\n")
     with pytest.raises(MeasurementError, match="row 2, column 'published'"):
         audit_published(path, arm)
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import labkit.errortables
+
+    result = doctest.testmod(labkit.errortables)
+    assert result.attempted > 0 and result.failed == 0

@@ -260,3 +260,84 @@ class _maybe_warns:
         self._ctx.__exit__(*exc)
         others = [w for w in self.records if not issubclass(w.category, MeasurementWarning)]
         assert not others, others
+
+
+def test_cut_inside_checksum_is_torn(tmp_path):
+    path = tmp_path / "log.csv"
+    _log_three(path)
+    last = path.read_bytes().splitlines(keepends=True)[-1]
+    with open(path, "ab") as f:
+        f.write(last[:-4])  # everything but the last 3 hex digits and the newline
+    with MeasurementLog(path) as log:
+        rec = log.record("j1_45", "x", 18.4, unit="cm", instrument="ruler", resolution=0.05)
+    assert rec.record == 4
+    with pytest.warns(MeasurementWarning, match="row 5"):
+        df = load_measurements(path)
+    assert list(df["record"]) == [1, 2, 3, 4]
+
+
+def test_edited_line_is_an_error_unless_check_blanked(tmp_path):
+    path = tmp_path / "log.csv"
+    _log_three(path)
+    text = path.read_text()
+    edited = text.replace(",18.2,", ",19.2,")
+    path.write_text(edited)
+    with pytest.raises(MeasurementError, match="row 3, column 'check'"):
+        load_measurements(path)
+    lines = edited.splitlines()
+    lines[2] = lines[2][: lines[2].rfind(",") + 1]  # blank the checksum: accept the hand edit
+    path.write_text("\n".join(lines) + "\n")
+    assert list(load_measurements(path)["value"]) == [18.1, 19.2, 18.3]
+
+
+def test_extra_field_is_an_error(tmp_path):
+    path = tmp_path / "hand.csv"
+    path.write_text(HAND_MADE + "p1,z,0.0,m,0.0005,0 0 0,surplus\n")
+    with pytest.raises(MeasurementError, match="row 4.*expected 6 fields, got 7"):
+        load_measurements(path)
+
+
+def test_hand_made_file_without_final_newline_keeps_last_row(tmp_path):
+    path = tmp_path / "hand.csv"
+    path.write_text(HAND_MADE.rstrip("\n"))
+    with pytest.warns(MeasurementWarning, match="kept"):
+        df = load_measurements(path)
+    assert list(df["value"]) == [0.27, 0.024]
+
+
+def test_torn_header_is_repaired(tmp_path):
+    path = tmp_path / "log.csv"
+    path.write_text(",".join(COLUMNS)[:20])  # crash while writing the header
+    with MeasurementLog(path, session="s") as log:
+        log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
+    with pytest.warns(MeasurementWarning, match="torn header"):
+        df = load_measurements(path)
+    assert list(df["value"]) == [1.0]
+
+
+def test_concurrent_threads_get_unique_numbers(tmp_path):
+    import threading
+
+    path = tmp_path / "log.csv"
+    with MeasurementLog(path, session="s") as log:
+        def work(k):
+            for _ in range(25):
+                log.record(f"p{k}", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
+
+        threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    df = load_measurements(path)
+    assert sorted(df["record"]) == list(range(1, 101))
+    assert all(sorted(g) == list(range(1, 26)) for _, g in df.groupby("pose_id")["repeat"])
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import labkit.measurement
+
+    result = doctest.testmod(labkit.measurement)
+    assert result.attempted > 0 and result.failed == 0
