@@ -473,3 +473,28 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
         rms_before=rms(before), rms_after=rms(after), loo_rms=rms(loo),
         success=bool(sol.success), message=str(sol.message),
     )
+
+
+def _cmd_calibrate(args):
+    result = calibrate(args.file, args.robot, params=tuple(args.params), weighted=args.weighted,
+                       gravity=tuple(args.gravity))
+    print(result.parameters().to_string(float_format=lambda v: f"{v:.3f}"))
+    print(result.summary())
+    if args.out:
+        result.write_robot(args.out)
+        print(f"calibrated robot written to {args.out}")
+    return 0
+
+
+def add_cli(subparsers):
+    """Add ``labkit calibrate`` to the ``labkit`` command line."""
+    sp = subparsers.add_parser("calibrate", help="fit robot parameters to measured positions")
+    sp.add_argument("file", help="measurement CSV with commanded joints and x/y/z readings")
+    sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
+    sp.add_argument("--params", nargs="+", default=["joint_offsets", "link_lengths"],
+                    help=f"groups {GROUPS} or names like offset[2] a[3] tool_x sag[2]")
+    sp.add_argument("--gravity", nargs=3, type=float, default=[0.0, 0.0, -1.0], metavar=("GX", "GY", "GZ"),
+                    help="gravity direction in the base frame (for sag terms)")
+    sp.add_argument("--weighted", action="store_true", help="weight residuals by 1/uncertainty")
+    sp.add_argument("--out", help="write the calibrated robot file here")
+    sp.set_defaults(func=_cmd_calibrate)

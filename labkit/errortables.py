@@ -581,3 +581,43 @@ def audit_published(published, robot=None, *, branch="elbow_up", default_robot="
                          unit=r.unit, published=r.published, recomputed=recomputed,
                          difference=diff, tolerance=tol, agrees=bool(abs(diff) <= tol * (1 + 1e-9))))
     return AuditResult(cells=pd.DataFrame(rows))
+
+
+# -- command line (plugin of labkit.cli) ---------------------------------------------
+def _cmd_errors(args):
+    import pandas as pd
+
+    result = error_table(args.file, args.robot, branch=args.branch, combine=args.combine)
+    with pd.option_context("display.width", 200, "display.max_columns", 50):
+        print(result.wide().to_string(float_format=lambda v: f"{v:.4g}"))
+    if args.html:
+        result.to_html(args.html)
+    if args.latex:
+        result.to_latex(args.latex)
+    return 0
+
+
+def _cmd_audit(args):
+    audit = audit_published(args.file, args.robot, branch=args.branch)
+    flagged = audit.flagged
+    print(f"{len(audit.cells) - len(flagged)} of {len(audit.cells)} published values agree with the model")
+    if len(flagged):
+        print(flagged.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    return 1 if len(flagged) else 0
+
+
+def add_cli(subparsers):
+    """Add ``labkit errors`` and ``labkit audit`` to the ``labkit`` command line."""
+    sp = subparsers.add_parser("errors", help="measured-versus-calculated error table of a measurement CSV")
+    sp.add_argument("file", help="measurement CSV (docs/measurements.md)")
+    sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
+    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows (default elbow_up)")
+    sp.add_argument("--combine", default="quadrature", choices=_COMBINE, help="uncertainty rule")
+    sp.add_argument("--html", help="also write the styled table as HTML")
+    sp.add_argument("--latex", help="also write the styled table as LaTeX")
+    sp.set_defaults(func=_cmd_errors)
+    sp = subparsers.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
+    sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
+    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
+    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
+    sp.set_defaults(func=_cmd_audit)

@@ -142,3 +142,18 @@ def test_docstring_examples_run():
 
     result = doctest.testmod(labkit.calibration)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_cli_calibrate(tmp_path, capsys):
+    import argparse
+
+    import labkit.calibration as cal
+
+    parser = argparse.ArgumentParser(prog="labkit")
+    cal.add_cli(parser.add_subparsers(dest="command", required=True))
+    out_file = tmp_path / "cal.toml"
+    args = parser.parse_args(["calibrate", str(FK_SEED), "--params", "joint_offsets", "--out", str(out_file)])
+    assert args.func(args) == 0
+    out = capsys.readouterr().out
+    assert "offset[1]" in out and "leave-one-pose-out" in out
+    assert Robot.load(out_file).name == "arduino_arm_3dof_calibrated"

@@ -267,3 +267,26 @@ def test_docstring_examples_run():
 
     result = doctest.testmod(labkit.errortables)
     assert result.attempted > 0 and result.failed == 0
+
+
+def _cli(module, argv):
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="labkit")
+    module.add_cli(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+def test_cli_errors_and_audit(tmp_path, capsys):
+    import labkit.errortables as et
+
+    html = tmp_path / "t.html"
+    assert _cli(et, ["errors", str(IK_SEED), "--html", str(html)]) == 0
+    out = capsys.readouterr().out
+    assert "t4_row5" in out and "RMS" in out
+    assert html.read_text().startswith("<style")
+    assert _cli(et, ["audit", str(PUBLISHED)]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("57 of 63 published values agree")
+    assert "t3_j3_20deg" in out
