@@ -246,3 +246,20 @@ def test_servo_calibration_round_trips():
     assert s.adc_from_joint(math.pi / 2) == pytest.approx(102.3)  # servo angle 0
     with pytest.raises(JointLimitError, match="servo channel 2"):
         s.pulse_us(np.radians(100))
+
+
+def test_docs_example_file_is_valid_and_matches_bundled_arm(tmp_path):
+    """The example in docs/robot-files.md loads and describes the bundled arduino arm."""
+    from pathlib import Path
+
+    from labkit.kinematics import fk
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "robot-files.md").read_text()
+    example = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    p = tmp_path / "example.toml"
+    p.write_text(example)
+    r = Robot.load(p)
+    ref = Robot.load("arduino_arm_3dof")
+    q = np.radians([[10, 20, 30], [170, 90, 5]])
+    assert np.allclose(fk(r, q), fk(ref, q))
+    assert [lk.servo.channel for lk in r.links] == [0, 1, 2] and r.gripper == ref.gripper
