@@ -431,24 +431,35 @@ def _solve(ik, robot, kind, targets, t, branch, path):
         ) from exc
 
 
+def _solve3(J, b):
+    """Solve J x = b for a batch of 3x3 matrices (adjugate; rows with det ~ 0 by lstsq)."""
+    c0 = np.cross(J[:, :, 1], J[:, :, 2])
+    c1 = np.cross(J[:, :, 2], J[:, :, 0])
+    c2 = np.cross(J[:, :, 0], J[:, :, 1])
+    det = np.einsum("ni,ni->n", J[:, :, 0], c0)
+    scale = np.abs(J).max(axis=(1, 2)) ** 3 + 1e-300
+    ok = np.abs(det) > 1e-12 * scale
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.stack([np.einsum("ni,ni->n", c, b) for c in (c0, c1, c2)], axis=-1) / det[:, None]
+    if not np.all(ok):  # singular samples: least squares (finite, the minimum-norm rate)
+        x[~ok] = np.einsum("nij,nj->ni", np.linalg.pinv(J[~ok]), b[~ok])
+    return x
+
+
 def _joint_rates(robot, kind, q, xd, xdd):
-    """qd = J^-1 xd and qdd = J^-1 (xdd - Jdot qd) (Jdot qd by central difference)."""
-    from labkit.kinematics import jacobian
+    """qd = J^-1 xd and qdd = J^-1 (xdd - Jdot qd), Jdot qd by finite differences."""
+    from labkit.kinematics import fk_jacobian, fk_position, jacobian
 
     rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
-    J = jacobian(robot, q)[:, rows, :]
-
-    Jinv = None
-    if J.shape[-1] == J.shape[-2]:
-        try:
-            Jinv = np.linalg.inv(J)
-        except np.linalg.LinAlgError:  # a singular sample: least squares everywhere
-            Jinv = None
-    if Jinv is None:
+    T, J = fk_jacobian(robot, q)
+    J = J[:, rows, :]
+    if J.shape[-1] == 3 == J.shape[-2]:
+        solve = _solve3
+    else:
         Jinv = np.linalg.pinv(J)
 
-    def solve(_, b):
-        return np.einsum("nij,nj->ni", Jinv, b)
+        def solve(_, b):
+            return np.einsum("nij,nj->ni", Jinv, b)
 
     qd = solve(J, xd)
     if kind == "pose":
@@ -460,12 +471,10 @@ def _joint_rates(robot, kind, q, xd, xdd):
         # Jdot qd of the position rows = qd^T (d2p/dq2) qd: a central second
         # difference of the tool position along qd (cheaper than two Jacobians);
         # the planar phi row is linear in q, so its Jdot qd is 0.
-        from labkit.kinematics import fk_position
-
         speed = np.linalg.norm(qd, axis=1)
         h = 1e-4 / np.maximum(speed, 1e-12)
         step = h[:, None] * qd
-        second = fk_position(robot, q + step) + fk_position(robot, q - step) - 2 * fk_position(robot, q)
+        second = fk_position(robot, q + step) + fk_position(robot, q - step) - 2 * T[:, :3, 3]
         jdot_qd = second / (h * h)[:, None]
         jdot_qd = jdot_qd if kind == "position" else np.column_stack([jdot_qd[:, :2], np.zeros(len(q))])
     qdd = solve(J, xdd - jdot_qd)
