@@ -124,6 +124,8 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     best_q = q.copy()
     eye = np.eye(n)
     rows = list(rows)
+    wide = len(rows) < n
+    eye_m = np.eye(len(rows))
     rev = robot.is_revolute
     free_lo = np.where(rev, -np.inf, lo)
     free_hi = np.where(rev, np.inf, hi)
@@ -178,9 +180,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 break
             iterations[act] += 1
             Jt = np.swapaxes(J, -1, -2)
-            A = Jt @ J + lam[:, None, None] * eye
-            g = (Jt @ e[:, :, None])[:, :, 0]
-            dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
+            if wide:  # fewer task rows than joints: dq = J^T (J J^T + lam I)^-1 e
+                A = J @ Jt + lam[:, None, None] * eye_m
+                dq = (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
+            else:  # dq = (J^T J + lam I)^-1 J^T e
+                A = Jt @ J + lam[:, None, None] * eye
+                g = (Jt @ e[:, :, None])[:, :, 0]
+                dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
             qn = np.clip(qa + dq, alo, ahi)
             Tn, Jn = kinematics.fk_jacobian(robot, qn)
             Jn = Jn[:, rows]
