@@ -45,6 +45,14 @@ PROTOCOL_VERSION = 1
 _ARDUINO_VIDS = {0x2341, 0x2A03, 0x1A86, 0x0403, 0x10C4, 0x239A}
 _LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2})$")
 _NOT_EXECUTED = {1, 2, 3, 4}  # the request never ran (garbled on the way)
+_STRICT_INT = re.compile(r"^(0|-?[1-9][0-9]{0,9})$")  # the board never sends "+", leading zeros or "-0"
+
+
+def _int(text):
+    """Parse an integer exactly as the board writes it (ValueError otherwise)."""
+    if not _STRICT_INT.match(text):
+        raise ValueError(f"not a board integer: {text!r}")
+    return int(text)
 
 
 class CommandRejected(DeviceError):
@@ -226,6 +234,9 @@ class Arm:
         How long to wait for the board's ``EV BOOT`` after opening [s].
     sync_calibration : bool
         Send the robot file's servo calibrations (``CAL``) after the handshake.
+    check_moves : bool
+        After each acknowledged ``MOVE``, read the commanded joints back with
+        ``STATUS`` and raise if they differ from what was sent.
 
     Raises
     ------
@@ -235,17 +246,24 @@ class Arm:
     """
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
-                 boot_wait=2.5, sync_calibration=True):
+                 boot_wait=2.5, sync_calibration=True, check_moves=True):
         self.robot = Robot.load(robot)
         self.timeout = float(timeout)
         self.retries = int(retries)
         self.stats = LinkStats()
+        #: read the commanded joints back after every MOVE (protocol v1 cannot detect every corrupted line)
+        self.check_moves = bool(check_moves)
         self.events = []
         self._seq = 0
         self._buf = bytearray()
         self._lines = []
         self._frames = None
         self._booted = False
+        # largest feedback change per second [counts/s]: joint speed limit x ADC gain, 1.5x margin
+        self._adc_slew = np.array([
+            1.5 * (lk.max_velocity if math.isfinite(lk.max_velocity) else math.radians(600))
+            * abs(float(lk.servo.adc_from_joint(1.0) - lk.servo.adc_from_joint(0.0))) if lk.servo else np.inf
+            for lk in self.robot.links])
         self.port = self._open(port, baudrate)
         self.name = getattr(self.port, "port", None) or getattr(self.port, "name", repr(self.port))
         try:
@@ -282,18 +300,20 @@ class Arm:
         while not self._booted and self._clock() < deadline:
             self._pump(0.05)
         self._lines = [ln for ln in self._lines if ln.kind != "ERR"]
+        def parse(fields):
+            kv = dict(tok.split("=", 1) for tok in fields[1:] if "=" in tok)
+            if fields[:1] != ["labkit-arm"]:
+                return " ".join(fields)
+            return BoardInfo(kv["fw"], _int(kv["proto"]), _int(kv["joints"]), _int(kv["channels"]),
+                             _int(kv["queue"]), _int(kv["maxline"]))
+
         try:
-            reply = self._transact("HELLO")
+            info = self._transact("HELLO", parse=parse)
         except DeviceError as exc:
             raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
-        kv = dict(tok.split("=", 1) for tok in reply.tokens[3:] if "=" in tok)
-        if reply.tokens[2:3] != ["labkit-arm"] or "proto" not in kv:
-            raise ProtocolError(f"{self.name}: not a labkit arm: {' '.join(reply.tokens)}")
-        try:
-            self.info = BoardInfo(kv.get("fw", "?"), int(kv["proto"]), int(kv["joints"]), int(kv["channels"]),
-                                  int(kv["queue"]), int(kv["maxline"]))
-        except (KeyError, ValueError):
-            raise ProtocolError(f"{self.name}: malformed HELLO reply: {' '.join(reply.tokens)}") from None
+        if not isinstance(info, BoardInfo):
+            raise ProtocolError(f"{self.name}: not a labkit arm: HELLO answered {info!r}")
+        self.info = info
         if self.info.protocol != PROTOCOL_VERSION:
             raise DeviceError(f"{self.name}: board speaks protocol {self.info.protocol}, "
                               f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
@@ -406,7 +426,7 @@ class Arm:
         if self._frames is None:
             return
         try:
-            vals = [int(v) for v in tokens[1:]]
+            vals = [_int(v) for v in tokens[1:]]
         except ValueError:
             vals = []
         st = self._frames
@@ -416,6 +436,9 @@ class Arm:
             gap = (vals[0] - c0) % 65536
             expect = gap * 1000.0 / st["hz"]
             ok = 1 <= gap < 65536 // 2 and abs((vals[1] - t0) - expect) <= 1.0 + 1e-9 * expect
+            # joints cannot jump: a dropped digit (invisible to the XOR checksum) changes a value a lot
+            step = np.abs(np.array(vals[2:2 + J]) - st["adc"])
+            ok = ok and bool(np.all(step <= self._adc_slew * gap / st["hz"] + 12))
         elif ok:
             ok = vals[0] < 2 * st["hz"]  # first frame after STREAM: a small counter
         if not ok:
@@ -426,6 +449,7 @@ class Arm:
             st["lost"] += lost
             self.stats.lost_frames += lost
         st["last"] = (vals[0], vals[1])
+        st["adc"] = np.array(vals[2:2 + J])
         st["rows"].append((time.time(), *vals))
         self.stats.frames += 1
 
@@ -452,21 +476,33 @@ class Arm:
                 raise _NoReply(f"no valid reply within {self.timeout:g} s")
             self._pump(left)
 
-    def _transact(self, command, *args, motion=False, verify=None):
-        """Send one request until it is acknowledged; return the reply line."""
+    def _drain(self):
+        """Handle every line already received; forget unanswered replies (stale by now)."""
+        while self._io(lambda: self.port.in_waiting):
+            self._pump(0.0)
+        self._lines.clear()
+
+    def _transact(self, command, *args, motion=False, verify=None, parse=None, retries=None):
+        """Send one request until it is acknowledged; return the (parsed) reply."""
         if any(k == "BOOT-UNEXPECTED" for k, _ in self.events):
             raise DeviceError(f"{self.name}: the board reset itself (EV BOOT); its state is lost - reconnect")
         last = None
-        for attempt in range(self.retries + 1):
+        rejected = set()
+        retries = self.retries if retries is None else retries
+        for attempt in range(retries + 1):
+            self._drain()
             seq = self._next_seq()
             body = " ".join([f"#{seq}", command, *(str(int(a)) for a in args)])
+            # the space before "*" makes a line whose "*" is lost fail the argument count
+            # instead of running with the checksum digits glued to its last number
+            body += " "
             self._send(("\n" if attempt else "") + f"{body}*{checksum(body):02X}\n")
             try:
                 reply = self._await(seq)
             except _NoReply as exc:
                 last = exc
-                self.stats.retries += attempt < self.retries
-                if motion and exc.executed is None:
+                self.stats.retries += attempt < retries
+                if motion:  # even "garbled" may be a stale reply to an earlier line: ask the board
                     if verify():
                         self.stats.verified += 1
                         return _Line("OK", seq, ["OK", command])
@@ -476,33 +512,55 @@ class Arm:
                 if reply.tokens[1:2] != [command]:
                     last = _NoReply(f"reply names {reply.tokens[1:2]}, expected {command}")
                     continue
-                return reply
+                if parse is None:
+                    return reply
+                try:
+                    return parse(reply.tokens[2:])
+                except (ValueError, KeyError, IndexError) as exc:  # passed the weak checksum, still garbled
+                    self.stats.bad_lines += 1
+                    last = _NoReply(f"malformed {command} reply {' '.join(reply.tokens)!r} ({exc})")
+                    if motion:
+                        return reply  # acknowledged; only the extra fields are unusable
+                    continue
             code = int(reply.tokens[1]) if len(reply.tokens) > 1 and reply.tokens[1].isdigit() else 0
-            if code in (2, 3):  # corrupted in transit (labkit never sends bad syntax): nothing ran
+            if code in (2, 3) or (code not in (7, 8) and code not in rejected):
+                # labkit never sends bad syntax, and it checks ranges and limits before sending: the
+                # line was probably corrupted in transit (the XOR checksum misses some damage). A
+                # rejected request had no effect, so sending it again repeats nothing; a genuine
+                # rejection comes back the same way and is raised below.
+                rejected.add(code)
                 last = _NoReply(" ".join(reply.tokens))
                 continue
             name = reply.tokens[2] if len(reply.tokens) > 2 else "?"
             raise CommandRejected(f"{self.name}: {command} rejected: {' '.join(reply.tokens[1:])}", code, name)
-        raise DeviceError(f"{self.name}: {command} failed after {self.retries + 1} attempts: {last}")
+        raise DeviceError(f"{self.name}: {command} failed after {retries + 1} attempts: {last}")
 
     # -- queries -----------------------------------------------------------------------------
     def ping(self):
         """Board clock [s] (also keeps the host-silence timer alive)."""
-        return int(self._transact("PING").tokens[2]) / 1000.0
+        return self._transact("PING", parse=lambda f: _int(f[0]) / 1000.0 if len(f) == 1 else _int("x"))
 
-    def status(self):
+    def status(self, *, retries=None):
         """The board's state (commanded joints, queue, counters) as a :class:`Status`."""
-        r = self._transact("STATUS")
-        kv = dict(tok.split("=", 1) for tok in r.tokens[2:] if "=" in tok)
-        try:
-            q = [int(v) for v in kv["q"].split(",")]
-            if len(q) != self.robot.n or kv["state"] not in ("IDLE", "RUN", "HOLD"):
-                raise ValueError
-            return Status(kv["state"], np.radians(np.array(q) / 100.0), int(kv["grip"]), int(kv["queue"]),
-                          int(kv["free"]), int(kv["done"]), int(kv["timeout"]) / 1000.0, int(kv["stream"]),
-                          int(kv["flags"], 16), int(kv["mem"]), int(kv["t"]) / 1000.0)
-        except (KeyError, ValueError):
-            raise ProtocolError(f"{self.name}: malformed STATUS reply {' '.join(r.tokens)}") from None
+        return self._transact("STATUS", parse=self._parse_status, retries=retries)
+
+    def _verify_status(self):
+        # settling whether a motion request ran is worth a larger retry budget
+        return self.status(retries=4 * self.retries + 4)
+
+    def _parse_status(self, fields):
+        kv = dict(tok.split("=", 1) for tok in fields)
+        q = [_int(v) for v in kv["q"].split(",")]
+        if len(q) != self.robot.n or kv["state"] not in ("IDLE", "RUN", "HOLD"):
+            raise ValueError("bad q or state")
+        if not re.fullmatch(r"[0-9A-Fa-f]{1,8}", kv["flags"]):
+            raise ValueError("bad flags")
+        st = Status(kv["state"], np.radians(np.array(q) / 100.0), _int(kv["grip"]), _int(kv["queue"]),
+                    _int(kv["free"]), _int(kv["done"]), _int(kv["timeout"]) / 1000.0, _int(kv["stream"]),
+                    int(kv["flags"], 16), _int(kv["mem"]), _int(kv["t"]) / 1000.0)
+        if hasattr(self, "info") and st.queue + st.free != self.info.queue:
+            raise ValueError("queue + free != queue depth")
+        return st
 
     def commanded_joints(self):
         """Joint values the servos are commanded to now, shape (n,) [rad]."""
@@ -510,11 +568,13 @@ class Arm:
 
     def read_adc(self):
         """Raw feedback counts of every joint and the user pot (``READ``), shape (n + 1,)."""
-        r = self._transact("READ")
-        vals = [int(v) for v in r.tokens[2:]]
-        if len(vals) != self.robot.n + 1 or not all(0 <= v <= 1023 for v in vals):
-            raise ProtocolError(f"{self.name}: malformed READ reply {' '.join(r.tokens)}")
-        return np.array(vals)
+        def parse(fields):
+            vals = [_int(v) for v in fields]
+            if len(vals) != self.robot.n + 1 or not all(0 <= v <= 1023 for v in vals):
+                raise ValueError(f"expected {self.robot.n + 1} counts 0..1023")
+            return np.array(vals)
+
+        return self._transact("READ", parse=parse)
 
     def read_joints(self):
         """Joint values sensed by the feedback pots, shape (n,) [rad]."""
@@ -579,9 +639,12 @@ class Arm:
         target = [_cdeg(v) for v in q]
 
         def verify():
-            return [_cdeg(v) for v in self.status().q] == target
+            return [_cdeg(v) for v in self._verify_status().q] == target
 
         self._transact("MOVE", *target, motion=True, verify=verify)
+        if self.check_moves and not verify():
+            raise DeviceError(f"{self.name}: the board is commanded to {self.status().q} rad, not the "
+                              f"{q} rad sent (a line corrupted in transit executed?) - check the arm")
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
@@ -626,8 +689,12 @@ class Arm:
 
     def stop(self):
         """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad]."""
-        r = self._transact("STOP")
-        return np.radians(np.array([int(v) for v in r.tokens[2:]]) / 100.0)
+        def parse(fields):
+            if len(fields) != self.robot.n:
+                raise ValueError(f"expected {self.robot.n} joint values")
+            return np.radians(np.array([_int(v) for v in fields]) / 100.0)
+
+        return self._transact("STOP", parse=parse)
 
     def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True):
         """Stream a trajectory to the board's segment queue, keeping it fed.
@@ -667,7 +734,7 @@ class Arm:
         dones_seen = len([e for e in self.events if e[0] == "DONE"])
         for k, (dur, order_k, coef) in enumerate(segs):
             def verify(expected=accepted):
-                s = self.status()
+                s = self._verify_status()
                 if s.state == "HOLD":
                     raise DeviceError(f"{self.name}: the board halted the trajectory (host-silence timeout)")
                 total = s.done + s.queue
@@ -717,30 +784,42 @@ class Arm:
             One row per frame received intact: ``t`` [s, board clock],
             ``counter``, ``received`` (host UTC timestamp), ``adc<i>``,
             ``pot`` and the sensed joints ``q_<name>`` [rad]. ``df.attrs``
-            holds ``lost`` (frames missing from the counter sequence),
-            ``rejected`` (frames dropped as corrupt) and ``hz``.
+            holds ``expected`` (frames the board sent in the window, from its
+            clock), ``lost`` (expected but not received intact), ``rejected``
+            (lines dropped as corrupt while streaming) and ``hz``.
         """
         import pandas as pd
 
         hz = int(hz)
+        if not 1 <= hz <= 200:
+            raise ValueError(f"expected hz in 1..200, got {hz}")
         rejected0 = self.stats.rejected_frames + self.stats.bad_lines
+        t_begin = self.ping()
         self._frames = {"hz": hz, "last": None, "lost": 0, "rows": []}
         try:
             self._transact("STREAM", hz)
             t_end = self._clock() + duration
             while self._clock() < t_end:
                 self._pump(min(t_end - self._clock(), 0.05))
+            t_stop = self.ping()  # every frame stamped before this arrived before its reply
             self._transact("STREAM", 0)
         finally:
             st, self._frames = self._frames, None
+        t_stop_ms = round(t_stop * 1000)
+        rows = [r for r in st["rows"] if r[2] < t_stop_ms]
+        # frames the board sent before t_stop: counter 0 at t0, one every 1/hz
+        t0_ms = rows[0][2] - rows[0][1] * 1000.0 / hz if rows else t_begin * 1000
+        expected = max(0, math.ceil((t_stop_ms - t0_ms) * hz / 1000.0 - 1e-6))
+        lost = expected - len(rows)
+        self.stats.lost_frames += lost - st["lost"]
         J = self.robot.n
         cols = ["received", "counter", "t_ms", *(f"adc{j}" for j in range(J)), "pot"]
-        df = pd.DataFrame(st["rows"], columns=cols)
+        df = pd.DataFrame(rows, columns=cols)
         df["received"] = pd.to_datetime(df["received"], unit="s", utc=True)
         df.insert(0, "t", df.pop("t_ms") / 1000.0)
         for j, (name, lk) in enumerate(zip(self.robot.joint_names, self.robot.links)):
             df[f"q_{name}"] = lk.servo.joint_from_adc(df[f"adc{j}"].to_numpy(float))
-        df.attrs.update(lost=st["lost"], rejected=self.stats.rejected_frames + self.stats.bad_lines - rejected0, hz=hz)
+        df.attrs.update(lost=lost, expected=expected, t_stop=t_stop_ms / 1000.0, rejected=self.stats.rejected_frames + self.stats.bad_lines - rejected0, hz=hz)
         return df
 
 

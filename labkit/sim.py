@@ -343,8 +343,8 @@ class VirtualBoard:
         name = tokens[0].upper()
         handler = getattr(self, f"_cmd_{name.lower()}", None) if name.isalpha() else None
         if handler is None:
-            self._emit(f"ERR{tag} 3 UNKNOWN {tokens[0][:20]}" if tokens[0].isalpha()
-                       else f"ERR{tag} 2 SYNTAX bad command")
+            shown = "".join(ch if ch.isalnum() else "?" for ch in tokens[0][:12])
+            self._emit(f"ERR{tag} 3 UNKNOWN {shown}")
             return
         try:
             args = []
@@ -414,9 +414,11 @@ class VirtualBoard:
             raise _Reject(2, f"expected {need} coefficients, got {len(args) - 2}")
         if len(self.segments) >= self.queue_depth:
             raise _Reject(7, "queue full")
+        if any(abs(c) > 10_000_000 for c in args[2:]):
+            raise _Reject(5, "coefficient outside +-10000000")
         coef = np.array(args[2:], dtype=float).reshape(self.joints, order + 1)
         seg = _Segment(dur / 1000.0, coef)
-        samples = np.polynomial.polynomial.polyval(np.arange(33) / 32.0, coef.T)  # (J, 33)
+        samples = np.round(np.polynomial.polynomial.polyval(np.arange(33) / 32.0, coef.T))  # (J, 33)
         for j in range(self.joints):
             for v in samples[j]:
                 if not self._valid(j, v):
@@ -456,8 +458,8 @@ class VirtualBoard:
         self.stream_hz = args[0]
         self.stream_counter = 0
         self._stream_t0 = self.time
-        self._stream_k = 1
-        self.stream_next = self.time + 1.0 / args[0] if args[0] else math.inf
+        self._stream_k = 0
+        self.stream_next = self.time if args[0] else math.inf  # first frame at once
         return str(args[0])
 
     def _cmd_cal(self, args):
@@ -475,6 +477,8 @@ class VirtualBoard:
             new = [pmin, pmax, zero, d, lo, hi]
             if ch < self.joints and not self._valid(ch, self.q[ch], new):
                 raise _Reject(6, f"joint {ch} position {int(self.q[ch])} invalid under the new calibration")
+            if ch == self.joints and not min(pmin, pmax) <= self.grip <= max(pmin, pmax):
+                raise _Reject(6, "gripper pulse outside the new range")
             self.cal[ch] = new
         return " ".join(str(v) for v in [ch] + self.cal[ch])
 
