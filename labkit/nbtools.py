@@ -191,7 +191,7 @@ class Checks:
         import pandas as pd
 
         return pd.DataFrame(
-            [{"quantity": r.name, "reproduced": _fmt(r.value), "published": _fmt(r.published),
+            [{"quantity": r.name, "reproduced": _fmt(r.value), "published / expected": _fmt(r.published),
               "max |diff|": r.error, "tolerance": r.tol if r.kind == "check" else None,
               "result": ("pass" if r.passed else "FAIL") if r.kind == "check" else "published typo",
               "note": r.note} for r in self.rows]

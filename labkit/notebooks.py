@@ -160,21 +160,32 @@ def parse_parameter(text: str):
 def notebook_parameters(notebook) -> dict:
     """The parameters (name -> default source text) declared by a notebook's ``parameters`` cell.
 
+    The cell is parsed with :mod:`ast` (papermill's own line parser rejects values such as
+    ``"sim://?clock=lockstep"``); every top-level assignment is a parameter.
+
     Raises
     ------
     LabkitError
-        If the notebook has no cell tagged ``parameters``.
+        If the notebook has no cell tagged ``parameters`` or the cell is not valid Python.
     """
-    import papermill
+    import nbformat
 
-    params = papermill.inspect_notebook(str(notebook))
-    if not params:
-        import nbformat
-
-        nb = nbformat.read(str(notebook), as_version=4)
-        if not any("parameters" in c.get("metadata", {}).get("tags", []) for c in nb.cells):
-            raise LabkitError(f"{notebook} has no cell tagged 'parameters'")
-    return {name: info["default"] for name, info in params.items()}
+    nb = nbformat.read(str(notebook), as_version=4)
+    cells = [c for c in nb.cells if "parameters" in c.get("metadata", {}).get("tags", [])]
+    if not cells:
+        raise LabkitError(f"{notebook} has no cell tagged 'parameters'")
+    source = cells[0].source
+    try:
+        tree = ast.parse(source)
+    except SyntaxError as exc:
+        raise LabkitError(f"{notebook}: the parameters cell is not valid Python: {exc}") from exc
+    params = {}
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+        for target in targets:
+            if isinstance(target, ast.Name) and getattr(node, "value", None) is not None:
+                params[target.id] = ast.get_source_segment(source, node.value)
+    return params
 
 
 def _first_error(nb):
