@@ -10,10 +10,9 @@ install:
 	tools/install-system-deps.sh reports
 	$(PIP) install -q -e .
 
+# every lab notebook executed against the simulated arm (sim://), HTML + PDF + reports/index.html
 reports: install
-	labkit robots
-	labkit fk arduino_arm_3dof --deg 45 60 30
-	labkit ik arduino_arm_3dof --mm --deg 100 100 -100
+	labkit render --jobs 2 --output reports
 
 install-test:
 	tools/install-system-deps.sh test
