@@ -491,8 +491,11 @@ def plot_path_3d(path, ax=None, *, units="mm", start_end=True, color="tab:blue",
         raise ValueError("expected 3-D axes (projection='3d')")
     ax.plot(p[:, 0], p[:, 1], p[:, 2], color=color, lw=2, gid="path", label=label or "path")
     if start_end:
-        ax.plot(*p[0, :, None], "o", color=START_COLOR, ms=7, gid="path-start", label="start")
-        ax.plot(*p[-1, :, None], "o", color=END_COLOR, ms=7, gid="path-end", label="end")
+        shown = {h.get_label() for h in ax.get_legend_handles_labels()[0]}
+        ax.plot(*p[0, :, None], "o", color=START_COLOR, ms=7, gid="path-start",
+                label="_start" if "start" in shown else "start")
+        ax.plot(*p[-1, :, None], "o", color=END_COLOR, ms=7, gid="path-end",
+                label="_end" if "end" in shown else "end")
     _label_space_axes(ax, 3, units)
     _equal_3d(ax, p)
     ax.legend(loc="best", fontsize="small")
