@@ -99,6 +99,24 @@ def _err(message, line=None, column=None):
     return exc
 
 
+def _frame(data, loader, required):
+    """DataFrame from a path (via ``loader``) or a user-built frame, optional columns filled in."""
+    import pandas as pd
+
+    if not isinstance(data, pd.DataFrame):
+        return loader(data)
+    missing = [c for c in ("pose_id", "quantity", *required) if c not in data]
+    if missing:
+        raise MeasurementError(f"missing column(s) {missing}; found {list(data.columns)}")
+    df = data.reset_index(drop=True).copy()
+    defaults = {"line": np.arange(len(df)) + 2, "half_range": np.nan, "n_readings": 1,
+                "commanded": None, "target": None, "precision": "", "table": "", "robot": ""}
+    for col, value in defaults.items():
+        if col not in df:
+            df[col] = pd.Series([value] * len(df), dtype=object) if value is None or col == "line" else value
+    return df
+
+
 def _robot(robot, df):
     from labkit.dh import Robot
 
@@ -359,7 +377,7 @@ def error_table(measurements, robot=None, *, mode="auto", branch="elbow_up", com
 
     if combine not in _COMBINE:
         raise MeasurementError(f"unknown combine rule {combine!r}; expected one of {_COMBINE}")
-    df = measurements if isinstance(measurements, pd.DataFrame) else load_measurements(measurements)
+    df = _frame(measurements, load_measurements, ("value", "resolution", "unit"))
     if not len(df):
         raise MeasurementError("expected at least one reading, got an empty table")
     robot = _robot(robot, df)
@@ -560,8 +578,8 @@ def audit_published(published, robot=None, *, branch="elbow_up", default_robot="
     """
     import pandas as pd
 
-    df = published if isinstance(published, pd.DataFrame) else load_published(published)
-    if robot is None and "robot" not in df:
+    df = _frame(published, load_published, _AUDIT_REQUIRED)
+    if robot is None and not any(isinstance(r, str) and r for r in df.get("robot", [])):
         robot = default_robot
     robot = _robot(robot, df)
     for col in ("unit",):

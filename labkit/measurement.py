@@ -292,16 +292,16 @@ class MeasurementLog:
         self._lock = threading.Lock()
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
         self._robot_obj = robot if hasattr(robot, "fk") else None
-        existing = None
         raw = b""
         if self.path.exists():
             with open(self.path, "rb") as f:
                 raw = f.read(len(_HEADER_LINE))
         torn_header = b"\n" not in raw and _HEADER_LINE.encode().startswith(raw)
+        existing = []
         if raw and not torn_header:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", MeasurementWarning)
-                existing = load_measurements(self.path, validate=False)
+                existing = _read_rows(self.path)
         created = not self.path.exists()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:
@@ -325,16 +325,17 @@ class MeasurementLog:
                         self._write(_HEADER_LINE)
         self._next_record = 1
         self._repeats = {}
-        last_session, last_robot, last_operator = None, "", ""
-        if existing is not None and len(existing):
-            rec = existing["record"].dropna()
-            self._next_record = int(rec.max()) + 1 if len(rec) else len(existing) + 1
-            last_session = str(existing["session"].iloc[-1])
-            last_robot = str(existing["robot"].iloc[-1])
-            last_operator = str(existing["operator"].iloc[-1])
-            for (s, p, q), rep in existing.groupby(["session", "pose_id", "quantity"])["repeat"]:
-                rep = rep.dropna()
-                self._repeats[(s, p, q)] = int(rep.max()) if len(rep) else 0
+        existing = [(n, {k: (v or "").strip() for k, v in row.items()}) for n, row in existing]
+        last = existing[-1][1] if existing else {}
+        last_session = last.get("session")
+        for lineno, row in existing:
+            record, repeat = _int_or_none(row.get("record")), _int_or_none(row.get("repeat"))
+            self._next_record = max(self._next_record, (record or 0) + 1)
+            key = (row.get("session", ""), row.get("pose_id", ""), row.get("quantity", ""))
+            self._repeats[key] = max(self._repeats.get(key, 0), repeat or 0)
+        if existing and self._next_record == 1:
+            self._next_record = len(existing) + 1
+        last_robot, last_operator = last.get("robot", ""), last.get("operator", "")
         if session is None:
             session = last_session or (
                 datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-" + secrets.token_hex(2)
@@ -495,6 +496,13 @@ def _check_ranges(resolution, half_range, n_readings, **where):
         raise _error(f"expected n_readings >= 1, got {n_readings!r}", column="n_readings", **where)
 
 
+def _int_or_none(text):
+    try:
+        return int(float(text))
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
 def _finite(value, column):
     try:
         out = float(value)
@@ -568,8 +576,12 @@ def load_measurements(path, *, poses=None, validate=True):
         checksum) which a resuming writer terminated. A complete line whose
         checksum does not match is an error (column ``check``), not skipped.
     """
-    import pandas as pd
+    path = Path(path)
+    return _to_frame(path, _read_rows(path), poses, validate)
 
+
+def _read_rows(path):
+    """``[(line number, {column: text})]`` of the intact records (pure csv; no pandas)."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -597,7 +609,7 @@ def load_measurements(path, *, poses=None, validate=True):
             fields = next(csv.reader([text]))
             fields = [f.strip() for f in fields]
             if _is_torn_header(fields, lines, index):
-                warnings.warn(f"{path}: row {lineno}: skipping a torn header line", MeasurementWarning, stacklevel=2)
+                warnings.warn(f"{path}: row {lineno}: skipping a torn header line", MeasurementWarning, stacklevel=3)
                 continue
             missing = [c for c in REQUIRED_COLUMNS if c not in fields]
             if missing:
@@ -622,18 +634,18 @@ def load_measurements(path, *, poses=None, validate=True):
             if is_last_partial or "check" in header:
                 warnings.warn(
                     f"{path}: row {lineno}: skipping a torn record (partial line left by a crash)",
-                    MeasurementWarning, stacklevel=2,
+                    MeasurementWarning, stacklevel=3,
                 )
                 continue
             raise _error(f"expected {len(header)} fields, got {0 if fields is None else len(fields)}",
                          path=path, line=lineno)
         if is_last_partial and "check" not in header:
             warnings.warn(f"{path}: row {lineno}: last line has no newline (partial write?); kept",
-                          MeasurementWarning, stacklevel=2)
+                          MeasurementWarning, stacklevel=3)
         rows.append((lineno, dict(zip(header, fields))))
     if header is None:
         raise _error(f"no header line; expected columns {list(COLUMNS)}", path=path)
-    return _to_frame(path, rows, poses, validate)
+    return rows
 
 
 def _is_torn_header(fields, lines, index):
