@@ -42,6 +42,14 @@ def _num(path, field, value, *, default=None):
     return float(value)
 
 
+def _positive(path, field, value):
+    """An optional strictly positive limit (speed, acceleration); inf when absent."""
+    v = _num(path, field, value, default=math.inf)
+    if not v > 0:
+        raise RobotFileError(path, field, f"expected a positive number, got {value!r}")
+    return v
+
+
 def _pair(path, field, value):
     if not isinstance(value, list) or len(value) != 2:
         raise RobotFileError(path, field, f"expected [lower, upper], got {value!r}")
@@ -147,11 +155,14 @@ def parse(data, path):
                 limits=limits,
                 name=str(j.get("name", f"q{i}")),
                 servo=servo,
-                max_velocity=_num(path, f"{where}.max_velocity", j.get("max_velocity"), default=math.inf) * qscale,
-                max_acceleration=_num(path, f"{where}.max_acceleration", j.get("max_acceleration"), default=math.inf)
-                * qscale,
+                max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity")) * qscale,
+                max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration")) * qscale,
             )
         )
+    names = [lk.name for lk in links]
+    dup = sorted({nm for nm in names if names.count(nm) > 1})
+    if dup:
+        raise RobotFileError(path, "joint.name", f"expected distinct joint names, got {dup[0]!r} twice")
     channels = [lk.servo.channel for lk in links if lk.servo]
     gripper = None
     if "gripper" in data:

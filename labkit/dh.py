@@ -452,7 +452,7 @@ def bundled_robots():
 
 def _resolve(name_or_path):
     p = Path(os.fspath(name_or_path))
-    if p.suffix == ".toml" or p.exists() or os.sep in str(name_or_path):
+    if p.suffix == ".toml" or p.is_file() or os.sep in str(name_or_path):
         if not p.is_file():
             raise RobotFileError(p, "<file>", "no such robot file")
         return p
@@ -470,7 +470,11 @@ def _load_file(path):
     from labkit._robotfile import parse
 
     try:
-        data = tomllib.loads(Path(path).read_text())
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotFileError(path, "<file>", f"cannot read the file: {exc}") from None
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RobotFileError(path, "<toml>", f"not valid TOML: {exc}") from None
     return parse(data, path)

@@ -16,6 +16,7 @@ import numpy as np
 
 from labkit._validation import as_vector
 from labkit.dh import Convention
+from labkit.exceptions import ShapeError
 
 __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
@@ -132,6 +133,16 @@ def _assemble(cols, N):
     return out
 
 
+def _as_point(point):
+    """A tool-frame point of shape (3,) or None (validated)."""
+    if point is None:
+        return None
+    pt = as_vector(point, 3, "point")
+    if pt.ndim != 1:
+        raise ShapeError(f"expected point with shape (3,), got {pt.shape}")
+    return pt
+
+
 def _prepare(robot, q):
     q = as_vector(q, robot.n, "q")
     lead = q.shape[:-1]
@@ -198,7 +209,7 @@ def fk_position(robot, q, point=None):
     array([0.35, 0.12, 0.  ])
     """
     q2, lead = _prepare(robot, q)
-    pt = None if point is None else np.asarray(point, dtype=float).reshape(3)
+    pt = _as_point(point)
     N = q2.shape[0]
     out = np.empty((N, 3))
     for s in range(0, N, _CHUNK):
@@ -286,7 +297,7 @@ def fk_jacobian(robot, q, *, point=None, frame="base"):
     if frame not in ("base", "tool"):
         raise ValueError(f"expected frame 'base' or 'tool', got {frame!r}")
     q2, lead = _prepare(robot, q)
-    pt = None if point is None else np.asarray(point, dtype=float).reshape(3)
+    pt = _as_point(point)
     N = q2.shape[0]
     T = np.empty((N, 4, 4))
     J = np.empty((N, 6, robot.n))

@@ -113,6 +113,10 @@ def _write(tmp_path, text, name="bad.toml"):
         ("limits = [0, 50]", "", r"joint\[2\].limits", "required for a prismatic joint"),
         ("d = 10", 'd = "ten"', r"joint\[2\].d", "finite number, got 'ten'"),
         ('format = "labkit-robot/1"', 'format = "labkit-robot/9"', "format", "expected 'labkit-robot/1'"),
+        ("a = 100", "a = 100\nmax_velocity = 0", r"joint\[1\].max_velocity", "positive number, got 0"),
+        ("a = 100", "a = 100\nmax_acceleration = -5", r"joint\[1\].max_acceleration", "positive number, got -5"),
+        ("d = 10", 'd = 10\nname = "q1"', "joint.name", "distinct joint names, got 'q1' twice"),
+        ("[[joint]]\na = 100", '[[joint]]\nname = "q2"\na = 100', "joint.name", "got 'q2' twice"),
     ],
 )
 def test_malformed_file_names_file_and_field(tmp_path, old, new, field, message):
@@ -142,6 +146,27 @@ def test_duplicate_servo_channels(tmp_path):
     gripper = MINIMAL + "\n[gripper]\nchannel = 0\nopen_us = 1000\nclosed_us = 2000\n"
     with pytest.raises(RobotFileError, match=r"distinct servo channels, got \[0, 0\]"):
         Robot.load(_write(tmp_path, gripper, "g.toml"))
+
+
+def test_tool_frame_errors(tmp_path):
+    bad = MINIMAL + "\n[tool]\ntranslation = [1, 2]\n"
+    with pytest.raises(RobotFileError, match=r"field 'tool.translation': expected a list of 3 numbers"):
+        Robot.load(_write(tmp_path, bad))
+    bad = MINIMAL + "\n[tool]\nrotation = [0, 0, 0]\n"
+    with pytest.raises(RobotFileError, match=r"field 'tool.rotation': unknown key; expected one of: rpy, translation"):
+        Robot.load(_write(tmp_path, bad, "b.toml"))
+
+
+def test_unreadable_file(tmp_path):
+    p = tmp_path / "latin1.toml"
+    p.write_bytes(MINIMAL.replace("mini", "mini\xe9").encode("utf-8").replace(b"\xc3\xa9", b"\xe9"))
+    with pytest.raises(RobotFileError, match="cannot read the file") as info:
+        Robot.load(p)
+    assert info.value.field == "<file>"
+    d = tmp_path / "folder.toml"
+    d.mkdir()
+    with pytest.raises(RobotFileError, match="no such robot file"):
+        Robot.load(d)
 
 
 def test_invalid_toml(tmp_path):

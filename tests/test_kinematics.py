@@ -342,3 +342,13 @@ def test_against_roboticstoolbox(convention, rng):
         for q in rng.uniform(-1, 1, size=(5, robot.n)):
             assert np.allclose(fk(robot, q), ref.fkine(q).A, atol=1e-12)
             assert np.allclose(jacobian(robot, q), ref.jacob0(q), atol=1e-12)
+
+
+def test_point_validation():
+    arm = Robot.load("arduino_arm_3dof")
+    with pytest.raises(ShapeError, match=r"point with shape \(\.\.\., 3\), got \(2,\)"):
+        fk_position(arm, [0.1, 0.2, 0.3], point=[0.0, 1.0])
+    with pytest.raises(ShapeError, match=r"point with shape \(3,\), got \(2, 3\)"):
+        jacobian(arm, [0.1, 0.2, 0.3], point=np.zeros((2, 3)))
+    with pytest.raises(ShapeError, match="finite point"):
+        jacobian(arm, [0.1, 0.2, 0.3], point=[0.0, np.nan, 0.0])
