@@ -23,12 +23,15 @@
  *   go                               continue after a TICK
  *   sleep <us>                       print WOKE once `us` more simulated microseconds elapsed
  *   time | pulses                    query
- * Times are simulated microseconds since power-on (cycles / 16). The harness never calls
- * uart_pty_stop() (it can hang); it exits with _exit().
+ * Times are simulated microseconds since power-on (cycles / 16). The harness does not use
+ * simavr's uart_pty part (two threads, no locking); it bridges the UART to a pty itself.
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <fcntl.h>
 #include <poll.h>
+#include <pty.h>
+#include <termios.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -39,7 +42,7 @@
 
 #include <simavr/avr_adc.h>
 #include <simavr/avr_ioport.h>
-#include <simavr/parts/uart_pty.h>
+#include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_elf.h>
 
@@ -47,7 +50,17 @@
 #define FIRST_PIN 2
 
 static avr_t *avr;
-static uart_pty_t uart_pty;
+/* UART0 <-> pty bridge, single-threaded (simavr's uart_pty part feeds the UART from a second
+   thread without locking and wedges on bursts larger than its 512-byte FIFO) */
+static int pty_master = -1, pty_slave = -1;
+static char pty_name[128];
+static avr_irq_t *uart_in_irq;
+static int uart_xon = 1;
+static uint8_t rx_buf[8192]; /* host -> AVR, not yet accepted by the UART */
+static size_t rx_head, rx_len;
+static uint8_t tx_buf[65536]; /* AVR -> host, not yet written to the pty */
+static size_t tx_len;
+static unsigned long tx_dropped;
 static FILE *ctl; /* control output (the real stdout) */
 static int running;
 static double pace; /* 0 = free */
@@ -73,6 +86,67 @@ static void say(const char *fmt, ...) {
     va_end(ap);
     fputc('\n', ctl);
     fflush(ctl);
+}
+
+static void uart_feed(void) {
+    while (uart_xon && rx_len) {
+        uint8_t b = rx_buf[rx_head];
+        rx_head = (rx_head + 1) % sizeof rx_buf;
+        rx_len--;
+        avr_raise_irq(uart_in_irq, b); /* the UART raises XOFF when its FIFO is full */
+    }
+}
+static void uart_xon_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq; (void)value; (void)param;
+    uart_xon = 1;
+    uart_feed();
+}
+static void uart_xoff_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq; (void)value; (void)param;
+    uart_xon = 0;
+}
+static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
+    (void)irq; (void)param;
+    if (tx_len < sizeof tx_buf) tx_buf[tx_len++] = (uint8_t)value;
+    else tx_dropped++;
+}
+/* move bytes between the pty and the buffers (non-blocking) */
+static void pty_pump(void) {
+    if (tx_len) {
+        ssize_t w = write(pty_master, tx_buf, tx_len);
+        if (w > 0) { memmove(tx_buf, tx_buf + w, tx_len - (size_t)w); tx_len -= (size_t)w; }
+    }
+    while (rx_len < sizeof rx_buf) {
+        uint8_t tmp[512];
+        size_t room = sizeof rx_buf - rx_len, want = room < sizeof tmp ? room : sizeof tmp;
+        ssize_t r = read(pty_master, tmp, want);
+        if (r <= 0) break;
+        for (ssize_t i = 0; i < r; i++) rx_buf[(rx_head + rx_len + (size_t)i) % sizeof rx_buf] = tmp[i];
+        rx_len += (size_t)r;
+    }
+    uart_feed();
+}
+
+static int pty_open(void) {
+    struct termios tio;
+    if (openpty(&pty_master, &pty_slave, pty_name, NULL, NULL) < 0) return -1;
+    tcgetattr(pty_master, &tio);
+    cfmakeraw(&tio); /* no echo, no line discipline: a plain 8-bit wire */
+    tcsetattr(pty_master, TCSANOW, &tio);
+    fcntl(pty_master, F_SETFL, fcntl(pty_master, F_GETFL) | O_NONBLOCK);
+    /* pty_slave stays open so that reads on the master do not fail before a host opens it */
+    return 0;
+}
+
+static void uart_connect(void) {
+    uint32_t f = 0;
+    avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &f);
+    f &= ~AVR_UART_FLAG_STDIO;
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &f);
+    uart_in_irq = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out_hook, 0);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_hook, 0);
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_hook, 0);
 }
 
 static void anchor_pace(void) {
@@ -196,19 +270,19 @@ int main(int argc, char **argv) {
     avr_load_firmware(avr, &fw);
     avr->frequency = 16000000;
     avr->vcc = avr->avcc = avr->aref = 5000;
-    uart_pty_init(avr, &uart_pty);
-    uart_pty_connect(&uart_pty, '0');
+    if (pty_open() < 0) { say("ERR cannot open a pty: %s", strerror(errno)); return 1; }
+    uart_connect();
     for (int c = 0; c < NCH; c++)
         avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), FIRST_PIN + c), pin_changed,
                                 (void *)(intptr_t)c);
     for (int p = 0; p < 6; p++) set_adc(p, 0);
-    say("PTY %s", uart_pty.pty.slavename);
+    say("PTY %s", pty_name);
     running = start_running;
     say("READY %s", running ? "running" : "held");
     anchor_pace();
     unsigned long steps = 0;
     for (;;) {
-        if (!running) { poll_control(-1); continue; }
+        if (!running) { poll_control(20); pty_pump(); continue; }
         int state = avr_run(avr);
         if (state == cpu_Done || state == cpu_Crashed) {
             say("CRASH %d %.2f", state, sim_us());
@@ -222,7 +296,8 @@ int main(int argc, char **argv) {
             }
         }
         if (waking && avr->cycle >= wake_cycle) { waking = 0; say("WOKE %.2f", sim_us()); }
-        if (++steps % 4096 == 0) {
+        if (++steps % 2048 == 0) {
+            pty_pump();
             poll_control(0);
             if (pace > 0) {
                 double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);

@@ -1,0 +1,88 @@
+"""pyserial URL handler ``simavr://[path/to/firmware.elf][?options]``: the real firmware in simavr.
+
+Opening the URL builds the firmware and harness if needed, starts the simulator with the CPU
+held, opens the harness's pty and only then lets the CPU run, so the ``EV BOOT`` line is not
+lost to pyserial's input flush on open. Closing the port stops the simulator.
+
+Options (query string):
+
+``pace=<factor>``
+    0 (default) runs free (about 10x real time), 1 paces simulated time to the wall clock.
+``tick=<seconds>``
+    period of the ``on_tick`` hook (only used when a hook is attached later via ``port.sim``).
+
+The simulator is available as ``port.sim`` (a :class:`labkit.firmware_sim.FirmwareSim`):
+``port.sim.pulses()``, ``port.sim.set_analog(pin, volts)``, ``port.sim.reset()``...
+
+Example
+-------
+>>> import serial, labkit.urlhandler
+>>> labkit.urlhandler.register()
+>>> port = serial.serial_for_url("simavr://?pace=1", baudrate=115200, timeout=1)  # doctest: +SKIP
+>>> port.readline()                                                               # doctest: +SKIP
+b'EV BOOT labkit-arm fw=1.0.0 proto=1 reset=POWER eeprom=DEFAULTS*1A\\r\\n'
+"""
+
+from __future__ import annotations
+
+import urllib.parse
+
+from serial import serialposix
+from serial.serialutil import SerialException
+
+from ..firmware_sim import FirmwareSim
+
+SCHEME = "simavr://"
+
+
+def parse_url(url):
+    """Split ``simavr://[elf][?options]`` into ``(elf or None, {"pace": float, "tick": float})``.
+
+    Raises
+    ------
+    serial.SerialException
+        For another scheme or unknown/malformed options.
+    """
+    if not url.lower().startswith(SCHEME):
+        raise SerialException(f"expected a URL starting with {SCHEME!r}, got {url!r}")
+    rest = url[len(SCHEME):]
+    path, _, query = rest.partition("?")
+    options = {"pace": 0.0, "tick": 0.005}
+    for key, values in urllib.parse.parse_qs(query, keep_blank_values=True).items():
+        if key not in options:
+            raise SerialException(f"unknown option {key!r} in {url!r}; valid options: {sorted(options)}")
+        try:
+            options[key] = float(values[-1])
+        except ValueError:
+            raise SerialException(f"option {key!r} in {url!r} must be a number, got {values[-1]!r}") from None
+    return (urllib.parse.unquote(path) or None), options
+
+
+class Serial(serialposix.Serial):
+    """A pyserial port on the simulated Uno's UART0 (see module docstring)."""
+
+    sim: FirmwareSim | None = None
+
+    def open(self):
+        url = self._port
+        elf, options = parse_url(url)
+        try:
+            self.sim = FirmwareSim(elf, pace=options["pace"], tick_period=options["tick"])
+        except Exception as exc:
+            raise SerialException(f"could not start the firmware simulator for {url!r}: {exc}") from exc
+        self._port = self.portstr = self.sim.port
+        try:
+            super().open()
+        except Exception:
+            self.sim.close()
+            self.sim = None
+            raise
+        finally:
+            self._port = self.portstr = url
+        self.sim.run()
+
+    def close(self):
+        super().close()
+        if self.sim is not None:
+            self.sim.close()
+            self.sim = None

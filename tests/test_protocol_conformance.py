@@ -1,0 +1,429 @@
+"""Protocol conformance suite (docs/protocol.md), run against every board in tests/boards.py.
+
+Every test talks to the board only through its serial port, and checks what the servos are
+really commanded through ``board.pulses()``/``board.pulse_history()``: a rejected command must
+never move anything, and the board must keep answering after any input.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+
+import numpy as np
+import pytest
+
+from boards import BOARDS
+
+pytestmark = [pytest.mark.firmware, pytest.mark.xdist_group("firmware")]
+
+US_PER_CDEG = 2000 / 18000  # default calibration: 500..2500 us over 0..180 deg
+
+
+def xor(data: bytes) -> int:
+    return functools.reduce(lambda a, b: a ^ b, data, 0)
+
+
+def checked(line: str) -> str:
+    """Append the NMEA-style checksum to a request line."""
+    return f"{line}*{xor(line.encode()):02X}"
+
+
+def pulse_of(q_cdeg, pmin=500, pmax=2500):
+    return pmin + q_cdeg * (pmax - pmin) / 18000
+
+
+class Host:
+    """Minimal stop-and-wait client: verifies every board line's checksum, collects events."""
+
+    def __init__(self, port):
+        self.port = port
+        self.events: list[str] = []
+        self.frames: list[str] = []
+        self.replies: list[str] = []
+
+    def readline(self) -> str:
+        raw = self.port.readline()
+        assert raw.endswith(b"\r\n"), f"board line not terminated by CR LF (timeout?): {raw!r}"
+        body, star, cs = raw[:-2].rpartition(b"*")
+        assert star and re.fullmatch(rb"[0-9A-F]{2}", cs), f"no checksum on board line {raw!r}"
+        assert int(cs, 16) == xor(body), f"bad checksum on board line {raw!r}"
+        assert len(raw) - 2 <= 160
+        return body.decode("ascii")
+
+    def read_reply(self) -> str:
+        while True:
+            line = self.readline()
+            if line.startswith("EV"):
+                self.events.append(line)
+            elif line.startswith("FB"):
+                self.frames.append(line)
+            else:
+                assert line.startswith(("OK", "ERR")), f"unexpected board line {line!r}"
+                self.replies.append(line)
+                return line
+
+    def send_raw(self, data: bytes):
+        self.port.write(data)
+
+    def cmd(self, line: str) -> str:
+        self.port.write(line.encode("latin-1") + b"\n")
+        return self.read_reply()
+
+    def ok(self, line: str) -> list[str]:
+        reply = self.cmd(line)
+        assert reply.startswith("OK"), f"{line!r} -> {reply!r}"
+        return reply.split()[1:]
+
+    def err(self, line, code: int) -> str:
+        reply = self.cmd(line) if isinstance(line, str) else (self.send_raw(line), self.read_reply())[1]
+        words = [w for w in reply.split() if not w.startswith("#")]
+        assert words[:2] == ["ERR", str(code)], f"{line!r}: expected ERR {code}, got {reply!r}"
+        return reply
+
+    def wait_event(self, prefix: str) -> str:
+        for ev in self.events:
+            if ev.startswith(prefix):
+                self.events.remove(ev)
+                return ev
+        while True:
+            line = self.readline()
+            if line.startswith(prefix):
+                return line
+            (self.frames if line.startswith("FB") else self.events).append(line)
+
+    def status(self) -> dict:
+        fields = self.ok("STATUS")[1:]
+        return dict(f.split("=", 1) for f in fields)
+
+
+@pytest.fixture(params=sorted(BOARDS))
+def board(request):
+    b = BOARDS[request.param]()
+    yield b
+    b.close()
+
+
+@pytest.fixture
+def host(board):
+    h = Host(board.open())
+    boot = h.wait_event("EV BOOT")
+    assert "proto=1" in boot
+    return h
+
+
+def assert_pulses(board, expected: dict, tol=1.5):
+    got = board.pulses()
+    for ch, us in expected.items():
+        assert ch in got and abs(got[ch] - us) <= tol, f"channel {ch}: expected {us:.1f} us, got {got.get(ch)}"
+
+
+# ------------------------------------------------------------------------------ handshake
+def test_boot_line_and_hello(board, host):
+    fields = host.ok("HELLO")
+    assert fields[:2] == ["HELLO", "labkit-arm"]
+    kv = dict(f.split("=") for f in fields[2:])
+    assert kv["proto"] == "1" and re.fullmatch(r"\d+\.\d+\.\d+", kv["fw"])
+    assert kv["joints"] == "3" and kv["channels"] == "4"
+    assert int(kv["queue"]) >= 2 and kv["maxline"] == "160"
+    # boot position: middle of the limits, gripper in the middle of its pulse range
+    board.advance(0.05)
+    assert_pulses(board, {0: 1500, 1: 1500, 2: 1500, 3: 1500})
+
+
+def test_sequence_id_and_checksum_are_echoed(host):
+    assert host.cmd(checked("#42 PING")).startswith("OK #42 PING ")
+    assert host.cmd("$" + checked("#7 ping")).startswith("OK #7 PING ")
+    assert host.cmd("#65535 hello").startswith("OK #65535 HELLO")
+    t1 = int(host.ok("PING")[1])
+    t2 = int(host.ok("PING")[1])
+    assert t2 >= t1
+    assert host.cmd("  status  \t").startswith("OK STATUS")
+
+
+# ------------------------------------------------------------------------------ moves and limits
+def test_move_sets_servo_pulses(board, host):
+    assert host.ok("#1 MOVE 4500 9000 3000") == ["#1", "MOVE"]
+    board.advance(0.05)
+    assert_pulses(board, {0: pulse_of(4500), 1: 1500, 2: pulse_of(3000), 3: 1500})
+    assert host.status()["q"] == "4500,9000,3000"
+
+
+@pytest.mark.parametrize(
+    "line, code",
+    [
+        ("MOVE 4500 19000 3000", 6),
+        ("MOVE -1 9000 3000", 6),
+        ("MOVE 4500 9000 18001", 6),
+        ("MOVE 4500 9000", 2),
+        ("MOVE 4500 9000 3000 3000", 2),
+        ("MOVE 4500 9000 3000.5", 2),
+        ("MOVE 4500,9000,3000", 2),
+        ("MOVE 45deg 9000 3000", 2),
+        ("MOVE 99999999999 9000 3000", 2),
+        ("GRIP 3000", 5),
+        ("GRIP", 2),
+    ],
+)
+def test_rejected_commands_move_nothing(board, host, line, code):
+    host.ok("MOVE 4500 9000 3000")
+    board.advance(0.05)
+    before = board.pulses()
+    reply = host.err(line, code)
+    assert reply.split()[2] == {2: "SYNTAX", 5: "RANGE", 6: "LIMIT"}[code]
+    board.advance(0.06)
+    assert_pulses(board, before, tol=1.0)
+    assert host.status()["q"] == "4500,9000,3000"
+
+
+def test_gripper_and_calibration_mapping(board, host):
+    assert host.ok("GRIP 1900") == ["GRIP", "1900"]
+    # joint 0 reversed: servo angle = 18000 - q; pulses 600..2400
+    assert host.ok("CAL 0 600 2400 18000 -1 0 18000") == ["CAL", "0", "600", "2400", "18000", "-1", "0", "18000"]
+    host.ok("MOVE 4500 9000 9000")
+    board.advance(0.05)
+    assert_pulses(board, {0: 600 + 13500 * 1800 / 18000, 3: 1900})
+    # new limits must keep the current position valid, else nothing changes
+    host.err("CAL 1 500 2500 0 1 0 8000", 6)
+    host.err("CAL 1 500 2500 0 2 0 8000", 5)
+    host.err("CAL 9", 5)
+    assert host.ok("CAL 1")[1:] == ["1", "500", "2500", "0", "1", "0", "18000"]
+
+
+# ------------------------------------------------------------------------------ bad input
+BAD_LINES = [
+    (b"#3 PING*00\n", 1),            # wrong checksum
+    (b"PING*1\n", 1),                # malformed checksum
+    (b"PING*XY\n", 1),
+    (b"MOVE 0 0 0*ZZ\n", 1),
+    (b"FLY\n", 3),
+    (b"#12 FLY 1 2\n", 3),
+    (b"#123456 PING\n", 2),          # seq out of range
+    (b"#x PING\n", 2),
+    (b"#5\n", 2),                    # seq without command
+    (b"PING 1\n", 2),
+    (b"PI\x00NG\n", 2),              # binary garbage
+    (b"\xff\xfe\xfd\n", 2),
+    (b"MOVE " + b"1 " * 100 + b"\n", 4),  # 205 bytes: too long
+    (b"X" * 1000 + b"\n", 4),
+    (b"SEG 1000 3 " + b"0 " * 40 + b"\n", 2),  # too many arguments
+    (b"STREAM 500\n", 5),
+    (b"TIMEOUT 10\n", 5),
+    (b"SEG 0 3 0 0 0 0 0 0 0 0 0 0 0 0\n", 5),
+    (b"SEG 1000 4 0 0 0 0 0\n", 5),
+]
+
+
+def test_bad_input_of_every_kind(board, host):
+    host.ok("MOVE 4500 9000 3000")
+    board.advance(0.05)
+    before = board.pulses()
+    for data, code in BAD_LINES:
+        host.err(data, code)
+    # empty and blank lines get no reply at all: the next reply belongs to HELLO
+    host.send_raw(b"\n\r\n   \n\t\r")
+    assert host.cmd("#9 HELLO").startswith("OK #9 HELLO")
+    board.advance(0.06)
+    assert_pulses(board, before, tol=1.0)
+    status = host.status()
+    assert status["q"] == "4500,9000,3000" and status["state"] == "IDLE"
+    assert int(status["flags"], 16) & 0x10  # an over-long line was recorded
+
+
+def test_random_garbage_never_moves_or_crashes(board, host, rng):
+    host.ok("MOVE 4500 9000 3000")
+    board.advance(0.05)
+    before = board.pulses()
+    alphabet = np.frombuffer(b" \t*#$-+0123456789ABCDEFMOVESEGTIMabc\x00\x7f\xff", dtype=np.uint8)
+    for _ in range(60):
+        n = int(rng.integers(1, 200))
+        body = bytes(rng.choice(alphabet, size=n)).replace(b"\n", b" ").replace(b"\r", b" ")
+        data = b"~" + body + b"\n"  # a '~' first: never a valid command
+        host.send_raw(data)
+        assert host.read_reply().startswith("ERR"), data
+    assert host.cmd("HELLO").startswith("OK HELLO")
+    board.advance(0.06)
+    assert_pulses(board, before, tol=1.0)
+
+
+# ------------------------------------------------------------------------------ timed segments
+def cubic_coeffs(q0, q1):
+    dq = q1 - q0
+    return [q0, 0, 3 * dq, -2 * dq]
+
+
+def quintic_coeffs(q0, q1):
+    dq = q1 - q0
+    return [q0, 0, 0, 10 * dq, -15 * dq, 6 * dq]
+
+
+def seg_line(dur_ms, per_joint):
+    order = len(per_joint[0]) - 1
+    return f"SEG {dur_ms} {order} " + " ".join(str(int(c)) for cs in per_joint for c in cs)
+
+
+def fit_trajectory(history, channel, t_from, dur, q_of_s, search=0.3):
+    """Max error [us] of measured widths vs the polynomial, at the best start time."""
+    ev = np.array([(t, w) for t, ch, w in history if ch == channel and t >= t_from])
+    assert len(ev) > 10, "too few pulse changes recorded"
+    t, w = ev[:, 0], ev[:, 1]
+    best = None
+    for t0 in np.arange(t_from - 0.05, t_from + search, 0.0005):
+        s = np.clip((t - t0) / dur, 0, 1)
+        inside = (t >= t0) & (t <= t0 + dur)
+        if inside.sum() < 10:
+            continue
+        err = np.max(np.abs(w[inside] - pulse_of(q_of_s(s[inside]))))
+        if best is None or err < best[0]:
+            best = (err, t0)
+    return best
+
+
+@pytest.mark.parametrize("order", [3, 5])
+def test_timed_segment_pulses_follow_the_polynomial(board, host, order):
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    board.advance(0.05)
+    make = cubic_coeffs if order == 3 else quintic_coeffs
+    c0 = make(4500, 13500)
+    t_send = board.time()
+    free = int(host.ok(seg_line(800, [c0, make(9000, 9000), make(3000, 3000)]))[1])
+    assert free >= 1
+    assert host.wait_event("EV DONE").split()[2] == "1"
+    board.advance(0.05)
+    assert_pulses(board, {0: pulse_of(13500), 1: 1500, 2: pulse_of(3000)})
+    err, _ = fit_trajectory(board.pulse_history(t_send), 0, t_send, 0.8, lambda s: np.polyval(c0[::-1], s))
+    assert err < 2.0, f"measured pulses deviate {err:.2f} us from the {order}-order polynomial"
+    status = host.status()
+    assert status["state"] == "IDLE" and status["q"] == "13500,9000,3000" and status["done"] == "1"
+
+
+def test_segment_limits_and_continuity_rejected_without_motion(board, host):
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    board.advance(0.05)
+    before = board.pulses()
+    still = [9000, 0, 0, 0], [3000, 0, 0, 0]
+    # overshoots 180 deg in the middle (c2 large): sampled check rejects it
+    host.err(seg_line(500, [[4500, 0, 120000, -120000], *still]), 6)
+    # starts at 60 deg while the joint is at 45 deg
+    host.err(seg_line(500, [[6000, 0, 0, 0], *still]), 9)
+    host.err("SEG 500 3 4500 0 0 0 9000 0 0 0 3000 0 0", 2)  # 11 coefficients, not 12
+    host.err(seg_line(500, [[4500, 0, 0, 99999999], *still]), 5)
+    board.advance(0.1)
+    assert_pulses(board, before, tol=1.0)
+    assert host.status()["state"] == "IDLE"
+
+
+def test_queue_overflow_is_rejected_and_recovers(board, host):
+    depth = int(dict(f.split("=") for f in host.ok("HELLO")[2:])["queue"])
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    hold = seg_line(400, [[4500, 0, 0, 0], [9000, 0, 0, 0], [3000, 0, 0, 0]])
+    frees = [int(host.ok(hold)[1]) for _ in range(depth)]
+    assert frees == list(range(depth - 1, -1, -1))
+    host.err(hold, 7)
+    host.err(hold, 7)
+    status = host.status()
+    assert status["queue"] == str(depth) and status["free"] == "0" and status["state"] == "RUN"
+    host.err("MOVE 4500 9000 3000", 8)  # busy while running
+    board.advance(0.5)
+    assert int(host.ok(hold)[1]) == 0  # one slot freed and refilled
+    board.advance(0.4 * depth)
+    assert host.wait_event("EV DONE").split()[2] == str(depth + 1)
+
+
+def test_stop_halts_at_once_and_clears_queue(board, host):
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    host.ok(seg_line(2000, [cubic_coeffs(4500, 13500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
+    host.ok(seg_line(2000, [cubic_coeffs(13500, 4500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
+    board.advance(0.6)
+    held = [int(v) for v in host.ok("STOP")[1:]]
+    assert 4500 < held[0] < 13500 and held[1:] == [9000, 3000]
+    board.advance(0.05)
+    p1 = board.pulses()
+    board.advance(0.3)
+    assert_pulses(board, p1, tol=1.0)
+    assert abs(p1[0] - pulse_of(held[0])) <= 1.5
+    status = host.status()
+    assert status["state"] == "IDLE" and status["queue"] == "0"
+    assert not any(e.startswith("EV DONE") for e in host.events)
+
+
+def test_host_silence_holds_position(board, host):
+    assert host.ok("TIMEOUT 200") == ["TIMEOUT", "200"]
+    host.ok("MOVE 4500 9000 3000")
+    host.ok(seg_line(3000, [cubic_coeffs(4500, 13500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
+    board.advance(1.0)  # host silent for 1 s > 200 ms
+    ev = host.wait_event("EV HOLD").split()
+    held = int(ev[2])
+    assert 4500 < held < 13500
+    p1 = board.pulses()
+    board.advance(0.3)
+    assert_pulses(board, p1, tol=1.0)
+    status = host.status()
+    assert status["state"] == "HOLD" and int(status["flags"], 16) & 0x02 and status["queue"] == "0"
+    # MOVE (or a new SEG/STOP) leaves HOLD
+    host.ok(f"MOVE {held} 9000 3000")
+    assert host.status()["state"] == "IDLE"
+
+
+def test_keepalive_prevents_the_hold(board, host):
+    host.ok("TIMEOUT 200")
+    host.ok("MOVE 4500 9000 3000")
+    host.ok(seg_line(1000, [cubic_coeffs(4500, 9000), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
+    for _ in range(14):
+        board.advance(0.08)
+        host.ok("PING")
+    host.wait_event("EV DONE")
+    assert not any(e.startswith("EV HOLD") for e in host.events)
+    assert host.status()["q"] == "9000,9000,3000"
+
+
+# ------------------------------------------------------------------------------ feedback
+def test_read_and_stream_feedback(board, host):
+    volts = {0: 0.5, 1: 2.5, 2: 4.5, 5: 1.0}
+    for pin, v in volts.items():
+        board.set_analog(pin, v)
+    board.advance(0.01)
+    counts = [int(c) for c in host.ok("READ")[1:]]
+    expected = np.floor(np.array([0.5, 2.5, 4.5, 1.0]) * 1024 / 5)  # +-1 count allowed
+    assert len(counts) == 4 and np.all(np.abs(np.array(counts) - expected) <= 1), counts
+    assert host.ok("STREAM 50") == ["STREAM", "50"]
+    board.advance(0.5)
+    host.ok("STREAM 0")
+    frames = [f.split() for f in host.frames]
+    n_after_stop = len(frames)
+    assert 22 <= len(frames) <= 28, len(frames)
+    assert [int(f[1]) for f in frames] == list(range(len(frames)))  # no lost frames
+    times = np.array([int(f[2]) for f in frames])
+    assert np.allclose(np.diff(times), 20, atol=1)
+    assert all(np.all(np.abs(np.array([int(c) for c in f[3:]]) - expected) <= 1) for f in frames)
+    board.advance(0.1)
+    assert host.cmd("PING").startswith("OK PING")
+    assert len(host.frames) == n_after_stop  # stream stopped
+
+
+# ------------------------------------------------------------------------------ EEPROM
+def test_calibration_persists_across_reset_only_when_saved(board, host):
+    assert "eeprom=DEFAULTS" in host.ok("HELLO") or True
+    host.ok("CAL 2 600 2400 18000 -1 0 17000")
+    host.ok("TIMEOUT 1500")
+    assert host.ok("SAVE")[0] == "SAVE"
+    host.ok("CAL 2 500 2500 0 1 0 18000")  # changed again but not saved
+    board.reset()
+    boot = host.wait_event("EV BOOT")
+    assert "eeprom=OK" in boot
+    assert host.ok("CAL 2")[1:] == ["2", "600", "2400", "18000", "-1", "0", "17000"]
+    assert host.ok("TIMEOUT") == ["TIMEOUT", "1500"]
+    status = host.status()
+    assert not int(status["flags"], 16) & 0x01
+    # boot position: middle of the stored limits (8500 -> servo 9500 cdeg -> 1550 us)
+    board.advance(0.05)
+    assert_pulses(board, {2: 600 + 9500 * 1800 / 18000})
+    host.ok("DEFAULTS")
+    host.ok("SAVE")
+    board.reset()
+    host.wait_event("EV BOOT")
+    assert host.ok("CAL 2")[1:] == ["2", "500", "2500", "0", "1", "0", "18000"]
