@@ -637,8 +637,10 @@ def _read_rows(path):
                     MeasurementWarning, stacklevel=3,
                 )
                 continue
-            raise _error(f"expected {len(header)} fields, got {0 if fields is None else len(fields)}",
-                         path=path, line=lineno)
+            if fields is None:
+                raise _error("cannot parse the line as CSV (unbalanced quotes, a line break inside a "
+                             "cell, or not UTF-8)", path=path, line=lineno)
+            raise _error(f"expected {len(header)} fields, got {len(fields)}", path=path, line=lineno)
         if is_last_partial and "check" not in header:
             warnings.warn(f"{path}: row {lineno}: last line has no newline (partial write?); kept",
                           MeasurementWarning, stacklevel=3)

@@ -157,3 +157,28 @@ def test_cli_calibrate(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "offset[1]" in out and "leave-one-pose-out" in out
     assert Robot.load(out_file).name == "arduino_arm_3dof_calibrated"
+
+
+def test_calibrates_the_virtual_arm_from_a_logged_session(tmp_path):
+    """End to end: physics model (zero offsets + gravity sag) -> ruler -> MeasurementLog -> fit."""
+    from labkit.measurement import MeasurementLog
+    from labkit.physics import ArmModel, PhysicsConfig
+
+    offsets = np.radians([2.0, -1.5, 2.5])
+    sim = ArmModel("arduino_arm_3dof", PhysicsConfig(seed=4, zero_offsets=tuple(offsets), deadband=0.0))
+    q_all = np.random.default_rng(7).uniform(np.radians(10), np.radians(170), (25, 3))
+    path = tmp_path / "session.csv"
+    with MeasurementLog(path, robot="arduino_arm_3dof") as log:
+        for i, q in enumerate(q_all):
+            sim.servos.reset(q)  # at rest at the commanded pose
+            for reading in sim.ruler(3):
+                for k, axis in enumerate("xyz"):
+                    log.record(f"p{i}", axis, reading[k], unit="m", instrument="ruler (sim)",
+                               resolution=0.0005, commanded=q)
+    plain = calibrate(path, params=("joint_offsets",), leave_one_out=False)
+    sag = calibrate(path, params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
+    assert sag.rms_before > 0.005 and sag.rms_after < 0.0005 < plain.rms_after
+    assert sag.loo_rms < 1.3 * sag.rms_after  # five parameters, 75 components: no overfit
+    for k in range(3):
+        assert sag.ci_low[k] <= offsets[k] <= sag.ci_high[k]
+    assert np.all(sag.sag[1:] > 0)  # the arm droops along gravity
