@@ -207,3 +207,11 @@ def test_planar_needs_orientation(planar004):
     traj = cartesian_trajectory(planar004, line([0.3, 0.0], [0.3, 0.1]), 1.0, dt=0.1,
                                 q_start=[0.2, 0.5, -0.7])
     np.testing.assert_allclose(traj.x[:, 2], 0.0, atol=1e-12)  # phi of q_start held
+
+
+def test_doctests_pass():
+    import doctest
+
+    import labkit.cartesian
+
+    assert doctest.testmod(labkit.cartesian).failed == 0

@@ -189,3 +189,11 @@ def test_time_grid():
     np.testing.assert_allclose(t, [0.0, 0.3, 0.6, 0.9, 1.0])
     with pytest.raises(TrajectoryError, match="positive time step"):
         time_grid(0.0, 1.0, 0.0)
+
+
+def test_doctests_pass():
+    import doctest
+
+    import labkit.timelaw
+
+    assert doctest.testmod(labkit.timelaw).failed == 0

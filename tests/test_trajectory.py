@@ -189,3 +189,11 @@ def test_other_laws_and_errors(planar003):
         joint_trajectory([0.0, 0.0], [1.0, 1.0], 1.0, robot=planar003)
     with pytest.raises(ShapeError, match=r"qf with shape \(..., 2\)"):
         joint_trajectory([0.0, 0.0], [1.0, 1.0, 1.0], 1.0)
+
+
+def test_doctests_pass():
+    import doctest
+
+    import labkit.trajectory
+
+    assert doctest.testmod(labkit.trajectory).failed == 0
