@@ -114,7 +114,15 @@ def _frame(data, loader, required):
     for col, value in defaults.items():
         if col not in df:
             df[col] = pd.Series([value] * len(df), dtype=object) if value is None or col == "line" else value
+    for col in ("commanded", "target"):
+        df[col] = pd.Series([_as_tuple(v) for v in df[col]], dtype=object, index=df.index)
     return df
+
+
+def _as_tuple(v):
+    if v is None or (np.ndim(v) == 0 and isinstance(v, float) and math.isnan(v)):
+        return None
+    return tuple(float(x) for x in np.asarray(v, dtype=float).reshape(-1))
 
 
 def _robot(robot, df):
@@ -174,16 +182,34 @@ def calculated_si(df, robot, *, mode="auto", branch="elbow_up"):
                 q = np.asarray(cmd)
                 cache[key] = (q, fk_position(robot, q))
             else:
-                q = _ik_ignoring_limits(robot, np.asarray(tgt, dtype=float), branch, line)
-                cache[key] = (q, np.asarray(tgt, dtype=float))
+                target, pos = _target_and_position(robot, tgt, line)
+                cache[key] = (_ik_ignoring_limits(robot, target, branch, line), pos)
         q, pos = cache[key]
         if quantity in ("x", "y", "z"):
-            if not use_fk and len(pos) < 3:
+            if np.isnan(pos["xyz".index(quantity)]):
                 raise _err(f"target {tgt} has no {quantity} component", line, "target")
             out[k] = pos["xyz".index(quantity)]
         else:
             out[k] = q[_joint_index(quantity, robot, line)]
     return out
+
+
+def _target_and_position(robot, tgt, line):
+    """IK target array and its (x, y, z) [m] (NaN where the target has no such component)."""
+    from labkit.ik import target_kind
+
+    kind = target_kind(robot)
+    t = np.asarray(tgt, dtype=float)
+    if kind == "pose":
+        if t.size != 16:
+            raise _err(f"expected a 4x4 pose target (16 numbers, row-major) for {robot.name}, got {t.size}",
+                       line, "target")
+        t = t.reshape(4, 4)
+        return t, t[:3, 3]
+    if t.size != 3:
+        want = "(x, y, phi)" if kind == "planar" else "(x, y, z)"
+        raise _err(f"expected a target {want} for {robot.name}, got {t.size} numbers", line, "target")
+    return t, (np.array([t[0], t[1], np.nan]) if kind == "planar" else t)
 
 
 def _ik_ignoring_limits(robot, target, branch, line):
@@ -200,13 +226,13 @@ def _ik_ignoring_limits(robot, target, branch, line):
     except JointLimitError as exc:
         sols = ik_all(robot, target)
         if branch not in sols.branches:
-            raise _err(f"IK of target {tuple(float(v) for v in target)} failed: {exc}", line, "target") from None
+            raise _err(f"IK of target {tuple(float(v) for v in target.reshape(-1))} failed: {exc}", line, "target") from None
         k = sols.branches.index(branch)
-        warnings.warn(f"row {line}: target {tuple(float(v) for v in target)} is reachable only outside the joint limits ({exc})",
+        warnings.warn(f"row {line}: target {tuple(float(v) for v in target.reshape(-1))} is reachable only outside the joint limits ({exc})",
                       UserWarning, stacklevel=4)
         return np.asarray(sols.q[..., k, :], dtype=float)
     except (UnreachableError, ValueError) as exc:
-        raise _err(f"IK of target {tuple(float(v) for v in target)} failed: {exc}", line, "target") from None
+        raise _err(f"IK of target {tuple(float(v) for v in target.reshape(-1))} failed: {exc}", line, "target") from None
 
 
 def _wrap_deg_or_rad(x, unit):

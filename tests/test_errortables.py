@@ -290,3 +290,26 @@ def test_cli_errors_and_audit(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.startswith("57 of 63 published values agree")
     assert "t3_j3_20deg" in out
+
+
+def test_ik_table_for_planar_and_6r_targets():
+    planar = Robot.load("planar3r_seed004")
+    q = np.array([0.3, 0.5, -0.4])
+    T = planar.fk(q)
+    df = pd.DataFrame({"pose_id": ["a"] * 3, "quantity": ["theta1", "theta2", "theta3"],
+                       "value": np.degrees(q), "unit": ["deg"] * 3, "resolution": [0.5] * 3,
+                       "target": [np.array([T[0, 3], T[1, 3], 0.4])] * 3})
+    table = error_table(df, planar, mode="ik", branch=None).table
+    # whichever branch IK picks, it reaches the target
+    q_ik = np.radians(table["calculated"].to_numpy())
+    np.testing.assert_allclose(planar.fk(q_ik)[:2, 3], T[:2, 3], atol=1e-9)
+    with pytest.raises(MeasurementError, match="has no z component"):
+        error_table(df.assign(quantity=["z", "x", "y"], unit="m", resolution=0.001), planar, mode="ik")
+    puma = Robot.load("puma560")
+    q6 = np.array([0.1, -0.4, 0.3, 0.2, 0.5, 0.1])
+    T6 = puma.fk(q6)
+    df = pd.DataFrame({"pose_id": ["a", "a"], "quantity": ["x", "theta1"], "value": [T6[0, 3], 5.0],
+                       "unit": ["m", "deg"], "resolution": [0.001, 0.5], "target": [T6, T6]})
+    table = error_table(df, puma, mode="ik", branch=None).table.set_index("quantity")
+    assert table.loc["x", "calculated"] == pytest.approx(T6[0, 3])
+    assert np.isfinite(table.loc["theta1", "calculated"])
