@@ -311,7 +311,6 @@ class VirtualBoard:
     # -- request lines -------------------------------------------------------------
     def _handle(self, raw):
         if any(not (0x20 <= b <= 0x7E or b == 9) for b in raw):
-            self.flags |= 0x10
             self._emit("ERR 2 SYNTAX bad character in line")
             return
         line = raw.decode("ascii").strip(" \t")
