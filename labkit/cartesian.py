@@ -405,13 +405,29 @@ def _first_index(exc):
     return int(idx)
 
 
-def _solve(ik, robot, kind, targets, t, branch, path):
+def _solve_chained(ik, robot, targets, q_start, offset, block=8):
+    """Numeric IK along the path: each block of samples starts from the last solution."""
+    out = np.empty((len(targets), robot.n))
+    q_prev = None if q_start is None else np.asarray(q_start, dtype=float)
+    for s in range(0, len(targets), block):
+        offset[0] = s
+        qb = ik.ik(robot, targets[s:s + block], q_near=q_prev)
+        out[s:s + block] = qb
+        q_prev = qb[-1]
+    return out
+
+
+def _solve(ik, robot, kind, targets, t, branch, path, q_start=None):
+    offset = [0]
     try:
+        if ik.solver_for(robot).value == "numeric":
+            return _solve_chained(ik, robot, targets, q_start, offset)
         return ik.ik(robot, targets, branch=branch)
     except UnreachableError as exc:
         i = _first_index(exc)
         if i is None:
             raise
+        i += offset[0]
         xi = targets[i][:3, 3] if kind == "pose" else targets[i]
         raise UnreachableError(
             f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}, "
@@ -423,6 +439,7 @@ def _solve(ik, robot, kind, targets, t, branch, path):
         i = _first_index(exc)
         if i is None:
             raise
+        i += offset[0]
         xi = targets[i][:3, 3] if kind == "pose" else targets[i]
         raise JointLimitError(
             f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}: {exc}",
@@ -573,9 +590,9 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
         xd = np.column_stack([pd, omega_s * sd[:, None]])
         xdd = np.column_stack([pdd, omega_s * sdd[:, None]])
         axis_names = ("x", "y", "z", "roll", "pitch", "yaw")
-    if branch is None:
+    if branch is None and ik.solver_for(robot).value != "numeric":
         branch = _choose_branch(ik, robot, targets[0], q_start)
-    q = np.asarray(_solve(ik, robot, kind, targets, t, branch, path), dtype=float)
+    q = np.asarray(_solve(ik, robot, kind, targets, t, branch, path, q_start), dtype=float)
     rev = robot.is_revolute
     if q.shape[0] > 1:
         q[:, rev] = np.unwrap(q[:, rev], axis=0)

@@ -215,3 +215,18 @@ def test_doctests_pass():
     import labkit.cartesian
 
     assert doctest.testmod(labkit.cartesian).failed == 0
+
+
+def test_numeric_ik_robot_follows_path_continuously():
+    """Seed 002 problem 4: the PUMA wrist's tool point draws a circle about z0 (numeric IK, chained)."""
+    wrist = Robot.load("puma_wrist_seed002")
+    q0 = np.array([-0.5008, -0.6606, 0.3153])  # the seed's initial joint angles
+    p0 = fk_position(wrist, q0)
+    radius = np.hypot(p0[0], p0[1])
+    assert radius == pytest.approx(np.hypot(150, 100) * np.sin(np.pi / 4 - np.arctan(100 / 150)) / 1e3, abs=1e-4)
+    path = circle([0, 0, p0[2]], radius, start_angle=np.arctan2(p0[1], p0[0]))
+    traj = cartesian_trajectory(wrist, path, 2 * np.pi, law="linear", dt=0.1, q_start=q0)
+    assert path.distance_from(fk_position(wrist, traj.q)).max() < 1e-9
+    np.testing.assert_allclose(traj.q[0], q0, atol=1e-6)
+    assert np.abs(np.diff(traj.q, axis=0)).max() < 0.1  # no jumps between neighbouring samples
+    assert np.all(np.isfinite(traj.qd)) and np.all(np.isfinite(traj.qdd))
