@@ -294,7 +294,14 @@ _FAMILY = {
 }
 
 
-@dataclass(frozen=True)
+_COLUMNS = {
+    EulerConvention.XYZ_FIXED: ("gamma (x)", "beta (y)", "alpha (z)"),
+    EulerConvention.ZYX: ("alpha (z)", "beta (y')", "gamma (x'')"),
+    EulerConvention.ZYZ: ("alpha (z)", "beta (y')", "gamma (z'')"),
+}
+
+
+@dataclass(frozen=True, eq=False)
 class EulerAngles:
     """Both angle triples of a rotation matrix (result of :func:`euler_from_matrix`).
 
@@ -331,6 +338,27 @@ class EulerAngles:
     def family(self):
         """Text describing the one-parameter family of solutions at gimbal lock."""
         return _FAMILY[self.convention]
+
+    def to_dataframe(self, degrees=True):
+        """Table with one row per (matrix, solution): the three angles and the lock flag.
+
+        Examples
+        --------
+        >>> e = euler_from_matrix(rotation_z(np.pi / 6), "xyz_fixed")
+        >>> e.to_dataframe().round(6).values.tolist()
+        [[0.0, 0.0, 30.0, False], [180.0, 180.0, -150.0, False]]
+        """
+        import pandas as pd
+
+        names = _COLUMNS[self.convention]
+        unit = " [deg]" if degrees else " [rad]"
+        sol = np.degrees(self.solutions) if degrees else self.solutions
+        sol = sol.reshape(-1, 2, 3)
+        lock = np.broadcast_to(self.gimbal_lock, self.solutions.shape[:-2]).reshape(-1)
+        index = pd.MultiIndex.from_product([range(len(sol)), (1, 2)], names=["matrix", "solution"])
+        data = {nm + unit: sol[:, :, k].reshape(-1) for k, nm in enumerate(names)}
+        data["gimbal_lock"] = np.repeat(lock, 2)
+        return pd.DataFrame(data, index=index)
 
 
 def wrap_angle(angle):

@@ -21,7 +21,7 @@ from labkit.kinematics import fk_position
 __all__ = ["Workspace", "workspace_points", "PlanarRegion", "planar_region"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Workspace:
     """Joint samples and the points they reach.
 
@@ -120,7 +120,7 @@ def workspace_points(robot, joint_ranges=None, *, n=100_000, grid=False, seed=0,
 _PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PlanarRegion:
     """A 2-D workspace region as an occupancy grid and its boundary curves.
 

@@ -244,3 +244,14 @@ def test_nearest_rotation_repairs_rounded_and_noisy(rng):
 def test_nearest_rotation_of_a_reflection_is_proper():
     R = nearest_rotation(np.diag([1.0, 1.0, -1.0]))
     assert np.isclose(np.linalg.det(R), 1.0)
+
+
+def test_euler_angles_table(rng):
+    R = matrix_from_euler(rng.uniform(-1, 1, size=(4, 3)), "zyz")
+    df = euler_from_matrix(R, "zyz").to_dataframe(degrees=False)
+    assert df.shape == (8, 4)
+    assert list(df.columns) == ["alpha (z) [rad]", "beta (y') [rad]", "gamma (z'') [rad]", "gimbal_lock"]
+    e = euler_from_matrix(R, "zyz")
+    assert np.allclose(df.loc[(2, 2)].values[:3].astype(float), e.second[2])
+    locked = euler_from_matrix(rotation_y(np.pi / 2), "xyz_fixed").to_dataframe()
+    assert locked["gimbal_lock"].all() and len(locked) == 2
