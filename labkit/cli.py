@@ -94,18 +94,18 @@ def _cmd_ik(args):
 
     robot = Robot.load(args.robot)
     s = _len_scale(args)
+    lunit = "mm" if args.mm else "m"
     target = np.array(args.target, dtype=float)
-    if target.size < 3:
-        raise LabkitError(f"expected at least x y z (or x y phi), got {target.size} values")
-    target = target.copy()
     kind = ikmod.target_kind(robot)
     if kind == "planar":
+        if target.size != 3:
+            raise LabkitError(f"{robot.name} is a planar 3R arm: expected x y phi, got {target.size} values")
         target[:2] /= s
         if args.deg:
             target[2] = math.radians(target[2])
     elif kind == "pose":
         if target.size != 6:
-            raise LabkitError("expected x y z roll pitch yaw for a 6-DOF arm")
+            raise LabkitError(f"{robot.name} has {robot.n} joints: expected x y z roll pitch yaw, got {target.size} values")
         from labkit.rotations import matrix_from_rpy
 
         rpy = np.radians(target[3:]) if args.deg else target[3:]
@@ -114,22 +114,30 @@ def _cmd_ik(args):
         T[:3, 3] = target[:3] / s
         target = T
     else:
-        target = target[:3] / s
+        if target.size != 3:
+            raise LabkitError(f"{robot.name}: expected x y z, got {target.size} values")
+        target = target / s
     sols = ikmod.ik_all(robot, target)
-    conv = np.degrees if args.deg else (lambda v: v)
+    if not sols.reachable.any():
+        print(
+            f"labkit ik: {robot.name}: target out of reach by {float(sols.distance) * s:.4g} {lunit}",
+            file=sys.stderr,
+        )
+        return 1
+    rev = robot.is_revolute
+    aunit = "deg" if args.deg else "rad"
     rows = []
     for k, name in enumerate(sols.branches):
-        if not sols.reachable[k] if np.ndim(sols.reachable) else False:
-            continue
         q = np.array(sols.q[k], dtype=float)
-        shown = np.where(robot.is_revolute, conv(q), q * s)
-        status = "ok" if sols.valid[k] else "outside joint limits"
+        shown = np.where(rev, np.degrees(q) if args.deg else q, q * s)
+        if not sols.reachable[k]:
+            status = "unreachable"
+        else:
+            status = "ok" if sols.valid[k] else "outside joint limits"
         rows.append((name, *(f"{v:.4f}" for v in shown), status))
-    if not rows:
-        print("target unreachable", file=sys.stderr)
-        return 1
-    unit = "deg" if args.deg else "rad"
-    print(_fmt_table(("branch", *(f"{n} [{unit}]" for n in robot.joint_names), "status"), rows))
+    header = ("branch", *(f"{n} [{aunit if r else lunit}]" for n, r in zip(robot.joint_names, rev)), "status")
+    print(f"{robot.name}: solver {sols.solver}")
+    print(_fmt_table(header, rows))
     return 0
 
 
