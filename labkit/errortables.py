@@ -34,7 +34,6 @@ import dataclasses
 import math
 import warnings
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 
@@ -53,7 +52,7 @@ __all__ = [
     "seed_path",
 ]
 
-Combine = Literal["quadrature", "sum"]
+#: rules combining instrument resolution and half range into the uncertainty
 _COMBINE = ("quadrature", "sum")
 _MODES = ("auto", "fk", "ik")
 DATA_DIR = Path(__file__).resolve().parent.parent / "data" / "measurements"

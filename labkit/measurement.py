@@ -78,7 +78,6 @@ UNITS = {
     "rad": ("angle", 1.0),
     "deg": ("angle", math.pi / 180.0),
 }
-SI_UNIT = {"length": "m", "angle": "rad"}
 
 _QUANTITY_PATTERNS = (
     (re.compile(r"^[xyz]$"), "length"),

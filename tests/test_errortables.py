@@ -17,7 +17,7 @@ from labkit.errortables import (
     seed_path,
 )
 from labkit.exceptions import MeasurementError
-from labkit.measurement import MeasurementLog, load_measurements
+from labkit.measurement import MeasurementLog
 
 FK_SEED = seed_path("seed000_fk_tables1-3.csv")
 IK_SEED = seed_path("seed000_ik_table4.csv")
