@@ -605,8 +605,7 @@ def _read_rows(path):
                 if text is not None:
                     continue
                 raise _error("cannot decode the header as UTF-8", path=path, line=lineno)
-            fields = next(csv.reader([text]))
-            fields = [f.strip() for f in fields]
+            fields = [f.strip() for f in next(csv.reader([text.lstrip("\ufeff")]))]  # Excel writes a BOM
             if _is_torn_header(fields, lines, index):
                 warnings.warn(f"{path}: row {lineno}: skipping a torn header line", MeasurementWarning, stacklevel=3)
                 continue

@@ -347,3 +347,11 @@ def test_docstring_examples_run():
 
     result = doctest.testmod(labkit.measurement)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_excel_bom_and_crlf(tmp_path):
+    path = tmp_path / "excel.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + HAND_MADE.replace("\n", "\r\n").encode())
+    df = load_measurements(path)
+    assert list(df["quantity"]) == ["x", "y"]
+    assert df.loc[1, "commanded"] == (0.0873, 0.0, 0.0)
