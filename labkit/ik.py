@@ -65,7 +65,7 @@ def _as_solver(solver):
         raise ValueError(f"unknown IK solver {solver!r}; expected one of {valid}") from None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class IKSolutions:
     """Every closed-form IK solution of a batch of targets.
 
@@ -81,7 +81,10 @@ class IKSolutions:
     branches : tuple of str
         Branch name of each of the ``m`` columns.
     distance : ndarray, shape (...)
-        How far the target lies out of reach [m] (0 if reachable).
+        How far the target lies out of reach [m] (0 if any branch reaches
+        it). Exact for the 3R solvers; for the 6R solver the wrist centre's
+        distance from its reachable shell, measured in the arm plane; for the
+        numeric solver the residual of the best attempt [m, rad].
     solver : str
         The solver used (a :class:`Solver` value).
 
@@ -122,7 +125,7 @@ class IKSolutions:
         return df
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class IKResult:
     """Result of :func:`ik_numeric`.
 
@@ -389,6 +392,8 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     kind = target_kind(robot)
     impl = _analytic(robot, solver)
     if impl is None:
+        if branch not in (None, "numeric"):
+            raise ValueError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
         return _ik_one_numeric(robot, kind, target, q_near)
     idx = None if branch is None else _branch_index(impl.branches, impl.aliases, branch)
     sols = ik_all(robot, target, solver=impl.name)
