@@ -311,7 +311,7 @@ class ErrorTable:
         summary.columns = pd.MultiIndex.from_tuples(summary.columns)
         return pd.concat([wide, summary.reindex(columns=wide.columns)])
 
-    def style(self, *, tolerance=None, highlight="background-color: #f8c4c4", escape=None):
+    def style(self, *, tolerance=None, highlight="background-color: #f8c4c4", escape=None, caption=None):
         """A pandas Styler of :meth:`wide` for reports.
 
         Numbers are shown to the decimal place of the instrument resolution
@@ -329,6 +329,8 @@ class ErrorTable:
             CSS of an out-of-tolerance cell.
         escape : {None, "html", "latex"}
             Escaping of text cells and labels (``to_latex`` uses "latex").
+        caption : str, optional
+            Table caption.
         """
         import pandas as pd
 
@@ -349,7 +351,8 @@ class ErrorTable:
             for pose in g["pose_id"][bad]:
                 css.loc[pose, (top, "measured")] = highlight
                 css.loc[pose, (top, "error")] = highlight
-        return (wide.style.format(formatters, na_rep="", escape=escape)
+        styler = wide.style.set_caption(caption) if caption else wide.style
+        return (styler.format(formatters, na_rep="", escape=escape)
                 .format_index(escape=escape, axis=0)
                 .format_index(escape=escape, axis=1)
                 .apply(lambda _: css, axis=None))

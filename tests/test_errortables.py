@@ -179,7 +179,8 @@ def test_styled_output_html_and_latex(arm):
     assert (row5, cols.index(("theta1 [deg]", "error"))) in highlighted
     row1 = list(wide.index).index("t4_row1")
     assert (row1, cols.index(("theta1 [deg]", "error"))) not in highlighted
-    tex = result.to_latex()
+    tex = result.to_latex(caption="Table 4")
+    assert "\\caption{Table 4}" in tex
     assert "\\cellcolor" in tex and "t4\\_row5" in tex
     assert tex.count("\\cellcolor") == 2 * int((~result.table["inside"]).sum())
 
