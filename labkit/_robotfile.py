@@ -171,7 +171,11 @@ def parse(data, path):
         ch = g.get("channel")
         if isinstance(ch, bool) or not isinstance(ch, int) or not 0 <= ch <= 5:
             raise RobotFileError(path, "gripper.channel", f"expected an integer 0-5, got {ch!r}")
-        gripper = Gripper(ch, _num(path, "gripper.open_us", g.get("open_us")), _num(path, "gripper.closed_us", g.get("closed_us")))
+        gripper = Gripper(
+            ch,
+            _num(path, "gripper.open_us", g.get("open_us")),
+            _num(path, "gripper.closed_us", g.get("closed_us")),
+        )
         channels.append(ch)
     if len(set(channels)) != len(channels):
         raise RobotFileError(path, "servo.channel", f"expected distinct servo channels, got {channels}")
@@ -255,5 +259,11 @@ def dump(robot, length_unit="m", angle_unit="rad"):
             ]
     if robot.gripper:
         g = robot.gripper
-        out += ["[gripper]", f"channel = {g.channel}", f"open_us = {_fmt(g.open_us)}", f"closed_us = {_fmt(g.closed_us)}", ""]
+        out += [
+            "[gripper]",
+            f"channel = {g.channel}",
+            f"open_us = {_fmt(g.open_us)}",
+            f"closed_us = {_fmt(g.closed_us)}",
+            "",
+        ]
     return "\n".join(out)

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 
 import numpy as np
+import tomllib
 
 from labkit.exceptions import JointLimitError, RobotFileError
 

@@ -35,7 +35,7 @@ from enum import Enum
 import numpy as np
 
 from labkit._validation import as_batch
-from labkit.exceptions import LabkitError, ShapeError
+from labkit.exceptions import LabkitError
 
 __all__ = [
     "rotation_x",

@@ -22,8 +22,8 @@ handouts; for a 6-DOF arm pass ``simplify=False`` and lambdify.
 
 from __future__ import annotations
 
-from fractions import Fraction
 from collections.abc import Mapping
+from fractions import Fraction
 
 import numpy as np
 
@@ -158,7 +158,9 @@ def _length_mapper(lengths, unit):
     if isinstance(lengths, Mapping):
         named = {float(v): sp.Symbol(str(k), positive=True) for k, v in lengths.items() if float(v) != 0.0}
     elif lengths not in (None, "numeric", "symbolic"):
-        raise ValueError(f"expected lengths None, 'numeric', 'symbolic' or a {{name: value [m]}} mapping, got {lengths!r}")
+        raise ValueError(
+            f"expected lengths None, 'numeric', 'symbolic' or a {{name: value [m]}} mapping, got {lengths!r}"
+        )
 
     def f(value, name):
         value = float(value)
@@ -315,7 +317,6 @@ def end_effector_position(robot, *, point=None, q=None, lengths=None, length_uni
     >>> p[2]
     -L1*sin(q2) - L2*sin(q2 - q3)
     """
-    sp = _sp()
     T = forward_kinematics(robot, q=q, lengths=lengths, length_unit=length_unit, simplify=False)
     pt = _point(point, length_unit)
     p = (T * pt)[:3, :]

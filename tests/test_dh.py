@@ -125,7 +125,7 @@ def test_malformed_file_names_file_and_field(tmp_path, old, new, field, message)
     with pytest.raises(RobotFileError, match=message) as info:
         Robot.load(p)
     assert str(p) in str(info.value)
-    assert f"field '" in str(info.value)
+    assert "field '" in str(info.value)
     import re
 
     assert re.fullmatch(field, info.value.field), info.value.field
@@ -234,7 +234,8 @@ def test_limits_helpers():
     arm = Robot.load("arduino_arm_3dof")
     q = np.radians([[10, 20, 30], [10, 200, 30]])
     assert arm.within_limits(q).tolist() == [True, False]
-    with pytest.raises(JointLimitError, match=r"joint 2 \(shoulder_pitch\) = 200 deg outside its limits \[0, 180\] deg") as info:
+    message = r"joint 2 \(shoulder_pitch\) = 200 deg outside its limits \[0, 180\] deg"
+    with pytest.raises(JointLimitError, match=message) as info:
         arm.check_limits(q)
     assert info.value.joint == 1 and info.value.index == (1,)
     arm.check_limits(q[0])

@@ -161,12 +161,13 @@ def test_symbolic_lengths_and_dh_matrix_conventions():
     a, al, d, th = sp.symbols("a alpha d theta", real=True)
     S = dh_matrix(a, al, d, th, "standard")
     M = dh_matrix(a, al, d, th, "modified")
-    Rz = lambda t: sp.Matrix([[sp.cos(t), -sp.sin(t), 0, 0], [sp.sin(t), sp.cos(t), 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
-    Rx = lambda t: sp.Matrix([[1, 0, 0, 0], [0, sp.cos(t), -sp.sin(t), 0], [0, sp.sin(t), sp.cos(t), 0], [0, 0, 0, 1]])
-    Tz = lambda v: sp.Matrix([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, v], [0, 0, 0, 1]])
-    Tx = lambda v: sp.Matrix([[1, 0, 0, v], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
-    assert sp.simplify(S - Rz(th) * Tz(d) * Tx(a) * Rx(al)) == sp.zeros(4, 4)
-    assert sp.simplify(M - Rx(al) * Tx(a) * Rz(th) * Tz(d)) == sp.zeros(4, 4)
+    Rz, Rx = sp.eye(4), sp.eye(4)
+    Rz[:3, :3] = sp.rot_ccw_axis3(th)
+    Rx[:3, :3] = sp.rot_ccw_axis1(al)
+    Tz, Tx = sp.eye(4), sp.eye(4)
+    Tz[2, 3], Tx[0, 3] = d, a
+    assert sp.simplify(S - Rz * Tz * Tx * Rx) == sp.zeros(4, 4)
+    assert sp.simplify(M - Rx * Tx * Rz * Tz) == sp.zeros(4, 4)
 
 
 def test_latex_and_errors():
