@@ -509,3 +509,56 @@ def test_forcing_numeric_on_an_analytic_robot(arm):
     sols = ik_all(arm, [0.1, 0.1, -0.1], solver="numeric")
     assert sols.branches == ("numeric",) and sols.valid.all()
     assert np.allclose(fk_position(arm, sols.q[0]), [0.1, 0.1, -0.1], atol=1e-9)
+
+
+# -- generality of the structure detection ----------------------------------------------
+
+def _craig_puma560():
+    """PUMA 560 in Craig's modified DH (Introduction to Robotics, table 3.4)."""
+    from labkit.dh import Link
+
+    d90 = np.pi / 2
+    rows = [(0, 0, 0), (-d90, 0, 0), (0, 0.4318, 0.15005), (-d90, 0.0203, 0.4318), (d90, 0, 0), (-d90, 0, 0)]
+    links = tuple(Link(a=a, alpha=al, d=d, limits=(-np.pi, np.pi)) for al, a, d in rows)
+    return Robot(name="puma560_craig", links=links, convention="modified")
+
+
+def _round_trip_error(robot, q):
+    target = _target_of(robot, q)
+    sols = ik_all(robot, target)
+    assert sols.reachable.all()
+    reached = _target_of(robot, sols.q)
+    if target_kind(robot) == "planar":
+        return max(np.abs(reached[..., :2] - target[:, None, :2]).max(),
+                   _wrapped(reached[..., 2] - target[:, None, 2]).max())
+    return np.abs(reached - target[:, None]).max()
+
+
+def test_modified_dh_puma_uses_the_spherical_wrist_solver():
+    robot = _craig_puma560()
+    assert solver_for(robot) is Solver.SPHERICAL_WRIST
+    q = np.random.default_rng(11).uniform(-np.pi, np.pi, size=(500, 6))
+    assert _round_trip_error(robot, q) < 1e-9
+
+
+def test_planar_solver_with_offsets_and_a_moved_base():
+    from labkit.rotations import rotation_z
+
+    arm = Robot.load("planar3r_seed003")
+    base = np.eye(4)
+    base[:3, :3] = rotation_z(0.7)
+    base[:3, 3] = [0.1, -0.2, 0.05]
+    robot = arm.replace(base=base).with_link(1, theta=0.3).with_link(0, a=0.02)
+    assert solver_for(robot) is Solver.PLANAR_3R
+    q = np.random.default_rng(12).uniform(-np.pi, np.pi, size=(500, 3))
+    assert _round_trip_error(robot, q) < 1e-9
+
+
+def test_yaw_pitch_pitch_with_a_lateral_offset():
+    arm = Robot.load("arduino_arm_3dof").with_link(2, d=0.02)  # elbow axis shifted sideways
+    assert solver_for(arm) is Solver.YAW_PITCH_PITCH
+    q = np.random.default_rng(13).uniform(-np.pi, np.pi, size=(500, 3))
+    assert _round_trip_error(arm, q) < 1e-9
+    # inside the offset cylinder around the base axis nothing is reachable
+    with pytest.raises(UnreachableError, match="out of reach"):
+        ik(arm, [0.005, 0.0, -0.1])
