@@ -180,6 +180,15 @@ class FirmwareSim:
 
     # ---------------------------------------------------------------- harness I/O
     def _read_loop(self):
+        try:
+            self._read_lines()
+        except (ValueError, OSError):  # stdout closed during shutdown
+            pass
+        finally:
+            self._events.put("EXIT")
+            self._replies.put("EXIT")
+
+    def _read_lines(self):
         for line in self._proc.stdout:
             parts = line.split()
             if not parts:
@@ -199,8 +208,6 @@ class FirmwareSim:
                 self._events.put(line.strip())
             else:
                 self._replies.put(line.strip())
-        self._events.put("EXIT")
-        self._replies.put("EXIT")
 
     def _tick(self, t, widths):
         pulses = {c: w for c, w in enumerate(widths) if w > 0}
@@ -324,10 +331,11 @@ class FirmwareSim:
             except (DeviceError, subprocess.TimeoutExpired):
                 self._proc.kill()
                 self._proc.wait()
+        self._reader.join(timeout=2)
         for f in (self._proc.stdin, self._proc.stdout):
             try:
                 f.close()
-            except Exception:  # noqa: BLE001 - best effort at shutdown
+            except (OSError, ValueError):  # best effort at shutdown
                 pass
 
     def __enter__(self):

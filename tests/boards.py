@@ -65,7 +65,7 @@ class FirmwareBoard(Board):
         self.port = None
 
     def open(self):
-        self.port = serial.Serial(self.sim.port, 115200, timeout=2.0)
+        self.port = serial.Serial(self.sim.port, 115200, timeout=10.0)
         self.sim.run()  # after opening: pyserial flushed its input on open
         return self.port
 

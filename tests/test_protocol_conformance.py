@@ -289,6 +289,7 @@ def test_timed_segment_pulses_follow_the_polynomial(board, host, order):
     t_send = board.time()
     free = int(host.ok(seg_line(800, [c0, make(9000, 9000), make(3000, 3000)]))[1])
     assert free >= 1
+    board.advance(0.85)
     assert host.wait_event("EV DONE").split()[2] == "1"
     board.advance(0.05)
     assert_pulses(board, {0: pulse_of(13500), 1: 1500, 2: pulse_of(3000)})

@@ -1,0 +1,275 @@
+/* Host-built unit tests of the firmware core (labkit_core.c): parser, checksum, limits,
+ * calibration math, segment evaluation, queue, timeout, stream, EEPROM image.
+ * Built with -fsanitize=address,undefined by `make -C firmware tests`; run by tests/test_firmware.py.
+ * Prints one line per failed check and "core tests: N checks, F failed"; exit status 1 on failure. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hw_stub.h"
+
+static int checks, failed;
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        checks++;                                                          \
+        if (!(cond)) {                                                     \
+            failed++;                                                      \
+            printf("FAIL %s:%d: %s | ", __FILE__, __LINE__, #cond);       \
+            printf(__VA_ARGS__);                                           \
+            printf("\n");                                                  \
+        }                                                                  \
+    } while (0)
+
+static lk_t lk;
+static uint32_t now_ms;
+
+/* every board line must end with *HH\r\n where HH is the XOR of the bytes before '*' */
+static int lines_valid(const char *out) {
+    const char *p = out;
+    while (*p) {
+        const char *eol = strstr(p, "\r\n");
+        if (!eol || eol - p < 3 || eol - p > 160 || eol[-3] != '*') return 0;
+        unsigned x = 0, hh;
+        for (const char *c = p; c < eol - 3; c++) x ^= (unsigned char)*c;
+        if (sscanf(eol - 2, "%2X", &hh) != 1 || hh != x) return 0;
+        p = eol + 2;
+    }
+    return 1;
+}
+
+static const char *send(const char *line) {
+    stub_clear();
+    for (const char *c = line; *c; c++) lk_rx(&lk, (uint8_t)*c, now_ms);
+    lk_rx(&lk, '\n', now_ms);
+    return stub_out;
+}
+
+static int starts(const char *s, const char *prefix) { return strncmp(s, prefix, strlen(prefix)) == 0; }
+
+static void boot(void) {
+    now_ms = 0;
+    stub_clear();
+    lk_init(&lk, LK_RESET_POWER, 0, 0);
+    lk_frame(&lk, 0);
+}
+
+static void run_frames(uint32_t from, uint32_t to) {
+    for (uint32_t f = from; f < to; f++) {
+        now_ms = f * LK_FRAME_MS;
+        lk_poll(&lk, now_ms, now_ms * 1000);
+        lk_frame(&lk, f + 1);
+    }
+}
+
+static void test_helpers(void) {
+    CHECK(lk_xor("#7 PING", 7) == 0x24, "xor %02X", lk_xor("#7 PING", 7));
+    CHECK(lk_crc16((const uint8_t *)"123456789", 9) == 0x29B1, "crc %04X", lk_crc16((const uint8_t *)"123456789", 9));
+    float c[4] = {4500, 0, 13500, -9000};
+    CHECK(fabsf(lk_poly(c, 3, 0.5f) - 6750.0f) < 1e-3f, "poly(0.5) = %f", lk_poly(c, 3, 0.5f));
+    CHECK(fabsf(lk_poly(c, 3, 1.0f) - 9000.0f) < 1e-3f, "poly(1)");
+    CHECK(lk_round(2.5f) == 3 && lk_round(-2.5f) == -3 && lk_round(1e12f) == 2147483000L, "round");
+    lk_cal_t k = {500, 2500, 0, 1, 0, 18000};
+    uint16_t h = 0;
+    CHECK(lk_pulse_for(&k, 9000, &h) && h == 3000, "9000 cdeg -> %u half-us", h);
+    CHECK(lk_pulse_for(&k, 3000, &h) && h == 1667, "3000 cdeg -> %u half-us (833.3 us)", h);
+    CHECK(!lk_pulse_for(&k, 18001, &h) && !lk_pulse_for(&k, -1, &h), "servo range");
+    lk_cal_t r = {600, 2400, 18000, -1, 0, 17000};
+    CHECK(lk_pulse_for(&r, 4500, &h) && h == 2 * 1950, "reversed: %u", h);
+}
+
+static void test_handshake_and_framing(void) {
+    boot();
+    CHECK(starts(stub_out, "EV BOOT labkit-arm fw=" LK_FW_VERSION " proto=1 reset=POWER eeprom=DEFAULTS*"), "%s", stub_out);
+    CHECK(lines_valid(stub_out), "%s", stub_out);
+    send("HELLO");
+    CHECK(starts(stub_out, "OK HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints=3 channels=4 queue="), "%s", stub_out);
+    CHECK(strstr(stub_out, "maxline=160*") != NULL && lines_valid(stub_out), "%s", stub_out);
+    send("#7 PING*24");
+    CHECK(starts(stub_out, "OK #7 PING 0*"), "%s", stub_out);
+    send("$#7 pinG*24");
+    CHECK(starts(stub_out, "ERR 1 BADCHK"), "an odd number of case flips changes the checksum: %s", stub_out);
+    send("$#7 ping*24");
+    CHECK(starts(stub_out, "OK #7 PING"), "commands are case-insensitive: %s", stub_out);
+    send("$#7 PING*24");
+    CHECK(starts(stub_out, "OK #7 PING"), "%s", stub_out);
+    send("#7 PING*25");
+    CHECK(starts(stub_out, "ERR 1 BADCHK checksum mismatch*"), "%s", stub_out);
+    send("PING*2");
+    CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "%s", stub_out);
+    send("   ");
+    CHECK(stub_out_len == 0, "blank line answered: %s", stub_out);
+    send("");
+    CHECK(stub_out_len == 0, "empty line answered");
+    send("FLY*4D");
+    CHECK(starts(stub_out, "ERR 1 BADCHK"), "%s", stub_out);
+    send("#65536 PING");
+    CHECK(starts(stub_out, "ERR 2 SYNTAX bad sequence id*"), "%s", stub_out);
+    send("#1 FLY\x01");
+    CHECK(starts(stub_out, "ERR 2 SYNTAX bad character"), "%s", stub_out);
+    send("#3 fly away");
+    CHECK(starts(stub_out, "ERR #3 3 UNKNOWN fly*"), "%s", stub_out);
+    char longline[400];
+    memset(longline, 'A', sizeof longline - 1);
+    longline[sizeof longline - 1] = 0;
+    send(longline);
+    CHECK(starts(stub_out, "ERR 4 TOOLONG"), "%s", stub_out);
+    longline[160] = 0; /* exactly maxline: accepted as a line (unknown command) */
+    send(longline);
+    CHECK(starts(stub_out, "ERR 3 UNKNOWN AAAAAAAAAAAA*"), "%s", stub_out);
+    send("PING");
+    CHECK(starts(stub_out, "OK PING"), "recovers after long lines: %s", stub_out);
+    /* CR LF and lone CR both end lines */
+    stub_clear();
+    const char *two = "PING\r\nPING\rPING\n";
+    for (const char *c = two; *c; c++) lk_rx(&lk, (uint8_t)*c, 0);
+    int n = 0;
+    for (const char *p = stub_out; (p = strstr(p, "OK PING")) != NULL; p++) n++;
+    CHECK(n == 3, "3 replies expected, got %d: %s", n, stub_out);
+    CHECK(lines_valid(stub_out), "%s", stub_out);
+}
+
+static void test_moves_and_limits(void) {
+    boot();
+    CHECK(stub_pulses[0] == 3000 && stub_pulses[3] == 3000, "boot pulses %u %u", stub_pulses[0], stub_pulses[3]);
+    send("MOVE 4500 9000 3000");
+    CHECK(starts(stub_out, "OK MOVE*"), "%s", stub_out);
+    CHECK(stub_pulses[0] == 2000 && stub_pulses[1] == 3000 && stub_pulses[2] == 1667, "pulses %u %u %u",
+          stub_pulses[0], stub_pulses[1], stub_pulses[2]);
+    uint16_t before[4];
+    memcpy(before, stub_pulses, sizeof before);
+    const char *bad[] = {"MOVE 4500 19000 3000", "MOVE -1 0 0", "MOVE 1 2", "MOVE 1 2 3 4", "MOVE 1.5 2 3",
+                         "MOVE 2147483648 0 0", "MOVE -2147483649 0 0", "MOVE + 0 0", "MOVE 0x10 0 0",
+                         "GRIP 2501", "GRIP 499", "CAL 4", "CAL 0 500 500 0 1 0 18000", "CAL 0 500 2500 0 1 10000 18000"};
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        send(bad[i]);
+        CHECK(starts(stub_out, "ERR "), "%s -> %s", bad[i], stub_out);
+        CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "%s moved something", bad[i]);
+    }
+    send("MOVE 4500 19000 3000");
+    CHECK(starts(stub_out, "ERR 6 LIMIT joint 1 19000 outside 0..18000*"), "%s", stub_out);
+    send("GRIP 1900");
+    CHECK(starts(stub_out, "OK GRIP 1900") && stub_pulses[3] == 3800, "%s", stub_out);
+    send("STATUS");
+    CHECK(starts(stub_out, "OK STATUS state=IDLE q=4500,9000,3000 grip=1900 queue=0 free="), "%s", stub_out);
+}
+
+static void test_segments(void) {
+    boot();
+    send("TIMEOUT 0");
+    send("MOVE 4500 9000 3000");
+    run_frames(0, 5);
+    /* frame clock: the next frame to program is #6, starting at 120 ms */
+    send("SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "OK SEG "), "%s", stub_out);
+    int32_t max_err = 0;
+    for (uint32_t f = 5; f < 5 + 50; f++) {
+        lk_frame(&lk, f + 1);
+        float s = (float)((f + 1) * 20 - 120) / 1000.0f;
+        int32_t want = lk_round(4500 + 13500 * s * s - 9000 * s * s * s);
+        int32_t e = labs(lk.q[0] - want);
+        if (e > max_err) max_err = e;
+    }
+    CHECK(max_err <= 1, "cubic samples deviate by %d cdeg", max_err);
+    stub_clear();
+    lk_frame(&lk, 56); /* t = 1120 ms: segment over */
+    CHECK(lk.q[0] == 9000 && lk.state == LK_IDLE, "end q %d state %d", lk.q[0], lk.state);
+    CHECK(starts(stub_out, "EV DONE 1*"), "%s", stub_out);
+
+    /* queue overflow, continuity, busy, stop */
+    char line[200];
+    snprintf(line, sizeof line, "SEG 500 5 9000 0 0 0 0 0 9000 0 0 0 0 0 3000 0 0 0 0 0");
+    for (int i = 0; i < LK_QUEUE; i++) {
+        send(line);
+        char want[32];
+        snprintf(want, sizeof want, "OK SEG %d*", LK_QUEUE - 1 - i);
+        CHECK(starts(stub_out, want), "%s", stub_out);
+    }
+    send(line);
+    CHECK(starts(stub_out, "ERR 7 QFULL"), "%s", stub_out);
+    send("MOVE 9000 9000 3000");
+    CHECK(starts(stub_out, "ERR 8 BUSY"), "%s", stub_out);
+    send("STOP");
+    CHECK(starts(stub_out, "OK STOP 9000 9000 3000*") && lk.q_count == 0 && lk.state == LK_IDLE, "%s", stub_out);
+    send("SEG 500 3 9050 0 0 0 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "OK SEG"), "50 cdeg jump allowed: %s", stub_out);
+    send("STOP");
+    send("SEG 500 3 9051 0 0 0 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "ERR 9 DISCONT joint 0"), "%s", stub_out);
+    send("SEG 500 3 9000 0 81000 -81000 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "ERR 6 LIMIT joint 0 reaches"), "overshoot: %s", stub_out);
+    send("SEG 60001 3 9000 0 0 0 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "ERR 5 RANGE"), "%s", stub_out);
+}
+
+static void test_timeout_and_stream(void) {
+    boot();
+    send("TIMEOUT 100");
+    CHECK(starts(stub_out, "OK TIMEOUT 100*"), "%s", stub_out);
+    send("SEG 1000 3 9000 0 9000 -6000 9000 0 0 0 9000 0 0 0");
+    CHECK(starts(stub_out, "OK SEG"), "%s", stub_out);
+    stub_clear();
+    run_frames(1, 5); /* 80 ms: still running */
+    CHECK(lk.state == LK_RUN, "state %d", lk.state);
+    run_frames(5, 10); /* 180 ms > 100 ms of silence */
+    CHECK(lk.state == LK_HOLD && (lk.flags & LK_F_TIMEOUT_HOLD), "state %d flags %x", lk.state, lk.flags);
+    CHECK(strstr(stub_out, "EV HOLD ") != NULL, "%s", stub_out);
+    int32_t held = lk.q[0];
+    run_frames(10, 20);
+    CHECK(lk.q[0] == held, "moved after hold");
+
+    boot();
+    stub_adc[0] = 100; stub_adc[1] = 200; stub_adc[2] = 300; stub_adc[5] = 1023;
+    send("READ");
+    CHECK(starts(stub_out, "OK READ 100 200 300 1023*"), "%s", stub_out);
+    send("STREAM 201");
+    CHECK(starts(stub_out, "ERR 5 RANGE"), "%s", stub_out);
+    send("STREAM 100");
+    stub_clear();
+    for (uint32_t us = 0; us < 1000000; us += 1000) lk_poll(&lk, us / 1000, 5000000 + us);
+    int frames = 0;
+    for (const char *p = stub_out; (p = strstr(p, "FB ")) != NULL; p++) frames++;
+    CHECK(frames == 100, "100 frames in 1 s at 100 Hz, got %d", frames);
+    CHECK(starts(stub_out, "FB 0 0 100 200 300 1023*"), "%s", stub_out);
+    CHECK(strstr(stub_out, "FB 99 990 ") != NULL && lines_valid(stub_out), "counter");
+    /* a busy board skips periods: the counter jumps so the host sees the gap */
+    stub_clear();
+    lk_poll(&lk, 1050, 5000000 + 1050000);
+    CHECK(starts(stub_out, "FB 100 "), "%s", stub_out);
+    stub_clear();
+    lk_poll(&lk, 1061, 5000000 + 1061000);
+    CHECK(starts(stub_out, "FB 106 "), "%s", stub_out);
+}
+
+static void test_eeprom(void) {
+    memset(stub_eeprom, 0xFF, sizeof stub_eeprom);
+    boot();
+    CHECK(lk.flags & LK_F_EEPROM_DEFAULTS, "blank EEPROM -> defaults");
+    send("CAL 2 600 2400 18000 -1 0 17000");
+    CHECK(starts(stub_out, "OK CAL 2 600 2400 18000 -1 0 17000*"), "%s", stub_out);
+    send("TIMEOUT 1500");
+    send("SAVE");
+    CHECK(starts(stub_out, "OK SAVE 52*"), "%s", stub_out);
+    boot();
+    CHECK(!(lk.flags & LK_F_EEPROM_DEFAULTS) && strstr(stub_out, "eeprom=OK"), "%s", stub_out);
+    CHECK(lk.cal[2].pmin == 600 && lk.cal[2].dir == -1 && lk.cal[2].hi == 17000 && lk.timeout_ms == 1500, "loaded");
+    CHECK(lk.q[2] == 8500 && stub_pulses[2] == 3100, "boot at mid-limits: q %d pulse %u", lk.q[2], stub_pulses[2]);
+    stub_eeprom[10] ^= 1; /* corrupt one byte: CRC fails */
+    boot();
+    CHECK((lk.flags & LK_F_EEPROM_DEFAULTS) && lk.cal[2].pmin == 500 && lk.timeout_ms == 500, "corrupt -> defaults");
+    stub_ee_fail = 1;
+    send("SAVE");
+    CHECK(starts(stub_out, "ERR 10 EEPROM"), "%s", stub_out);
+    stub_ee_fail = 0;
+}
+
+int main(void) {
+    test_helpers();
+    test_handshake_and_framing();
+    test_moves_and_limits();
+    test_segments();
+    test_timeout_and_stream();
+    test_eeprom();
+    printf("core tests: %d checks, %d failed\n", checks, failed);
+    return failed ? 1 : 0;
+}
