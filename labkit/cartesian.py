@@ -40,6 +40,7 @@ __all__ = [
     "waypoints",
     "path_law",
     "cartesian_trajectory",
+    "cartesian_via_trajectory",
 ]
 
 
@@ -605,7 +606,7 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
                 f"(IK branch {branch!r} flips near a singularity); try another branch or path"
             )
     qd, qdd = _joint_rates(robot, kind, q, xd, xdd)
-    resampler = functools.partial(_resample, robot, path, s_law, orientation, branch)
+    resampler = functools.partial(_resample, robot, path, s_law, orientation, branch, q_start)
     traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
                       axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)
     if check_limits:
@@ -615,6 +616,93 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     return traj
 
 
-def _resample(robot, path, s_law, orientation, branch, t):
+def _resample(robot, path, s_law, orientation, branch, q_start, t):
     return cartesian_trajectory(robot, path, law=s_law, t=t, orientation=orientation, branch=branch,
-                                check_limits=False)
+                                q_start=q_start, check_limits=False)
+
+
+def _cartesian_view(robot, kind, traj):
+    """The trajectory with x, xd from FK and the Jacobian (joint-space via points)."""
+    from labkit.kinematics import fk_jacobian
+    from labkit.trajectory import from_law
+
+    T, J = fk_jacobian(robot, traj.q)
+    w = np.einsum("nij,nj->ni", J, traj.qd)
+    if kind == "position":
+        x, xd, axes = T[:, :3, 3], w[:, :3], ("x", "y", "z")
+    elif kind == "planar":
+        phi = np.unwrap(np.arctan2(T[:, 1, 0], T[:, 0, 0]))
+        x, xd, axes = np.column_stack([T[:, :2, 3], phi]), w[:, [0, 1, 5]], ("x", "y", "phi")
+    else:
+        rpy = np.unwrap(Rotation.from_matrix(T[:, :3, :3]).as_euler("xyz"), axis=0)
+        x, xd, axes = np.column_stack([T[:, :3, 3], rpy]), w, ("x", "y", "z", "roll", "pitch", "yaw")
+
+    def resampler(t):
+        return _cartesian_view(robot, kind, from_law(traj.law, t, joint_names=traj.joint_names,
+                                                     revolute=traj.revolute))
+
+    return Trajectory(traj.t, traj.q, traj.qd, traj.qdd, x, xd, joint_names=traj.joint_names,
+                      axis_names=axes, revolute=traj.revolute, law=traj.law, resampler=resampler)
+
+
+def cartesian_via_trajectory(robot, points, times=None, *, durations=None, method="spline",
+                             ends="clamped", branch=None, q_start=None, dt=0.01, t=None,
+                             check_limits=True, check_speed_limits=False):
+    """A joint-space trajectory through Cartesian via points (seed 003, task 5).
+
+    Solves IK for each via point on one branch, then plans in joint space
+    with :func:`labkit.trajectory.via_trajectory` (the end effector passes
+    through every via point but not along straight lines between them).
+
+    Parameters
+    ----------
+    robot : Robot
+    points : array_like, shape (m, 3) or (m, 4, 4)
+        Via targets as :func:`labkit.ik.ik` takes them: positions [m],
+        planar ``(x, y, phi)`` [m, rad], or poses.
+    times, durations, method, ends
+        As :func:`labkit.trajectory.via_law` (``durations`` may be omitted
+        when the robot has speed limits).
+    branch, q_start
+        IK branch, or chosen at the first via point (nearest ``q_start``).
+    dt, t, check_limits, check_speed_limits
+        As :func:`labkit.trajectory.via_trajectory`.
+
+    Returns
+    -------
+    Trajectory
+        Joint samples with ``law``, plus ``x``, ``xd`` from forward kinematics.
+
+    Examples
+    --------
+    >>> from labkit.dh import Robot
+    >>> arm = Robot.load("planar3r_seed003")
+    >>> P = [[0.30, 0.0, 0.0], [0.28, 0.08, 0.3], [0.24, 0.15, 0.5], [0.18, 0.2, 0.8], [0.1, 0.24, 1.0]]
+    >>> traj = cartesian_via_trajectory(arm, P, durations=1.0, branch="elbow_down", dt=0.5)
+    >>> np.allclose(traj.x[::2], P)
+    True
+    """
+    from labkit.trajectory import via_trajectory
+
+    ik = _ik_module()
+    kind = ik.target_kind(robot)
+    targets = np.asarray(points, dtype=float)
+    m = targets.shape[0] if targets.ndim else 0
+    if m < 2:
+        raise ShapeError(f"expected at least 2 via points, got shape {targets.shape}")
+    where = waypoints(targets[:, :3, 3] if kind == "pose" else
+                      (np.column_stack([targets[:, :2], np.zeros(m)]) if kind == "planar" else targets))
+    if times is not None:
+        tv = np.asarray(times, dtype=float)
+    elif durations is not None:
+        tv = np.concatenate([[0.0], np.cumsum(np.broadcast_to(np.asarray(durations, dtype=float), (m - 1,)))])
+    else:
+        tv = np.full(m, np.nan)
+    if branch is None and ik.solver_for(robot).value != "numeric":
+        branch = _choose_branch(ik, robot, targets[0], q_start)
+    q = np.asarray(_solve(ik, robot, kind, targets, tv, branch, where, q_start), dtype=float)
+    rev = robot.is_revolute
+    q[:, rev] = np.unwrap(q[:, rev], axis=0)
+    traj = via_trajectory(q, times, durations=durations, method=method, ends=ends, robot=robot, dt=dt, t=t,
+                          check_limits=check_limits, check_speed_limits=check_speed_limits)
+    return _cartesian_view(robot, kind, traj)

@@ -249,6 +249,12 @@ class Trajectory:
         return Trajectory(t, q, qd, qdd, x, xd, xdd, joint_names=self.joint_names,
                           axis_names=self.axis_names, revolute=self.revolute)
 
+    def plot(self, axes=None, **kwargs):
+        """Position, velocity and acceleration against time (:func:`labkit.plotting.plot_trajectory`)."""
+        from labkit.plotting import plot_trajectory
+
+        return plot_trajectory(self, axes, **kwargs)
+
     def __repr__(self):
         extra = f", axes={self.axis_names}" if self.x is not None else ""
         return (

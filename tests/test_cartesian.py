@@ -3,7 +3,15 @@
 import numpy as np
 import pytest
 
-from labkit.cartesian import arc, cartesian_trajectory, circle, line, path_law, waypoints
+from labkit.cartesian import (
+    arc,
+    cartesian_trajectory,
+    cartesian_via_trajectory,
+    circle,
+    line,
+    path_law,
+    waypoints,
+)
 from labkit.dh import Robot
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError, UnreachableError
 from labkit.kinematics import fk, fk_position
@@ -230,3 +238,23 @@ def test_numeric_ik_robot_follows_path_continuously():
     np.testing.assert_allclose(traj.q[0], q0, atol=1e-6)
     assert np.abs(np.diff(traj.q, axis=0)).max() < 0.1  # no jumps between neighbouring samples
     assert np.all(np.isfinite(traj.qd)) and np.all(np.isfinite(traj.qdd))
+
+
+def test_cartesian_via_points_seed003_task5():
+    """Five Cartesian via points of the 145/145/45 arm, joint-space spline through their IK."""
+    arm = Robot.load("planar3r_seed003")
+    P = np.array([[0.30, 0.00, 0.0], [0.28, 0.08, 0.3], [0.24, 0.15, 0.5], [0.18, 0.20, 0.8], [0.10, 0.24, 1.0]])
+    traj = cartesian_via_trajectory(arm, P, durations=1.0, branch="elbow_down", dt=0.05)
+    assert traj.axis_names == ("x", "y", "phi") and traj.law.n_segments == 4
+    at_via = np.searchsorted(traj.t, traj.law.breaks)
+    np.testing.assert_allclose(traj.x[at_via], P, atol=1e-12)
+    np.testing.assert_allclose(traj.xd[[0, -1]], 0.0, atol=1e-12)
+    J = arm.jacobian(traj.q)[:, [0, 1, 5]]
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", J, traj.qd), traj.xd, atol=1e-12)
+    r = traj.resample(0.25)
+    assert r.x is not None and r.t.size == 17
+    np.testing.assert_allclose(r.x[::4], P, atol=1e-12)
+    bad = P.copy()
+    bad[2] = [0.40, 0.10, 0.0]
+    with pytest.raises(UnreachableError, match=r"waypoints sample 2 at t = 2 s"):
+        cartesian_via_trajectory(arm, bad, durations=1.0, branch="elbow_down")

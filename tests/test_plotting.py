@@ -122,6 +122,7 @@ def test_time_series_joint_units():
     assert rad.get_ylabel() == "joint acceleration [rad/s²]"
     axes = plot_trajectory(traj, title="seed 003 task 2")
     assert len(axes) == 3 and [len(a.lines) for a in axes] == [3, 3, 3]
+    assert [a.get_ylabel() for a in traj.plot()] == [a.get_ylabel() for a in axes]  # the delegate
     with pytest.raises(ValueError, match="expected quantity"):
         plot_time_series(traj, "jerk")
     with pytest.raises(ValueError, match="Cartesian"):
