@@ -95,6 +95,9 @@ def _asset(name: str) -> str:
 
 
 def _needs_math(nb) -> bool:
+    state = nb.metadata.get("widgets", {}).get("application/vnd.jupyter.widget-state+json")
+    if state and "text/latex" in json.dumps(state):
+        return True
     for cell in nb.cells:
         if cell.cell_type == "markdown" and _MATH.search(cell.source):
             return True

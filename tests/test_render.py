@@ -200,6 +200,7 @@ def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
         assert pdf_pages(out / "demo" / f"{name}.pdf") >= 1
     good_html = (out / "demo" / "good.html").read_text()
     assert "application/vnd.jupyter.widget-state+json" in good_html and "data:image/png;base64" in good_html
+    assert "_jupyter_widget_embedder" in good_html and "typesetPromise" in good_html  # manager + math re-typeset
     bad_html = (out / "demo" / "bad.html").read_text()
     text = re.sub(r"<[^>]+>", "", bad_html)
     assert "servo 2 stalled" in text and "raise RuntimeError(" in text  # the failing cell is shown
@@ -227,3 +228,22 @@ def test_rendered_html_screenshot_is_not_blank(tmp_path):
     blue = np.mean((img[..., 2] > 0.6) & (img[..., 0] < 0.4))
     assert non_white > 0.05, f"screenshot looks blank ({non_white:.3f} non-white)"
     assert blue > 0.01, "the matplotlib figure is not visible in the screenshot"
+
+
+@pytest.mark.slow
+def test_labkit_run_overrides_parameters_and_reports_failures(tmp_path, capsys):
+    require("papermill")
+    nbformat = require("nbformat")
+    from labkit.cli import main
+
+    nb = make_notebook(tmp_path / "lab" / "run.ipynb", [
+        "assert port == '/dev/fake', port\nprint('PORT', port)",
+    ])
+    out = tmp_path / "executed.ipynb"
+    assert main(["run", str(nb), "-p", "port", "/dev/fake", "-o", str(out), "--html"]) == 0
+    executed = nbformat.read(str(out), as_version=4)
+    injected = [c for c in executed.cells if "injected-parameters" in c.metadata.get("tags", [])]
+    assert injected and "/dev/fake" in injected[0].source
+    assert out.with_suffix(".html").is_file()
+    assert main(["run", str(nb), "-o", str(tmp_path / "default.ipynb")]) == 1  # default port: the assert fails
+    assert "AssertionError: sim://" in capsys.readouterr().err
