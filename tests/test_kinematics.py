@@ -154,6 +154,29 @@ def test_seed000_closed_form_position(rng):
     assert np.allclose(fk_position(arm, q), expected, atol=1e-14)
 
 
+def test_seed003_published_closed_form_discrepancy(rng):
+    """Seed 003 task 1 prints x = 145 (c12 + c123) + 45 c123 [mm]. Its DH table is modified DH
+    (a_{i-1}) but it multiplies standard-DH matrices (a_{i-1} cos(theta_i) in the last column), which
+    puts each link *after* the next joint's rotation. The physical arm (and labkit) gives
+    x = 145 c1 + 145 c12 + 45 c123. The test documents the discrepancy; the model is not bent."""
+    arm = Robot.load("planar3r_seed003")
+    q = rng.uniform(-np.pi / 2, np.pi / 2, size=(50, 3))
+    c = lambda *k: np.cos(q[:, list(k)].sum(axis=1))  # noqa: E731
+    s = lambda *k: np.sin(q[:, list(k)].sum(axis=1))  # noqa: E731
+    p = fk_position(arm, q)
+    assert np.allclose(p[:, 0], 0.145 * c(0) + 0.145 * c(0, 1) + 0.045 * c(0, 1, 2))
+    assert np.allclose(p[:, 1], 0.145 * s(0) + 0.145 * s(0, 1) + 0.045 * s(0, 1, 2))
+    published_x = 0.145 * (c(0, 1) + c(0, 1, 2)) + 0.045 * c(0, 1, 2)
+    assert not np.allclose(p[:, 0], published_x, atol=1e-3)
+    # the published expression is what the standard-DH reading of the same rows gives
+    tool = np.eye(4)
+    tool[0, 3] = 0.045
+    misread = Robot("misread", (Link(a=0.0), Link(a=0.145), Link(a=0.145)), convention="standard", tool=tool)
+    assert np.allclose(fk_position(misread, q)[:, 0], published_x)
+    # they coincide at the home pose, which is why a check at q = 0 does not reveal it
+    assert np.allclose(fk_position(arm, np.zeros(3)), fk_position(misread, np.zeros(3)))
+
+
 def test_seed002_rpp_and_wrist_jacobians(rng):
     rpp = Robot.load("rpp_seed002")
     q = np.column_stack([rng.uniform(-3, 3, 10), rng.uniform(0, 2, 10), rng.uniform(0, 2, 10)])
