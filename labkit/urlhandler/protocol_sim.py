@@ -117,8 +117,7 @@ class Serial(SerialBase):
         self.is_open = True
 
     def close(self):
-        self.is_open = False
-        self.board = None
+        self.is_open = False  # the board object stays inspectable after close
         super().close()
 
     def _reconfigure_port(self):
