@@ -310,6 +310,7 @@ class MeasurementLog:
             os.close(fd)
             raise MeasurementError(f"{self.path} is already open by another MeasurementLog writer") from None
         self._fd = fd
+        self._torn = False
         if created:
             _fsync_dir(self.path.parent)
         size = os.fstat(fd).st_size
@@ -349,12 +350,16 @@ class MeasurementLog:
 
     # -- writing ------------------------------------------------------------
     def _write(self, text):
-        data = text.encode("utf-8")
+        # after a failed write (disk full, I/O error) the file may end in a torn
+        # line: start the next write on a fresh line so nothing is glued onto it
+        data = (("\n" if self._torn else "") + text).encode("utf-8")
         view = memoryview(data)
+        self._torn = True
         while view:
             n = os.write(self._fd, view)
             view = view[n:]
         os.fsync(self._fd)
+        self._torn = False
 
     def record(self, pose_id, quantity, value, *, unit, instrument, resolution,
                commanded=None, target=None, repeat=None, note="",

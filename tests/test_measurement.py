@@ -355,3 +355,26 @@ def test_excel_bom_and_crlf(tmp_path):
     df = load_measurements(path)
     assert list(df["quantity"]) == ["x", "y"]
     assert df.loc[1, "commanded"] == (0.0873, 0.0, 0.0)
+
+
+def test_failed_write_is_not_glued_to_the_next_record(tmp_path, monkeypatch):
+    import labkit.measurement as m
+
+    path = tmp_path / "log.csv"
+    real_write = os.write
+    with MeasurementLog(path, session="s") as log:
+        log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
+
+        def half_then_fail(fd, data):  # disk full after half a line
+            real_write(fd, bytes(data[: len(data) // 2]))
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(m.os, "write", half_then_fail)
+        with pytest.raises(OSError):
+            log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001)
+        monkeypatch.setattr(m.os, "write", real_write)
+        rec = log.record("p", "x", 3.0, unit="m", instrument="tape", resolution=0.001)
+    assert rec.record == 2  # the failed record was not acknowledged and is not counted
+    with pytest.warns(MeasurementWarning, match="row 3"):
+        df = load_measurements(path)
+    assert list(df["value"]) == [1.0, 3.0]
