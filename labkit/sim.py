@@ -116,11 +116,18 @@ class VirtualBoard:
         self.config = config
         self.eeprom = bytearray(b"\xff" * 1024)
         self.sent_frames = {}
+        #: analog pins forced to a voltage (``set_analog``), overriding the physics
+        self.analog_override = {}
+        #: servo pulse widths now ``{channel: us}`` and their changes ``[(t, channel, us)]``
+        self.pulses = {}
+        self.pulse_log = []
+        self.time = 0.0
+        self.model = None
         self._boot("POWER", config)
 
     # -- power-up --------------------------------------------------------------
     def _boot(self, reason, config):
-        self.time = 0.0
+        self.boot_time = self.time
         self._out = bytearray()
         self._inbuf = bytearray()
         self._discarding = False
@@ -137,16 +144,28 @@ class VirtualBoard:
         self.stream_hz = 0
         self.stream_next = math.inf
         self.stream_counter = 0
-        self.last_ok = 0.0
-        self.next_frame = 0.0
+        self.last_ok = self.time
+        self.next_frame = self.time
         self.mem = 812
-        self.model = ArmModel(self.robot, config, q0=np.radians(np.array(self.q) / 100.0))
-        self.model.command_pulses({j: self._pulse(j, self.q[j]) for j in range(self.joints)})
+        if self.model is None:  # power-up: the arm rests at the boot position; a reset keeps it where it is
+            self.model = ArmModel(self.robot, config, q0=np.radians(np.array(self.q) / 100.0))
         self._boot_pending = (reason, ok)
 
     def reset(self, reason="EXTERNAL"):
-        """Reset the board (as DTR on open does): RAM state lost, EEPROM kept."""
+        """Reset the MCU (as DTR on open does): RAM state lost, EEPROM kept, ``EV BOOT`` 0.1 s later."""
         self._boot(reason, self.config)
+
+    @property
+    def clock_ms(self):
+        """Board clock [ms since the last boot] (uint32)."""
+        return int((self.time - self.boot_time) * 1000 + 1e-6) % 2**32
+
+    def set_analog(self, pin, volts):
+        """Force analog pin ``pin`` (0..5) to ``volts`` (``None`` returns it to the physics)."""
+        if volts is None:
+            self.analog_override.pop(int(pin), None)
+        else:
+            self.analog_override[int(pin)] = float(volts)
 
     def _load_eeprom(self):
         cal = [list(FACTORY) for _ in range(self.channels)]
@@ -228,14 +247,14 @@ class VirtualBoard:
     def next_event_time(self):
         """Board time [s] of the next scheduled activity (boot, servo frame or FB frame)."""
         if self._boot_pending:
-            return BOOT_S
+            return self.boot_time + BOOT_S
         return min(self.next_frame, self.stream_next)
 
     def advance_to(self, t):
         """Run the board until board time ``t`` [s], emitting what falls due."""
         while True:
-            if self._boot_pending and BOOT_S <= t:
-                self.time = max(self.time, BOOT_S)
+            if self._boot_pending and self.boot_time + BOOT_S <= t:
+                self.time = max(self.time, self.boot_time + BOOT_S)
                 reason, ok = self._boot_pending
                 self._boot_pending = None
                 self._emit(f"EV BOOT labkit-arm fw={FW_VERSION} proto={PROTOCOL_VERSION} reset={reason} "
@@ -284,11 +303,18 @@ class VirtualBoard:
                     self.q[j] = c
         self.model.advance_to(t)
         pulses = {j: self._pulse(j, self.q[j]) for j in range(self.joints)}
+        pulses[self.joints] = float(self.grip)
+        for ch, us in pulses.items():
+            if self.pulses.get(ch) != us:
+                self.pulse_log.append((t, ch, us))
+        if len(self.pulse_log) > 200_000:
+            del self.pulse_log[:100_000]
+        self.pulses = pulses
         self.model.command_pulses(pulses)
 
     def _stream_frame(self):
         adc = self._adc()
-        t_ms = int(self.time * 1000 + 1e-6)
+        t_ms = self.clock_ms
         self._emit(f"FB {self.stream_counter} {t_ms} " + " ".join(str(a) for a in adc))
         self.sent_frames[self.stream_counter] = (t_ms, tuple(adc))
         if len(self.sent_frames) > 100_000:
@@ -299,7 +325,11 @@ class VirtualBoard:
 
     def _adc(self):
         self.model.advance_to(self.time)
-        return [int(a) for a in self.model.feedback_adc()] + [self.user_pot]
+        counts = [int(a) for a in self.model.feedback_adc()] + [self.user_pot]
+        for k, pin in enumerate([*range(self.joints), 5]):
+            if pin in self.analog_override:
+                counts[k] = min(max(int(math.floor(self.analog_override[pin] * 1024 / 5.0)), 0), 1023)
+        return counts
 
     def _q_int(self):
         return [int(round(v)) for v in self.q]
@@ -370,14 +400,14 @@ class VirtualBoard:
 
     def _cmd_ping(self, args):
         self._nargs(args, 0)
-        return str(int(self.time * 1000) % 2**32)
+        return str(self.clock_ms)
 
     def _cmd_status(self, args):
         self._nargs(args, 0)
         used = len(self.segments)
         return (f"state={self.state} q={','.join(str(v) for v in self._q_int())} grip={int(self.grip)} "
                 f"queue={used} free={self.queue_depth - used} done={self.done} timeout={self.timeout_ms} "
-                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={int(self.time * 1000)}")
+                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={self.clock_ms}")
 
     def _check_joints(self, q):
         for j, v in enumerate(q):
@@ -503,7 +533,6 @@ class VirtualBoard:
         img += struct.pack("<H", self.timeout_ms)
         img += struct.pack("<H", _crc16(img))
         self.eeprom[: len(img)] = img
-        self.time += 0.0  # a real board takes up to 0.5 s; the virtual EEPROM is instant
         return str(len(img))
 
 

@@ -101,3 +101,52 @@ BOARDS = {"firmware": FirmwareBoard}
 # Pure-Python virtual arm (labkit.sim) -- section owned by the link engineer.
 # Add e.g. ``BOARDS["virtual"] = VirtualBoard`` below.
 # ---------------------------------------------------------------------------------------------
+
+
+class VirtualArmBoard(Board):
+    """The pure-Python virtual arm (``labkit.sim``) behind a lockstep ``sim://`` port.
+
+    Board time advances only when the suite waits (``advance``) or blocks in ``readline``,
+    so the suite runs as fast as the host can talk, deterministically.
+    """
+
+    name = "virtual"
+
+    def __init__(self):
+        from labkit.urlhandler import register
+
+        register()
+        self.port = None
+
+    def open(self):
+        self.port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep&seed=0", timeout=10.0)
+        return self.port
+
+    @property
+    def _board(self):
+        return self.port.board
+
+    def pulses(self):
+        return dict(self._board.pulses)
+
+    def pulse_history(self, since=0.0):
+        return [e for e in self._board.pulse_log if e[0] >= since]
+
+    def set_analog(self, pin, volts):
+        self._board.set_analog(pin, volts)
+
+    def reset(self):
+        self._board.reset()
+
+    def time(self):
+        return self._board.time
+
+    def advance(self, seconds):
+        self.port.sleep(seconds)
+
+    def close(self):
+        if self.port is not None:
+            self.port.close()
+
+
+BOARDS["virtual"] = VirtualArmBoard

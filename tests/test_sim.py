@@ -156,7 +156,7 @@ def test_calibration_save_survives_reset():
     assert talk(b, "CAL 2 600 2400 18000 -1 0 17000") == ["OK CAL 2 600 2400 18000 -1 0 17000*6B"]
     assert talk(b, "SAVE") == ["OK SAVE 52*02"]
     b.reset()
-    b.advance_to(0.2)
+    b.advance(0.2)
     assert b"reset=EXTERNAL eeprom=OK" in b.take_output()
     assert strip(talk(b, "CAL 2")[0]) == "OK CAL 2 600 2400 18000 -1 0 17000"
     assert "flags=00" in talk(b, "STATUS")[0]
@@ -165,7 +165,7 @@ def test_calibration_save_survives_reset():
     assert talk(b, "DEFAULTS")[0].startswith("OK DEFAULTS")
     b.eeprom[10] ^= 0xFF  # corrupt the image: CRC fails at the next boot
     b.reset()
-    b.advance_to(0.2)
+    b.advance(0.2)
     assert b"eeprom=DEFAULTS" in b.take_output()
 
 
