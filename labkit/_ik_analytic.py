@@ -284,22 +284,10 @@ def _skew(k):
     return np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
 
 
-def _rotate(axis, angle, v):
-    """Rotate vectors v (3, N) about a fixed unit axis by angle (N,) (Rodrigues)."""
-    K = _skew(axis)
+def _rot(K, angle, v):
+    """Rodrigues with a precomputed skew matrix K of the axis; v (3, M), angle (M,)."""
     Kv = K @ v
     return v + np.sin(angle) * Kv + (1.0 - np.cos(angle)) * (K @ Kv)
-
-
-def _subproblem1(axis, u, v):
-    """Angle about ``axis`` that turns u (3, N) towards v (3, N) (Paden-Kahan 1).
-
-    ``atan2(k . (u x v), u . v - (k . u)(k . v))``; 0 where u or v is parallel to k.
-    """
-    k = np.asarray(axis)
-    num = ((_skew(k) @ u) * v).sum(axis=0)
-    den = (u * v).sum(axis=0) - (k @ u) * (k @ v)
-    return np.arctan2(num, den)
 
 
 class YawPitchPitch:
@@ -358,6 +346,7 @@ class SphericalWrist:
                 raise _NotThisStructure("wrist axes 4, 5, 6 do not meet in one point")
         self.arm = _Arm(robot, z, o, C)
         self.a4, self.a5, self.a6 = a4, a5, a6
+        self._K = tuple(_skew(k) for k in (self.arm.a[0], self.arm.a[1], a4, a5))
         self.R0 = tool[:3, :3].copy()  # tool orientation at q = 0
         self.w_tool = tool[:3, :3].T @ (C - tool[:3, 3])  # wrist centre in tool coordinates
         # a vector perpendicular to axis 6, to recover q6
@@ -381,46 +370,49 @@ class SphericalWrist:
         R = T[:, :3, :3]
         W = T[:, :3, 3] + R @ self.w_tool
         arm_sols, ok, distance = self.arm.solve(W.T)
-        # M = R123^T R R0^T ; its action on a6 and x6 is all the wrist needs
+        # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
         RR0t = R @ self.R0.T
-        v6 = RR0t @ self.a6  # (N, 3) world image of a6 before undoing joints 1-3
-        vx = RR0t @ self.x6
-        a1, a2, _ = self.arm.a
-        a4, a5, a6 = self.a4, self.a5, self.a6
+        V = np.concatenate([(RR0t @ self.a6).T, (RR0t @ self.x6).T], axis=1)  # (3, 2N)
+        a4, a5, a6, p = self.a4, self.a5, self.a6, self.a6
+        K1, K2, K4, K5 = self._K
         k12 = a4 @ a5
         den = k12 * k12 - 1.0
         cr = np.cross(a4, a5)
         cr2 = cr @ cr
-        p = a6
+        a5p = a5 @ p
+        c5 = np.cross(a5, p)
+        c6 = np.cross(a6, self.x6)
         q = np.empty((N, 8, 6))
-        reach = np.empty((N, 8), dtype=bool)
-        for k, (q1, q2, q3) in enumerate(arm_sols):
-            q23 = q2 + self.arm.s3 * q3
-            # undo joints 1-3: target vectors in the zero-configuration frame
-            m6 = _rotate(a2, -q23, _rotate(a1, -q1, v6.T))
-            mx = _rotate(a2, -q23, _rotate(a1, -q1, vx.T))
-            # subproblem 2: Rot(a4, t4) Rot(a5, t5) p = m6
-            alpha = (k12 * (a5 @ p) - (a4[:, None] * m6).sum(axis=0)) / den
-            beta = (k12 * (a4[:, None] * m6).sum(axis=0) - a5 @ p) / den
-            g2 = (1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / cr2
-            g = np.sqrt(np.maximum(g2, 0.0))
-            for j, gs in enumerate((1.0, -1.0)):
-                c = alpha * a4[:, None] + beta * a5[:, None] + (gs * g) * cr[:, None]
-                t5 = _subproblem1(a5, np.broadcast_to(p[:, None], c.shape), c)
-                t4 = _subproblem1(a4, c, m6)
-                y = _rotate(a5, -t5, _rotate(a4, -t4, mx))
-                t6 = _subproblem1(a6, np.broadcast_to(self.x6[:, None], y.shape), y)
-                col = 2 * k + j
-                q[:, col, 0], q[:, col, 1], q[:, col, 2] = q1, q2, q3
-                q[:, col, 3], q[:, col, 4], q[:, col, 5] = t4, t5, t6
-                reach[:, col] = ok
-            # order the pair (noflip first): swap where q5 has the "flip" sign
-            a, b = 2 * k, 2 * k + 1
-            swap = (np.sin(q[:, a, 4]) * self.noflip_sign) < 0
-            if np.any(swap):
-                qa = q[swap, a].copy()
-                q[swap, a] = q[swap, b]
-                q[swap, b] = qa
+        reach = np.repeat(ok[:, None], 8, axis=1)
+        for side in (0, 1):
+            q1 = arm_sols[2 * side][0]
+            V1 = _rot(K1, np.concatenate([-q1, -q1]), V)  # undo joint 1
+            for elbow in (0, 1):
+                k = 2 * side + elbow
+                _, q2, q3 = arm_sols[k]
+                q23 = q2 + self.arm.s3 * q3
+                V2 = _rot(K2, np.concatenate([-q23, -q23]), V1)  # undo joints 2 and 3
+                m6 = V2[:, :N]
+                M6 = np.concatenate([m6, m6], axis=1)
+                MX = np.concatenate([V2[:, N:], V2[:, N:]], axis=1)
+                # subproblem 2: Rot(a4, t4) Rot(a5, t5) a6 = m6, both signs of gamma at once
+                a4m = a4 @ m6
+                alpha = (k12 * a5p - a4m) / den
+                beta = (k12 * a4m - a5p) / den
+                g = np.sqrt(np.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / cr2, 0.0))
+                alpha2, beta2 = np.concatenate([alpha, alpha]), np.concatenate([beta, beta])
+                C = alpha2 * a4[:, None] + beta2 * a5[:, None] + np.concatenate([g, -g]) * cr[:, None]
+                t5 = np.arctan2(c5 @ C, p @ C - a5p * (a5 @ C))
+                t4 = np.arctan2(((K4 @ C) * M6).sum(axis=0), (C * M6).sum(axis=0) - (a4 @ C) * (a4 @ M6))
+                Y = _rot(K5, -t5, _rot(K4, -t4, MX))
+                t6 = np.arctan2(c6 @ Y, self.x6 @ Y)
+                # noflip first: swap the pair where q5 has the "flip" sign
+                swap = (np.sin(t5[:N]) * self.noflip_sign) < 0
+                for col, first in ((2 * k, True), (2 * k + 1, False)):
+                    take_plus = ~swap if first else swap
+                    q[:, col, 0], q[:, col, 1], q[:, col, 2] = q1, q2, q3
+                    for j, t in ((3, t4), (4, t5), (5, t6)):
+                        q[:, col, j] = np.where(take_plus, t[:N], t[N:])
         return q, reach, distance
 
 
