@@ -181,16 +181,20 @@ def chromium_command(html, out, profile, *, mode="pdf", chromium="chromium", bud
                      window="1200,1600"):
     """The headless-Chromium command line that prints ``html`` to a PDF (or a PNG screenshot).
 
-    ``mode`` is ``"pdf"`` or ``"screenshot"``. The browser runs with a fresh profile
+    ``mode`` is ``"pdf"``, ``"screenshot"`` or ``"dom"`` (the rendered DOM on stdout; ``out`` unused).
+    Host names do not resolve, so the page cannot fetch anything from the network. The browser runs with a fresh profile
     ``profile``, no sandbox, no GPU, and no background networking, component updates or
     sync, and waits ``budget_ms`` of virtual time for scripts (MathJax, widgets).
     """
-    if mode not in ("pdf", "screenshot"):
-        raise LabkitError(f"mode must be 'pdf' or 'screenshot', got {mode!r}")
+    if mode not in ("pdf", "screenshot", "dom"):
+        raise LabkitError(f"mode must be 'pdf', 'screenshot' or 'dom', got {mode!r}")
     cmd = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
            "--disable-background-networking", "--disable-component-update", "--disable-sync",
            "--disable-default-apps", "--mute-audio", "--hide-scrollbars",
+           "--host-resolver-rules=MAP * ~NOTFOUND",  # offline: a report never fetches anything
            f"--user-data-dir={profile}", f"--virtual-time-budget={int(budget_ms)}"]
+    if mode == "dom":
+        return cmd + ["--dump-dom", Path(html).resolve().as_uri()]
     if mode == "pdf":
         cmd += ["--no-pdf-header-footer", f"--print-to-pdf={out}"]
     else:
@@ -414,7 +418,12 @@ def _cmd_render(args):
     results, wall = render(args.notebooks, args.output, jobs=args.jobs, no_input=args.no_input, pdf=args.pdf,
                            parameters=_parse_params(args.parameters))
     failed = [r for r in results if not r.ok]
-    print(f"{len(results)} notebooks rendered in {wall:.1f} s (wall time, --jobs {args.jobs}); "
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"{len(results)} notebooks rendered in {wall:.1f} s (wall time, --jobs {args.jobs}, {os.cpu_count()} CPUs; "
+          f"CPU time {usage.ru_utime + usage.ru_stime:.1f} s, load average {load:.1f}); "
           f"index: {Path(args.output).resolve() / 'index.html'}")
     if failed:
         print(f"FAILED ({len(failed)}): " + ", ".join(f"{r.lab}/{r.name}" for r in failed), file=sys.stderr)

@@ -80,7 +80,8 @@ def test_chromium_command_flags():
                  "--virtual-time-budget=5000", "--print-to-pdf=/tmp/r.pdf"):
         assert flag in cmd
     assert cmd[-1].startswith("file://") and cmd[-1].endswith("/r.html")
-    with pytest.raises(LabkitError, match="'pdf' or 'screenshot'"):
+    assert "--host-resolver-rules=MAP * ~NOTFOUND" in cmd  # offline
+    with pytest.raises(LabkitError, match="'pdf', 'screenshot' or 'dom'"):
         chromium_command("r.html", "x", "p", mode="png")
 
 
@@ -228,6 +229,14 @@ def test_rendered_html_screenshot_is_not_blank(tmp_path):
     blue = np.mean((img[..., 2] > 0.6) & (img[..., 0] < 0.4))
     assert non_white > 0.05, f"screenshot looks blank ({non_white:.3f} non-white)"
     assert blue > 0.01, "the matplotlib figure is not visible in the screenshot"
+    # MathJax (inlined) typeset the formula offline: the rendered DOM holds an SVG math container
+    import subprocess
+
+    from labkit.render import chromium_command, find_chromium
+
+    dom = subprocess.run(chromium_command(results[0].html, None, tmp_path / "profile", mode="dom",
+                                          chromium=find_chromium()), capture_output=True, text=True, timeout=120).stdout
+    assert 'data-mathjax="done"' in dom and "<mjx-container" in dom
 
 
 @pytest.mark.slow
