@@ -301,6 +301,11 @@ def ik_all(robot, target, *, solver="auto"):
     kind = target_kind(robot)
     impl = _analytic(robot, solver)
     flat, lead = _targets(robot, target, kind)
+    return _solve_all(robot, impl, kind, flat, lead)
+
+
+def _solve_all(robot, impl, kind, flat, lead):
+    """ik_all on validated, flattened targets."""
     n = robot.n
     limits = robot.joint_limits
     rev = robot.is_revolute
@@ -396,8 +401,8 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             raise ValueError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
         return _ik_one_numeric(robot, kind, target, q_near)
     idx = None if branch is None else _branch_index(impl.branches, impl.aliases, branch)
-    sols = ik_all(robot, target, solver=impl.name)
     flat, lead = _targets(robot, target, kind)
+    sols = _solve_all(robot, impl, kind, flat, lead)
     n = robot.n
     m = len(sols.branches)
     q = sols.q.reshape(-1, m, n)
