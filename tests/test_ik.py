@@ -562,3 +562,30 @@ def test_yaw_pitch_pitch_with_a_lateral_offset():
     # inside the offset cylinder around the base axis nothing is reachable
     with pytest.raises(UnreachableError, match="out of reach"):
         ik(arm, [0.005, 0.0, -0.1])
+
+
+# -- the `labkit ik` command ------------------------------------------------------------
+
+def test_cli_ik_prints_every_branch(capsys):
+    from labkit.cli import main
+
+    assert main(["ik", "arduino_arm_3dof", "100", "100", "-100", "--mm", "--deg"]) == 0
+    out = capsys.readouterr().out
+    assert "solver yaw_pitch_pitch" in out
+    row = next(line for line in out.splitlines() if line.strip().startswith("elbow_up"))
+    assert row.split()[1:4] == ["45.0000", "113.8648", "109.3922"] and row.split()[-1] == "ok"
+    assert "outside joint limits" in out
+    assert main(["ik", "rpp_seed002", "0.5", "0.5", "1.0"]) == 0
+    out = capsys.readouterr().out
+    assert "d2 [m]" in out and "numeric" in out
+    assert main(["ik", "puma560", "0.5", "0.1", "0.3", "0", "90", "0", "--deg"]) == 0
+    assert "right_up_flip" in capsys.readouterr().out
+
+
+def test_cli_ik_errors(capsys):
+    from labkit.cli import main
+
+    assert main(["ik", "arduino_arm_3dof", "1", "1", "1"]) == 1
+    assert "out of reach by 1.458 m" in capsys.readouterr().err
+    assert main(["ik", "puma560", "0.5", "0.1"]) == 2
+    assert "expected x y z roll pitch yaw, got 2 values" in capsys.readouterr().err
