@@ -589,3 +589,16 @@ def test_cli_ik_errors(capsys):
     assert "out of reach by 1.458 m" in capsys.readouterr().err
     assert main(["ik", "puma560", "0.5", "0.1"]) == 2
     assert "expected x y z roll pitch yaw, got 2 values" in capsys.readouterr().err
+
+
+def test_boundary_configurations_stay_reachable_and_exact(arm, puma):
+    """Arm fully stretched or folded (cosine law at +-1), and the PUMA's ready pose."""
+    for q in [(0.5, 1.0, 0.0), (0.5, 1.0, np.pi), (0.0, 0.0, 0.0)]:
+        p = fk_position(arm, q)
+        sols = ik_all(arm, p)
+        assert sols.reachable.all() and float(sols.distance) == 0.0
+        assert np.abs(fk_position(arm, sols.q) - p).max() < 1e-12
+    for q in [(0.0, np.pi / 2, -np.pi / 2, 0.0, 0.0, 0.0), np.zeros(6)]:
+        T = fk(puma, q)
+        sols = ik_all(puma, T)
+        assert sols.reachable.all() and np.abs(fk(puma, sols.q) - T).max() < 1e-12
