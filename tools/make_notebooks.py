@@ -316,6 +316,18 @@ def seed002_puma():
         print("branch that returns the seed's configuration:", [b for b, m in zip(sols.branches, match) if m])
         """),
         md("""
+        The seed's *first* method solved the equations numerically (`fsolve` from pi/6 guesses).
+        The numeric counterpart, `labkit.ik.ik_numeric` (damped least squares), converges to the
+        branch nearest its start:
+        """),
+        code("""
+        from labkit.ik import ik_numeric
+
+        numeric = ik_numeric(arm, T, q0=np.full(6, 0.4))
+        print("numeric IK from q0 = 0.4 rad:", np.round(numeric.q, 6), f"({int(numeric.iterations)} iterations,"
+              f" residual {float(numeric.residual):.1e})")
+        """),
+        md("""
         ## 3D plot of all eight solutions (the seed's figure 3 showed one configuration)
         """),
         code("""
@@ -361,6 +373,8 @@ def seed002_puma():
         checks.check("number of IK solutions (sec. 2.3)", sols.reachable.sum(), 8, tol=0, note="2 x 2 x 2")
         checks.check("IK solution returning pi/6 everywhere (sec. 2.2)", match.sum(), 1, tol=0, note="exactly one branch")
         checks.check("FK(IK(T)) error, all 8 [mm]", table["FK error [mm]"].max(), 0.0, tol=1e-9, note="round trip")
+        checks.check("numeric IK [rad] (sec. 2.2, first method)", numeric.q, np.full(6, 0.5236), tol=5e-5,
+                     note="published 0.5236 (4 decimals)")
         checks.assert_all()
         """),
     ]
@@ -578,6 +592,25 @@ def seed002_wrist():
         print("tau = J_O3^T F_3 =", np.round(tau0, 5), "N m;  J_A^T F_A =", np.round(tau0_direct, 5))
         """),
         md("""
+        ### Is the tool velocity really parallel to $z_1$?
+
+        The seed argues (figure 7, "surface assumption") that the velocity of A is parallel to $z_1$
+        and therefore takes the friction along $-z_1$. Checking it at the seed's own configuration:
+        the velocity of A for $\dot\theta = [1, 0, 0]$ is $z_0 \times p_A$, horizontal and
+        tangent to the circle, while $z_1$ points elsewhere. With the friction truly opposing the
+        velocity the torques change (shown below); the published $M$ is reproduced above with the
+        seed's $-z_1$ model.
+        """),
+        code("""
+        z1 = frames0[1][:3, 2]
+        v_A0 = (jacobian(wrist, q0) @ [1.0, 0.0, 0.0])[:3]
+        angle_v_z1 = np.degrees(np.arccos(abs(z1 @ v_A0) / np.linalg.norm(v_A0)))
+        f_physical = force_t * (-v_A0 / np.linalg.norm(v_A0)) + force_n * np.array([0.0, 0.0, -1.0])
+        tau_physical = joint_torques(jacobian(wrist, q0), np.concatenate([f_physical, moment_x3 * frames0[3][:3, 0]]))
+        print(f"angle between v_A and z1: {angle_v_z1:.1f} deg (the seed assumes 0)")
+        print("torques with friction against the velocity [N m]:", np.round(tau_physical, 5))
+        """),
+        md("""
         ## 4.3 Joint angles, rates and torques versus time
 
         $\\theta_1 = -0.5008 + t$, $\\theta_2$ and $\\theta_3$ fixed: $\\dot\\theta = [1, 0, 0]$ rad/s.
@@ -659,6 +692,9 @@ def seed002_wrist():
           same configuration, forces and moment as sec. 4.3's $M = [0.16976, -0.16972, -0.76038]$.
           The first set is not reproducible from the stated model (its listing computes $\\tau$ before
           `initial_thetas` is solved); the second is. Recorded as a published typo.
+        * **Published modelling error:** the friction is taken along $-z_1$ on the claim that the
+          tool velocity is parallel to $z_1$; it is not (angle above). Recorded, with the torques
+          for friction opposing the velocity.
         * Rates (sec. 4.3): $[1, 0, 0]$ from the pseudo-inverse.
         """),
         code("""
@@ -673,6 +709,8 @@ def seed002_wrist():
         checks.check("joint rates [rad/s] (sec. 4.3)", qd_from_v.mean(axis=0), [1.0, 0.0, 0.0], tol=1e-9, note="pinv(J) v")
         checks.typo("tau (sec. 4.2)", [0.081598, -0.081563, -0.74319], tau0,
                     "same model as sec. 4.3's M; not reproducible - the published M is")
+        checks.typo("friction direction: angle(v_A, z1) [deg] (sec. 4.2)", 0.0, angle_v_z1,
+                    f"v_A is not parallel to z1; friction against v_A gives tau = {np.round(tau_physical, 4).tolist()} N m")
         checks.assert_all()
         """),
     ]
