@@ -1,11 +1,17 @@
 """Batched Levenberg-Marquardt inverse kinematics (private; see :func:`labkit.ik.ik_numeric`).
 
 All targets iterate together: one :func:`labkit.kinematics.fk_jacobian` call
-and one batched ``n x n`` solve per iteration for the targets still active.
-Each target keeps its own damping ``lambda`` (divided by 10 after an accepted
-step, multiplied by 10 after a rejected one), steps are projected onto the
-joint limits, and targets that have not converged after ``max_iter``
-iterations restart from a random configuration inside the limits.
+and one batched linear solve per iteration for the targets still active
+(``n x n`` normal equations, or ``m x m`` in task space when there are fewer
+task rows ``m`` than joints). Each target keeps its own damping ``lambda``
+(divided by 10 after an accepted step, multiplied by 10 after a rejected one)
+and steps are projected onto the joint limits. Converged targets leave the
+active set at once; a target that stalls (squared error not down 100x in 8
+iterations) or runs out of iterations restarts from a random configuration
+inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
+the solution by 2 pi afterwards (accepted only if it then lies inside), which
+escapes minima pinned against a limit. Finally the stragglers are copied up
+to 64 times and the copies iterate together from independent starts.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ def _error(kind, T, target, rows):
         e[:, 0] = target[:, 0] - T[:, 0, 3]
         e[:, 1] = target[:, 1] - T[:, 1, 3]
         e[:, 2] = _wrap(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
+        e = e[:, [ROWS["planar"].index(r) for r in rows]]
         return e, np.sqrt((e * e).sum(axis=1))
     # pose: position error and rotation-vector error of R_target R^T
     R = T[:, :3, :3]
@@ -59,8 +66,9 @@ def _error(kind, T, target, rows):
 
 
 def _random_q(rng, limits, size):
-    lo = np.maximum(limits[:, 0], -np.pi * 4)
-    hi = np.minimum(limits[:, 1], np.pi * 4)
+    """Uniform inside the limits (infinite limits replaced by +-2 pi)."""
+    lo = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -2 * np.pi)
+    hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 

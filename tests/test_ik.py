@@ -499,6 +499,9 @@ def test_numeric_masks_and_kinds(puma):
     res = ik_numeric(arm, tgt)
     assert res.success.all()
     assert np.all(_wrapped(ik(arm, tgt, q_near=res.q) - res.q) < 1e-7)
+    # planar position only (mask over x, y, phi): phi is ignored
+    res = ik_numeric(arm, np.c_[tgt[:, :2], np.zeros(100)], mask=[1, 1, 0])
+    assert res.success.all() and np.abs(fk(arm, res.q)[:, :2, 3] - tgt[:, :2]).max() < 1e-9
     # q0 seeds the iteration: starting at the answer converges at once
     res = ik_numeric(puma, T[:3], q0=q[:3])
     assert np.all(res.iterations <= 1) and np.allclose(res.q, q[:3])
