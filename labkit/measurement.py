@@ -733,5 +733,7 @@ def _to_frame(path, rows, poses, validate):
     df.insert(6, "target", pd.Series(data["target"], dtype=object))
     for col in ("record", "repeat", "n_readings", "line"):
         df[col] = df[col].astype("Int64")
+    for col in ("session", "robot", "pose_id", "quantity", "unit", "instrument", "operator", "note"):
+        df[col] = df[col].astype("str")
     df["timestamp"] = pd.to_datetime(df["timestamp"], utc=True, format="ISO8601")
     return df

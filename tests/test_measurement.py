@@ -7,6 +7,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from labkit.exceptions import MeasurementError
@@ -378,3 +379,15 @@ def test_failed_write_is_not_glued_to_the_next_record(tmp_path, monkeypatch):
     with pytest.warns(MeasurementWarning, match="row 3"):
         df = load_measurements(path)
     assert list(df["value"]) == [1.0, 3.0]
+
+
+def test_header_only_file_gives_typed_empty_frame(tmp_path):
+    path = tmp_path / "empty.csv"
+    path.write_text("pose_id,quantity,value,unit,resolution\n")
+    df = load_measurements(path)
+    assert len(df) == 0
+    assert df["value"].dtype == float and str(df["record"].dtype) == "Int64"
+    assert not pd.api.types.is_numeric_dtype(df["pose_id"])
+    (tmp_path / "nothing.csv").write_bytes(b"")
+    with pytest.raises(MeasurementError, match="no header line"):
+        load_measurements(tmp_path / "nothing.csv")
