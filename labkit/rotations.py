@@ -416,49 +416,50 @@ def _as_matrices(R):
     return as_batch(R, (3, 3), "R")
 
 
+def _residual(alpha, beta, R):
+    """``(Rz(alpha) Ry(beta))^T R``: what is left for the third rotation."""
+    Q = rotation_z(alpha) @ rotation_y(beta)
+    return np.swapaxes(Q, -1, -2) @ R
+
+
+def _pair_of_solutions(alpha, beta, gamma, lock, second_beta):
+    first = np.stack([alpha, beta, gamma], axis=-1)
+    second = np.stack([alpha + np.pi, second_beta, gamma + np.pi], axis=-1)
+    second = np.where(lock[..., None], first, second)
+    return wrap_angle(np.stack([first, second], axis=-2))
+
+
 def _tait_bryan_zyx(R, tol):
-    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rx(gamma)."""
+    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rx(gamma).
+
+    alpha and beta come from the first column ``[c_a c_b, s_a c_b, -s_b]``; gamma from
+    the residual rotation ``Rx(gamma) = (Rz(alpha) Ry(beta))^T R``, which keeps the
+    reconstruction accurate to rounding even next to gimbal lock.
+    """
     r11, r21, r31 = R[..., 0, 0], R[..., 1, 0], R[..., 2, 0]
-    r32, r33 = R[..., 2, 1], R[..., 2, 2]
-    r12, r22 = R[..., 0, 1], R[..., 1, 1]
     cb = np.hypot(r11, r21)
     lock = cb < tol
-    beta = np.arctan2(-r31, cb)
-    alpha = np.arctan2(r21, r11)
-    gamma = np.arctan2(r32, r33)
-    # gimbal lock: alpha = 0 representative
-    up = -r31 > 0
-    g_lock = np.where(up, np.arctan2(r12, r22), np.arctan2(-r12, r22))
-    beta_lock = np.where(up, np.pi / 2, -np.pi / 2)
-    alpha = np.where(lock, 0.0, alpha)
-    gamma = np.where(lock, g_lock, gamma)
-    beta = np.where(lock, beta_lock, beta)
-    first = np.stack([alpha, beta, gamma], axis=-1)
-    second = np.stack([alpha + np.pi, np.pi - beta, gamma + np.pi], axis=-1)
-    second = np.where(lock[..., None], first, second)
-    return wrap_angle(np.stack([first, second], axis=-2)), lock
+    beta = np.where(lock, np.where(-r31 > 0, np.pi / 2, -np.pi / 2), np.arctan2(-r31, cb))
+    alpha = np.where(lock, 0.0, np.arctan2(r21, r11))  # representative alpha = 0 at gimbal lock
+    M = _residual(alpha, beta, R)
+    gamma = np.arctan2(M[..., 2, 1], M[..., 1, 1])
+    return _pair_of_solutions(alpha, beta, gamma, lock, np.pi - beta), lock
 
 
 def _proper_zyz(R, tol):
-    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rz(gamma)."""
+    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rz(gamma).
+
+    alpha and beta come from the third column ``[c_a s_b, s_a s_b, c_b]``; gamma from
+    the residual rotation ``Rz(gamma) = (Rz(alpha) Ry(beta))^T R``.
+    """
     r13, r23, r33 = R[..., 0, 2], R[..., 1, 2], R[..., 2, 2]
-    r31, r32 = R[..., 2, 0], R[..., 2, 1]
-    r11, r12, r21 = R[..., 0, 0], R[..., 0, 1], R[..., 1, 0]
-    sb = np.hypot(r31, r32)
+    sb = np.hypot(r13, r23)
     lock = sb < tol
-    beta = np.arctan2(sb, r33)
-    alpha = np.arctan2(r23, r13)
-    gamma = np.arctan2(r32, -r31)
-    top = r33 > 0
-    g_lock = np.where(top, np.arctan2(r21, r11), np.arctan2(r12, -r11))
-    beta_lock = np.where(top, 0.0, np.pi)
-    alpha = np.where(lock, 0.0, alpha)
-    gamma = np.where(lock, g_lock, gamma)
-    beta = np.where(lock, beta_lock, beta)
-    first = np.stack([alpha, beta, gamma], axis=-1)
-    second = np.stack([alpha + np.pi, -beta, gamma + np.pi], axis=-1)
-    second = np.where(lock[..., None], first, second)
-    return wrap_angle(np.stack([first, second], axis=-2)), lock
+    beta = np.where(lock, np.where(r33 > 0, 0.0, np.pi), np.arctan2(sb, r33))
+    alpha = np.where(lock, 0.0, np.arctan2(r23, r13))
+    M = _residual(alpha, beta, R)
+    gamma = np.arctan2(M[..., 1, 0], M[..., 0, 0])
+    return _pair_of_solutions(alpha, beta, gamma, lock, -beta), lock
 
 
 def euler_from_matrix(R, convention, *, tol=1e-9):

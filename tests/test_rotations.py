@@ -255,3 +255,18 @@ def test_euler_angles_table(rng):
     assert np.allclose(df.loc[(2, 2)].values[:3].astype(float), e.second[2])
     locked = euler_from_matrix(rotation_y(np.pi / 2), "xyz_fixed").to_dataframe()
     assert locked["gimbal_lock"].all() and len(locked) == 2
+
+
+@pytest.mark.parametrize("conv", CONVENTIONS)
+def test_near_gimbal_lock_measured_matrices_reconstruct_to_rounding(conv, rng):
+    """Next to (not at) gimbal lock, slightly perturbed matrices still give exact angle triples."""
+    angles = rng.uniform(-3, 3, size=(500, 3))
+    eps = rng.choice([1e-5, 1e-7, 1e-8, 3e-9], size=500)
+    if conv == "zyz":
+        angles[:, 1] = np.where(rng.random(500) < 0.5, eps, np.pi - eps)
+    else:
+        angles[:, 1] = np.where(rng.random(500) < 0.5, np.pi / 2 - eps, -np.pi / 2 + eps)
+    R = nearest_rotation(matrix_from_euler(angles, conv) + rng.normal(scale=1e-13, size=(500, 3, 3)))
+    e = euler_from_matrix(R, conv)
+    assert not e.gimbal_lock.any()
+    assert np.abs(matrix_from_euler(e.solutions, conv) - R[:, None]).max() < 1e-13
