@@ -136,3 +136,21 @@ def test_fk_and_jacobian_match_modern_robotics_product_of_exponentials():
             w, v0 = Js[:3], Js[3:]
             v_tool = v0 + np.cross(w.T, T[:3, 3]).T
             assert np.abs(jacobian(robot, qk) - np.r_[v_tool, w]).max() < 1e-12
+
+
+@pytest.mark.slow
+def test_benchmark_script_runs_quick():
+    """The benchmark prints every row with ratios against roboticstoolbox (not a timed test)."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    require("roboticstoolbox")
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_kinematics.py"
+    out = subprocess.run([sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    for row in ("FK", "Jacobian", "analytic IK", "numeric IK"):
+        line = next(ln for ln in out.stdout.splitlines() if ln.startswith(row))
+        assert re.search(r"[\d,]+x\b", line), line  # a ratio against rtb is printed
+    assert "success 100.00%" in out.stdout
