@@ -21,6 +21,8 @@ from labkit.exceptions import LabkitError
 PLUGINS = (
     "labkit.sim",  # labkit sim: serve the virtual arm on a pty
     "labkit.render",  # labkit run / labkit render: notebooks and reports
+    "labkit.errortables",  # labkit errors / labkit audit: error tables, published-table audit
+    "labkit.calibration",  # labkit calibrate: fit offsets/lengths/sag, write a calibrated robot file
 )
 
 
