@@ -41,7 +41,8 @@ from functools import lru_cache
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.notebooks import execute_notebook, find_notebooks, lab_of, notebook_parameters, parse_parameter
+from labkit.notebooks import (CELL_TIMEOUT, execute_notebook, find_notebooks, lab_of, notebook_parameters,
+                              parse_parameter)
 
 __all__ = ["RenderResult", "export_html", "print_pdf", "render", "render_one", "write_index", "add_cli"]
 
@@ -227,7 +228,7 @@ def print_pdf(html, pdf, *, mode="pdf", timeout=120, budget_ms=VIRTUAL_TIME_BUDG
     return pdf
 
 
-def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=None) -> RenderResult:
+def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=None, timeout=None) -> RenderResult:
     """Execute one notebook and write its executed copy, HTML and (optionally) PDF report.
 
     Parameters
@@ -243,6 +244,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     parameters : dict, optional
         Parameter overrides. ``output_dir`` is set to ``output_dir/<lab>/<name>_files``
         when the notebook declares it and it is not overridden.
+    timeout : float, optional
+        Seconds one cell may run (default :data:`labkit.notebooks.CELL_TIMEOUT`).
 
     Returns
     -------
@@ -262,7 +265,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
         params["output_dir"] = str(folder / f"{name}_files")
     params = {k: v for k, v in params.items() if k in declared}
     with _stderr_to(folder / f"{name}.log"):  # kernel start-up chatter goes to the log, not the terminal
-        result = execute_notebook(notebook, folder / f"{name}.ipynb", params, check_names=False)
+        result = execute_notebook(notebook, folder / f"{name}.ipynb", params, check_names=False,
+                                  timeout=timeout or CELL_TIMEOUT)
     t0 = time.perf_counter()
     errors = [] if result.ok else [result.error]
     html_path = pdf_path = None
@@ -296,9 +300,39 @@ def _rel(path, start):
     return os.path.relpath(path, start).replace(os.sep, "/") if path else None
 
 
+def _merge_previous(results, out):
+    """Current results plus those of earlier renders (``index.json``) whose reports still exist."""
+    state = out / "index.json"
+    current = {(r.lab, r.name) for r in results}
+    merged = list(results)
+    try:
+        previous = json.loads(state.read_text("utf-8"))
+    except (OSError, ValueError):
+        previous = []
+    for row in previous:
+        try:
+            if (row["lab"], row["name"]) in current or not (out / row["html"]).is_file():
+                continue
+            paths = {k: (out / row[k]) if row.get(k) else None for k in ("notebook", "html", "pdf")}
+            merged.append(RenderResult(row["lab"], row["name"], bool(row["ok"]), row["error"], paths["notebook"],
+                                       paths["html"], paths["pdf"], float(row["seconds"])))
+        except (KeyError, TypeError, ValueError):
+            continue
+    state.write_text(json.dumps([{"lab": r.lab, "name": r.name, "ok": r.ok, "error": r.error, "seconds": r.seconds,
+                                  **{k: _rel(getattr(r, k), out) for k in ("notebook", "html", "pdf")}}
+                                 for r in merged], indent=1), encoding="utf-8")
+    return merged
+
+
 def write_index(results, output_dir, *, wall_seconds=None) -> Path:
-    """Write ``output_dir/index.html``: every report with its links and pass/fail."""
+    """Write ``output_dir/index.html``: every report with its links and pass/fail.
+
+    Reports rendered earlier into the same folder (recorded in ``index.json``) stay listed
+    when only some notebooks are re-rendered.
+    """
     out = Path(output_dir).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    results = _merge_previous(results, out)
     rows = []
     for r in sorted(results, key=lambda r: (r.lab, r.name)):
         links = " ".join(f'<a href="{_html.escape(_rel(p, out))}">{kind}</a>'
@@ -310,7 +344,7 @@ def write_index(results, output_dir, *, wall_seconds=None) -> Path:
     n_fail = sum(not r.ok for r in results)
     summary = f"{len(results)} notebooks, {len(results) - n_fail} passed, {n_fail} failed"
     if wall_seconds is not None:
-        summary += f", rendered in {wall_seconds:.1f} s"
+        summary += f", last render took {wall_seconds:.1f} s"
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>labkit reports</title>
 <style>
@@ -335,7 +369,7 @@ pre {{ margin: 0; white-space: pre-wrap; max-width: 50em; }}
 
 
 def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=True, parameters=None,
-           progress=print):
+           progress=print, timeout=None):
     """Execute notebooks in ``jobs`` worker processes and write all reports plus the index.
 
     Parameters
@@ -353,6 +387,8 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
         Overrides for every notebook (only those a notebook declares are applied).
     progress : callable or None
         Called with one line of text per finished notebook.
+    timeout : float, optional
+        Seconds one cell may run.
 
     Returns
     -------
@@ -368,6 +404,7 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
         find_chromium()  # fail early, before executing anything
     progress = progress or (lambda line: None)
     out = Path(output_dir).resolve()
+    paths = sorted(paths, key=lambda p: -_previous_seconds(out, p))  # longest first: shorter tail
     t0 = time.perf_counter()
     results = []
     progress(f"rendering {len(paths)} notebooks with {jobs} worker(s) into {out}")
@@ -375,8 +412,8 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
 
     with ProcessPoolExecutor(max_workers=min(jobs, len(paths)),
                              mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {pool.submit(render_one, p, out, no_input=no_input, pdf=pdf, parameters=parameters): p
-                   for p in paths}
+        futures = {pool.submit(render_one, p, out, no_input=no_input, pdf=pdf, parameters=parameters,
+                               timeout=timeout): p for p in paths}
         for fut in as_completed(futures):
             p = futures[fut]
             try:
@@ -391,6 +428,15 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
     wall = time.perf_counter() - t0
     write_index(results, out, wall_seconds=wall)
     return results, wall
+
+
+def _previous_seconds(output_dir, notebook) -> float:
+    """Run time of the notebook's previous render (papermill metadata), +inf when unknown."""
+    executed = Path(output_dir) / lab_of(notebook) / f"{Path(notebook).stem}.ipynb"
+    try:
+        return float(json.loads(executed.read_text("utf-8"))["metadata"]["papermill"]["duration"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return float("inf")
 
 
 def _parse_params(pairs):
@@ -416,7 +462,7 @@ def _cmd_run(args):
 
 def _cmd_render(args):
     results, wall = render(args.notebooks, args.output, jobs=args.jobs, no_input=args.no_input, pdf=args.pdf,
-                           parameters=_parse_params(args.parameters))
+                           parameters=_parse_params(args.parameters), timeout=args.timeout)
     failed = [r for r in results if not r.ok]
     import resource
 
@@ -454,4 +500,6 @@ def add_cli(subparsers):
     sp.add_argument("-o", "--output", default="reports", help="reports folder (default reports/)")
     sp.add_argument("-p", "--parameter", dest="parameters", nargs=2, action="append", metavar=("NAME", "VALUE"),
                     help="override a parameter in every notebook that declares it, e.g. -p port sim://")
+    sp.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                    help=f"seconds one cell may run before the notebook fails (default {CELL_TIMEOUT})")
     sp.set_defaults(func=_cmd_render)

@@ -208,6 +208,12 @@ def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
     index = (out / "index.html").read_text()
     assert 'href="demo/good.html"' in index and 'href="demo/bad.pdf"' in index
     assert index.count("<td>pass</td>") == 1 and index.count("<td>FAIL</td>") == 1
+    # re-rendering one notebook keeps the other listed (index.json)
+    from labkit.render import write_index, RenderResult
+
+    write_index([RenderResult("demo", "bad", True, "", None, out / "demo" / "bad.html", None, 1.0)], out)
+    index = (out / "index.html").read_text()
+    assert index.count("<td>pass</td>") == 2 and 'href="demo/good.html"' in index
 
 
 @pytest.mark.slow
