@@ -347,6 +347,7 @@ class SphericalWrist:
         self.arm = _Arm(robot, z, o, C)
         self.a4, self.a5, self.a6 = a4, a5, a6
         self._K = tuple(_skew(k) for k in (self.arm.a[0], self.arm.a[1], a4, a5))
+        self.orthogonal45 = abs(a4 @ a5) < 1e-12
         self.R0 = tool[:3, :3].copy()  # tool orientation at q = 0
         self.w_tool = tool[:3, :3].T @ (C - tool[:3, 3])  # wrist centre in tool coordinates
         # a vector perpendicular to axis 6, to recover q6
@@ -399,11 +400,22 @@ class SphericalWrist:
                 a4m = a4 @ m6
                 alpha = (k12 * a5p - a4m) / den
                 beta = (k12 * a4m - a5p) / den
-                g = np.sqrt(np.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / cr2, 0.0))
+                if self.orthogonal45:
+                    # |a4 x c| = |a4 x m6| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
+                    # where 1 - alpha^2 - beta^2 would lose half the digits
+                    s45 = np.sqrt(((_skew(a4) @ m6) ** 2).sum(axis=0))
+                    b = abs(beta) if np.ndim(beta) == 0 else np.abs(beta)
+                    g = np.sqrt(np.maximum((s45 - b) * (s45 + b), 0.0))
+                else:
+                    g = np.sqrt(np.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / cr2, 0.0))
                 alpha2, beta2 = np.concatenate([alpha, alpha]), np.concatenate([beta, beta])
                 C = alpha2 * a4[:, None] + beta2 * a5[:, None] + np.concatenate([g, -g]) * cr[:, None]
                 t5 = np.arctan2(c5 @ C, p @ C - a5p * (a5 @ C))
-                t4 = np.arctan2(((K4 @ C) * M6).sum(axis=0), (C * M6).sum(axis=0) - (a4 @ C) * (a4 @ M6))
+                # subproblem 1 about a4 on the explicit perpendicular parts (near the wrist
+                # singularity they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
+                Cp = C - a4[:, None] * (a4 @ C)
+                Mp = M6 - a4[:, None] * (a4 @ M6)
+                t4 = np.arctan2(((K4 @ Cp) * Mp).sum(axis=0), (Cp * Mp).sum(axis=0))
                 Y = _rot(K5, -t5, _rot(K4, -t4, MX))
                 t6 = np.arctan2(c6 @ Y, self.x6 @ Y)
                 # noflip first: swap the pair where q5 has the "flip" sign

@@ -250,6 +250,24 @@ def test_puma_wrist_singularity_is_finite_and_exact(puma):
     assert np.abs(fk(puma, sols.q) - T[:, None]).max() < 1e-9
 
 
+@pytest.mark.parametrize("q5", [0.0, 1e-12, -1e-10, 1e-9, 1e-7, np.pi - 1e-9])
+def test_near_wrist_singularity_keeps_full_precision(q5):
+    """Near q5 = 0 or pi the wrist angles come from tiny vectors: no cancellation allowed."""
+    from labkit.rotations import matrix_from_rpy
+
+    rng = np.random.default_rng(31)
+    for name in ("puma560", "puma600_seed002"):
+        robot = Robot.load(name)
+        base = np.eye(4)
+        base[:3, :3] = matrix_from_rpy([0.3, -0.2, 1.0])  # axes not aligned with x, y, z
+        robot = robot.replace(base=base)
+        q = rng.uniform(-np.pi, np.pi, size=(300, 6))
+        q[:, 4] = q5
+        T = fk(robot, q)
+        sols = ik_all(robot, T)
+        assert np.abs(fk(robot, sols.q) - T[:, None]).max() < 1e-12
+
+
 @settings(max_examples=150, deadline=None)
 @given(st.tuples(*[st.floats(-0.35, 0.35, allow_nan=False) for _ in range(3)]))
 def test_arduino_any_target_round_trips_or_reports_distance(target):
@@ -605,3 +623,16 @@ def test_boundary_configurations_stay_reachable_and_exact(arm, puma):
         T = fk(puma, q)
         sols = ik_all(puma, T)
         assert sols.reachable.all() and np.abs(fk(puma, sols.q) - T).max() < 1e-12
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.floats(-np.pi, np.pi, allow_nan=False), min_size=6, max_size=6))
+def test_puma600_any_configuration_is_among_the_8_solutions(q):
+    puma600 = Robot.load("puma600_seed002")
+    q = np.array(q)
+    T = fk(puma600, q)
+    sols = ik_all(puma600, T)
+    assert sols.reachable.all() and np.isfinite(sols.q).all()
+    assert np.abs(fk(puma600, sols.q) - T).max() < 1e-9
+    if abs(math.sin(q[4])) > 1e-6:  # away from the wrist singularity q5 = 0 (q4, q6 not unique there)
+        assert _wrapped(sols.q - q).max(axis=-1).min() < 1e-6
