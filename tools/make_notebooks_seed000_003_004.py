@@ -1143,6 +1143,641 @@ def seed000_calibration():
     ]
 
 
+# --------------------------------------------------------------------------------------------
+# seed 003: planar 3R (ROBT403 lab 3)
+# --------------------------------------------------------------------------------------------
+
+
+def seed003_fk_workspace():
+    name = "01_fk_workspace"
+    return name, "Seed 003, task 1: DH, forward kinematics and workspace (+-90, +-45 deg)", [
+        md(rf"""
+        # Planar 3R: DH table, forward kinematics and the workspace
+
+        Reproduces seed {SEED003}, **task 1 (sections II.A-C)**: the DH table ($a_1 = a_2 = 145$ mm,
+        end-effector 45 mm beyond joint 3), the link transforms and their product $T^0_{{EE}}$,
+        and the workspace plots of figures 1 and 2 (joint ranges $\pm 90^\circ$ and $\pm 45^\circ$,
+        drawn with the demonstration lengths 135, 135 and 46.7 mm that the seed uses there).
+
+        Found, not copied: the seed's transforms mix two conventions (a modified-DH table with
+        standard-DH matrices), and its final $T^0_{{EE}}$ position is wrong (shown below).
+        Robot files: `planar3r_seed003` (145/145/45 mm), `planar3r_seed003_135` (135/135/46.7 mm).
+        Library: `labkit.symbolic`, `labkit.kinematics`, `labkit.workspace`, `labkit.plotting`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed003"            # the lab's arm (task 1 DH table)
+        demo_robot = "planar3r_seed003_135"   # lengths of the workspace figures
+        n_samples = 20000                     # random joint samples per workspace plot
+        output_dir = {out_default(LAB003, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        import pandas as pd
+        import sympy as sp
+
+        from labkit import symbolic
+        from labkit.dh import Robot
+        from labkit.kinematics import fk, fk_position
+        from labkit.nbtools import Checks, show_latex
+        from labkit.plotting import plot_arm, plot_workspace
+        from labkit.workspace import planar_region, workspace_points
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        demo = Robot.load(demo_robot)
+        checks = Checks("Seed 003 task 1: reproduced vs published")
+        arm.dh_table()
+        """),
+        md(r"""
+        ## Link transforms and $T^0_{EE}$ (modified DH, as the table)
+
+        Lengths in mm. The chain ends with the 45 mm tool translation $T^3_{EE}$.
+        """),
+        code(r"""
+        q = sp.symbols("theta1:4", real=True)
+        A = symbolic.link_transforms(arm, q=list(q), length_unit="mm")
+        for i, Ai in enumerate(A):
+            show_latex(Ai, prefix=f"T^{{{i}}}_{{{i + 1}}} = ")
+        T_EE = symbolic.forward_kinematics(arm, q=list(q), length_unit="mm")
+        show_latex(T_EE, prefix="T^0_{EE} = ")
+        """),
+        md(r"""
+        ## The published $T^0_{EE}$, tested
+
+        The seed writes $T^1_2$ with translation $(145\cos\theta_2, 145\sin\theta_2)$ - the
+        *standard*-DH form - under a *modified*-DH table, where the translation is $(a_1, 0) =
+        (145, 0)$; its final position is
+        $x = 145(c_{12} + c_{123}) + 45 c_{123}$, $y = 145(s_{12} + s_{123}) + 45 s_{123}$.
+        The correct one (table, either convention read consistently) is
+        $x = 145 c_1 + 145 c_{12} + 45 c_{123}$. The two agree only when $\theta_2 + \theta_3 = 0$
+        (as at $q = 0$, where a check is usually made): at $q = (0, 90^\circ, 0)$ the seed's formula
+        puts the tool at (0, 335) mm, the arm is at (145, 190) mm.
+        """),
+        code(r"""
+        t1, t2, t3 = q
+        c, s = sp.cos, sp.sin
+        published_xy = sp.Matrix([145 * (c(t1 + t2) + c(t1 + t2 + t3)) + 45 * c(t1 + t2 + t3),
+                                  145 * (s(t1 + t2) + s(t1 + t2 + t3)) + 45 * s(t1 + t2 + t3)])
+        correct_xy = sp.simplify(T_EE[:2, 3])
+        show_latex(correct_xy, prefix="p_{xy} = ")
+        published_f = sp.lambdify([q], published_xy, "numpy")
+        rng = np.random.default_rng(0)
+        Q = rng.uniform(-np.pi / 2, np.pi / 2, size=(1000, 3))
+        labkit_xy = fk_position(arm, Q)[:, :2] * 1e3
+        seed_xy = np.stack([np.ravel(published_f(qq)) for qq in Q])
+        seed_error = np.linalg.norm(seed_xy - labkit_xy, axis=1)
+        example = np.radians([0.0, 90.0, 0.0])
+        print("q = (0, 90, 0) deg: labkit", np.round(fk_position(arm, example)[:2] * 1e3, 1),
+              "mm, seed's formula", np.round(np.ravel(published_f(example)), 1), "mm")
+        print(f"seed's formula vs FK over 1000 random q: median error {np.median(seed_error):.0f} mm, max {seed_error.max():.0f} mm")
+        symbolic_vs_numeric = np.abs(np.stack([np.ravel(sp.lambdify([q], correct_xy, "numpy")(qq)) for qq in Q[:200]])
+                                     - labkit_xy[:200]).max()
+        """),
+        md(r"""
+        ## Workspace: figure 1 ($\pm 90^\circ$) and figure 2 ($\pm 45^\circ$)
+
+        Random joint samples through batched FK (`labkit.workspace`), as dots and as the filled
+        region with its boundary; the area is measured on the occupancy grid.
+        """),
+        code(r"""
+        ranges = {"+-90 deg (figure 1)": np.radians([[-90, 90]] * 3), "+-45 deg (figure 2)": np.radians([[-45, 45]] * 3)}
+        fig, axes = plt.subplots(1, 2, figsize=(12, 5.2))
+        areas, reach = {}, {}
+        for ax, (label, jr) in zip(axes, ranges.items()):
+            plot_workspace(demo, jr, ax=ax, n=n_samples, kind="scatter", label="reachable tool points")
+            plot_arm(demo, np.zeros(3), ax=ax, color="k", label="q = 0")
+            ws = workspace_points(demo, jr, n=n_samples, seed=0)
+            areas[label] = planar_region(ws).area * 1e4  # m^2 -> cm^2
+            reach[label] = np.linalg.norm(ws.points[:, :2], axis=1).max() * 1e3
+            ax.set_title(f"{demo.name}: joints {label}")
+            ax.legend(loc="lower left", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out / "workspace.png", dpi=110)
+        plt.show()
+        pd.DataFrame({"area [cm^2]": areas, "max reach of the samples [mm]": reach}).round(1)
+        """),
+        md(r"""
+        ## Checks
+
+        The seed publishes no workspace numbers; checked: the reach of both arms at $q = 0$
+        ($a_1 + a_2 + L_3$ = 335 and 316.7 mm, published lengths to 0.1 mm), no sample beyond it,
+        the $\pm 45^\circ$ workspace inside the $\pm 90^\circ$ one (smaller area), the symbolic
+        closed form against the numeric FK (1e-9 mm), and the published $T^0_{EE}$ recorded as wrong.
+        """),
+        code(r"""
+        checks.check("reach of the lab arm at q = 0 [mm]", fk_position(arm, np.zeros(3))[0] * 1e3, 335, tol=0.05, note="145 + 145 + 45")
+        checks.check("reach of the demo arm at q = 0 [mm]", fk_position(demo, np.zeros(3))[0] * 1e3, 316.7, tol=0.05,
+                     note="135 + 135 + 46.7")
+        checks.check("no workspace sample beyond the reach", float(max(reach.values()) <= 316.7 + 1e-9), 1.0, tol=0, note="")
+        a90, a45 = areas.values()
+        checks.check("+-45 deg workspace smaller than +-90 deg", float(a45 < a90), 1.0, tol=0, note=f"{a45:.0f} < {a90:.0f} cm^2")
+        checks.check("symbolic T0_EE position vs numeric FK [mm]", symbolic_vs_numeric, 0.0, tol=1e-9, note="200 random q")
+        checks.typo("published T0_EE position at q = (0, 90, 0) deg [mm]", np.ravel(published_f(example)),
+                    fk_position(arm, example)[:2] * 1e3, "standard-DH matrices under a modified-DH table; c12 + c123 should be c1 + c12")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed003_cubic():
+    name = "02_cubic_joint_trajectories"
+    return name, "Seed 003, task 2: cubic joint trajectories (coefficients and plots)", [
+        md(rf"""
+        # Cubic joint trajectories
+
+        Reproduces seed {SEED003}, **task 2 (section II.D)**: `cubic_coefficients` and
+        `cubic_trajectory` for joint 1: 0 -> -0.8 rad, joint 2: 0 -> 0.8 rad and joint 3:
+        1.57 -> 0.8 rad in 5 s (rest to rest), the coefficient table and the joint angles (and
+        rates, accelerations) against time, checked against the robot's joint limits.
+        Library: `labkit.timelaw`, `labkit.trajectory`, `labkit.plotting`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed003"
+        q_start = [0.0, 0.0, 1.57]   # [rad]
+        q_end = [-0.8, 0.8, 0.8]     # [rad]
+        duration = 5.0               # [s]
+        dt = 0.05                    # sample step [s]
+        output_dir = {out_default(LAB003, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+
+        from labkit.dh import Robot
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm, plot_trajectory
+        from labkit.trajectory import joint_trajectory
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 003 task 2: cubic joint trajectories")
+        q0, qf = np.asarray(q_start, float), np.asarray(q_end, float)
+        traj = joint_trajectory(q0, qf, duration, robot=arm, law="cubic", dt=dt)  # limits checked
+        coefficients = traj.law.coefficient_table(list(arm.joint_names))
+        coefficients.to_csv(out / "cubic_coefficients.csv")
+        coefficients
+        """),
+        md(r"""
+        $q(t) = a_0 + a_1 t + a_2 t^2 + a_3 t^3$ with $a_0 = q_0$, $a_1 = 0$,
+        $a_2 = 3(q_f - q_0)/T^2$, $a_3 = -2(q_f - q_0)/T^3$.
+        """),
+        code(r"""
+        axes = plot_trajectory(traj, title="Cubic joint trajectories, 5 s (seed 003 task 2)")
+        axes[0].figure.savefig(out / "cubic_joint_trajectories.png", dpi=110)
+        plt.show()
+        traj.to_dataframe(degrees=False).iloc[::20].round(4)
+        """),
+        code(r"""
+        ax = plot_arm(arm, traj.q[:: max(1, len(traj.t) // 8)])
+        ax.set_title("the arm along the trajectory (start red, end green)")
+        plt.show()
+        """),
+        md(r"""
+        ## Checks
+
+        The seed prints no coefficients; they are checked against the closed form (1e-12), with
+        the end conditions (positions, zero velocities) and the peak rates $1.5\,|q_f - q_0|/T$
+        at $t = T/2$.
+        """),
+        code(r"""
+        a = traj.law.coefficients[0]
+        checks.check("a0 [rad]", a[0], q0, tol=1e-12, note="q0")
+        checks.check("a1 [rad/s]", a[1], np.zeros(3), tol=1e-12, note="rest")
+        checks.check("a2 [rad/s^2]", a[2], 3 * (qf - q0) / duration**2, tol=1e-12, note="3 (qf - q0) / T^2 = -0.096, 0.096, -0.0924")
+        checks.check("a3 [rad/s^3]", a[3], -2 * (qf - q0) / duration**3, tol=1e-12, note="-2 (qf - q0) / T^3")
+        checks.check("end position [rad]", traj.q[-1], qf, tol=1e-12, note="")
+        checks.check("end velocity [rad/s]", traj.qd[-1], np.zeros(3), tol=1e-12, note="")
+        checks.check("peak rates [rad/s]", np.abs(traj.qd).max(axis=0), 1.5 * np.abs(qf - q0) / duration, tol=1e-12,
+                     note="at t = T/2 (sampled)")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed003_ik_click():
+    name = "03_ik_orientation_click"
+    return name, "Seed 003, task 3: IK with orientation and the click-to-reach workspace plot", [
+        md(rf"""
+        # Inverse kinematics with orientation, and click-to-reach on the workspace plot
+
+        Reproduces seed {SEED003}, **task 3 (section II.E)**: `inverse_kinematics_with_orientation`
+        for $(x, y, \phi)$ - wrist point $x_w = x - L_3\cos\phi$, $y_w = y - L_3\sin\phi$
+        (eqs. 1-2, 14-15), $\cos\theta_2$ by the cosine law (6, 16), both signs of $\theta_2$ (7, 17),
+        $\theta_1$ (12, 18) and $\theta_3 = \phi - \theta_1 - \theta_2$ (13, 19) - and the interactive
+        plot where a click on the workspace gives the joint angles (figure 3) or, outside the
+        workspace, none (figure 4).
+
+        Found, not copied: eqs. (10)-(11) define $k_1 = l_2\cos(\theta_1 + \theta_2)$,
+        $k_2 = l_2\sin(\theta_1 + \theta_2)$, which makes eq. (12) circular and wrong; the standard
+        result is $k_1 = l_1 + l_2\cos\theta_2$, $k_2 = l_2\sin\theta_2$.
+
+        Live clicking needs `ipympl` (`%matplotlib widget`); without it, and in rendered reports,
+        the clicks listed in the parameters are replayed through the same handler (static figure).
+        Library: `labkit.ik`, `labkit.plotting`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed003_135"    # the seed's example application (135/135/46.7 mm)
+        clicks = [[0.20, 0.15], [0.05, 0.28], [0.33, 0.12]]  # clicked points [m]; the last is outside the workspace
+        click_phi_deg = 30.0              # tool orientation requested at a click [deg]
+        target = [0.20, 0.15, 0.5236]     # (x [m], y [m], phi [rad]) for the worked example
+        output_dir = {out_default(LAB003, name)}
+        """),
+        code(r"""
+        import importlib.util
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        import pandas as pd
+
+        from labkit.dh import Robot
+        from labkit.exceptions import JointLimitError, UnreachableError
+        from labkit.ik import ik, ik_all
+        from labkit.kinematics import fk
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm, plot_workspace
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 003 task 3: IK with orientation")
+        l1, l2, L3 = float(arm.a[1]), float(arm.a[2]), float(arm.tool[0, 3])
+        print(f"l1 = {l1 * 1e3:.1f} mm, l2 = {l2 * 1e3:.1f} mm, L3 = {L3 * 1e3:.1f} mm")
+        """),
+        md(r"""
+        ## The worked example: both branches, FK round trip
+
+        `ik_all` returns both signs of $\theta_2$ with their branch names; `valid` says whether a
+        solution is inside the joint limits ($\pm 90^\circ$).
+        """),
+        code(r"""
+        sols = ik_all(arm, target)
+        table = sols.to_dataframe()
+        T = fk(arm, sols.q)
+        table["x [mm]"] = T[:, 0, 3] * 1e3
+        table["y [mm]"] = T[:, 1, 3] * 1e3
+        table["phi [deg]"] = np.degrees(np.arctan2(T[:, 1, 0], T[:, 0, 0]))
+        round_trip = float(np.max(np.abs(np.c_[T[:, 0, 3], T[:, 1, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])] - target)))
+        table.round(4)
+        """),
+        md(r"""
+        ## Eq. (12) with the published $k_1, k_2$ vs the standard ones
+
+        Evaluated on the valid solution (using its true $\theta_1$ to make the circular published
+        form computable at all):
+        """),
+        code(r"""
+        q_ok = sols.q[np.argmax(sols.valid)]
+        x, y, phi = target
+        xw, yw = x - L3 * np.cos(phi), y - L3 * np.sin(phi)
+        th1, th2 = q_ok[0], q_ok[1]
+        theta1_published = np.arctan2(yw, xw) - np.arctan2(l2 * np.sin(th1 + th2), l2 * np.cos(th1 + th2))
+        theta1_standard = np.arctan2(yw, xw) - np.arctan2(l2 * np.sin(th2), l1 + l2 * np.cos(th2))
+        print(f"theta1: labkit {np.degrees(th1):.4f} deg, eq. (12) with the standard k {np.degrees(theta1_standard):.4f} deg, "
+              f"with the published k {np.degrees(theta1_published):.4f} deg")
+        """),
+        md(r"""
+        ## Click to reach (figures 3 and 4)
+
+        `on_click` is the handler: it solves IK at the clicked $(x, y)$ with the requested $\phi$,
+        draws the arm and prints the joint angles, or says why there are none (out of reach, by
+        how much; or reachable only outside the joint limits).
+        """),
+        code(r"""
+        phi_click = np.radians(click_phi_deg)
+        live = importlib.util.find_spec("ipympl") is not None and "widget" in plt.get_backend().lower()
+        fig, ax = plt.subplots(figsize=(7, 6))
+        plot_workspace(arm, ax=ax, n=15000, label="workspace (tool point, joint limits)")
+        ax.set_title("click to reach (phi = %g deg)" % click_phi_deg)
+        click_log = []
+
+
+        def on_click(event):
+            if event.xdata is None or event.ydata is None:
+                return
+            x, y = event.xdata / 1e3, event.ydata / 1e3  # axes are in mm
+            try:
+                q = ik(arm, [x, y, phi_click])
+            except (UnreachableError, JointLimitError) as exc:
+                why = "out of reach" if isinstance(exc, UnreachableError) else "outside the joint limits"
+                ax.plot(event.xdata, event.ydata, "kx", ms=10)
+                ax.annotate(why, (event.xdata, event.ydata), textcoords="offset points", xytext=(5, 5), fontsize=8)
+                click_log.append({"x [mm]": event.xdata, "y [mm]": event.ydata, "result": why, **{f"q{j} [deg]": None for j in (1, 2, 3)}})
+                print(f"({x:.3f}, {y:.3f}) m: no joint angles - {exc}")
+            else:
+                plot_arm(arm, q, ax=ax, color="C%d" % (len(click_log) % 10))
+                click_log.append({"x [mm]": event.xdata, "y [mm]": event.ydata, "result": "reached",
+                                  **{f"q{j + 1} [deg]": v for j, v in enumerate(np.degrees(q))}})
+                print(f"({x:.3f}, {y:.3f}) m -> q = {np.round(np.degrees(q), 2)} deg")
+            fig.canvas.draw_idle()
+
+
+        if live:
+            fig.canvas.mpl_connect("button_press_event", on_click)
+            print("click on the workspace")
+        # replay the clicks of the parameters through the same handler (a static figure in reports)
+        from types import SimpleNamespace
+        for cx, cy in clicks:
+            on_click(SimpleNamespace(xdata=cx * 1e3, ydata=cy * 1e3))
+        fig.savefig(out / "click_to_reach.png", dpi=110)
+        plt.show()
+        pd.DataFrame(click_log).round(2)
+        """),
+        md(r"""
+        ## The same with sliders (ipywidgets; a snapshot in reports)
+        """),
+        code(r"""
+        import ipywidgets as widgets
+
+        def _reach(x_mm=200.0, y_mm=150.0, phi_deg=30.0):
+            try:
+                sols_w = ik_all(arm, [x_mm / 1e3, y_mm / 1e3, np.radians(phi_deg)])
+            except UnreachableError as exc:
+                print("out of reach:", exc)
+                return
+            for b, q, ok, reach_ok in zip(sols_w.branches, sols_w.q, sols_w.valid, sols_w.reachable):
+                state = "valid" if ok else ("outside the limits" if reach_ok else "unreachable")
+                print(f"{b:>11}: q = {np.round(np.degrees(q), 2)} deg ({state})")
+
+        widgets.interact(_reach, x_mm=(-320.0, 320.0, 1.0), y_mm=(-320.0, 320.0, 1.0), phi_deg=(-180.0, 180.0, 1.0));
+        """),
+        md(r"""
+        ## Checks
+
+        No angles are published for the seed's clicks. Checked: FK of every IK branch returns the
+        target (1e-12 m / rad), the standard eq. (12) gives labkit's $\theta_1$ (1e-12 rad) while the
+        published $k$ do not (recorded as a typo), the clicks inside the workspace are reached and
+        the one outside (0.353 m from the base, reach 0.317 m) is refused.
+        """),
+        code(r"""
+        checks.check("FK(IK(target)) - target, both branches", round_trip, 0.0, tol=1e-12, note="x, y [m], phi [rad]")
+        checks.check("eq. (12) with standard k1, k2 [rad]", theta1_standard, th1, tol=1e-12, note="k1 = l1 + l2 c2, k2 = l2 s2")
+        checks.check("clicks reached / refused", [r["result"] == "reached" for r in click_log], [True, True, False], tol=0,
+                     note="last click outside the workspace")
+        checks.typo("eq. (12) with the published k1, k2 [deg]", np.degrees(theta1_published), np.degrees(th1),
+                    "k1 = l2 cos(theta1 + theta2) makes eq. (12) circular")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed003_plot_manipulator():
+    name = "04_plot_manipulator"
+    return name, "Seed 003, task 4: plot_manipulator with start (red) and end (green)", [
+        md(rf"""
+        # Plotting the manipulator along a trajectory: start red, end green
+
+        Reproduces seed {SEED003}, **task 4 (section II.F)**: `plot_manipulator` (joints, links and
+        an arrow for the end-effector orientation), a cubic joint trajectory between a random
+        start and end configuration, and `plot_trajectory_within_workspace`: the workspace, the
+        end-effector path, the start configuration in red and the end in green (figures 7-10; two
+        random examples, seeded so that reports are reproducible).
+        Library: `labkit.plotting.plot_arm`, `plot_workspace`, `labkit.trajectory`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed003"
+        seed = 3            # random start/end configurations (two examples)
+        duration = 4.0      # [s]
+        output_dir = {out_default(LAB003, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+
+        from labkit.dh import Robot
+        from labkit.kinematics import fk_position
+        from labkit.nbtools import Checks
+        from labkit.plotting import END_COLOR, START_COLOR, plot_arm, plot_workspace
+        from labkit.trajectory import joint_trajectory
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 003 task 4: plot manipulator")
+        rng = np.random.default_rng(seed)
+        limits = arm.joint_limits
+        examples = [rng.uniform(limits[:, 0], limits[:, 1], size=(2, arm.n)) for _ in range(2)]
+        """),
+        md(r"""
+        ## Figures 7 and 8: the initial and final configurations
+        """),
+        code(r"""
+        q_a, q_b = examples[0]
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
+        plot_arm(arm, q_a, ax=axes[0], color=START_COLOR, label="initial")
+        plot_arm(arm, q_b, ax=axes[1], color=END_COLOR, label="final")
+        for ax, t in zip(axes, ["Figure 7: initial configuration", "Figure 8: final configuration"]):
+            ax.set_title(t)
+            ax.legend()
+        fig.tight_layout()
+        plt.show()
+        """),
+        md(r"""
+        ## Figures 9 and 10: trajectories within the workspace
+        """),
+        code(r"""
+        fig, axes = plt.subplots(1, 2, figsize=(12, 5.4))
+        trajs = []
+        for k, (ax, (q_start, q_end)) in enumerate(zip(axes, examples)):
+            traj = joint_trajectory(q_start, q_end, duration, robot=arm, dt=0.05)
+            trajs.append(traj)
+            plot_workspace(arm, ax=ax, n=8000, color="0.7")
+            path = fk_position(arm, traj.q) * 1e3
+            ax.plot(path[:, 0], path[:, 1], "-", color="C0", lw=2, label="end-effector path")
+            plot_arm(arm, traj.q[:: max(1, len(traj.t) // 6)], ax=ax)
+            ax.plot(*path[0, :2], "o", color=START_COLOR, ms=9)
+            ax.plot(*path[-1, :2], "o", color=END_COLOR, ms=9)
+            ax.set_title(f"Figure {9 + k}: example {k + 1} (random start and end)")
+            ax.legend(loc="lower left", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out / "trajectories_within_workspace.png", dpi=110)
+        plt.show()
+        """),
+        md(r"""
+        ## Checks
+
+        No numbers are published. Checked: the first and last configurations drawn are red and
+        green, the path starts and ends at FK of the start/end configurations (1e-12 mm), and the
+        random configurations and the trajectories between them respect the joint limits.
+        """),
+        code(r"""
+        link_lines = [ln for ln in axes[0].lines if ln.get_gid() == "arm-links"]
+        from matplotlib.colors import to_rgba
+        checks.check("start configuration drawn red", float(to_rgba(link_lines[0].get_color()) == to_rgba(START_COLOR)), 1.0, tol=0,
+                     note="seed: start red")
+        checks.check("end configuration drawn green", float(to_rgba(link_lines[-1].get_color()) == to_rgba(END_COLOR)), 1.0, tol=0,
+                     note="seed: end green")
+        for k, traj in enumerate(trajs):
+            checks.check(f"example {k + 1}: path ends = FK(start), FK(end) [m]",
+                         fk_position(arm, traj.q[[0, -1]]), fk_position(arm, examples[k]), tol=1e-12, note="")
+            checks.check(f"example {k + 1}: inside the joint limits", float(arm.within_limits(traj.q).all()), 1.0, tol=0, note="+-90 deg")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed003_via_points():
+    name = "05_via_points_on_arm"
+    return name, "Seed 003, task 5: via-point trajectory (5 via points) run on the arm", [
+        md(rf"""
+        # Via-point trajectory through five Cartesian points, run on the arm
+
+        Reproduces seed {SEED003}, **task 5 (section II.G)** and the runs on the simulated and
+        real robot (figures 11-14): five via points in the Cartesian workspace, IK at each (one
+        consistent elbow branch), a joint-space cubic spline through them (continuous velocity
+        and acceleration), the end-effector path in Cartesian space and the joint trajectories.
+        The Gazebo run is replaced by the built-in simulated arm (`port = "sim://..."`; a real
+        board with `-p port /dev/ttyACM0`): the trajectory is streamed as polynomial segments and
+        the joints are read back while it runs.
+        Library: `labkit.ik`, `labkit.trajectory.via_trajectory`, `labkit.link`, `labkit.plotting`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed003"
+        port = "sim://planar3r_seed003?clock=lockstep&seed=0"  # the simulated arm; a real board: /dev/ttyACM0
+        via_points = [[0.26, 0.02, 1.05], [0.27, 0.08, 1.05], [0.26, 0.15, 1.05], [0.23, 0.21, 1.05], [0.18, 0.27, 1.05]]  # (x, y [m], phi [rad])
+        segment_duration = 1.0      # between via points [s]
+        method = "spline"           # "spline" (continuous acceleration) or "via_cubic" (continuous velocity)
+        dt = 0.05                   # sample step [s]
+        output_dir = {out_default(LAB003, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        import pandas as pd
+
+        from labkit.dh import Robot
+        from labkit.ik import ik, ik_all
+        from labkit.kinematics import fk, fk_position
+        from labkit.link import Arm
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm, plot_time_series, plot_workspace
+        from labkit.trajectory import via_trajectory
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        model = Robot.load(robot)
+        checks = Checks("Seed 003 task 5: via points on the arm")
+        V = np.asarray(via_points, float)
+        first = ik_all(model, V[0])
+        branch = first.branches[int(np.argmax(first.valid))]  # first valid branch at the first via point, kept for all
+        Q = ik(model, V, branch=branch)
+        traj = via_trajectory(Q, durations=segment_duration, method=method, robot=model, dt=dt)
+        t_via = np.arange(len(V)) * segment_duration
+        pd.DataFrame(np.degrees(Q), columns=[f"{n} [deg]" for n in model.joint_names],
+                     index=pd.Index(t_via, name="t [s]")).assign(**{"x [mm]": V[:, 0] * 1e3, "y [mm]": V[:, 1] * 1e3,
+                                                                    "phi [deg]": np.degrees(V[:, 2])}).round(2)
+        """),
+        md(r"""
+        ## The end-effector path and the joint trajectories
+        """),
+        code(r"""
+        path = fk_position(model, traj.q) * 1e3
+        fig = plt.figure(figsize=(13, 4.8))
+        ax = fig.add_subplot(1, 3, 1)
+        plot_workspace(model, ax=ax, n=8000, color="0.85")
+        ax.plot(path[:, 0], path[:, 1], "-", color="C0", lw=2, label="end-effector path")
+        ax.plot(V[:, 0] * 1e3, V[:, 1] * 1e3, "s", color="k", ms=6, label="via points")
+        plot_arm(model, Q[[0, -1]], ax=ax)
+        ax.set_xlim(-50, 360)
+        ax.set_ylim(-120, 300)
+        ax.legend(fontsize=7, loc="lower left")
+        ax.set_title(f"via points ({method}, {branch})")
+        plot_time_series(traj, "q", ax=fig.add_subplot(1, 3, 2))
+        plot_time_series(traj, "qd", ax=fig.add_subplot(1, 3, 3))
+        fig.tight_layout()
+        fig.savefig(out / "via_points.png", dpi=110)
+        plt.show()
+        """),
+        md(r"""
+        ## Run on the arm
+
+        The trajectory streams as one cubic segment per sample interval; after each segment is
+        queued the joints are read back, so the measured path is sampled while the arm moves.
+        """),
+        code(r"""
+        samples = []
+        with Arm(port, robot=robot) as arm:
+            arm.set_host_timeout(5.0)
+            arm.move_joints(traj.q[0], wait=True)
+
+            def record(done, total):
+                st = arm.status()
+                samples.append((st.t, *arm.read_joints()))
+
+            t0 = arm.status().t
+            report = arm.run_trajectory(traj, progress=record, wait=True)
+            q_final = arm.wait_settled(traj.q[-1], tol=np.radians(2.0))
+            arm.set_host_timeout(0.5)
+        measured = pd.DataFrame(samples, columns=["t", *[f"q_{n}" for n in model.joint_names]])
+        measured["t"] -= t0
+        measured.to_csv(out / "measured_joints.csv", index=False)
+        q_meas = measured.iloc[:, 1:].to_numpy()
+        # the command the arm was following when each sample was read:
+        q_plan_at = np.column_stack([np.interp(measured.t, traj.t, traj.q[:, j]) for j in range(model.n)])
+        print(report)
+        print(f"{len(measured)} samples while streaming; final tool error "
+              f"{np.linalg.norm(fk_position(model, q_final) - fk_position(model, traj.q[-1])) * 1e3:.1f} mm")
+        """),
+        code(r"""
+        fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+        for j, name in enumerate(model.joint_names):
+            axes[0].plot(traj.t, np.degrees(traj.q[:, j]), "-", color=f"C{j}", label=f"{name} planned")
+            axes[0].plot(measured.t, np.degrees(q_meas[:, j]), ".", color=f"C{j}", ms=3, label=f"{name} measured")
+        axes[0].set(xlabel="t [s]", ylabel="joint [deg]", title="planned vs measured joints")
+        axes[0].legend(fontsize=7, ncol=2)
+        meas_xy = fk_position(model, q_meas) * 1e3
+        axes[1].plot(path[:, 0], path[:, 1], "-", label="planned")
+        axes[1].plot(meas_xy[:, 0], meas_xy[:, 1], ".", ms=4, label="measured (joint feedback)")
+        axes[1].plot(V[:, 0] * 1e3, V[:, 1] * 1e3, "ks", ms=5, label="via points")
+        axes[1].set(xlabel="x [mm]", ylabel="y [mm]", title="end-effector path")
+        axes[1].set_aspect("equal", adjustable="datalim")
+        axes[1].legend(fontsize=7)
+        for ax in axes:
+            ax.grid(True)
+        fig.tight_layout()
+        plt.show()
+        """),
+        md(r"""
+        ## Checks
+
+        No numbers are published. Checked: FK at the via times returns every via point
+        (1e-9 m / rad), velocity and acceleration are continuous at the interior via points (a
+        cubic spline; 1e-9), the arm starts and ends at rest, and on the arm the stream never ran
+        dry and the final tool position is within 10 mm (simulated servo zero offsets ~1 deg).
+        """),
+        code(r"""
+        idx = np.searchsorted(traj.t, t_via - 1e-9)
+        T_via = fk(model, traj.q[idx])
+        via_xyphi = np.c_[T_via[:, 0, 3], T_via[:, 1, 3], np.arctan2(T_via[:, 1, 0], T_via[:, 0, 0])]
+        checks.check("FK at the via times - via points", via_xyphi, V, tol=1e-9, note="x, y [m], phi [rad]")
+        law = traj.law
+        tv = t_via[1:-1]
+        if method == "spline":
+            jump_a = np.abs(law.acceleration(tv + 1e-9) - law.acceleration(tv - 1e-9)).max()
+            checks.check("acceleration continuous at the via points [rad/s^2]", jump_a, 0.0, tol=1e-6, note="cubic spline")
+        jump_v = np.abs(law.velocity(tv + 1e-9) - law.velocity(tv - 1e-9)).max()
+        checks.check("velocity continuous at the via points [rad/s]", jump_v, 0.0, tol=1e-6, note="")
+        checks.check("rest at start and end [rad/s]", traj.qd[[0, -1]], np.zeros((2, 3)), tol=1e-9, note="clamped ends")
+        checks.check("stream underruns", report.underruns, 0, tol=0, note="queue kept fed")
+        checks.check("final tool position on the arm [mm]",
+                     np.linalg.norm(fk_position(model, q_final) - fk_position(model, traj.q[-1])) * 1e3, 0.0, tol=10.0,
+                     note="servo zero offsets ~1 deg")
+        checks.assert_all()
+        """),
+    ]
+
+
 NOTEBOOKS = {
     f"{LAB000}/01_link_measurement_dh.ipynb": seed000_dh,
     f"{LAB000}/02_fk_check_tables.ipynb": seed000_fk_tables,
@@ -1151,6 +1786,11 @@ NOTEBOOKS = {
     f"{LAB000}/05_cubic_trajectory.ipynb": seed000_cubic,
     f"{LAB000}/06_pick_and_place.ipynb": seed000_pick_place,
     f"{LAB000}/07_calibration.ipynb": seed000_calibration,
+    f"{LAB003}/01_fk_workspace.ipynb": seed003_fk_workspace,
+    f"{LAB003}/02_cubic_joint_trajectories.ipynb": seed003_cubic,
+    f"{LAB003}/03_ik_orientation_click.ipynb": seed003_ik_click,
+    f"{LAB003}/04_plot_manipulator.ipynb": seed003_plot_manipulator,
+    f"{LAB003}/05_via_points_on_arm.ipynb": seed003_via_points,
 }
 
 
