@@ -461,6 +461,8 @@ class FirmwareAdapter:
     feedback_pins : dict, optional
         ``{servo channel: analog pin}`` where each joint's pot is wired
         (default: channel ``c`` on analog pin ``c``).
+    q0 : array_like, shape (n,), optional
+        Initial joints [rad] (default: the middle of the limits, the firmware's boot pose).
 
     Examples
     --------
@@ -470,8 +472,11 @@ class FirmwareAdapter:
     [0, 1, 2]
     """
 
-    def __init__(self, robot, config=PhysicsConfig(), feedback_pins=None):
-        self.model = ArmModel(robot, config)
+    def __init__(self, robot, config=PhysicsConfig(), feedback_pins=None, q0=None):
+        robot = Robot.load(robot)
+        if q0 is None:  # where the firmware's boot pose puts the arm: the middle of the limits
+            q0 = robot.joint_limits.mean(axis=1)
+        self.model = ArmModel(robot, config, q0=q0)
         channels = [lk.servo.channel for lk in self.model.robot.links if lk.servo is not None]
         self.feedback_pins = dict(feedback_pins) if feedback_pins is not None else {c: c for c in channels}
 

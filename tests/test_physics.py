@@ -179,3 +179,28 @@ def test_config_validation_messages():
         PhysicsConfig(feedback_noise=-1)
     with pytest.raises(ValueError, match="expected zero_offsets as a scalar or 3 values"):
         ArmModel(ARM, PhysicsConfig(zero_offsets=(0.1, 0.2)))
+
+
+@pytest.mark.firmware
+@pytest.mark.slow
+@pytest.mark.xdist_group("firmware")
+def test_same_physics_drives_the_firmware_in_simavr():
+    """Firmware-in-the-loop: real firmware pulses -> FirmwareAdapter -> feedback volts -> READ."""
+    import serial
+
+    from labkit.firmware_sim import FirmwareSim
+    from labkit.link import Arm
+
+    adapter = FirmwareAdapter(ARM, PhysicsConfig(seed=0))
+    with FirmwareSim(on_tick=adapter.on_tick, tick_period=0.005) as sim:
+        port = serial.Serial(sim.port, 115200, timeout=0.05)
+        sim.run()
+        with Arm(port, timeout=0.5) as arm:
+            np.testing.assert_allclose(arm.read_joints(), np.radians([90, 90, 90]), atol=math.radians(1.5))
+            arm.move_joints(np.radians([30.0, 60.0, 120.0]))
+            sim.sleep(1.5)
+            sensed = arm.read_joints()
+    # within the deadband (0.45 deg) plus ADC noise (a few counts of 0.22 deg)
+    np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
+    np.testing.assert_allclose(adapter.model.shaft_q, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
+    assert adapter.model.time == pytest.approx(sim.time(), abs=0.05)
