@@ -200,6 +200,7 @@ def test_same_physics_drives_the_firmware_in_simavr():
             arm.move_joints(np.radians([30.0, 60.0, 120.0]))
             sim.sleep(1.5)
             sensed = arm.read_joints()
+        t_sim = sim.time()
     # within the deadband (0.45 deg) plus ADC noise (a few counts of 0.22 deg)
     np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
     np.testing.assert_allclose(adapter.model.shaft_q, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
