@@ -1778,6 +1778,329 @@ def seed003_via_points():
     ]
 
 
+# --------------------------------------------------------------------------------------------
+# seed 004: planar 3R IK and trajectory planning (MEM675)
+# --------------------------------------------------------------------------------------------
+
+
+def seed004_ik():
+    name = "01_ik_elbow_minus"
+    return name, "Seed 004, parts A-C: planar 3R IK (elbow minus), verification plot, plotManipulator", [
+        md(rf"""
+        # Planar 3R inverse kinematics (elbow minus) and the manipulator plot
+
+        Reproduces seed {SEED004}, **parts A, B and C**: the planar 3R arm ($L_1 = 0.2$,
+        $L_2 = 0.15$, $L_3 = 0.12$ m, A.1), the analytic IK of A.2 - joint 3 location, $\theta_2$ by
+        the cosine law, $\theta_1$ from the 2 x 2 linear system, $\theta_3 = \phi_e - \theta_1 - \theta_2$ -,
+        the verification plot of A.4 (the end effector, a red dot, must land on $(x_e, y_e)$ with
+        orientation $\phi_e$), the `IK.m` function of part B (elbow minus) and `plotManipulator.m` of
+        part C. The handout gives no numeric target: the parameters hold one.
+        Library: `labkit.ik.ik(..., branch="elbow_minus")`, `labkit.plotting.plot_arm`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed004"
+        xe = 0.30          # [m]
+        ye = 0.20          # [m]
+        phie = 0.7854      # [rad]
+        output_dir = {out_default(LAB004, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        import pandas as pd
+
+        from labkit.dh import Robot
+        from labkit.ik import ik, ik_all
+        from labkit.kinematics import fk, fk_frames
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 004 parts A-C: IK elbow minus")
+        L1, L2, L3 = (float(a) for a in arm.a)
+        arm.dh_table()
+        """),
+        md(r"""
+        ## Part B: `q = IK(xe, ye, phie, L1, L2, L3)`, elbow minus
+
+        labkit's planar solver gives both branches; "elbow minus" ($\theta_2 = -\operatorname{atan2}
+        (\sqrt{1 - c_2^2}, c_2) \le 0$) is an alias of its `elbow_up` branch.
+        """),
+        code(r"""
+        q = ik(arm, [xe, ye, phie], branch="elbow_minus")
+        both = ik_all(arm, [xe, ye, phie])
+        print("elbow minus q [rad]:", np.round(q, 6), " [deg]:", np.round(np.degrees(q), 3))
+        both.to_dataframe().round(4)
+        """),
+        md(r"""
+        ## A.2 step by step, as the handout derives it
+
+        The handout's own steps evaluated at the target (they are the published derivation under
+        test; the solver above is labkit's):
+        """),
+        code(r"""
+        x3, y3 = xe - L3 * np.cos(phie), ye - L3 * np.sin(phie)                       # step 1
+        cos_t2 = (x3**2 + y3**2 - L1**2 - L2**2) / (2 * L1 * L2)                      # step 2
+        t2 = -np.arctan2(np.sqrt(1 - cos_t2**2), cos_t2)                              # elbow minus
+        M = np.array([[L1 + L2 * np.cos(t2), -L2 * np.sin(t2)], [L2 * np.sin(t2), L1 + L2 * np.cos(t2)]])
+        c1, s1 = np.linalg.solve(M, [x3, y3])                                          # step 3
+        t1 = np.arctan2(s1, c1)
+        t3 = phie - t1 - t2                                                            # step 4
+        steps = pd.Series({"x3 [m]": x3, "y3 [m]": y3, "cos theta2": cos_t2, "theta1 [rad]": t1, "theta2 [rad]": t2,
+                           "theta3 [rad]": t3, "|(c1, s1)| (must be 1)": np.hypot(c1, s1)})
+        steps.round(6).to_frame("A.2")
+        """),
+        md(r"""
+        ## A.4: the verification plot, and part C: `plotManipulator(q, L1, L2, L3)`
+        """),
+        code(r"""
+        frames = fk_frames(arm, q)
+        tip = frames[-1, :2, 3]
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
+        plot_arm(arm, q, ax=axes[0], units="m", label="elbow minus")
+        axes[0].plot(tip[0], tip[1], "o", color="red", ms=8, label="end effector (FK)")
+        axes[0].plot(xe, ye, "+", color="k", ms=14, label="target (xe, ye)")
+        axes[0].set_title("A.4 verification: the red dot must sit on the target")
+        axes[0].legend(fontsize=8)
+        plot_arm(arm, both.q, ax=axes[1], units="m", start_end=False)
+        axes[1].set_title("both branches (elbow minus / elbow plus)")
+        fig.tight_layout()
+        fig.savefig(out / "ik_verification.png", dpi=110)
+        plt.show()
+        T = fk(arm, q)
+        reached = np.array([T[0, 3], T[1, 3], np.arctan2(T[1, 0], T[0, 0])])
+        print("FK of the IK solution: x, y [m], phi [rad] =", np.round(reached, 6))
+        """),
+        md(r"""
+        ## Checks
+
+        The handout publishes no numbers, only the test "the red dot is at $(x_e, y_e)$ with
+        orientation $\phi_e$": FK of the elbow-minus solution must return the target (1e-12),
+        $\theta_2 \le 0$ on elbow minus, the handout's step-by-step derivation must give the same
+        angles (1e-12 rad) with $(\cos\theta_1, \sin\theta_1)$ of unit length, and both branches reach.
+        """),
+        code(r"""
+        checks.check("FK(IK) - target (A.4)", reached, [xe, ye, phie], tol=1e-12, note="x, y [m], phi [rad]")
+        checks.check("elbow minus: theta2 <= 0", float(q[1] <= 0), 1.0, tol=0, note="part B")
+        checks.check("A.2 steps - labkit [rad]", [t1, t2, t3], q, tol=1e-12, note="handout's derivation")
+        checks.check("|(cos theta1, sin theta1)| from the 2x2 system", np.hypot(c1, s1), 1.0, tol=1e-12, note="step 3")
+        checks.check("both branches reachable", float(both.reachable.all()), 1.0, tol=0, note="elbow minus and plus")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed004_arc():
+    name = "02_arc_trajectory_animation"
+    return name, "Seed 004, parts D-E: 90-degree arc trajectory and the animation (in place of Simscape)", [
+        md(rf"""
+        # The 90° arc: manipulator configurations, joint angles, and the animation
+
+        Reproduces seed {SEED004}, **part D** (the end effector follows a 90° arc of the circle
+        with centre $(x_R, y_R) = (0.1, 0.25)$ m and radius $R = 0.25$ m during 0-2 s: left figure
+        the manipulator configurations, right figure the joint angles) and **part E** (the
+        Simscape simulation of the same joint angles), replaced here by a matplotlib animation
+        embedded in the report (jshtml).
+
+        The handout does not say where on the circle the quarter starts nor the tool orientation.
+        Most of that circle is out of reach: its far side is $\lVert(0.1, 0.25)\rVert + 0.25 = 0.519$ m from the
+        base, the arm reaches $0.47$ m. The default here is the quarter from $-90^\circ$ (the point
+        (0.1, 0)) to $0^\circ$ ((0.35, 0.25)), the tool pointing radially outwards, elbow minus.
+        Library: `labkit.cartesian` (`arc`, `cartesian_trajectory`), `labkit.plotting`, `labkit.plotting_anim`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed004"
+        center = [0.1, 0.25]        # (xR, yR) [m]
+        radius = 0.25               # R [m]
+        start_deg = -90.0           # where the quarter starts on the circle [deg]
+        sweep_deg = 90.0            # the arc [deg]
+        phi_deg = [-90.0, 0.0]      # tool orientation at start and end [deg] (radially outwards)
+        duration = 2.0              # [s]
+        dt = 0.02                   # [s]
+        max_frames = 40             # animation frames
+        output_dir = {out_default(LAB004, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        from IPython.display import HTML
+
+        from labkit.cartesian import arc, cartesian_trajectory
+        from labkit.dh import Robot
+        from labkit.exceptions import UnreachableError
+        from labkit.kinematics import fk_position
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm, plot_time_series
+        from labkit.plotting_anim import animate_arm
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 004 parts D-E: arc")
+        center = np.asarray(center, float)
+        path = arc(center, radius, np.radians(start_deg), np.radians(sweep_deg))
+        traj = cartesian_trajectory(arm, path, duration, dt=dt, orientation=np.radians(phi_deg), branch="elbow_minus")
+        reach = float(np.sum(arm.a))
+        print(f"{len(traj.t)} samples over {duration:g} s; reach {reach:.2f} m, far side of the circle "
+              f"{np.linalg.norm(center) + radius:.3f} m from the base")
+        """),
+        md(r"""
+        ## Part D: manipulator configurations (left) and joint angles (right)
+        """),
+        code(r"""
+        fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+        circle = center + radius * np.c_[np.cos(np.linspace(0, 2 * np.pi, 200)), np.sin(np.linspace(0, 2 * np.pi, 200))]
+        axes[0].plot(circle[:, 0], circle[:, 1], ":", color="0.6", label="the full circle")
+        plot_arm(arm, traj.q[:: max(1, len(traj.t) // 10)], ax=axes[0], units="m")
+        axes[0].plot(traj.x[:, 0], traj.x[:, 1], "-", color="C1", lw=2, label="end-effector arc")
+        axes[0].legend(fontsize=8, loc="upper left")
+        axes[0].set_title("manipulator configuration trajectory")
+        plot_time_series(traj, "q", ax=axes[1], degrees=False)
+        axes[1].set_title("joint angles, 0-2 s")
+        fig.tight_layout()
+        fig.savefig(out / "arc.png", dpi=110)
+        plt.show()
+        traj.to_dataframe().iloc[:: len(traj.t) // 5].round(4)
+        """),
+        md(r"""
+        ## Why the orientation must be chosen: holding $\phi = 90^\circ$ on the same arc fails
+
+        labkit names the first unreachable sample, its time and by how much:
+        """),
+        code(r"""
+        try:
+            cartesian_trajectory(arm, path, duration, dt=0.05, orientation=np.pi / 2, branch="elbow_minus")
+            held_phi_error = None
+        except UnreachableError as exc:
+            held_phi_error = exc
+            print(exc)
+        """),
+        md(r"""
+        ## Part E: the simulation, as an animation (in place of Simscape)
+
+        The joint angles `theta1dsim`, `theta2dsim`, `theta3dsim` of the handout are `traj.q`;
+        the animation draws the arm at each time with the tool's trail (start ghost red, end green).
+        """),
+        code(r"""
+        anim = animate_arm(arm, traj, max_frames=max_frames, units="m")
+        plt.close(anim._fig)
+        HTML(anim.to_jshtml())
+        """),
+        md(r"""
+        ## Checks
+
+        Numbers that follow from the handout: every sample on the circle (radius 0.25 m, 1e-9 m),
+        the swept angle (90°), the time span (0-2 s), elbow minus throughout ($\theta_2 < 0$), and
+        the reach argument (far side 0.519 m > 0.47 m).
+        """),
+        code(r"""
+        r = np.linalg.norm(traj.x[:, :2] - center, axis=1)
+        swept = np.degrees(np.ptp(np.unwrap(np.arctan2(traj.x[:, 1] - center[1], traj.x[:, 0] - center[0]))))
+        checks.check("distance from the centre [m] (part D)", r, np.full_like(r, radius), tol=1e-9, note="R = 0.25")
+        checks.check("swept angle [deg] (part D)", swept, sweep_deg, tol=1e-9, note="90 degree arc")
+        checks.check("time span [s] (part D)", [traj.t[0], traj.t[-1]], [0.0, duration], tol=1e-12, note="0-2 s")
+        checks.check("elbow minus throughout", float((traj.q[:, 1] < 0).all()), 1.0, tol=0, note="theta2 < 0")
+        checks.check("tool on the arc (FK) [m]", fk_position(arm, traj.q)[:, :2], traj.x[:, :2], tol=1e-9, note="IK at every sample")
+        checks.check("far side of the circle beyond the reach [m]", np.linalg.norm(center) + radius - reach, 0.0493, tol=5e-4,
+                     note="0.519 - 0.47")
+        checks.check("held phi = 90 deg is unreachable", float(held_phi_error is not None), 1.0, tol=0, note="orientation matters")
+        checks.assert_all()
+        """),
+    ]
+
+
+def seed004_line():
+    name = "03_straight_line"
+    return name, "Seed 004, part F: a straight line of the user's choice", [
+        md(rf"""
+        # A straight-line trajectory of your choice
+
+        Reproduces seed {SEED004}, **part F** ("create another trajectory that makes the end
+        effector follow a straight line that you determine; repeat parts C and D"): the line's
+        endpoints, orientation and duration are parameters (`labkit run ... -p line_start
+        "[0.3, -0.1]"`), with the manipulator configurations, the joint angles and the animation.
+        Library: `labkit.cartesian` (`line`, `cartesian_trajectory`), `labkit.plotting`, `labkit.plotting_anim`.
+        """),
+        parameters(f"""
+        robot = "planar3r_seed004"
+        line_start = [0.35, -0.10]  # [m]
+        line_end = [0.15, 0.30]     # [m]
+        phi_deg = [0.0, 60.0]       # tool orientation at start and end [deg] (one value: held)
+        duration = 2.0              # [s]
+        dt = 0.02                   # [s]
+        branch = "elbow_minus"      # as in part B
+        max_frames = 30             # animation frames
+        output_dir = {out_default(LAB004, name)}
+        """),
+        code(r"""
+        from pathlib import Path
+
+        import matplotlib.pyplot as plt
+        import numpy as np
+        from IPython.display import HTML
+
+        from labkit.cartesian import cartesian_trajectory, line
+        from labkit.dh import Robot
+        from labkit.kinematics import fk_position
+        from labkit.nbtools import Checks
+        from labkit.plotting import plot_arm, plot_time_series
+        from labkit.plotting_anim import animate_arm
+
+        out = Path(output_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        arm = Robot.load(robot)
+        checks = Checks("Seed 004 part F: straight line")
+        p0, p1 = np.asarray(line_start, float), np.asarray(line_end, float)
+        traj = cartesian_trajectory(arm, line(p0, p1), duration, dt=dt, orientation=np.radians(phi_deg), branch=branch)
+        print(f"{len(traj.t)} samples, line length {np.linalg.norm(p1 - p0):.3f} m, "
+              f"peak tool speed {np.linalg.norm(traj.xd[:, :2], axis=1).max():.3f} m/s")
+        """),
+        code(r"""
+        fig, axes = plt.subplots(1, 3, figsize=(14, 4.4))
+        plot_arm(arm, traj.q[:: max(1, len(traj.t) // 10)], ax=axes[0], units="m")
+        axes[0].plot(traj.x[:, 0], traj.x[:, 1], "-", color="C1", lw=2, label="end-effector line")
+        axes[0].legend(fontsize=8)
+        axes[0].set_title("manipulator configuration trajectory")
+        plot_time_series(traj, "q", ax=axes[1], degrees=False)
+        axes[1].set_title("joint angles")
+        plot_time_series(traj, "qd", ax=axes[2], degrees=False)
+        axes[2].set_title("joint rates")
+        fig.tight_layout()
+        fig.savefig(out / "line.png", dpi=110)
+        plt.show()
+        """),
+        code(r"""
+        anim = animate_arm(arm, traj, max_frames=max_frames, units="m")
+        plt.close(anim._fig)
+        HTML(anim.to_jshtml())
+        """),
+        md(r"""
+        ## Checks
+
+        The line is the user's, so the checks are geometric: every sample on the segment
+        (distance to the line 1e-9 m), the endpoints, the orientation at both ends, and FK of
+        the joint samples on the path (1e-9 m).
+        """),
+        code(r"""
+        u = (p1 - p0) / np.linalg.norm(p1 - p0)
+        d = traj.x[:, :2] - p0
+        off_line = np.abs(d[:, 0] * u[1] - d[:, 1] * u[0])
+        phis = np.atleast_1d(np.radians(phi_deg))
+        checks.check("distance from the line [m]", off_line.max(), 0.0, tol=1e-9, note="straight")
+        checks.check("endpoints [m]", traj.x[[0, -1], :2], [p0, p1], tol=1e-12, note="")
+        checks.check("orientation at the ends [rad]", traj.x[[0, -1], 2], [phis[0], phis[-1]], tol=1e-12, note="")
+        checks.check("FK of the joint samples on the path [m]", fk_position(arm, traj.q)[:, :2], traj.x[:, :2], tol=1e-9, note="")
+        checks.assert_all()
+        """),
+    ]
+
+
 NOTEBOOKS = {
     f"{LAB000}/01_link_measurement_dh.ipynb": seed000_dh,
     f"{LAB000}/02_fk_check_tables.ipynb": seed000_fk_tables,
@@ -1791,6 +2114,9 @@ NOTEBOOKS = {
     f"{LAB003}/03_ik_orientation_click.ipynb": seed003_ik_click,
     f"{LAB003}/04_plot_manipulator.ipynb": seed003_plot_manipulator,
     f"{LAB003}/05_via_points_on_arm.ipynb": seed003_via_points,
+    f"{LAB004}/01_ik_elbow_minus.ipynb": seed004_ik,
+    f"{LAB004}/02_arc_trajectory_animation.ipynb": seed004_arc,
+    f"{LAB004}/03_straight_line.ipynb": seed004_line,
 }
 
 
