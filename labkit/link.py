@@ -341,10 +341,23 @@ class Arm:
 
     # -- time --------------------------------------------------------------------------
     def _clock(self):
+        """Board time [s] for a simulated board (``sim://``), else the wall clock.
+
+        All waits and timeouts of the link are in these seconds, so a virtual arm
+        running faster than real time keeps its timing.
+        """
         board = getattr(self.port, "board", None)
-        if board is not None and getattr(self.port, "clock", "") == "lockstep":
-            return board.time
-        return time.monotonic()
+        if board is None:
+            return time.monotonic()
+        if getattr(self.port, "clock", "") == "realtime":
+            self._io(lambda: self.port.in_waiting)  # brings the board up to date
+        return board.time
+
+    def _port_seconds(self, seconds):
+        """Read timeout for the port that lets ``seconds`` of :meth:`_clock` pass."""
+        if getattr(self.port, "clock", "") == "realtime":
+            return seconds / self.port.time_scale
+        return seconds
 
     def sleep(self, seconds):
         """Wait ``seconds`` of board time while handling incoming lines."""
@@ -371,7 +384,7 @@ class Arm:
     def _pump(self, timeout):
         """Read for up to ``timeout`` s (returns early once a line has arrived)."""
         port = self.port
-        port.timeout = max(timeout, 0.0)
+        port.timeout = max(self._port_seconds(timeout), 0.0)
         waiting = self._io(lambda: port.in_waiting)
         chunk = self._io(port.read, max(1, waiting))
         if not chunk:
