@@ -425,7 +425,7 @@ class Arm:
         if kind in ("OK", "ERR") and len(tokens) >= 2:
             seq = None
             if tokens[1].startswith("#"):
-                if not tokens[1][1:].isdigit():
+                if not _STRICT_INT.match(tokens[1][1:]):
                     self.stats.bad_lines += 1
                     return
                 seq = int(tokens[1][1:])
@@ -434,38 +434,46 @@ class Arm:
             return
         self.stats.bad_lines += 1
 
-    def _frame(self, tokens):
+    def _consistent(self, a, b):
+        """Can frame ``b`` follow frame ``a`` (counters, board times, joint speeds)?"""
+        st = self._frames
+        gap = (b[0] - a[0]) % 65536
+        if not 1 <= gap < 65536 // 2:
+            return False
+        # the firmware stamps a frame when it sends it: a few ms of jitter, never drift
+        if abs((b[1] - a[1]) - gap * 1000.0 / st["hz"]) > 2.0 + 250.0 / st["hz"]:
+            return False
+        # joints cannot jump: a dropped digit (invisible to the XOR checksum) changes a value a lot
         J = self.robot.n
-        if self._frames is None:
+        step = np.abs(np.array(b[2:2 + J]) - np.array(a[2:2 + J]))
+        return bool(np.all(step <= self._adc_slew * gap / st["hz"] + 12))
+
+    def _frame(self, tokens):
+        """Accept a feedback frame only when a neighbouring frame confirms it."""
+        st = self._frames
+        if st is None:
             return
         try:
-            vals = [_int(v) for v in tokens[1:]]
+            vals = tuple(_int(v) for v in tokens[1:])
         except ValueError:
-            vals = []
-        st = self._frames
-        ok = len(vals) == J + 3 and 0 <= vals[0] <= 65535 and all(0 <= a <= 1023 for a in vals[2:])
-        if ok and st["last"] is not None:
-            c0, t0 = st["last"]
-            gap = (vals[0] - c0) % 65536
-            expect = gap * 1000.0 / st["hz"]
-            # the firmware stamps a frame when it sends it: a few ms of jitter, never drift
-            ok = 1 <= gap < 65536 // 2 and abs((vals[1] - t0) - expect) <= 2.0 + 250.0 / st["hz"]
-            # joints cannot jump: a dropped digit (invisible to the XOR checksum) changes a value a lot
-            step = np.abs(np.array(vals[2:2 + J]) - st["adc"])
-            ok = ok and bool(np.all(step <= self._adc_slew * gap / st["hz"] + 12))
-        elif ok:
-            ok = vals[0] < 2 * st["hz"]  # first frame after STREAM: a small counter
-        if not ok:
+            vals = ()
+        J = self.robot.n
+        if not (len(vals) == J + 3 and 0 <= vals[0] <= 65535 and all(0 <= a <= 1023 for a in vals[2:])):
             self.stats.rejected_frames += 1
             return
-        if st["last"] is not None:
-            lost = (vals[0] - st["last"][0]) % 65536 - 1
-            st["lost"] += lost
-            self.stats.lost_frames += lost
-        st["last"] = (vals[0], vals[1])
-        st["adc"] = np.array(vals[2:2 + J])
-        st["rows"].append((time.time(), *vals))
-        self.stats.frames += 1
+        accept = []
+        anchor, pending = st["last"], st["pending"]
+        if anchor is not None and self._consistent(anchor, vals):
+            accept = [vals]
+        elif pending is not None and self._consistent(pending, vals):
+            accept = [pending, vals]  # two frames that agree: (re-)anchor on them
+        st["pending"] = None if accept else vals
+        if pending is not None and not accept:
+            self.stats.rejected_frames += 1
+        for v in accept:
+            st["rows"].append((time.time(), *v))
+            st["last"] = v
+            self.stats.frames += 1
 
     # -- requests ----------------------------------------------------------------------------
     def _next_seq(self):
@@ -809,7 +817,7 @@ class Arm:
             raise ValueError(f"expected hz in 1..200, got {hz}")
         rejected0 = self.stats.rejected_frames + self.stats.bad_lines
         t_begin = self.ping()
-        self._frames = {"hz": hz, "last": None, "lost": 0, "rows": []}
+        self._frames = {"hz": hz, "last": None, "pending": None, "rows": []}
         try:
             self._transact("STREAM", hz)
             t_end = self._clock() + duration
@@ -825,7 +833,9 @@ class Arm:
         t0_ms = rows[0][2] - rows[0][1] * 1000.0 / hz if rows else t_begin * 1000
         expected = max(0, math.ceil((t_stop_ms - t0_ms) * hz / 1000.0 - 1e-6))
         lost = expected - len(rows)
-        self.stats.lost_frames += lost - st["lost"]
+        self.stats.lost_frames += lost
+        if st["pending"] is not None:
+            self.stats.rejected_frames += 1  # never confirmed
         J = self.robot.n
         cols = ["received", "counter", "t_ms", *(f"adc{j}" for j in range(J)), "pot"]
         df = pd.DataFrame(rows, columns=cols)

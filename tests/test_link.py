@@ -274,3 +274,39 @@ def test_no_port_found(monkeypatch):
     monkeypatch.setattr(link, "find_ports", lambda: [])
     with pytest.raises(DeviceError, match="sim://"):
         Arm(None)
+
+
+def test_stream_reanchors_after_a_genuine_jump(arm):
+    board = arm.port.board
+    orig = board._stream_frame
+
+    def jump():
+        if board.stream_counter == 20:
+            board.set_analog(0, 4.0)  # joint 0's pot jumps (a hand pushed the arm)
+        orig()
+
+    board._stream_frame = jump
+    df = arm.stream(1.0, hz=50)
+    assert df.attrs["lost"] <= 1
+    assert (df["adc0"] == 819).sum() >= 28  # floor(4.0 * 1024 / 5)
+
+
+def test_frame_damaged_invisibly_to_the_checksum_is_rejected(arm):
+    """Dropping two equal bytes keeps the XOR checksum: the plausibility checks must catch it."""
+    board = arm.port.board
+    orig = board._emit
+
+    def damaged(text):
+        if text.startswith("FB 10 "):
+            fields = text.split()
+            fields[3] = fields[3][:-1]  # joint 0 loses its last digit ("512" -> "51") ...
+            text = " ".join(fields)  # ... and the checksum still matches (as for two dropped equal bytes)
+        orig(text)
+
+    board._emit = damaged
+    df = arm.stream(0.5, hz=50)
+    truth = board.sent_frames
+    for c, a0 in zip(df["counter"], df["adc0"]):
+        assert truth[c][1][0] == a0
+    assert 10 not in set(df["counter"])
+    assert df.attrs["lost"] == 1
