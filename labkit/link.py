@@ -322,7 +322,7 @@ class Arm:
                               f"{self.robot.name} has {self.robot.n}")
 
     def close(self):
-        """Close the port (stopping a feedback stream first if possible)."""
+        """Close the port (never raises, even if the port has vanished)."""
         port, self.port = getattr(self, "port", None), None
         if port is not None:
             try:
@@ -773,6 +773,7 @@ class Arm:
                         raise
                     qfull += 1
                     self.sleep(min(dur / 2000.0, 0.1))
+                    self.ping()  # a rejected SEG does not reset the board's host-silence timer
             accepted += 1
             if len([e for e in self.events if e[0] == "DONE"]) > dones_seen and k < len(segs):
                 underruns += 1
@@ -782,6 +783,7 @@ class Arm:
             free = int(r.tokens[2]) if len(r.tokens) > 2 and r.tokens[2].isdigit() else 1
             if free == 0:
                 self.sleep(min(dur / 1000.0, 0.1))
+                self.ping()
         if bar is not None:
             bar.close()
         if wait:

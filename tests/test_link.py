@@ -310,3 +310,19 @@ def test_frame_damaged_invisibly_to_the_checksum_is_rejected(arm):
         assert truth[c][1][0] == a0
     assert 10 not in set(df["counter"])
     assert df.attrs["lost"] == 1
+
+
+def test_long_segments_keep_the_host_silence_timer_alive(arm):
+    """Waiting for a free queue slot must not let the board's 500 ms silence timeout fire."""
+    start = arm.commanded_joints()
+    segs = []
+    for k in range(10):
+        a = start[0] + (0.1 if k % 2 else 0.0)
+        b = start[0] + (0.0 if k % 2 else 0.1)
+        d0, d1 = round(math.degrees(a) * 100), round(math.degrees(b) * 100)
+        rest = [round(math.degrees(v) * 100) for v in start[1:]]
+        segs.append((1000, 3, [d0, 0, 3 * (d1 - d0), -2 * (d1 - d0), rest[0], 0, 0, 0, rest[1], 0, 0, 0]))
+    assert arm.status().timeout == 0.5
+    report = arm.run_trajectory(segs)
+    assert report.queue_full_waits > 0 and report.segments == 10
+    assert arm.status().flags & 0x02 == 0 and arm.port.board.done == 10
