@@ -2125,7 +2125,9 @@ def main(argv=None):
     for rel, make in NOTEBOOKS.items():
         if argv and not any(a in rel for a in argv):
             continue
-        _, title, cells = make()
+        name, title, cells = make()
+        for i, cell in enumerate(cells):  # stable ids: regenerating leaves git clean
+            cell.id = f"{name[:48]}-{i:02d}"
         print("wrote", write_notebook(ROOT / rel, cells, title=title).relative_to(ROOT.parent))
 
 
