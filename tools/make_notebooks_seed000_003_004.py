@@ -92,6 +92,27 @@ def seed000_dh():
           the translation), then with 1 (a point) - only the second is right.
         """),
         md(r"""
+        ## 2. Drawing steps: the frames on the arm (figures 2.1-2.4)
+
+        The frames the table defines, drawn by `labkit.plotting.plot_arm(..., frames=True)`
+        (x red, y green, z blue) at $q = 0$ and at a bent pose: frames 1 and 2 share their origin
+        (the axes of joints 1 and 2 intersect), $z_2$ and $z_3$ are parallel and anti-parallel
+        ($\alpha_2 = 180^\circ$), and the tool point lies $L_2$ along $x_3$.
+        """),
+        code(r"""
+        import matplotlib.pyplot as plt
+        from labkit.plotting import plot_arm
+
+        fig = plt.figure(figsize=(11, 4.8))
+        for k, q_deg in enumerate([[0, 0, 0], [30, 45, 60]]):
+            ax = fig.add_subplot(1, 2, k + 1, projection="3d")
+            plot_arm(arm, np.radians(q_deg), ax=ax, dims=3, frames=True, orientation_arrow=False)
+            ax.set_title(f"frames at q = {tuple(q_deg)} deg")
+        fig.tight_layout()
+        fig.savefig(out / "frames.png", dpi=110)
+        plt.show()
+        """),
+        md(r"""
         ## The link transforms ${}^{i-1}_iT = R_x(\alpha_{i-1})\,D_x(a_{i-1})\,R_z(\theta_i)\,D_z(d_i)$
 
         `labkit.symbolic.link_transforms` with the seed's length name $L_1$ (twists are exact
