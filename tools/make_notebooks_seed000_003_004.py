@@ -323,8 +323,8 @@ def seed000_fk_tables():
           printed below). A sag under gravity would put the gripper *below* the model; an offset
           in the zero of joint 2 (the servo horn), or measuring to the top of the gripper, fits
           better. `07_calibration.ipynb` fits joint offsets to these tables.
-        * **Table 3, 5 deg**: the published calculated x = 0.24 m is the *measured* value copied
-          into the calculated column; the model gives $L_1 + L_2\cos 5^\circ = 0.2733$ m (the audit
+        * **Table 3, 5 deg**: the published calculated x = 0.24 m equals the *measured* value
+          (probably copied into the wrong column); the model gives $L_1 + L_2\cos 5^\circ = 0.2733$ m (the audit
           flags it, together with z = 0.014 vs 0.0157 m and, at 20 deg, z = 0.060 vs 0.0616 m).
           The seed's "slight variations in the accuracy" for joint 3 are partly this typo.
         """),
@@ -979,16 +979,24 @@ def seed000_pick_place():
         md(r"""
         ## Memory: stored arrays (seed) vs streamed segments
 
-        The seed's first version stored, per leg, 51 time samples, 3 x 51 coordinates and 3 x 51
-        angles as 4-byte floats; an ATmega328P has 2048 bytes of SRAM in all. Streaming keeps at
-        most `queue` segments (12 coefficients each) on the board whatever the length; the board
-        reports the least free memory it has seen (`Status.mem`, a stack canary).
+        The seed's first version stored, per trajectory (5 s sampled every 0.1 s), 51 times,
+        3 x 51 coordinates and 3 x 51 angles as 4-byte floats; its two-stage version doubled that.
+        An ATmega328P (Arduino Uno) has 2048 bytes of SRAM in all - for the arrays, the stack, the
+        serial buffers and the servo library. Its fix (store only the coordinates, solve IK on the
+        fly) still needs most of it. Streaming keeps at most `queue` segments (12 coefficients
+        each) on the board whatever the length; the board reports the least free memory it has
+        seen (`Status.mem`, a stack canary).
         """),
         code(r"""
-        n_samples = int(round(leg_duration / dt)) + 1
-        stored_bytes = 4 * n_samples * (1 + 3 + 3)
-        print(f"seed's arrays: {stored_bytes} bytes per leg, {stored_bytes * len(legs)} bytes for the {len(legs)} legs "
-              f"(SRAM 2048 bytes)")
+        SRAM = 2048
+        seed_samples = int(round(5.0 / 0.1)) + 1
+        memory = pd.Series({
+            "seed, one trajectory (t, xyz, angles)": 4 * seed_samples * (1 + 3 + 3),
+            "seed, two-stage (t, xyz, angles)": 2 * 4 * seed_samples * (1 + 3 + 3),
+            "seed's fix, two-stage (t, xyz only)": 2 * 4 * seed_samples * (1 + 3),
+            "streamed: queue of 6 segments x 12 coefficients": 6 * 12 * 4,
+        }, name="bytes")
+        memory.to_frame().assign(**{"share of 2048 B SRAM": (memory / SRAM).round(2)})
         """),
         md(r"""
         ## Run it on the arm
@@ -1044,7 +1052,8 @@ def seed000_pick_place():
         simulated servos carry random zero offsets of about 1 deg, like real ones); the gripper
         closed at the object and open at the place (robot file's pulse widths); the stream never
         ran dry (no underruns); the two approach legs are vertical (x, y unchanged to 1e-12 m);
-        the board's free memory stays above 200 bytes.
+        the board's free memory stays above 200 bytes; and the seed's memory problem is real: its
+        two-stage arrays alone need more than the Uno's 2048 bytes.
         """),
         code(r"""
         checks.check("stop errors [mm]", run["error [mm]"].max(), 0.0, tol=10.0, note="servo zero offsets ~1 deg")
@@ -1055,6 +1064,8 @@ def seed000_pick_place():
                      tol=1e-12, note="second stage moves only z")
         checks.check("board free memory above 200 bytes", float(run["board min free memory [bytes]"].min() > 200), 1.0, tol=0,
                      note=f"min {run['board min free memory [bytes]'].min()} bytes")
+        checks.check("seed's two-stage arrays exceed the SRAM", float(memory.iloc[1] > SRAM), 1.0, tol=0,
+                     note=f"{memory.iloc[1]} B > 2048 B: 'will not compile'")
         checks.assert_all()
         """),
     ]
@@ -1535,7 +1546,7 @@ def seed003_ik_click():
         No angles are published for the seed's clicks. Checked: FK of every IK branch returns the
         target (1e-12 m / rad), the standard eq. (12) gives labkit's $\theta_1$ (1e-12 rad) while the
         published $k$ do not (recorded as a typo), the clicks inside the workspace are reached and
-        the one outside (0.353 m from the base, reach 0.317 m) is refused.
+        the one outside (0.351 m from the base, reach 0.317 m) is refused.
         """),
         code(r"""
         checks.check("FK(IK(target)) - target, both branches", round_trip, 0.0, tol=1e-12, note="x, y [m], phi [rad]")
