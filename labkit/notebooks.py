@@ -188,6 +188,48 @@ def notebook_parameters(notebook) -> dict:
     return params
 
 
+_KERNEL_MANAGER = None
+
+
+def _kernel_manager_class():
+    """An AsyncKernelManager whose client polls its sockets in short slices.
+
+    Works around a missed wake-up in ``jupyter_client``'s asyncio ``get_msg`` seen with
+    ipywidgets (nbclient issue #312, open): a cell's ``execute_reply`` sits in the socket
+    while the client waits for the whole cell timeout (600 s) before reading it. Polling in
+    0.2 s slices re-checks the socket, so a missed wake-up costs at most 0.2 s.
+    """
+    global _KERNEL_MANAGER
+    if _KERNEL_MANAGER is not None:
+        return _KERNEL_MANAGER
+    from queue import Empty
+
+    from jupyter_client.asynchronous import AsyncKernelClient
+    from jupyter_client.channels import AsyncZMQSocketChannel
+    from jupyter_client.manager import AsyncKernelManager
+    from traitlets import Type
+
+    class SlicedPollChannel(AsyncZMQSocketChannel):
+        async def get_msg(self, timeout=None):
+            deadline = None if timeout is None else time.monotonic() + timeout
+            while True:
+                left = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
+                if await self.socket.poll(int(left * 1000)):
+                    return await self._recv()
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise Empty
+
+    class SlicedPollClient(AsyncKernelClient):
+        shell_channel_class = Type(SlicedPollChannel)
+        iopub_channel_class = Type(SlicedPollChannel)
+
+    class SlicedPollKernelManager(AsyncKernelManager):
+        client_factory = Type(SlicedPollClient, klass=AsyncKernelClient)
+
+    _KERNEL_MANAGER = SlicedPollKernelManager
+    return _KERNEL_MANAGER
+
+
 def _first_error(nb):
     """(cell index, "Name: message") of the first error output in an executed notebook."""
     for i, cell in enumerate(nb.cells):
@@ -248,6 +290,7 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
             str(notebook), str(output), parameters=parameters, kernel_name=kernel_name,
             cwd=str(cwd or notebook.parent), progress_bar=False, log_output=False,
             request_save_on_cell_execute=False, execution_timeout=timeout,
+            kernel_manager_class=_kernel_manager_class(),
         )
     except PapermillExecutionError:
         pass  # the executed notebook (with the traceback) was written; described below
