@@ -64,7 +64,7 @@ def test_notebook_executes(path, tmp_path):
     from labkit.notebooks import execute_notebook, notebook_parameters
 
     params = {"output_dir": str(tmp_path / "files")} if "output_dir" in notebook_parameters(path) else {}
-    result = execute_notebook(path, tmp_path / path.name, params)
+    result = execute_notebook(path, tmp_path / path.name, params, timeout=300)
     assert result.ok, f"{path.parent.name}/{path.name} failed: {result.error}"
     nb = _read(tmp_path / path.name)
     assert all(c.execution_count is not None for c in nb.cells if c.cell_type == "code")

@@ -262,3 +262,19 @@ def test_labkit_run_overrides_parameters_and_reports_failures(tmp_path, capsys):
     assert out.with_suffix(".html").is_file()
     assert main(["run", str(nb), "-o", str(tmp_path / "default.ipynb")]) == 1  # default port: the assert fails
     assert "AssertionError: sim://" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_widget_cells_do_not_wait_for_the_cell_timeout(tmp_path):
+    """Regression (nbclient #312): with ipywidgets the client missed the reply until the timeout."""
+    require("papermill")
+    from labkit.notebooks import execute_notebook
+
+    nb = make_notebook(tmp_path / "lab" / "w.ipynb", [
+        "import ipywidgets as w\nw.interact(lambda x: print(x), x=w.FloatSlider(value=1.0));",
+        "w.interact(lambda y: print(y), y=(0.0, 1.0));",
+    ])
+    for k in range(4):
+        result = execute_notebook(nb, tmp_path / f"out{k}.ipynb", timeout=30)
+        assert result.ok, result.error
+        assert result.seconds < 25, f"run {k} took {result.seconds:.1f} s: a reply was read only at the timeout"
