@@ -5,10 +5,11 @@
 //   - Timer1 servo pulse driver (normal mode, compare-A interrupt toggling pins, like the
 //     Arduino Servo library): channel c on digital pin D(2+c), 20 ms frames, 0.5 us ticks;
 //   - UART at 115200 8N1 (Serial), ADC (analogRead), EEPROM (avr-libc), watchdog (500 ms);
-//   - a stack canary for the free-memory report.
+//   - a stack canary for the free-memory report; idle sleep between interrupts.
 // Protocol: docs/protocol.md. Build: `make -C firmware` (or open this folder in the Arduino IDE).
 #include <Arduino.h>
 #include <avr/eeprom.h>
+#include <avr/sleep.h>
 #include <avr/wdt.h>
 #include "labkit_core.h"
 
@@ -64,6 +65,10 @@ ISR(TIMER1_COMPA_vect) {
 
 static void servo_begin(void) {
   for (uint8_t c = 0; c < LK_CHANNELS; c++) pinMode(2 + c, OUTPUT);
+  // D2/D3 double as INT0/INT1. Their interrupts stay disabled (EIMSK = 0), but simavr polls a
+  // low pin every cycle while the sense mode is "low level" (the reset value), which makes the
+  // simulation ~10x slower; "any change" mode stops that and changes nothing on a real board.
+  EICRA = _BV(ISC00) | _BV(ISC10);
   TCCR1A = 0;          // normal mode
   TCCR1B = _BV(CS11);  // clk/8: 0.5 us ticks
   servo_edge_at = TCNT1 + 400;
@@ -132,4 +137,15 @@ void loop() {
     lk_frame(&lk, f + 1);
   }
   lk_poll(&lk, millis(), micros());
+  // Idle until the next interrupt (Timer0 tick every 1.024 ms, UART, servo edge) unless work is
+  // pending. `sei; sleep` is atomic on AVR, so a wake-up cannot be lost between check and sleep.
+  set_sleep_mode(SLEEP_MODE_IDLE);
+  cli();
+  if (!Serial.available() && servo_frames == last_frame) {
+    sleep_enable();
+    sei();
+    sleep_cpu();
+    sleep_disable();
+  }
+  sei();
 }

@@ -141,13 +141,17 @@ static int pty_open(void) {
 static void uart_connect(void) {
     uint32_t f = 0;
     avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &f);
-    f &= ~AVR_UART_FLAG_STDIO;
+    f &= ~(uint32_t)(AVR_UART_FLAG_STDIO | AVR_UART_FLAG_POLL_SLEEP); /* no usleep() on UCSR0A polls */
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &f);
     uart_in_irq = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), uart_out_hook, 0);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), uart_xon_hook, 0);
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), uart_xoff_hook, 0);
 }
+
+/* simavr's default sleep callback usleep()s through simulated sleep: free running would be tied
+   to ~1x real time while the firmware idles. Pacing is done by this harness instead. */
+static void no_wall_sleep(avr_t *a, avr_cycle_count_t how_long) { (void)a; (void)how_long; }
 
 static void anchor_pace(void) {
     wall_ref = now_wall();
@@ -270,6 +274,7 @@ int main(int argc, char **argv) {
     avr_load_firmware(avr, &fw);
     avr->frequency = 16000000;
     avr->vcc = avr->avcc = avr->aref = 5000;
+    avr->sleep = no_wall_sleep;
     if (pty_open() < 0) { say("ERR cannot open a pty: %s", strerror(errno)); return 1; }
     uart_connect();
     for (int c = 0; c < NCH; c++)
@@ -280,7 +285,7 @@ int main(int argc, char **argv) {
     running = start_running;
     say("READY %s", running ? "running" : "held");
     anchor_pace();
-    unsigned long steps = 0;
+    uint64_t next_service = 0;
     for (;;) {
         if (!running) { poll_control(20); pty_pump(); continue; }
         int state = avr_run(avr);
@@ -296,14 +301,21 @@ int main(int argc, char **argv) {
             }
         }
         if (waking && avr->cycle >= wake_cycle) { waking = 0; say("WOKE %.2f", sim_us()); }
-        if (++steps % 2048 == 0) {
+        if (avr->cycle >= next_service) {
+            /* every 100 us (paced) or 250 us (free) of simulated time: move UART bytes, read
+               control lines, and when paced wait for the wall clock (or for host input) */
+            next_service = avr->cycle + (pace > 0 ? 1600 : 4000);
             pty_pump();
             poll_control(0);
             if (pace > 0) {
                 double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);
-                if (ahead > 0.0005) {
+                if (ahead > 0.0001) {
+                    struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLIN, 0}};
                     struct timespec ts = {0, (long)(ahead * 1e9)};
-                    nanosleep(&ts, 0);
+                    if (ppoll(fds, 2, &ts, NULL) > 0) {
+                        pty_pump();
+                        poll_control(0);
+                    }
                 } else if (ahead < -0.5) {
                     anchor_pace(); /* fell far behind (slow host): do not race to catch up */
                 }
