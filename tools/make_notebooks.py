@@ -44,8 +44,15 @@ def parameters(text):
 
 
 def write_notebook(path, cells, title=None):
-    """Write a clean (output-free) notebook with a python3 kernelspec."""
+    """Write a clean (output-free) notebook with a python3 kernelspec.
+
+    Cell ids are derived from the file name and the cell's position, so regenerating an
+    unchanged notebook leaves git clean.
+    """
     nb = nbformat.v4.new_notebook()
+    stem = Path(path).stem.replace(".", "-")[:48]
+    for k, cell in enumerate(cells):
+        cell.id = f"{stem}-{k:02d}"
     nb.cells = cells
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     nb.metadata["language_info"] = {"name": "python"}
