@@ -603,7 +603,7 @@ def seed002_wrist():
 
         The seed argues (figure 7, "surface assumption") that the velocity of A is parallel to $z_1$
         and therefore takes the friction along $-z_1$. Checking it at the seed's own configuration:
-        the velocity of A for $\dot\theta = [1, 0, 0]$ is $z_0 \times p_A$, horizontal and
+        the velocity of A for $\\dot\\theta = [1, 0, 0]$ is $z_0 \\times p_A$, horizontal and
         tangent to the circle, while $z_1$ points elsewhere. With the friction truly opposing the
         velocity the torques change (shown below); the published $M$ is reproduced above with the
         seed's $-z_1$ model.
@@ -740,7 +740,7 @@ def servo_tracking():
         polynomial, run on the Arduino arm)**: the seed commands joint angles every 0.1 s and assumes
         the hobby servos follow ("rough and jagged movement"; "reducing the delay ... can help").
         Here each joint servo is modelled with python-control as a rate-limited second-order
-        system, $G(s) = \omega_n^2 / (s^2 + 2\zeta\omega_n s + \omega_n^2)$, and its predicted
+        system, $G(s) = \\omega_n^2 / (s^2 + 2\\zeta\\omega_n s + \\omega_n^2)$, and its predicted
         tracking error for a cubic joint trajectory is set next to the error **measured** on the arm
         (by default the simulated arm `sim://`; pass `-p port /dev/ttyACM0` for a real board).
 
@@ -784,8 +784,8 @@ def servo_tracking():
         ## Step response and Bode plot
 
         `control.step_info` gives rise time, overshoot and settling time; for a second-order system
-        the overshoot is $e^{-\pi\zeta/\sqrt{1-\zeta^2}}$ and the peak time
-        $\pi / (\omega_n\sqrt{1-\zeta^2})$.
+        the overshoot is $e^{-\\pi\\zeta/\\sqrt{1-\\zeta^2}}$ and the peak time
+        $\\pi / (\\omega_n\\sqrt{1-\\zeta^2})$.
         """),
         code("""
         info = control.step_info(G)
@@ -837,9 +837,9 @@ def servo_tracking():
         md("""
         ## Predicted tracking of a cubic joint trajectory
 
-        For a ramp of slope $\dot q$ the second-order servo lags by $2\zeta/\omega_n$ seconds:
-        the steady error is $e = -2\zeta\dot q/\omega_n$. A cubic is not a ramp, but it is slow
-        compared with the servo, so the predicted error is close to $-2\zeta\dot q(t)/\omega_n$.
+        For a ramp of slope $\\dot q$ the second-order servo lags by $2\\zeta/\\omega_n$ seconds:
+        the steady error is $e = -2\\zeta\\dot q/\\omega_n$. A cubic is not a ramp, but it is slow
+        compared with the servo, so the predicted error is close to $-2\\zeta\\dot q(t)/\\omega_n$.
         """),
         code("""
         q0, qf = np.radians(q_start_deg), np.radians(q_end_deg)
@@ -933,7 +933,7 @@ def servo_tracking():
 
         * step overshoot and peak time against the closed-form second-order values (1e-3 relative;
           `step_info` works on a sampled response);
-        * predicted lag against the ramp formula $2\zeta\dot q_{max}/\omega_n$ (5 % relative: the
+        * predicted lag against the ramp formula $2\\zeta\\dot q_{max}/\\omega_n$ (5 % relative: the
           cubic's acceleration adds a little);
         * the cubic stays under the rate limit (otherwise the linear prediction does not apply);
         * measured vs predicted: RMS below 0.5 deg (ADC resolution 0.18 deg/count plus noise and the
