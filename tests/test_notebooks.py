@@ -34,6 +34,9 @@ def test_notebook_is_clean_and_documented(path):
     assert code, "a notebook without code"
     for c in code:
         assert c.outputs == [] and c.execution_count is None, f"{path.name}: commit notebooks without outputs"
+    for c in nb.cells:
+        if c.cell_type == "markdown":  # "\theta" written in a non-raw Python string becomes TAB + "heta"
+            assert not set(c.source) & set("\t\b\f\v\a"), f"{path.name}: control character in markdown (escape)"
     first = nb.cells[0]
     assert first.cell_type == "markdown" and "seed" in first.source.lower(), \
         "the first cell must say which seed report (file and section) this reproduces"
