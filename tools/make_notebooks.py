@@ -683,8 +683,10 @@ def seed002_wrist():
 
         from labkit.plotting_anim import animate_arm
 
-        anim = animate_arm(wrist, traj.resample(duration / 36), dims=3, max_frames=37)
-        plt.close(anim._fig)  # only the animation, not its last frame as a static figure
+        fig = plt.figure(figsize=(5.5, 4.5), dpi=72)
+        ax = fig.add_subplot(projection="3d")
+        anim = animate_arm(wrist, traj.resample(duration / 36), ax=ax, dims=3, max_frames=37)
+        plt.close(fig)  # show the animation only, not its last frame as a static figure
         HTML(anim.to_jshtml())
         """),
         md("""
