@@ -8,9 +8,13 @@
 #include <avr/pgmspace.h>
 #define LK_P(s) PSTR(s)
 #define LK_RD(p) ((char)pgm_read_byte(p))
+#define LK_FLASH PROGMEM
+#define LK_RDF(p) pgm_read_float(p)
 #else
+#define LK_RDF(p) (*(p))
 #define LK_P(s) (s)
 #define LK_RD(p) (*(const char *)(p))
+#define LK_FLASH
 #endif
 
 #define LK_MAXARGS (2 + LK_JOINTS * (LK_MAX_ORDER + 1))
@@ -403,6 +407,29 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
     return 1;
 }
 
+/* Bernstein-hull test: on [0,1] a polynomial lies within the convex hull of its Bernstein
+   coefficients b_k = sum_{i<=k} C(k,i)/C(n,i) c_i (orders 3 and 5), so if every b_k is inside the feasible joint
+   range the whole segment is. Cheap (no sampling) and exact for rest-to-rest segments. */
+/* w[k][i] = C(k,i)/C(n,i) for n = 3 and n = 5 */
+static const float bern3[4][4] LK_FLASH = {{1.0f}, {1.0f, 0.33333333f}, {1.0f, 0.66666667f, 0.33333333f}, {1.0f, 1.0f, 1.0f, 1.0f}};
+static const float bern5[6][6] LK_FLASH = {{1.0f}, {1.0f, 0.2f}, {1.0f, 0.4f, 0.1f}, {1.0f, 0.6f, 0.3f, 0.1f}, {1.0f, 0.8f, 0.6f, 0.4f, 0.2f}, {1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f}};
+
+uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi) {
+    uint8_t k, i;
+    for (k = 0; k <= order; k++) {
+        float b = 0;
+        for (i = 0; i <= k; i++) b += c[i] * LK_RDF(order == 3 ? &bern3[k][i] : &bern5[k][i]);
+        if (b < lo || b > hi) return 0;
+    }
+    return 1;
+}
+
+static uint8_t hull_inside(const lk_t *lk, uint8_t j, const float *c, uint8_t order) {
+    int32_t lo, hi;
+    if (!feasible(&lk->cal[j], &lo, &hi)) return 0;
+    return lk_hull_inside(c, order, (float)lo, (float)hi);
+}
+
 static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
     const int32_t *a = c->a;
     uint8_t order, j, k, slot;
@@ -430,12 +457,15 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
         float start = seg->c[j][0];
         float prev = lk->q_count ? lk->tail_q[j] : (float)lk->q[j];
         float d = start - prev;
-        for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
-            int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
-            if (!joint_ok(&lk->cal[j], q)) {
-                err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" reaches"));
-                out_sp_i(q); out_p(LK_P(" at s=")); out_u(k); out_p(LK_P("/32")); out_end();
-                return 0;
+        if (!hull_inside(lk, j, seg->c[j], order)) {
+            /* hull test inconclusive: sample at s = k/32 (runtime clamping covers the rest) */
+            for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
+                int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
+                if (!joint_ok(&lk->cal[j], q)) {
+                    err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" reaches"));
+                    out_sp_i(q); out_p(LK_P(" at s=")); out_u(k); out_p(LK_P("/32")); out_end();
+                    return 0;
+                }
             }
         }
         if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) {
@@ -490,23 +520,39 @@ static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
     return 1;
 }
 
+static const char command_names[] LK_FLASH = "HELLO\0PING\0STATUS\0MOVE\0GRIP\0SEG\0STOP\0TIMEOUT\0READ\0STREAM\0CAL\0DEFAULTS\0SAVE\0";
+
+/* index of the command in command_names, or -1 */
+static int8_t command_index(const char *tok) {
+    const char *n = command_names;
+    int8_t i;
+    for (i = 0; LK_RD(n); i++) {
+        if (name_is(tok, n)) return i;
+        while (LK_RD(n)) n++;
+        n++;
+    }
+    return -1;
+}
+
 static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
     const int32_t *a = c->a;
     uint8_t j;
+    int8_t idx = command_index(cmd);
+    if (idx >= 0 && c->argc == 0xFF) { err_msg(c->seq, LK_E_SYNTAX, LK_P("arguments are integers")); return 0; }
 #define NOARGS() if (c->argc) { err_msg(c->seq, LK_E_SYNTAX, LK_P("takes no arguments")); return 0; }
 #define NOTBUSY() if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running, STOP first")); return 0; }
-    if (name_is(cmd, LK_P("HELLO"))) {
+    if (idx == 0 /* HELLO */) {
         NOARGS();
         ok_begin(c->seq, LK_P("HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints="));
         out_u(LK_JOINTS); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
         out_u(LK_QUEUE); out_p(LK_P(" maxline=")); out_u(LK_MAXLINE); out_end();
-    } else if (name_is(cmd, LK_P("PING"))) {
+    } else if (idx == 1 /* PING */) {
         NOARGS();
         ok_begin(c->seq, LK_P("PING ")); out_u(lk->now_ms); out_end();
-    } else if (name_is(cmd, LK_P("STATUS"))) {
+    } else if (idx == 2 /* STATUS */) {
         NOARGS();
         cmd_status(lk, c);
-    } else if (name_is(cmd, LK_P("MOVE"))) {
+    } else if (idx == 3 /* MOVE */) {
         if (c->argc != LK_JOINTS) { err_msg(c->seq, LK_E_SYNTAX, LK_P("MOVE needs one value per joint")); return 0; }
         NOTBUSY();
         if (!check_joints(lk, c, a, lk->cal)) return 0;
@@ -514,7 +560,7 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         lk->state = LK_IDLE;
         update_pulses(lk);
         ok_begin(c->seq, LK_P("MOVE")); out_end();
-    } else if (name_is(cmd, LK_P("GRIP"))) {
+    } else if (idx == 4 /* GRIP */) {
         if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("GRIP us")); return 0; }
         if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) {
             err_begin(c->seq, LK_E_RANGE); out_p(LK_P(" gripper pulse outside")); out_sp_i(lk->cal[LK_JOINTS].pmin);
@@ -524,35 +570,35 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         lk->grip_us = (uint16_t)a[0];
         update_pulses(lk);
         ok_begin(c->seq, LK_P("GRIP ")); out_u(lk->grip_us); out_end();
-    } else if (name_is(cmd, LK_P("SEG"))) {
+    } else if (idx == 5 /* SEG */) {
         return cmd_seg(lk, c);
-    } else if (name_is(cmd, LK_P("STOP"))) {
+    } else if (idx == 6 /* STOP */) {
         NOARGS();
         halt(lk);
         ok_begin(c->seq, LK_P("STOP")); out_q(lk); out_end();
-    } else if (name_is(cmd, LK_P("TIMEOUT"))) {
+    } else if (idx == 7 /* TIMEOUT */) {
         if (c->argc > 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("TIMEOUT [ms]")); return 0; }
         if (c->argc == 1) {
             if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout 0 or 50..60000 ms")); return 0; }
             lk->timeout_ms = (uint16_t)a[0];
         }
         ok_begin(c->seq, LK_P("TIMEOUT ")); out_u(lk->timeout_ms); out_end();
-    } else if (name_is(cmd, LK_P("READ"))) {
+    } else if (idx == 8 /* READ */) {
         NOARGS();
         ok_begin(c->seq, LK_P("READ"));
         for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
         out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
         out_end();
-    } else if (name_is(cmd, LK_P("STREAM"))) {
+    } else if (idx == 9 /* STREAM */) {
         if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("STREAM hz")); return 0; }
         if (a[0] < 0 || a[0] > 200) { err_msg(c->seq, LK_E_RANGE, LK_P("rate 0..200 Hz")); return 0; }
         lk->stream_hz = (uint8_t)a[0];
         lk->frame_counter = 0;
         if (lk->stream_hz) { lk->stream_period_us = 1000000UL / lk->stream_hz; lk->stream_arm = 1; }
         ok_begin(c->seq, LK_P("STREAM ")); out_u(lk->stream_hz); out_end();
-    } else if (name_is(cmd, LK_P("CAL"))) {
+    } else if (idx == 10 /* CAL */) {
         return cmd_cal(lk, c);
-    } else if (name_is(cmd, LK_P("DEFAULTS"))) {
+    } else if (idx == 11 /* DEFAULTS */) {
         lk_cal_t cal[LK_CHANNELS];
         uint16_t timeout_ms;
         NOARGS();
@@ -563,7 +609,7 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         lk->timeout_ms = timeout_ms;
         update_pulses(lk);
         ok_begin(c->seq, LK_P("DEFAULTS")); out_end();
-    } else if (name_is(cmd, LK_P("SAVE"))) {
+    } else if (idx == 12 /* SAVE */) {
         uint16_t n;
         NOARGS();
         NOTBUSY();
@@ -626,17 +672,7 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
     if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("missing command")); return; }
     while ((tok = next_token(&p)) != 0) {
         if (c.argc >= LK_MAXARGS) { err_msg(c.seq, LK_E_SYNTAX, LK_P("too many arguments")); return; }
-        if (!parse_int(tok, &args[c.argc])) {
-            /* an unknown command is reported as such even with odd arguments */
-            uint8_t known = name_is(cmd, LK_P("HELLO")) || name_is(cmd, LK_P("PING")) || name_is(cmd, LK_P("STATUS")) ||
-                            name_is(cmd, LK_P("MOVE")) || name_is(cmd, LK_P("GRIP")) || name_is(cmd, LK_P("SEG")) ||
-                            name_is(cmd, LK_P("STOP")) || name_is(cmd, LK_P("TIMEOUT")) || name_is(cmd, LK_P("READ")) ||
-                            name_is(cmd, LK_P("STREAM")) || name_is(cmd, LK_P("CAL")) ||
-                            name_is(cmd, LK_P("DEFAULTS")) || name_is(cmd, LK_P("SAVE"));
-            if (known) { err_msg(c.seq, LK_E_SYNTAX, LK_P("arguments are integers")); return; }
-            c.argc = 0;
-            break;
-        }
+        if (!parse_int(tok, &args[c.argc])) { c.argc = 0xFF; break; } /* reported by dispatch */
         c.argc++;
     }
     if (dispatch(lk, cmd, &c)) lk->last_accept_ms = lk->now_ms;

@@ -103,6 +103,7 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback s
 uint8_t lk_xor(const char *s, uint8_t n);
 uint16_t lk_crc16(const uint8_t *data, uint16_t n);
 float lk_poly(const float *c, uint8_t order, float s);
+uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi); /* Bernstein bound */
 int32_t lk_round(float x);
 uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
 uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */

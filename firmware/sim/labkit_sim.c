@@ -10,7 +10,7 @@
  *   PTY <path>                       pty of UART0 (printed once, first line)
  *   READY held|running               after start-up
  *   P <ch> <t_us> <width_us>         servo channel ch (pin D(2+ch)) finished a pulse whose width
- *                                    differs from the previous one of that channel
+ *                                    differs by > 0.45 us from the last one reported for that channel
  *   TICK <t_us> <w0> ... <w5>        tick (see `tick`): CPU paused until `go`
  *   WOKE <t_us>                      simulated time reached a `sleep` deadline
  *   TIME <t_us> | PULSES <t_us> <w0> ... <w5> | OK <cmd> | ERR <text>
@@ -166,7 +166,7 @@ static void pin_changed(struct avr_irq_t *irq, uint32_t value, void *param) {
     } else if (rise_cycle[ch]) {
         double w = (double)(avr->cycle - rise_cycle[ch]) * 1e6 / avr->frequency;
         rise_cycle[ch] = 0;
-        if (w < 5000.0 && (w - width_us[ch] > 0.005 || width_us[ch] - w > 0.005)) {
+        if (w < 5000.0 && (w - width_us[ch] > 0.45 || width_us[ch] - w > 0.45)) { /* hysteresis > timer-tick jitter */
             width_us[ch] = w;
             say("P %d %.2f %.2f", ch, sim_us(), w);
         }
