@@ -12,7 +12,7 @@ install:
 
 # every lab notebook executed against the simulated arm (sim://), HTML + PDF + reports/index.html
 reports: install
-	labkit render --jobs 2 --output reports
+	$(PYTHON) -m labkit render --jobs 2 --output reports
 
 install-test:
 	tools/install-system-deps.sh test

@@ -186,6 +186,11 @@ def main(argv=None):
     except LabkitError as exc:
         print(f"labkit {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `labkit robots | head`: the reader went away, not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":  # pragma: no cover
