@@ -265,6 +265,14 @@ class FirmwareSim:
         with self._state_lock:
             self._widths.clear()
 
+    def set_lockstep(self, on=True):
+        """Hold the CPU after each OK/ERR reply until the host sends bytes or calls :meth:`sleep`.
+
+        Simulated time then excludes the host's own reaction time (an ideal host); wire time and
+        firmware time are still simulated exactly. Useful to measure the firmware, not the PC.
+        """
+        self._command(f"lockstep {int(bool(on))}", "OK lockstep")
+
     def set_pace(self, factor):
         """0: free running; ``factor > 0``: simulated time runs ``factor`` x wall time."""
         if factor < 0:

@@ -23,6 +23,8 @@
  *   go                               continue after a TICK
  *   sleep <us>                       print WOKE once `us` more simulated microseconds elapsed
  *   time | pulses                    query
+ *   lockstep 0|1                     1: after each OK/ERR reply line and each WOKE, hold the CPU
+ *                                    until the host sends bytes or a `sleep` (zero reaction time)
  * Times are simulated microseconds since power-on (cycles / 16). The harness does not use
  * simavr's uart_pty part (two threads, no locking); it bridges the UART to a pty itself.
  */
@@ -31,6 +33,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
+#include <sys/prctl.h>
 #include <termios.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -61,6 +64,9 @@ static size_t rx_head, rx_len;
 static uint8_t tx_buf[65536]; /* AVR -> host, not yet written to the pty */
 static size_t tx_len;
 static unsigned long tx_dropped;
+/* lockstep: after the board finishes a reply line (OK/ERR ...\n) hold the CPU until the host
+   sends bytes or asks for simulated time (`sleep`): an immediately responding host */
+static int lockstep, lock_wait, line_start = 1, line_is_reply;
 static FILE *ctl; /* control output (the real stdout) */
 static int running;
 static double pace; /* 0 = free */
@@ -109,6 +115,10 @@ static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq; (void)param;
     if (tx_len < sizeof tx_buf) tx_buf[tx_len++] = (uint8_t)value;
     else tx_dropped++;
+    if (line_start) line_is_reply = (value == 'O' || value == 'E') ? 2 : 0; /* OK / ERR (not EV) */
+    else if (line_is_reply == 2) line_is_reply = (value == 'K' || value == 'R');
+    line_start = (value == '\n');
+    if (line_start && line_is_reply && lockstep) lock_wait = 1;
 }
 /* move bytes between the pty and the buffers (non-blocking) */
 static void pty_pump(void) {
@@ -121,6 +131,7 @@ static void pty_pump(void) {
         size_t room = sizeof rx_buf - rx_len, want = room < sizeof tmp ? room : sizeof tmp;
         ssize_t r = read(pty_master, tmp, want);
         if (r <= 0) break;
+        lock_wait = 0;
         for (ssize_t i = 0; i < r; i++) rx_buf[(rx_head + rx_len + (size_t)i) % sizeof rx_buf] = tmp[i];
         rx_len += (size_t)r;
     }
@@ -219,10 +230,14 @@ static int handle(char *line) {
             next_tick_cycle = avr->cycle + tick_period_cycles;
             say("OK tick %g", x);
         }
+    } else if (!strcmp(cmd, "lockstep")) {
+        int on = 0;
+        if (sscanf(line + n, "%d", &on) != 1) say("ERR lockstep 0|1");
+        else { lockstep = on; lock_wait = 0; say("OK lockstep %d", on); }
     } else if (!strcmp(cmd, "go")) { return 1; }
     else if (!strcmp(cmd, "sleep")) {
         if (sscanf(line + n, "%lf", &x) != 1 || x < 0) say("ERR sleep <us>");
-        else { wake_cycle = avr->cycle + (uint64_t)(x * avr->frequency / 1e6); waking = 1; say("OK sleep %.2f", sim_us()); }
+        else { wake_cycle = avr->cycle + (uint64_t)(x * avr->frequency / 1e6); waking = 1; lock_wait = 0; say("OK sleep %.2f", sim_us()); }
     } else if (!strcmp(cmd, "time")) { say("TIME %.2f", sim_us()); }
     else if (!strcmp(cmd, "pulses")) { print_widths("PULSES"); }
     else say("ERR unknown command %s", cmd);
@@ -264,6 +279,7 @@ int main(int argc, char **argv) {
         else elf = argv[i];
     }
     if (!elf) { fprintf(stderr, "usage: %s FIRMWARE.elf [--run] [--pace FACTOR]\n", argv[0]); return 2; }
+    prctl(PR_SET_TIMERSLACK, 1000UL); /* 1 us: paced sleeps are short and frequent */
     /* keep the real stdout for the control channel; everything simavr prints goes to stderr */
     ctl = fdopen(dup(1), "w");
     dup2(2, 1);
@@ -288,6 +304,13 @@ int main(int argc, char **argv) {
     uint64_t next_service = 0;
     for (;;) {
         if (!running) { poll_control(20); pty_pump(); continue; }
+        if (lock_wait && !waking) {
+            struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLIN, 0}};
+            pty_pump(); /* deliver the reply, then wait for the host */
+            if (lock_wait && ppoll(fds, 2, NULL, NULL) > 0) { pty_pump(); poll_control(0); }
+            anchor_pace();
+            continue;
+        }
         int state = avr_run(avr);
         if (state == cpu_Done || state == cpu_Crashed) {
             say("CRASH %d %.2f", state, sim_us());
@@ -300,16 +323,21 @@ int main(int argc, char **argv) {
             while (!poll_control(-1)) {
             }
         }
-        if (waking && avr->cycle >= wake_cycle) { waking = 0; say("WOKE %.2f", sim_us()); }
+        if (waking && avr->cycle >= wake_cycle) {
+            waking = 0;
+            if (lockstep) lock_wait = 1; /* the host reacts in zero simulated time */
+            say("WOKE %.2f", sim_us());
+        }
         if (avr->cycle >= next_service) {
-            /* every 100 us (paced) or 250 us (free) of simulated time: move UART bytes, read
-               control lines, and when paced wait for the wall clock (or for host input) */
-            next_service = avr->cycle + (pace > 0 ? 1600 : 4000);
+            /* every ~100 us of wall time (paced: 100 us x pace of simulated time; free: 1 ms):
+               move UART bytes, read control lines, and when paced wait for the wall clock (or
+               for host input, which ends the wait at once) */
+            next_service = avr->cycle + (pace > 0 ? (uint64_t)(1600 * (pace > 1 ? pace : 1)) : 16000);
             pty_pump();
             poll_control(0);
             if (pace > 0) {
                 double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);
-                if (ahead > 0.0001) {
+                if (ahead > 0.0003) { /* sleep in chunks: each wake-up costs tens of us */
                     struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLIN, 0}};
                     struct timespec ts = {0, (long)(ahead * 1e9)};
                     if (ppoll(fds, 2, &ts, NULL) > 0) {
