@@ -20,32 +20,18 @@ import time
 import numpy as np
 
 from labkit.exceptions import DeviceError
+from labkit.faults import PortWrapper
 from labkit.link import Arm
 
 BYTES_PER_S = 115200 / 10
 
 
-class Counting:
+class Counting(PortWrapper):
     """Port wrapper counting bytes in both directions."""
 
     def __init__(self, port):
-        self._port = port
+        super().__init__(port)
         self.tx = self.rx = 0
-
-    def __getattr__(self, name):
-        return getattr(self._port, name)
-
-    @property
-    def timeout(self):
-        return self._port.timeout
-
-    @timeout.setter
-    def timeout(self, v):
-        self._port.timeout = v
-
-    @property
-    def in_waiting(self):
-        return self._port.in_waiting
 
     def read(self, n=1):
         data = self._port.read(n)
@@ -55,9 +41,6 @@ class Counting:
     def write(self, data):
         self.tx += len(data)
         return self._port.write(data)
-
-    def close(self):
-        self._port.close()
 
 
 def measure(arm, port, label, fn, n):

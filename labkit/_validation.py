@@ -46,3 +46,16 @@ def as_batch(x, last, name, *, finite=True):
 def as_vector(x, n, name, *, finite=True):
     """Return ``x`` as a float array of shape ``(..., n)``."""
     return as_batch(x, (n,), name, finite=finite)
+
+
+def readonly(a):
+    """A float copy of ``a`` that cannot be written to (``None`` stays ``None``).
+
+    Frozen dataclasses holding arrays store them through this, so that
+    ``result.q[0] = 1`` raises instead of silently mutating a "frozen" result.
+    """
+    if a is None:
+        return None
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import tomllib
 
+from labkit._validation import readonly
 from labkit.exceptions import JointLimitError, RobotFileError
 
 __all__ = [
@@ -183,12 +184,6 @@ class Link:
         return self.joint_type is JointType.REVOLUTE
 
 
-def _readonly(a):
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class Robot:
     """A serial arm described by Denavit-Hartenberg rows.
@@ -223,8 +218,8 @@ class Robot:
     name: str
     links: tuple
     convention: Convention = Convention.STANDARD
-    base: np.ndarray = field(default_factory=lambda: _readonly(np.eye(4)))
-    tool: np.ndarray = field(default_factory=lambda: _readonly(np.eye(4)))
+    base: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
+    tool: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
     title: str = ""
     source: str = ""
     gripper: Gripper | None = None
@@ -235,8 +230,8 @@ class Robot:
     def __post_init__(self):
         object.__setattr__(self, "links", tuple(self.links))
         object.__setattr__(self, "convention", Convention(self.convention))
-        object.__setattr__(self, "base", _readonly(self.base))
-        object.__setattr__(self, "tool", _readonly(self.tool))
+        object.__setattr__(self, "base", readonly(self.base))
+        object.__setattr__(self, "tool", readonly(self.tool))
         for name in ("base", "tool"):
             T = getattr(self, name)
             if T.shape != (4, 4):

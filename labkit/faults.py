@@ -28,7 +28,7 @@ from enum import Enum
 import numpy as np
 from serial import SerialException
 
-__all__ = ["FaultConfig", "FaultyPort", "Direction"]
+__all__ = ["PortWrapper", "FaultConfig", "FaultyPort", "Direction"]
 
 
 class Direction(str, Enum):
@@ -89,19 +89,16 @@ class FaultCounts:
     disconnected: bool = False
 
 
-class FaultyPort:
-    """A serial port wrapper injecting the faults of a :class:`FaultConfig`.
+class PortWrapper:
+    """Base of serial-port wrappers: every attribute is forwarded to the wrapped port.
 
-    Attributes not defined here (``board``, ``clock``, ``port`` ...) are
-    forwarded to the wrapped port.
+    Subclasses override what they intercept (``read``, ``write`` ...); the
+    ``timeout`` property is forwarded explicitly so that setting it reaches the
+    wrapped port instead of shadowing it.
     """
 
-    def __init__(self, port, config=FaultConfig()):
+    def __init__(self, port):
         self._port = port
-        self.config = config
-        self.counts = FaultCounts()
-        self._rng = np.random.default_rng(config.seed)
-        self._written = 0
 
     def __getattr__(self, name):
         return getattr(self._port, name)
@@ -113,6 +110,21 @@ class FaultyPort:
     @timeout.setter
     def timeout(self, value):
         self._port.timeout = value
+
+
+class FaultyPort(PortWrapper):
+    """A serial port wrapper injecting the faults of a :class:`FaultConfig`.
+
+    Attributes not defined here (``board``, ``clock``, ``port`` ...) are
+    forwarded to the wrapped port.
+    """
+
+    def __init__(self, port, config=FaultConfig()):
+        super().__init__(port)
+        self.config = config
+        self.counts = FaultCounts()
+        self._rng = np.random.default_rng(config.seed)
+        self._written = 0
 
     def _alive(self):
         if self.counts.disconnected:

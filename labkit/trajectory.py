@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline, PPoly
 
-from labkit._validation import as_batch
+from labkit._validation import as_batch, readonly
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError
 from labkit.timelaw import LawKind, TimeLaw, make_law, minimum_duration, time_grid
 
@@ -45,14 +45,6 @@ __all__ = [
 ]
 
 _ANGLE_AXES = {"phi", "roll", "pitch", "yaw", "rx", "ry", "rz"}
-
-
-def _frozen(a):
-    if a is None:
-        return None
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,7 +120,7 @@ class Trajectory:
         elif self.xdd is not None:
             raise ShapeError("xdd given without x and xd")
         for name in ("t", "q", "qd", "qdd", "x", "xd", "xdd"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, readonly(getattr(self, name)))
         n = q.shape[1]
         names = tuple(self.joint_names) or tuple(f"q{i + 1}" for i in range(n))
         if len(names) != n:
@@ -373,12 +365,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
         duration = _round_up(T, dt) if T > 0 else dt
     tl = make_law(law, q0, qf, duration, **law_options)
     traj = from_law(tl, t, dt=dt, joint_names=names, revolute=rev)
-    if robot is not None:
-        if check_limits:
-            check_joint_limits(traj, robot)
-        if check_speed_limits:
-            check_speed(traj, robot)
-    return traj
+    return _checked(traj, robot, check_limits, check_speed_limits)
 
 
 class SplineEnds(str, Enum):
@@ -542,15 +529,20 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
                   ends=ends, v0=v0, vf=vf, robot=robot)
     names, rev = _robot_info(robot, law.shape[0])
     traj = from_law(law, t, dt=dt, joint_names=names, revolute=rev)
-    if robot is not None:
-        if check_limits:
-            check_joint_limits(traj, robot)
-        if check_speed_limits:
-            check_speed(traj, robot)
-    return traj
+    return _checked(traj, robot, check_limits, check_speed_limits)
 
 
 # -- checks ---------------------------------------------------------------------
+
+def _checked(traj, robot, limits, speed):
+    """``traj`` after the requested joint-limit and speed checks against ``robot``."""
+    if robot is not None:
+        if limits:
+            check_joint_limits(traj, robot)
+        if speed:
+            check_speed(traj, robot)
+    return traj
+
 
 def check_joint_limits(traj, robot):
     """Raise at the first sample outside the robot's joint limits.

@@ -7,7 +7,7 @@ import pytest
 import serial
 
 from labkit.exceptions import DeviceError, JointLimitError, ProtocolError
-from labkit.faults import FaultConfig, FaultyPort
+from labkit.faults import FaultConfig, FaultyPort, PortWrapper
 from labkit.link import Arm, CommandRejected, find_ports, segments_from_trajectory
 from labkit.sim import checksum
 from labkit.urlhandler import register
@@ -16,23 +16,12 @@ register()
 SIM = "sim://?clock=lockstep&seed=0"
 
 
-class Recorder:
+class Recorder(PortWrapper):
     """A port wrapper recording the lines the host wrote."""
 
     def __init__(self, port):
-        self._port = port
+        super().__init__(port)
         self.lines = []
-
-    def __getattr__(self, name):
-        return getattr(self._port, name)
-
-    @property
-    def timeout(self):
-        return self._port.timeout
-
-    @timeout.setter
-    def timeout(self, v):
-        self._port.timeout = v
 
     def write(self, data):
         self.lines += [ln for ln in bytes(data).split(b"\n") if ln]
