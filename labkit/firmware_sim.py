@@ -160,6 +160,8 @@ class FirmwareSim:
         self._lock = threading.Lock()
         self._state_lock = threading.Lock()
         self.crashed: str | None = None
+        self.hook_error: Exception | None = None
+        """First exception raised by ``on_tick`` (re-raised by the next command)."""
         self.running = False
         self._proc = subprocess.Popen(
             [str(harness_path()), str(self.elf), "--pace", str(float(pace))],
@@ -211,12 +213,14 @@ class FirmwareSim:
 
     def _tick(self, t, widths):
         pulses = {c: w for c, w in enumerate(widths) if w > 0}
-        volts = None
+        cmds = []
         try:
             volts = self.on_tick(t, pulses) if self.on_tick else None
-        finally:
             cmds = [self._adc_cmd(pin, v) for pin, v in (volts or {}).items()]
-            self._send("\n".join(cmds + ["go"]))
+        except Exception as exc:  # noqa: BLE001 - reported to the caller by the next command
+            if self.hook_error is None:
+                self.hook_error = exc
+        self._send("\n".join(cmds + ["go"]))
 
     @staticmethod
     def _adc_cmd(pin, volts):
@@ -237,6 +241,9 @@ class FirmwareSim:
             raise DeviceError(f"the simavr harness is gone: {exc}") from exc
 
     def _command(self, text, expect, timeout=10.0):
+        if self.hook_error is not None:
+            exc, self.hook_error = self.hook_error, None
+            raise DeviceError(f"the on_tick hook failed: {exc!r}") from exc
         with self._lock:
             self._send(text)
             try:

@@ -341,3 +341,18 @@ def test_10000_segments_stream_without_underrun_or_memory_growth(build_log):
     first, *_, last = r["mem_free_bytes"]
     assert last > 500 and first - last < 64, r
     assert r["final_q"].split(",")[0] == "9000"  # sine back at its start after 50 periods
+
+
+def test_a_failing_on_tick_hook_is_reported_not_swallowed(build_log):
+    def broken(t, pulses):
+        raise RuntimeError("model diverged")
+
+    sim, port = start(pace=0.0, on_tick=broken, tick_period=0.01)
+    try:
+        time.sleep(0.2)  # a few ticks run (the CPU keeps going; voltages unchanged)
+        with pytest.raises(firmware_sim.DeviceError, match="model diverged"):
+            sim.time()
+        assert sim.time() > 0.0  # reported once; the simulator still works
+    finally:
+        sim.close()
+        port.close()
