@@ -323,13 +323,8 @@ def test_feedback_stream_100hz_for_60s_loses_nothing(build_log):
 @pytest.mark.slow
 def test_round_trip_paced_to_real_time_within_1_5x_wire_time(build_log):
     r = measure_round_trip(25)
-    for name in ("PING", "STATUS"):
-        assert r[name]["ratio"] <= 1.5, (name, r[name])
-    # MOVE and SEG measure 1.45-1.6x on the (loaded) 2-core CI machine: ~1 ms above wire time
-    # that is not yet explained (not the parser: an unknown command of SEG's length costs the
-    # same). Guard against regressions here; the 1.5x target is reported per command.
-    for name in ("MOVE", "SEG"):
-        assert r[name]["ratio"] <= 2.0, (name, r[name])
+    for name, m in r.items():
+        assert m["ratio"] <= 1.5, (name, m)
 
 
 @pytest.mark.slow

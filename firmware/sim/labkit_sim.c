@@ -94,18 +94,30 @@ static void say(const char *fmt, ...) {
     fflush(ctl);
 }
 
-static void uart_feed(void) {
-    while (uart_xon && rx_len) {
+/* Host -> AVR bytes arrive at the line rate: one byte per 10 bit times (8N1 at 115200 baud),
+   from a cycle timer, unless the UART's input FIFO is full (XOFF). */
+#define CYCLES_PER_BYTE 1389 /* 16 MHz * 10 bits / 115200 baud */
+static int feed_active;
+static avr_cycle_count_t uart_feed_timer(avr_t *a, avr_cycle_count_t when, void *param) {
+    (void)a; (void)param;
+    if (rx_len && uart_xon) {
         uint8_t b = rx_buf[rx_head];
         rx_head = (rx_head + 1) % sizeof rx_buf;
         rx_len--;
-        avr_raise_irq(uart_in_irq, b); /* the UART raises XOFF when its FIFO is full */
+        avr_raise_irq(uart_in_irq, b);
+    }
+    if (!rx_len) { feed_active = 0; return 0; }
+    return when + CYCLES_PER_BYTE;
+}
+static void uart_feed(void) {
+    if (rx_len && !feed_active) {
+        feed_active = 1;
+        avr_cycle_timer_register(avr, 1, uart_feed_timer, NULL);
     }
 }
 static void uart_xon_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq; (void)value; (void)param;
     uart_xon = 1;
-    uart_feed();
 }
 static void uart_xoff_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
     (void)irq; (void)value; (void)param;
@@ -200,6 +212,8 @@ static void do_reset(void) {
     /* simavr's reset re-initialises the peripherals; EEPROM content is kept by the eeprom
        module (like a real chip). Pin history is forgotten; analog inputs are re-applied. */
     avr_reset(avr);
+    feed_active = 0; /* the reset dropped all cycle timers */
+    uart_feed();
     for (int c = 0; c < NCH; c++) { rise_cycle[c] = 0; width_us[c] = 0; }
     for (int p = 0; p < 6; p++) set_adc(p, adc_mv[p]);
     if (tick_period_cycles) next_tick_cycle = avr->cycle + tick_period_cycles;
