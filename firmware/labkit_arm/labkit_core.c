@@ -150,10 +150,8 @@ static uint8_t grip_ok(const lk_cal_t *cal, int32_t us) {
 
 static void update_pulses(lk_t *lk) {
     uint8_t j;
-    for (j = 0; j < LK_JOINTS; j++) {
-        if (!lk_pulse_for(&lk->cal[j], lk->q[j], &lk->pulse_hus[j])) { /* cannot happen: q kept valid */
-        }
-    }
+    for (j = 0; j < LK_JOINTS; j++)
+        (void)lk_pulse_for(&lk->cal[j], lk->q[j], &lk->pulse_hus[j]); /* q is always kept valid */
     lk->pulse_hus[LK_JOINTS] = (uint16_t)(2u * lk->grip_us);
     lk_hw_pulses(lk->pulse_hus, LK_CHANNELS);
 }
