@@ -14,6 +14,10 @@ install:
 reports: install
 	$(PYTHON) -m labkit render --jobs 2 --output reports
 
+# the Arduino firmware (hex + ELF) and the simavr harness; prints flash/SRAM use
+firmware:
+	$(MAKE) -C firmware
+
 install-test:
 	tools/install-system-deps.sh test
 	$(PIP) install -q -e '.[test,crosscheck]'

@@ -349,6 +349,18 @@ int main(int argc, char **argv) {
             next_service = avr->cycle + (pace > 0 ? (uint64_t)(1600 * (pace > 1 ? pace : 1)) : 16000);
             pty_pump();
             poll_control(0);
+            if (tx_len > sizeof tx_buf / 4) {
+                /* back-pressure: a real wire delivers every byte, so a slow (descheduled) host
+                   must not cost board output; simulated time stops until the pty drains */
+                while (tx_len > sizeof tx_buf / 8) {
+                    struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLOUT, 0}};
+                    if (ppoll(fds, 2, NULL, NULL) > 0) {
+                        pty_pump();
+                        poll_control(0);
+                    }
+                }
+                anchor_pace();
+            }
             if (pace > 0) {
                 double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);
                 if (ahead > 0.0003) { /* sleep in chunks: each wake-up costs tens of us */
