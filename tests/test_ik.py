@@ -2,7 +2,6 @@
 
 import doctest
 import math
-import time
 
 import numpy as np
 import pytest
@@ -450,21 +449,18 @@ def test_angles_are_wrapped_into_the_limits(puma):
 # -- numeric IK -------------------------------------------------------------------------
 
 def test_numeric_acceptance_10000_puma560_targets(puma):
-    """Issue 2 acceptance: 100 % success, residual < 1e-9 (also timed: >= 4000 targets/s)."""
+    """Issue 2 acceptance: 100 % success, residual < 1e-9 (the rate, >= 4000 targets/s, is
+    printed by benchmarks/bench_kinematics.py: speed is a benchmark figure, not a timed test)."""
     rng = np.random.default_rng(560)
     lim = puma.joint_limits
     q = rng.uniform(lim[:, 0], lim[:, 1], size=(10_000, 6))
     T = fk(puma, q)
-    t0 = time.process_time()
     res = ik_numeric(puma, T)
-    elapsed = time.process_time() - t0
     assert isinstance(res, IKResult)
     assert res.success.all()
     assert res.residual.max() < 1e-9
     assert puma.within_limits(res.q).all()
     assert np.abs(fk(puma, res.q) - T).max() < 1e-9
-    # generous bound (CPU time; the benchmark prints the real rate)
-    assert elapsed < 10.0
 
 
 @pytest.mark.parametrize("name", ["rpp_seed002", "puma_wrist_seed002"])
