@@ -11,6 +11,7 @@ from __future__ import annotations
 __all__ = [
     "LabkitError",
     "ShapeError",
+    "RotationMatrixError",
     "RobotFileError",
     "UnreachableError",
     "JointLimitError",
@@ -27,6 +28,10 @@ class LabkitError(Exception):
 
 class ShapeError(LabkitError, ValueError):
     """An array had the wrong shape, dtype or non-finite values."""
+
+
+class RotationMatrixError(LabkitError, ValueError):
+    """A 3x3 matrix is not a proper rotation (not orthonormal or det != +1)."""
 
 
 class RobotFileError(LabkitError, ValueError):

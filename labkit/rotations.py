@@ -35,7 +35,7 @@ from enum import Enum
 import numpy as np
 
 from labkit._validation import as_batch
-from labkit.exceptions import LabkitError
+from labkit.exceptions import RotationMatrixError
 
 __all__ = [
     "rotation_x",
@@ -58,10 +58,6 @@ __all__ = [
 ]
 
 _AXES = {"x": 0, "y": 1, "z": 2}
-
-
-class RotationMatrixError(LabkitError, ValueError):
-    """A 3x3 matrix is not a proper rotation (not orthonormal or det != +1)."""
 
 
 def _elementary(angle, axis):
