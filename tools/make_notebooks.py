@@ -970,9 +970,11 @@ NOTEBOOKS = {
 }
 
 
-def main(argv=None):
+def main(argv=None, notebooks=None):
+    """Write the notebooks of ``notebooks`` ({relative path: builder}, default: this file's)
+    whose path contains one of the ``argv`` filters (all if none)."""
     argv = sys.argv[1:] if argv is None else argv
-    for rel, make in NOTEBOOKS.items():
+    for rel, make in (NOTEBOOKS if notebooks is None else notebooks).items():
         if argv and not any(a in rel for a in argv):
             continue
         _, title, cells = make()

@@ -17,7 +17,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from make_notebooks import ROOT, code, md, out_default, parameters, write_notebook  # noqa: E402
+import make_notebooks  # noqa: E402
+from make_notebooks import ROOT, code, md, out_default, parameters  # noqa: E402
 
 SEED000 = "`000_ed0137abc2bf9e33.txt`"
 SEED003 = "`003_06ee87ab668ce125.txt`"
@@ -2153,14 +2154,7 @@ NOTEBOOKS = {
 
 
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
-    for rel, make in NOTEBOOKS.items():
-        if argv and not any(a in rel for a in argv):
-            continue
-        name, title, cells = make()
-        for i, cell in enumerate(cells):  # stable ids: regenerating leaves git clean
-            cell.id = f"{name[:48]}-{i:02d}"
-        print("wrote", write_notebook(ROOT / rel, cells, title=title).relative_to(ROOT.parent))
+    make_notebooks.main(argv, NOTEBOOKS)
 
 
 if __name__ == "__main__":
