@@ -205,3 +205,39 @@ def test_same_physics_drives_the_firmware_in_simavr():
     np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
     np.testing.assert_allclose(adapter.model.shaft_q, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
     assert adapter.model.time == pytest.approx(t_sim, abs=0.05)
+
+
+@pytest.mark.firmware
+@pytest.mark.slow
+@pytest.mark.xdist_group("firmware")
+def test_simavr_url_with_physics_closes_the_loop_like_sim():
+    """``simavr://?physics=...``: the same arm model behind the real firmware, from a URL."""
+    import serial
+
+    from labkit.link import Arm
+    from labkit.urlhandler import register
+
+    register()
+    port = serial.serial_for_url("simavr://?physics=arduino_arm_3dof&seed=1", baudrate=115200, timeout=0.05)
+    assert isinstance(port.physics, FirmwareAdapter)
+    with Arm(port, timeout=0.5) as arm:
+        arm.move_joints(np.radians([30.0, 60.0, 120.0]))
+        port.sim.sleep(1.5)
+        sensed = arm.read_joints()
+        shaft = port.physics.model.shaft_q.copy()
+    np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
+    np.testing.assert_allclose(shaft, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
+
+
+def test_simavr_url_options_are_checked():
+    from serial import SerialException
+
+    from labkit.urlhandler.protocol_simavr import parse_url
+
+    assert parse_url("simavr://?physics=1&seed=4") == (
+        None, {"pace": 0.0, "tick": 0.005, "physics": "arduino_arm_3dof", "seed": 4})
+    assert parse_url("simavr://fw.elf?physics=0")[1]["physics"] == ""
+    with pytest.raises(SerialException, match=r"option 'seed'.*must be an integer, got '1.5'"):
+        parse_url("simavr://?seed=1.5")
+    with pytest.raises(SerialException, match=r"unknown option 'robot'.*valid options"):
+        parse_url("simavr://?robot=x")
