@@ -57,6 +57,27 @@ _NAME = re.compile(r"^(offset|a|d|sag)\[(\d+)\]$|^(tool|base)_([xyz])$")
 def parameter_names(robot, params=("joint_offsets", "link_lengths")):
     """Expand groups into parameter names (order kept, duplicates dropped).
 
+    Parameters
+    ----------
+    robot : Robot
+        The nominal robot (decides which lengths are non-zero and which joints
+        can sag).
+    params : str or sequence of str
+        Groups from ``GROUPS`` (``"joint_offsets"``, ``"link_lengths"``,
+        ``"base_offset"``, ``"gravity_sag"``) and/or single names such as
+        ``"offset[2]"``, ``"a[3]"``, ``"d[1]"``, ``"sag[2]"``, ``"tool_x"``,
+        ``"base_z"`` (indices 1-based).
+
+    Returns
+    -------
+    tuple of str
+        Parameter names, e.g. ``('offset[1]', 'a[3]', 'tool_x')``.
+
+    Raises
+    ------
+    MeasurementError
+        An unknown group or name, or a joint index outside ``1..n``.
+
     Examples
     --------
     >>> from labkit.dh import Robot
@@ -120,6 +141,16 @@ def _nominal(robot, name):
 
 def apply_parameters(robot, names, values):
     """Copy of ``robot`` with the named parameters set (``sag`` entries ignored).
+
+    Parameters
+    ----------
+    robot : Robot
+        Robot to start from (not modified).
+    names : sequence of str
+        Parameter names as returned by :func:`parameter_names`.
+    values : array_like, shape (len(names),)
+        Parameter values in SI units: joint offsets [rad] (revolute) or [m]
+        (prismatic), lengths and tool/base offsets [m].
 
     Returns
     -------
@@ -248,7 +279,15 @@ class CalibrationResult:
     message: str
 
     def parameters(self):
-        """Parameter table for reports (angles in deg, lengths in mm)."""
+        """Parameter table for reports (angles in deg, lengths in mm).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per fitted parameter, indexed by ``parameter``, with columns
+            ``unit``, ``nominal``, ``fitted``, ``change``, ``std_error``,
+            ``ci_low`` and ``ci_high`` [deg or mm, as ``unit`` says].
+        """
         import pandas as pd
 
         rows = []
@@ -268,7 +307,15 @@ class CalibrationResult:
         return m.group(1) == "offset" and not self.robot.links[int(m.group(2)) - 1].is_revolute
 
     def to_dataframe(self):
-        """Residual table [mm]: per pose and axis, before / after / leave-one-out."""
+        """Residual table [mm]: per pose and axis, before / after / leave-one-out.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per measured (pose, axis) pair (missing readings skipped), columns
+            ``pose_id``, ``axis``, ``measured``, ``before``, ``after``,
+            ``leave_one_out`` [mm].
+        """
         import pandas as pd
 
         rows = []
@@ -283,13 +330,30 @@ class CalibrationResult:
         return pd.DataFrame(rows)
 
     def summary(self):
-        """One-line text: RMS before, after and leave-one-out [mm]."""
+        """One-line text: RMS before, after and leave-one-out [mm].
+
+        Returns
+        -------
+        str
+            E.g. ``"RMS error 3.10 mm before, 0.52 mm after calibration, ..."``.
+        """
         return (f"RMS error {1000 * self.rms_before:.2f} mm before, {1000 * self.rms_after:.2f} mm after "
                 f"calibration, {1000 * self.loo_rms:.2f} mm leave-one-pose-out "
                 f"({len(self.names)} parameters, {self.dof} residual degrees of freedom)")
 
     def predict(self, q):
-        """Tool positions [m] of the calibrated model (with sag) at commanded ``q``."""
+        """Tool positions [m] of the calibrated model (with sag) at commanded ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Commanded joint values [rad, m].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+            Predicted tool positions in the base frame [m].
+        """
         return predict_positions(self.robot, q, self.sag, self.gravity)
 
     def write_robot(self, path, *, name=None, length_unit=None, angle_unit=None):
@@ -297,6 +361,21 @@ class CalibrationResult:
 
         A comment header records the fit; a fitted gravity sag cannot be
         stored in a robot file and is listed in the header only.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            File to write (overwritten).
+        name : str, optional
+            Robot name in the file; default ``"<robot name>_calibrated"``.
+        length_unit, angle_unit : str, optional
+            Units to declare in the file ("m"/"mm"/"cm", "rad"/"deg"); default:
+            the units the nominal robot was loaded with.
+
+        Returns
+        -------
+        str
+            The text written (comment header followed by the TOML robot file).
         """
         from pathlib import Path
 

@@ -128,11 +128,33 @@ class Path:
         return P[seg] + frac * d, d, np.zeros_like(d)
 
     def point(self, s):
-        """``p(s)``, shape (N, 3) [m]."""
+        """``p(s)``, shape (N, 3) [m].
+
+        Parameters
+        ----------
+        s : array_like, shape (N,)
+            Path parameter [-], from 0 to ``s_max``.
+
+        Returns
+        -------
+        ndarray, shape (N, 3)
+            Points on the path [m].
+        """
         return self.evaluate(s)[0]
 
     def distance_from(self, x):
-        """Distance of points ``x`` (N, 3) from the path [m] (checks, tests)."""
+        """Distance of points ``x`` (N, 3) from the path [m] (checks, tests).
+
+        Parameters
+        ----------
+        x : array_like, shape (N, 3) or (3,)
+            Points [m].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Shortest distance of each point from the path [m].
+        """
         x = np.asarray(x, dtype=float).reshape(-1, 3)
         if self.kind in ("arc", "circle"):
             rel = x - self.center
@@ -242,9 +264,29 @@ def arc(center, radius, start_angle, sweep, *, normal=None, axes=None):
 def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise=False):
     """Full circle (an arc sweeping 2 pi) starting at ``start_angle``.
 
+    Parameters
+    ----------
+    center : array_like, shape (3,) or (2,)
+        Centre [m] (2-D: in the x-y plane).
+    radius : float
+        [m], positive.
+    start_angle : float
+        Angle of the start point in the plane [rad], measured from ``u``.
+    normal : array_like, shape (3,), optional
+        Plane normal (default +z), as for :func:`arc`.
+    axes : array_like, shape (2, 3), optional
+        In-plane axes ``u, v`` instead of a normal, as for :func:`arc`.
+    clockwise : bool
+        Sweep ``-2 pi`` (clockwise about the normal) instead of ``+2 pi``.
+
     Returns
     -------
     Path
+
+    Raises
+    ------
+    ShapeError
+        A non-positive radius or a malformed centre, normal or axes.
 
     Examples
     --------
@@ -296,6 +338,11 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
         [s].
     law : {"cubic", "quintic", "lspb", "linear"} or TimeLaw
         A ready-made scalar :class:`TimeLaw` from 0 to ``s_max`` is used as is.
+    t0 : float
+        Start time [s].
+    **options
+        Passed to :func:`labkit.timelaw.make_law` (e.g. ``v_max``, ``a_max``
+        or ``blend_time`` of an LSPB).
 
     Returns
     -------
@@ -517,6 +564,8 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
         Timing of the path parameter (see :func:`path_law`).
     dt : float
         Sample step [s]; or give the sample times ``t``.
+    t : array_like, shape (N,), optional
+        Sample times [s] (instead of ``dt``).
     orientation : float, sequence, (3, 3) or (k, 3, 3) array, Rotation
         Planar arms: ``phi`` [rad] held, or keys interpolated linearly over
         ``s``. 6-DOF arms: a rotation held, or keys slerped. Ignored for
@@ -533,6 +582,8 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     max_joint_step : float
         Largest joint change between consecutive samples [rad] before the
         path is declared discontinuous (a branch flip through a singularity).
+    **law_options
+        Passed to :func:`path_law` (e.g. ``t0`` [s], ``blend_time`` [s]).
 
     Returns
     -------

@@ -144,7 +144,14 @@ def _cmd_ik(args):
 
 
 def build_parser():
-    """The argparse parser of the ``labkit`` command (with plugin subcommands)."""
+    """The argparse parser of the ``labkit`` command (with plugin subcommands).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Parser with the ``robots``, ``fk`` and ``ik`` subcommands plus those
+        the installed :data:`PLUGINS` modules add through their ``add_cli``.
+    """
     p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
     sub = p.add_subparsers(dest="command", required=True)
     sp = sub.add_parser("robots", help="list the bundled robot files")
@@ -179,7 +186,20 @@ def build_parser():
 
 
 def main(argv=None):
-    """Entry point of the ``labkit`` console script."""
+    """Entry point of the ``labkit`` console script.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments without the program name; default
+        ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status: the subcommand's status (0 on success), 2 when it raised
+        a :class:`LabkitError` (the message is printed on stderr).
+    """
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)

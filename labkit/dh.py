@@ -88,15 +88,47 @@ class ServoCalibration:
     feedback_adc: tuple = (102.3, 920.7)
 
     def servo_angle(self, q):
-        """Servo angle [rad] for joint value ``q`` [rad]."""
+        """Servo angle [rad] for joint value ``q`` [rad].
+
+        Parameters
+        ----------
+        q : array_like, shape (...)
+            Joint values [rad].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Servo angles ``zero + direction * q`` [rad].
+        """
         return self.zero + self.direction * np.asarray(q, dtype=float)
 
     def joint_from_servo_angle(self, angle):
-        """Joint value [rad] for servo angle ``angle`` [rad]."""
+        """Joint value [rad] for servo angle ``angle`` [rad].
+
+        Parameters
+        ----------
+        angle : array_like, shape (...)
+            Servo angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Joint values ``(angle - zero) * direction`` [rad].
+        """
         return (np.asarray(angle, dtype=float) - self.zero) * self.direction
 
     def pulse_us(self, q):
         """Pulse width [us] commanding joint value ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (...)
+            Joint values [rad].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Pulse widths [us], linear in the servo angle over ``pulse_range``.
 
         Raises
         ------
@@ -116,20 +148,53 @@ class ServoCalibration:
         return p0 + (a - lo) / (hi - lo) * (p1 - p0)
 
     def joint_from_adc(self, counts):
-        """Joint value [rad] sensed from feedback ADC ``counts``."""
+        """Joint value [rad] sensed from feedback ADC ``counts``.
+
+        Parameters
+        ----------
+        counts : array_like, shape (...)
+            Feedback ADC readings [counts] (may be fractional, e.g. averages).
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Joint values [rad], linear in the counts over ``feedback_adc``.
+        """
         lo, hi = self.angle_range
         c0, c1 = self.feedback_adc
         a = lo + (np.asarray(counts, dtype=float) - c0) / (c1 - c0) * (hi - lo)
         return self.joint_from_servo_angle(a)
 
     def adc_from_joint(self, q):
-        """Feedback ADC counts (float) for joint value ``q`` [rad]."""
+        """Feedback ADC counts (float) for joint value ``q`` [rad].
+
+        Parameters
+        ----------
+        q : array_like, shape (...)
+            Joint values [rad].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Expected feedback readings [counts], not rounded.
+        """
         lo, hi = self.angle_range
         c0, c1 = self.feedback_adc
         return c0 + (self.servo_angle(q) - lo) / (hi - lo) * (c1 - c0)
 
     def joint_from_pulse(self, pulse_us):
-        """Joint value [rad] commanded by ``pulse_us`` [us]."""
+        """Joint value [rad] commanded by ``pulse_us`` [us].
+
+        Parameters
+        ----------
+        pulse_us : array_like, shape (...)
+            Pulse widths [us].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Joint values [rad] (not checked against the servo range).
+        """
         lo, hi = self.angle_range
         p0, p1 = self.pulse_range
         a = lo + (np.asarray(pulse_us, dtype=float) - p0) / (p1 - p0) * (hi - lo)
@@ -285,6 +350,8 @@ class Robot:
         ----------
         q : array_like, shape (..., n)
             Joint values [rad, m].
+        tol : float
+            Slack allowed beyond each limit [rad, m].
 
         Returns
         -------
@@ -295,7 +362,21 @@ class Robot:
         return np.all((q >= lim[:, 0] - tol) & (q <= lim[:, 1] + tol), axis=-1)
 
     def check_limits(self, q, tol=1e-9):
-        """Raise :class:`JointLimitError` naming the first joint outside its limits."""
+        """Raise :class:`JointLimitError` naming the first joint outside its limits.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        tol : float
+            Slack allowed beyond each limit [rad, m].
+
+        Raises
+        ------
+        JointLimitError
+            With ``joint`` (0-based) and ``index`` (batch index) of the first
+            violation; the message gives the value and limits in deg or m.
+        """
         q = np.asarray(q, dtype=float)
         lim = self.joint_limits
         bad = (q < lim[:, 0] - tol) | (q > lim[:, 1] + tol)
@@ -314,7 +395,22 @@ class Robot:
 
     # -- delegates ----------------------------------------------------------
     def fk(self, q, *, frames=False):
-        """Forward kinematics; see :func:`labkit.kinematics.fk`."""
+        """Forward kinematics; see :func:`labkit.kinematics.fk`.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        frames : bool
+            Return every link frame (:func:`labkit.kinematics.fk_frames`) instead of
+            the tool pose only.
+
+        Returns
+        -------
+        ndarray, shape (..., 4, 4) or (..., n + 2, 4, 4)
+            Base-from-tool transform [m], or the frames as
+            :func:`labkit.kinematics.fk_frames` returns them.
+        """
         from labkit import kinematics
 
         if frames:
@@ -322,23 +418,77 @@ class Robot:
         return kinematics.fk(self, q)
 
     def jacobian(self, q, **kwargs):
-        """Geometric Jacobian; see :func:`labkit.kinematics.jacobian`."""
+        """Geometric Jacobian; see :func:`labkit.kinematics.jacobian`.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        **kwargs
+            Passed to :func:`labkit.kinematics.jacobian` (e.g. ``point``, ``frame``).
+
+        Returns
+        -------
+        ndarray, shape (..., 6, n)
+            Rows ``vx, vy, vz, wx, wy, wz``; columns per joint [m/rad or 1].
+        """
         from labkit import kinematics
 
         return kinematics.jacobian(self, q, **kwargs)
 
     def ik(self, target, **kwargs):
-        """Inverse kinematics; see :func:`labkit.ik.ik`."""
+        """Inverse kinematics; see :func:`labkit.ik.ik`.
+
+        Parameters
+        ----------
+        target : array_like
+            Position [m], planar ``(x, y, phi)`` [m, m, rad] or pose (4, 4),
+            depending on the robot (see :func:`labkit.ik.ik`).
+        **kwargs
+            Passed to :func:`labkit.ik.ik` (``branch``, ``q_near``, ``solver``).
+
+        Returns
+        -------
+        q : ndarray, shape (..., n)
+            Joint values [rad, m] inside the joint limits.
+
+        Raises
+        ------
+        UnreachableError
+            A target lies outside the workspace.
+        """
         from labkit import ik
 
         return ik.ik(self, target, **kwargs)
 
     def replace(self, **changes):
-        """Copy with some fields replaced (``dataclasses.replace``)."""
+        """Copy with some fields replaced (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values (e.g. ``name="copy"``, ``tool=T``).
+
+        Returns
+        -------
+        Robot
+        """
         return replace(self, **changes)
 
     def with_link(self, index, **changes):
-        """Copy with fields of one link replaced."""
+        """Copy with fields of one link replaced.
+
+        Parameters
+        ----------
+        index : int
+            0-based link index.
+        **changes
+            :class:`Link` field names and their new values (SI units, e.g. ``a=0.1``).
+
+        Returns
+        -------
+        Robot
+        """
         links = list(self.links)
         links[index] = replace(links[index], **changes)
         return replace(self, links=tuple(links))
@@ -379,6 +529,11 @@ class Robot:
         length_unit, angle_unit : str, optional
             Units to declare ("m"/"mm"/"cm", "rad"/"deg"); default: the units
             the robot was loaded with.
+
+        Returns
+        -------
+        str
+            The robot file text.
         """
         from labkit._robotfile import dump
 
@@ -391,7 +546,22 @@ class Robot:
         return f"Robot(name={self.name!r}, n={self.n}, convention={self.convention.value!r})"
 
     def dh_table(self, *, degrees=True, length_unit=None):
-        """The DH table as a pandas DataFrame (degrees and file units for display)."""
+        """The DH table as a pandas DataFrame (degrees and file units for display).
+
+        Parameters
+        ----------
+        degrees : bool
+            Angles (``alpha``, ``theta`` and revolute limits) in degrees, else rad.
+        length_unit : str, optional
+            Unit of lengths and prismatic limits ("m"/"mm"/"cm"); default: the
+            unit the robot was loaded with.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per joint, indexed ``i = 1..n``: ``joint, type, a, alpha, d_i,
+            theta_i, lower, upper`` (``a_{i-1}``/``alpha_{i-1}`` for modified DH).
+        """
         import pandas as pd
 
         scale = _LENGTH_UNITS[length_unit or self.length_unit]
@@ -421,6 +591,10 @@ def robot_search_path():
 
     ``$LABKIT_ROBOT_PATH`` (os.pathsep-separated) first, then the robots
     shipped with labkit.
+
+    Returns
+    -------
+    list of pathlib.Path
     """
     dirs = [Path(p) for p in os.environ.get("LABKIT_ROBOT_PATH", "").split(os.pathsep) if p]
     here = Path(__file__).resolve().parent

@@ -59,7 +59,18 @@ DATA_DIR = Path(__file__).resolve().parent.parent / "data" / "measurements"
 
 
 def seed_path(name):
-    """Path of a bundled measurement file in ``data/measurements/``."""
+    """Path of a bundled measurement file in ``data/measurements/``.
+
+    Parameters
+    ----------
+    name : str
+        File name, e.g. ``"seed000_published_calculated.csv"``.
+
+    Returns
+    -------
+    pathlib.Path
+        The path (not checked for existence).
+    """
     return DATA_DIR / name
 
 
@@ -68,6 +79,21 @@ def decimals_for_resolution(resolution):
 
     The last shown digit is the place of the resolution's leading digit
     (0.0005 m -> 4, 0.5 deg -> 1, 1 mm -> 0).
+
+    Parameters
+    ----------
+    resolution : float
+        Instrument resolution, positive, in any unit (the same as the values).
+
+    Returns
+    -------
+    int
+        Number of decimals, at least 0.
+
+    Raises
+    ------
+    MeasurementError
+        ``resolution`` is not a positive finite number.
 
     Examples
     --------
@@ -272,18 +298,38 @@ class ErrorTable:
     combine: str = "quadrature"
 
     def per_quantity(self):
-        """Dict quantity -> DataFrame indexed by pose_id."""
+        """Dict quantity -> DataFrame indexed by pose_id.
+
+        Returns
+        -------
+        dict of str to pandas.DataFrame
+            Rows of :attr:`table` for each quantity (in table order), without the
+            ``quantity`` column.
+        """
         return {q: g.set_index("pose_id").drop(columns="quantity")
                 for q, g in self.table.groupby("quantity", sort=False)}
 
     def to_dataframe(self):
-        """The long table (a copy)."""
+        """The long table (a copy).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Copy of :attr:`table`.
+        """
         return self.table.copy()
 
     def wide(self):
         """Report layout: one row per pose, per quantity calculated / measured / ± / error.
 
         Two summary rows ("RMS", "max abs. error") close the table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Two-level columns ``("pose", "command")`` then
+            ``("<quantity> [<unit>]", "calculated" | "measured" | "±" | "error")``,
+            in the units the readings were taken in.
         """
         import pandas as pd
 
@@ -331,6 +377,10 @@ class ErrorTable:
             Escaping of text cells and labels (``to_latex`` uses "latex").
         caption : str, optional
             Table caption.
+
+        Returns
+        -------
+        pandas.io.formats.style.Styler
         """
         import pandas as pd
 
@@ -358,14 +408,40 @@ class ErrorTable:
                 .apply(lambda _: css, axis=None))
 
     def to_html(self, path=None, **style_kwargs):
-        """HTML of :meth:`style` (written to ``path`` if given)."""
+        """HTML of :meth:`style` (written to ``path`` if given).
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            File to write; nothing is written if omitted.
+        **style_kwargs
+            Passed to :meth:`style` (``tolerance``, ``highlight``, ``caption``).
+
+        Returns
+        -------
+        str
+            The HTML table.
+        """
         html = self.style(escape="html", **style_kwargs).to_html()
         if path is not None:
             Path(path).write_text(html)
         return html
 
     def to_latex(self, path=None, **style_kwargs):
-        """LaTeX of :meth:`style` (``\\cellcolor`` highlights need ``xcolor``/``colortbl``)."""
+        r"""LaTeX of :meth:`style` (``\cellcolor`` highlights need ``xcolor``/``colortbl``).
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            File to write; nothing is written if omitted.
+        **style_kwargs
+            Passed to :meth:`style` (``tolerance``, ``highlight``, ``caption``).
+
+        Returns
+        -------
+        str
+            The LaTeX ``tabular`` (with ``\cellcolor`` for highlighted cells).
+        """
         tex = self.style(escape="latex", **style_kwargs).to_latex(convert_css=True, hrules=True,
                                                  multicol_align="c")
         if path is not None:
@@ -461,12 +537,54 @@ def error_table(measurements, robot=None, *, mode="auto", branch="elbow_up", com
 
 
 def fk_error_table(measurements, robot=None, **kwargs):
-    """:func:`error_table` for commanded joints (poses -> positions by FK)."""
+    """:func:`error_table` for commanded joints (poses -> positions by FK).
+
+    Parameters
+    ----------
+    measurements : pandas.DataFrame or str or os.PathLike
+        Readings (:func:`labkit.measurement.load_measurements` or its path),
+        with commanded joints on every row.
+    robot : Robot or str, optional
+        Robot model; default: the one named in the measurements.
+    **kwargs
+        Passed to :func:`error_table` (e.g. ``combine``).
+
+    Returns
+    -------
+    ErrorTable
+
+    Raises
+    ------
+    MeasurementError
+        As for :func:`error_table` (e.g. a row without commanded joints).
+    """
     return error_table(measurements, robot, mode="fk", **kwargs)
 
 
 def ik_error_table(measurements, robot=None, *, branch="elbow_up", **kwargs):
-    """:func:`error_table` for Cartesian targets (targets -> joint angles by IK)."""
+    """:func:`error_table` for Cartesian targets (targets -> joint angles by IK).
+
+    Parameters
+    ----------
+    measurements : pandas.DataFrame or str or os.PathLike
+        Readings (:func:`labkit.measurement.load_measurements` or its path),
+        with a target [m] on every row.
+    robot : Robot or str, optional
+        Robot model; default: the one named in the measurements.
+    branch : str
+        IK branch for the targets.
+    **kwargs
+        Passed to :func:`error_table` (e.g. ``combine``).
+
+    Returns
+    -------
+    ErrorTable
+
+    Raises
+    ------
+    MeasurementError
+        As for :func:`error_table` (e.g. an unreachable target).
+    """
     return error_table(measurements, robot, mode="ik", branch=branch, **kwargs)
 
 
@@ -483,11 +601,22 @@ def load_published(path):
     unit of the last stated digit, blank for the printed decimals) and
     ``note``.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        CSV file.
+
     Returns
     -------
     pandas.DataFrame
         Text columns as str, ``commanded``/``target`` as tuples (or None),
         ``line`` the file line.
+
+    Raises
+    ------
+    MeasurementError
+        A required column is missing, or ``commanded``/``target`` is not a
+        list of numbers (naming the row and column).
     """
     import pandas as pd
 
@@ -558,18 +687,39 @@ class AuditResult:
         return self.cells[~self.cells["agrees"]].reset_index(drop=True)
 
     def flagged_rows(self):
-        """``{(table, pose_id): [quantities]}`` of the rows with a disagreement."""
+        """``{(table, pose_id): [quantities]}`` of the rows with a disagreement.
+
+        Returns
+        -------
+        dict of (str, str) to list of str
+        """
         out = {}
         for _, r in self.flagged.iterrows():
             out.setdefault((r["table"], r["pose_id"]), []).append(r["quantity"])
         return out
 
     def to_dataframe(self):
-        """The cell table (a copy)."""
+        """The cell table (a copy).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Copy of :attr:`cells`.
+        """
         return self.cells.copy()
 
     def style(self, highlight="background-color: #f8c4c4"):
-        """Styler with the disagreeing rows highlighted."""
+        """Styler with the disagreeing rows highlighted.
+
+        Parameters
+        ----------
+        highlight : str
+            CSS of a cell in a row that does not agree.
+
+        Returns
+        -------
+        pandas.io.formats.style.Styler
+        """
         cells = self.cells
         return cells.style.apply(
             lambda row: [highlight if not row["agrees"] else "" for _ in row], axis=1
@@ -593,6 +743,8 @@ def audit_published(published, robot=None, *, branch="elbow_up", default_robot="
         Default: the ``robot`` column, else ``default_robot``.
     branch : str
         IK branch for target rows.
+    default_robot : str
+        Bundled robot used when neither ``robot`` nor a ``robot`` column names one.
 
     Returns
     -------

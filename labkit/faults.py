@@ -160,11 +160,56 @@ class FaultyPort(PortWrapper):
         return self._port.in_waiting
 
     def read(self, size=1):
+        """Read up to ``size`` bytes from the wrapped port, then corrupt/drop some.
+
+        A read may first be delayed by ``config.delay_s`` (board time when the
+        wrapped port has ``sleep``). Faults apply when ``config.direction`` is
+        ``READ`` or ``BOTH``.
+
+        Parameters
+        ----------
+        size : int
+            Bytes to read from the wrapped port (its timeout applies).
+
+        Returns
+        -------
+        bytes
+            What the wrapped port returned after injected faults (possibly
+            shorter than ``size``: dropped bytes are not replaced).
+
+        Raises
+        ------
+        serial.SerialException
+            After an injected disconnect.
+        """
         self._alive()
         self._maybe_delay()
         return self._mangle(self._port.read(size), "read")
 
     def write(self, data):
+        """Write ``data`` to the wrapped port, corrupting/dropping some bytes.
+
+        Once the host has written ``config.disconnect_after`` bytes the bytes up to
+        that count are sent and the port disconnects. Faults apply when
+        ``config.direction`` is ``WRITE`` or ``BOTH``; a write may be delayed by
+        ``config.delay_s``.
+
+        Parameters
+        ----------
+        data : bytes-like
+            Bytes the host sends.
+
+        Returns
+        -------
+        int
+            ``len(data)`` (what the host believes it wrote, even if bytes were
+            dropped on the way).
+
+        Raises
+        ------
+        serial.SerialException
+            On the injected disconnect and on every call after it.
+        """
         self._alive()
         data = bytes(data)
         if self._written + len(data) > self.config.disconnect_after:
@@ -178,4 +223,5 @@ class FaultyPort(PortWrapper):
         return len(data)
 
     def close(self):
+        """Close the wrapped port (no fault is injected)."""
         self._port.close()

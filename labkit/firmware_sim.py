@@ -62,12 +62,36 @@ class PulseEvent:
 
 
 def default_elf(firmware_dir=None):
-    """Path of the firmware ELF that ``make -C firmware`` builds."""
+    """Path of the firmware ELF that ``make -C firmware`` builds.
+
+    Parameters
+    ----------
+    firmware_dir : str or os.PathLike, optional
+        Firmware source directory; default ``FIRMWARE_DIR`` (``$LABKIT_FIRMWARE_DIR``
+        or the repository's ``firmware/``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``<firmware_dir>/build/labkit_arm.elf`` (not checked for existence).
+    """
     return Path(firmware_dir or FIRMWARE_DIR) / "build" / "labkit_arm.elf"
 
 
 def harness_path(firmware_dir=None):
-    """Path of the simavr harness executable that ``make -C firmware sim`` builds."""
+    """Path of the simavr harness executable that ``make -C firmware sim`` builds.
+
+    Parameters
+    ----------
+    firmware_dir : str or os.PathLike, optional
+        Firmware source directory; default ``FIRMWARE_DIR`` (``$LABKIT_FIRMWARE_DIR``
+        or the repository's ``firmware/``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``<firmware_dir>/build/labkit_sim`` (not checked for existence).
+    """
     return Path(firmware_dir or FIRMWARE_DIR) / "build" / "labkit_sim"
 
 
@@ -261,7 +285,13 @@ class FirmwareSim:
         self.running = True
 
     def hold(self):
-        """Pause the simulated CPU; returns the simulated time [s]."""
+        """Pause the simulated CPU; returns the simulated time [s].
+
+        Returns
+        -------
+        float
+            Simulated time since power-on [s] at which the CPU was held.
+        """
         reply = self._command("hold", "OK hold")
         self.running = False
         return float(reply.split()[2]) * 1e-6
@@ -277,25 +307,65 @@ class FirmwareSim:
 
         Simulated time then excludes the host's own reaction time (an ideal host); wire time and
         firmware time are still simulated exactly. Useful to measure the firmware, not the PC.
+
+        Parameters
+        ----------
+        on : bool
+            Switch lockstep on (True) or off (False).
         """
         self._command(f"lockstep {int(bool(on))}", "OK lockstep")
 
     def set_pace(self, factor):
-        """0: free running; ``factor > 0``: simulated time runs ``factor`` x wall time."""
+        """0: free running; ``factor > 0``: simulated time runs ``factor`` x wall time.
+
+        Parameters
+        ----------
+        factor : float
+            Ratio of simulated to wall-clock time [-], ``>= 0`` (0: as fast as possible).
+
+        Raises
+        ------
+        ValueError
+            ``factor`` is negative.
+        """
         if factor < 0:
             raise ValueError(f"expected pace >= 0, got {factor}")
         self._command(f"pace {float(factor)}", "OK pace")
 
     def set_analog(self, pin, volts):
-        """Set the voltage [V] (0..5.5) on analog input ``pin`` (0..5; A5 = user pot)."""
+        """Set the voltage [V] (0..5.5) on analog input ``pin`` (0..5; A5 = user pot).
+
+        Parameters
+        ----------
+        pin : int
+            Analog input number, 0..5.
+        volts : float
+            Voltage [V], 0..5.5.
+
+        Raises
+        ------
+        ValueError
+            ``pin`` or ``volts`` out of range.
+        """
         self._send(self._adc_cmd(pin, float(volts)))
 
     def time(self):
-        """Simulated time [s] since power-on. Also a barrier: earlier pulse reports are in."""
+        """Simulated time [s] since power-on. Also a barrier: earlier pulse reports are in.
+
+        Returns
+        -------
+        float
+            Simulated time [s].
+        """
         return float(self._command("time", "TIME").split()[1]) * 1e-6
 
     def pulses(self, sync=True):
         """Latest pulse width [us] per servo channel that has produced pulses.
+
+        Parameters
+        ----------
+        sync : bool
+            First call :meth:`time` so that every pulse report up to now is in.
 
         Returns
         -------
@@ -308,17 +378,41 @@ class FirmwareSim:
             return dict(self._widths)
 
     def pulse_events(self, since=0.0):
-        """Pulse-width changes (:class:`PulseEvent`) at simulated time >= ``since`` [s]."""
+        """Pulse-width changes (:class:`PulseEvent`) at simulated time >= ``since`` [s].
+
+        Parameters
+        ----------
+        since : float
+            Earliest simulated time to include [s].
+
+        Returns
+        -------
+        list of PulseEvent
+            In the order they were reported.
+        """
         with self._state_lock:
             return [e for e in self.pulse_log if e.t >= since]
 
     def sleep(self, seconds, timeout=None):
         """Block until ``seconds`` of simulated time have passed (the CPU must be running).
 
+        Parameters
+        ----------
+        seconds : float
+            Simulated time to let pass [s].
+        timeout : float, optional
+            Wall-clock limit [s]; default ``30 + 5 * seconds``.
+
         Returns
         -------
         float
             Simulated time [s] at wake-up.
+
+        Raises
+        ------
+        DeviceError
+            The CPU is held, simulated time did not advance within ``timeout``, or
+            the simulated CPU crashed or exited.
         """
         if not self.running:
             raise DeviceError("the simulated CPU is held: call run() before sleep()")

@@ -112,7 +112,26 @@ class IKSolutions:
         return self.q[..., self.branches.index(branch), :]
 
     def to_dataframe(self, *, degrees=True):
-        """One row per branch (single target only): joint values, reachable, valid."""
+        """One row per branch (single target only): joint values, reachable, valid.
+
+        Parameters
+        ----------
+        degrees : bool
+            Joint values in degrees (columns ``"q1 [deg]"`` ...) instead of the
+            raw values [rad, m] (columns ``"q1"`` ...). Degrees convert every
+            column, prismatic ones included.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by ``branch``; one column per joint, then ``reachable`` and
+            ``valid``.
+
+        Raises
+        ------
+        ShapeError
+            The solutions hold more than one target (``q`` is not (m, n)).
+        """
         import pandas as pd
 
         if self.q.ndim != 2:
@@ -148,7 +167,14 @@ class IKResult:
     residual: np.ndarray
 
     def to_dataframe(self):
-        """Flat table: one row per target."""
+        """Flat table: one row per target.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``q1 .. qn`` [rad, m], ``success``, ``iterations`` and
+            ``residual`` [m, rad]; batch dimensions flattened in C order.
+        """
         import pandas as pd
 
         n = self.q.shape[-1]
@@ -188,6 +214,16 @@ def target_kind(robot):
 
 def solver_for(robot):
     """The :class:`Solver` that ``solver="auto"`` uses for ``robot``.
+
+    Parameters
+    ----------
+    robot : Robot
+
+    Returns
+    -------
+    Solver
+        The analytic solver whose structure ``robot`` matches, else
+        ``Solver.NUMERIC``.
 
     Examples
     --------

@@ -287,12 +287,32 @@ def _jacobian_chunk(robot, qc, point, frame):
 def fk_jacobian(robot, q, *, point=None, frame="base"):
     """Pose and geometric Jacobian together (one pass over the chain).
 
-    Parameters and returns as :func:`fk` and :func:`jacobian`.
+    Same results as :func:`fk` and :func:`jacobian`, cheaper than calling both.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., n)
+        Joint values [rad for revolute, m for prismatic joints].
+    point : array_like, shape (3,), optional
+        Point in tool-frame coordinates [m] (default: tool-frame origin); ``J``
+        maps to its velocity and ``T`` has it as origin (tool orientation).
+    frame : {"base", "tool"}
+        Frame the velocity is expressed in.
 
     Returns
     -------
     T : ndarray, shape (..., 4, 4)
+        Pose of the tool frame moved to ``point``, in the world (base) frame [m].
     J : ndarray, shape (..., 6, n)
+        Rows ``vx, vy, vz, wx, wy, wz``; columns per joint [m/rad or 1].
+
+    Raises
+    ------
+    ShapeError
+        If ``q`` does not end in ``n`` or holds non-finite values.
+    ValueError
+        If ``frame`` is neither "base" nor "tool".
     """
     if frame not in ("base", "tool"):
         raise ValueError(f"expected frame 'base' or 'tool', got {frame!r}")

@@ -360,7 +360,13 @@ class Arm:
         return seconds
 
     def sleep(self, seconds):
-        """Wait ``seconds`` of board time while handling incoming lines."""
+        """Wait ``seconds`` of board time while handling incoming lines.
+
+        Parameters
+        ----------
+        seconds : float
+            Time to wait [s] (board clock: simulated time on a virtual arm).
+        """
         end = self._clock() + seconds
         while (left := end - self._clock()) > 0:
             self._pump(min(left, 0.05))
@@ -559,11 +565,37 @@ class Arm:
 
     # -- queries -----------------------------------------------------------------------------
     def ping(self):
-        """Board clock [s] (also keeps the host-silence timer alive)."""
+        """Board clock [s] (also keeps the host-silence timer alive).
+
+        Returns
+        -------
+        float
+            Board time since reset [s] (millisecond resolution).
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
         return self._transact("PING", parse=lambda f: _int(f[0]) / 1000.0 if len(f) == 1 else _int("x"))
 
     def status(self, *, retries=None):
-        """The board's state (commanded joints, queue, counters) as a :class:`Status`."""
+        """The board's state (commanded joints, queue, counters) as a :class:`Status`.
+
+        Parameters
+        ----------
+        retries : int, optional
+            Resend attempts after a lost or garbled reply; default ``self.retries``.
+
+        Returns
+        -------
+        Status
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
         return self._transact("STATUS", parse=self._parse_status, retries=retries)
 
     def _verify_status(self):
@@ -585,11 +617,28 @@ class Arm:
         return st
 
     def commanded_joints(self):
-        """Joint values the servos are commanded to now, shape (n,) [rad]."""
+        """Joint values the servos are commanded to now, shape (n,) [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Commanded joint values [rad] (from :meth:`status`).
+        """
         return self.status().q
 
     def read_adc(self):
-        """Raw feedback counts of every joint and the user pot (``READ``), shape (n + 1,)."""
+        """Raw feedback counts of every joint and the user pot (``READ``), shape (n + 1,).
+
+        Returns
+        -------
+        ndarray of int, shape (n + 1,)
+            ADC counts 0..1023 of joints 1..n, then the user pot.
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
         def parse(fields):
             vals = [_int(v) for v in fields]
             if len(vals) != self.robot.n + 1 or not all(0 <= v <= 1023 for v in vals):
@@ -599,7 +648,14 @@ class Arm:
         return self._transact("READ", parse=parse)
 
     def read_joints(self):
-        """Joint values sensed by the feedback pots, shape (n,) [rad]."""
+        """Joint values sensed by the feedback pots, shape (n,) [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Sensed joint values [rad], from :meth:`read_adc` through each joint's
+            servo calibration.
+        """
         adc = self.read_adc()
         return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
 
@@ -621,7 +677,14 @@ class Arm:
             self._transact("CAL", g.channel, min(g.open_us, g.closed_us), max(g.open_us, g.closed_us), 0, 1, 0, 18000)
 
     def set_host_timeout(self, seconds):
-        """Host-silence timeout of the board [s] (0 disables it)."""
+        """Host-silence timeout of the board [s] (0 disables it).
+
+        Parameters
+        ----------
+        seconds : float
+            Time without a host line after which the board holds [s]; sent
+            rounded to ms; 0 disables the timeout.
+        """
         self._transact("TIMEOUT", int(round(seconds * 1000)))
 
     # -- motion ----------------------------------------------------------------------------
@@ -649,13 +712,18 @@ class Arm:
         wait : bool
             Wait until the sensed joints are within ``tol`` [rad] of ``q``
             (at most ``max_wait`` s).
+        tol : float
+            Settling tolerance per joint [rad] when ``wait``.
+        max_wait : float
+            Longest wait for settling [s of board time] when ``wait``.
 
         Raises
         ------
         JointLimitError
             A joint outside its limits or servo range (nothing is sent).
         DeviceError
-            The board rejected or did not acknowledge the move.
+            The board rejected or did not acknowledge the move, or (``wait``) the
+            joints did not settle in time.
         """
         q = self._check_q(q)
         target = [_cdeg(v) for v in q]
@@ -671,7 +739,29 @@ class Arm:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
     def wait_settled(self, q, *, tol=math.radians(1.0), max_wait=10.0, interval=0.05):
-        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them."""
+        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Target joint values [rad].
+        tol : float
+            Largest allowed ``|sensed - q|`` per joint [rad].
+        max_wait : float
+            Give up after this much board time [s].
+        interval : float
+            Board time between reads [s].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The last sensed joint values [rad].
+
+        Raises
+        ------
+        DeviceError
+            The joints did not settle within ``max_wait``.
+        """
         end = self._clock() + max_wait
         hits = 0
         while self._clock() < end:
@@ -684,7 +774,31 @@ class Arm:
                           f"{math.degrees(tol):.2f} deg (sensed {np.degrees(sensed).round(2)} deg)")
 
     def move_to(self, target, *, branch=None, wait=False):
-        """Move the tool to a Cartesian ``target`` through :func:`labkit.ik.ik` (nearest branch by default)."""
+        """Move the tool to a Cartesian ``target`` through :func:`labkit.ik.ik` (nearest branch by default).
+
+        Parameters
+        ----------
+        target : array_like
+            Tool target for :func:`labkit.ik.ik`: position (3,) [m] for the
+            3-DOF arm.
+        branch : str, optional
+            IK branch (e.g. ``"elbow_up"``); default: the solution nearest the
+            commanded joints.
+        wait : bool
+            Wait until the joints settle (see :meth:`move_joints`).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The joint values commanded [rad].
+
+        Raises
+        ------
+        UnreachableError
+            The target is out of reach (nothing is sent).
+        JointLimitError, DeviceError
+            As for :meth:`move_joints`.
+        """
         from labkit.ik import ik
 
         current = self.commanded_joints()
@@ -693,7 +807,13 @@ class Arm:
         return q
 
     def grip(self, us):
-        """Gripper pulse width [us]."""
+        """Gripper pulse width [us].
+
+        Parameters
+        ----------
+        us : float
+            Pulse width sent to the gripper servo [us] (rounded to an integer).
+        """
         self._transact("GRIP", int(round(us)))
 
     def open_gripper(self):
@@ -710,7 +830,18 @@ class Arm:
         return self.robot.gripper
 
     def stop(self):
-        """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad]."""
+        """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Joint values the board holds [rad] (centidegree resolution).
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
         def parse(fields):
             if len(fields) != self.robot.n:
                 raise ValueError(f"expected {self.robot.n} joint values")
@@ -727,6 +858,10 @@ class Arm:
             A sampled trajectory (checked against the joint limits first) or
             ``(dur_ms, order, coefficients)`` tuples from
             :func:`segments_from_trajectory`.
+        order : {3, 5}
+            Polynomial order of the segments made from a sampled trajectory.
+        min_duration : float
+            Shortest segment made from a sampled trajectory [s].
         progress : callable or bool, optional
             ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
         wait : bool
@@ -735,6 +870,13 @@ class Arm:
         Returns
         -------
         TrajectoryReport
+
+        Raises
+        ------
+        JointLimitError
+            A sample outside the joint limits or servo ranges (nothing is sent).
+        DeviceError
+            A segment rejected or lost, or the board held (host-silence timeout).
         """
         if isinstance(traj, (list, tuple)):
             segs = list(traj)
@@ -802,6 +944,13 @@ class Arm:
     def stream(self, duration, *, hz=50):
         """Record the feedback stream for ``duration`` seconds of board time.
 
+        Parameters
+        ----------
+        duration : float
+            Recording time [s of board time].
+        hz : int
+            Frame rate the board streams at [Hz], 1..200.
+
         Returns
         -------
         pandas.DataFrame
@@ -811,6 +960,11 @@ class Arm:
             holds ``expected`` (frames the board sent in the window, from its
             clock), ``lost`` (expected but not received intact), ``rejected``
             (lines dropped as corrupt while streaming) and ``hz``.
+
+        Raises
+        ------
+        ValueError
+            ``hz`` outside 1..200.
         """
         import pandas as pd
 

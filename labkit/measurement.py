@@ -115,6 +115,10 @@ def quantity_dimension(quantity):
         ``"x"``, ``"y"``, ``"z"`` (tool point), ``"theta<i>"`` (revolute joint
         i, 1-based) or ``"d<i>"`` (prismatic joint i).
 
+    Returns
+    -------
+    {"length", "angle"}
+
     Raises
     ------
     MeasurementError
@@ -135,6 +139,22 @@ def quantity_dimension(quantity):
 def to_si(value, unit):
     """Convert ``value`` given in ``unit`` to SI (m or rad).
 
+    Parameters
+    ----------
+    value : float or array_like
+        Value(s) in ``unit``.
+    unit : {"m", "cm", "mm", "rad", "deg"}
+
+    Returns
+    -------
+    float or ndarray
+        ``value`` in m or rad (an array for array input, same shape).
+
+    Raises
+    ------
+    MeasurementError
+        For an unknown unit (the message lists the valid ones).
+
     Examples
     --------
     >>> to_si(180.0, "deg")
@@ -151,7 +171,22 @@ def to_si(value, unit):
 def parse_numbers(text):
     """Parse a space-separated list of numbers (``commanded``/``target`` cells).
 
-    Returns ``None`` for an empty cell, else a tuple of float.
+    Commas count as separators too.
+
+    Parameters
+    ----------
+    text : str or None
+        Cell text, e.g. ``"0.1 0 -0.05"``.
+
+    Returns
+    -------
+    tuple of float or None
+        ``None`` for an empty cell (or ``None``), else the numbers.
+
+    Raises
+    ------
+    ValueError
+        A token is not a number, or a number is not finite.
 
     Examples
     --------
@@ -222,7 +257,14 @@ class MeasurementRecord:
     note: str = ""
 
     def to_row(self):
-        """The CSV fields (without the checksum), in :data:`COLUMNS` order."""
+        """The CSV fields (without the checksum), in :data:`COLUMNS` order.
+
+        Returns
+        -------
+        list of str
+            One string per column; numbers in ``repr`` form (round-trip exact),
+            ``commanded``/``target`` space-separated, an unknown half range blank.
+        """
         return [
             str(self.record), self.session, self.timestamp, self.robot, self.pose_id,
             _format_numbers(self.commanded), _format_numbers(self.target), self.quantity,
@@ -451,7 +493,18 @@ class MeasurementLog:
         return rec
 
     def to_dataframe(self, *, all_sessions=False):
-        """The file's records as a DataFrame (this session's only by default)."""
+        """The file's records as a DataFrame (this session's only by default).
+
+        Parameters
+        ----------
+        all_sessions : bool
+            Return the records of every session in the file.
+
+        Returns
+        -------
+        pandas.DataFrame
+            As :func:`load_measurements` returns it (index reset after filtering).
+        """
         df = load_measurements(self.path)
         if not all_sessions:
             df = df[df["session"] == self.session].reset_index(drop=True)

@@ -46,8 +46,26 @@ def _display(obj):
 def matrix_latex(a, decimals=4) -> str:
     """LaTeX ``bmatrix`` of a numeric array of shape (m, n) or (n,) (a column).
 
-    Example
+    Parameters
+    ----------
+    a : array_like, shape (m, n) or (n,)
+        Numbers (any unit); a vector becomes a column.
+    decimals : int
+        Decimal places shown; values that round to zero print as ``0.0...``
+        (no ``-0.0``).
+
+    Returns
     -------
+    str
+        ``\\begin{bmatrix} ... \\end{bmatrix}`` with ``&`` between columns.
+
+    Raises
+    ------
+    ValueError
+        ``a`` has more than two dimensions.
+
+    Examples
+    --------
     >>> matrix_latex([[1, 0], [0, 1]], decimals=1)
     '\\\\begin{bmatrix} 1.0 & 0.0 \\\\\\\\ 0.0 & 1.0 \\\\end{bmatrix}'
     """
@@ -94,7 +112,23 @@ def show_latex(expr, prefix="", decimals=4):
 
 
 def show_table(df, caption=None, floatfmt="{:.4g}"):
-    """Display a pandas DataFrame as a compact HTML table (static in reports)."""
+    """Display a pandas DataFrame as a compact HTML table (static in reports).
+
+    Outside IPython the table is printed as text instead.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+    caption : str, optional
+        Table caption.
+    floatfmt : str
+        Format of numeric cells (``str.format`` syntax).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``df`` itself (unchanged), so that a cell can display and keep it.
+    """
     styler = df.style.format(floatfmt, subset=df.select_dtypes("number").columns)
     if caption:
         styler = styler.set_caption(caption)
@@ -148,6 +182,8 @@ class Checks:
     def check(self, name, value, published, tol, note="", *, relative=False) -> CheckRow:
         """Compare ``value`` with ``published`` element-wise: ``max |value - published| <= tol``.
 
+        The row is recorded (and printed when ``display``) whether it passes or not.
+
         Parameters
         ----------
         name : str
@@ -159,6 +195,18 @@ class Checks:
             typically half a unit of the last published digit.
         note : str
             Why this tolerance / what the source is.
+        relative : bool
+            Compare ``|value - published| / |published|`` with ``tol`` instead.
+
+        Returns
+        -------
+        CheckRow
+            The recorded row (``passed`` says the outcome).
+
+        Raises
+        ------
+        ValueError
+            ``value`` and ``published`` differ in shape.
         """
         value = np.asarray(value, dtype=float)
         published = np.asarray(published, dtype=float)
@@ -176,7 +224,25 @@ class Checks:
         return row
 
     def typo(self, name, published, correct, note) -> CheckRow:
-        """Record a published number that is wrong, with the corrected value and an explanation."""
+        """Record a published number that is wrong, with the corrected value and an explanation.
+
+        Parameters
+        ----------
+        name : str
+            What is corrected (e.g. ``"T06 (sec. 2.2)"``).
+        published : array_like
+            The number(s) as published.
+        correct : array_like
+            The corrected number(s), same units.
+        note : str
+            Why the published value is wrong.
+
+        Returns
+        -------
+        CheckRow
+            The recorded row (``kind="typo"``, never failing; ``error`` is NaN if the
+            shapes differ).
+        """
         published = np.asarray(published, dtype=float)
         correct = np.asarray(correct, dtype=float)
         err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
@@ -187,7 +253,14 @@ class Checks:
         return row
 
     def to_dataframe(self):
-        """The rows as a pandas DataFrame (one row per check/typo)."""
+        """The rows as a pandas DataFrame (one row per check/typo).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``quantity``, ``reproduced``, ``published / expected``,
+            ``max |diff|``, ``tolerance``, ``result`` and ``note``.
+        """
         import pandas as pd
 
         return pd.DataFrame(
@@ -216,8 +289,33 @@ class Checks:
 def check(name, value, published, tol, note="", *, relative=False) -> CheckRow:
     """One immediate check: print a pass/fail row and raise ``AssertionError`` on failure.
 
-    Example
+    Parameters
+    ----------
+    name : str
+        What is compared.
+    value, published : array_like, same shape
+        Reproduced and published numbers (same units).
+    tol : float
+        Tolerance (absolute, or relative to ``|published|`` when ``relative``).
+    note : str
+        Why this tolerance / what the source is.
+    relative : bool
+        Use a relative tolerance.
+
+    Returns
     -------
+    CheckRow
+        The passing row.
+
+    Raises
+    ------
+    AssertionError
+        The check fails.
+    ValueError
+        ``value`` and ``published`` differ in shape.
+
+    Examples
+    --------
     >>> check("pi", 3.14159, 3.1416, tol=5e-5, note="4 decimals")  # doctest: +ELLIPSIS
     PASS  pi: ...
     CheckRow(...)

@@ -78,6 +78,11 @@ def notebooks_root() -> Path:
     ``$LABKIT_NOTEBOOKS`` if set, else ``./notebooks`` when it exists, else the
     ``notebooks/`` folder next to the installed (editable) ``labkit`` package.
 
+    Returns
+    -------
+    pathlib.Path
+        The first existing candidate, resolved.
+
     Raises
     ------
     LabkitError
@@ -141,7 +146,18 @@ def find_notebooks(selection=None, root=None) -> list[Path]:
 
 
 def lab_of(notebook) -> str:
-    """The lab name of a notebook: its folder name (``notebooks/<lab>/x.ipynb``)."""
+    """The lab name of a notebook: its folder name (``notebooks/<lab>/x.ipynb``).
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike
+        Notebook path.
+
+    Returns
+    -------
+    str
+        Name of the folder holding the notebook (after resolving the path).
+    """
     return Path(notebook).resolve().parent.name
 
 
@@ -150,6 +166,16 @@ def parse_parameter(text: str):
 
     Examples: ``"3"`` -> 3, ``"0.5"`` -> 0.5, ``"True"`` -> True, ``"None"`` -> None,
     ``"[0, 1]"`` -> [0, 1], ``"sim://"`` -> ``"sim://"``.
+
+    Parameters
+    ----------
+    text : str
+        Value as typed on the command line.
+
+    Returns
+    -------
+    object
+        ``ast.literal_eval(text)``, or ``text`` itself if it is not a literal.
     """
     try:
         return ast.literal_eval(text)
@@ -162,6 +188,16 @@ def notebook_parameters(notebook) -> dict:
 
     The cell is parsed with :mod:`ast` (papermill's own line parser rejects values such as
     ``"sim://?clock=lockstep"``); every top-level assignment is a parameter.
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike
+        Notebook file (``.ipynb``).
+
+    Returns
+    -------
+    dict of str to str
+        Parameter name -> source text of its default value, in cell order.
 
     Raises
     ------

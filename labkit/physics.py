@@ -122,7 +122,14 @@ class PhysicsConfig:
             raise ValueError(f"expected gravity with 3 components, got {self.gravity!r}")
 
     def streams(self):
-        """Independent generators ``(offsets, feedback, ruler)`` for this seed."""
+        """Independent generators ``(offsets, feedback, ruler)`` for this seed.
+
+        Returns
+        -------
+        tuple of numpy.random.Generator
+            Three generators spawned from ``SeedSequence(seed)``: the same
+            numbers on every call with the same seed.
+        """
         return tuple(np.random.default_rng(s) for s in np.random.SeedSequence(self.seed).spawn(3))
 
 
@@ -242,7 +249,13 @@ class ServoBank:
         return np.linalg.solve(np.eye(len(B)) - A, B)
 
     def reset(self, q):
-        """Put every servo at rest at shaft positions ``q`` [rad]."""
+        """Put every servo at rest at shaft positions ``q`` [rad].
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Shaft positions [rad]; they also become the commands.
+        """
         q = [float(v) for v in np.asarray(q, dtype=float).reshape(self.robot.n)]
         self._x = [[float(v) * qi for v in self._dc] for qi in q]
         self._ref = list(q)
@@ -256,6 +269,11 @@ class ServoBank:
 
         A changed command closer than ``deadband`` to the shaft position is
         ignored (the servo holds where it is), as a hobby servo does.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Commanded shaft positions [rad].
         """
         new = [float(v) for v in np.asarray(q, dtype=float).reshape(self.robot.n)]
         db = self.config.deadband
@@ -280,12 +298,30 @@ class ServoBank:
         return (np.array(self._y) - np.array(self._yprev)) / self.config.dt
 
     def settled(self, tol=math.radians(0.5), speed=math.radians(2.0)):
-        """Whether every shaft is within ``tol`` of its command (deadband included) and slower than ``speed``."""
+        """Whether every shaft is within ``tol`` of its command (deadband included) and slower than ``speed``.
+
+        Parameters
+        ----------
+        tol : float
+            Largest position error [rad], on top of the deadband.
+        speed : float
+            Largest shaft speed [rad/s].
+
+        Returns
+        -------
+        bool
+        """
         err = np.abs(self.position - self.commanded)
         return bool(np.all(err <= tol + self.config.deadband) and np.all(np.abs(self.velocity) <= speed))
 
     def step(self, steps=1):
-        """Advance the model by ``steps`` steps of ``dt``."""
+        """Advance the model by ``steps`` steps of ``dt``.
+
+        Parameters
+        ----------
+        steps : int
+            Number of time steps of ``config.dt`` [s].
+        """
         A, B, C, D = self._A, self._B, self._C, self._D
         n = self.robot.n
         for _ in range(int(steps)):
@@ -302,11 +338,24 @@ class ServoBank:
         self.time += steps * self.config.dt
 
     def advance(self, duration):
-        """Advance by ``duration`` seconds (rounded to whole steps) [s]."""
+        """Advance by ``duration`` seconds (rounded to whole steps) [s].
+
+        Parameters
+        ----------
+        duration : float
+            Time to simulate [s], rounded to a whole number of ``config.dt`` steps.
+        """
         self.step(int(round(duration / self.config.dt)))
 
     def advance_to(self, t):
-        """Advance to model time ``t`` [s] (no-op if already there)."""
+        """Advance to model time ``t`` [s] (no-op if already there).
+
+        Parameters
+        ----------
+        t : float
+            Model time to reach [s] (whole steps only: the model stops at or
+            just before ``t``).
+        """
         steps = int((t - self.time) / self.config.dt + 1e-9)
         if steps > 0:
             self.step(steps)
@@ -361,12 +410,25 @@ class ArmModel:
         return self.servos.time
 
     def command(self, q):
-        """Command joint values ``q`` [rad], shape (n,) (clipped to the joint limits, as a servo would stop)."""
+        """Command joint values ``q`` [rad], shape (n,) (clipped to the joint limits, as a servo would stop).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Commanded joint values [rad].
+        """
         lim = self.robot.joint_limits
         self.servos.command(np.clip(np.asarray(q, dtype=float), lim[:, 0], lim[:, 1]))
 
     def command_pulses(self, pulses_us):
-        """Command by pulse widths ``{channel: us}`` (channels without a joint are ignored)."""
+        """Command by pulse widths ``{channel: us}`` (channels without a joint are ignored).
+
+        Parameters
+        ----------
+        pulses_us : mapping of int to float
+            Servo channel -> pulse width [us]; joints whose channel is missing (or
+            maps to None) keep their command.
+        """
         q = self.servos.commanded
         for j, cal in enumerate(self._servo_cal):
             if cal is not None and cal.channel in pulses_us and pulses_us[cal.channel] is not None:
@@ -374,11 +436,23 @@ class ArmModel:
         self.command(q)
 
     def advance(self, duration):
-        """Advance the physics by ``duration`` [s]."""
+        """Advance the physics by ``duration`` [s].
+
+        Parameters
+        ----------
+        duration : float
+            Time to simulate [s] (rounded to whole model steps).
+        """
         self.servos.advance(duration)
 
     def advance_to(self, t):
-        """Advance the physics to model time ``t`` [s]."""
+        """Advance the physics to model time ``t`` [s].
+
+        Parameters
+        ----------
+        t : float
+            Model time to reach [s] (no-op if already there).
+        """
         self.servos.advance_to(t)
 
     @property
@@ -393,11 +467,29 @@ class ArmModel:
         return q + gravity_sag(self.robot, q, self.config)
 
     def settled(self, **kwargs):
-        """Whether the servos have settled (see :meth:`ServoBank.settled`)."""
+        """Whether the servos have settled (see :meth:`ServoBank.settled`).
+
+        Parameters
+        ----------
+        **kwargs
+            ``tol`` [rad] and ``speed`` [rad/s], passed to :meth:`ServoBank.settled`.
+
+        Returns
+        -------
+        bool
+        """
         return self.servos.settled(**kwargs)
 
     def feedback_adc(self):
-        """Feedback ADC counts of every joint with a servo, shape (n,) (int, 0..1023; -1 where no servo)."""
+        """Feedback ADC counts of every joint with a servo, shape (n,) (int, 0..1023; -1 where no servo).
+
+        Each call draws fresh feedback noise.
+
+        Returns
+        -------
+        ndarray of int, shape (n,)
+            Counts 0..1023 (rounded, clipped), -1 for joints without a servo.
+        """
         out = np.full(self.robot.n, -1, dtype=int)
         q = self.shaft_q
         for j, cal in enumerate(self._servo_cal):
@@ -408,19 +500,37 @@ class ArmModel:
         return out
 
     def feedback_volts(self):
-        """Feedback voltages ``{channel: V}`` on the pot taps (noisy, quantised to the ADC)."""
+        """Feedback voltages ``{channel: V}`` on the pot taps (noisy, quantised to the ADC).
+
+        Returns
+        -------
+        dict of int to float
+            Servo channel -> feedback voltage [V].
+        """
         adc = self.feedback_adc()
         return {cal.channel: adc[j] * ADC_VREF / ADC_MAX for j, cal in enumerate(self._servo_cal) if cal is not None}
 
     def sensed_q(self):
-        """Joint values sensed through the feedback ADC, shape (n,) [rad] (NaN where no servo)."""
+        """Joint values sensed through the feedback ADC, shape (n,) [rad] (NaN where no servo).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Sensed joint values [rad] (noisy, quantised).
+        """
         adc = self.feedback_adc()
         return np.array(
             [float(cal.joint_from_adc(adc[j])) if cal is not None else math.nan for j, cal in enumerate(self._servo_cal)]
         )
 
     def end_effector(self):
-        """True end-effector (tool point) position, shape (3,) [m]."""
+        """True end-effector (tool point) position, shape (3,) [m].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            Tool position in the base frame at the true joint values [m].
+        """
         from labkit.kinematics import fk_position
 
         return fk_position(self.robot, self.true_q)
@@ -482,6 +592,14 @@ class FirmwareAdapter:
 
     def on_tick(self, sim_time_s, pulses_us):
         """Step the physics to ``sim_time_s`` [s] under ``pulses_us`` ``{channel: us}``.
+
+        Parameters
+        ----------
+        sim_time_s : float
+            Simulated firmware time [s].
+        pulses_us : mapping of int to float
+            Latest servo pulse width per channel [us]; channels with no pulse
+            (0 or None) keep their command.
 
         Returns
         -------

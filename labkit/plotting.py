@@ -65,6 +65,17 @@ def is_planar(robot, q=None):
 
     True when every joint axis is parallel to world z and every frame origin
     has the same z, at ``q`` (default the zero configuration).
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (n,) or (N, n), optional
+        Joint values [rad, m] to test at (the first row of a batch); default
+        zeros.
+
+    Returns
+    -------
+    bool
     """
     from labkit.kinematics import fk_frames
 
@@ -279,11 +290,26 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
         ``"auto"``: 2-D for planar arms.
     plane : {"xy", "xz", "yz"}
         Projection plane of a 2-D plot of a spatial arm.
+    color : matplotlib color
+        Colour of the dots or region.
+    seed : int
+        Seed of the random joint samples (same picture every run).
     units : {"mm", "m"}
+        Axis units (the robot itself is in m).
+    bins : int, optional
+        Grid cells along the longer side for ``kind="filled"`` (see
+        :func:`labkit.workspace.planar_region`).
+    label : str, optional
+        Legend label (default ``"workspace"``).
 
     Returns
     -------
     matplotlib Axes
+
+    Raises
+    ------
+    ValueError
+        An unknown ``kind`` or ``plane``, or ``kind="filled"`` in 3-D.
 
     Examples
     --------
@@ -465,10 +491,23 @@ def plot_path_3d(path, ax=None, *, units="mm", start_end=True, color="tab:blue",
     path : Trajectory or array_like, shape (N, 3)
         A Cartesian trajectory (its ``x[:, :3]``) or points [m].
     ax : 3-D matplotlib Axes, optional
+    units : {"mm", "m"}
+        Axis units.
+    start_end : bool
+        Mark the start (red) and end (green) points.
+    color : matplotlib color
+        Colour of the path.
+    label : str, optional
+        Legend label (default ``"path"``).
 
     Returns
     -------
     matplotlib Axes (3-D)
+
+    Raises
+    ------
+    ValueError
+        No points (shape (N, 2) or (N, 3)), or 2-D axes given.
 
     Examples
     --------

@@ -52,6 +52,8 @@ def animate_arm(robot, traj, ax=None, *, t=None, max_frames=80, interval=None, d
     ghosts : bool
         Show the start (red) and end (green) configurations faintly.
     units : {"mm", "m"}
+    color : matplotlib color
+        Colour of the moving arm.
 
     Returns
     -------
@@ -141,6 +143,13 @@ def save_animation(anim, path, *, fps=None, dpi=100):
         ``.gif`` or ``.mp4``.
     fps : float, optional
         Frames per second (default from the animation's interval).
+    dpi : float
+        Resolution [dots per inch].
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
 
     Raises
     ------

@@ -206,10 +206,31 @@ def chromium_command(html, out, profile, *, mode="pdf", chromium="chromium", bud
 def print_pdf(html, pdf, *, mode="pdf", timeout=120, budget_ms=VIRTUAL_TIME_BUDGET_MS, window="1200,1600") -> Path:
     """Print ``html`` to ``pdf`` with headless Chromium (``mode="screenshot"``: a PNG instead).
 
+    Parameters
+    ----------
+    html : str or os.PathLike
+        The HTML report to print (opened as a ``file://`` URL, offline).
+    pdf : str or os.PathLike
+        Output file (replaced if it exists; parent folders are created).
+    mode : {"pdf", "screenshot"}
+        Print to PDF, or save a PNG screenshot of the window.
+    timeout : float
+        Wall-clock limit for Chromium [s].
+    budget_ms : int
+        Chromium's virtual time budget for scripts (MathJax, widgets) [ms].
+    window : str
+        Window size ``"width,height"`` [px] of a screenshot.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file (absolute).
+
     Raises
     ------
     LabkitError
-        If Chromium is missing, fails, or writes nothing.
+        If Chromium is missing, fails, times out or writes nothing, or ``mode``
+        is unknown.
     """
     chromium = find_chromium()
     pdf = Path(pdf).resolve()
@@ -329,6 +350,20 @@ def write_index(results, output_dir, *, wall_seconds=None) -> Path:
 
     Reports rendered earlier into the same folder (recorded in ``index.json``) stay listed
     when only some notebooks are re-rendered.
+
+    Parameters
+    ----------
+    results : sequence of RenderResult
+        Reports rendered now.
+    output_dir : str or os.PathLike
+        Reports folder (created if missing).
+    wall_seconds : float, optional
+        Wall time of this render [s], shown in the summary line.
+
+    Returns
+    -------
+    pathlib.Path
+        The ``index.html`` written.
     """
     out = Path(output_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -478,7 +513,14 @@ def _cmd_render(args):
 
 
 def add_cli(subparsers):
-    """Add ``labkit run`` and ``labkit render`` to the ``labkit`` command."""
+    """Add ``labkit run`` and ``labkit render`` to the ``labkit`` command.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser
+        (``parser.add_subparsers()``); see :data:`labkit.cli.PLUGINS`.
+    """
     import argparse
 
     sp = subparsers.add_parser("run", help="execute one lab notebook (papermill) with parameter overrides")

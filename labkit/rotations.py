@@ -338,6 +338,17 @@ class EulerAngles:
     def to_dataframe(self, degrees=True):
         """Table with one row per (matrix, solution): the three angles and the lock flag.
 
+        Parameters
+        ----------
+        degrees : bool
+            Angles in degrees (columns ``"<angle> [deg]"``), else radians.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by ``(matrix, solution)`` (solution 1 or 2), one column per
+            angle of the convention, then ``gimbal_lock``.
+
         Examples
         --------
         >>> e = euler_from_matrix(rotation_z(np.pi / 6), "xyz_fixed")
@@ -532,6 +543,8 @@ def rpy_from_matrix(R, *, tol=1e-9):
     Parameters
     ----------
     R : array_like, shape (..., 3, 3)
+    tol : float
+        Gimbal lock is declared where ``|cos(pitch)|`` is below ``tol``.
 
     Returns
     -------

@@ -118,13 +118,22 @@ def prompt_reading(label, unit, *, lo=-math.inf, hi=math.inf, input=input, attem
         What to read (``"j1_45 x"``).
     unit : str
         Unit shown in the prompt (``"mm"``).
+    lo, hi : float
+        Accepted range, in ``unit``.
     input : callable
         The prompt function (``input`` in a terminal or a notebook).
+    attempts : int
+        Prompts before giving up.
 
     Returns
     -------
     float
         The reading, in ``unit``.
+
+    Raises
+    ------
+    MeasurementError
+        No valid reading after ``attempts`` prompts.
 
     Examples
     --------
@@ -194,14 +203,57 @@ class MeasurementSession:
         return getattr(board, "model", None)
 
     def goto(self, q):
-        """Move to ``q`` [rad] and wait until settled; returns the sensed joints [rad]."""
+        """Move to ``q`` [rad] and wait until settled; returns the sensed joints [rad].
+
+        Waits ``settle_time`` [s of board time] more after the joints settle within
+        ``settle_tol``.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Joint values [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Joint values sensed at settling [rad].
+
+        Raises
+        ------
+        JointLimitError
+            ``q`` outside the joint limits or servo ranges (nothing is sent).
+        DeviceError
+            The move failed or the joints did not settle.
+        """
         self.arm.move_joints(q)
         sensed = self.arm.wait_settled(np.asarray(q, float), tol=self.settle_tol)
         self.arm.sleep(self.settle_time)
         return sensed
 
     def measure(self, pose):
-        """Move to one :class:`PlannedPose` and record its readings; returns the records."""
+        """Move to one :class:`PlannedPose` and record its readings; returns the records.
+
+        ``readings`` repeats per pose, from the session's source: the simulated
+        ruler (x, y, z [mm]), the servo feedback (``theta<i>`` [deg]) or a person
+        typing ruler readings (x, y, z in ``unit``).
+
+        Parameters
+        ----------
+        pose : PlannedPose
+            Pose id and joint values [rad].
+
+        Returns
+        -------
+        list of MeasurementRecord
+            The records appended to ``log``, in order.
+
+        Raises
+        ------
+        JointLimitError, DeviceError
+            As for :meth:`goto`.
+        MeasurementError
+            A person gave no valid reading (typed source).
+        """
         q = np.asarray(pose.q, dtype=float)
         self.goto(q)
         records = []
@@ -239,6 +291,8 @@ class MeasurementSession:
 
         Parameters
         ----------
+        plan : sequence of PlannedPose
+            Poses in measuring order.
         progress : callable, optional
             ``progress(done, total, pose_id)`` after each pose.
 
@@ -260,6 +314,13 @@ def manual_form(session, plan):
     Shows the current pose; "Move" sends the arm there, "Record" validates the
     x/y/z fields and logs them (one repeat), and after ``session.readings``
     repeats the form moves on to the next pose.
+
+    Parameters
+    ----------
+    session : MeasurementSession
+        Provides the arm (``goto``), the log, ``unit`` and ``readings``.
+    plan : sequence of PlannedPose
+        Poses in measuring order.
 
     Returns
     -------

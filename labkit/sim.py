@@ -53,6 +53,23 @@ FACTORY = (500, 2500, 0, 1, 0, 18000)
 def checksum(text):
     """XOR of the bytes of ``text`` (str or bytes), the protocol's line checksum (int 0..255).
 
+    Parameters
+    ----------
+    text : str or bytes-like
+        Line body (ASCII), without the ``*HH`` suffix.
+
+    Returns
+    -------
+    int
+        Checksum, 0..255 (sent as two hex digits).
+
+    Raises
+    ------
+    UnicodeEncodeError
+        ``text`` is a str with non-ASCII characters.
+
+    Examples
+    --------
     >>> f"{checksum('#7 PING'):02X}"
     '24'
     """
@@ -152,7 +169,13 @@ class VirtualBoard:
         self._boot_pending = (reason, ok)
 
     def reset(self, reason="EXTERNAL"):
-        """Reset the MCU (as DTR on open does): RAM state lost, EEPROM kept, ``EV BOOT`` 0.1 s later."""
+        """Reset the MCU (as DTR on open does): RAM state lost, EEPROM kept, ``EV BOOT`` 0.1 s later.
+
+        Parameters
+        ----------
+        reason : str
+            Reset cause reported in ``EV BOOT ... reset=<reason>``.
+        """
         self._boot(reason, self.config)
 
     @property
@@ -161,7 +184,15 @@ class VirtualBoard:
         return int((self.time - self.boot_time) * 1000 + 1e-6) % 2**32
 
     def set_analog(self, pin, volts):
-        """Force analog pin ``pin`` (0..5) to ``volts`` (``None`` returns it to the physics)."""
+        """Force analog pin ``pin`` (0..5) to ``volts`` (``None`` returns it to the physics).
+
+        Parameters
+        ----------
+        pin : int
+            Analog input number, 0..5.
+        volts : float or None
+            Voltage the pin reads [V]; ``None`` removes the override.
+        """
         if volts is None:
             self.analog_override.pop(int(pin), None)
         else:
@@ -207,7 +238,16 @@ class VirtualBoard:
 
     # -- host side of the wire -----------------------------------------------------
     def receive(self, data):
-        """Bytes arriving from the host at the current board time."""
+        """Bytes arriving from the host at the current board time.
+
+        Complete lines (ended by LF or CR) are handled at once; a line longer than
+        the protocol's limit is discarded with ``ERR 4 TOOLONG``.
+
+        Parameters
+        ----------
+        data : bytes-like
+            Bytes from the host.
+        """
         for b in bytes(data):
             if b in (10, 13):
                 if self._discarding:
@@ -227,7 +267,18 @@ class VirtualBoard:
                 self.flags |= 0x10
 
     def take_output(self, size=None):
-        """Remove and return up to ``size`` bytes the board has sent (all if ``None``)."""
+        """Remove and return up to ``size`` bytes the board has sent (all if ``None``).
+
+        Parameters
+        ----------
+        size : int, optional
+            Largest number of bytes to take; default all pending.
+
+        Returns
+        -------
+        bytes
+            Pending output, oldest first (empty if none).
+        """
         if size is None or size >= len(self._out):
             out, self._out = bytes(self._out), bytearray()
             return out
@@ -245,13 +296,25 @@ class VirtualBoard:
 
     # -- clock -----------------------------------------------------------------
     def next_event_time(self):
-        """Board time [s] of the next scheduled activity (boot, servo frame or FB frame)."""
+        """Board time [s] of the next scheduled activity (boot, servo frame or FB frame).
+
+        Returns
+        -------
+        float
+            Board time [s].
+        """
         if self._boot_pending:
             return self.boot_time + BOOT_S
         return min(self.next_frame, self.stream_next)
 
     def advance_to(self, t):
-        """Run the board until board time ``t`` [s], emitting what falls due."""
+        """Run the board until board time ``t`` [s], emitting what falls due.
+
+        Parameters
+        ----------
+        t : float
+            Board time to reach [s] (no-op for the past).
+        """
         while True:
             if self._boot_pending and self.boot_time + BOOT_S <= t:
                 self.time = max(self.time, self.boot_time + BOOT_S)
@@ -273,7 +336,13 @@ class VirtualBoard:
         self.model.advance_to(self.time)
 
     def advance(self, dt):
-        """Run the board for ``dt`` seconds of board time."""
+        """Run the board for ``dt`` seconds of board time.
+
+        Parameters
+        ----------
+        dt : float
+            Board time to run [s].
+        """
         self.advance_to(self.time + dt)
 
     def _servo_frame(self):
@@ -556,6 +625,18 @@ def serve_pty(board, *, time_scale=1.0, announce=print, stop=None):
 
     Board time runs at ``time_scale`` times the wall clock. ``announce`` gets the
     pty's path (the port name to open).
+
+    Parameters
+    ----------
+    board : VirtualBoard
+        The board to serve.
+    time_scale : float
+        Board seconds per wall-clock second.
+    announce : callable
+        Called once with the pty's path (str), e.g. ``print``.
+    stop : callable, optional
+        Polled about every 2 ms; serving ends when it returns true. Default:
+        serve until interrupted.
     """
     import os
     import select
@@ -601,7 +682,14 @@ def _cmd_sim(args):
 
 
 def add_cli(subparsers):
-    """Add ``labkit sim`` (serve the virtual arm on a pty and print its path)."""
+    """Add ``labkit sim`` (serve the virtual arm on a pty and print its path).
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser
+        (``parser.add_subparsers()``); see :data:`labkit.cli.PLUGINS`.
+    """
     sp = subparsers.add_parser("sim", help="serve the virtual arm on a pseudo-terminal (prints the port path)")
     sp.add_argument("robot", nargs="?", default="arduino_arm_3dof", help="bundled robot name or robot file")
     sp.add_argument("--seed", type=int, default=0, help="physics seed (offsets, noise)")

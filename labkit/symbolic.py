@@ -429,6 +429,16 @@ def lambdify_joints(robot, expr, q=None):
 def latex(expr):
     """LaTeX source of a sympy expression or matrix (for reports).
 
+    Parameters
+    ----------
+    expr : sympy.Basic or sympy.MatrixBase
+        Expression or matrix (e.g. from :func:`symbolic_fk`).
+
+    Returns
+    -------
+    str
+        ``sympy.latex(expr)``.
+
     Examples
     --------
     >>> import sympy as sp

@@ -53,7 +53,24 @@ class LawKind(str, Enum):
 
     @classmethod
     def parse(cls, value, allowed=None):
-        """Return the member for ``value``; the error lists the valid names."""
+        """Return the member for ``value``; the error lists the valid names.
+
+        Parameters
+        ----------
+        value : str or LawKind
+            Law name (e.g. ``"quintic"``) or member.
+        allowed : iterable of LawKind, optional
+            The members accepted here; default all.
+
+        Returns
+        -------
+        LawKind
+
+        Raises
+        ------
+        ValueError
+            ``value`` names no member, or one not in ``allowed``.
+        """
         allowed = tuple(allowed or cls)
         try:
             kind = cls(value)
@@ -201,29 +218,82 @@ class TimeLaw:
         return out
 
     def position(self, t):
-        """``u(t)`` [value units]; see :meth:`evaluate`."""
+        """``u(t)`` [value units]; see :meth:`evaluate`.
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times [s]; outside ``[t0, tf]`` the law holds its end values.
+
+        Returns
+        -------
+        ndarray, shape (..., *shape)
+            Values [value units].
+        """
         return self.evaluate(t, 0)
 
     __call__ = position
 
     def velocity(self, t):
-        """``du/dt`` [units/s]."""
+        """``du/dt`` [units/s].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times [s]; outside ``[t0, tf]`` the law holds its end values.
+
+        Returns
+        -------
+        ndarray, shape (..., *shape)
+            Velocities [units/s].
+        """
         return self.evaluate(t, 1)
 
     def acceleration(self, t):
-        """``d2u/dt2`` [units/s^2]."""
+        """``d2u/dt2`` [units/s^2].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times [s]; outside ``[t0, tf]`` the law holds its end values.
+
+        Returns
+        -------
+        ndarray, shape (..., *shape)
+            Accelerations [units/s^2].
+        """
         return self.evaluate(t, 2)
 
     def jerk(self, t):
-        """``d3u/dt3`` [units/s^3]."""
+        """``d3u/dt3`` [units/s^3].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Times [s]; outside ``[t0, tf]`` the law holds its end values.
+
+        Returns
+        -------
+        ndarray, shape (..., *shape)
+            Jerks [units/s^3].
+        """
         return self.evaluate(t, 3)
 
     def peak(self, derivative=1, samples=2001):
         """Largest ``|d^k u / dt^k|`` over the law (per value), dense sampling.
 
+        Parameters
+        ----------
+        derivative : int
+            ``k``: 0 position, 1 velocity, 2 acceleration, 3 jerk.
+        samples : int
+            Evenly spaced sample times over ``[t0, tf]`` (the breakpoints are
+            added).
+
         Returns
         -------
         ndarray, shape (*shape)
+            Peak magnitude per value [units/s^k].
         """
         t = np.linspace(self.t0, self.tf, samples)
         t = np.union1d(t, self.breaks)
@@ -340,10 +410,26 @@ def quintic(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
 def linear(q0, qf, duration, *, t0=0.0):
     """Constant-velocity move (velocity jumps at the ends; for comparison).
 
+    Parameters
+    ----------
+    q0, qf : array_like, shape (...)
+        Start and end values [rad, m, or any unit].
+    duration : float
+        ``T`` [s], positive.
+    t0 : float
+        Start time [s].
+
     Returns
     -------
     TimeLaw
         Degree 1.
+
+    Raises
+    ------
+    TrajectoryError
+        A non-positive or non-finite duration.
+    ShapeError
+        ``q0`` and ``qf`` do not broadcast, or hold non-finite values.
 
     Examples
     --------

@@ -242,7 +242,20 @@ class Trajectory:
                           axis_names=self.axis_names, revolute=self.revolute)
 
     def plot(self, axes=None, **kwargs):
-        """Position, velocity and acceleration against time (:func:`labkit.plotting.plot_trajectory`)."""
+        """Position, velocity and acceleration against time (:func:`labkit.plotting.plot_trajectory`).
+
+        Parameters
+        ----------
+        axes : sequence of 3 matplotlib Axes, optional
+            Where to draw; a new figure if omitted.
+        **kwargs
+            Passed to :func:`labkit.plotting.plot_trajectory` (``space``,
+            ``degrees``, ``units``, ``title``).
+
+        Returns
+        -------
+        ndarray of 3 Axes
+        """
         from labkit.plotting import plot_trajectory
 
         return plot_trajectory(self, axes, **kwargs)
@@ -266,10 +279,19 @@ def from_law(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
         Sample times [s]; default ``time_grid(law.t0, law.tf, dt)``.
     dt : float
         Step [s] when ``t`` is not given.
+    joint_names : sequence of str, optional
+        Name per joint (for tables and plots).
+    revolute : sequence of bool, optional
+        Whether each joint is revolute (units in tables and plots).
 
     Returns
     -------
     Trajectory
+
+    Raises
+    ------
+    ShapeError
+        The law's values are not of shape (n,).
     """
     if len(law.shape) != 1:
         raise ShapeError(f"expected a law with values of shape (n,), got {law.shape}")
@@ -389,6 +411,8 @@ def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
         Via points [rad, m], ``m >= 2``.
     times : array_like, shape (m,)
         Their times [s], increasing.
+    v0, vf : float or array_like, shape (n,)
+        Velocities at the first and last point [rad/s, m/s].
 
     Returns
     -------
@@ -511,12 +535,48 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
                    check_limits=True, check_speed_limits=False):
     """A joint trajectory through via points, sampled.
 
-    Parameters are those of :func:`via_law`, plus the sampling (``dt`` or
-    ``t``) and the checks of :func:`joint_trajectory`.
+    Parameters
+    ----------
+    points : array_like, shape (m, n)
+        Configurations to pass through [rad, m], ``m >= 2``.
+    times : array_like, shape (m,), optional
+        Absolute times of the points [s].
+    durations : float or array_like, shape (m - 1,), optional
+        Segment durations [s] (times start at 0). With neither times nor
+        durations, each segment gets the shortest rest-to-rest cubic duration
+        allowed by the robot's speed/acceleration bounds.
+    method : {"via_cubic", "spline"}
+        Cubic segments with continuous velocity, or a cubic spline with
+        continuous acceleration (see :func:`via_law`).
+    velocities : array_like, shape (m, n), optional
+        Via velocities for ``"via_cubic"`` [rad/s, m/s]; default heuristic.
+    ends : {"clamped", "natural"}
+        Spline end conditions (``"spline"`` only).
+    v0, vf : float or array_like, shape (n,)
+        End velocities [rad/s, m/s] ("via_cubic" heuristic and clamped spline).
+    robot : Robot, optional
+        Joint names, limits and speed bounds.
+    dt : float
+        Sample step [s].
+    t : array_like, shape (N,), optional
+        Explicit sample times [s] instead of ``dt``.
+    check_limits : bool
+        With a robot, raise :class:`JointLimitError` at the first sample
+        outside the joint limits.
+    check_speed_limits : bool
+        With a robot, raise :class:`TrajectoryError` if a joint exceeds its
+        speed/acceleration bound (the message gives the minimum duration).
 
     Returns
     -------
     Trajectory
+
+    Raises
+    ------
+    JointLimitError
+        A sample outside the joint limits (``check_limits``).
+    TrajectoryError
+        A joint over its speed/acceleration bound (``check_speed_limits``).
 
     Examples
     --------
@@ -547,6 +607,13 @@ def _checked(traj, robot, limits, speed):
 def check_joint_limits(traj, robot):
     """Raise at the first sample outside the robot's joint limits.
 
+    Parameters
+    ----------
+    traj : Trajectory
+        Samples ``q`` of shape (N, n) [rad, m].
+    robot : Robot
+        Gives the joint limits.
+
     Raises
     ------
     JointLimitError
@@ -571,6 +638,14 @@ def speed_scale(traj, robot):
     accelerations by ``k**2``; this returns the smallest such ``k`` (1 or
     less when the bounds already hold) and the joint that sets it.
 
+    Parameters
+    ----------
+    traj : Trajectory
+        Samples ``qd``/``qdd`` [rad/s, m/s; rad/s^2, m/s^2]; the peaks of its
+        law when it has one.
+    robot : Robot
+        Gives ``max_velocity`` / ``max_acceleration`` per joint.
+
     Returns
     -------
     k : float
@@ -578,6 +653,11 @@ def speed_scale(traj, robot):
         Index of the limiting joint.
     what : str
         ``"velocity"`` or ``"acceleration"``.
+
+    Raises
+    ------
+    ShapeError
+        The trajectory and the robot differ in the number of joints.
     """
     v, a = _robot_bounds(robot)
     if traj.n != robot.n:
@@ -598,6 +678,15 @@ def speed_scale(traj, robot):
 def check_speed(traj, robot, *, tol=1e-9):
     """Raise if a joint exceeds its ``max_velocity`` or ``max_acceleration``.
 
+    Parameters
+    ----------
+    traj : Trajectory
+        Samples ``qd``/``qdd`` [rad/s, m/s; rad/s^2, m/s^2] (or its law).
+    robot : Robot
+        Gives the speed bounds (unbounded joints are skipped).
+    tol : float
+        Accepted excess of the slow-down factor over 1 [-].
+
     Raises
     ------
     TrajectoryError
@@ -605,6 +694,8 @@ def check_speed(traj, robot, *, tol=1e-9):
         minimum duration at which the same path would respect every bound
         (uniform time scaling); the exception carries ``minimum_duration``
         [s] and ``joint``.
+    ShapeError
+        The trajectory and the robot differ in the number of joints.
     """
     k, j, what = speed_scale(traj, robot)
     if k <= 1.0 + tol:

@@ -40,7 +40,18 @@ class Workspace:
         return len(self.points)
 
     def to_dataframe(self, joint_names=None):
-        """Table with one row per sample: joint columns then ``x, y, z`` [m]."""
+        """Table with one row per sample: joint columns then ``x, y, z`` [m].
+
+        Parameters
+        ----------
+        joint_names : sequence of str, optional
+            Names of the joint columns; default ``q1 .. qn``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Joint values [rad, m] and tool positions ``x, y, z`` [m].
+        """
         import pandas as pd
 
         names = list(joint_names) if joint_names is not None else [f"q{i + 1}" for i in range(self.q.shape[1])]
