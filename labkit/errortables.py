@@ -14,9 +14,10 @@ calculated value lies inside the measurement uncertainty
 i.e. the instrument's reading uncertainty combined with the repeatability
 (half range) of the readings; ``inside = |mean - calculated| <= U``.
 
-:func:`audit_published` recomputes a table of published "calculated" values
-from the robot file and flags those that disagree beyond the precision they
-were stated at (half a unit in the last stated digit).
+:func:`audit_published` (defined in :mod:`labkit.audit`, re-exported here)
+recomputes a table of published "calculated" values from the robot file and
+flags those that disagree beyond the precision they were stated at (half a
+unit in the last stated digit).
 
 Examples
 --------
@@ -37,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from labkit.audit import AuditResult, _add_audit_cli, audit_published, load_published
 from labkit.exceptions import MeasurementError, UnreachableError
 from labkit.measurement import UNITS, load_measurements, quantity_dimension
 
@@ -588,199 +590,6 @@ def ik_error_table(measurements, robot=None, *, branch="elbow_up", **kwargs):
     return error_table(measurements, robot, mode="ik", branch=branch, **kwargs)
 
 
-# -- published-table audit -------------------------------------------------------
-_AUDIT_REQUIRED = ("pose_id", "quantity", "published", "unit")
-
-
-def load_published(path):
-    """Load a table of published calculated values, keeping the printed text.
-
-    Columns: ``pose_id, quantity, published`` (as printed, e.g. ``0.060``),
-    ``unit``, ``commanded`` [rad] and/or ``target`` [m], optional ``table``,
-    ``precision`` (``"<k>sf"`` for k significant figures, a number for the
-    unit of the last stated digit, blank for the printed decimals) and
-    ``note``.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        CSV file.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Text columns as str, ``commanded``/``target`` as tuples (or None),
-        ``line`` the file line.
-
-    Raises
-    ------
-    MeasurementError
-        A required column is missing, or ``commanded``/``target`` is not a
-        list of numbers (naming the row and column).
-    """
-    import pandas as pd
-
-    from labkit.measurement import parse_numbers
-
-    path = Path(path)
-    df = pd.read_csv(path, dtype=str, keep_default_na=False)
-    missing = [c for c in _AUDIT_REQUIRED if c not in df.columns]
-    if missing:
-        raise _err(f"{path}: missing column(s) {missing}; found {list(df.columns)}", 1, missing[0])
-    df["line"] = np.arange(len(df)) + 2
-    for col in ("commanded", "target"):
-        if col not in df:
-            df[col] = ""
-        parsed = []
-        for text, line in zip(df[col], df["line"]):
-            try:
-                parsed.append(parse_numbers(text))
-            except ValueError:
-                raise _err(f"{path}: expected space-separated numbers, got {text!r}", line, col) from None
-        df[col] = pd.Series(parsed, dtype=object, index=df.index)
-    return df
-
-
-def _stated_unit(text, precision, line):
-    """Unit of the last stated digit of a published value."""
-    text = str(text).strip()
-    try:
-        value = float(text)
-    except ValueError:
-        raise _err(f"expected a number, got {text!r}", line, "published") from None
-    precision = str(precision or "").strip()
-    if precision.endswith("sf") and value != 0:
-        try:
-            k = int(precision[:-2])
-        except ValueError:
-            raise _err(f"expected precision like '2sf', a number or blank, got {precision!r}", line, "precision") from None
-        return value, 10.0 ** (math.floor(math.log10(abs(value))) - k + 1)
-    if precision and not precision.endswith("sf"):
-        try:
-            return value, float(precision)
-        except ValueError:
-            raise _err(f"expected precision like '2sf', a number or blank, got {precision!r}", line, "precision") from None
-    mantissa = text.lower().split("e")[0]
-    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
-    exponent = int(text.lower().split("e")[1]) if "e" in text.lower() else 0
-    return value, 10.0 ** (exponent - decimals)
-
-
-@dataclasses.dataclass(frozen=True)
-class AuditResult:
-    """Published calculated values beside the model's.
-
-    Attributes
-    ----------
-    cells : pandas.DataFrame
-        One row per published value: ``table, pose_id, quantity, unit,
-        published, recomputed, difference, tolerance, agrees`` where
-        ``tolerance`` is half a unit in the last stated digit and
-        ``agrees = |published - recomputed| <= tolerance``.
-    """
-
-    cells: object
-
-    @property
-    def flagged(self):
-        """The cells that disagree with the model."""
-        return self.cells[~self.cells["agrees"]].reset_index(drop=True)
-
-    def flagged_rows(self):
-        """``{(table, pose_id): [quantities]}`` of the rows with a disagreement.
-
-        Returns
-        -------
-        dict of (str, str) to list of str
-        """
-        out = {}
-        for _, r in self.flagged.iterrows():
-            out.setdefault((r["table"], r["pose_id"]), []).append(r["quantity"])
-        return out
-
-    def to_dataframe(self):
-        """The cell table (a copy).
-
-        Returns
-        -------
-        pandas.DataFrame
-            Copy of :attr:`cells`.
-        """
-        return self.cells.copy()
-
-    def style(self, highlight="background-color: #f8c4c4"):
-        """Styler with the disagreeing rows highlighted.
-
-        Parameters
-        ----------
-        highlight : str
-            CSS of a cell in a row that does not agree.
-
-        Returns
-        -------
-        pandas.io.formats.style.Styler
-        """
-        cells = self.cells
-        return cells.style.apply(
-            lambda row: [highlight if not row["agrees"] else "" for _ in row], axis=1
-        ).format({"recomputed": "{:.4g}", "difference": "{:.2g}", "tolerance": "{:.2g}"})
-
-
-def audit_published(published, robot=None, *, branch="elbow_up", default_robot="arduino_arm_3dof"):
-    """Recompute published "calculated" values and flag disagreements.
-
-    A published value stated to a given precision claims the model value
-    rounds to it: it *agrees* when ``|published - recomputed|`` is at most half
-    a unit in its last stated digit (``0.060`` at 2 s.f. claims 0.0595-0.0605;
-    an angle published to the degree claims ±0.5 deg). Angle differences are
-    wrapped to (-180, 180] deg.
-
-    Parameters
-    ----------
-    published : pandas.DataFrame or str or os.PathLike
-        Table as returned by :func:`load_published` (or its path).
-    robot : Robot or str, optional
-        Default: the ``robot`` column, else ``default_robot``.
-    branch : str
-        IK branch for target rows.
-    default_robot : str
-        Bundled robot used when neither ``robot`` nor a ``robot`` column names one.
-
-    Returns
-    -------
-    AuditResult
-
-    Examples
-    --------
-    >>> audit = audit_published(seed_path("seed000_published_calculated.csv"), "arduino_arm_3dof")
-    >>> sorted(audit.flagged_rows())[0]
-    ('table 3', 't3_j3_20deg')
-    """
-    import pandas as pd
-
-    df = _frame(published, load_published, _AUDIT_REQUIRED)
-    if robot is None and not any(isinstance(r, str) and r for r in df.get("robot", [])):
-        robot = default_robot
-    robot = _robot(robot, df)
-    for col in ("unit",):
-        for u, line in zip(df[col], df["line"]):
-            if u not in UNITS:
-                raise _err(f"unknown unit {u!r}; expected one of {sorted(UNITS)}", line, "unit")
-    calc = calculated_si(df, robot, branch=branch)
-    rows = []
-    for k, r in enumerate(df.itertuples(index=False)):
-        value, ulp = _stated_unit(r.published, getattr(r, "precision", ""), r.line)
-        recomputed = calc[k] / UNITS[r.unit][1]
-        diff = value - recomputed
-        if quantity_dimension(r.quantity) == "angle":
-            diff = float(_wrap_deg_or_rad(diff, r.unit))
-        tol = ulp / 2
-        rows.append(dict(table=getattr(r, "table", ""), pose_id=r.pose_id, quantity=r.quantity,
-                         unit=r.unit, published=r.published, recomputed=recomputed,
-                         difference=diff, tolerance=tol, agrees=bool(abs(diff) <= tol * (1 + 1e-9))))
-    return AuditResult(cells=pd.DataFrame(rows))
-
-
 # -- command line (plugin of labkit.cli) ---------------------------------------------
 def _cmd_errors(args):
     import pandas as pd
@@ -795,15 +604,6 @@ def _cmd_errors(args):
     return 0
 
 
-def _cmd_audit(args):
-    audit = audit_published(args.file, args.robot, branch=args.branch)
-    flagged = audit.flagged
-    print(f"{len(audit.cells) - len(flagged)} of {len(audit.cells)} published values agree with the model")
-    if len(flagged):
-        print(flagged.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    return 1 if len(flagged) else 0
-
-
 def add_cli(subparsers):
     """Add ``labkit errors`` and ``labkit audit`` to the ``labkit`` command line."""
     sp = subparsers.add_parser("errors", help="measured-versus-calculated error table of a measurement CSV")
@@ -814,8 +614,4 @@ def add_cli(subparsers):
     sp.add_argument("--html", help="also write the styled table as HTML")
     sp.add_argument("--latex", help="also write the styled table as LaTeX")
     sp.set_defaults(func=_cmd_errors)
-    sp = subparsers.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
-    sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
-    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
-    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
-    sp.set_defaults(func=_cmd_audit)
+    _add_audit_cli(subparsers)

@@ -270,6 +270,24 @@ def test_docstring_examples_run():
     assert result.attempted > 0 and result.failed == 0
 
 
+def test_audit_docstring_examples_run():
+    import doctest
+
+    import labkit.audit
+
+    result = doctest.testmod(labkit.audit)
+    assert result.attempted > 0 and result.failed == 0
+
+
+def test_audit_names_reexported():
+    import labkit.audit
+    import labkit.errortables
+
+    for name in labkit.audit.__all__:
+        assert name in labkit.errortables.__all__
+        assert getattr(labkit.errortables, name) is getattr(labkit.audit, name)
+
+
 def _cli(module, argv):
     import argparse
 
