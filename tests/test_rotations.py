@@ -38,6 +38,21 @@ def test_doctests_pass():
     assert doctest.testmod(rotations).failed == 0
 
 
+def test_euler_doctests_pass():
+    from labkit import _euler
+
+    result = doctest.testmod(_euler)
+    assert result.attempted > 0 and result.failed == 0
+
+
+def test_euler_names_reexported():
+    from labkit import _euler
+
+    for name in _euler.__all__:
+        assert name in rotations.__all__
+        assert getattr(rotations, name) is getattr(_euler, name)
+
+
 # -- elementary rotations ------------------------------------------------------
 
 @pytest.mark.parametrize("fn, axis", [(rotation_x, 0), (rotation_y, 1), (rotation_z, 2)])
