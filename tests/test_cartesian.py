@@ -226,6 +226,24 @@ def test_doctests_pass():
     assert doctest.testmod(labkit.cartesian).failed == 0
 
 
+def test_path_geometry_doctests_pass():
+    import doctest
+
+    from labkit import _paths
+
+    result = doctest.testmod(_paths)
+    assert result.attempted > 0 and result.failed == 0
+
+
+def test_path_geometry_names_reexported():
+    import labkit.cartesian
+    from labkit import _paths
+
+    for name in _paths.__all__:
+        assert name in labkit.cartesian.__all__
+        assert getattr(labkit.cartesian, name) is getattr(_paths, name)
+
+
 def test_numeric_ik_robot_follows_path_continuously():
     """Seed 002 problem 4: the PUMA wrist's tool point draws a circle about z0 (numeric IK, chained)."""
     wrist = Robot.load("puma_wrist_seed002")
