@@ -12,10 +12,11 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+# the measurement functions live with the firmware tests (tests/arm/test_firmware.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from labkit import firmware_sim  # noqa: E402
-from test_firmware import (  # noqa: E402
+from labkit.arm import FirmwareSim, build  # noqa: E402
+from tests.arm.test_firmware import (  # noqa: E402
     measure_feedback_stream,
     measure_round_trip,
     measure_segment_stream,
@@ -27,13 +28,13 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="shorter runs (10 s stream, 1000 segments)")
     args = parser.parse_args(argv)
 
-    log = firmware_sim.build(("firmware", "sim"))
-    m = re.search(r"flash (\d+) B \(([\d.]+)%.*SRAM (\d+) B \(([\d.]+)%", log + firmware_sim.build(("size",)))
+    log = build(("firmware", "sim"))
+    m = re.search(r"flash (\d+) B \(([\d.]+)%.*SRAM (\d+) B \(([\d.]+)%", log + build(("size",)))
     print(f"size     flash {m.group(1)} B = {m.group(2)}% of 32 KB, SRAM {m.group(3)} B = {m.group(4)}% "
           f"of 2 KB (target <= 50%)")
 
     # simulated speed when free running
-    sim = firmware_sim.FirmwareSim()
+    sim = FirmwareSim()
     sim.run()
     t0, w0 = sim.time(), time.perf_counter()
     sim.sleep(20.0)

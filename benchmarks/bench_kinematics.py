@@ -26,9 +26,8 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from labkit.dh import Convention, Robot  # noqa: E402
-from labkit.ik import ik_all, ik_numeric  # noqa: E402
-from labkit.kinematics import fk, jacobian  # noqa: E402
+from labkit.kinematics import fk, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.robot import Convention, Robot  # noqa: E402
 
 TARGETS = {"FK": 3e6, "Jacobian": 1e6, "analytic IK": 2e5, "numeric IK": 4e3}
 

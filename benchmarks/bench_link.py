@@ -19,9 +19,8 @@ import time
 
 import numpy as np
 
+from labkit.arm import Arm, PortWrapper
 from labkit.exceptions import DeviceError
-from labkit.faults import PortWrapper
-from labkit.link import Arm
 
 BYTES_PER_S = 115200 / 10
 
@@ -58,7 +57,7 @@ def measure(arm, port, label, fn, n):
 def bench(url, n):
     import serial
 
-    from labkit.urlhandler import register
+    from labkit.arm.urlhandler import register
 
     register()
     raw = serial.serial_for_url(url, baudrate=115200, timeout=0.05)

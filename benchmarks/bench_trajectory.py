@@ -4,11 +4,11 @@ Run ``python benchmarks/bench_trajectory.py``. Prints best-of-N wall times and
 the ratio to the targets of the issue; asserts nothing.
 
 * 10,000-sample Cartesian line with IK for the 3-DOF Arduino arm (seed 000's
-  move), target < 20 ms: the full :func:`labkit.cartesian.cartesian_trajectory`
+  move), target < 20 ms: the full :func:`labkit.motion.cartesian_trajectory`
   (time law, path, IK on one branch, joint rates and accelerations through the
   Jacobian, joint-limit check), and the IK part alone.
 * 1,000,000-sample workspace of the same arm, target < 0.5 s
-  (:func:`labkit.workspace.workspace_points`, batched forward kinematics).
+  (:func:`labkit.kinematics.workspace_points`, batched forward kinematics).
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from labkit.cartesian import cartesian_trajectory, line
-from labkit.dh import Robot
-from labkit.ik import ik
+from labkit.kinematics import ik, workspace_points
+from labkit.motion import cartesian_trajectory, line
+from labkit.robot import Robot
 
 
 def best_of(fn, repeat=7):
@@ -50,19 +50,8 @@ def main():
     report("  of which: IK alone on the 10,000 points",
            best_of(lambda: ik(arm, traj.x.copy(), branch="elbow_up")), 0.020)
 
-    try:
-        from labkit.workspace import workspace_points
-    except ImportError:  # before labkit.workspace exists
-        from labkit.kinematics import fk_position
-
-        def workspace_points(robot, n, seed=0):
-            q = np.random.default_rng(seed).random((n, robot.n)) * np.pi
-            return fk_position(robot, q)
-
-        run = lambda: workspace_points(arm, 1_000_000)  # noqa: E731
-    else:
-        run = lambda: workspace_points(arm, n=1_000_000)  # noqa: E731
-    report("Workspace, 1,000,000 samples (3-DOF arm)", best_of(run, repeat=5), 0.5)
+    report("Workspace, 1,000,000 samples (3-DOF arm)",
+           best_of(lambda: workspace_points(arm, n=1_000_000), repeat=5), 0.5)
 
 
 if __name__ == "__main__":

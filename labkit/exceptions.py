@@ -11,6 +11,8 @@ from __future__ import annotations
 __all__ = [
     "LabkitError",
     "ShapeError",
+    "OptionError",
+    "UnknownBranchError",
     "RotationMatrixError",
     "RobotFileError",
     "UnreachableError",
@@ -19,6 +21,7 @@ __all__ = [
     "MeasurementError",
     "DeviceError",
     "ProtocolError",
+    "CheckFailed",
 ]
 
 
@@ -28,6 +31,25 @@ class LabkitError(Exception):
 
 class ShapeError(LabkitError, ValueError):
     """An array had the wrong shape, dtype or non-finite values."""
+
+
+class OptionError(LabkitError, ValueError):
+    """An option or argument value is not one of the accepted ones.
+
+    The message lists the valid values and repeats the one received.
+    """
+
+
+class UnknownBranchError(LabkitError, KeyError):
+    """An inverse-kinematics branch name that the solver does not have.
+
+    Derives from ``KeyError`` because branches are looked up like keys
+    (``solutions["elbow_up"]``); the message lists the valid branch names.
+    """
+
+    def __str__(self):
+        # KeyError quotes its argument; show the message as written
+        return str(self.args[0]) if self.args else ""
 
 
 class RotationMatrixError(LabkitError, ValueError):
@@ -82,7 +104,33 @@ class TrajectoryError(LabkitError, ValueError):
 
 
 class MeasurementError(LabkitError, ValueError):
-    """A measurement record or table is malformed (names row and column)."""
+    """A measurement record or table is malformed (names file, row and column).
+
+    Parameters
+    ----------
+    message : str
+        What was expected and what was received.
+    path : str or os.PathLike, optional
+        The file the record came from.
+    line : int, optional
+        Its row (1-based line number of the file).
+    column : str, optional
+        The offending column.
+
+    Attributes
+    ----------
+    path : str or None
+    row : int or None
+    column : str or None
+    """
+
+    def __init__(self, message, *, path=None, line=None, column=None):
+        self.path = None if path is None else str(path)
+        self.row = line
+        self.column = column
+        where = [w for w in (self.path, None if line is None else f"row {line}",
+                             None if column is None else f"column '{column}'") if w is not None]
+        super().__init__(", ".join(where) + ": " + message if where else message)
 
 
 class DeviceError(LabkitError, OSError):
@@ -91,3 +139,11 @@ class DeviceError(LabkitError, OSError):
 
 class ProtocolError(DeviceError):
     """The board answered, but not with a valid protocol reply."""
+
+
+class CheckFailed(LabkitError, AssertionError):
+    """A lab notebook's reproduced number disagrees with the published one beyond its tolerance.
+
+    Derives from ``AssertionError``: a failed check fails the notebook the way a
+    failed ``assert`` does.
+    """

@@ -1,6 +1,6 @@
 """Boards that speak the labkit arm protocol (docs/protocol.md), for the conformance suite.
 
-A *board* is what ``tests/test_protocol_conformance.py`` runs against. Interface
+A *board* is what ``tests/arm/test_protocol_conformance.py`` runs against. Interface
 (duck-typed; see :class:`Board`):
 
 - ``open() -> port``: a pyserial-like object (``write``, ``readline``, ``timeout``) on which
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import serial
 
-from labkit.firmware_sim import FirmwareSim
+from labkit.arm import FirmwareSim
 
 
 class Board:
@@ -98,13 +98,13 @@ BOARDS = {"firmware": FirmwareBoard}
 
 
 # ---------------------------------------------------------------------------------------------
-# Pure-Python virtual arm (labkit.sim) -- section owned by the link engineer.
+# Pure-Python virtual arm (labkit.arm) -- section owned by the link engineer.
 # Add e.g. ``BOARDS["virtual"] = VirtualBoard`` below.
 # ---------------------------------------------------------------------------------------------
 
 
 class VirtualArmBoard(Board):
-    """The pure-Python virtual arm (``labkit.sim``) behind a lockstep ``sim://`` port.
+    """The pure-Python virtual arm (``labkit.arm``) behind a lockstep ``sim://`` port.
 
     Board time advances only when the suite waits (``advance``) or blocks in ``readline``,
     so the suite runs as fast as the host can talk, deterministically.
@@ -113,7 +113,7 @@ class VirtualArmBoard(Board):
     name = "virtual"
 
     def __init__(self):
-        from labkit.urlhandler import register
+        from labkit.arm.urlhandler import register
 
         register()
         self.port = None

@@ -10,7 +10,7 @@ Notebook authors may also reuse the helpers from other scripts::
 
 Each notebook: a first markdown cell saying what it reproduces (seed file + section), one
 ``parameters`` cell (papermill) whose defaults need no hardware, thin code cells that call
-labkit, and a last cell with the reproduced-vs-published assertions (:class:`labkit.nbtools.Checks`).
+labkit, and a last cell with the reproduced-vs-published assertions (:class:`labkit.reports.Checks`).
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def seed002_rotations():
         import numpy as np
 
         from labkit import rotations as rot
-        from labkit.nbtools import Checks, show_latex
+        from labkit.reports import Checks, show_latex
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -245,9 +245,9 @@ def seed002_puma():
         including the two values of theta1), section 2.3 (the number of IK solutions: 2 x 2 x 2 = 8)
         and section 2.4 (the GUI: here a function call per target, plus a 3D plot of all solutions).
 
-        Robot file: `data/robots/puma600_seed002.toml` (standard DH, l0 = 500, l1 = 500, l2 = 400,
-        l3 = 150, l_offset = 200 mm). Library: `labkit.kinematics`, `labkit.ik`, `labkit.symbolic`,
-        `labkit.plotting`.
+        Robot file: `labkit/data/robots/puma600_seed002.toml` (standard DH, l0 = 500, l1 = 500,
+        l2 = 400, l3 = 150, l_offset = 200 mm). Library: `labkit.kinematics` (`fk`, `ik_all`,
+        `ik_numeric`), `labkit.kinematics.symbolic`, `labkit.plotting`.
         """),
         parameters(f"""
         robot = "puma600_seed002"
@@ -260,10 +260,9 @@ def seed002_puma():
         import matplotlib.pyplot as plt
         import numpy as np
 
-        from labkit.dh import Robot
-        from labkit.ik import ik_all
-        from labkit.kinematics import fk
-        from labkit.nbtools import Checks, show_latex
+        from labkit.kinematics import fk, ik_all
+        from labkit.reports import Checks, show_latex
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -283,7 +282,7 @@ def seed002_puma():
         the type only affects their Jacobian code, not FK. labkit uses the table (all revolute).
         """),
         code("""
-        from labkit.symbolic import link_transforms
+        from labkit.kinematics.symbolic import link_transforms
 
         A = link_transforms(arm, q=[f"theta{i}" for i in range(1, 7)], length_unit="mm")
         for i in range(3):
@@ -305,7 +304,7 @@ def seed002_puma():
         The wrist centre $W = p - l_3 a$ fixes $\\theta_1$ (two solutions of
         $-s_1 p_{wx} + c_1 p_{wy} = l_{offset}$), then $\\theta_2$ (two) and $\\theta_3$ (one each),
         and the wrist gives two $(\\theta_4, \\theta_5, \\theta_6)$ sets: **8 solutions**.
-        `labkit.ik.ik_all` returns all of them with branch names; each is checked by FK.
+        `labkit.kinematics.ik_all` returns all of them with branch names; each is checked by FK.
         """),
         code("""
         sols = ik_all(arm, T)
@@ -324,11 +323,11 @@ def seed002_puma():
         """),
         md("""
         The seed's *first* method solved the equations numerically (`fsolve` from pi/6 guesses).
-        The numeric counterpart, `labkit.ik.ik_numeric` (damped least squares), converges to the
+        The numeric counterpart, `labkit.kinematics.ik_numeric` (damped least squares), converges to the
         branch nearest its start:
         """),
         code("""
-        from labkit.ik import ik_numeric
+        from labkit.kinematics import ik_numeric
 
         numeric = ik_numeric(arm, T, q0=np.full(6, 0.4))
         print("numeric IK from q0 = 0.4 rad:", np.round(numeric.q, 6), f"({int(numeric.iterations)} iterations,"
@@ -398,8 +397,9 @@ def seed002_rpp():
         $d_2 = d_3 = 1$ with $F = [1, 2, 3, 0, 0, 0]$: $\\tau = [2, 3, 1]$) and section 3.3 (the GUI:
         an interactive widget, a snapshot in the report).
 
-        Robot file: `data/robots/rpp_seed002.toml` (standard DH; $l_1$ does not enter the Jacobian).
-        Library: `labkit.symbolic`, `labkit.kinematics`, `labkit.statics`.
+        Robot file: `labkit/data/robots/rpp_seed002.toml` (standard DH; $l_1$ does not enter the
+        Jacobian). Library: `labkit.kinematics.symbolic`, `labkit.kinematics` (`jacobian`,
+        `joint_torques`).
         """),
         parameters(f"""
         robot = "rpp_seed002"
@@ -413,11 +413,9 @@ def seed002_rpp():
         import numpy as np
         import sympy as sp
 
-        from labkit import symbolic
-        from labkit.dh import Robot
-        from labkit.kinematics import jacobian
-        from labkit.nbtools import Checks, show_latex
-        from labkit.statics import joint_torques
+        from labkit.kinematics import jacobian, joint_torques, symbolic
+        from labkit.reports import Checks, show_latex
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -500,9 +498,10 @@ def seed002_wrist():
         (joint angles, rates and torques versus time; circle; arm at several instants) and section
         4.4 (the GUI animation, here a jshtml animation).
 
-        Robot file: `data/robots/puma_wrist_seed002.toml` (standard DH, lengths in mm in the file;
-        the tool transform is row (4) of table 3: point A). Library: `labkit.symbolic`,
-        `labkit.kinematics`, `labkit.statics`, `labkit.trajectory`, `labkit.plotting`.
+        Robot file: `labkit/data/robots/puma_wrist_seed002.toml` (standard DH, lengths in mm in the
+        file; the tool transform is row (4) of table 3: point A). Library:
+        `labkit.kinematics.symbolic`, `labkit.kinematics` (`fk_frames`, `jacobian`, `joint_torques`,
+        `transform_wrench`), `labkit.motion`, `labkit.plotting`.
         """),
         parameters(f"""
         robot = "puma_wrist_seed002"
@@ -519,12 +518,10 @@ def seed002_wrist():
         import numpy as np
         import sympy as sp
 
-        from labkit import symbolic
-        from labkit.dh import Robot
-        from labkit.kinematics import fk_frames, jacobian
-        from labkit.nbtools import Checks, show_latex
-        from labkit.statics import joint_torques, transform_wrench
-        from labkit.trajectory import Trajectory
+        from labkit.kinematics import fk_frames, jacobian, joint_torques, symbolic, transform_wrench
+        from labkit.motion import Trajectory
+        from labkit.reports import Checks, show_latex
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -681,7 +678,7 @@ def seed002_wrist():
         code("""
         from IPython.display import HTML
 
-        from labkit.plotting_anim import animate_arm
+        from labkit.plotting import animate_arm
 
         fig = plt.figure(figsize=(5.5, 4.5), dpi=72)
         ax = fig.add_subplot(projection="3d")
@@ -748,7 +745,7 @@ def servo_tracking():
 
         The seed publishes no servo numbers: the closing checks compare the model with closed-form
         second-order results and with the measured arm, and the seed's 0.1 s staircase with smooth
-        streaming. Library: `control`, `labkit.physics`, `labkit.trajectory`, `labkit.link`.
+        streaming. Library: `control`, `labkit.arm` (`PhysicsConfig`, `ServoBank`, `Arm`), `labkit.motion`.
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
@@ -769,10 +766,10 @@ def servo_tracking():
         import numpy as np
         import pandas as pd
 
-        from labkit.dh import Robot
-        from labkit.nbtools import Checks, show_latex
-        from labkit.physics import PhysicsConfig, ServoBank
-        from labkit.trajectory import joint_trajectory
+        from labkit.arm import PhysicsConfig, ServoBank
+        from labkit.motion import joint_trajectory
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -815,7 +812,7 @@ def servo_tracking():
         ### The rate limit
 
         A large step is limited by the servo speed: the reference ramps at `rate_limit` and then the
-        second-order dynamics follow. `labkit.physics.ServoBank` is the model the virtual arm runs
+        second-order dynamics follow. `labkit.arm.ServoBank` is the model the virtual arm runs
         (zero-order-hold discretisation of $G$ plus the rate limit; deadband off here).
         """),
         code("""
@@ -866,7 +863,7 @@ def servo_tracking():
         20 ms (50 Hz), which adds a small delay: it is estimated by least squares.
         """),
         code("""
-        from labkit.link import Arm
+        from labkit.arm import Arm
 
         with Arm(port, robot=robot) as arm:
             arm.move_joints(q0, wait=True)

@@ -7,7 +7,7 @@
 Same conventions as ``tools/make_notebooks.py`` (whose ``md``, ``code``, ``parameters`` and
 ``write_notebook`` helpers are reused): first markdown cell names the seed file and section, one
 papermill ``parameters`` cell with defaults that need no hardware, thin code cells calling labkit,
-and a closing :class:`labkit.nbtools.Checks` cell. Notebooks are written without outputs.
+and a closing :class:`labkit.reports.Checks` cell. Notebooks are written without outputs.
 """
 
 from __future__ import annotations
@@ -44,8 +44,8 @@ def seed000_dh():
         transforms ${{}}^{{i-1}}_iT$, their product ${{}}^0_3T$ and the closed-form end-effector
         position ${{}}^0P$. Every published matrix is compared symbolically with labkit's.
 
-        Robot file: `data/robots/arduino_arm_3dof.toml` (modified DH; $L_2$ is the tool point
-        on $x_3$). Library: `labkit.dh`, `labkit.symbolic`, `labkit.kinematics`.
+        Robot file: `labkit/data/robots/arduino_arm_3dof.toml` (modified DH; $L_2$ is the tool
+        point on $x_3$). Library: `labkit.robot`, `labkit.kinematics.symbolic`, `labkit.kinematics`.
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
@@ -57,10 +57,9 @@ def seed000_dh():
         import numpy as np
         import sympy as sp
 
-        from labkit import symbolic
-        from labkit.dh import Robot
-        from labkit.kinematics import fk_position
-        from labkit.nbtools import Checks, show_latex
+        from labkit.kinematics import fk_position, symbolic
+        from labkit.reports import Checks, show_latex
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -116,7 +115,7 @@ def seed000_dh():
         md(r"""
         ## The link transforms ${}^{i-1}_iT = R_x(\alpha_{i-1})\,D_x(a_{i-1})\,R_z(\theta_i)\,D_z(d_i)$
 
-        `labkit.symbolic.link_transforms` with the seed's length name $L_1$ (twists are exact
+        `labkit.kinematics.symbolic.link_transforms` with the seed's length name $L_1$ (twists are exact
         multiples of $\pi$, so the entries simplify to the published $0, \pm 1$):
         """),
         code(r"""
@@ -141,7 +140,7 @@ def seed000_dh():
         ## The chain ${}^0_3T = {}^0_1T\,{}^1_2T\,{}^2_3T$ and the end-effector position
 
         The published product (section II.3) is compared entry by entry; then the gripper point
-        ${}^0P = {}^0_3T\,[L_2, 0, 0, 1]^T$ from `labkit.symbolic.end_effector_position`.
+        ${}^0P = {}^0_3T\,[L_2, 0, 0, 1]^T$ from `labkit.kinematics.symbolic.end_effector_position`.
         """),
         code(r"""
         T03 = sp.simplify(A[0] * A[1] * A[2])
@@ -217,13 +216,13 @@ def seed000_fk_tables():
         Reproduces seed {SEED000}, **section II.4 "Checking the Calculations"**: one joint at a
         time at five angles (the others at 0), gripper position calculated by FK and measured
         with a ruler (mean ± range of three readings; ruler ± 0.05 cm). Tables 1, 2 and 3 are
-        rebuilt with the error tables of `labkit.errortables` from the transcribed measurements
-        in `data/measurements/seed000_fk_tables1-3.csv`, the published *calculated* columns are
+        rebuilt with the error tables of `labkit.measure` from the transcribed measurements
+        in `labkit/data/measurements/seed000_fk_tables1-3.csv`, the published *calculated* columns are
         audited against the model, and the seed's interpretation is checked against the data.
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
-        measurements = "seed000_fk_tables1-3.csv"        # file under data/measurements/ (or a path)
+        measurements = "seed000_fk_tables1-3.csv"        # file under labkit/data/measurements/ (or a path)
         published = "seed000_published_calculated.csv"  # the report's calculated values
         output_dir = {out_default(LAB000, name)}
         """),
@@ -234,11 +233,11 @@ def seed000_fk_tables():
         import numpy as np
         import pandas as pd
 
-        from labkit import errortables as et
-        from labkit.dh import Robot
+        from labkit.data import measurement_file
         from labkit.kinematics import fk_position
-        from labkit.measurement import load_measurements
-        from labkit.nbtools import Checks
+        from labkit.measure import audit_published, error_table, load_measurements, load_published
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -246,10 +245,10 @@ def seed000_fk_tables():
         checks = Checks("Seed 000 II.4 tables 1-3: reproduced vs published")
 
         def data_file(name):
-            return Path(name) if Path(name).exists() else et.seed_path(name)
+            return Path(name) if Path(name).exists() else measurement_file(name)
 
         readings = load_measurements(data_file(measurements))
-        errors = et.error_table(readings, arm)
+        errors = error_table(readings, arm)
         errors.table.to_csv(out / "fk_error_table.csv", index=False)
         print(f"{readings.pose_id.nunique()} poses, {len(readings)} summary rows (mean ± range of 3 readings each)")
         """),
@@ -264,7 +263,7 @@ def seed000_fk_tables():
         per_table = {}
         for k, joint in enumerate(["joint 1", "joint 2", "joint 3"], start=1):
             subset = readings[readings.pose_id.str.startswith(f"t{k}_")]
-            per_table[k] = et.error_table(subset, arm)
+            per_table[k] = error_table(subset, arm)
             display(per_table[k].style().set_caption(f"Table {k}: {joint} varied, the others at 0 deg"))
         """),
         code(r"""
@@ -306,8 +305,8 @@ def seed000_fk_tables():
         figures": half a unit of the last printed digit).
         """),
         code(r"""
-        published_values = et.load_published(data_file(published))
-        audit = et.audit_published(published_values[published_values["table"].isin(["table 1", "table 2", "table 3"])], arm)
+        published_values = load_published(data_file(published))
+        audit = audit_published(published_values[published_values["table"].isin(["table 1", "table 2", "table 3"])], arm)
         flagged = audit.flagged
         display(audit.style())
         flagged
@@ -378,7 +377,7 @@ def seed000_ik_table4():
         $\theta_3 = 180^\circ - k$; forward kinematics of its angles misses the target by 14-35 cm)
         and **table 4 row 5 is wrong** (published $\theta_1 = -45^\circ$ for target
         $(-0.10, 0.25, -0.01)$, where $\operatorname{{atan2}}(0.25, -0.10) = 111.8^\circ$).
-        Library: `labkit.ik`, `labkit.kinematics`, `labkit.errortables`, `labkit.plotting`.
+        Library: `labkit.kinematics` (`ik_all`, `fk_position`), `labkit.measure`, `labkit.plotting`.
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
@@ -393,13 +392,12 @@ def seed000_ik_table4():
         import numpy as np
         import pandas as pd
 
-        from labkit import errortables as et
-        from labkit.dh import Robot
-        from labkit.ik import ik_all
-        from labkit.kinematics import fk_position
-        from labkit.measurement import load_measurements
-        from labkit.nbtools import Checks
+        from labkit.data import measurement_file
+        from labkit.kinematics import fk_position, ik_all
+        from labkit.measure import audit_published, error_table, load_measurements, load_published
         from labkit.plotting import plot_arm
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -407,7 +405,7 @@ def seed000_ik_table4():
         checks = Checks("Seed 000 III: reproduced vs published")
 
         def data_file(name):
-            return Path(name) if Path(name).exists() else et.seed_path(name)
+            return Path(name) if Path(name).exists() else measurement_file(name)
 
         targets = np.array([[0.10, 0.10, -0.10], [0.15, 0.00, -0.10], [-0.10, 0.10, 0.00],
                             [0.20, 0.10, -0.05], [-0.10, 0.25, -0.01], [-0.08, 0.05, -0.10]])  # table 4 [m]
@@ -494,13 +492,13 @@ def seed000_ik_table4():
         """),
         code(r"""
         readings = load_measurements(data_file(measurements))
-        table4 = et.error_table(readings, arm, branch="elbow_up")
+        table4 = error_table(readings, arm, branch="elbow_up")
         table4.table.to_csv(out / "table4_errors.csv", index=False)
         table4.style().set_caption("Table 4 rebuilt (angles in degrees)")
         """),
         code(r"""
-        published_values = et.load_published(data_file(published))
-        audit = et.audit_published(published_values[published_values["table"] == "table 4"], arm)
+        published_values = load_published(data_file(published))
+        audit = audit_published(published_values[published_values["table"] == "table 4"], arm)
         display(audit.style())
         audit.flagged
         """),
@@ -567,7 +565,7 @@ def seed000_linear_motion():
         Here the arm is the built-in simulated arm (`port = "sim://..."`): its user potentiometer
         (ADC channel A5, read by `READ`) is turned by the notebook in steps; on a real board
         (`-p port /dev/ttyACM0`) turn the knob while the loop samples it. Every step goes
-        through `labkit.link.Arm.move_to` (IK on the elbow-up branch, limits checked before
+        through `labkit.arm.Arm.move_to` (IK on the elbow-up branch, limits checked before
         anything moves); the gripper position is then measured from the joint feedback.
         An ipywidgets slider stands in for the knob at the end (a snapshot in reports).
         """),
@@ -586,11 +584,11 @@ def seed000_linear_motion():
         import numpy as np
         import pandas as pd
 
-        from labkit.dh import Robot
+        from labkit.arm import Arm
         from labkit.kinematics import fk_position
-        from labkit.link import Arm
-        from labkit.nbtools import Checks
         from labkit.plotting import plot_arm
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -754,8 +752,7 @@ def seed000_cubic():
         $u_0 = (0, 0.18, -0.094)$ m to $u_f = (0.10, 0.15, -0.20)$ m in $t_f = 5$ s, sampled every
         0.1 s (figures 8.1-8.4), and IK gives the joint angles at every sample (section IV.3).
 
-        Library: `labkit.timelaw.cubic`, `labkit.cartesian` (`line`, `cartesian_trajectory`),
-        `labkit.plotting`.
+        Library: `labkit.motion` (`cubic`, `line`, `cartesian_trajectory`), `labkit.plotting`.
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
@@ -772,11 +769,10 @@ def seed000_cubic():
         import numpy as np
         import pandas as pd
 
-        from labkit.cartesian import cartesian_trajectory, line
-        from labkit.dh import Robot
-        from labkit.nbtools import Checks
+        from labkit.motion import cartesian_trajectory, cubic, line
         from labkit.plotting import plot_arm, plot_path_3d, plot_time_series
-        from labkit.timelaw import cubic
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -919,7 +915,7 @@ def seed000_pick_place():
         The seed's Arduino stored the whole angle list in arrays and ran out of memory
         ("stability problems, or the Arduino code will not compile"). The fix here: the host
         turns each leg into **cubic polynomial segments** and streams them into the board's small
-        segment queue (`labkit.link.Arm.run_trajectory`), so the board's memory use does not
+        segment queue (`labkit.arm.Arm.run_trajectory`), so the board's memory use does not
         grow with the trajectory. Runs on the simulated arm by default (`port = "sim://..."`).
         """),
         parameters(f"""
@@ -940,12 +936,12 @@ def seed000_pick_place():
         import numpy as np
         import pandas as pd
 
-        from labkit.cartesian import cartesian_trajectory, line
-        from labkit.dh import Robot
+        from labkit.arm import Arm, segments_from_trajectory
         from labkit.kinematics import fk_position
-        from labkit.link import Arm, segments_from_trajectory
-        from labkit.nbtools import Checks
+        from labkit.motion import cartesian_trajectory, line
         from labkit.plotting import plot_arm, plot_path_3d
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1084,7 +1080,7 @@ def seed000_calibration():
         a gravity-sag term) are fitted by least squares to the 15 measured poses of tables 1-3,
         with confidence intervals, residuals before/after, and a leave-one-pose-out check that
         shows whether the fit generalises or only follows the reading errors.
-        Library: `labkit.calibration`, `labkit.measurement`.
+        Library: `labkit.measure` (`calibrate`, `load_measurements`, `error_table`).
         """),
         parameters(f"""
         robot = "arduino_arm_3dof"
@@ -1098,17 +1094,16 @@ def seed000_calibration():
         import numpy as np
         import pandas as pd
 
-        from labkit import errortables as et
-        from labkit.calibration import calibrate
-        from labkit.dh import Robot
-        from labkit.measurement import load_measurements
-        from labkit.nbtools import Checks
+        from labkit.data import measurement_file
+        from labkit.measure import calibrate, error_table, load_measurements
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
         arm = Robot.load(robot)
         checks = Checks("Seed 000 calibration")
-        path = Path(measurements) if Path(measurements).exists() else et.seed_path(measurements)
+        path = Path(measurements) if Path(measurements).exists() else measurement_file(measurements)
         readings = load_measurements(path)
         fits = {
             "joint offsets": calibrate(readings, arm, params=("joint_offsets",)),
@@ -1165,7 +1160,7 @@ def seed000_calibration():
         residual, and the leave-one-pose-out RMS is at least the fit RMS (as it must be).
         """),
         code(r"""
-        errors = et.error_table(readings, arm).table
+        errors = error_table(readings, arm).table
         checks.check("RMS before = error-table RMS [m]", best.rms_before, np.sqrt(np.mean(errors.error**2)), tol=1e-12,
                      note="consistent with tables 1-3")
         for k, r in fits.items():
@@ -1195,7 +1190,7 @@ def seed003_fk_workspace():
         Found, not copied: the seed's transforms mix two conventions (a modified-DH table with
         standard-DH matrices), and its final $T^0_{{EE}}$ position is wrong (shown below).
         Robot files: `planar3r_seed003` (145/145/45 mm), `planar3r_seed003_135` (135/135/46.7 mm).
-        Library: `labkit.symbolic`, `labkit.kinematics`, `labkit.workspace`, `labkit.plotting`.
+        Library: `labkit.kinematics.symbolic`, `labkit.kinematics` (FK, workspace), `labkit.plotting`.
         """),
         parameters(f"""
         robot = "planar3r_seed003"            # the lab's arm (task 1 DH table)
@@ -1211,12 +1206,10 @@ def seed003_fk_workspace():
         import pandas as pd
         import sympy as sp
 
-        from labkit import symbolic
-        from labkit.dh import Robot
-        from labkit.kinematics import fk, fk_position
-        from labkit.nbtools import Checks, show_latex
+        from labkit.kinematics import fk_position, planar_region, symbolic, workspace_points
         from labkit.plotting import plot_arm, plot_workspace
-        from labkit.workspace import planar_region, workspace_points
+        from labkit.reports import Checks, show_latex
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1273,7 +1266,7 @@ def seed003_fk_workspace():
         md(r"""
         ## Workspace: figure 1 ($\pm 90^\circ$) and figure 2 ($\pm 45^\circ$)
 
-        Random joint samples through batched FK (`labkit.workspace`), as dots and as the filled
+        Random joint samples through batched FK (`labkit.kinematics.workspace_points`), as dots and as the filled
         region with its boundary; the area is measured on the occupancy grid.
         """),
         code(r"""
@@ -1326,7 +1319,7 @@ def seed003_cubic():
         `cubic_trajectory` for joint 1: 0 -> -0.8 rad, joint 2: 0 -> 0.8 rad and joint 3:
         1.57 -> 0.8 rad in 5 s (rest to rest), the coefficient table and the joint angles (and
         rates, accelerations) against time, checked against the robot's joint limits.
-        Library: `labkit.timelaw`, `labkit.trajectory`, `labkit.plotting`.
+        Library: `labkit.motion` (`joint_trajectory`), `labkit.plotting`.
         """),
         parameters(f"""
         robot = "planar3r_seed003"
@@ -1342,10 +1335,10 @@ def seed003_cubic():
         import matplotlib.pyplot as plt
         import numpy as np
 
-        from labkit.dh import Robot
-        from labkit.nbtools import Checks
+        from labkit.motion import joint_trajectory
         from labkit.plotting import plot_arm, plot_trajectory
-        from labkit.trajectory import joint_trajectory
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1413,7 +1406,7 @@ def seed003_ik_click():
 
         Live clicking needs `ipympl` (`%matplotlib widget`); without it, and in rendered reports,
         the clicks listed in the parameters are replayed through the same handler (static figure).
-        Library: `labkit.ik`, `labkit.plotting`.
+        Library: `labkit.kinematics` (`ik`, `ik_all`), `labkit.plotting`.
         """),
         parameters(f"""
         robot = "planar3r_seed003_135"    # the seed's example application (135/135/46.7 mm)
@@ -1430,12 +1423,11 @@ def seed003_ik_click():
         import numpy as np
         import pandas as pd
 
-        from labkit.dh import Robot
         from labkit.exceptions import JointLimitError, UnreachableError
-        from labkit.ik import ik, ik_all
-        from labkit.kinematics import fk
-        from labkit.nbtools import Checks
+        from labkit.kinematics import fk, ik, ik_all
         from labkit.plotting import plot_arm, plot_workspace
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1572,7 +1564,7 @@ def seed003_plot_manipulator():
         start and end configuration, and `plot_trajectory_within_workspace`: the workspace, the
         end-effector path, the start configuration in red and the end in green (figures 7-10; two
         random examples, seeded so that reports are reproducible).
-        Library: `labkit.plotting.plot_arm`, `plot_workspace`, `labkit.trajectory`.
+        Library: `labkit.plotting` (`plot_arm`, `plot_workspace`), `labkit.motion`.
         """),
         parameters(f"""
         robot = "planar3r_seed003"
@@ -1586,11 +1578,11 @@ def seed003_plot_manipulator():
         import matplotlib.pyplot as plt
         import numpy as np
 
-        from labkit.dh import Robot
         from labkit.kinematics import fk_position
-        from labkit.nbtools import Checks
+        from labkit.motion import joint_trajectory
         from labkit.plotting import END_COLOR, START_COLOR, plot_arm, plot_workspace
-        from labkit.trajectory import joint_trajectory
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1671,7 +1663,7 @@ def seed003_via_points():
         The Gazebo run is replaced by the built-in simulated arm (`port = "sim://..."`; a real
         board with `-p port /dev/ttyACM0`): the trajectory is streamed as polynomial segments and
         the joints are read back while it runs.
-        Library: `labkit.ik`, `labkit.trajectory.via_trajectory`, `labkit.link`, `labkit.plotting`.
+        Library: `labkit.kinematics`, `labkit.motion.via_trajectory`, `labkit.arm.Arm`, `labkit.plotting`.
         """),
         parameters(f"""
         robot = "planar3r_seed003"
@@ -1689,13 +1681,12 @@ def seed003_via_points():
         import numpy as np
         import pandas as pd
 
-        from labkit.dh import Robot
-        from labkit.ik import ik, ik_all
-        from labkit.kinematics import fk, fk_position
-        from labkit.link import Arm
-        from labkit.nbtools import Checks
+        from labkit.arm import Arm
+        from labkit.kinematics import fk, fk_position, ik, ik_all
+        from labkit.motion import via_trajectory
         from labkit.plotting import plot_arm, plot_time_series, plot_workspace
-        from labkit.trajectory import via_trajectory
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1828,7 +1819,7 @@ def seed004_ik():
         the verification plot of A.4 (the end effector, a red dot, must land on $(x_e, y_e)$ with
         orientation $\phi_e$), the `IK.m` function of part B (elbow minus) and `plotManipulator.m` of
         part C. The handout gives no numeric target: the parameters hold one.
-        Library: `labkit.ik.ik(..., branch="elbow_minus")`, `labkit.plotting.plot_arm`.
+        Library: `labkit.kinematics.ik(..., branch="elbow_minus")`, `labkit.plotting.plot_arm`.
         """),
         parameters(f"""
         robot = "planar3r_seed004"
@@ -1844,11 +1835,10 @@ def seed004_ik():
         import numpy as np
         import pandas as pd
 
-        from labkit.dh import Robot
-        from labkit.ik import ik, ik_all
-        from labkit.kinematics import fk, fk_frames
-        from labkit.nbtools import Checks
+        from labkit.kinematics import fk, fk_frames, ik, ik_all
         from labkit.plotting import plot_arm
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -1943,7 +1933,7 @@ def seed004_arc():
         Most of that circle is out of reach: its far side is $\lVert(0.1, 0.25)\rVert + 0.25 = 0.519$ m from the
         base, the arm reaches $0.47$ m. The default here is the quarter from $-90^\circ$ (the point
         (0.1, 0)) to $0^\circ$ ((0.35, 0.25)), the tool pointing radially outwards, elbow minus.
-        Library: `labkit.cartesian` (`arc`, `cartesian_trajectory`), `labkit.plotting`, `labkit.plotting_anim`.
+        Library: `labkit.motion` (`arc`, `cartesian_trajectory`), `labkit.plotting` (`plot_arm`, `animate_arm`).
         """),
         parameters(f"""
         robot = "planar3r_seed004"
@@ -1964,13 +1954,12 @@ def seed004_arc():
         import numpy as np
         from IPython.display import HTML
 
-        from labkit.cartesian import arc, cartesian_trajectory
-        from labkit.dh import Robot
         from labkit.exceptions import UnreachableError
         from labkit.kinematics import fk_position
-        from labkit.nbtools import Checks
-        from labkit.plotting import plot_arm, plot_time_series
-        from labkit.plotting_anim import animate_arm
+        from labkit.motion import arc, cartesian_trajectory
+        from labkit.plotting import animate_arm, plot_arm, plot_time_series
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -2058,7 +2047,7 @@ def seed004_line():
         effector follow a straight line that you determine; repeat parts C and D"): the line's
         endpoints, orientation and duration are parameters (`labkit run ... -p line_start
         "[0.3, -0.1]"`), with the manipulator configurations, the joint angles and the animation.
-        Library: `labkit.cartesian` (`line`, `cartesian_trajectory`), `labkit.plotting`, `labkit.plotting_anim`.
+        Library: `labkit.motion` (`line`, `cartesian_trajectory`), `labkit.plotting` (`plot_arm`, `animate_arm`).
         """),
         parameters(f"""
         robot = "planar3r_seed004"
@@ -2078,12 +2067,11 @@ def seed004_line():
         import numpy as np
         from IPython.display import HTML
 
-        from labkit.cartesian import cartesian_trajectory, line
-        from labkit.dh import Robot
         from labkit.kinematics import fk_position
-        from labkit.nbtools import Checks
-        from labkit.plotting import plot_arm, plot_time_series
-        from labkit.plotting_anim import animate_arm
+        from labkit.motion import cartesian_trajectory, line
+        from labkit.plotting import animate_arm, plot_arm, plot_time_series
+        from labkit.reports import Checks
+        from labkit.robot import Robot
 
         out = Path(output_dir)
         out.mkdir(parents=True, exist_ok=True)

@@ -2,15 +2,15 @@
 # Vendor the JavaScript that labkit's offline HTML reports embed, from npm (pinned versions):
 #   mathjax@3.2.2                      es5/tex-svg-full.js   (TeX -> SVG, glyphs built in: no font files)
 #   @jupyter-widgets/html-manager@1.0.15 dist/embed.js        (renders saved ipywidget state, ipywidgets 8)
-# Output: labkit/static/*.js.gz (committed; labkit.render inlines them into every report, so a
-# report never fetches anything at view time). Run this only to upgrade the pinned versions:
-#   tools/vendor-assets.sh && git add labkit/static
+# Output: labkit/reports/static/*.js.gz (committed; labkit.reports inlines them into every report,
+# so a report never fetches anything at view time). Run this only to upgrade the pinned versions:
+#   tools/vendor-assets.sh && git add labkit/reports/static
 # Needs npm (Debian package `npm`) and network access to the npm registry.
 set -eu
 MATHJAX=mathjax@3.2.2
 HTML_MANAGER=@jupyter-widgets/html-manager@1.0.15
 here=$(cd "$(dirname "$0")/.." && pwd)
-out="$here/labkit/static"
+out="$here/labkit/reports/static"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 cd "$tmp"

@@ -1,0 +1,569 @@
+"""Host link to the arm: a pyserial client of protocol v1 (``docs/protocol.md``).
+
+:class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected),
+the virtual arm (``sim://``) or the firmware simulator (``simavr://``),
+waits out the reset-on-open, shakes hands, and offers the lab operations in SI
+units: joint moves (checked against the robot file's limits and servo ranges
+*before* anything is sent), Cartesian moves through :func:`labkit.kinematics.ik`,
+trajectories streamed as polynomial segments, gripper, stop, joint read-back
+and feedback streams into pandas.
+
+Reliability rules (``docs/link.md``): every request carries a sequence id and
+a checksum; board lines with a bad checksum or an implausible content are
+dropped and counted, never used; idempotent requests are retried; a motion
+request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
+host asks ``STATUS`` whether it was executed and resends only if it was not;
+anything that cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
+
+Examples
+--------
+>>> with Arm("sim://?clock=lockstep") as arm:
+...     arm.move_joints([0.5, 0.8, 0.3], wait=True)
+...     q = arm.read_joints()
+>>> np.allclose(q, [0.5, 0.8, 0.3], atol=0.02)
+True
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.validation import as_vector
+from labkit.robot import Robot
+from labkit.exceptions import DeviceError, JointLimitError, OptionError, ProtocolError
+from labkit.arm._protocol import PROTOCOL_VERSION, cdeg
+from labkit.arm._replies import BoardInfo, parse_hello, parse_ping, parse_read, parse_status, parse_stop
+from labkit.arm._wire import Wire
+from labkit.arm._segments import feed_segments, segments_from_trajectory
+from labkit.arm._feedback import record_stream
+
+__all__ = ["Arm", "find_ports"]
+
+_ARDUINO_VIDS = {0x2341, 0x2A03, 0x1A86, 0x0403, 0x10C4, 0x239A}
+
+
+def find_ports():
+    """Serial ports that look like an Arduino (USB VID or description), best first.
+
+    Returns
+    -------
+    list of str
+        Device names (``/dev/ttyACM0``, ``COM3`` ...).
+    """
+    from serial.tools import list_ports
+
+    found = []
+    for p in list_ports.comports():
+        text = f"{p.description} {p.manufacturer or ''}".lower()
+        if p.vid in _ARDUINO_VIDS or "arduino" in text or "ch340" in text:
+            found.append(p.device)
+    return sorted(found, key=lambda d: ("ACM" not in d, d))
+
+
+def _on_wire(attr, doc, convert=None):
+    """A property of :class:`Arm` reading (and with ``convert``, setting) ``attr`` of its wire object."""
+
+    def get(self):
+        return getattr(self._wire, attr)
+
+    def set_(self, value):
+        setattr(self._wire, attr, convert(value))
+
+    return property(get, set_ if convert else None, doc=doc)
+
+
+class Arm:
+    """A connection to a labkit arm board (real, virtual or simulated firmware).
+
+    Parameters
+    ----------
+    port : str or serial-like, optional
+        Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``,
+        ``simavr://``, any pyserial URL) or an open pyserial-like object;
+        ``None`` auto-detects an Arduino-like port (:func:`find_ports`).
+    robot : Robot or str
+        The robot file whose servo calibrations and limits the host enforces.
+    baudrate : int
+    timeout : float
+        Reply timeout of one request attempt [s].
+    retries : int
+        Extra attempts of a request whose reply was lost or garbled.
+    boot_wait : float
+        How long to wait for the board's ``EV BOOT`` after opening [s].
+    sync_calibration : bool
+        Send the robot file's servo calibrations (``CAL``) after the handshake.
+    check_moves : bool
+        After each acknowledged ``MOVE``, read the commanded joints back with
+        ``STATUS`` and raise if they differ from what was sent.
+
+    Attributes
+    ----------
+    port, name, timeout, retries, stats, events, info
+        The link's state, kept by the arm's wire object (the request/retry
+        layer of ``_wire.py``): the open port, its name, the reply timeout [s]
+        and retry count (both settable), the :class:`LinkStats` counters, the
+        ``EV`` lines received and the :class:`BoardInfo` of the handshake.
+    virtual_model : ArmModel or None
+        The simulated arm behind a ``sim://`` or ``simavr://?physics=`` port
+        (true joints, ruler); ``None`` on a real board.
+
+    Raises
+    ------
+    DeviceError
+        No port found, the port cannot be opened, no handshake, wrong protocol
+        version or joint count.
+    """
+
+    def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
+                 boot_wait=2.5, sync_calibration=True, check_moves=True):
+        #: the robot file whose servo calibrations and limits the host enforces
+        self.robot = Robot.load(robot)
+        #: read the commanded joints back after every MOVE (protocol v1 cannot detect every corrupted line)
+        self.check_moves = bool(check_moves)
+        opened = self._open(port, baudrate)
+        name = getattr(opened, "port", None) or getattr(opened, "name", repr(opened))
+        self._wire = Wire(opened, name=name, timeout=timeout, retries=retries)
+        try:
+            self._handshake(boot_wait)
+            if sync_calibration:
+                self.sync_calibration()
+        except BaseException:
+            self.close()
+            raise
+
+    # -- opening ------------------------------------------------------------------------
+    @staticmethod
+    def _open(port, baudrate):
+        import serial
+
+        from labkit.arm.urlhandler import register
+
+        register()
+        if port is not None and not isinstance(port, (str, bytes)):
+            return port
+        if port is None:
+            ports = find_ports()
+            if not ports:
+                raise DeviceError("no Arduino-like serial port found; plug the board in, name the port "
+                                  "(e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'")
+            port = ports[0]
+        try:
+            return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise DeviceError(f"cannot open {port!r}: {exc}") from None
+
+    def _handshake(self, boot_wait):
+        self._wire.wait_boot(boot_wait)
+        try:
+            info = self._transact("HELLO", parse=parse_hello)
+        except DeviceError as exc:
+            raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
+        if not isinstance(info, BoardInfo):
+            raise ProtocolError(f"{self.name}: not a labkit arm: HELLO answered {info!r}")
+        self._wire.info = info
+        if info.protocol != PROTOCOL_VERSION:
+            raise DeviceError(f"{self.name}: board speaks protocol {info.protocol}, "
+                              f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+        if info.joints != self.robot.n:
+            raise DeviceError(f"{self.name}: board has {info.joints} joints, robot "
+                              f"{self.robot.name} has {self.robot.n}")
+
+    def close(self):
+        """Close the port (never raises, even if the port has vanished)."""
+        self._wire.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return f"Arm({self.name!r}, robot={self.robot.name!r})"
+
+    # -- the link's state, held by the wire object -------------------------------------------------
+    port = _on_wire("port", "The open pyserial-like port (``None`` after :meth:`close`).")
+    name = _on_wire("name", "Port name (``/dev/ttyACM0``, ``sim://...``) used in error messages.")
+    timeout = _on_wire("timeout", "Reply timeout of one request attempt [s] (settable).", float)
+    retries = _on_wire("retries", "Extra attempts of a request whose reply was lost or garbled (settable).", int)
+    stats = _on_wire("stats", "Counters of the wire (:class:`LinkStats`): bad lines, retries, frames lost...")
+    events = _on_wire("events", "``EV`` lines received so far, as ``(name, fields)`` tuples, oldest first.")
+    info = _on_wire("info", "The board's ``HELLO`` answer (:class:`BoardInfo`).")
+
+    @property
+    def virtual_model(self):
+        """The simulated arm behind the port, or ``None`` for a real board.
+
+        The :class:`ArmModel` of a virtual arm (``sim://``) or of the firmware
+        simulator with physics (``simavr://?physics=...``), also through port
+        wrappers such as :class:`FaultyPort`. It knows what a real arm hides:
+        the true joints (``true_q``), the injected zero offsets and a ruler
+        (``ruler(readings)`` [m]).
+
+        Returns
+        -------
+        ArmModel or None
+
+        Examples
+        --------
+        >>> with Arm("sim://?clock=lockstep") as arm:
+        ...     arm.virtual_model.ruler(2).shape
+        (2, 3)
+        """
+        port = self.port
+        for owner in (getattr(port, "board", None), getattr(port, "physics", None)):  # sim://, simavr://
+            model = getattr(owner, "model", None)
+            if model is not None:
+                return model
+        return None
+
+    def _clock(self):
+        return self._wire.clock()
+
+    def _transact(self, command, *args, **kwargs):
+        return self._wire.transact(command, *args, **kwargs)
+
+    def sleep(self, seconds):
+        """Wait ``seconds`` of board time while handling incoming lines.
+
+        Parameters
+        ----------
+        seconds : float
+            Time to wait [s] (board clock: simulated time on a virtual arm).
+        """
+        end = self._clock() + seconds
+        while (left := end - self._clock()) > 0:
+            self._wire.pump(min(left, 0.05))
+
+    # -- queries -----------------------------------------------------------------------------
+    def ping(self):
+        """Board clock [s] (also keeps the host-silence timer alive).
+
+        Returns
+        -------
+        float
+            Board time since reset [s] (millisecond resolution).
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
+        return self._transact("PING", parse=parse_ping)
+
+    def status(self, *, retries=None):
+        """The board's state (commanded joints, queue, counters) as a :class:`Status`.
+
+        Parameters
+        ----------
+        retries : int, optional
+            Resend attempts after a lost or garbled reply; default ``self.retries``.
+
+        Returns
+        -------
+        Status
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
+        queue = self.info.queue if self.info is not None else None
+        return self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+
+    def _verify_status(self):
+        # settling whether a motion request ran is worth a larger retry budget
+        return self.status(retries=4 * self.retries + 4)
+
+    def commanded_joints(self):
+        """Joint values the servos are commanded to now, shape (n,) [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Commanded joint values [rad] (from :meth:`status`).
+        """
+        return self.status().q
+
+    def read_adc(self):
+        """Raw feedback counts of every joint and the user pot (``READ``), shape (n + 1,).
+
+        Returns
+        -------
+        ndarray of int, shape (n + 1,)
+            ADC counts 0..1023 of joints 1..n, then the user pot.
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
+        return self._transact("READ", parse=lambda fields: parse_read(fields, self.robot.n))
+
+    def read_joints(self):
+        """Joint values sensed by the feedback pots, shape (n,) [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Sensed joint values [rad], from :meth:`read_adc` through each joint's
+            servo calibration.
+        """
+        adc = self.read_adc()
+        return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
+
+    # -- configuration ---------------------------------------------------------------------
+    def sync_calibration(self):
+        """Send every servo calibration of the robot file to the board (``CAL``, RAM only)."""
+        for j, lk in enumerate(self.robot.links):
+            cal = lk.servo
+            if cal is None:
+                continue
+            lo_a, hi_a = cal.angle_range
+            p0, p1 = cal.pulse_range
+            pmin = round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0))
+            pmax = round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0))
+            lo, hi = (cdeg(v) for v in lk.limits)
+            self._transact("CAL", cal.channel, pmin, pmax, cdeg(cal.zero), cal.direction, lo, hi)
+        g = self.robot.gripper
+        if g is not None:
+            self._transact("CAL", g.channel, min(g.open_us, g.closed_us), max(g.open_us, g.closed_us), 0, 1, 0, 18000)
+
+    def set_host_timeout(self, seconds):
+        """Host-silence timeout of the board [s] (0 disables it).
+
+        Parameters
+        ----------
+        seconds : float
+            Time without a host line after which the board holds [s]; sent
+            rounded to ms; 0 disables the timeout.
+        """
+        self._transact("TIMEOUT", int(round(seconds * 1000)))
+
+    # -- motion ----------------------------------------------------------------------------
+    def _check_q(self, q):
+        q = as_vector(q, self.robot.n, "q")
+        if q.ndim != 1:
+            raise JointLimitError(f"expected one configuration q with shape ({self.robot.n},), got {q.shape}")
+        self.robot.check_limits(q)
+        for j, lk in enumerate(self.robot.links):
+            if lk.servo is not None:
+                try:
+                    lk.servo.pulse_us(q[j])
+                except JointLimitError as exc:
+                    raise JointLimitError(f"{self.robot.name}: joint {j + 1}: {exc}", joint=j) from None
+        return q
+
+    def move_joints(self, q, *, wait=False, tol=math.radians(1.0), max_wait=10.0):
+        """Command all joints at once (``MOVE``).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Joint values [rad]; checked against the joint limits and servo
+            ranges before anything is sent.
+        wait : bool
+            Wait until the sensed joints are within ``tol`` [rad] of ``q``
+            (at most ``max_wait`` s).
+        tol : float
+            Settling tolerance per joint [rad] when ``wait``.
+        max_wait : float
+            Longest wait for settling [s of board time] when ``wait``.
+
+        Raises
+        ------
+        JointLimitError
+            A joint outside its limits or servo range (nothing is sent).
+        DeviceError
+            The board rejected or did not acknowledge the move, or (``wait``) the
+            joints did not settle in time.
+        """
+        q = self._check_q(q)
+        target = [cdeg(v) for v in q]
+
+        def verify():
+            return [cdeg(v) for v in self._verify_status().q] == target
+
+        self._transact("MOVE", *target, motion=True, verify=verify)
+        if self.check_moves and not verify():
+            raise DeviceError(f"{self.name}: the board is commanded to {self.status().q} rad, not the "
+                              f"{q} rad sent (a line corrupted in transit executed?) - check the arm")
+        if wait:
+            self.wait_settled(q, tol=tol, max_wait=max_wait)
+
+    def wait_settled(self, q, *, tol=math.radians(1.0), max_wait=10.0, interval=0.05):
+        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Target joint values [rad].
+        tol : float
+            Largest allowed ``|sensed - q|`` per joint [rad].
+        max_wait : float
+            Give up after this much board time [s].
+        interval : float
+            Board time between reads [s].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The last sensed joint values [rad].
+
+        Raises
+        ------
+        DeviceError
+            The joints did not settle within ``max_wait``.
+        """
+        end = self._clock() + max_wait
+        hits = 0
+        while self._clock() < end:
+            sensed = self.read_joints()
+            hits = hits + 1 if np.all(np.abs(sensed - q) <= tol) else 0
+            if hits >= 2:
+                return sensed
+            self.sleep(interval)
+        raise DeviceError(f"{self.name}: joints did not settle within {max_wait} s at tolerance "
+                          f"{math.degrees(tol):.2f} deg (sensed {np.degrees(sensed).round(2)} deg)")
+
+    def move_to(self, target, *, branch=None, wait=False):
+        """Move the tool to a Cartesian ``target`` through :func:`labkit.kinematics.ik` (nearest branch by default).
+
+        Parameters
+        ----------
+        target : array_like
+            Tool target for :func:`labkit.kinematics.ik`: position (3,) [m] for the
+            3-DOF arm.
+        branch : str, optional
+            IK branch (e.g. ``"elbow_up"``); default: the solution nearest the
+            commanded joints.
+        wait : bool
+            Wait until the joints settle (see :meth:`move_joints`).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The joint values commanded [rad].
+
+        Raises
+        ------
+        UnreachableError
+            The target is out of reach (nothing is sent).
+        JointLimitError, DeviceError
+            As for :meth:`move_joints`.
+        """
+        from labkit.kinematics import ik
+
+        current = self.commanded_joints()
+        q = ik(self.robot, target, branch=branch, q_near=None if branch else current)
+        self.move_joints(q, wait=wait)
+        return q
+
+    def grip(self, us):
+        """Gripper pulse width [us].
+
+        Parameters
+        ----------
+        us : float
+            Pulse width sent to the gripper servo [us] (rounded to an integer).
+        """
+        self._transact("GRIP", int(round(us)))
+
+    def open_gripper(self):
+        """Open the gripper (robot file's ``open_us``)."""
+        self.grip(self._gripper().open_us)
+
+    def close_gripper(self):
+        """Close the gripper (robot file's ``closed_us``)."""
+        self.grip(self._gripper().closed_us)
+
+    def _gripper(self):
+        if self.robot.gripper is None:
+            raise DeviceError(f"robot {self.robot.name} has no gripper in its robot file")
+        return self.robot.gripper
+
+    def stop(self):
+        """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad].
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Joint values the board holds [rad] (centidegree resolution).
+
+        Raises
+        ------
+        DeviceError
+            No valid reply after all retries.
+        """
+        return self._transact("STOP", parse=lambda fields: parse_stop(fields, self.robot.n))
+
+    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True):
+        """Stream a trajectory to the board's segment queue, keeping it fed.
+
+        Parameters
+        ----------
+        traj : labkit.motion.Trajectory or list of segments
+            A sampled trajectory (checked against the joint limits first) or
+            ``(dur_ms, order, coefficients)`` tuples from
+            :func:`segments_from_trajectory`.
+        order : {3, 5}
+            Polynomial order of the segments made from a sampled trajectory.
+        min_duration : float
+            Shortest segment made from a sampled trajectory [s].
+        progress : callable or bool, optional
+            ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
+        wait : bool
+            Wait for the board's ``EV DONE`` after the last segment.
+
+        Returns
+        -------
+        TrajectoryReport
+
+        Raises
+        ------
+        JointLimitError
+            A sample outside the joint limits or servo ranges (nothing is sent).
+        DeviceError
+            A segment rejected or lost, or the board held (host-silence timeout).
+        """
+        if isinstance(traj, (list, tuple)):
+            segs = list(traj)
+        else:
+            self.robot.check_limits(np.asarray(traj.q))
+            for row in np.asarray(traj.q):
+                self._check_q(row)
+            segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+        return feed_segments(self, segs, progress=progress, wait=wait)
+
+    # -- feedback ---------------------------------------------------------------------------
+    def stream(self, duration, *, hz=50):
+        """Record the feedback stream for ``duration`` seconds of board time.
+
+        Parameters
+        ----------
+        duration : float
+            Recording time [s of board time].
+        hz : int
+            Frame rate the board streams at [Hz], 1..200.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per frame received intact: ``t`` [s, board clock],
+            ``counter``, ``received`` (host UTC timestamp), ``adc<i>``,
+            ``pot`` and the sensed joints ``q_<name>`` [rad]. ``df.attrs``
+            holds ``expected`` (frames the board sent in the window, from its
+            clock), ``lost`` (expected but not received intact), ``rejected``
+            (lines dropped as corrupt while streaming) and ``hz``.
+
+        Raises
+        ------
+        OptionError
+            ``hz`` outside 1..200 (a ``ValueError``).
+        """
+        hz = int(hz)
+        if not 1 <= hz <= 200:
+            raise OptionError(f"expected hz in 1..200, got {hz}")
+        return record_stream(self._wire, self.robot, duration, hz)

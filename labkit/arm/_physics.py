@@ -1,0 +1,364 @@
+"""Physics of the virtual arm: servo dynamics, gravity sag, offsets, noise, a ruler.
+
+One model serves both simulated boards: the pure-Python virtual arm
+(:mod:`labkit.arm`) and the firmware-in-the-loop harness
+(:mod:`labkit.arm`, through :class:`FirmwareAdapter`, which only
+supplies pulse widths and takes analog feedback voltages back).
+
+Model, per joint ``j`` (see ``docs/virtual-arm.md``):
+
+* the commanded joint value passes a **deadband** (the servo ignores a new
+  command closer than ``deadband`` to where the shaft already is) and a
+  **rate limit** (the reference moves at most ``rate_limit`` [rad/s]), then a
+  **second-order transfer function** ``wn^2 / (s^2 + 2 zeta wn s + wn^2)``
+  built with :func:`control.tf` and discretised with
+  :func:`control.sample_system` (zero-order hold, step ``dt``);
+* the shaft position read by the servo's potentiometer is the model output;
+  the **true joint** adds a per-joint **zero-offset** error (horn mounted one
+  spline off, seeded) and the **gravity sag** of the links (joint compliance
+  times the gravity torque, quasi-static; the pot does not see it);
+* the **feedback** is the pot voltage as 10-bit ADC counts with Gaussian noise;
+* the **ruler** returns the true end-effector position with reading noise,
+  rounded to the ruler's resolution (seed 000: 0.5 mm).
+
+Everything random is drawn from generators seeded by :attr:`PhysicsConfig.seed`
+(independent streams for offsets, feedback noise and the ruler).
+
+Coordinates: the base frame of the robot file. The seed 000 arm's base z axis
+points **down** (its IK negates the user's Z; its shoulder sweeps over the top
+through q2 = 90 deg at z = -0.274 m), so gravity is ``+z`` by default.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.exceptions import OptionError, ShapeError
+from labkit.robot import Convention
+
+__all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "ADC_VREF", "ADC_MAX"]
+
+#: reference voltage and full scale of the board's 10-bit ADC (Arduino Uno)
+ADC_VREF = 5.0
+ADC_MAX = 1023
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """Parameters of the virtual arm's physics (all SI, frozen, seeded).
+
+    Attributes
+    ----------
+    seed : int
+        Seed of every random draw (offsets, feedback noise, ruler).
+    dt : float
+        Model step [s] (the servo transfer function is discretised with it).
+    natural_frequency : float
+        Closed-loop natural frequency of a servo [rad/s].
+    damping_ratio : float
+        Closed-loop damping ratio of a servo [1].
+    rate_limit : float or None
+        Largest reference speed [rad/s]; ``None`` uses each link's
+        ``max_velocity`` (or 5.24 rad/s = 300 deg/s where unknown).
+    deadband : float
+        Servo deadband [rad] (about 5 us of pulse on a hobby servo).
+    zero_offset_std : float
+        Standard deviation of the random per-joint zero-offset errors [rad].
+    zero_offsets : tuple of float or None
+        Explicit zero-offset errors per joint [rad] (overrides the random ones).
+    joint_compliance : float or tuple of float
+        Joint compliance [rad/(N m)] (scalar or per joint).
+    link_masses : tuple of float or None
+        Mass of each moving link [kg], lumped at the middle of the link
+        (``None``: 0.05 kg each).
+    tool_mass : float
+        Mass at the tool point (gripper with its servo) [kg].
+    gravity : tuple of float
+        Gravity in the robot's base frame [m/s^2] (default ``+z``, see module notes).
+    feedback_noise : float
+        Standard deviation of the feedback ADC noise [counts].
+    ruler_resolution : float
+        Ruler resolution [m]; readings are rounded to multiples of it.
+    ruler_noise : float
+        Standard deviation of a ruler reading before rounding [m].
+
+    Examples
+    --------
+    >>> cfg = PhysicsConfig(seed=3, deadband=0.0)
+    >>> cfg.ruler_resolution
+    0.0005
+    """
+
+    seed: int = 0
+    dt: float = 0.005
+    natural_frequency: float = 25.0
+    damping_ratio: float = 0.8
+    rate_limit: float | None = None
+    deadband: float = math.radians(0.45)
+    zero_offset_std: float = math.radians(1.0)
+    zero_offsets: tuple | None = None
+    joint_compliance: float | tuple = 0.04
+    link_masses: tuple | None = None
+    tool_mass: float = 0.08
+    gravity: tuple = (0.0, 0.0, 9.81)
+    feedback_noise: float = 1.0
+    ruler_resolution: float = 0.5e-3
+    ruler_noise: float = 0.3e-3
+
+    def __post_init__(self):
+        for name in ("dt", "natural_frequency", "damping_ratio"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise OptionError(f"expected {name} > 0, got {v!r}")
+        for name in ("deadband", "zero_offset_std", "tool_mass", "feedback_noise", "ruler_resolution", "ruler_noise"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise OptionError(f"expected {name} >= 0, got {v!r}")
+        if self.rate_limit is not None and not self.rate_limit > 0:
+            raise OptionError(f"expected rate_limit > 0 or None, got {self.rate_limit!r}")
+        if len(self.gravity) != 3:
+            raise ShapeError(f"expected gravity with 3 components, got {self.gravity!r}")
+
+    def streams(self):
+        """Independent generators ``(offsets, feedback, ruler)`` for this seed.
+
+        Returns
+        -------
+        tuple of numpy.random.Generator
+            Three generators spawned from ``SeedSequence(seed)``: the same
+            numbers on every call with the same seed.
+        """
+        return tuple(np.random.default_rng(s) for s in np.random.SeedSequence(self.seed).spawn(3))
+
+
+def _per_joint(value, n, name):
+    arr = np.broadcast_to(np.asarray(value, dtype=float), (n,)) if np.ndim(value) == 0 else np.asarray(value, float)
+    if arr.shape != (n,):
+        raise ShapeError(f"expected {name} as a scalar or {n} values, got shape {arr.shape}")
+    return arr.copy()
+
+
+def gravity_sag(robot, q, config=PhysicsConfig()):
+    """Quasi-static joint deflection under gravity.
+
+    Each link's mass sits at the middle of the link (between the origins of
+    consecutive frames, the last link ending at the tool point, which also
+    carries ``tool_mass``); the deflection of joint ``j`` is its compliance
+    times the gravity torque about its axis.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., n)
+        Joint values [rad, m] (the pose that carries the load).
+    config : PhysicsConfig
+
+    Returns
+    -------
+    dq : ndarray, shape (..., n)
+        Joint deflection [rad] (zero for prismatic joints).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> dq = gravity_sag(arm, [0.0, 0.0, 0.0])   # arm horizontal: the shoulder yields most
+    >>> np.round(np.degrees(dq), 2)
+    array([ 0.  , -0.75,  0.42])
+    """
+    from labkit.kinematics import fk_frames
+
+    n = robot.n
+    T = fk_frames(robot, q)  # (..., n + 2, 4, 4)
+    origins = T[..., :3, 3]
+    zs = T[..., :3, 2]
+    masses = _per_joint(0.05 if config.link_masses is None else config.link_masses, n, "link_masses")
+    compliance = _per_joint(config.joint_compliance, n, "joint_compliance")
+    g = np.asarray(config.gravity, dtype=float)
+    # joint j's axis: frame j (modified DH) or frame j-1 (standard DH)
+    shift = 1 if robot.convention is Convention.MODIFIED else 0
+    # link k (1..n) spans frame k -> frame k+1 (frame n+1 = tool)
+    centres = 0.5 * (origins[..., 1:n + 1, :] + origins[..., 2:n + 2, :])
+    tip = origins[..., n + 1, :]
+    tau = np.zeros(np.shape(q)[:-1] + (n,))
+    rev = robot.is_revolute
+    for j in range(n):
+        if not rev[j]:
+            continue
+        z = zs[..., j + shift, :]
+        o = origins[..., j + shift, :]
+        # every link from j on moves with joint j
+        load = np.cross(tip - o, config.tool_mass * g)
+        for k in range(j, n):
+            load = load + np.cross(centres[..., k, :] - o, masses[k] * g)
+        tau[..., j] = np.sum(z * load, axis=-1)
+    return compliance * tau
+
+
+class ServoBank:
+    """Discretised second-order servo models of all joints, stepped together.
+
+    Parameters
+    ----------
+    robot : Robot
+    config : PhysicsConfig
+    q0 : array_like, shape (n,), optional
+        Initial shaft positions [rad] (default zeros, clipped to the limits).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> bank = ServoBank(Robot.load("arduino_arm_3dof"), PhysicsConfig(deadband=0.0))
+    >>> bank.command([0.5, 0.5, 0.5])
+    >>> bank.advance(2.0)
+    >>> np.allclose(bank.position, 0.5, atol=1e-3)
+    True
+    """
+
+    def __init__(self, robot, config=PhysicsConfig(), q0=None):
+        import control
+
+        self.robot = robot
+        self.config = config
+        n = robot.n
+        wn, z = config.natural_frequency, config.damping_ratio
+        sys_c = control.tf([wn * wn], [1.0, 2.0 * z * wn, wn * wn])
+        sys_d = control.sample_system(sys_c, config.dt, method="zoh")
+        ss = control.tf2ss(sys_d)
+        #: the discrete transfer function of one servo (for inspection / docs)
+        self.transfer_function = sys_d
+        self._A = [[float(v) for v in row] for row in np.asarray(ss.A)]
+        self._B = [float(v) for v in np.asarray(ss.B).ravel()]
+        self._C = [float(v) for v in np.asarray(ss.C).ravel()]
+        self._D = float(np.asarray(ss.D).ravel()[0])
+        self._dc = self._dc_state()
+        if config.rate_limit is None:
+            rl = [lk.max_velocity if math.isfinite(lk.max_velocity) else math.radians(300) for lk in robot.links]
+        else:
+            rl = [config.rate_limit] * n
+        self._max_step = [r * config.dt for r in rl]
+        q0 = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float).reshape(n)
+        q0 = np.clip(q0, robot.joint_limits[:, 0], robot.joint_limits[:, 1])
+        self.time = 0.0
+        self.reset(q0)
+
+    def _dc_state(self):
+        # steady state x for unit input: x = (I - A)^-1 B
+        A = np.asarray(self._A)
+        B = np.asarray(self._B)
+        return np.linalg.solve(np.eye(len(B)) - A, B)
+
+    def reset(self, q):
+        """Put every servo at rest at shaft positions ``q`` [rad].
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Shaft positions [rad]; they also become the commands.
+        """
+        q = [float(v) for v in np.asarray(q, dtype=float).reshape(self.robot.n)]
+        self._x = [[float(v) * qi for v in self._dc] for qi in q]
+        self._ref = list(q)
+        self._target = list(q)
+        self._cmd = list(q)
+        self._y = list(q)
+        self._yprev = list(q)
+
+    def command(self, q):
+        """Set the commanded shaft positions [rad] (shape (n,)).
+
+        A changed command closer than ``deadband`` to the shaft position is
+        ignored (the servo holds where it is), as a hobby servo does.
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+            Commanded shaft positions [rad].
+        """
+        new = [float(v) for v in np.asarray(q, dtype=float).reshape(self.robot.n)]
+        db = self.config.deadband
+        for j, c in enumerate(new):
+            if c != self._cmd[j]:
+                self._target[j] = c if abs(c - self._y[j]) > db else self._y[j]
+        self._cmd = new
+
+    @property
+    def commanded(self):
+        """Commanded shaft positions, shape (n,) [rad]."""
+        return np.array(self._cmd)
+
+    @property
+    def position(self):
+        """Shaft positions, shape (n,) [rad]."""
+        return np.array(self._y)
+
+    @property
+    def velocity(self):
+        """Shaft speeds (finite difference over the last step), shape (n,) [rad/s]."""
+        return (np.array(self._y) - np.array(self._yprev)) / self.config.dt
+
+    def settled(self, tol=math.radians(0.5), speed=math.radians(2.0)):
+        """Whether every shaft is within ``tol`` of its command (deadband included) and slower than ``speed``.
+
+        Parameters
+        ----------
+        tol : float
+            Largest position error [rad], on top of the deadband.
+        speed : float
+            Largest shaft speed [rad/s].
+
+        Returns
+        -------
+        bool
+        """
+        err = np.abs(self.position - self.commanded)
+        return bool(np.all(err <= tol + self.config.deadband) and np.all(np.abs(self.velocity) <= speed))
+
+    def step(self, steps=1):
+        """Advance the model by ``steps`` steps of ``dt``.
+
+        Parameters
+        ----------
+        steps : int
+            Number of time steps of ``config.dt`` [s].
+        """
+        A, B, C, D = self._A, self._B, self._C, self._D
+        n = self.robot.n
+        for _ in range(int(steps)):
+            for j in range(n):
+                d = self._target[j] - self._ref[j]
+                m = self._max_step[j]
+                self._ref[j] += m if d > m else (-m if d < -m else d)
+                u = self._ref[j]
+                x = self._x[j]
+                y = C[0] * x[0] + C[1] * x[1] + D * u
+                self._x[j] = [A[0][0] * x[0] + A[0][1] * x[1] + B[0] * u, A[1][0] * x[0] + A[1][1] * x[1] + B[1] * u]
+                self._yprev[j] = self._y[j]
+                self._y[j] = y
+        self.time += steps * self.config.dt
+
+    def advance(self, duration):
+        """Advance by ``duration`` seconds (rounded to whole steps) [s].
+
+        Parameters
+        ----------
+        duration : float
+            Time to simulate [s], rounded to a whole number of ``config.dt`` steps.
+        """
+        self.step(int(round(duration / self.config.dt)))
+
+    def advance_to(self, t):
+        """Advance to model time ``t`` [s] (no-op if already there).
+
+        Parameters
+        ----------
+        t : float
+            Model time to reach [s] (whole steps only: the model stops at or
+            just before ``t``).
+        """
+        steps = int((t - self.time) / self.config.dt + 1e-9)
+        if steps > 0:
+            self.step(steps)

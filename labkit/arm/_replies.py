@@ -1,0 +1,155 @@
+"""The board's replies in SI units (private; the public names are re-exported by :mod:`labkit.arm`).
+
+The fields after ``OK [#seq] <COMMAND>`` of ``HELLO``, ``PING``, ``STATUS``,
+``READ`` and ``STOP`` (``docs/protocol.md`` section 4) as Python values. A
+field that passed the (weak) XOR checksum but is still malformed raises
+:class:`~labkit.exceptions.ProtocolError`; the wire layer counts it as a bad
+line and asks again.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.exceptions import ProtocolError
+from labkit.arm._protocol import board_int
+
+__all__ = ["BoardInfo", "Status"]
+
+
+@dataclass(frozen=True)
+class BoardInfo:
+    """``HELLO`` answer: firmware version, protocol, joints, channels, queue depth, max line length."""
+
+    firmware: str
+    protocol: int
+    joints: int
+    channels: int
+    queue: int
+    maxline: int
+
+
+@dataclass(frozen=True)
+class Status:
+    """``STATUS`` answer in SI units (``q`` [rad], ``t`` [s], ``timeout`` [s])."""
+
+    state: str
+    q: np.ndarray
+    grip_us: int
+    queue: int
+    free: int
+    done: int
+    timeout: float
+    stream_hz: int
+    flags: int
+    mem: int
+    t: float
+
+
+def parse_hello(fields):
+    """``HELLO`` reply fields -> :class:`BoardInfo` (the joined text if it is not a labkit arm).
+
+    Parameters
+    ----------
+    fields : list of str
+        Reply tokens after ``OK [#seq] HELLO``.
+
+    Returns
+    -------
+    BoardInfo or str
+    """
+    kv = dict(tok.split("=", 1) for tok in fields[1:] if "=" in tok)
+    if fields[:1] != ["labkit-arm"]:
+        return " ".join(fields)
+    return BoardInfo(kv["fw"], board_int(kv["proto"]), board_int(kv["joints"]), board_int(kv["channels"]),
+                     board_int(kv["queue"]), board_int(kv["maxline"]))
+
+
+def parse_ping(fields):
+    """``PING`` reply fields -> board time [s].
+
+    Parameters
+    ----------
+    fields : list of str
+        Reply tokens after ``OK [#seq] PING``.
+
+    Returns
+    -------
+    float
+    """
+    if len(fields) != 1:
+        raise ProtocolError(f"expected one field (board time in ms), got {fields!r}")
+    return board_int(fields[0]) / 1000.0
+
+
+def parse_read(fields, n):
+    """``READ`` reply fields -> ADC counts of ``n`` joints and the user pot.
+
+    Parameters
+    ----------
+    fields : list of str
+        Reply tokens after ``OK [#seq] READ``.
+    n : int
+        Joint count.
+
+    Returns
+    -------
+    ndarray of int, shape (n + 1,)
+    """
+    vals = [board_int(v) for v in fields]
+    if len(vals) != n + 1 or not all(0 <= v <= 1023 for v in vals):
+        raise ProtocolError(f"expected {n + 1} counts 0..1023, got {fields!r}")
+    return np.array(vals)
+
+
+def parse_stop(fields, n):
+    """``STOP`` reply fields -> the held joint values [rad] (sent in centidegrees).
+
+    Parameters
+    ----------
+    fields : list of str
+        Reply tokens after ``OK [#seq] STOP``.
+    n : int
+        Joint count.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    if len(fields) != n:
+        raise ProtocolError(f"expected {n} joint values, got {fields!r}")
+    return np.radians(np.array([board_int(v) for v in fields]) / 100.0)
+
+
+def parse_status(fields, n, queue_depth=None):
+    """``STATUS`` reply fields -> :class:`Status`.
+
+    Parameters
+    ----------
+    fields : list of str
+        Reply tokens after ``OK [#seq] STATUS`` (``key=value``).
+    n : int
+        Joint count.
+    queue_depth : int, optional
+        The board's queue depth (``HELLO``); ``queue + free`` must equal it.
+
+    Returns
+    -------
+    Status
+    """
+    kv = dict(tok.split("=", 1) for tok in fields)
+    q = [board_int(v) for v in kv["q"].split(",")]
+    if len(q) != n or kv["state"] not in ("IDLE", "RUN", "HOLD"):
+        raise ProtocolError(f"expected {n} joint values and state IDLE, RUN or HOLD, "
+                            f"got q={kv['q']} state={kv['state']}")
+    if not re.fullmatch(r"[0-9A-Fa-f]{1,8}", kv["flags"]):
+        raise ProtocolError(f"expected flags as 1 to 8 hex digits, got {kv['flags']!r}")
+    st = Status(kv["state"], np.radians(np.array(q) / 100.0), board_int(kv["grip"]), board_int(kv["queue"]),
+                board_int(kv["free"]), board_int(kv["done"]), board_int(kv["timeout"]) / 1000.0,
+                board_int(kv["stream"]), int(kv["flags"], 16), board_int(kv["mem"]), board_int(kv["t"]) / 1000.0)
+    if queue_depth is not None and st.queue + st.free != queue_depth:
+        raise ProtocolError(f"expected queue + free = {queue_depth} (queue depth), got {st.queue} + {st.free}")
+    return st

@@ -1,0 +1,178 @@
+"""Trajectories as protocol segments (private; re-exported by :mod:`labkit.arm`).
+
+The board's ``SEG`` command takes one polynomial per joint over normalised
+time, with integer centidegree coefficients (``docs/protocol.md``).
+:func:`segments_from_trajectory` turns a sampled trajectory into such
+segments; :func:`feed_segments` streams them into the board's queue for
+:meth:`labkit.arm.Arm.run_trajectory`, which reports a :class:`TrajectoryReport`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.exceptions import DeviceError, OptionError
+from labkit.arm._protocol import CommandRejected
+
+__all__ = ["TrajectoryReport", "segments_from_trajectory"]
+
+
+@dataclass(frozen=True)
+class TrajectoryReport:
+    """Outcome of :meth:`Arm.run_trajectory`: segments sent, retries, underruns, board time [s]."""
+
+    segments: int
+    retries: int
+    queue_full_waits: int
+    underruns: int
+    duration: float
+
+
+def _hermite(q0, v0, a0, q1, v1, a1, T, order):
+    """Normalised-time polynomial coefficients [cdeg] of one joint over ``T`` s (end point exact)."""
+    d0, d1 = math.degrees(q0) * 100, math.degrees(q1) * 100
+    v0, v1 = math.degrees(v0) * 100 * T, math.degrees(v1) * 100 * T
+    if order == 3:
+        c = [d0, v0, 3 * (d1 - d0) - 2 * v0 - v1, -2 * (d1 - d0) + v0 + v1]
+    else:
+        a0, a1 = math.degrees(a0) * 100 * T * T, math.degrees(a1) * 100 * T * T
+        h = d1 - d0
+        c = [d0, v0, a0 / 2, 10 * h - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
+             -15 * h + 8 * v0 + 7 * v1 + 1.5 * a0 - a1, 6 * h - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1]
+    c = [int(round(v)) for v in c]
+    c[-1] = int(round(d1)) - sum(c[:-1])
+    return c
+
+
+def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
+    """Protocol segments ``(dur_ms, order, coefficients)`` of a sampled trajectory.
+
+    Consecutive samples (merged until at least ``min_duration`` apart) become
+    one Hermite polynomial each, matching position and velocity (and
+    acceleration for ``order=5``) at both ends; coefficients are integer
+    centidegrees over normalised time, the end point of each segment is the
+    exact start of the next.
+
+    Parameters
+    ----------
+    traj : labkit.motion.Trajectory
+        Samples ``t`` (m,), ``q``/``qd``/``qdd`` (m, n) [s, rad, rad/s, rad/s^2].
+    order : {3, 5}
+    min_duration : float
+        Shortest segment [s].
+
+    Returns
+    -------
+    list of tuple
+        ``(dur_ms, order, coefficients)`` with ``n * (order + 1)`` coefficients.
+
+    Raises
+    ------
+    OptionError
+        ``order`` is neither 3 nor 5.
+    """
+    if order not in (3, 5):
+        raise OptionError(f"expected order 3 or 5, got {order!r}")
+    t = np.asarray(traj.t, float)
+    q, qd = np.asarray(traj.q, float), np.asarray(traj.qd, float)
+    qdd = np.asarray(traj.qdd, float) if traj.qdd is not None else np.zeros_like(q)
+    keep = [0]
+    for k in range(1, len(t)):
+        if t[k] - t[keep[-1]] >= min_duration - 1e-9 or k == len(t) - 1:
+            keep.append(k)
+    segs = []
+    for a, b in zip(keep[:-1], keep[1:]):
+        T = round((t[b] - t[a]) * 1000) / 1000
+        if T <= 0:
+            continue
+        coef = []
+        for j in range(q.shape[1]):
+            coef += _hermite(q[a, j], qd[a, j], qdd[a, j], q[b, j], qd[b, j], qdd[b, j], T, order)
+        segs.append((int(round(T * 1000)), order, coef))
+    return segs
+
+
+def feed_segments(arm, segs, *, progress=None, wait=True):
+    """Stream ``segs`` to the board's segment queue through ``arm``, keeping the queue fed.
+
+    A full queue (``ERR 7 QFULL``) is waited out, an acknowledgement lost on
+    the wire is settled by asking ``STATUS`` (the segment is never blindly
+    sent twice), and ``EV DONE`` before the last segment counts as an underrun.
+
+    Parameters
+    ----------
+    arm : labkit.arm.Arm
+        The open link.
+    segs : list of tuple
+        ``(dur_ms, order, coefficients)`` from :func:`segments_from_trajectory`.
+    progress : callable or bool, optional
+        ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
+    wait : bool
+        Wait until the board has run every segment.
+
+    Returns
+    -------
+    TrajectoryReport
+
+    Raises
+    ------
+    DeviceError
+        A segment rejected or lost, or the board held (host-silence timeout).
+    """
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(segs), unit="seg")
+        progress = lambda k, n: bar.update(1)  # noqa: E731
+    st = arm.status()
+    accepted = st.done + st.queue
+    t_start = st.t
+    retries0, qfull, underruns = arm.stats.retries, 0, 0
+    dones_seen = len([e for e in arm.events if e[0] == "DONE"])
+    for k, (dur, order_k, coef) in enumerate(segs):
+        def verify(expected=accepted):
+            s = arm._verify_status()
+            if s.state == "HOLD":
+                raise DeviceError(f"{arm.name}: the board halted the trajectory (host-silence timeout)")
+            total = s.done + s.queue
+            if total not in (expected, expected + 1):
+                raise DeviceError(f"{arm.name}: segment bookkeeping lost (board {total}, host {expected})")
+            return total == expected + 1
+
+        while True:
+            try:
+                r = arm._transact("SEG", dur, order_k, *coef, motion=True, verify=verify)
+                break
+            except CommandRejected as exc:
+                if exc.code != 7:
+                    raise
+                qfull += 1
+                arm.sleep(min(dur / 2000.0, 0.1))
+                arm.ping()  # a rejected SEG does not reset the board's host-silence timer
+        accepted += 1
+        if len([e for e in arm.events if e[0] == "DONE"]) > dones_seen and k < len(segs):
+            underruns += 1
+            dones_seen = len([e for e in arm.events if e[0] == "DONE"])
+        if progress:
+            progress(k + 1, len(segs))
+        free = int(r.tokens[2]) if len(r.tokens) > 2 and r.tokens[2].isdigit() else 1
+        if free == 0:
+            arm.sleep(min(dur / 1000.0, 0.1))
+            arm.ping()
+    if bar is not None:
+        bar.close()
+    if wait:
+        end_needed = accepted
+        while True:
+            st = arm.status()
+            if st.state == "HOLD":
+                raise DeviceError(f"{arm.name}: the board halted the trajectory (host-silence timeout)")
+            if st.state == "IDLE" and st.done >= end_needed:
+                break
+            arm.sleep(0.1)
+    return TrajectoryReport(len(segs), arm.stats.retries - retries0, qfull, underruns,
+                            arm.status().t - t_start if wait else float("nan"))

@@ -1,0 +1,350 @@
+"""Wire layer of the host link (private; the public names are re-exported by :mod:`labkit.arm`).
+
+Everything between :class:`labkit.arm.Arm`'s lab operations and the serial
+port, in protocol v1 (``docs/protocol.md``): request lines with sequence id
+and checksum, the byte stream cut into lines, checksum checks of board lines,
+event handling, and the request/retry loop. :class:`Wire` owns one open
+port; ``Arm`` creates one and keeps it. What the fields of a reply mean is in
+``_replies.py``; feedback frames (``FB``) go to whatever sink is set as
+:attr:`Wire.frames` (see ``_feedback.py``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from labkit.exceptions import DeviceError, ProtocolError
+from labkit.arm._protocol import MAX_LINE, NOT_EXECUTED, STRICT_INT, CommandRejected, seal, unseal
+
+__all__ = ["LinkStats"]
+
+
+class _NoReply(DeviceError):
+    """No usable reply to one attempt (raised and caught inside :meth:`Wire.transact`)."""
+
+    def __init__(self, why, executed=None):
+        self.why = why
+        self.executed = executed  # False: surely not executed; None: unknown
+        super().__init__(why)
+
+
+@dataclass
+class LinkStats:
+    """Counters of everything that went wrong on the wire (nothing is hidden)."""
+
+    sent: int = 0
+    replies: int = 0
+    bad_lines: int = 0
+    timeouts: int = 0
+    retries: int = 0
+    verified: int = 0
+    frames: int = 0
+    lost_frames: int = 0
+    rejected_frames: int = 0
+
+
+@dataclass
+class _Line:
+    kind: str  # OK, ERR
+    seq: int | None
+    tokens: list = field(default_factory=list)
+
+
+class Wire:
+    """Byte, line and request layer of one board connection (held by :class:`labkit.arm.Arm`).
+
+    Owns the link state: the open ``port``, its ``name``, reply ``timeout``
+    [s], ``retries``, ``stats`` (:class:`LinkStats`), ``events`` (``EV``
+    lines received), ``info`` (:class:`BoardInfo` once the owner has shaken
+    hands), ``frames`` (sink of ``FB`` lines while a stream is recorded) and
+    the line buffers.
+
+    Parameters
+    ----------
+    port : serial-like
+        An open pyserial-like port.
+    name : str
+        Port name used in error messages.
+    timeout : float
+        Reply timeout of one request attempt [s].
+    retries : int
+        Extra attempts of a request whose reply was lost or garbled.
+    """
+
+    def __init__(self, port, *, name, timeout, retries):
+        self.port = port
+        self.name = name
+        self.timeout = float(timeout)
+        self.retries = int(retries)
+        self.stats = LinkStats()
+        self.events = []
+        self.info = None
+        #: object with ``add(tokens)`` receiving every ``FB`` line, or None (frames are ignored)
+        self.frames = None
+        #: an ``EV BOOT`` has been received since the port was opened
+        self.booted = False
+        self._seq = 0
+        self._buf = bytearray()
+        self._lines = []
+
+    def close(self):
+        """Close the port (never raises, even if the port has vanished)."""
+        port, self.port = self.port, None
+        if port is not None:
+            try:
+                port.close()
+            except Exception:  # noqa: BLE001 - closing a vanished port must not raise
+                pass
+
+    # -- time --------------------------------------------------------------------------
+    def clock(self):
+        """Board time [s] for a simulated board (``sim://``), else the wall clock.
+
+        All waits and timeouts of the link are in these seconds, so a virtual arm
+        running faster than real time keeps its timing.
+
+        Returns
+        -------
+        float
+            Seconds (board time since power-up, or ``time.monotonic()``).
+        """
+        board = getattr(self.port, "board", None)
+        if board is None:
+            return time.monotonic()
+        if getattr(self.port, "clock", "") == "realtime":
+            self.io(lambda: self.port.in_waiting)  # brings the board up to date
+        return board.time
+
+    def _port_seconds(self, seconds):
+        """Read timeout for the port that lets ``seconds`` of :meth:`clock` pass."""
+        if getattr(self.port, "clock", "") == "realtime":
+            return seconds / self.port.time_scale
+        return seconds
+
+    # -- bytes and lines ---------------------------------------------------------------------
+    def io(self, fn, *args):
+        """Call a port function, turning a failing or vanished port into :class:`DeviceError`.
+
+        Parameters
+        ----------
+        fn : callable
+            A port method (or a function reading a port property).
+        *args
+            Its arguments.
+
+        Returns
+        -------
+        object
+            What ``fn`` returned.
+        """
+        import serial
+
+        if self.port is None:
+            raise DeviceError("the link is closed")
+        try:
+            return fn(*args)
+        except (serial.SerialException, OSError) as exc:
+            raise DeviceError(f"{self.name}: port vanished or failed: {exc}") from None
+
+    def _send(self, text):
+        self.io(self.port.write, text.encode("ascii"))
+        self.stats.sent += 1
+
+    def pump(self, timeout):
+        """Read for up to ``timeout`` s of :meth:`clock` and handle complete lines (early once one arrived).
+
+        Parameters
+        ----------
+        timeout : float
+            Longest wait [s].
+
+        Returns
+        -------
+        bool
+            Whether at least one line was handled.
+        """
+        port = self.port
+        if port is None:
+            raise DeviceError("the link is closed")
+        port.timeout = max(self._port_seconds(timeout), 0.0)
+        waiting = self.io(lambda: port.in_waiting)
+        chunk = self.io(port.read, max(1, waiting))
+        if not chunk:
+            return False
+        self._buf += chunk
+        got = False
+        while True:
+            k = min((i for i in (self._buf.find(b"\n"), self._buf.find(b"\r")) if i >= 0), default=-1)
+            if k < 0:
+                if len(self._buf) > 4 * MAX_LINE:
+                    self._buf.clear()
+                    self.stats.bad_lines += 1
+                break
+            raw = bytes(self._buf[:k])
+            del self._buf[:k + 1]
+            if raw:
+                self._dispatch(raw)
+                got = True
+        return got
+
+    def _dispatch(self, raw):
+        body = unseal(raw)
+        if body is None:
+            self.stats.bad_lines += 1
+            return
+        tokens = body.decode("ascii").split()
+        kind = tokens[0] if tokens else ""
+        if kind == "FB":
+            if self.frames is not None:
+                self.frames.add(tokens)
+            return
+        if kind == "EV" and len(tokens) >= 2:
+            if tokens[1] == "BOOT":
+                if self.booted and self.info is not None:
+                    self.events.append(("BOOT-UNEXPECTED", tokens[2:]))
+                self.booted = True
+            self.events.append((tokens[1], tokens[2:]))
+            return
+        if kind in ("OK", "ERR") and len(tokens) >= 2:
+            seq = None
+            if tokens[1].startswith("#"):
+                if not STRICT_INT.match(tokens[1][1:]):
+                    self.stats.bad_lines += 1
+                    return
+                seq = int(tokens[1][1:])
+                tokens = [kind] + tokens[2:]
+            self._lines.append(_Line(kind, seq, tokens))
+            return
+        self.stats.bad_lines += 1
+
+    def wait_boot(self, seconds):
+        """Handle lines until ``EV BOOT`` arrives or ``seconds`` [board time] pass; drop stray ``ERR`` lines.
+
+        Parameters
+        ----------
+        seconds : float
+            Longest wait [s of :meth:`clock`].
+
+        Returns
+        -------
+        bool
+            Whether the board announced its boot.
+        """
+        deadline = self.clock() + seconds
+        while not self.booted and self.clock() < deadline:
+            self.pump(0.05)
+        self._lines = [ln for ln in self._lines if ln.kind != "ERR"]
+        return self.booted
+
+    # -- requests ----------------------------------------------------------------------------
+    def _next_seq(self):
+        self._seq = (self._seq % 65535) + 1
+        return self._seq
+
+    def _await(self, seq):
+        deadline = self.clock() + self.timeout
+        while True:
+            for k, ln in enumerate(self._lines):
+                if ln.seq == seq or (ln.kind == "ERR" and ln.seq is None):
+                    del self._lines[k]
+                    if ln.seq is None:
+                        code = int(ln.tokens[1]) if ln.tokens[1:2] and ln.tokens[1].isdigit() else 0
+                        raise _NoReply(f"board reported a garbled request (ERR {code})",
+                                       executed=False if code in NOT_EXECUTED else None)
+                    return ln
+            self._lines.clear()  # stale replies to earlier attempts
+            left = deadline - self.clock()
+            if left <= 0:
+                self.stats.timeouts += 1
+                raise _NoReply(f"no valid reply within {self.timeout:g} s")
+            self.pump(left)
+
+    def _drain(self):
+        """Handle every line already received; forget unanswered replies (stale by now)."""
+        while self.io(lambda: self.port.in_waiting):
+            self.pump(0.0)
+        self._lines.clear()
+
+    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None):
+        """Send one request until it is acknowledged; return the (parsed) reply.
+
+        Parameters
+        ----------
+        command : str
+            Upper-case command name.
+        *args : int
+            Integer arguments.
+        motion : bool
+            A motion request: after a lost reply, ``verify()`` tells whether it ran
+            (it is never blindly repeated).
+        verify : callable, optional
+            ``verify() -> bool`` for motion requests.
+        parse : callable, optional
+            ``parse(fields)`` of the ``OK`` reply's fields after the command name.
+        retries : int, optional
+            Extra attempts; default :attr:`retries`.
+
+        Returns
+        -------
+        object
+            ``parse(fields)``, or without ``parse`` the reply line (``tokens``:
+            ``["OK", command, fields...]``).
+
+        Raises
+        ------
+        CommandRejected
+            The board answered ``ERR`` for a request that arrived intact.
+        DeviceError
+            No valid reply after all attempts, or the board reset itself.
+        """
+        if any(k == "BOOT-UNEXPECTED" for k, _ in self.events):
+            raise DeviceError(f"{self.name}: the board reset itself (EV BOOT); its state is lost - reconnect")
+        last = None
+        rejected = set()
+        retries = self.retries if retries is None else retries
+        for attempt in range(retries + 1):
+            self._drain()
+            seq = self._next_seq()
+            body = " ".join([f"#{seq}", command, *(str(int(a)) for a in args)])
+            # the space before "*" makes a line whose "*" is lost fail the argument count
+            # instead of running with the checksum digits glued to its last number
+            body += " "
+            self._send(("\n" if attempt else "") + seal(body) + "\n")
+            try:
+                reply = self._await(seq)
+            except _NoReply as exc:
+                last = exc
+                self.stats.retries += attempt < retries
+                if motion:  # even "garbled" may be a stale reply to an earlier line: ask the board
+                    if verify():
+                        self.stats.verified += 1
+                        return _Line("OK", seq, ["OK", command])
+                continue
+            self.stats.replies += 1
+            if reply.kind == "OK":
+                if reply.tokens[1:2] != [command]:
+                    last = _NoReply(f"reply names {reply.tokens[1:2]}, expected {command}")
+                    continue
+                if parse is None:
+                    return reply
+                try:
+                    return parse(reply.tokens[2:])
+                except (ProtocolError, ValueError, KeyError, IndexError) as exc:  # passed the weak checksum, still garbled
+                    self.stats.bad_lines += 1
+                    last = _NoReply(f"malformed {command} reply {' '.join(reply.tokens)!r} ({exc})")
+                    if motion:
+                        return reply  # acknowledged; only the extra fields are unusable
+                    continue
+            code = int(reply.tokens[1]) if len(reply.tokens) > 1 and reply.tokens[1].isdigit() else 0
+            if code in (2, 3) or (code not in (7, 8) and code not in rejected):
+                # labkit never sends bad syntax, and it checks ranges and limits before sending: the
+                # line was probably corrupted in transit (the XOR checksum misses some damage). A
+                # rejected request had no effect, so sending it again repeats nothing; a genuine
+                # rejection comes back the same way and is raised below.
+                rejected.add(code)
+                last = _NoReply(" ".join(reply.tokens))
+                continue
+            name = reply.tokens[2] if len(reply.tokens) > 2 else "?"
+            raise CommandRejected(f"{self.name}: {command} rejected: {' '.join(reply.tokens[1:])}", code, name)
+        raise DeviceError(f"{self.name}: {command} failed after {retries + 1} attempts: {last}")

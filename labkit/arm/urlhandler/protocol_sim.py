@@ -1,0 +1,279 @@
+"""pyserial URL handler ``sim://``: a serial port wired to labkit's virtual arm.
+
+URL form::
+
+    sim://[robot]?seed=0&time_scale=1&clock=realtime&<physics option>=<value>...
+
+* ``robot``: bundled robot name or robot file (default ``arduino_arm_3dof``);
+* ``seed``: physics seed (offsets, noise, ruler);
+* ``clock``: ``realtime`` (board time = ``time_scale`` x wall clock) or
+  ``lockstep`` (board time advances only while the host waits in ``read``,
+  by the read timeout, or in :meth:`Serial.sleep`; deterministic and as fast
+  as the host can go, for tests);
+* ``time_scale``: board seconds per wall-clock second (realtime clock);
+* ``queue``: segment queue depth; any field of
+  :class:`labkit.arm.PhysicsConfig` (``deadband=0``, ``zero_offsets=0.01,0,0``...).
+
+Examples
+--------
+>>> import serial
+>>> from labkit.arm.urlhandler import register
+>>> register()
+>>> port = serial.serial_for_url("sim://?clock=lockstep&seed=1", timeout=0.5)
+>>> port.readline()[:7]
+b'EV BOOT'
+>>> port.close()
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+import urllib.parse
+
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
+
+CLOCKS = ("realtime", "lockstep")
+
+
+def _parse_value(field, text):
+    if field.name == "seed":
+        return int(text)
+    if "," in text or field.name in ("zero_offsets", "link_masses", "gravity"):
+        return tuple(float(v) for v in text.split(",") if v != "")
+    if text.lower() == "none":
+        return None
+    return float(text)
+
+
+def parse_url(url):
+    """Split a ``sim://`` URL into ``(robot, physics kwargs, options)``.
+
+    Parameters
+    ----------
+    url : str
+        ``sim://[robot]?option=value&...`` (see the module docstring).
+
+    Returns
+    -------
+    robot : str
+        Bundled robot name or robot file.
+    physics : dict
+        :class:`labkit.arm.PhysicsConfig` fields given in the URL.
+    options : dict
+        ``clock`` (str), ``time_scale`` (float), ``queue`` (int).
+
+    Raises
+    ------
+    serial.SerialException
+        For another scheme or an unknown option (the message lists the valid ones).
+    """
+    from labkit.arm._physics import PhysicsConfig
+
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme != "sim":
+        raise SerialException(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
+    robot = urllib.parse.unquote(parts.netloc + parts.path) or "arduino_arm_3dof"
+    fields = {f.name: f for f in dataclasses.fields(PhysicsConfig)}
+    physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6}
+    for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
+        value = values[-1]
+        try:
+            if key in fields:
+                physics[key] = _parse_value(fields[key], value)
+            elif key == "clock":
+                if value not in CLOCKS:
+                    raise SerialException(f"{url}: expected clock one of {', '.join(CLOCKS)}, got {value!r}")
+                options["clock"] = value
+            elif key == "time_scale":
+                options["time_scale"] = float(value)
+                if not options["time_scale"] > 0:
+                    raise SerialException(f"{url}: expected time_scale > 0, got {value}")
+            elif key == "queue":
+                options["queue"] = int(value)
+            else:
+                valid = ", ".join(["clock", "time_scale", "queue", *fields])
+                raise SerialException(f"{url}: unknown option {key!r}; valid options: {valid}")
+        except ValueError as exc:  # a malformed number
+            raise SerialException(f"{url}: option {key!r}: {exc}") from None
+    return robot, physics, options
+
+
+class Serial(SerialBase):
+    """A pyserial port whose other end is a :class:`labkit.arm.VirtualBoard` (attribute ``board``)."""
+
+    def __init__(self, *args, **kwargs):
+        self.board = None
+        self._clock = "realtime"
+        self._scale = 1.0
+        self._t0 = 0.0
+        super().__init__(*args, **kwargs)
+
+    # -- pyserial plumbing ---------------------------------------------------------
+    def open(self):
+        """Create the virtual board the URL describes (pyserial calls this on construction)."""
+        from labkit.arm._physics import PhysicsConfig
+        from labkit.arm._board import VirtualBoard
+
+        if self.is_open:
+            raise SerialException("Port is already open.")
+        if self._port is None:
+            raise SerialException("Port must be configured before it can be used.")
+        robot, physics, options = parse_url(self.port)
+        try:
+            config = PhysicsConfig(**physics)
+            self.board = VirtualBoard(robot, config, queue=options["queue"])
+        except (ValueError, OSError) as exc:
+            raise SerialException(f"{self.port}: {exc}") from None
+        self._clock = options["clock"]
+        self._scale = options["time_scale"]
+        self._t0 = time.monotonic()
+        self.is_open = True
+
+    def close(self):
+        """Close the port; the board object stays inspectable."""
+        self.is_open = False  # the board object stays inspectable after close
+        super().close()
+
+    def _reconfigure_port(self):
+        pass
+
+    def _update_dtr_state(self):
+        pass
+
+    def _update_rts_state(self):
+        pass
+
+    def _update_break_state(self):
+        pass
+
+    @property
+    def cts(self):
+        return True
+
+    @property
+    def dsr(self):
+        return True
+
+    @property
+    def ri(self):
+        return False
+
+    @property
+    def cd(self):
+        return True
+
+    # -- clock -------------------------------------------------------------------------
+    @property
+    def clock(self):
+        """``"realtime"`` or ``"lockstep"``."""
+        return self._clock
+
+    @property
+    def time_scale(self):
+        """Board seconds per wall-clock second (realtime clock)."""
+        return self._scale
+
+    def _sync(self):
+        if self._clock == "realtime":
+            self.board.advance_to((time.monotonic() - self._t0) * self._scale)
+
+    def sleep(self, seconds):
+        """Let ``seconds`` of *board* time pass (lockstep: instantly).
+
+        Parameters
+        ----------
+        seconds : float
+            Board time [s].
+        """
+        self._check_open()
+        if self._clock == "lockstep":
+            self.board.advance(seconds)
+        else:
+            time.sleep(seconds / self._scale)
+            self._sync()
+
+    def _check_open(self):
+        if not self.is_open or self.board is None:
+            raise PortNotOpenError()
+
+    # -- data ----------------------------------------------------------------------------
+    @property
+    def in_waiting(self):
+        self._check_open()
+        self._sync()
+        return self.board.out_waiting
+
+    def read(self, size=1):
+        """Read up to ``size`` bytes the board sent, waiting up to ``timeout`` (board time when lockstep).
+
+        Parameters
+        ----------
+        size : int
+            Largest number of bytes.
+
+        Returns
+        -------
+        bytes
+        """
+        self._check_open()
+        board = self.board
+        timeout = self._timeout
+        data = bytearray()
+        if self._clock == "lockstep":
+            limit = math.inf if timeout is None else board.time + timeout
+            while len(data) < size:
+                if board.out_waiting:
+                    data += board.take_output(size - len(data))
+                    continue
+                if board.time >= limit:
+                    break
+                nxt = min(board.next_event_time(), limit)
+                if math.isinf(nxt):
+                    raise SerialException("sim:// lockstep read without timeout would block forever")
+                board.advance_to(nxt)
+            return bytes(data)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while len(data) < size:
+            self._sync()
+            if board.out_waiting:
+                data += board.take_output(size - len(data))
+                continue
+            now = time.monotonic()
+            if deadline is not None and now >= deadline:
+                break
+            time.sleep(0.0005 if deadline is None else min(0.0005, deadline - now))
+        return bytes(data)
+
+    def write(self, data):
+        """Send ``data`` to the board at the current board time.
+
+        Parameters
+        ----------
+        data : bytes-like
+
+        Returns
+        -------
+        int
+            ``len(data)``.
+        """
+        self._check_open()
+        data = to_bytes(data)
+        self._sync()
+        self.board.receive(data)
+        return len(data)
+
+    def reset_input_buffer(self):
+        """Discard what the board has sent and the host has not read."""
+        self._check_open()
+        self._sync()
+        self.board.take_output()
+
+    def reset_output_buffer(self):
+        """Nothing to discard: written bytes reach the board at once."""
+        self._check_open()
+
+    @property
+    def out_waiting(self):
+        return 0

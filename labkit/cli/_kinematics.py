@@ -1,0 +1,161 @@
+"""``labkit robots``, ``labkit fk``, ``labkit ik``: robot files and kinematics at the command line.
+
+Degrees and millimetres exist only here, at the edge (``--deg``, ``--mm``);
+the library is called in SI units and radians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+import numpy as np
+
+from labkit.exceptions import LabkitError
+
+
+def add_commands(sub):
+    """Add ``robots``, ``fk`` and ``ik`` to the ``labkit`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser.
+    """
+    sp = sub.add_parser("robots", help="list the bundled robot files")
+    sp.set_defaults(func=_cmd_robots)
+
+    units = argparse.ArgumentParser(add_help=False)
+    units.add_argument("--deg", action="store_true", help="angles in degrees (default radians)")
+    units.add_argument("--mm", action="store_true", help="lengths in millimetres (default metres)")
+
+    sp = sub.add_parser("fk", parents=[units], help="forward kinematics of a robot at joint values q")
+    sp.add_argument("robot", help="bundled robot name or robot file")
+    sp.add_argument("q", nargs="+", type=float, help="joint values")
+    sp.set_defaults(func=_cmd_fk)
+
+    sp = sub.add_parser(
+        "ik", parents=[units],
+        help="inverse kinematics: all solutions for x y z (3-DOF), x y phi (planar), x y z roll pitch yaw (6-DOF)",
+    )
+    sp.add_argument("robot", help="bundled robot name or robot file")
+    sp.add_argument("target", nargs="+", type=float, help="target coordinates")
+    sp.set_defaults(func=_cmd_ik)
+
+
+def _angle_unit(args):
+    return "deg" if args.deg else "rad"
+
+
+def _len_scale(args):
+    return 1e3 if args.mm else 1.0
+
+
+def _fmt_table(header, rows):
+    widths = [max(len(str(h)), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+    line = "  ".join(str(h).rjust(w) for h, w in zip(header, widths))
+    out = [line, "  ".join("-" * w for w in widths)]
+    out += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(out)
+
+
+def _cmd_robots(args):
+    from labkit.robot import Robot, bundled_robots
+
+    rows = []
+    for name, path in bundled_robots().items():
+        try:
+            r = Robot.load(path)
+            rows.append((name, str(r.n), r.convention.value, r.title))
+        except LabkitError as exc:  # a broken file in LABKIT_ROBOT_PATH must not hide the rest
+            rows.append((name, "?", "?", f"ERROR: {exc}"))
+    print(_fmt_table(("name", "joints", "DH", "description"), rows))
+    return 0
+
+
+def _joint_values(robot, values, deg, mm):
+    q = np.array(values, dtype=float)
+    if q.shape != (robot.n,):
+        raise LabkitError(f"{robot.name} has {robot.n} joints; expected {robot.n} joint values, got {q.size}")
+    rev = robot.is_revolute
+    if deg:
+        q[rev] = np.radians(q[rev])
+    if mm:
+        q[~rev] = q[~rev] / 1e3
+    return q
+
+
+def _print_pose(T, args):
+    s = _len_scale(args)
+    unit = "mm" if args.mm else "m"
+    p = T[:3, 3] * s
+    print(f"position [{unit}]:  x = {p[0]:.6g}   y = {p[1]:.6g}   z = {p[2]:.6g}")
+    print("transform (rotation | position [" + unit + "]):")
+    for i in range(4):
+        row = [f"{T[i, j]: .6f}" for j in range(3)] + [f"{T[i, 3] * (s if i < 3 else 1): .6g}"]
+        print("  [" + "  ".join(row) + "]")
+
+
+def _cmd_fk(args):
+    from labkit.robot import Robot
+    from labkit.kinematics import fk
+
+    robot = Robot.load(args.robot)
+    q = _joint_values(robot, args.q, args.deg, args.mm)
+    robot.check_limits(q)
+    _print_pose(fk(robot, q), args)
+    return 0
+
+
+def _cmd_ik(args):
+    from labkit import kinematics
+    from labkit.robot import Robot
+
+    robot = Robot.load(args.robot)
+    s = _len_scale(args)
+    lunit = "mm" if args.mm else "m"
+    target = np.array(args.target, dtype=float)
+    kind = kinematics.target_kind(robot)
+    if kind == "planar":
+        if target.size != 3:
+            raise LabkitError(f"{robot.name} is a planar 3R arm: expected x y phi, got {target.size} values")
+        target[:2] /= s
+        if args.deg:
+            target[2] = math.radians(target[2])
+    elif kind == "pose":
+        if target.size != 6:
+            raise LabkitError(f"{robot.name} has {robot.n} joints: expected x y z roll pitch yaw, got {target.size} values")
+        from labkit.rotations import matrix_from_rpy
+
+        rpy = np.radians(target[3:]) if args.deg else target[3:]
+        T = np.eye(4)
+        T[:3, :3] = matrix_from_rpy(rpy)
+        T[:3, 3] = target[:3] / s
+        target = T
+    else:
+        if target.size != 3:
+            raise LabkitError(f"{robot.name}: expected x y z, got {target.size} values")
+        target = target / s
+    sols = kinematics.ik_all(robot, target)
+    if not sols.reachable.any():
+        print(
+            f"labkit ik: {robot.name}: target out of reach by {float(sols.distance) * s:.4g} {lunit}",
+            file=sys.stderr,
+        )
+        return 1
+    rev = robot.is_revolute
+    aunit = "deg" if args.deg else "rad"
+    rows = []
+    for k, name in enumerate(sols.branches):
+        q = np.array(sols.q[k], dtype=float)
+        shown = np.where(rev, np.degrees(q) if args.deg else q, q * s)
+        if not sols.reachable[k]:
+            status = "unreachable"
+        else:
+            status = "ok" if sols.valid[k] else "outside joint limits"
+        rows.append((name, *(f"{v:.4f}" for v in shown), status))
+    header = ("branch", *(f"{n} [{aunit if r else lunit}]" for n, r in zip(robot.joint_names, rev)), "status")
+    print(f"{robot.name}: solver {sols.solver}")
+    print(_fmt_table(header, rows))
+    return 0

@@ -1,0 +1,80 @@
+"""``labkit errors``, ``labkit audit``, ``labkit calibrate``: measurement tables at the command line."""
+
+from __future__ import annotations
+
+#: uncertainty rules and calibration parameter groups offered as choices
+from labkit.measure import COMBINE_RULES, GROUPS
+
+
+def add_commands(sub):
+    """Add ``errors``, ``audit`` and ``calibrate`` to the ``labkit`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser.
+    """
+    sp = sub.add_parser("errors", help="measured-versus-calculated error table of a measurement CSV")
+    sp.add_argument("file", help="measurement CSV (docs/measurements.md)")
+    sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
+    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows (default elbow_up)")
+    sp.add_argument("--combine", default="quadrature", choices=COMBINE_RULES, help="uncertainty rule")
+    sp.add_argument("--html", help="also write the styled table as HTML")
+    sp.add_argument("--latex", help="also write the styled table as LaTeX")
+    sp.set_defaults(func=_cmd_errors)
+
+    sp = sub.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
+    sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
+    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
+    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
+    sp.set_defaults(func=_cmd_audit)
+
+    sp = sub.add_parser("calibrate", help="fit robot parameters to measured positions")
+    sp.add_argument("file", help="measurement CSV with commanded joints and x/y/z readings")
+    sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
+    sp.add_argument("--params", nargs="+", default=["joint_offsets", "link_lengths"],
+                    help=f"groups {GROUPS} or names like offset[2] a[3] tool_x sag[2]")
+    sp.add_argument("--gravity", nargs=3, type=float, default=[0.0, 0.0, -1.0], metavar=("GX", "GY", "GZ"),
+                    help="gravity direction in the base frame (for sag terms)")
+    sp.add_argument("--weighted", action="store_true", help="weight residuals by 1/uncertainty")
+    sp.add_argument("--out", help="write the calibrated robot file here")
+    sp.set_defaults(func=_cmd_calibrate)
+
+
+def _cmd_errors(args):
+    import pandas as pd
+
+    from labkit.measure import error_table
+
+    result = error_table(args.file, args.robot, branch=args.branch, combine=args.combine)
+    with pd.option_context("display.width", 200, "display.max_columns", 50):
+        print(result.wide().to_string(float_format=lambda v: f"{v:.4g}"))
+    if args.html:
+        result.to_html(args.html)
+    if args.latex:
+        result.to_latex(args.latex)
+    return 0
+
+
+def _cmd_audit(args):
+    from labkit.measure import audit_published
+
+    audit = audit_published(args.file, args.robot, branch=args.branch)
+    flagged = audit.flagged
+    print(f"{len(audit.cells) - len(flagged)} of {len(audit.cells)} published values agree with the model")
+    if len(flagged):
+        print(flagged.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    return 1 if len(flagged) else 0
+
+
+def _cmd_calibrate(args):
+    from labkit.measure import calibrate
+
+    result = calibrate(args.file, args.robot, params=tuple(args.params), weighted=args.weighted,
+                       gravity=tuple(args.gravity))
+    print(result.parameters().to_string(float_format=lambda v: f"{v:.3f}"))
+    print(result.summary())
+    if args.out:
+        result.write_robot(args.out)
+        print(f"calibrated robot written to {args.out}")
+    return 0

@@ -1,0 +1,85 @@
+"""``labkit run`` and ``labkit render``: execute lab notebooks, render reports."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+#: seconds one notebook cell may run (the default of ``--timeout``)
+from labkit.reports import CELL_TIMEOUT
+
+
+def add_commands(sub):
+    """Add ``run`` and ``render`` to the ``labkit`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser.
+    """
+    sp = sub.add_parser("run", help="execute one lab notebook (papermill) with parameter overrides")
+    sp.add_argument("notebook", help="the .ipynb to execute")
+    sp.add_argument("-p", "--parameter", dest="parameters", nargs=2, action="append", metavar=("NAME", "VALUE"),
+                    help="override a parameter (repeatable), e.g. -p port /dev/ttyACM0")
+    sp.add_argument("-o", "--output", help="executed notebook (default reports/<lab>/<name>.ipynb)")
+    sp.add_argument("--html", action="store_true", help="also write the offline HTML report next to it")
+    sp.add_argument("--no-input", action="store_true", help="report mode: hide code in the HTML")
+    sp.set_defaults(func=_cmd_run)
+
+    sp = sub.add_parser("render", help="execute notebooks in parallel and write HTML/PDF reports + index")
+    sp.add_argument("notebooks", nargs="*", metavar="NOTEBOOK_OR_LAB",
+                    help="notebooks, lab folders or lab names (default: all under notebooks/)")
+    sp.add_argument("-j", "--jobs", type=int, default=2, help="parallel worker processes (default 2)")
+    sp.add_argument("--no-input", action="store_true", help="report mode: hide code cells")
+    sp.add_argument("--pdf", action=argparse.BooleanOptionalAction, default=True,
+                    help="print each report to PDF with headless Chromium (default on)")
+    sp.add_argument("-o", "--output", default="reports", help="reports folder (default reports/)")
+    sp.add_argument("-p", "--parameter", dest="parameters", nargs=2, action="append", metavar=("NAME", "VALUE"),
+                    help="override a parameter in every notebook that declares it, e.g. -p port sim://")
+    sp.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                    help=f"seconds one cell may run before the notebook fails (default {CELL_TIMEOUT})")
+    sp.set_defaults(func=_cmd_render)
+
+
+def _parse_params(pairs):
+    from labkit.reports import parse_parameter
+
+    return {name: parse_parameter(value) for name, value in (pairs or [])}
+
+
+def _cmd_run(args):
+    from labkit.reports import execute_notebook, export_html, lab_of
+
+    nb = Path(args.notebook)
+    out = Path(args.output) if args.output else Path("reports") / lab_of(nb) / nb.name
+    res = execute_notebook(nb, out, _parse_params(args.parameters))
+    print(f"{'ok' if res.ok else 'FAILED'}: {nb} -> {res.output} ({res.seconds:.1f} s)")
+    if args.html:
+        html = export_html(res.output, out.with_suffix(".html"), no_input=args.no_input, title=nb.stem,
+                           status="passed" if res.ok else "failed", error=res.error)
+        print(f"report: {html}")
+    if not res.ok:
+        print(f"error in cell {res.cell}: {res.error}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _cmd_render(args):
+    from labkit.reports import render
+
+    results, wall = render(args.notebooks, args.output, jobs=args.jobs, no_input=args.no_input, pdf=args.pdf,
+                           parameters=_parse_params(args.parameters), timeout=args.timeout)
+    failed = [r for r in results if not r.ok]
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"{len(results)} notebooks rendered in {wall:.1f} s (wall time, --jobs {args.jobs}, {os.cpu_count()} CPUs; "
+          f"CPU time {usage.ru_utime + usage.ru_stime:.1f} s, load average {load:.1f}); "
+          f"index: {Path(args.output).resolve() / 'index.html'}")
+    if failed:
+        print(f"FAILED ({len(failed)}): " + ", ".join(f"{r.lab}/{r.name}" for r in failed), file=sys.stderr)
+        return 1
+    return 0

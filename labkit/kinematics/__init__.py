@@ -1,0 +1,60 @@
+"""Kinematics of serial arms: forward kinematics and geometric Jacobians, inverse
+kinematics (closed-form families with named branches, batched numeric IK),
+statics and velocity kinematics, workspace sampling. Symbolic DH algebra lives in
+:mod:`labkit.kinematics.symbolic` (imports sympy when used).
+"""
+
+from labkit.kinematics._forward import fk, fk_position, fk_frames, jacobian, fk_jacobian
+from labkit.kinematics._ik import (
+    Solver,
+    IKSolutions,
+    IKResult,
+    target_kind,
+    solver_for,
+    ik,
+    ik_all,
+    ik_numeric,
+)
+from labkit.kinematics._statics import (
+    joint_torques,
+    skew,
+    wrench_transform_matrix,
+    transform_wrench,
+    singular_values,
+    manipulability,
+    condition_number,
+    is_singular,
+    damping_factor,
+    joint_rates,
+)
+from labkit.kinematics._workspace import Workspace, workspace_points, PlanarRegion, planar_region
+
+__all__ = [
+    "fk",
+    "fk_position",
+    "fk_frames",
+    "jacobian",
+    "fk_jacobian",
+    "Solver",
+    "IKSolutions",
+    "IKResult",
+    "target_kind",
+    "solver_for",
+    "ik",
+    "ik_all",
+    "ik_numeric",
+    "joint_torques",
+    "skew",
+    "wrench_transform_matrix",
+    "transform_wrench",
+    "singular_values",
+    "manipulability",
+    "condition_number",
+    "is_singular",
+    "damping_factor",
+    "joint_rates",
+    "Workspace",
+    "workspace_points",
+    "PlanarRegion",
+    "planar_region",
+]

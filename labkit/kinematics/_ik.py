@@ -1,0 +1,579 @@
+"""Inverse kinematics: every closed-form solution with its branch name, or batched numeric IK.
+
+Targets, by :func:`target_kind`:
+
+* ``"position"`` ``(..., 3)`` [m] - 3-DOF arms such as the Arduino arm of seed 000
+  and any robot with fewer than 6 joints that is not a planar 3R;
+* ``"planar"`` ``(..., 3)`` ``(x [m], y [m], phi [rad])`` - planar 3R arms
+  (seeds 003 and 004), ``phi`` the angle of the tool ``x`` axis from world ``x``;
+* ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
+
+The analytic solver is chosen from the robot's geometry (joint axes at
+``q = 0``, so either DH convention, base and tool transforms included; see
+:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_3r``,
+``yaw_pitch_pitch`` (3R, shoulder on the base axis, parallel pitch axes) or
+``spherical_wrist`` (6R, such an arm plus three wrist axes through one point:
+PUMA 560, the PUMA 600 of seed 002). Other robots use :func:`ik_numeric`.
+
+No NaN ever leaves this module. Where a branch cannot reach a target its
+``reachable`` flag is False and its ``q`` holds the finite configuration
+obtained by clipping the cosine-law arguments to [-1, 1] (the arm stretched
+or folded towards the target): a fill, not a solution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from labkit.validation import as_batch
+from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
+from labkit.kinematics import _ik_analytic, _ik_numeric
+from labkit.rotations import wrap_angle
+
+__all__ = [
+    "Solver",
+    "IKSolutions",
+    "IKResult",
+    "target_kind",
+    "solver_for",
+    "ik",
+    "ik_all",
+    "ik_numeric",
+]
+
+_CHUNK = 8192
+
+
+class Solver(str, Enum):
+    """IK solver choice; ``AUTO`` picks the analytic solver that fits the robot, else ``NUMERIC``."""
+
+    AUTO = "auto"
+    PLANAR_3R = "planar_3r"
+    YAW_PITCH_PITCH = "yaw_pitch_pitch"
+    SPHERICAL_WRIST = "spherical_wrist"
+    NUMERIC = "numeric"
+
+
+def _as_solver(solver):
+    try:
+        return Solver(solver if solver is not None else Solver.AUTO)
+    except ValueError:
+        valid = ", ".join(repr(s.value) for s in Solver)
+        raise OptionError(f"unknown IK solver {solver!r}; expected one of {valid}") from None
+
+
+@dataclass(frozen=True, eq=False)
+class IKSolutions:
+    """Every closed-form IK solution of a batch of targets.
+
+    Attributes
+    ----------
+    q : ndarray, shape (..., m, n)
+        Joint values [rad, m] of the ``m`` branches. Where ``reachable`` is
+        False the row is a finite fill (clipped cosine laws), not a solution.
+    reachable : ndarray of bool, shape (..., m)
+        The branch reaches the target (joint limits ignored).
+    valid : ndarray of bool, shape (..., m)
+        Reachable and inside the joint limits.
+    branches : tuple of str
+        Branch name of each of the ``m`` columns.
+    distance : ndarray, shape (...)
+        How far the target lies out of reach [m] (0 if any branch reaches
+        it). Exact for the 3R solvers; for the 6R solver the wrist centre's
+        distance from its reachable shell, measured in the arm plane; for the
+        numeric solver the residual of the best attempt [m, rad].
+    solver : str
+        The solver used (a :class:`Solver` value).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> sols = ik_all(Robot.load("arduino_arm_3dof"), [0.10, 0.10, -0.10])
+    >>> sols.branches[:2]
+    ('elbow_up', 'elbow_down')
+    >>> np.round(np.degrees(sols["elbow_up"]))
+    array([ 45., 114., 109.])
+    """
+
+    q: np.ndarray
+    reachable: np.ndarray
+    valid: np.ndarray
+    branches: tuple
+    distance: np.ndarray = None
+    solver: str = ""
+
+    def __getitem__(self, branch):
+        """Joint values of one branch, shape (..., n)."""
+        if branch not in self.branches:
+            raise UnknownBranchError(f"unknown branch {branch!r}; expected one of {', '.join(self.branches)}")
+        return self.q[..., self.branches.index(branch), :]
+
+    def to_dataframe(self, *, degrees=True):
+        """One row per branch (single target only): joint values, reachable, valid.
+
+        Parameters
+        ----------
+        degrees : bool
+            Joint values in degrees (columns ``"q1 [deg]"`` ...) instead of the
+            raw values [rad, m] (columns ``"q1"`` ...). Degrees convert every
+            column, prismatic ones included.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by ``branch``; one column per joint, then ``reachable`` and
+            ``valid``.
+
+        Raises
+        ------
+        ShapeError
+            The solutions hold more than one target (``q`` is not (m, n)).
+        """
+        import pandas as pd
+
+        if self.q.ndim != 2:
+            raise ShapeError(f"to_dataframe needs one target (q of shape (m, n)), got {self.q.shape}")
+        q = np.degrees(self.q) if degrees else self.q
+        cols = {f"q{j + 1}" + (" [deg]" if degrees else ""): q[:, j] for j in range(q.shape[1])}
+        df = pd.DataFrame(cols, index=pd.Index(self.branches, name="branch"))
+        df["reachable"] = self.reachable
+        df["valid"] = self.valid
+        return df
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """Result of :func:`ik_numeric`.
+
+    Attributes
+    ----------
+    q : ndarray, shape (..., n)
+        Joint values [rad, m]; for failed targets the best configuration found.
+    success : ndarray of bool, shape (...)
+        Residual below tolerance.
+    iterations : ndarray of int, shape (...)
+        LM iterations used (all restarts together).
+    residual : ndarray, shape (...)
+        Final task error [m, rad]: norm of position error and ``2 sin(angle/2)``
+        of the orientation error.
+    """
+
+    q: np.ndarray
+    success: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+
+    def to_dataframe(self):
+        """Flat table: one row per target.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``q1 .. qn`` [rad, m], ``success``, ``iterations`` and
+            ``residual`` [m, rad]; batch dimensions flattened in C order.
+        """
+        import pandas as pd
+
+        n = self.q.shape[-1]
+        q = self.q.reshape(-1, n)
+        df = pd.DataFrame({f"q{j + 1}": q[:, j] for j in range(n)})
+        df["success"] = self.success.reshape(-1)
+        df["iterations"] = self.iterations.reshape(-1)
+        df["residual"] = self.residual.reshape(-1)
+        return df
+
+
+def target_kind(robot):
+    """What an IK target of ``robot`` is: ``"position"``, ``"planar"`` or ``"pose"``.
+
+    Parameters
+    ----------
+    robot : Robot
+
+    Returns
+    -------
+    str
+        ``"planar"`` for planar 3R arms (target ``(x, y, phi)``), ``"pose"`` for
+        robots with 6 or more joints (target ``(4, 4)``), otherwise ``"position"``
+        (target ``(x, y, z)``).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> [target_kind(Robot.load(n)) for n in ("arduino_arm_3dof", "planar3r_seed004", "puma560")]
+    ['position', 'planar', 'pose']
+    """
+    found, _ = _ik_analytic.detect(robot)
+    if found is not None:
+        return found.kind
+    return "pose" if robot.n >= 6 else "position"
+
+
+def solver_for(robot):
+    """The :class:`Solver` that ``solver="auto"`` uses for ``robot``.
+
+    Parameters
+    ----------
+    robot : Robot
+
+    Returns
+    -------
+    Solver
+        The analytic solver whose structure ``robot`` matches, else
+        ``Solver.NUMERIC``.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> solver_for(Robot.load("puma600_seed002")).value
+    'spherical_wrist'
+    """
+    found, _ = _ik_analytic.detect(robot)
+    return Solver(found.name) if found is not None else Solver.NUMERIC
+
+
+def _analytic(robot, solver):
+    solver = _as_solver(solver)
+    if solver is Solver.NUMERIC:
+        return None
+    found, reasons = _ik_analytic.detect(robot)
+    if solver is Solver.AUTO:
+        return found
+    if found is not None and found.name == solver.value:
+        return found
+    try:
+        impl = _ik_analytic.build(robot, solver.value)
+    except _ik_analytic._NotThisStructure as exc:
+        fits = found.name if found is not None else "numeric"
+        raise OptionError(
+            f"{robot.name}: solver {solver.value!r} does not fit this robot ({exc}); "
+            f"the automatic choice is {fits!r}"
+        ) from None
+    if impl.kind != target_kind(robot):
+        raise OptionError(f"{robot.name}: solver {solver.value!r} expects {impl.kind} targets")
+    return impl
+
+
+def _targets(robot, target, kind):
+    """Validate targets; returns flat (N, ...) array and the leading shape."""
+    if kind == "pose":
+        T = as_batch(target, (4, 4), "target pose")
+        lead = T.shape[:-2]
+        T = T.reshape(-1, 4, 4)
+        c0, c1, c2 = T[:, :3, 0], T[:, :3, 1], T[:, :3, 2]
+        err = np.abs(np.stack([
+            (c0 * c0).sum(axis=1) - 1.0, (c1 * c1).sum(axis=1) - 1.0, (c2 * c2).sum(axis=1) - 1.0,
+            (c0 * c1).sum(axis=1), (c0 * c2).sum(axis=1), (c1 * c2).sum(axis=1),
+        ])).max(axis=0, initial=0.0)
+        det = (np.cross(c0, c1) * c2).sum(axis=1)
+        bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise ShapeError(
+                f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
+                f"[0, 0, 0, 1]); target {_index(i, lead)} is not (max |R R^T - I| = {err[i]:.2g})"
+            )
+        return T, lead
+    name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
+    p = as_batch(target, (3,), name)
+    return p.reshape(-1, 3), p.shape[:-1]
+
+
+def _index(i, lead):
+    if not lead:
+        return None
+    return tuple(int(k) for k in np.unravel_index(i, lead))
+
+
+def _describe(kind, t):
+    if kind == "pose":
+        return "pose at ({:.4g}, {:.4g}, {:.4g}) m".format(*t[:3, 3])
+    if kind == "planar":
+        return "(x, y, phi) = ({:.4g} m, {:.4g} m, {:.4g} deg)".format(t[0], t[1], math.degrees(t[2]))
+    return "({:.4g}, {:.4g}, {:.4g}) m".format(*t)
+
+
+def ik_all(robot, target, *, solver="auto"):
+    """Every IK solution of each target, with branch names, reachability and limit checks.
+
+    Parameters
+    ----------
+    robot : Robot
+    target : array_like
+        ``(..., 3)`` positions [m], ``(..., 3)`` planar ``(x, y, phi)`` [m, rad]
+        or ``(..., 4, 4)`` poses, as :func:`target_kind` says.
+    solver : Solver or str
+        ``"auto"`` (default), a specific analytic solver, or ``"numeric"``
+        (one branch, named ``"numeric"``, from :func:`ik_numeric`).
+
+    Returns
+    -------
+    IKSolutions
+        ``q`` of shape ``(..., m, n)``; for one target ``(m, n)``. Nothing is
+        raised for unreachable targets: see ``reachable``, ``valid`` and
+        ``distance``.
+
+    Raises
+    ------
+    ShapeError
+        Wrong shape, non-finite values or a pose that is not a rigid transform.
+    ValueError
+        Unknown solver, or a forced solver that does not fit the robot.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> puma = Robot.load("puma600_seed002")
+    >>> T = puma.fk(np.full(6, np.pi / 6))
+    >>> sols = ik_all(puma, T)
+    >>> sols.q.shape, int(sols.valid.sum())
+    ((8, 6), 8)
+    >>> bool(np.any(np.all(np.abs(sols.q - np.pi / 6) < 1e-9, axis=1)))
+    True
+    """
+    kind = target_kind(robot)
+    impl = _analytic(robot, solver)
+    flat, lead = _targets(robot, target, kind)
+    return _solve_all(robot, impl, kind, flat, lead)
+
+
+def _solve_all(robot, impl, kind, flat, lead):
+    """ik_all on validated, flattened targets."""
+    n = robot.n
+    limits = robot.joint_limits
+    rev = robot.is_revolute
+    if impl is None:
+        res = _numeric(robot, kind, flat, None, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
+        q = res[0][:, None, :]
+        reach = res[1][:, None]
+        valid = reach & robot.within_limits(q)
+        distance = np.where(res[1], 0.0, res[3])
+        return IKSolutions(
+            q.reshape(lead + (1, n)), reach.reshape(lead + (1,)), valid.reshape(lead + (1,)),
+            ("numeric",), distance.reshape(lead), Solver.NUMERIC.value,
+        )
+    N = flat.shape[0]
+    m = len(impl.branches)
+    q = np.empty((N, m, n))
+    reach = np.empty((N, m), dtype=bool)
+    distance = np.empty(N)
+    for s in range(0, N, _CHUNK):
+        qc, rc, dc = impl.solve(flat[s:s + _CHUNK])
+        q[s:s + _CHUNK] = _ik_analytic.normalize_angles(qc, limits, rev)
+        reach[s:s + _CHUNK] = rc
+        distance[s:s + _CHUNK] = dc
+    distance = np.where(reach.any(axis=1), 0.0, distance)
+    if not np.isfinite(q.sum()):  # belt and braces: never let NaN out
+        q = np.where(np.isfinite(q), q, 0.0)
+    valid = reach & robot.within_limits(q)
+    return IKSolutions(
+        q.reshape(lead + (m, n)), reach.reshape(lead + (m,)), valid.reshape(lead + (m,)),
+        tuple(impl.branches), distance.reshape(lead), impl.name,
+    )
+
+
+def _branch_index(impl_branches, aliases, branch):
+    name = aliases.get(branch, branch)
+    if name not in impl_branches:
+        extra = f" (aliases: {', '.join(sorted(aliases))})" if aliases else ""
+        raise OptionError(f"unknown branch {branch!r}; expected one of {', '.join(impl_branches)}{extra}")
+    return impl_branches.index(name)
+
+
+def _angle_distance(q, q_near, rev):
+    d = q - q_near
+    d = np.where(rev, wrap_angle(d), d)
+    return (d * d).sum(axis=-1)
+
+
+def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
+    """One IK solution per target.
+
+    Parameters
+    ----------
+    robot : Robot
+    target : array_like
+        As :func:`ik_all`: ``(..., 3)`` or ``(..., 4, 4)``.
+    branch : str, optional
+        Branch name (``IKSolutions.branches`` or a documented alias such as
+        ``"elbow_minus"`` or roboticstoolbox's ``"lun"``). Default: the valid
+        solution nearest ``q_near``, or the first valid branch.
+    q_near : array_like, shape (n,) or (..., n), optional
+        Preferred configuration [rad, m] (e.g. the current one); revolute
+        differences are wrapped to (-pi, pi].
+    solver : Solver or str
+        As :func:`ik_all`. With ``"numeric"`` ``q_near`` is the initial guess.
+
+    Returns
+    -------
+    q : ndarray, shape (..., n)
+        Joint values [rad, m] inside the joint limits.
+
+    Raises
+    ------
+    UnreachableError
+        A target lies outside the workspace; ``.distance`` says by how much [m]
+        and ``.index`` which target (``None`` for a single target).
+    JointLimitError
+        A target is reachable only outside the joint limits; names the joint.
+    ShapeError
+        Bad shape or non-finite values.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("planar3r_seed004")
+    >>> q = ik(arm, [0.3, 0.2, np.pi / 4], branch="elbow_minus")
+    >>> bool(q[1] < 0), np.allclose(arm.fk(q)[:2, 3], [0.3, 0.2])
+    (True, True)
+    """
+    kind = target_kind(robot)
+    impl = _analytic(robot, solver)
+    if impl is None:
+        if branch not in (None, "numeric"):
+            raise OptionError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
+        return _ik_one_numeric(robot, kind, target, q_near)
+    idx = None if branch is None else _branch_index(impl.branches, impl.aliases, branch)
+    flat, lead = _targets(robot, target, kind)
+    sols = _solve_all(robot, impl, kind, flat, lead)
+    n = robot.n
+    m = len(sols.branches)
+    q = sols.q.reshape(-1, m, n)
+    reach = sols.reachable.reshape(-1, m)
+    valid = sols.valid.reshape(-1, m)
+    dist = sols.distance.reshape(-1)
+    if idx is not None:
+        reach_t, valid_t = reach[:, idx], valid[:, idx]
+    else:
+        reach_t, valid_t = reach.any(axis=1), valid.any(axis=1)
+    if not np.all(reach_t):
+        i = int(np.flatnonzero(~reach_t)[0])
+        where = "" if not lead else f" (target {_index(i, lead)})"
+        if idx is not None and reach[i].any():
+            raise UnreachableError(
+                f"{robot.name}: branch {sols.branches[idx]!r} cannot reach {_describe(kind, flat[i])}{where}; "
+                f"reachable branches: {', '.join(b for b, r in zip(sols.branches, reach[i]) if r)}",
+                distance=0.0, index=_index(i, lead),
+            )
+        raise UnreachableError(
+            f"{robot.name}: target {_describe(kind, flat[i])}{where} is out of reach by "
+            f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
+            distance=dist[i], index=_index(i, lead),
+        )
+    if not np.all(valid_t):
+        i = int(np.flatnonzero(~valid_t)[0])
+        cols = [idx] if idx is not None else [k for k in range(m) if reach[i, k]]
+        reasons, joint = [], None
+        for k in cols:
+            try:
+                robot.check_limits(q[i, k])
+            except JointLimitError as exc:
+                joint = exc.joint if joint is None else joint
+                reasons.append(f"{sols.branches[k]}: {str(exc).split(': ', 1)[-1]}")
+        where = "" if not lead else f" (target {_index(i, lead)})"
+        raise JointLimitError(
+            f"{robot.name}: target {_describe(kind, flat[i])}{where} is reachable only outside the "
+            f"joint limits: " + "; ".join(reasons),
+            joint=joint, index=_index(i, lead),
+        )
+    if idx is not None:
+        out = q[:, idx]
+    elif q_near is not None:
+        qn = as_batch(q_near, (n,), "q_near")
+        qn = np.broadcast_to(qn, lead + (n,)).reshape(-1, 1, n)
+        dd = np.where(valid, _angle_distance(q, qn, robot.is_revolute), np.inf)
+        out = q[np.arange(q.shape[0]), np.argmin(dd, axis=1)]
+    else:
+        out = q[np.arange(q.shape[0]), np.argmax(valid, axis=1)]
+    return out.reshape(lead + (n,))
+
+
+def _ik_one_numeric(robot, kind, target, q_near):
+    flat, lead = _targets(robot, target, kind)
+    q0 = None
+    if q_near is not None:
+        q0 = np.broadcast_to(as_batch(q_near, (robot.n,), "q_near"), lead + (robot.n,)).reshape(-1, robot.n)
+    q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
+    if not np.all(ok):
+        i = int(np.flatnonzero(~ok)[0])
+        where = "" if not lead else f" (target {_index(i, lead)})"
+        raise UnreachableError(
+            f"{robot.name}: numeric IK found no solution inside the joint limits for "
+            f"{_describe(kind, flat[i])}{where}; the closest configuration found misses it by "
+            f"{res[i]:.4g} (m and rad combined)",
+            distance=res[i], index=_index(i, lead),
+        )
+    return q.reshape(lead + (robot.n,))
+
+
+def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
+    rows = _ik_numeric.ROWS[kind]
+    if mask is not None:
+        mask = np.asarray(mask, dtype=bool).reshape(-1)
+        if mask.shape != (len(rows),):
+            raise ShapeError(f"expected mask with {len(rows)} entries for {kind} targets, got {mask.shape}")
+        rows = tuple(r for r, keep in zip(rows, mask) if keep)
+        if not rows:
+            raise OptionError("mask selects no task coordinate")
+    rng = np.random.default_rng(seed)
+    return _ik_numeric.solve(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+
+
+def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_iter=50, restarts=10, seed=0):
+    """Batched damped-least-squares (Levenberg-Marquardt) IK for any robot.
+
+    All targets iterate together on arrays (one batched FK + Jacobian per
+    iteration). Steps are projected onto the joint limits; targets that have
+    not converged after ``max_iter`` iterations restart from a random
+    configuration inside the limits, up to ``restarts`` times.
+
+    Parameters
+    ----------
+    robot : Robot
+    target : array_like
+        ``(..., 3)`` or ``(..., 4, 4)`` as :func:`target_kind` (or ``kind``) says.
+    q0 : array_like, shape (n,) or (..., n), optional
+        Initial guess [rad, m]; default random inside the limits (seeded).
+    kind : {"position", "planar", "pose"}, optional
+        Override :func:`target_kind` (e.g. ``"position"`` for a 6R arm).
+    mask : array_like of bool, optional
+        Which task coordinates to match: 3 entries for position/planar
+        targets, 6 (``x, y, z, rx, ry, rz``) for poses - e.g. for an
+        under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
+    tol : float
+        Success threshold on the residual [m, rad].
+    max_iter, restarts : int
+        Iterations per attempt and number of random restarts.
+    seed : int
+        Seed of the random initial guesses.
+
+    Returns
+    -------
+    IKResult
+        ``q (..., n)``, ``success (...)``, ``iterations (...)``, ``residual (...)``.
+        Nothing is raised for failed targets; their ``q`` is the best
+        configuration found (finite).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> puma = Robot.load("puma560")
+    >>> T = puma.fk([0.1, 0.5, -0.3, 0.2, 0.4, 0.1])
+    >>> res = ik_numeric(puma, T)
+    >>> bool(res.success), bool(res.residual < 1e-9)
+    (True, True)
+    """
+    if kind is None:
+        kind = target_kind(robot)
+    elif kind not in _ik_numeric.ROWS:
+        raise OptionError(f"unknown target kind {kind!r}; expected one of {', '.join(map(repr, _ik_numeric.ROWS))}")
+    flat, lead = _targets(robot, target, kind)
+    n = robot.n
+    if q0 is not None:
+        q0 = np.broadcast_to(as_batch(q0, (n,), "q0"), lead + (n,)).reshape(-1, n)
+    q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=tol, max_iter=max_iter, restarts=restarts, seed=seed)
+    return IKResult(q.reshape(lead + (n,)), ok.reshape(lead), it.reshape(lead), res.reshape(lead))

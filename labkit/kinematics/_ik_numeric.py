@@ -1,0 +1,278 @@
+"""Batched Levenberg-Marquardt inverse kinematics (private; see :func:`labkit.kinematics.ik_numeric`).
+
+All targets iterate together: one :func:`labkit.kinematics.fk_jacobian` call
+and one batched linear solve per iteration for the targets still active
+(``n x n`` normal equations, or ``m x m`` in task space when there are fewer
+task rows ``m`` than joints). Each target keeps its own damping ``lambda``
+(divided by 10 after an accepted step, multiplied by 10 after a rejected one)
+and steps are projected onto the joint limits. Converged targets leave the
+active set at once; a target that stalls (squared error not down 100x in 8
+iterations) or runs out of iterations restarts from a random configuration
+inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
+the solution by 2 pi afterwards (accepted only if it then lies inside), which
+escapes minima pinned against a limit. Finally the stragglers are copied up
+to 64 times and the copies iterate together from independent starts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from labkit.kinematics import _ik_analytic
+from labkit.kinematics._forward import fk_jacobian
+from labkit.rotations import wrap_angle
+
+# rows of the spatial velocity [vx, vy, vz, wx, wy, wz] used per target kind
+ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
+
+
+def _error(kind, T, target, rows):
+    """Task error e (N, len(rows)) and residual (N,) of poses T against targets."""
+    if kind == "position":
+        e = target - T[:, :3, 3]
+        e = e[:, list(rows)]
+        return e, np.sqrt((e * e).sum(axis=1))
+    if kind == "planar":
+        e = np.empty((T.shape[0], 3))
+        e[:, 0] = target[:, 0] - T[:, 0, 3]
+        e[:, 1] = target[:, 1] - T[:, 1, 3]
+        e[:, 2] = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
+        e = e[:, [ROWS["planar"].index(r) for r in rows]]
+        return e, np.sqrt((e * e).sum(axis=1))
+    # pose: position error and rotation-vector error of R_target R^T
+    R = T[:, :3, :3]
+    Rt = target[:, :3, :3]
+    E = Rt @ np.swapaxes(R, -1, -2)
+    v = 0.5 * np.stack([E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], axis=1)
+    sv = np.sqrt((v * v).sum(axis=1))
+    cos = 0.5 * (E[:, 0, 0] + E[:, 1, 1] + E[:, 2, 2] - 1.0)
+    ang = np.arctan2(sv, cos)
+    scale = np.where(sv > 1e-12, ang / np.where(sv > 1e-12, sv, 1.0), 1.0)
+    full = np.concatenate([target[:, :3, 3] - T[:, :3, 3], v * scale[:, None]], axis=1)
+    e = full[:, list(rows)]
+    # residual: position error and 2 sin(angle/2) per orientation (robust near pi)
+    pos = full[:, [r for r in rows if r < 3]] if any(r < 3 for r in rows) else np.zeros((T.shape[0], 0))
+    res2 = (pos * pos).sum(axis=1)
+    if any(r >= 3 for r in rows):
+        if len([r for r in rows if r >= 3]) == 3:
+            o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+            res2 = res2 + o * o
+        else:
+            o = full[:, [r for r in rows if r >= 3]]
+            res2 = res2 + (o * o).sum(axis=1)
+    return e, np.sqrt(res2)
+
+
+def _random_q(rng, limits, size):
+    """Uniform inside the limits (infinite limits replaced by +-2 pi)."""
+    lo = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -2 * np.pi)
+    hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
+    return lo + (hi - lo) * rng.random((size, limits.shape[0]))
+
+
+def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
+    """Batched LM with restarts, then batched multi-start for the stragglers.
+
+    After ``restarts`` sequential restarts, every target still failing is
+    copied ``K`` times (``K <= multistart``, at most ~8192 copies in all) and
+    the copies iterate together from independent random starts, for up to
+    ``restarts`` more rounds; the first copy that succeeds wins.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    q0 : ndarray, shape (N, n) or None
+        Starting configurations [rad, m]; None draws random in-limit starts.
+    rows : tuple of int
+        Rows of the 6 x n Jacobian the task constrains.
+    tol : float
+        Residual at which a target counts as solved [m, rad].
+    max_iter : int
+        Levenberg-Marquardt iterations per attempt.
+    restarts : int
+        Sequential restarts, then multi-start rounds, for failing targets.
+    rng : numpy.random.Generator
+        Draws the random starts (seeded by the caller).
+    multistart : int
+        Most copies per failing target in a multi-start round.
+
+    Returns
+    -------
+    q : ndarray, shape (N, n)
+        Joint values [rad, m].
+    success : ndarray of bool, shape (N,)
+    iterations : ndarray of int, shape (N,)
+    residual : ndarray, shape (N,)
+        Final task-space error norm [m, rad].
+    """
+    q, success, iterations, residual = _attempts(
+        robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng
+    )
+    n = robot.n
+    for _ in range(restarts if multistart > 1 else 0):
+        fail = np.flatnonzero(~success)
+        if fail.size == 0:
+            break
+        K = int(min(multistart, max(1, 8192 // fail.size)))
+        if K < 2:
+            break
+        tg = np.repeat(target[fail], K, axis=0)
+        qr, okr, itr, resr = _attempts(
+            robot, kind, tg, None, rows, tol=tol, max_iter=max_iter, restarts=1, rng=rng
+        )
+        okr = okr.reshape(-1, K)
+        resr = resr.reshape(-1, K)
+        pick = np.where(okr.any(axis=1), np.argmax(okr, axis=1), np.argmin(resr, axis=1))
+        rowsel = np.arange(fail.size)
+        qpick = qr.reshape(-1, K, n)[rowsel, pick]
+        rpick = resr[rowsel, pick]
+        iterations[fail] += itr.reshape(-1, K)[rowsel, pick]
+        improve = okr.any(axis=1) | (rpick < residual[fail])
+        q[fail[improve]] = qpick[improve]
+        residual[fail[improve]] = rpick[improve]
+        success[fail] = okr.any(axis=1)
+    return q, success, iterations, residual
+
+
+def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8):
+    """Run batched LM; target (N, ...) flattened, q0 (N, n) or None.
+
+    An attempt ends for a target when it converges, after ``max_iter``
+    iterations, or when its squared error has not dropped by 10x over the last
+    ``check_every`` iterations (stalled, typically against a joint limit);
+    it then restarts from a random configuration, up to ``restarts`` times.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    q0 : ndarray, shape (N, n) or None
+        Starting configurations [rad, m]; None draws random in-limit starts.
+    rows : tuple of int
+        Rows of the 6 x n Jacobian the task constrains.
+    tol : float
+        Residual at which a target counts as solved [m, rad].
+    max_iter : int
+        Levenberg-Marquardt iterations per attempt.
+    restarts : int
+        Sequential restarts, then multi-start rounds, for failing targets.
+    rng : numpy.random.Generator
+        Draws the random starts (seeded by the caller).
+    multistart : int
+        Most copies per failing target in a multi-start round.
+
+    Returns
+    -------
+    q : ndarray, shape (N, n)
+        Joint values [rad, m].
+    success : ndarray of bool, shape (N,)
+    iterations : ndarray of int, shape (N,)
+    residual : ndarray, shape (N,)
+        Final task-space error norm [m, rad].
+    """
+    N = target.shape[0]
+    n = robot.n
+    limits = robot.joint_limits
+    lo, hi = limits[:, 0], limits[:, 1]
+    q = _random_q(rng, limits, N) if q0 is None else np.clip(np.array(q0, dtype=float), lo, hi)
+    success = np.zeros(N, dtype=bool)
+    iterations = np.zeros(N, dtype=np.int64)
+    residual = np.full(N, np.inf)
+    best_q = q.copy()
+    eye = np.eye(n)
+    rows = list(rows)
+    wide = len(rows) < n
+    eye_m = np.eye(len(rows))
+    rev = robot.is_revolute
+    free_lo = np.where(rev, -np.inf, lo)
+    free_hi = np.where(rev, np.inf, hi)
+    for attempt in range(restarts + 1):
+        # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
+        free = attempt % 2 == 1
+        alo, ahi = (free_lo, free_hi) if free else (lo, hi)
+        act = np.flatnonzero(~success)
+        if act.size == 0:
+            break
+        if attempt > 0:
+            q[act] = _random_q(rng, limits, act.size)
+        qa = q[act]
+        tg = target[act]
+        T, J = fk_jacobian(robot, qa)
+        J = J[:, rows]
+        e, res = _error(kind, T, tg, rows)
+        lam = np.full(act.size, lam0)
+        E = 0.5 * (e * e).sum(axis=1)
+        E_check = E.copy()
+        for it in range(1, max_iter + 1):
+            done = res < tol
+            if free and np.any(done):
+                qw = qa[done]
+                qw = _ik_analytic.normalize_angles(qw, limits, rev)
+                inside = robot.within_limits(qw)
+                qa[np.flatnonzero(done)] = qw
+                bad = np.flatnonzero(done)[~inside]
+                done[bad] = False
+            else:
+                bad = None
+            stalled = np.zeros_like(done)
+            if bad is not None and bad.size:
+                stalled[bad] = True  # converged outside the limits: restart
+            if it % check_every == 0:
+                stalled |= (~done) & (E > 0.01 * E_check)
+                E_check = E.copy()
+            if np.any(done) or np.any(stalled):
+                idx = act[done]
+                q[idx] = qa[done]
+                success[idx] = True
+                residual[idx] = res[done]
+                s_idx = act[stalled]
+                better = (res[stalled] < residual[s_idx]) & robot.within_limits(qa[stalled])
+                residual[s_idx[better]] = res[stalled][better]
+                best_q[s_idx[better]] = qa[stalled][better]
+                keep = ~(done | stalled)
+                act, qa, tg, J, e, res, lam, E, E_check = (
+                    x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
+                )
+            if act.size == 0:
+                break
+            iterations[act] += 1
+            Jt = np.swapaxes(J, -1, -2)
+            if wide:  # fewer task rows than joints: dq = J^T (J J^T + lam I)^-1 e
+                A = J @ Jt + lam[:, None, None] * eye_m
+                dq = (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
+            else:  # dq = (J^T J + lam I)^-1 J^T e
+                A = Jt @ J + lam[:, None, None] * eye
+                g = (Jt @ e[:, :, None])[:, :, 0]
+                dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
+            qn = np.clip(qa + dq, alo, ahi)
+            Tn, Jn = fk_jacobian(robot, qn)
+            Jn = Jn[:, rows]
+            en, resn = _error(kind, Tn, tg, rows)
+            En = 0.5 * (en * en).sum(axis=1)
+            better = En < E
+            qa = np.where(better[:, None], qn, qa)
+            J = np.where(better[:, None, None], Jn, J)
+            e = np.where(better[:, None], en, e)
+            res = np.where(better, resn, res)
+            E = np.where(better, En, E)
+            lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
+        if act.size:
+            done = (res < tol) & robot.within_limits(qa)
+            success[act[done]] = True
+            better = (res < residual[act]) & robot.within_limits(qa)
+            residual[act[better]] = res[better]
+            best_q[act[better]] = qa[better]
+            q[act] = qa
+    fail = ~success
+    q[fail] = best_q[fail]
+    q[fail] = np.clip(q[fail], lo, hi)
+    return q, success, iterations, residual

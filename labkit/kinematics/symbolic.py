@@ -1,0 +1,449 @@
+"""Symbolic kinematics with sympy: link transforms, the chain, position, Jacobian.
+
+Every function returns simplified ``sympy.Matrix`` objects that a notebook
+shows as LaTeX (``display(T)`` or :func:`latex`). Joint variables are sympy
+symbols (``q1 .. qn`` by default, or names you pass); DH constants are exact
+numbers - twists become rational multiples of ``pi`` and lengths exact
+rationals in the chosen unit - or symbols (``lengths="symbolic"`` or a
+``{name: value}`` mapping that names particular lengths, e.g. the ``L1`` and
+``L2`` of a lab handout).
+
+Conventions are those of :mod:`labkit.robot`:
+
+* standard: ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``; joint ``i``
+  moves about/along ``z_{i-1}``;
+* modified (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``;
+  joint ``i`` moves about/along ``z_i``.
+
+The full chain is ``base @ A_1 @ ... @ A_n @ tool``. Simplification uses
+``trigsimp`` entry by entry, which is quick for the 3-DOF arms of the lab
+handouts; for a 6-DOF arm pass ``simplify=False`` and lambdify.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from fractions import Fraction
+
+import numpy as np
+
+from labkit.robot.types import Convention
+from labkit.exceptions import OptionError, ShapeError
+
+__all__ = [
+    "dh_matrix",
+    "joint_symbols",
+    "link_transforms",
+    "forward_kinematics",
+    "end_effector_position",
+    "geometric_jacobian",
+    "lambdify_joints",
+    "latex",
+]
+
+_LENGTH_SCALE = {"m": 1.0, "mm": 1e3, "cm": 1e2}
+
+
+def _sp():
+    import sympy
+
+    return sympy
+
+
+def _exact_angle(x):
+    """A float angle [rad] as an exact multiple of pi when it is one (denominator <= 360)."""
+    sp = _sp()
+    if isinstance(x, sp.Basic):
+        return x
+    x = float(x)
+    r = Fraction(x / np.pi).limit_denominator(360)
+    if abs(float(r) * np.pi - x) <= 1e-12 * max(1.0, abs(x)):
+        return sp.Rational(r.numerator, r.denominator) * sp.pi
+    return sp.Float(x)
+
+
+def _exact_length(x):
+    sp = _sp()
+    if isinstance(x, sp.Basic):
+        return x
+    x = float(x)
+    r = Fraction(x).limit_denominator(10**6)
+    if abs(float(r) - x) <= 1e-12 * max(1.0, abs(x)):
+        return sp.Rational(r.numerator, r.denominator)
+    return sp.Float(x)
+
+
+def dh_matrix(a, alpha, d, theta, convention="standard"):
+    """Symbolic homogeneous transform of one DH row.
+
+    Parameters
+    ----------
+    a, alpha, d, theta : sympy expression or float
+        DH parameters (``a_{i-1}, alpha_{i-1}`` for the modified convention);
+        floats are made exact (twists as multiples of pi).
+    convention : {"standard", "modified"}
+
+    Returns
+    -------
+    A : sympy.Matrix, shape (4, 4)
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> th, a = sp.symbols("theta a")
+    >>> dh_matrix(a, np.pi / 2, 0, th)
+    Matrix([
+    [cos(theta), 0,  sin(theta), a*cos(theta)],
+    [sin(theta), 0, -cos(theta), a*sin(theta)],
+    [         0, 1,           0,            0],
+    [         0, 0,           0,            1]])
+    """
+    sp = _sp()
+    conv = Convention(convention)
+    a, d = _exact_length(a), _exact_length(d)
+    alpha, theta = _exact_angle(alpha), _exact_angle(theta)
+    ct, st, ca, sa = sp.cos(theta), sp.sin(theta), sp.cos(alpha), sp.sin(alpha)
+    if conv is Convention.STANDARD:
+        return sp.Matrix(
+            [
+                [ct, -st * ca, st * sa, a * ct],
+                [st, ct * ca, -ct * sa, a * st],
+                [0, sa, ca, d],
+                [0, 0, 0, 1],
+            ]
+        )
+    return sp.Matrix(
+        [
+            [ct, -st, 0, a],
+            [st * ca, ct * ca, -sa, -sa * d],
+            [st * sa, ct * sa, ca, ca * d],
+            [0, 0, 0, 1],
+        ]
+    )
+
+
+def joint_symbols(robot, q=None):
+    """Sympy symbols for the joint variables.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : sequence of str or sympy.Symbol, optional
+        Names or symbols, one per joint; default ``q1 .. qn``.
+
+    Returns
+    -------
+    tuple of sympy.Symbol
+        Real symbols.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> joint_symbols(Robot.load("rpp_seed002"), ["theta1", "d2", "d3"])
+    (theta1, d2, d3)
+    """
+    sp = _sp()
+    if q is None:
+        q = [f"q{i + 1}" for i in range(robot.n)]
+    q = list(q)
+    if len(q) != robot.n:
+        raise ShapeError(f"expected {robot.n} joint symbols for {robot.name}, got {len(q)}")
+    return tuple(s if isinstance(s, sp.Symbol) else sp.Symbol(str(s), real=True) for s in q)
+
+
+def _length_mapper(lengths, unit):
+    """Function (value_in_m, default_name) -> sympy length in ``unit``."""
+    sp = _sp()
+    scale = _LENGTH_SCALE[unit]
+    named = {}
+    if isinstance(lengths, Mapping):
+        named = {float(v): sp.Symbol(str(k), positive=True) for k, v in lengths.items() if float(v) != 0.0}
+    elif lengths not in (None, "numeric", "symbolic"):
+        raise OptionError(
+            f"expected lengths None, 'numeric', 'symbolic' or a {{name: value [m]}} mapping, got {lengths!r}"
+        )
+
+    def f(value, name):
+        value = float(value)
+        if value == 0.0:
+            return sp.Integer(0)
+        for v, sym in named.items():
+            if abs(abs(value) - v) <= 1e-12 * max(1.0, v):
+                return sym if value > 0 else -sym
+        if lengths == "symbolic":
+            return sp.Symbol(name, real=True)
+        return _exact_length(value * scale)
+
+    return f
+
+
+def _check_unit(length_unit):
+    if length_unit not in _LENGTH_SCALE:
+        raise OptionError(f"expected length_unit in {sorted(_LENGTH_SCALE)}, got {length_unit!r}")
+
+
+def link_transforms(robot, *, q=None, lengths=None, length_unit="m"):
+    """The symbolic transform of every link, ``A_1 .. A_n``.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : sequence of str or sympy.Symbol, optional
+        Joint variables (see :func:`joint_symbols`).
+    lengths : None, "symbolic" or mapping, optional
+        ``None``: exact numbers; ``"symbolic"``: every non-zero ``a``/``d``
+        becomes a symbol (``a_i``/``d_i``, or ``a_{i-1}`` in the modified
+        convention); a mapping ``{"L1": 0.094}`` names lengths of that value
+        [m] (sign kept).
+    length_unit : {"m", "mm", "cm"}
+        Unit of the exact numeric lengths (``"mm"`` to match hand derivations
+        in millimetres).
+
+    Returns
+    -------
+    tuple of sympy.Matrix, each shape (4, 4)
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> A = link_transforms(Robot.load("arduino_arm_3dof"), lengths={"L1": 0.094})
+    >>> A[2]
+    Matrix([
+    [ cos(q3), -sin(q3),  0, L1],
+    [-sin(q3), -cos(q3),  0,  0],
+    [       0,        0, -1,  0],
+    [       0,        0,  0,  1]])
+    """
+    _check_unit(length_unit)
+    qs = joint_symbols(robot, q)
+    L = _length_mapper(lengths, length_unit)
+    mod = robot.convention is Convention.MODIFIED
+    out = []
+    for i, (lk, qi) in enumerate(zip(robot.links, qs), start=1):
+        ia = i - 1 if mod else i
+        a = L(lk.a, f"a_{ia}")
+        if lk.is_revolute:
+            d = L(lk.d, f"d_{i}")
+            theta = qi + _exact_angle(lk.theta)
+        else:
+            d = qi + L(lk.d, f"d0_{i}")
+            theta = _exact_angle(lk.theta)
+        out.append(dh_matrix(a, _exact_angle(lk.alpha), d, theta, robot.convention))
+    return tuple(out)
+
+
+def _frame_matrix(T, L, prefix):
+    """Symbolic 4x4 of a numeric base/tool transform (exact angles via RPY)."""
+    sp = _sp()
+    from labkit.rotations import rpy_from_matrix
+
+    T = np.asarray(T, dtype=float)
+    if np.allclose(T, np.eye(4), atol=0, rtol=0):
+        return sp.eye(4)
+    roll, pitch, yaw = (_exact_angle(v) for v in rpy_from_matrix(T[:3, :3]))
+    R = sp.rot_axis3(-yaw) * sp.rot_axis2(-pitch) * sp.rot_axis1(-roll)  # sympy's rot_axis are transposed
+    M = sp.eye(4)
+    M[:3, :3] = R
+    for k, axis in enumerate("xyz"):
+        M[k, 3] = L(T[k, 3], f"{prefix}_{axis}")
+    return M
+
+
+def _simplify_matrix(M):
+    sp = _sp()
+    return M.applyfunc(sp.trigsimp)
+
+
+def _chain(robot, q, lengths, length_unit):
+    _check_unit(length_unit)
+    L = _length_mapper(lengths, length_unit)
+    A = link_transforms(robot, q=q, lengths=lengths, length_unit=length_unit)
+    base = _frame_matrix(robot.base, L, "base")
+    tool = _frame_matrix(robot.tool, L, "t")
+    return A, base, tool, L
+
+
+def forward_kinematics(robot, *, q=None, lengths=None, length_unit="m", simplify=True):
+    """Symbolic ``world_from_tool`` transform ``base A_1 ... A_n tool``.
+
+    Parameters
+    ----------
+    robot : Robot
+    q, lengths, length_unit
+        As in :func:`link_transforms` (the tool/base translations use
+        ``t_x, t_y, t_z`` / ``base_x ..`` when ``lengths="symbolic"``).
+    simplify : bool
+        Apply trigonometric simplification to every entry.
+
+    Returns
+    -------
+    T : sympy.Matrix, shape (4, 4)
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> T = forward_kinematics(Robot.load("planar3r_seed004"), lengths="symbolic")
+    >>> T[0, 3]
+    a_1*cos(q1) + a_2*cos(q1 + q2) + a_3*cos(q1 + q2 + q3)
+    """
+    A, base, tool, _ = _chain(robot, q, lengths, length_unit)
+    T = base
+    for Ai in A:
+        T = T * Ai
+    T = T * tool
+    return _simplify_matrix(T) if simplify else T
+
+
+def end_effector_position(robot, *, point=None, q=None, lengths=None, length_unit="m", simplify=True):
+    """Symbolic position of the tool point (or of ``point`` given in tool coordinates).
+
+    Parameters
+    ----------
+    robot : Robot
+    point : sequence of 3 numbers or sympy expressions, optional
+        Point in tool coordinates [m] (numbers are converted to ``length_unit``).
+    q, lengths, length_unit, simplify
+        As in :func:`forward_kinematics`.
+
+    Returns
+    -------
+    p : sympy.Matrix, shape (3, 1)
+
+    Examples
+    --------
+    Seed 000 (3-DOF arduino arm), with the seed's names for the lengths:
+
+    >>> from labkit.robot import Robot
+    >>> p = end_effector_position(Robot.load("arduino_arm_3dof"), lengths={"L1": 0.094, "L2": 0.180})
+    >>> p[2]
+    -L1*sin(q2) - L2*sin(q2 - q3)
+    """
+    T = forward_kinematics(robot, q=q, lengths=lengths, length_unit=length_unit, simplify=False)
+    pt = _point(point, length_unit)
+    p = (T * pt)[:3, :]
+    return _simplify_matrix(p) if simplify else p
+
+
+def _point(point, length_unit):
+    sp = _sp()
+    if point is None:
+        return sp.Matrix([0, 0, 0, 1])
+    if len(point) != 3:
+        raise ShapeError(f"expected point with 3 coordinates, got {len(point)}")
+    scale = _LENGTH_SCALE[length_unit]
+    vals = [v if isinstance(v, sp.Basic) else _exact_length(float(v) * scale) for v in point]
+    return sp.Matrix([*vals, 1])
+
+
+def geometric_jacobian(robot, *, point=None, q=None, lengths=None, length_unit="m", simplify=True):
+    """Symbolic geometric Jacobian of a point fixed to the tool frame (base axes).
+
+    Column ``i`` is ``[z x (p - o); z]`` for a revolute and ``[z; 0]`` for a
+    prismatic joint, with ``z``/``o`` the joint axis and a point on it
+    (``z_{i-1}, o_{i-1}`` standard; ``z_i, o_i`` modified) - the same
+    Jacobian as :func:`labkit.kinematics.jacobian`.
+
+    Parameters
+    ----------
+    robot : Robot
+    point : sequence of 3, optional
+        Point in tool coordinates [m]; e.g. ``-tool translation`` for the
+        origin of frame n.
+    q, lengths, length_unit, simplify
+        As in :func:`forward_kinematics`.
+
+    Returns
+    -------
+    J : sympy.Matrix, shape (6, n)
+        Rows ``vx, vy, vz, wx, wy, wz``.
+
+    Examples
+    --------
+    Seed 002 problem 3 (RPP arm):
+
+    >>> from labkit.robot import Robot
+    >>> geometric_jacobian(Robot.load("rpp_seed002"), q=["theta1", "d2", "d3"])
+    Matrix([
+    [-d3*sin(theta1), 0, cos(theta1)],
+    [ d3*cos(theta1), 0, sin(theta1)],
+    [              0, 1,           0],
+    [              0, 0,           0],
+    [              0, 0,           0],
+    [              1, 0,           0]])
+    """
+    sp = _sp()
+    A, base, tool, _ = _chain(robot, q, lengths, length_unit)
+    mod = robot.convention is Convention.MODIFIED
+    frames = [base]
+    for Ai in A:
+        frames.append(frames[-1] * Ai)
+    pe = (frames[-1] * tool * _point(point, length_unit))[:3, 0]
+    cols = []
+    for i, lk in enumerate(robot.links):
+        F = frames[i + 1] if mod else frames[i]
+        z, o = F[:3, 2], F[:3, 3]
+        if lk.is_revolute:
+            cols.append(sp.Matrix.vstack(z.cross(pe - o), z))
+        else:
+            cols.append(sp.Matrix.vstack(z, sp.zeros(3, 1)))
+    J = sp.Matrix.hstack(*cols)
+    return _simplify_matrix(J) if simplify else J
+
+
+def lambdify_joints(robot, expr, q=None):
+    """A numpy function of the joint values for a symbolic expression.
+
+    Parameters
+    ----------
+    robot : Robot
+    expr : sympy expression or Matrix
+        Built with the same joint symbols ``q`` and exact numeric lengths.
+    q : sequence of str or sympy.Symbol, optional
+        The joint symbols used in ``expr`` (default ``q1 .. qn``).
+
+    Returns
+    -------
+    f : callable
+        ``f(q_values)`` with ``q_values`` of shape (n,) returns a numpy array.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("planar3r_seed004")
+    >>> f = lambdify_joints(arm, end_effector_position(arm))
+    >>> np.round(f([0.0, 0.0, np.pi / 2]).ravel(), 3)
+    array([0.35, 0.12, 0.  ])
+    """
+    sp = _sp()
+    qs = joint_symbols(robot, q)
+    fn = sp.lambdify(qs, expr, "numpy")
+
+    def f(values):
+        values = np.asarray(values, dtype=float)
+        if values.shape != (robot.n,):
+            raise ShapeError(f"expected q with shape ({robot.n},), got {values.shape}")
+        return np.asarray(fn(*values), dtype=float)
+
+    return f
+
+
+def latex(expr):
+    """LaTeX source of a sympy expression or matrix (for reports).
+
+    Parameters
+    ----------
+    expr : sympy.Basic or sympy.MatrixBase
+        Expression or matrix (e.g. from :func:`symbolic_fk`).
+
+    Returns
+    -------
+    str
+        ``sympy.latex(expr)``.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> latex(sp.Matrix([[sp.cos(sp.Symbol("q1"))]]))
+    '\\\\left[\\\\begin{matrix}\\\\cos{\\\\left(q_{1} \\\\right)}\\\\end{matrix}\\\\right]'
+    """
+    return _sp().latex(expr)

@@ -1,0 +1,367 @@
+"""Time-law constructors: cubic, quintic, linear and LSPB moves, minimum durations, time grids."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.interpolate import BPoly, CubicHermiteSpline, PPoly
+
+from labkit.exceptions import ShapeError, TrajectoryError
+from labkit.motion._timelaw import LawKind, TimeLaw, _ALIASES, _POINT_LAWS
+
+__all__ = ["cubic", "quintic", "lspb", "linear", "make_law", "minimum_duration", "time_grid"]
+
+
+
+# -- constructors ---------------------------------------------------------------
+
+def _check_duration(duration, t0):
+    duration = float(duration)
+    if not math.isfinite(duration) or duration <= 0:
+        raise TrajectoryError(f"expected a positive finite duration [s], got {duration!r}")
+    if not math.isfinite(float(t0)):
+        raise TrajectoryError(f"expected a finite start time t0 [s], got {t0!r}")
+    return duration
+
+
+def _values(*arrays, names):
+    """Broadcast boundary values to one shape, checking finiteness."""
+    out = []
+    for a, name in zip(arrays, names):
+        arr = np.asarray(a, dtype=float)
+        if not np.all(np.isfinite(arr)):
+            raise ShapeError(f"expected finite {name}, got {a!r}")
+        out.append(arr)
+    try:
+        return np.broadcast_arrays(*out)
+    except ValueError:
+        shapes = ", ".join(f"{n} {np.shape(a)}" for a, n in zip(out, names))
+        raise ShapeError(f"expected boundary values of one shape, got {shapes}") from None
+
+
+def cubic(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
+    """Cubic polynomial between two values with given boundary velocities.
+
+    ``u(t) = a0 + a1 t + a2 t^2 + a3 t^3`` (``t`` from ``t0``) with
+    ``u(0) = q0, u(T) = qf, u'(0) = v0, u'(T) = vf``; rest to rest by default,
+    where ``a0 = q0, a1 = 0, a2 = 3 (qf - q0) / T^2, a3 = -2 (qf - q0) / T^3``.
+
+    Parameters
+    ----------
+    q0, qf : array_like, shape (...)
+        Start and end values [rad, m, or any unit].
+    duration : float
+        ``T`` [s].
+    v0, vf : array_like, shape (...)
+        Boundary velocities [units/s].
+    t0 : float
+        Start time [s].
+
+    Returns
+    -------
+    TimeLaw
+
+    Examples
+    --------
+    >>> law = cubic([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0)  # seed 003, task 2
+    >>> law.coefficients[0, 2]  # a2 per joint
+    array([-0.096 ,  0.096 , -0.0924])
+    """
+    T = _check_duration(duration, t0)
+    q0, qf, v0, vf = _values(q0, qf, v0, vf, names=("q0", "qf", "v0", "vf"))
+    spl = CubicHermiteSpline([t0, t0 + T], np.stack([q0, qf]), np.stack([v0, vf]), axis=0)
+    return TimeLaw(PPoly(spl.c, spl.x), LawKind.CUBIC)
+
+
+def quintic(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
+    """Quintic polynomial with boundary positions, velocities and accelerations.
+
+    Parameters
+    ----------
+    q0, qf : array_like, shape (...)
+        Start and end values.
+    duration : float
+        ``T`` [s].
+    v0, vf, a0, af : array_like, shape (...)
+        Boundary velocities [units/s] and accelerations [units/s^2].
+    t0 : float
+        Start time [s].
+
+    Returns
+    -------
+    TimeLaw
+        Degree 5, coefficients ``a0 .. a5``.
+
+    Examples
+    --------
+    >>> law = quintic(0.0, 1.0, 1.0)
+    >>> law.coefficients[0].round(6)
+    array([  0.,   0.,   0.,  10., -15.,   6.])
+    """
+    T = _check_duration(duration, t0)
+    vals = _values(q0, qf, v0, vf, a0, af, names=("q0", "qf", "v0", "vf", "a0", "af"))
+    q0, qf, v0, vf, a0, af = vals
+    shape = q0.shape
+    flat = [v.reshape(-1) for v in vals]
+    cols = []
+    for j in range(flat[0].size):
+        b = BPoly.from_derivatives(
+            [t0, t0 + T],
+            [[flat[0][j], flat[2][j], flat[4][j]], [flat[1][j], flat[3][j], flat[5][j]]],
+        )
+        cols.append(PPoly.from_bernstein_basis(b).c[:, 0])
+    c = np.stack(cols, axis=-1).reshape((6, 1) + shape)
+    return TimeLaw(PPoly(c, [t0, t0 + T]), LawKind.QUINTIC)
+
+
+def linear(q0, qf, duration, *, t0=0.0):
+    """Constant-velocity move (velocity jumps at the ends; for comparison).
+
+    Parameters
+    ----------
+    q0, qf : array_like, shape (...)
+        Start and end values [rad, m, or any unit].
+    duration : float
+        ``T`` [s], positive.
+    t0 : float
+        Start time [s].
+
+    Returns
+    -------
+    TimeLaw
+        Degree 1.
+
+    Raises
+    ------
+    TrajectoryError
+        A non-positive or non-finite duration.
+    ShapeError
+        ``q0`` and ``qf`` do not broadcast, or hold non-finite values.
+
+    Examples
+    --------
+    >>> float(linear(0.0, 2.0, 4.0).velocity(1.0))
+    0.5
+    """
+    T = _check_duration(duration, t0)
+    q0, qf = _values(q0, qf, names=("q0", "qf"))
+    c = np.stack([(qf - q0) / T, q0])[:, None]
+    return TimeLaw(PPoly(c, [t0, t0 + T]), LawKind.LINEAR)
+
+
+def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
+    """Blend time of a synchronised LSPB covering ``distance`` (array) in T."""
+    given = sum(x is not None for x in (v_max, a_max, blend_time))
+    if given > 1:
+        raise TrajectoryError("give at most one of v_max, a_max and blend_time for an LSPB law")
+    D = np.abs(distance)
+    Dmax = float(np.max(D)) if D.size else 0.0
+    if blend_time is not None:
+        tb = float(blend_time)
+        if not 0 < tb <= T / 2:
+            raise TrajectoryError(f"expected 0 < blend_time <= T/2 = {T / 2:.6g} s, got {tb!r}")
+        return tb
+    if Dmax == 0.0:
+        return T / 3
+    if v_max is not None:
+        vm = np.broadcast_to(np.asarray(v_max, dtype=float), D.shape)
+        if np.any(vm <= 0):
+            raise TrajectoryError(f"expected positive v_max, got {v_max!r}")
+        moving = D > 0
+        sdot = float(np.min(vm[moving] / D[moving]))  # cruise rate of s in [0, 1]
+        if sdot * T <= 1.0:
+            need = float(np.max(D[moving] / vm[moving]))
+            raise TrajectoryError(
+                f"v_max too low for an LSPB move in {T:.6g} s: the move needs a cruise speed above "
+                f"distance/T; with this v_max the minimum duration is above {need:.6g} s"
+            )
+        if sdot * T > 2.0:  # v_max higher than needed: triangular profile
+            return T / 2
+        return T - 1.0 / sdot
+    if a_max is not None:
+        am = np.broadcast_to(np.asarray(a_max, dtype=float), D.shape)
+        if np.any(am <= 0):
+            raise TrajectoryError(f"expected positive a_max, got {a_max!r}")
+        moving = D > 0
+        sdd = float(np.min(am[moving] / D[moving]))
+        disc = sdd**2 * T**2 - 4 * sdd
+        if disc < 0:
+            need = 2 * math.sqrt(1.0 / sdd)
+            raise TrajectoryError(
+                f"a_max too low for an LSPB move in {T:.6g} s: minimum duration {need:.6g} s"
+            )
+        return T / 2 - math.sqrt(disc) / (2 * sdd)
+    return T / 3  # default: cruise at 1.5 x the mean speed
+
+
+def lspb(q0, qf, duration, *, v_max=None, a_max=None, blend_time=None, t0=0.0):
+    """Linear segment with parabolic blends (trapezoidal velocity), rest to rest.
+
+    All values move in sync: ``u(t) = q0 + (qf - q0) s(t)`` with one scalar
+    trapezoidal profile ``s`` from 0 to 1. Give at most one of ``v_max``,
+    ``a_max`` or ``blend_time``; the default blend time is ``T / 3`` (cruise
+    speed 1.5 times the mean speed).
+
+    Parameters
+    ----------
+    q0, qf : array_like, shape (...)
+    duration : float
+        ``T`` [s].
+    v_max : float or array_like, shape (...), optional
+        Cruise speed bound per value [units/s]; the slowest value sets the
+        profile. Must exceed ``|qf - q0| / T``.
+    a_max : float or array_like, optional
+        Blend acceleration [units/s^2]; must be at least ``4 |qf - q0| / T^2``.
+    blend_time : float, optional
+        ``t_b`` [s], ``0 < t_b <= T / 2``.
+    t0 : float
+        Start time [s].
+
+    Returns
+    -------
+    TimeLaw
+        Three segments (blend, cruise, blend) of degree 2.
+
+    Raises
+    ------
+    TrajectoryError
+        If the bound cannot be met in ``T``; the message gives the minimum duration.
+
+    Examples
+    --------
+    >>> law = lspb(0.0, 1.0, 3.0)
+    >>> law.breaks
+    array([0., 1., 2., 3.])
+    >>> float(law.velocity(1.5))
+    0.5
+    """
+    T = _check_duration(duration, t0)
+    q0, qf = _values(q0, qf, names=("q0", "qf"))
+    D = qf - q0
+    tb = _lspb_unit_blend(T, v_max, a_max, blend_time, D)
+    V = 1.0 / (T - tb)  # cruise rate of s
+    A = V / tb
+    # s(t) on [0, tb], [tb, T - tb], [T - tb, T]; coefficients descending (a2, a1, a0)
+    s_tb = 0.5 * A * tb**2
+    sc = np.array(
+        [
+            [0.5 * A, 0.0, -0.5 * A],
+            [0.0, V, V],
+            [0.0, s_tb, 1.0 - s_tb],
+        ]
+    )
+    x = [t0, t0 + tb, t0 + T - tb, t0 + T]
+    if T - 2 * tb <= 1e-12 * T:  # triangular: drop the empty cruise segment
+        sc = sc[:, [0, 2]]
+        x = [t0, t0 + tb, t0 + T]
+    c = sc.reshape(sc.shape + (1,) * D.ndim) * D
+    c[2] += q0
+    return TimeLaw(PPoly(c, x), LawKind.LSPB)
+
+
+def make_law(kind, q0, qf, duration, **options):
+    """Build a point-to-point law by name.
+
+    Parameters
+    ----------
+    kind : {"cubic", "quintic", "lspb", "linear"} or LawKind
+        ``"trapezoid"`` is accepted for ``"lspb"``.
+    q0, qf, duration, **options
+        As for :func:`cubic`, :func:`quintic`, :func:`lspb`, :func:`linear`.
+
+    Returns
+    -------
+    TimeLaw
+
+    Examples
+    --------
+    >>> make_law("quintic", 0.0, 1.0, 2.0).degree
+    5
+    """
+    if isinstance(kind, str):
+        kind = _ALIASES.get(kind, kind)
+    kind = LawKind.parse(kind, _POINT_LAWS)
+    fn = {LawKind.CUBIC: cubic, LawKind.QUINTIC: quintic, LawKind.LSPB: lspb, LawKind.LINEAR: linear}
+    return fn[kind](q0, qf, duration, **options)
+
+
+# Peak speed and acceleration of the rest-to-rest laws per unit distance and
+# unit duration: v_peak = cv D / T, a_peak = ca D / T^2.
+_PEAKS = {
+    LawKind.CUBIC: (1.5, 6.0),
+    LawKind.QUINTIC: (15.0 / 8.0, 10.0 / math.sqrt(3.0)),
+}
+
+
+def minimum_duration(distance, *, v_max=math.inf, a_max=math.inf, kind="cubic"):
+    """Shortest rest-to-rest duration that respects speed/acceleration bounds.
+
+    Parameters
+    ----------
+    distance : array_like, shape (...)
+        ``|qf - q0|`` per value [units].
+    v_max, a_max : float or array_like, shape (...)
+        Bounds [units/s, units/s^2]; ``inf`` means unbounded.
+    kind : {"cubic", "quintic", "lspb"}
+
+    Returns
+    -------
+    float
+        The smallest ``T`` [s] (0 if nothing moves or nothing is bounded).
+
+    Examples
+    --------
+    >>> minimum_duration(0.1487, v_max=0.0446)  # seed 000: 1.5 D / v
+    5.001121076233184
+    """
+    kind = LawKind.parse(_ALIASES.get(kind, kind) if isinstance(kind, str) else kind,
+                         (LawKind.CUBIC, LawKind.QUINTIC, LawKind.LSPB))
+    D = np.abs(np.asarray(distance, dtype=float))
+    v = np.broadcast_to(np.asarray(v_max, dtype=float), D.shape)
+    a = np.broadcast_to(np.asarray(a_max, dtype=float), D.shape)
+    if np.any(v <= 0) or np.any(a <= 0):
+        raise TrajectoryError(f"expected positive v_max and a_max, got {v_max!r}, {a_max!r}")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind is LawKind.LSPB:
+            tri = D <= v**2 / a  # never reaches v: triangular profile
+            T = np.where(tri, 2 * np.sqrt(D / a), D / v + v / a)
+        else:
+            cv, ca = _PEAKS[kind]
+            T = np.maximum(cv * D / v, np.sqrt(ca * D / a))
+    T = np.where(D > 0, T, 0.0)
+    return float(np.max(T)) if T.size else 0.0
+
+
+def time_grid(t0, tf, dt):
+    """Samples ``t0, t0 + dt, ...`` up to ``tf`` (``tf`` appended if off-grid).
+
+    Parameters
+    ----------
+    t0, tf : float
+        Start and end [s].
+    dt : float
+        Step [s] (0.1 s in seed 000).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+
+    Examples
+    --------
+    >>> time_grid(0.0, 5.0, 0.1).size  # MATLAB 0:0.1:5
+    51
+    """
+    dt = float(dt)
+    if not math.isfinite(dt) or dt <= 0:
+        raise TrajectoryError(f"expected a positive time step dt [s], got {dt!r}")
+    span = float(tf) - float(t0)
+    if span < 0:
+        raise TrajectoryError(f"expected tf >= t0, got t0 = {t0!r}, tf = {tf!r}")
+    k = int(math.floor(span / dt + 1e-9))
+    t = float(t0) + dt * np.arange(k + 1)
+    if span - k * dt > 1e-9 * max(1.0, span):
+        t = np.append(t, float(tf))
+    else:
+        t[-1] = float(tf) if k > 0 else t[-1]
+    return t

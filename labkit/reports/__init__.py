@@ -1,0 +1,39 @@
+"""Reports: executing lab notebooks, rendering HTML/PDF reports, and the helpers
+notebooks use (:class:`Checks`, tables, LaTeX).
+"""
+
+from labkit.reports._execute import (
+    CELL_TIMEOUT,
+    ExecutionResult,
+    notebooks_root,
+    find_notebooks,
+    lab_of,
+    parse_parameter,
+    notebook_parameters,
+    execute_notebook,
+)
+from labkit.reports._render import RenderResult, export_html, print_pdf, render, render_one, write_index
+from labkit.reports._nbtools import CheckRow, Checks, check, show_latex, matrix_latex, show_table
+
+__all__ = [
+    "CELL_TIMEOUT",
+    "ExecutionResult",
+    "notebooks_root",
+    "find_notebooks",
+    "lab_of",
+    "parse_parameter",
+    "notebook_parameters",
+    "execute_notebook",
+    "RenderResult",
+    "export_html",
+    "print_pdf",
+    "render",
+    "render_one",
+    "write_index",
+    "CheckRow",
+    "Checks",
+    "check",
+    "show_latex",
+    "matrix_latex",
+    "show_table",
+]

@@ -1,0 +1,341 @@
+"""Finding, parameterising and executing the lab notebooks.
+
+A lab notebook lives in ``notebooks/<lab>/<name>.ipynb`` and has one cell tagged
+``parameters`` (papermill's convention) whose defaults run without hardware
+(``port = "sim://"``). :func:`execute_notebook` runs a notebook in a fresh
+kernel with papermill, injecting parameter overrides after that cell, and never
+raises for an error *inside* the notebook: the executed notebook (with the
+failing cell and its traceback) is written anyway and the failure is described
+by the returned :class:`ExecutionResult`.
+
+Example
+-------
+>>> from labkit.reports import parse_parameter
+>>> parse_parameter("0.5"), parse_parameter("/dev/ttyACM0"), parse_parameter("[1, 2]")
+(0.5, '/dev/ttyACM0', [1, 2])
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from labkit.exceptions import LabkitError
+
+__all__ = ["CELL_TIMEOUT", 
+    "ExecutionResult",
+    "notebooks_root",
+    "find_notebooks",
+    "lab_of",
+    "parse_parameter",
+    "notebook_parameters",
+    "execute_notebook",
+]
+
+#: environment variable pointing at the notebooks folder (default: ./notebooks, else the source tree's)
+ROOT_ENV = "LABKIT_NOTEBOOKS"
+#: seconds one cell may run before the execution is abandoned
+CELL_TIMEOUT = 600
+
+
+@dataclass(frozen=True)
+class ExecutionResult:
+    """Outcome of executing one notebook.
+
+    Attributes
+    ----------
+    source : Path
+        The notebook that was executed.
+    output : Path
+        The executed notebook (written even when a cell failed).
+    ok : bool
+        True when every cell ran without an error.
+    seconds : float
+        Wall time of the execution [s].
+    error : str
+        ``"<ExceptionName>: <message>"`` of the first failure, "" when ok.
+    cell : int or None
+        Index of the failing cell in the executed notebook, None when ok.
+    parameters : dict
+        The parameter overrides that were injected.
+    """
+
+    source: Path
+    output: Path
+    ok: bool
+    seconds: float
+    error: str = ""
+    cell: int | None = None
+    parameters: dict = field(default_factory=dict)
+
+
+def notebooks_root() -> Path:
+    """The folder holding the lab notebooks.
+
+    ``$LABKIT_NOTEBOOKS`` if set, else ``./notebooks`` when it exists, else the
+    ``notebooks/`` folder next to the installed (editable) ``labkit`` package.
+
+    Returns
+    -------
+    pathlib.Path
+        The first existing candidate, resolved.
+
+    Raises
+    ------
+    LabkitError
+        If none of these exists.
+    """
+    candidates = []
+    if os.environ.get(ROOT_ENV):
+        candidates.append(Path(os.environ[ROOT_ENV]))
+    candidates += [Path.cwd() / "notebooks", Path(__file__).resolve().parents[1] / "notebooks"]
+    for c in candidates:
+        if c.is_dir():
+            return c.resolve()
+    raise LabkitError("no notebooks folder found; tried " + ", ".join(str(c) for c in candidates))
+
+
+def _is_notebook(p: Path) -> bool:
+    return p.suffix == ".ipynb" and ".ipynb_checkpoints" not in p.parts and not p.name.startswith("_")
+
+
+def find_notebooks(selection=None, root=None) -> list[Path]:
+    """The lab notebooks to execute, sorted by lab then name.
+
+    Parameters
+    ----------
+    selection : sequence of str or Path, optional
+        Notebook files, lab folders, or lab names (folder names under ``root``);
+        a substring of a notebook path (e.g. ``"seed002"``) also matches. Default:
+        every ``<root>/<lab>/*.ipynb``.
+    root : Path, optional
+        The notebooks folder (default :func:`notebooks_root`).
+
+    Returns
+    -------
+    list of Path
+
+    Raises
+    ------
+    LabkitError
+        If an entry of ``selection`` matches nothing (the message lists the labs).
+    """
+    root = Path(root) if root is not None else notebooks_root()
+    every = sorted(p.resolve() for p in root.glob("*/*.ipynb") if _is_notebook(p))
+    if not selection:
+        return every
+    found: list[Path] = []
+    for item in selection:
+        p = Path(item)
+        if p.is_file():
+            hits = [p.resolve()]
+        elif p.is_dir():
+            hits = sorted(q.resolve() for q in p.glob("*.ipynb") if _is_notebook(q))
+        elif (root / str(item)).is_dir():
+            hits = sorted(q.resolve() for q in (root / str(item)).glob("*.ipynb") if _is_notebook(q))
+        else:
+            hits = [q for q in every if str(item) in str(q.relative_to(root))]
+        if not hits:
+            labs = sorted({q.parent.name for q in every})
+            raise LabkitError(f"no notebook matches {str(item)!r}; labs under {root}: {', '.join(labs)}")
+        found += [h for h in hits if h not in found]
+    return found
+
+
+def lab_of(notebook) -> str:
+    """The lab name of a notebook: its folder name (``notebooks/<lab>/x.ipynb``).
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike
+        Notebook path.
+
+    Returns
+    -------
+    str
+        Name of the folder holding the notebook (after resolving the path).
+    """
+    return Path(notebook).resolve().parent.name
+
+
+def parse_parameter(text: str):
+    """Parse a ``-p name value`` value: a Python literal if it is one, else the string.
+
+    Examples: ``"3"`` -> 3, ``"0.5"`` -> 0.5, ``"True"`` -> True, ``"None"`` -> None,
+    ``"[0, 1]"`` -> [0, 1], ``"sim://"`` -> ``"sim://"``.
+
+    Parameters
+    ----------
+    text : str
+        Value as typed on the command line.
+
+    Returns
+    -------
+    object
+        ``ast.literal_eval(text)``, or ``text`` itself if it is not a literal.
+    """
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError, MemoryError, RecursionError):
+        return text
+
+
+def notebook_parameters(notebook) -> dict:
+    """The parameters (name -> default source text) declared by a notebook's ``parameters`` cell.
+
+    The cell is parsed with :mod:`ast` (papermill's own line parser rejects values such as
+    ``"sim://?clock=lockstep"``); every top-level assignment is a parameter.
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike
+        Notebook file (``.ipynb``).
+
+    Returns
+    -------
+    dict of str to str
+        Parameter name -> source text of its default value, in cell order.
+
+    Raises
+    ------
+    LabkitError
+        If the notebook has no cell tagged ``parameters`` or the cell is not valid Python.
+    """
+    import nbformat
+
+    nb = nbformat.read(str(notebook), as_version=4)
+    cells = [c for c in nb.cells if "parameters" in c.get("metadata", {}).get("tags", [])]
+    if not cells:
+        raise LabkitError(f"{notebook} has no cell tagged 'parameters'")
+    source = cells[0].source
+    try:
+        tree = ast.parse(source)
+    except SyntaxError as exc:
+        raise LabkitError(f"{notebook}: the parameters cell is not valid Python: {exc}") from exc
+    params = {}
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+        for target in targets:
+            if isinstance(target, ast.Name) and getattr(node, "value", None) is not None:
+                params[target.id] = ast.get_source_segment(source, node.value)
+    return params
+
+
+_KERNEL_MANAGER = None
+
+
+def _kernel_manager_class():
+    """An AsyncKernelManager whose client polls its sockets in short slices.
+
+    Works around a missed wake-up in ``jupyter_client``'s asyncio ``get_msg`` seen with
+    ipywidgets (nbclient issue #312, open): a cell's ``execute_reply`` sits in the socket
+    while the client waits for the whole cell timeout (600 s) before reading it. Polling in
+    0.2 s slices re-checks the socket, so a missed wake-up costs at most 0.2 s.
+    """
+    global _KERNEL_MANAGER
+    if _KERNEL_MANAGER is not None:
+        return _KERNEL_MANAGER
+    from queue import Empty
+
+    from jupyter_client.asynchronous import AsyncKernelClient
+    from jupyter_client.channels import AsyncZMQSocketChannel
+    from jupyter_client.manager import AsyncKernelManager
+    from traitlets import Type
+
+    class SlicedPollChannel(AsyncZMQSocketChannel):
+        async def get_msg(self, timeout=None):
+            deadline = None if timeout is None else time.monotonic() + timeout
+            while True:
+                left = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
+                if await self.socket.poll(int(left * 1000)):
+                    return await self._recv()
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise Empty
+
+    class SlicedPollClient(AsyncKernelClient):
+        shell_channel_class = Type(SlicedPollChannel)
+        iopub_channel_class = Type(SlicedPollChannel)
+
+    class SlicedPollKernelManager(AsyncKernelManager):
+        client_factory = Type(SlicedPollClient, klass=AsyncKernelClient)
+
+    _KERNEL_MANAGER = SlicedPollKernelManager
+    return _KERNEL_MANAGER
+
+
+def _first_error(nb):
+    """(cell index, "Name: message") of the first error output in an executed notebook."""
+    for i, cell in enumerate(nb.cells):
+        for out in cell.get("outputs", []):
+            if out.get("output_type") == "error":
+                where = f" (in cell In [{cell.get('execution_count')}])" if cell.get("execution_count") else ""
+                return i, f"{out.get('ename', 'Error')}: {out.get('evalue', '')}{where}"
+    return None, ""
+
+
+def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name="python3",
+                     check_names=True, timeout=CELL_TIMEOUT) -> ExecutionResult:
+    """Execute ``notebook`` in a fresh kernel and write the executed copy to ``output``.
+
+    Parameters
+    ----------
+    notebook, output : str or Path
+        Source notebook and where to write the executed notebook (folders are created).
+    parameters : dict, optional
+        Overrides injected after the ``parameters`` cell (name -> Python value).
+    cwd : str or Path, optional
+        Working directory of the kernel (default: the notebook's folder).
+    kernel_name : str
+        Jupyter kernel to start.
+    check_names : bool
+        Reject parameter names the notebook does not declare (with the valid names).
+    timeout : float
+        Seconds a single cell may run [s].
+
+    Returns
+    -------
+    ExecutionResult
+        ``ok=False`` (and the error) when a cell raised; the output is written either way.
+
+    Raises
+    ------
+    LabkitError
+        For a missing notebook or an unknown parameter name (nothing is executed).
+    """
+    import nbformat
+    import papermill
+    from papermill.exceptions import PapermillExecutionError
+
+    notebook, output = Path(notebook), Path(output)
+    if not notebook.is_file():
+        raise LabkitError(f"notebook not found: {notebook}")
+    parameters = dict(parameters or {})
+    if check_names and parameters:
+        declared = notebook_parameters(notebook)
+        unknown = sorted(set(parameters) - set(declared))
+        if unknown:
+            raise LabkitError(f"{notebook.name} has no parameter {', '.join(unknown)}; "
+                              f"its parameters are: {', '.join(declared) or '(none)'}")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    try:
+        papermill.execute_notebook(
+            str(notebook), str(output), parameters=parameters, kernel_name=kernel_name,
+            cwd=str(cwd or notebook.parent), progress_bar=False, log_output=False,
+            request_save_on_cell_execute=False, execution_timeout=timeout,
+            kernel_manager_class=_kernel_manager_class(),
+        )
+    except PapermillExecutionError:
+        pass  # the executed notebook (with the traceback) was written; described below
+    except Exception as exc:  # kernel died, timeout, ...: still report, never stop the batch
+        seconds = time.perf_counter() - t0
+        if not output.exists():
+            nb = nbformat.read(str(notebook), as_version=4)
+            nbformat.write(nb, str(output))
+        return ExecutionResult(notebook, output, False, seconds, f"{type(exc).__name__}: {exc}", None, parameters)
+    seconds = time.perf_counter() - t0
+    cell, error = _first_error(nbformat.read(str(output), as_version=4))
+    return ExecutionResult(notebook, output, cell is None, seconds, error, cell, parameters)

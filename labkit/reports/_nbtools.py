@@ -1,0 +1,329 @@
+"""Small helpers for writing lab notebooks.
+
+* :func:`show_latex` - display a sympy expression / matrix (or a LaTeX string) as math;
+* :func:`matrix_latex` - LaTeX of a numeric matrix with a fixed number of decimals;
+* :class:`Checks` - the closing assertions of a notebook: each :meth:`Checks.check`
+  compares a reproduced number with the published one within a documented
+  tolerance, :meth:`Checks.typo` records a published number that is wrong (shown,
+  never failing), and :meth:`Checks.assert_all` shows the table and raises
+  ``AssertionError`` naming the failures;
+* :func:`check` - one immediate check (prints a row, raises on failure).
+
+Nothing heavy is imported at module import (IPython only when displaying).
+
+Example
+-------
+>>> from labkit.reports import Checks
+>>> checks = Checks(display=False)
+>>> row = checks.check("tau", [2.0, 3.0, 1.0], [2, 3, 1], tol=1e-9, note="seed 002 sec. 3.2")
+>>> row.passed
+True
+>>> checks.assert_all()
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from labkit.exceptions import CheckFailed, ShapeError
+
+__all__ = ["CheckRow", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
+
+
+def _display(obj):
+    try:
+        from IPython import get_ipython
+        from IPython.display import display
+
+        if get_ipython() is not None:
+            display(obj)
+            return True
+    except ImportError:  # pragma: no cover - IPython is a dependency of ipykernel
+        pass
+    return False
+
+
+def matrix_latex(a, decimals=4) -> str:
+    """LaTeX ``bmatrix`` of a numeric array of shape (m, n) or (n,) (a column).
+
+    Parameters
+    ----------
+    a : array_like, shape (m, n) or (n,)
+        Numbers (any unit); a vector becomes a column.
+    decimals : int
+        Decimal places shown; values that round to zero print as ``0.0...``
+        (no ``-0.0``).
+
+    Returns
+    -------
+    str
+        ``\\begin{bmatrix} ... \\end{bmatrix}`` with ``&`` between columns.
+
+    Raises
+    ------
+    ValueError
+        ``a`` has more than two dimensions.
+
+    Examples
+    --------
+    >>> matrix_latex([[1, 0], [0, 1]], decimals=1)
+    '\\\\begin{bmatrix} 1.0 & 0.0 \\\\\\\\ 0.0 & 1.0 \\\\end{bmatrix}'
+    """
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise ShapeError(f"expected a matrix with shape (m, n) or (n,), got {a.shape}")
+    fmt = f"{{:.{decimals}f}}"
+    rows = [" & ".join(fmt.format(0.0 if abs(v) < 0.5 * 10 ** -decimals else v) for v in row) for row in a]
+    return "\\begin{bmatrix} " + " \\\\ ".join(rows) + " \\end{bmatrix}"
+
+
+def show_latex(expr, prefix="", decimals=4):
+    """Display ``expr`` as display math.
+
+    Parameters
+    ----------
+    expr : sympy expression/matrix, numpy array, or str
+        A LaTeX string is shown as is; a numpy array via :func:`matrix_latex`.
+    prefix : str
+        LaTeX put before the expression, e.g. ``"{}^0_6T = "``.
+    decimals : int
+        Decimals for numeric arrays.
+
+    Returns
+    -------
+    None
+        (Outside IPython the LaTeX is printed instead.)
+    """
+    if isinstance(expr, str):
+        tex = expr
+    elif isinstance(expr, (np.ndarray, list, tuple)):
+        tex = matrix_latex(expr, decimals)
+    else:
+        import sympy
+
+        tex = sympy.latex(expr)
+    tex = prefix + tex
+    from IPython.display import Math
+
+    if not _display(Math(tex)):
+        print(tex)
+
+
+def show_table(df, caption=None, floatfmt="{:.4g}"):
+    """Display a pandas DataFrame as a compact HTML table (static in reports).
+
+    Outside IPython the table is printed as text instead.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+    caption : str, optional
+        Table caption.
+    floatfmt : str
+        Format of numeric cells (``str.format`` syntax).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``df`` itself (unchanged), so that a cell can display and keep it.
+    """
+    styler = df.style.format(floatfmt, subset=df.select_dtypes("number").columns)
+    if caption:
+        styler = styler.set_caption(caption)
+    if not _display(styler):
+        print(df.to_string())
+    return df
+
+
+@dataclass(frozen=True)
+class CheckRow:
+    """One reproduced-vs-published comparison.
+
+    ``kind`` is ``"check"`` (must agree within ``tol``) or ``"typo"`` (published value is
+    wrong: documented, never failing). ``error`` is the largest absolute difference.
+    """
+
+    name: str
+    value: np.ndarray
+    published: np.ndarray
+    tol: float
+    error: float
+    passed: bool
+    note: str = ""
+    kind: str = "check"
+
+
+def _fmt(a, digits=6):
+    a = np.asarray(a, dtype=float)
+    if a.size == 1:
+        return f"{a.item():.{digits}g}"
+    flat = ", ".join(f"{v:.{digits}g}" for v in a.ravel()[:8])
+    return f"[{flat}{', ...' if a.size > 8 else ''}]"
+
+
+@dataclass
+class Checks:
+    """Collects the closing assertions of a notebook.
+
+    Parameters
+    ----------
+    title : str
+        Table caption.
+    display : bool
+        Print each row as it is added (False in doctests/tests).
+    """
+
+    title: str = "Reproduced vs published"
+    display: bool = True
+    rows: list = field(default_factory=list)
+
+    def check(self, name, value, published, tol, note="", *, relative=False) -> CheckRow:
+        """Compare ``value`` with ``published`` element-wise: ``max |value - published| <= tol``.
+
+        The row is recorded (and printed when ``display``) whether it passes or not.
+
+        Parameters
+        ----------
+        name : str
+            What is compared (e.g. ``"T06 (sec. 2.2)"``).
+        value, published : array_like, same shape
+            Reproduced and published numbers (same units).
+        tol : float
+            Documented tolerance (absolute, or relative to ``|published|`` when ``relative``);
+            typically half a unit of the last published digit.
+        note : str
+            Why this tolerance / what the source is.
+        relative : bool
+            Compare ``|value - published| / |published|`` with ``tol`` instead.
+
+        Returns
+        -------
+        CheckRow
+            The recorded row (``passed`` says the outcome).
+
+        Raises
+        ------
+        ValueError
+            ``value`` and ``published`` differ in shape.
+        """
+        value = np.asarray(value, dtype=float)
+        published = np.asarray(published, dtype=float)
+        if value.shape != published.shape:
+            raise ShapeError(f"{name}: expected the published shape {published.shape}, got {value.shape}")
+        diff = np.abs(value - published)
+        if relative:
+            diff = diff / np.maximum(np.abs(published), np.finfo(float).tiny)
+        err = float(np.max(diff)) if diff.size else 0.0
+        row = CheckRow(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note)
+        self.rows.append(row)
+        if self.display:
+            print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {_fmt(value)}, published {_fmt(published)},"
+                  f" max |diff| {err:.3g} <= {tol:g}? {note}")
+        return row
+
+    def typo(self, name, published, correct, note) -> CheckRow:
+        """Record a published number that is wrong, with the corrected value and an explanation.
+
+        Parameters
+        ----------
+        name : str
+            What is corrected (e.g. ``"T06 (sec. 2.2)"``).
+        published : array_like
+            The number(s) as published.
+        correct : array_like
+            The corrected number(s), same units.
+        note : str
+            Why the published value is wrong.
+
+        Returns
+        -------
+        CheckRow
+            The recorded row (``kind="typo"``, never failing; ``error`` is NaN if the
+            shapes differ).
+        """
+        published = np.asarray(published, dtype=float)
+        correct = np.asarray(correct, dtype=float)
+        err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
+        row = CheckRow(name, correct, published, 0.0, err, True, note, kind="typo")
+        self.rows.append(row)
+        if self.display:
+            print(f"TYPO  {name}: published {_fmt(published)}, correct {_fmt(correct)}. {note}")
+        return row
+
+    def to_dataframe(self):
+        """The rows as a pandas DataFrame (one row per check/typo).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``quantity``, ``reproduced``, ``published / expected``,
+            ``max |diff|``, ``tolerance``, ``result`` and ``note``.
+        """
+        import pandas as pd
+
+        return pd.DataFrame(
+            [{"quantity": r.name, "reproduced": _fmt(r.value), "published / expected": _fmt(r.published),
+              "max |diff|": r.error, "tolerance": r.tol if r.kind == "check" else None,
+              "result": ("pass" if r.passed else "FAIL") if r.kind == "check" else "published typo",
+              "note": r.note} for r in self.rows]
+        )
+
+    @property
+    def failures(self):
+        """The rows that failed."""
+        return [r for r in self.rows if not r.passed]
+
+    def assert_all(self):
+        """Show the table (in a notebook); raise :class:`~labkit.exceptions.CheckFailed` if any check failed."""
+        if self.display and self.rows:
+            df = self.to_dataframe()
+            if not _display(df.style.set_caption(self.title).hide(axis="index")):
+                print(df.to_string(index=False))
+        if self.failures:
+            raise CheckFailed("reproduced numbers disagree with the published ones: " + "; ".join(
+                f"{r.name} (max |diff| {r.error:.3g} > tol {r.tol:g})" for r in self.failures))
+
+
+def check(name, value, published, tol, note="", *, relative=False) -> CheckRow:
+    """One immediate check: print a pass/fail row and raise ``AssertionError`` on failure.
+
+    Parameters
+    ----------
+    name : str
+        What is compared.
+    value, published : array_like, same shape
+        Reproduced and published numbers (same units).
+    tol : float
+        Tolerance (absolute, or relative to ``|published|`` when ``relative``).
+    note : str
+        Why this tolerance / what the source is.
+    relative : bool
+        Use a relative tolerance.
+
+    Returns
+    -------
+    CheckRow
+        The passing row.
+
+    Raises
+    ------
+    AssertionError
+        The check fails.
+    ValueError
+        ``value`` and ``published`` differ in shape.
+
+    Examples
+    --------
+    >>> check("pi", 3.14159, 3.1416, tol=5e-5, note="4 decimals")  # doctest: +ELLIPSIS
+    PASS  pi: ...
+    CheckRow(...)
+    """
+    c = Checks()
+    row = c.check(name, value, published, tol, note, relative=relative)
+    if not row.passed:
+        raise CheckFailed(f"{name}: reproduced {_fmt(value)} differs from published {_fmt(published)} by "
+                             f"{row.error:.3g} > tolerance {tol:g}")
+    return row

@@ -1,0 +1,386 @@
+"""Parse and write robot files (TOML, format ``labkit-robot/1``).
+
+See ``docs/robot-files.md`` for the format. Units declared in ``[units]``
+are converted at load: the :class:`~labkit.robot.Robot` is always in metres and
+radians.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from labkit.robot.types import (
+    _ANGLE_UNITS,
+    _LENGTH_UNITS,
+    FORMAT,
+    Convention,
+    Gripper,
+    JointType,
+    Link,
+    ServoCalibration,
+)
+from labkit.data import robots_dir
+from labkit.exceptions import RobotFileError
+
+_TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "joint", "tool", "base", "gripper"}
+_JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration"}
+_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
+_FRAME_KEYS = {"translation", "rpy"}
+
+
+def _num(path, field, value, *, default=None):
+    if value is None:
+        if default is None:
+            raise RobotFileError(path, field, "missing; expected a number")
+        return default
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise RobotFileError(path, field, f"expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(path, field, value):
+    """An optional strictly positive limit (speed, acceleration); inf when absent."""
+    v = _num(path, field, value, default=math.inf)
+    if not v > 0:
+        raise RobotFileError(path, field, f"expected a positive number, got {value!r}")
+    return v
+
+
+def _pair(path, field, value):
+    if not isinstance(value, list) or len(value) != 2:
+        raise RobotFileError(path, field, f"expected [lower, upper], got {value!r}")
+    lo, hi = (_num(path, field, v) for v in value)
+    if not lo < hi:
+        raise RobotFileError(path, field, f"expected lower < upper, got {value!r}")
+    return lo, hi
+
+
+def _check_keys(path, where, table, allowed):
+    if not isinstance(table, dict):
+        raise RobotFileError(path, where, f"expected a table, got {table!r}")
+    extra = sorted(set(table) - allowed)
+    if extra:
+        raise RobotFileError(
+            path, f"{where}.{extra[0]}" if where else extra[0],
+            f"unknown key; expected one of: {', '.join(sorted(allowed))}",
+        )
+
+
+def _frame(path, field, table, L, A):
+    T = np.eye(4)
+    if table is None:
+        return T
+    _check_keys(path, field, table, _FRAME_KEYS)
+    xyz = table.get("translation", [0, 0, 0])
+    rpy = table.get("rpy", [0, 0, 0])
+    for key, v in (("translation", xyz), ("rpy", rpy)):
+        if not isinstance(v, list) or len(v) != 3:
+            raise RobotFileError(path, f"{field}.{key}", f"expected a list of 3 numbers, got {v!r}")
+    T[:3, 3] = [_num(path, f"{field}.translation", v) * L for v in xyz]
+    from labkit.rotations import matrix_from_rpy  # only files with a rotated base/tool need it
+
+    T[:3, :3] = matrix_from_rpy([_num(path, f"{field}.rpy", v) * A for v in rpy])
+    return T
+
+
+def parse(data, path):
+    """Check parsed TOML ``data`` (read from ``path``) and return the robot's fields.
+
+    Parameters
+    ----------
+    data : dict
+        The file's TOML tables (``tomllib.loads``).
+    path : str or os.PathLike
+        Where the data came from (named in error messages).
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :class:`labkit.robot.Robot`, in SI units and radians.
+
+    Raises
+    ------
+    RobotFileError
+        Naming the file, the field and what was expected.
+    """
+    _check_keys(path, "", data, _TOP_KEYS)
+    fmt = data.get("format", FORMAT)
+    if fmt != FORMAT:
+        raise RobotFileError(path, "format", f"expected {FORMAT!r}, got {fmt!r}")
+    units = data.get("units", {})
+    _check_keys(path, "units", units, {"length", "angle"})
+    lu, au = units.get("length", "m"), units.get("angle", "rad")
+    if lu not in _LENGTH_UNITS:
+        raise RobotFileError(path, "units.length", f"expected one of {sorted(_LENGTH_UNITS)}, got {lu!r}")
+    if au not in _ANGLE_UNITS:
+        raise RobotFileError(path, "units.angle", f"expected one of {sorted(_ANGLE_UNITS)}, got {au!r}")
+    L, A = _LENGTH_UNITS[lu], _ANGLE_UNITS[au]
+    conv = data.get("convention")
+    valid = [c.value for c in Convention] + ["craig"]
+    if conv not in valid:
+        raise RobotFileError(path, "convention", f"expected one of {valid}, got {conv!r}")
+    conv = Convention.MODIFIED if conv == "craig" else Convention(conv)
+    joints = data.get("joint")
+    if not isinstance(joints, list) or not joints:
+        raise RobotFileError(path, "joint", "expected at least one [[joint]] table")
+    links = []
+    for i, j in enumerate(joints, start=1):
+        where = f"joint[{i}]"
+        _check_keys(path, where, j, _JOINT_KEYS)
+        jt = j.get("type", "revolute")
+        if jt not in ("revolute", "prismatic"):
+            raise RobotFileError(path, f"{where}.type", f"expected 'revolute' or 'prismatic', got {jt!r}")
+        jt = JointType(jt)
+        rev = jt is JointType.REVOLUTE
+        qscale = A if rev else L
+        lim = j.get("limits")
+        if lim is None:
+            limits = (-math.pi, math.pi) if rev else None
+            if limits is None:
+                raise RobotFileError(path, f"{where}.limits", "required for a prismatic joint; expected [lower, upper]")
+        else:
+            lo, hi = _pair(path, f"{where}.limits", lim)
+            limits = (lo * qscale, hi * qscale)
+        servo = None
+        if "servo" in j:
+            s = j["servo"]
+            _check_keys(path, f"{where}.servo", s, _SERVO_KEYS)
+            ch = s.get("channel")
+            if isinstance(ch, bool) or not isinstance(ch, int) or not 0 <= ch <= 5:
+                raise RobotFileError(path, f"{where}.servo.channel", f"expected an integer 0-5, got {ch!r}")
+            direction = s.get("direction", 1)
+            if direction not in (1, -1):
+                raise RobotFileError(path, f"{where}.servo.direction", f"expected 1 or -1, got {direction!r}")
+            ar = _pair(path, f"{where}.servo.range", s.get("range", [0, 180 if au == "deg" else math.pi]))
+            pr = _pair(path, f"{where}.servo.pulse_us", s.get("pulse_us", [500, 2500]))
+            servo = ServoCalibration(
+                channel=ch,
+                zero=_num(path, f"{where}.servo.zero", s.get("zero", 0.0)) * qscale,
+                direction=direction,
+                angle_range=(ar[0] * qscale, ar[1] * qscale),
+                pulse_range=pr,
+                feedback_adc=_pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
+            )
+        links.append(
+            Link(
+                a=_num(path, f"{where}.a", j.get("a", 0.0)) * L,
+                alpha=_num(path, f"{where}.alpha", j.get("alpha", 0.0)) * A,
+                d=_num(path, f"{where}.d", j.get("d", 0.0)) * L,
+                theta=_num(path, f"{where}.theta", j.get("theta", 0.0)) * A,
+                joint_type=jt,
+                limits=limits,
+                name=str(j.get("name", f"q{i}")),
+                servo=servo,
+                max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity")) * qscale,
+                max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration")) * qscale,
+            )
+        )
+    names = [lk.name for lk in links]
+    dup = sorted({nm for nm in names if names.count(nm) > 1})
+    if dup:
+        raise RobotFileError(path, "joint.name", f"expected distinct joint names, got {dup[0]!r} twice")
+    channels = [lk.servo.channel for lk in links if lk.servo]
+    gripper = None
+    if "gripper" in data:
+        g = data["gripper"]
+        _check_keys(path, "gripper", g, {"channel", "open_us", "closed_us"})
+        ch = g.get("channel")
+        if isinstance(ch, bool) or not isinstance(ch, int) or not 0 <= ch <= 5:
+            raise RobotFileError(path, "gripper.channel", f"expected an integer 0-5, got {ch!r}")
+        gripper = Gripper(
+            ch,
+            _num(path, "gripper.open_us", g.get("open_us")),
+            _num(path, "gripper.closed_us", g.get("closed_us")),
+        )
+        channels.append(ch)
+    if len(set(channels)) != len(channels):
+        raise RobotFileError(path, "servo.channel", f"expected distinct servo channels, got {channels}")
+    name = data.get("name")
+    if not isinstance(name, str) or not name:
+        raise RobotFileError(path, "name", f"expected a non-empty string, got {name!r}")
+    return dict(
+        name=name,
+        links=tuple(links),
+        convention=conv,
+        base=_frame(path, "base", data.get("base"), L, A),
+        tool=_frame(path, "tool", data.get("tool"), L, A),
+        title=str(data.get("title", "")),
+        source=str(data.get("source", "")),
+        gripper=gripper,
+        path=str(path),
+        length_unit=lu,
+        angle_unit=au,
+    )
+
+
+def _toml_str(text):
+    """A TOML basic string (JSON string syntax is valid TOML)."""
+    import json  # only when writing a file
+
+    return json.dumps(str(text), ensure_ascii=False)
+
+
+def _fmt(x):
+    x = float(x)
+    if x == int(x) and abs(x) < 1e15:
+        return f"{int(x)}"
+    return repr(round(x, 12))
+
+
+def dump(robot, length_unit="m", angle_unit="rad"):
+    """TOML text of ``robot`` in the given display units (round-trips through :func:`parse`).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot to write.
+    length_unit : {"m", "mm", "cm"}
+        Unit of the lengths in the text.
+    angle_unit : {"rad", "deg"}
+        Unit of the angles in the text.
+
+    Returns
+    -------
+    str
+        The robot file (format ``labkit-robot/1``).
+    """
+    L, A = _LENGTH_UNITS[length_unit], _ANGLE_UNITS[angle_unit]
+    out = [
+        f'format = "{FORMAT}"',
+        f"name = {_toml_str(robot.name)}",
+        f"title = {_toml_str(robot.title)}",
+        f"source = {_toml_str(robot.source)}",
+        f'convention = "{robot.convention.value}"',
+        f'units = {{ length = "{length_unit}", angle = "{angle_unit}" }}',
+        "",
+    ]
+    for lk in robot.links:
+        rev = lk.is_revolute
+        qs = A if rev else L
+        out += [
+            "[[joint]]",
+            f"name = {_toml_str(lk.name)}",
+            f'type = "{lk.joint_type.value}"',
+            f"a = {_fmt(lk.a / L)}",
+            f"alpha = {_fmt(lk.alpha / A)}",
+            f"d = {_fmt(lk.d / L)}",
+            f"theta = {_fmt(lk.theta / A)}",
+            f"limits = [{_fmt(lk.limits[0] / qs)}, {_fmt(lk.limits[1] / qs)}]",
+        ]
+        if math.isfinite(lk.max_velocity):
+            out.append(f"max_velocity = {_fmt(lk.max_velocity / qs)}")
+        if math.isfinite(lk.max_acceleration):
+            out.append(f"max_acceleration = {_fmt(lk.max_acceleration / qs)}")
+        if lk.servo:
+            s = lk.servo
+            out.append(
+                f"servo = {{ channel = {s.channel}, zero = {_fmt(s.zero / qs)}, direction = {s.direction}, "
+                f"range = [{_fmt(s.angle_range[0] / qs)}, {_fmt(s.angle_range[1] / qs)}], "
+                f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
+                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}] }}"
+            )
+        out.append("")
+    for name in ("base", "tool"):
+        T = getattr(robot, name)
+        if not np.allclose(T, np.eye(4), atol=0, rtol=0):
+            from labkit.rotations import rpy_from_matrix
+
+            rpy = rpy_from_matrix(T[:3, :3])
+            out += [
+                f"[{name}]",
+                "translation = [" + ", ".join(_fmt(v / L) for v in T[:3, 3]) + "]",
+                "rpy = [" + ", ".join(_fmt(v / A) for v in rpy) + "]",
+                "",
+            ]
+    if robot.gripper:
+        g = robot.gripper
+        out += [
+            "[gripper]",
+            f"channel = {g.channel}",
+            f"open_us = {_fmt(g.open_us)}",
+            f"closed_us = {_fmt(g.closed_us)}",
+            "",
+        ]
+    return "\n".join(out)
+
+
+# -- locating robot files ----------------------------------------------------
+
+def robot_search_path():
+    """Directories searched for bundled robot names, in order.
+
+    ``$LABKIT_ROBOT_PATH`` (os.pathsep-separated) first, then the robots
+    shipped with labkit.
+
+    Returns
+    -------
+    list of pathlib.Path
+    """
+    dirs = [Path(p) for p in os.environ.get("LABKIT_ROBOT_PATH", "").split(os.pathsep) if p]
+    return dirs + [robots_dir()]
+
+
+def bundled_robots():
+    """Names and paths of the robots found on :func:`robot_search_path`.
+
+    Returns
+    -------
+    dict
+        ``{name: Path}`` sorted by name.
+    """
+    found = {}
+    for d in robot_search_path():
+        for p in sorted(d.glob("*.toml")):
+            found.setdefault(p.stem, p)
+    return dict(sorted(found.items()))
+
+
+def _resolve(name_or_path):
+    p = Path(os.fspath(name_or_path))
+    if p.suffix == ".toml" or p.is_file() or os.sep in str(name_or_path):
+        if not p.is_file():
+            raise RobotFileError(p, "<file>", "no such robot file")
+        return p
+    robots = bundled_robots()
+    if str(name_or_path) in robots:
+        return robots[str(name_or_path)]
+    raise RobotFileError(
+        name_or_path,
+        "<name>",
+        f"unknown robot; expected a file path or one of: {', '.join(robots) or '(none found)'}",
+    )
+
+
+def load_fields(name_or_path):
+    """Find, read and parse a robot file; return the :class:`labkit.robot.Robot` fields.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        A bundled robot name or a path to a ``.toml`` robot file.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :class:`labkit.robot.Robot`.
+
+    Raises
+    ------
+    RobotFileError
+        The file is missing, unreadable, not TOML, or malformed.
+    """
+    path = _resolve(name_or_path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotFileError(path, "<file>", f"cannot read the file: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotFileError(path, "<toml>", f"not valid TOML: {exc}") from None
+    return parse(data, path)

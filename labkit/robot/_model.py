@@ -1,0 +1,363 @@
+"""The robot model: a frozen :class:`Robot` of Denavit-Hartenberg :class:`~labkit.robot.Link` rows.
+
+A robot is data. Convenience methods (``robot.fk(q)``, ``robot.jacobian(q)``,
+``robot.ik(target)``) delegate to the pure functions of :mod:`labkit.kinematics`,
+imported lazily (kinematics depends only on :mod:`labkit.robot.types`, so this
+closes no import cycle).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from labkit.validation import readonly
+from labkit.exceptions import JointLimitError, ShapeError
+from labkit.robot.types import Convention, Gripper, _LENGTH_UNITS
+from labkit.robot._files import load_fields
+
+__all__ = ["Robot"]
+
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A serial arm described by Denavit-Hartenberg rows.
+
+    Attributes
+    ----------
+    name : str
+        Short name (the robot file's stem for bundled robots).
+    links : tuple of Link
+    convention : Convention
+    base : ndarray, shape (4, 4)
+        ``world_from_frame0`` transform [m].
+    tool : ndarray, shape (4, 4)
+        ``frame_n_from_tool`` transform [m].
+    title, source : str
+        Human description and provenance.
+    gripper : Gripper or None
+    path : str
+        File it was loaded from ("" if built in code).
+    length_unit, angle_unit : str
+        Units declared by the file (used for display at the edges only).
+
+    Examples
+    --------
+    >>> arm = Robot.load("planar3r_seed004")
+    >>> arm.n
+    3
+    >>> np.round(arm.fk([0.0, 0.0, 0.0])[:3, 3], 3)
+    array([0.47, 0.  , 0.  ])
+    """
+
+    name: str
+    links: tuple
+    convention: Convention = Convention.STANDARD
+    base: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
+    tool: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
+    title: str = ""
+    source: str = ""
+    gripper: Gripper | None = None
+    path: str = ""
+    length_unit: str = "m"
+    angle_unit: str = "rad"
+
+    def __post_init__(self):
+        object.__setattr__(self, "links", tuple(self.links))
+        object.__setattr__(self, "convention", Convention(self.convention))
+        object.__setattr__(self, "base", readonly(self.base))
+        object.__setattr__(self, "tool", readonly(self.tool))
+        for name in ("base", "tool"):
+            T = getattr(self, name)
+            if T.shape != (4, 4):
+                raise ShapeError(f"expected {name} with shape (4, 4), got {T.shape}")
+
+    # -- vectorised views of the DH table ---------------------------------
+    @property
+    def n(self):
+        """Number of joints."""
+        return len(self.links)
+
+    @property
+    def a(self):
+        """Link lengths, shape (n,) [m]."""
+        return np.array([lk.a for lk in self.links])
+
+    @property
+    def alpha(self):
+        """Link twists, shape (n,) [rad]."""
+        return np.array([lk.alpha for lk in self.links])
+
+    @property
+    def d(self):
+        """Link offsets, shape (n,) [m]."""
+        return np.array([lk.d for lk in self.links])
+
+    @property
+    def theta(self):
+        """Joint angle offsets, shape (n,) [rad]."""
+        return np.array([lk.theta for lk in self.links])
+
+    @property
+    def is_revolute(self):
+        """Boolean mask of revolute joints, shape (n,)."""
+        return np.array([lk.is_revolute for lk in self.links])
+
+    @property
+    def joint_limits(self):
+        """Joint limits, shape (n, 2) [rad or m]."""
+        return np.array([lk.limits for lk in self.links], dtype=float)
+
+    @property
+    def joint_names(self):
+        """Joint names, tuple of str."""
+        return tuple(lk.name or f"q{i + 1}" for i, lk in enumerate(self.links))
+
+    def within_limits(self, q, tol=1e-9):
+        """Whether each configuration lies inside the joint limits.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        tol : float
+            Slack allowed beyond each limit [rad, m].
+
+        Returns
+        -------
+        ok : ndarray of bool, shape (...)
+        """
+        q = np.asarray(q, dtype=float)
+        ok = np.ones(q.shape[:-1], dtype=bool)
+        for j, lk in enumerate(self.links):  # column by column: no (..., n) temporaries
+            lo, hi = lk.limits
+            if np.isfinite(lo):
+                ok &= q[..., j] >= lo - tol
+            if np.isfinite(hi):
+                ok &= q[..., j] <= hi + tol
+        return ok
+
+    def check_limits(self, q, tol=1e-9):
+        """Raise :class:`JointLimitError` naming the first joint outside its limits.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        tol : float
+            Slack allowed beyond each limit [rad, m].
+
+        Raises
+        ------
+        JointLimitError
+            With ``joint`` (0-based) and ``index`` (batch index) of the first
+            violation; the message gives the value and limits in deg or m.
+        """
+        q = np.asarray(q, dtype=float)
+        lim = self.joint_limits
+        bad = (q < lim[:, 0] - tol) | (q > lim[:, 1] + tol)
+        if np.any(bad):
+            idx = np.argwhere(bad)[0]
+            j = int(idx[-1])
+            val = q[tuple(idx)]
+            unit = "deg" if self.links[j].is_revolute else "m"
+            conv = math.degrees if self.links[j].is_revolute else float
+            raise JointLimitError(
+                f"{self.name}: joint {j + 1} ({self.joint_names[j]}) = {conv(val):.4g} {unit} "
+                f"outside its limits [{conv(lim[j, 0]):.4g}, {conv(lim[j, 1]):.4g}] {unit}",
+                joint=j,
+                index=tuple(int(i) for i in idx[:-1]),
+            )
+
+    # -- delegates ----------------------------------------------------------
+    def fk(self, q, *, frames=False):
+        """Forward kinematics; see :func:`labkit.kinematics.fk`.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        frames : bool
+            Return every link frame (:func:`labkit.kinematics.fk_frames`) instead of
+            the tool pose only.
+
+        Returns
+        -------
+        ndarray, shape (..., 4, 4) or (..., n + 2, 4, 4)
+            Base-from-tool transform [m], or the frames as
+            :func:`labkit.kinematics.fk_frames` returns them.
+        """
+        from labkit import kinematics
+
+        if frames:
+            return kinematics.fk_frames(self, q)
+        return kinematics.fk(self, q)
+
+    def jacobian(self, q, **kwargs):
+        """Geometric Jacobian; see :func:`labkit.kinematics.jacobian`.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., n)
+            Joint values [rad, m].
+        **kwargs
+            Passed to :func:`labkit.kinematics.jacobian` (e.g. ``point``, ``frame``).
+
+        Returns
+        -------
+        ndarray, shape (..., 6, n)
+            Rows ``vx, vy, vz, wx, wy, wz``; columns per joint [m/rad or 1].
+        """
+        from labkit import kinematics
+
+        return kinematics.jacobian(self, q, **kwargs)
+
+    def ik(self, target, **kwargs):
+        """Inverse kinematics; see :func:`labkit.kinematics.ik`.
+
+        Parameters
+        ----------
+        target : array_like
+            Position [m], planar ``(x, y, phi)`` [m, m, rad] or pose (4, 4),
+            depending on the robot (see :func:`labkit.kinematics.ik`).
+        **kwargs
+            Passed to :func:`labkit.kinematics.ik` (``branch``, ``q_near``, ``solver``).
+
+        Returns
+        -------
+        q : ndarray, shape (..., n)
+            Joint values [rad, m] inside the joint limits.
+
+        Raises
+        ------
+        UnreachableError
+            A target lies outside the workspace.
+        """
+        from labkit import kinematics
+
+        return kinematics.ik(self, target, **kwargs)
+
+    def replace(self, **changes):
+        """Copy with some fields replaced (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values (e.g. ``name="copy"``, ``tool=T``).
+
+        Returns
+        -------
+        Robot
+        """
+        return replace(self, **changes)
+
+    def with_link(self, index, **changes):
+        """Copy with fields of one link replaced.
+
+        Parameters
+        ----------
+        index : int
+            0-based link index.
+        **changes
+            :class:`Link` field names and their new values (SI units, e.g. ``a=0.1``).
+
+        Returns
+        -------
+        Robot
+        """
+        links = list(self.links)
+        links[index] = replace(links[index], **changes)
+        return replace(self, links=tuple(links))
+
+    # -- files --------------------------------------------------------------
+    @classmethod
+    def load(cls, name_or_path):
+        """Load a robot by bundled name (see ``labkit robots``) or file path.
+
+        Parameters
+        ----------
+        name_or_path : str or os.PathLike
+            A bundled robot name such as ``"arduino_arm_3dof"`` or a path to a
+            ``.toml`` robot file.
+
+        Returns
+        -------
+        Robot
+
+        Raises
+        ------
+        RobotFileError
+            If the file is missing or malformed; the message names the file,
+            the field and what was expected.
+        """
+        if isinstance(name_or_path, Robot):
+            return name_or_path
+        return cls(**load_fields(name_or_path))
+
+    def to_toml(self, path=None, *, length_unit=None, angle_unit=None):
+        """Write the robot as a robot file (returns the TOML text).
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            Where to write; nothing is written if omitted.
+        length_unit, angle_unit : str, optional
+            Units to declare ("m"/"mm"/"cm", "rad"/"deg"); default: the units
+            the robot was loaded with.
+
+        Returns
+        -------
+        str
+            The robot file text.
+        """
+        from labkit.robot._files import dump
+
+        text = dump(self, length_unit or self.length_unit, angle_unit or self.angle_unit)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    def __repr__(self):
+        return f"Robot(name={self.name!r}, n={self.n}, convention={self.convention.value!r})"
+
+    def dh_table(self, *, degrees=True, length_unit=None):
+        """The DH table as a pandas DataFrame (degrees and file units for display).
+
+        Parameters
+        ----------
+        degrees : bool
+            Angles (``alpha``, ``theta`` and revolute limits) in degrees, else rad.
+        length_unit : str, optional
+            Unit of lengths and prismatic limits ("m"/"mm"/"cm"); default: the
+            unit the robot was loaded with.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per joint, indexed ``i = 1..n``: ``joint, type, a, alpha, d_i,
+            theta_i, lower, upper`` (``a_{i-1}``/``alpha_{i-1}`` for modified DH).
+        """
+        import pandas as pd
+
+        scale = _LENGTH_UNITS[length_unit or self.length_unit]
+        ang = math.degrees if degrees else float
+        mod = self.convention is Convention.MODIFIED
+        rows = []
+        for i, lk in enumerate(self.links):
+            rows.append(
+                {
+                    "joint": self.joint_names[i],
+                    "type": lk.joint_type.value,
+                    ("a_{i-1}" if mod else "a_i"): lk.a / scale,
+                    ("alpha_{i-1}" if mod else "alpha_i"): ang(lk.alpha),
+                    "d_i": lk.d / scale,
+                    "theta_i": ang(lk.theta),
+                    "lower": ang(lk.limits[0]) if lk.is_revolute else lk.limits[0] / scale,
+                    "upper": ang(lk.limits[1]) if lk.is_revolute else lk.limits[1] / scale,
+                }
+            )
+        return pd.DataFrame(rows).set_index(pd.RangeIndex(1, self.n + 1, name="i"))

@@ -1,0 +1,317 @@
+"""Tests of the host link (labkit.arm) against the virtual arm."""
+
+import math
+
+import numpy as np
+import pytest
+import serial
+
+from labkit.exceptions import DeviceError, JointLimitError, ProtocolError
+from labkit.arm import FaultConfig, FaultyPort, PortWrapper
+from labkit.arm import Arm, CommandRejected, find_ports, segments_from_trajectory
+from labkit.arm import checksum
+from labkit.arm.urlhandler import register
+
+register()
+SIM = "sim://?clock=lockstep&seed=0"
+
+
+class Recorder(PortWrapper):
+    """A port wrapper recording the lines the host wrote."""
+
+    def __init__(self, port):
+        super().__init__(port)
+        self.lines = []
+
+    def write(self, data):
+        self.lines += [ln for ln in bytes(data).split(b"\n") if ln]
+        return self._port.write(data)
+
+
+@pytest.fixture
+def arm():
+    with Arm(SIM, timeout=0.02) as a:
+        yield a
+
+
+def test_handshake_reads_board_info(arm):
+    assert arm.info.protocol == 1 and arm.info.joints == 3 and arm.info.queue == 6
+    assert arm.status().state == "IDLE"
+    assert arm.ping() >= 0.1  # EV BOOT came 0.1 s after power-up
+
+
+def test_requests_carry_sequence_and_checksum():
+    rec = Recorder(serial.serial_for_url(SIM, timeout=0.05))
+    with Arm(rec, timeout=0.02) as arm:
+        arm.ping()
+    seqs = []
+    for line in rec.lines:
+        text = line.decode()
+        body, _, hh = text.rpartition("*")
+        assert int(hh, 16) == checksum(body)
+        assert text.startswith("#")
+        seqs.append(int(text.split()[0][1:]))
+    assert seqs == sorted(set(seqs))
+
+
+def test_calibration_sync_matches_robot_file(arm):
+    board = arm.port.board
+    assert board.cal[0] == [500, 2500, 0, 1, 0, 18000]
+    assert board.cal[3][:2] == [1000, 1900]  # gripper open/closed from the robot file
+
+
+def test_move_joints_reaches_target_and_reads_back(arm):
+    q = np.radians([30.0, 60.0, 45.0])
+    arm.move_joints(q, wait=True)
+    np.testing.assert_allclose(arm.commanded_joints(), q, atol=1e-4)
+    np.testing.assert_allclose(arm.read_joints(), q, atol=math.radians(1.0))
+
+
+def test_limits_checked_on_host_before_sending():
+    rec = Recorder(serial.serial_for_url(SIM, timeout=0.05))
+    with Arm(rec, timeout=0.02) as arm:
+        n = len(rec.lines)
+        with pytest.raises(JointLimitError, match="joint 2"):
+            arm.move_joints(np.radians([10.0, 190.0, 10.0]))
+        with pytest.raises(JointLimitError, match="joint 1"):
+            arm.move_joints(np.radians([-5.0, 10.0, 10.0]))
+        with pytest.raises(ValueError, match=r"expected q with shape \(\.\.\., 3\)"):
+            arm.move_joints([0.1, 0.2])
+        with pytest.raises(ValueError, match="finite"):
+            arm.move_joints([0.1, np.nan, 0.2])
+        assert len(rec.lines) == n  # nothing was sent
+
+
+def test_servo_range_checked_on_host():
+    from labkit.robot import Robot
+
+    robot = Robot.load("arduino_arm_3dof")
+    cal = robot.links[1].servo
+    narrow = robot.with_link(1, servo=type(cal)(cal.channel, zero=math.radians(30), direction=1,
+                                                 angle_range=(0.0, math.pi)))
+    with Arm(SIM, robot=narrow, timeout=0.02) as arm:
+        with pytest.raises(JointLimitError, match="servo"):
+            arm.move_joints(np.radians([10.0, 170.0, 10.0]))
+
+
+def test_board_rejection_raises_clear_error():
+    with Arm(SIM, timeout=0.02, sync_calibration=False) as arm:
+        arm._transact("CAL", 1, 500, 2500, 0, 1, 0, 9000)  # the board is narrower than the robot file
+        with pytest.raises(CommandRejected, match="LIMIT") as info:
+            arm.move_joints(np.radians([10.0, 120.0, 10.0]))
+        assert info.value.code == 6
+        assert isinstance(info.value, DeviceError)
+
+
+def test_move_to_cartesian_target_through_ik(arm):
+    q_true = np.radians([40.0, 60.0, 30.0])
+    target = arm.robot.fk(q_true)[:3, 3]
+    q = arm.move_to(target, wait=True)
+    np.testing.assert_allclose(arm.robot.fk(q)[:3, 3], target, atol=1e-6)
+    np.testing.assert_allclose(q, q_true, atol=1e-6)
+
+
+def test_gripper_and_stop(arm):
+    arm.close_gripper()
+    assert arm.status().grip_us == 1900
+    arm.open_gripper()
+    assert arm.status().grip_us == 1000
+    with pytest.raises(CommandRejected, match="RANGE"):
+        arm.grip(2400)
+    held = arm.stop()
+    np.testing.assert_allclose(held, arm.commanded_joints())
+
+
+def test_run_trajectory_streams_segments_and_tracks(arm):
+    from labkit.motion import joint_trajectory
+
+    arm.move_joints(np.radians([30.0, 40.0, 50.0]), wait=True)
+    traj = joint_trajectory(np.radians([30.0, 40.0, 50.0]), np.radians([120.0, 80.0, 20.0]), 3.0, dt=0.05)
+    seen = []
+    report = arm.run_trajectory(traj, progress=lambda k, n: seen.append((k, n)), min_duration=0.05)
+    assert report.segments == len(seen) == seen[-1][1] == 60
+    assert report.underruns == 0 and report.retries == 0
+    assert report.duration == pytest.approx(3.0, abs=0.15)
+    np.testing.assert_allclose(arm.commanded_joints(), np.radians([120.0, 80.0, 20.0]), atol=1e-4)
+    assert arm.port.board.done == 60
+
+
+def test_segments_are_continuous_and_exact_at_the_ends():
+    from labkit.motion import joint_trajectory
+
+    traj = joint_trajectory(np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 2.0, law="quintic",
+                            dt=0.01)
+    for order in (3, 5):
+        segs = segments_from_trajectory(traj, order=order, min_duration=0.1)
+        assert sum(d for d, _, _ in segs) == 2000
+        ends = []
+        for dur, o, coef in segs:
+            c = np.array(coef).reshape(3, o + 1)
+            if ends:
+                np.testing.assert_array_equal(c[:, 0], ends[-1])
+            ends.append(c.sum(axis=1))
+        np.testing.assert_array_equal(ends[-1], [10000, 5000, 0])
+        # the polynomial follows the trajectory to within rounding
+        dur, o, coef = segs[len(segs) // 2]
+        c = np.array(coef).reshape(3, o + 1)
+        k = len(segs) // 2
+        mid = np.polynomial.polynomial.polyval(0.5, c.T) / 100
+        q_mid = np.degrees(traj.q[np.argmin(np.abs(traj.t - (k * 0.1 + 0.05)))])
+        np.testing.assert_allclose(mid, q_mid, atol=0.05)
+
+
+def test_trajectory_limits_checked_before_sending(arm):
+    from labkit.motion import joint_trajectory
+
+    traj = joint_trajectory(np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 1.0)
+    bad = type(traj)(t=traj.t, q=traj.q - math.radians(20.0), qd=traj.qd, qdd=traj.qdd)
+    with pytest.raises(JointLimitError):
+        arm.run_trajectory(bad)
+    assert arm.port.board.done == 0 and arm.status().queue == 0
+
+
+def test_stream_to_dataframe(arm):
+    df = arm.stream(2.0, hz=50)
+    assert list(df.columns[:3]) == ["t", "received", "counter"]
+    assert df.attrs["lost"] == 0 and df.attrs["expected"] == len(df)
+    assert len(df) == pytest.approx(100, abs=2)
+    np.testing.assert_allclose(np.diff(df["t"]), 0.02, atol=1e-9)
+    assert df["received"].dt.tz is not None
+    np.testing.assert_allclose(df["q_base_yaw"].median(), math.pi / 2, atol=0.01)
+    assert arm.status().stream_hz == 0
+    with pytest.raises(ValueError, match="hz in 1..200"):
+        arm.stream(1.0, hz=500)
+
+
+def test_lost_motion_reply_is_verified_not_repeated():
+    """A MOVE whose reply is lost is settled with STATUS, never sent again blindly."""
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    with Arm(raw, timeout=0.02) as arm:
+        board = raw.board
+        moves = []
+        orig = board._cmd_move
+
+        def counting(args):
+            moves.append(list(args))
+            return orig(args)
+
+        board._cmd_move = counting
+        orig_emit = board._emit
+        board._emit = lambda text: None if text.startswith("OK #") and " MOVE" in text else orig_emit(text)
+        arm.move_joints(np.radians([20.0, 30.0, 40.0]))
+        board._emit = orig_emit
+        assert moves == [[2000, 3000, 4000]]
+        assert arm.stats.verified == 1
+
+
+def test_timeouts_raise_device_error():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    arm = Arm(raw, timeout=0.02, retries=2)
+    raw.board._emit = lambda text: None  # the board goes silent
+    with pytest.raises(DeviceError, match="PING failed after 3 attempts: no valid reply"):
+        arm.ping()
+    with pytest.raises(DeviceError, match="STATUS failed"):
+        arm.move_joints(np.radians([20.0, 30.0, 40.0]))
+    arm.close()
+
+
+def test_vanished_port_raises_device_error():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    arm = Arm(raw, timeout=0.02)
+    raw.close()
+    with pytest.raises(DeviceError, match="vanished"):
+        arm.ping()
+
+
+def test_garbled_replies_are_never_accepted():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    port = FaultyPort(raw, FaultConfig(seed=4, corrupt=0.01, direction="read"))
+    with Arm(port, timeout=0.01, retries=60) as arm:
+        for _ in range(30):
+            st = arm.status()
+            assert st.state == "IDLE"
+            np.testing.assert_array_equal(np.round(np.degrees(st.q) * 100), [9000, 9000, 9000])
+            adc = arm.read_adc()
+            assert np.all(np.abs(adc[:3] - 512) < 15) and adc[3] == 512
+    assert arm.stats.bad_lines > 10
+
+
+def test_open_errors():
+    with pytest.raises(DeviceError, match="cannot open"):
+        Arm("/dev/does-not-exist-labkit")
+    with pytest.raises(DeviceError, match="joints"):
+        Arm(SIM, robot="puma560")
+    assert isinstance(find_ports(), list)
+
+
+def test_wrong_protocol_version_is_refused():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    board = raw.board
+    orig = board._cmd_hello
+    board._cmd_hello = lambda args: orig(args).replace("proto=1", "proto=2")
+    with pytest.raises(DeviceError, match="protocol 2"):
+        Arm(raw, timeout=0.02)
+    raw2 = serial.serial_for_url(SIM, timeout=0.05)
+    raw2.board._cmd_hello = lambda args: "other-board v9"
+    with pytest.raises(ProtocolError, match="not a labkit arm"):
+        Arm(raw2, timeout=0.02)
+
+
+def test_no_port_found(monkeypatch):
+    import labkit.arm._link as link
+
+    monkeypatch.setattr(link, "find_ports", lambda: [])
+    with pytest.raises(DeviceError, match="sim://"):
+        Arm(None)
+
+
+def test_stream_reanchors_after_a_genuine_jump(arm):
+    board = arm.port.board
+    orig = board._stream_frame
+
+    def jump():
+        if board.stream_counter == 20:
+            board.set_analog(0, 4.0)  # joint 0's pot jumps (a hand pushed the arm)
+        orig()
+
+    board._stream_frame = jump
+    df = arm.stream(1.0, hz=50)
+    assert df.attrs["lost"] <= 1
+    assert (df["adc0"] == 819).sum() >= 28  # floor(4.0 * 1024 / 5)
+
+
+def test_frame_damaged_invisibly_to_the_checksum_is_rejected(arm):
+    """Dropping two equal bytes keeps the XOR checksum: the plausibility checks must catch it."""
+    board = arm.port.board
+    orig = board._emit
+
+    def damaged(text):
+        if text.startswith("FB 10 "):
+            fields = text.split()
+            fields[3] = fields[3][:-1]  # joint 0 loses its last digit ("512" -> "51") ...
+            text = " ".join(fields)  # ... and the checksum still matches (as for two dropped equal bytes)
+        orig(text)
+
+    board._emit = damaged
+    df = arm.stream(0.5, hz=50)
+    truth = board.sent_frames
+    for c, a0 in zip(df["counter"], df["adc0"]):
+        assert truth[c][1][0] == a0
+    assert 10 not in set(df["counter"])
+    assert df.attrs["lost"] == 1
+
+
+def test_long_segments_keep_the_host_silence_timer_alive(arm):
+    """Waiting for a free queue slot must not let the board's 500 ms silence timeout fire."""
+    start = arm.commanded_joints()
+    segs = []
+    for k in range(10):
+        a = start[0] + (0.1 if k % 2 else 0.0)
+        b = start[0] + (0.0 if k % 2 else 0.1)
+        d0, d1 = round(math.degrees(a) * 100), round(math.degrees(b) * 100)
+        rest = [round(math.degrees(v) * 100) for v in start[1:]]
+        segs.append((1000, 3, [d0, 0, 3 * (d1 - d0), -2 * (d1 - d0), rest[0], 0, 0, 0, rest[1], 0, 0, 0]))
+    assert arm.status().timeout == 0.5
+    report = arm.run_trajectory(segs)
+    assert report.queue_full_waits > 0 and report.segments == 10
+    assert arm.status().flags & 0x02 == 0 and arm.port.board.done == 10

@@ -1,0 +1,156 @@
+"""Cross-checks against independent implementations (optional group, ``-m crosscheck``).
+
+* roboticstoolbox-python: FK and geometric Jacobian of random robots of both DH
+  conventions (revolute and prismatic joints, offsets, base and tool) to 1e-12;
+  the PUMA 560 closed-form IK branch by branch against ``Puma560.ikine_a``.
+* modern_robotics: FK and space Jacobian from the product of exponentials built
+  from labkit's own joint axes at ``q = 0``.
+"""
+
+import numpy as np
+import pytest
+from conftest import require
+
+from labkit.robot import Convention, JointType, Link, Robot
+from labkit.kinematics import ik_all
+from labkit.kinematics import fk, fk_frames, jacobian
+from labkit.rotations import matrix_from_rpy
+
+pytestmark = pytest.mark.crosscheck
+
+
+def _random_transform(rng, scale=0.3):
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy(rng.uniform(-np.pi, np.pi, 3))
+    T[:3, 3] = rng.uniform(-scale, scale, 3)
+    return T
+
+
+def _random_robot(rng, convention):
+    n = int(rng.integers(2, 8))
+    links = []
+    for _ in range(n):
+        prismatic = rng.random() < 0.3
+        alpha = rng.choice([0.0, np.pi / 2, -np.pi / 2, np.pi, rng.uniform(-np.pi, np.pi)])
+        links.append(
+            Link(
+                a=float(rng.uniform(-0.5, 0.5)) if rng.random() < 0.7 else 0.0,
+                alpha=float(alpha),
+                d=float(rng.uniform(-0.5, 0.5)) if rng.random() < 0.7 else 0.0,
+                theta=float(rng.uniform(-np.pi, np.pi)) if rng.random() < 0.5 else 0.0,
+                joint_type=JointType.PRISMATIC if prismatic else JointType.REVOLUTE,
+                limits=(-1.0, 1.0) if prismatic else (-np.pi, np.pi),
+            )
+        )
+    return Robot(
+        name="random", links=tuple(links), convention=convention,
+        base=_random_transform(rng), tool=_random_transform(rng),
+    )
+
+
+def _rtb_model(robot):
+    rtb = require("roboticstoolbox")
+    from spatialmath import SE3
+
+    links = []
+    for lk in robot.links:
+        if robot.convention is Convention.STANDARD:
+            cls = rtb.RevoluteDH if lk.is_revolute else rtb.PrismaticDH
+        else:
+            cls = rtb.RevoluteMDH if lk.is_revolute else rtb.PrismaticMDH
+        if lk.is_revolute:
+            links.append(cls(a=lk.a, alpha=lk.alpha, d=lk.d, offset=lk.theta))
+        else:
+            links.append(cls(a=lk.a, alpha=lk.alpha, theta=lk.theta, offset=lk.d, qlim=[-5, 5]))
+    return rtb.DHRobot(links, base=SE3(robot.base, check=False), tool=SE3(robot.tool, check=False))
+
+
+@pytest.mark.parametrize("convention", [Convention.STANDARD, Convention.MODIFIED])
+def test_fk_and_jacobian_match_roboticstoolbox(convention):
+    rng = np.random.default_rng(20 if convention is Convention.STANDARD else 21)
+    for _ in range(12):
+        robot = _random_robot(rng, convention)
+        ref = _rtb_model(robot)
+        q = rng.uniform(-1.5, 1.5, size=(8, robot.n))
+        T = fk(robot, q)  # batched
+        J0 = jacobian(robot, q)
+        Je = jacobian(robot, q, frame="tool")
+        for k in range(len(q)):
+            assert np.abs(T[k] - ref.fkine(q[k]).A).max() < 1e-12
+            assert np.abs(J0[k] - ref.jacob0(q[k])).max() < 1e-12
+            assert np.abs(Je[k] - ref.jacobe(q[k])).max() < 1e-12
+
+
+def test_bundled_robots_match_roboticstoolbox():
+    rng = np.random.default_rng(22)
+    for name in ("arduino_arm_3dof", "puma560", "puma600_seed002", "rpp_seed002", "planar3r_seed003"):
+        robot = Robot.load(name)
+        ref = _rtb_model(robot)
+        for qk in rng.uniform(-1.0, 1.0, size=(5, robot.n)):
+            assert np.abs(fk(robot, qk) - ref.fkine(qk).A).max() < 1e-12
+            assert np.abs(jacobian(robot, qk) - ref.jacob0(qk)).max() < 1e-12
+
+
+def test_puma560_fk_matches_the_rtb_model():
+    rtb = require("roboticstoolbox")
+    ref = rtb.models.DH.Puma560()
+    puma = Robot.load("puma560")
+    for qk in np.random.default_rng(23).uniform(-2, 2, size=(10, 6)):
+        assert np.abs(fk(puma, qk) - ref.fkine(qk).A).max() < 1e-12
+
+
+def test_puma560_ik_branches_match_rtb_ikine_a():
+    """labkit's 8 PUMA branches are rtb's configurations l/r x u/d x n/f, name for name."""
+    rtb = require("roboticstoolbox")
+    ref = rtb.models.DH.Puma560()
+    puma = Robot.load("puma560")
+    rng = np.random.default_rng(24)
+    lim = puma.joint_limits
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6))
+    T = fk(puma, q)
+    sols = ik_all(puma, T)
+    for k, name in enumerate(sols.branches):
+        config = "".join(part[0] for part in name.split("_"))  # right_up_noflip -> "run"
+        theirs = np.asarray(ref.ikine_a(T, config=config).q)
+        diff = np.remainder(sols.q[:, k] - theirs + np.pi, 2 * np.pi) - np.pi
+        assert np.abs(diff).max() < 1e-8, name
+
+
+def test_fk_and_jacobian_match_modern_robotics_product_of_exponentials():
+    mr = require("modern_robotics")
+    rng = np.random.default_rng(25)
+    for robot in [Robot.load("puma560"), Robot.load("puma600_seed002"), _random_robot(rng, Convention.MODIFIED)]:
+        n = robot.n
+        F = fk_frames(robot, np.zeros(n))
+        idx = np.arange(1, n + 1) if robot.convention is Convention.MODIFIED else np.arange(n)
+        S = []
+        for i, lk in zip(idx, robot.links):
+            w, p = F[i, :3, 2], F[i, :3, 3]
+            S.append(np.r_[w, -np.cross(w, p)] if lk.is_revolute else np.r_[0, 0, 0, w])
+        S = np.array(S).T
+        M = F[n + 1]
+        for qk in rng.uniform(-1, 1, size=(5, n)):
+            T = mr.FKinSpace(M, S, qk)
+            assert np.abs(fk(robot, qk) - T).max() < 1e-12
+            Js = mr.JacobianSpace(S, qk)  # rows [w; v at the world origin]
+            w, v0 = Js[:3], Js[3:]
+            v_tool = v0 + np.cross(w.T, T[:3, 3]).T
+            assert np.abs(jacobian(robot, qk) - np.r_[v_tool, w]).max() < 1e-12
+
+
+@pytest.mark.slow
+def test_benchmark_script_runs_quick():
+    """The benchmark prints every row with ratios against roboticstoolbox (not a timed test)."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    require("roboticstoolbox")
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_kinematics.py"
+    out = subprocess.run([sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    for row in ("FK", "Jacobian", "analytic IK", "numeric IK"):
+        line = next(ln for ln in out.stdout.splitlines() if ln.startswith(row))
+        assert re.search(r"[\d,]+x\b", line), line  # a ratio against rtb is printed
+    assert "success 100.00%" in out.stdout

@@ -1,0 +1,170 @@
+"""Tests of labkit.measure calibration: least-squares fit, confidence intervals, leave-one-out."""
+
+import math
+
+import numpy as np
+import pytest
+
+from labkit.measure import apply_parameters, calibrate, parameter_names, predict_positions
+from labkit.robot import Robot
+from labkit.data import measurement_file
+from labkit.exceptions import MeasurementError
+
+FK_SEED = measurement_file("seed000_fk_tables1-3.csv")
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return Robot.load("arduino_arm_3dof")
+
+
+def _synthetic(arm, rng, n_poses=40, noise=0.0005, sag=None):
+    names = ("offset[1]", "offset[2]", "offset[3]", "a[3]", "tool_x")
+    true = np.array([math.radians(2.0), math.radians(-3.0), math.radians(1.5), 0.097, 0.176])
+    truth = apply_parameters(arm, names, true)
+    q = rng.uniform(0.0, math.pi, size=(n_poses, 3))
+    x = predict_positions(truth, q, sag, gravity=(0, 0, 1)) + rng.normal(0.0, noise, size=(n_poses, 3))
+    return names, true, q, x
+
+
+def test_recovers_known_offsets_and_lengths(arm, rng):
+    names, true, q, x = _synthetic(arm, rng)
+    # a 95 % interval misses 1 time in 20 per parameter (coverage is tested below);
+    # for this single seeded draw use 99 % intervals
+    result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), confidence=0.99)
+    assert result.names == names
+    assert result.success
+    inside = (result.ci_low <= true) & (true <= result.ci_high)
+    assert inside.all(), dict(zip(names, zip(result.ci_low, true, result.ci_high)))
+    np.testing.assert_allclose(result.fitted, true, atol=5 * result.std_error.max())
+    # intervals are informative: narrower than the changes they detect
+    assert np.all(result.ci_high - result.ci_low < np.abs(true - result.nominal))
+    assert result.std_error[3] < 0.002 and result.std_error[0] < math.radians(0.5)
+    # residuals shrink to the noise level; leave-one-out stays close to it (no overfit)
+    assert result.rms_before > 5 * result.rms_after
+    assert result.rms_after == pytest.approx(0.0005, rel=0.3)
+    assert result.rms_after < result.loo_rms < 1.5 * result.rms_after
+    # the calibrated robot reproduces the truth
+    truth = apply_parameters(arm, names, true)
+    q_test = rng.uniform(0, math.pi, size=(50, 3))
+    err = np.linalg.norm(result.robot.fk(q_test)[..., :3, 3] - truth.fk(q_test)[..., :3, 3], axis=-1)
+    assert err.max() < 0.002
+
+
+def test_confidence_interval_coverage(arm):
+    """Across seeds the 95 % intervals cover the truth about 95 % of the time."""
+    hits, total = 0, 0
+    for seed in range(60):
+        rng = np.random.default_rng(seed)
+        names, true, q, x = _synthetic(arm, rng, n_poses=15, noise=0.001)
+        r = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), leave_one_out=False)
+        hits += int(np.sum((r.ci_low <= true) & (true <= r.ci_high)))
+        total += len(true)
+    assert 0.88 <= hits / total <= 0.995
+
+
+def test_gravity_sag_recovered(arm, rng):
+    sag = np.array([0.0, math.radians(-1.5), math.radians(2.0)])
+    _, _, q, x = _synthetic(arm, rng, n_poses=60, noise=0.0002, sag=sag)
+    truth_names = ("offset[1]", "offset[2]", "offset[3]", "a[3]", "tool_x", "sag[2]", "sag[3]")
+    result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths", "gravity_sag"), gravity=(0, 0, 1))
+    assert result.names == truth_names
+    k2, k3 = truth_names.index("sag[2]"), truth_names.index("sag[3]")
+    for k, true in ((k2, sag[1]), (k3, sag[2])):
+        assert result.ci_low[k] <= true <= result.ci_high[k]
+    np.testing.assert_allclose(result.sag, sag, atol=math.radians(0.3))
+    without = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), leave_one_out=False)
+    assert result.rms_after < 0.5 * without.rms_after
+
+
+def test_leave_one_out_exposes_overfitting(arm, rng):
+    # 4 poses, 7 parameters, 12 components: fits the noise, predicts badly
+    names, true, q, x = _synthetic(arm, rng, n_poses=4, noise=0.003)
+    result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths", "base_offset"))
+    assert result.dof == 12 - 8
+    assert result.loo_rms > 2 * result.rms_after
+
+
+def test_seed_tables_rms_reduced_and_loo_reported(arm):
+    result = calibrate(FK_SEED, arm, params=("joint_offsets", "link_lengths"))
+    assert result.rms_before == pytest.approx(0.01455, abs=5e-5)
+    assert result.rms_after < result.rms_before
+    assert np.isfinite(result.loo_rms) and result.loo_rms > result.rms_after
+    assert len(result.pose_ids) == 15
+    table = result.to_dataframe()
+    assert len(table) == 45 and set(table.columns) >= {"before", "after", "leave_one_out"}
+    params = result.parameters()
+    assert list(params.index) == ["offset[1]", "offset[2]", "offset[3]", "a[3]", "tool_x"]
+    assert params.loc["a[3]", "nominal"] == pytest.approx(94.0)
+    assert params.loc["offset[1]", "unit"] == "deg"
+    assert "mm before" in result.summary()
+
+
+def test_write_calibrated_robot(arm, rng, tmp_path):
+    names, true, q, x = _synthetic(arm, rng)
+    result = calibrate((q, x), arm, leave_one_out=False)
+    path = tmp_path / "cal.toml"
+    text = result.write_robot(path)
+    assert text.startswith("# Calibrated by labkit.measure")
+    loaded = Robot.load(path)
+    assert loaded.name == "arduino_arm_3dof_calibrated"
+    np.testing.assert_allclose(loaded.links[2].a, result.fitted[3], atol=1e-9)
+    np.testing.assert_allclose(loaded.tool[0, 3], result.fitted[4], atol=1e-9)
+    np.testing.assert_allclose([lk.theta for lk in loaded.links], result.fitted[:3], atol=1e-9)
+    np.testing.assert_allclose(loaded.fk(q[:5]), result.robot.fk(q[:5]), atol=1e-9)
+
+
+def test_unidentifiable_parameters_warn(arm):
+    # only joint 1 moves: a[3] and tool_x enter only as their sum
+    q = np.column_stack([np.linspace(0, 3, 8), np.zeros(8), np.zeros(8)])
+    x = predict_positions(arm, q)
+    with pytest.warns(UserWarning, match="not identifiable"):
+        result = calibrate((q, x), arm, params=("a[3]", "tool_x"), leave_one_out=False)
+    assert np.all(np.isinf(result.std_error))
+
+
+def test_parameter_names_and_errors(arm):
+    assert parameter_names(arm, "base_offset") == ("base_x", "base_y", "base_z")
+    assert parameter_names(arm, ("offset[2]", "joint_offsets")) == ("offset[2]", "offset[1]", "offset[3]")
+    with pytest.raises(MeasurementError, match="joint_offsets"):
+        parameter_names(arm, ("lengths",))
+    with pytest.raises(MeasurementError, match="index 1..3"):
+        parameter_names(arm, ("offset[4]",))
+    q = np.zeros((1, 3))
+    with pytest.raises(MeasurementError, match="more measured components"):
+        calibrate((q, predict_positions(arm, q)), arm)
+
+
+def test_cli_calibrate(tmp_path, capsys):
+    from labkit.cli import main
+
+    out_file = tmp_path / "cal.toml"
+    assert main(["calibrate", str(FK_SEED), "--params", "joint_offsets", "--out", str(out_file)]) == 0
+    out = capsys.readouterr().out
+    assert "offset[1]" in out and "leave-one-pose-out" in out
+    assert Robot.load(out_file).name == "arduino_arm_3dof_calibrated"
+
+
+def test_calibrates_the_virtual_arm_from_a_logged_session(tmp_path):
+    """End to end: physics model (zero offsets + gravity sag) -> ruler -> MeasurementLog -> fit."""
+    from labkit.measure import MeasurementLog
+    from labkit.arm import ArmModel, PhysicsConfig
+
+    offsets = np.radians([2.0, -1.5, 2.5])
+    sim = ArmModel("arduino_arm_3dof", PhysicsConfig(seed=4, zero_offsets=tuple(offsets), deadband=0.0))
+    q_all = np.random.default_rng(7).uniform(np.radians(10), np.radians(170), (25, 3))
+    path = tmp_path / "session.csv"
+    with MeasurementLog(path, robot="arduino_arm_3dof") as log:
+        for i, q in enumerate(q_all):
+            sim.servos.reset(q)  # at rest at the commanded pose
+            for reading in sim.ruler(3):
+                for k, axis in enumerate("xyz"):
+                    log.record(f"p{i}", axis, reading[k], unit="m", instrument="ruler (sim)",
+                               resolution=0.0005, commanded=q)
+    plain = calibrate(path, params=("joint_offsets",), leave_one_out=False)
+    sag = calibrate(path, params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
+    assert sag.rms_before > 0.005 and sag.rms_after < 0.0005 < plain.rms_after
+    assert sag.loo_rms < 1.3 * sag.rms_after  # five parameters, 75 components: no overfit
+    for k in range(3):
+        assert sag.ci_low[k] <= offsets[k] <= sag.ci_high[k]
+    assert np.all(sag.sag[1:] > 0)  # the arm droops along gravity

@@ -1,0 +1,298 @@
+"""Tests of labkit.measure error tables: FK/IK error tables, styled output, published-table audit."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from labkit.robot import Robot
+from labkit.measure import (
+    audit_published,
+    decimals_for_resolution,
+    error_table,
+    fk_error_table,
+    ik_error_table,
+    load_published,
+)
+from labkit.data import measurement_file
+from labkit.exceptions import MeasurementError
+from labkit.measure import MeasurementLog
+
+FK_SEED = measurement_file("seed000_fk_tables1-3.csv")
+IK_SEED = measurement_file("seed000_ik_table4.csv")
+PUBLISHED = measurement_file("seed000_published_calculated.csv")
+
+# seed 000 tables 1-3 as printed: pose -> measured (mean, half range) per axis [m]
+SEED_MEASURED = {
+    "t1_j1_5deg": ((0.28, 0.02), (0.065, 0.05), (0.00, 0.01)),
+    "t2_j2_45deg": ((0.22, 0.01), (0.00, 0.01), (-0.17, 0.02)),
+    "t3_j3_80deg": ((0.12, 0.01), (0.00, 0.01), (0.17, 0.01)),
+}
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return Robot.load("arduino_arm_3dof")
+
+
+def test_fk_table_reproduces_seed_means_and_ranges(arm):
+    table = fk_error_table(FK_SEED, arm).table
+    assert len(table) == 45
+    assert set(table["n"]) == {3}
+    for pose, axes in SEED_MEASURED.items():
+        for k, ax in enumerate("xyz"):
+            row = table[(table["pose_id"] == pose) & (table["quantity"] == ax)].iloc[0]
+            assert row["mean"] == pytest.approx(axes[k][0])
+            assert row["half_range"] == pytest.approx(axes[k][1])
+            assert math.isnan(row["std"])  # raw readings lost: not invented
+
+
+def test_fk_table_errors_against_model(arm):
+    table = fk_error_table(FK_SEED, arm).table.set_index(["pose_id", "quantity"])
+    # model: x = cos(q1) (L1 cos q2 + L2 cos(q2 - q3)) ... at q1 = 5 deg: 0.274 cos 5deg
+    row = table.loc[("t1_j1_5deg", "x")]
+    assert row["calculated"] == pytest.approx(0.274 * math.cos(math.radians(5)), abs=1e-12)
+    assert row["error"] == pytest.approx(0.28 - 0.274 * math.cos(math.radians(5)))
+    assert row["abs_error"] == pytest.approx(abs(row["error"]))
+    assert row["rel_error"] == pytest.approx(abs(row["error"]) / row["calculated"])
+    # uncertainty = resolution (+) half range in quadrature
+    assert row["uncertainty"] == pytest.approx(math.hypot(0.0005, 0.02))
+    assert bool(row["inside"]) is True
+    # table 1, 45 deg, x: 0.180 measured vs 0.1937 calculated, +-0.01 -> outside
+    assert bool(table.loc[("t1_j1_45deg", "x"), "inside"]) is False
+    # relative error undefined where the calculated value is (near) zero
+    assert math.isnan(table.loc[("t1_j1_90deg", "x"), "rel_error"])
+
+
+def test_summary_rows(arm):
+    result = error_table(FK_SEED, arm)
+    t = result.table
+    for ax in "xyz":
+        e = t.loc[t["quantity"] == ax, "error"].to_numpy()
+        s = result.summary.loc[ax]
+        assert s["rms_error"] == pytest.approx(np.sqrt(np.mean(e ** 2)))
+        assert s["max_abs_error"] == pytest.approx(np.abs(e).max())
+        assert s["n_poses"] == 15
+    wide = result.wide()
+    assert list(wide.index[-2:]) == ["RMS", "max abs. error"]
+    assert wide.loc["RMS", ("x [m]", "error")] == pytest.approx(result.summary.loc["x", "rms_error"])
+    assert wide.loc["t1_j1_5deg", ("y [m]", "measured")] == pytest.approx(0.065)
+
+
+def test_combine_rule_sum_is_wider(arm):
+    q = error_table(FK_SEED, arm, combine="quadrature").table
+    s = error_table(FK_SEED, arm, combine="sum").table
+    assert np.all(s["uncertainty"] >= q["uncertainty"])
+    assert s["inside"].sum() >= q["inside"].sum()
+    with pytest.raises(MeasurementError, match="quadrature"):
+        error_table(FK_SEED, arm, combine="max")
+
+
+def test_ik_table_seed_table4(arm):
+    result = ik_error_table(IK_SEED, arm)
+    t = result.table.set_index(["pose_id", "quantity"])
+    assert t.loc[("t4_row1", "theta2"), "calculated"] == pytest.approx(113.86, abs=0.01)
+    assert t.loc[("t4_row5", "theta1"), "calculated"] == pytest.approx(
+        math.degrees(math.atan2(0.25, -0.10)))
+    assert t.loc[("t4_row3", "theta1"), "mean"] == 138
+    assert t.loc[("t4_row3", "theta1"), "half_range"] == 2
+    # row 6, theta3: 49 measured vs 131.3 calculated (the protractor read the supplement)
+    assert t.loc[("t4_row6", "theta3"), "error"] == pytest.approx(49 - 131.303, abs=0.01)
+    assert not t.loc[("t4_row6", "theta3"), "inside"]
+    assert t.loc[("t4_row1", "theta1"), "inside"]
+    assert set(t["unit"]) == {"deg"}
+
+
+def test_raw_readings_spread_and_fk_of_logged_session(tmp_path, arm):
+    path = tmp_path / "s.csv"
+    q = [0.3, 0.4, 0.5]
+    x_model = arm.fk(q)[0, 3]
+    readings = [1000 * x_model + d for d in (-1.0, 0.5, 2.0)]
+    with MeasurementLog(path, robot=arm) as log:
+        for v in readings:
+            log.record("p", "x", v, unit="mm", instrument="ruler", resolution=0.5, commanded=q)
+        log.record("p", "theta2", 23.0, unit="deg", instrument="protractor", resolution=0.5, commanded=q)
+    t = error_table(path).table.set_index("quantity")
+    assert t.loc["x", "unit"] == "mm"
+    assert t.loc["x", "calculated"] == pytest.approx(1000 * x_model)
+    assert t.loc["x", "mean"] == pytest.approx(np.mean(readings))
+    assert t.loc["x", "half_range"] == pytest.approx(1.5)
+    assert t.loc["x", "std"] == pytest.approx(np.std(readings, ddof=1))
+    assert t.loc["x", "n"] == 3
+    # theta_i with commanded joints compares with the commanded value
+    assert t.loc["theta2", "calculated"] == pytest.approx(math.degrees(0.4))
+
+
+def test_angle_error_wraps(tmp_path, arm):
+    path = tmp_path / "w.csv"
+    with MeasurementLog(path, robot=arm) as log:
+        log.record("p", "theta1", -179.0, unit="deg", instrument="protractor", resolution=0.5,
+                   commanded=[math.radians(179), 0, 0])
+    t = error_table(path).table
+    assert t.loc[0, "error"] == pytest.approx(2.0)
+
+
+def test_pose_without_command_names_row(tmp_path, arm):
+    path = tmp_path / "bad.csv"
+    path.write_text("pose_id,quantity,value,unit,resolution,commanded\n"
+                    "p1,x,0.27,m,0.0005,0.1 0 0\n"
+                    "p2,x,0.27,m,0.0005,\n")
+    with pytest.raises(MeasurementError, match="row 3, column 'commanded'"):
+        error_table(path, arm)
+    path.write_text("pose_id,quantity,value,unit,resolution,commanded\n"
+                    "p1,theta4,0.27,rad,0.0005,0.1 0 0\n")
+    with pytest.raises(MeasurementError, match="row 2, column 'quantity'"):
+        error_table(path, arm)
+
+
+def test_summary_row_mixed_with_readings_is_rejected(tmp_path, arm):
+    path = tmp_path / "mix.csv"
+    path.write_text("pose_id,quantity,value,unit,resolution,half_range,n_readings,commanded\n"
+                    "p1,x,0.27,m,0.0005,0.01,3,0.1 0 0\n"
+                    "p1,x,0.26,m,0.0005,,,0.1 0 0\n")
+    with pytest.raises(MeasurementError, match="column 'half_range'"):
+        error_table(path, arm)
+
+
+def test_decimals_from_resolution():
+    assert decimals_for_resolution(0.0005) == 4
+    assert decimals_for_resolution(0.5) == 1
+    assert decimals_for_resolution(0.05) == 2
+    assert decimals_for_resolution(1.0) == 0
+    assert decimals_for_resolution(5.0) == 0
+    with pytest.raises(MeasurementError):
+        decimals_for_resolution(0.0)
+
+
+def test_styled_output_html_and_latex(arm):
+    result = error_table(IK_SEED, arm)
+    html = result.to_html()
+    assert "109.4" in html and "113.9" in html  # 1 decimal from the 0.5 deg protractor
+    assert "113.86" not in html
+    styler = result.style()
+    styler._compute()
+    highlighted = {(r, c) for (r, c), props in styler.ctx.items() if props}
+    wide = result.wide()
+    cols = list(wide.columns)
+    row5 = list(wide.index).index("t4_row5")
+    assert (row5, cols.index(("theta1 [deg]", "error"))) in highlighted
+    row1 = list(wide.index).index("t4_row1")
+    assert (row1, cols.index(("theta1 [deg]", "error"))) not in highlighted
+    tex = result.to_latex(caption="Table 4")
+    assert "\\caption{Table 4}" in tex
+    assert "\\cellcolor" in tex and "t4\\_row5" in tex
+    assert tex.count("\\cellcolor") == 2 * int((~result.table["inside"]).sum())
+
+
+def test_style_with_explicit_tolerance(arm):
+    result = error_table(FK_SEED, arm)
+    styler = result.style(tolerance=0.03)  # 30 mm
+    styler._compute()
+    n_bad = int((result.table["abs_error"] > 0.03).sum())
+    assert sum(1 for props in styler.ctx.values() if props) == 2 * n_bad
+    assert n_bad == 2  # t1 5deg y (41 mm), t3 5deg x (33 mm)
+
+
+def test_no_negative_zero_in_report(arm):
+    html = error_table(FK_SEED, arm).to_html()
+    assert "-0.0000" not in html
+
+
+# -- audit ---------------------------------------------------------------------------
+EXPECTED_FLAGS = {
+    ("table 3", "t3_j3_5deg"): ["x", "z"],     # 0.24 vs 0.273, 0.014 vs 0.0157
+    ("table 3", "t3_j3_20deg"): ["z"],         # 0.060 vs 0.0616 (0.062 at 2 s.f.)
+    ("table 4", "t4_row5"): ["theta1", "theta2", "theta3"],  # -45/105/82 vs 111.8/16.7/22.1
+}
+
+
+def test_audit_flags_exactly_the_wrong_rows(arm):
+    audit = audit_published(PUBLISHED, arm)
+    assert len(audit.cells) == 63
+    assert audit.flagged_rows() == EXPECTED_FLAGS
+    cells = audit.cells.set_index(["pose_id", "quantity"])
+    assert cells.loc[("t3_j3_5deg", "x"), "recomputed"] == pytest.approx(0.2733, abs=1e-4)
+    assert cells.loc[("t3_j3_5deg", "z"), "recomputed"] == pytest.approx(0.0157, abs=1e-4)
+    assert cells.loc[("t3_j3_20deg", "z"), "recomputed"] == pytest.approx(0.0616, abs=1e-4)
+    assert cells.loc[("t4_row5", "theta1"), "recomputed"] == pytest.approx(111.8014, abs=1e-3)
+    assert cells.loc[("t3_j3_20deg", "z"), "tolerance"] == pytest.approx(0.0005)
+    assert cells.loc[("t4_row1", "theta2"), "tolerance"] == pytest.approx(0.5)
+    assert cells.loc[("t1_j1_5deg", "z"), "tolerance"] == pytest.approx(0.005)  # "0.00"
+
+
+def test_audit_table4_against_cosine_rule(arm):
+    """Every row of table 4 recomputed with the seed's own elbow-up formulas."""
+    L1, L2 = 0.094, 0.180
+    audit = audit_published(PUBLISHED, arm).cells
+    t4 = audit[audit["table"] == "table 4"].set_index(["pose_id", "quantity"])
+    published = load_published(PUBLISHED).set_index(["pose_id", "quantity"])
+    for i in range(1, 7):
+        X, Y, Z = published.loc[(f"t4_row{i}", "theta1"), "target"]
+        Z = -Z
+        d = math.sqrt(X * X + Y * Y + Z * Z)
+        beta = math.acos((L1 ** 2 + d ** 2 - L2 ** 2) / (2 * L1 * d))
+        k = math.acos((L1 ** 2 + L2 ** 2 - d ** 2) / (2 * L1 * L2))
+        expect = [math.atan2(Y, X), math.atan2(Z, math.hypot(X, Y)) + beta, math.pi - k]
+        for j in range(3):
+            got = t4.loc[(f"t4_row{i}", f"theta{j + 1}"), "recomputed"]
+            assert got == pytest.approx(math.degrees(expect[j]), abs=1e-6)
+
+
+def test_audit_precision_rules(tmp_path, arm):
+    path = tmp_path / "pub.csv"
+    q = "0.0 0.0 0.3490658503988659"  # joint 3 at 20 deg: z = 0.0616
+    path.write_text("pose_id,quantity,published,unit,precision,commanded\n"
+                    f"a,z,0.062,m,2sf,{q}\n"
+                    f"b,z,0.06,m,1sf,{q}\n"
+                    f"c,z,0.060,m,,{q}\n"
+                    f"d,z,61.6,mm,,{q}\n"
+                    f"e,z,62,mm,1,{q}\n"
+                    f"f,z,0.0616,m,,{q}\n"
+                    f"g,z,0.0615,m,,{q}\n")
+    agrees = audit_published(path, arm).cells.set_index("pose_id")["agrees"].to_dict()
+    assert agrees == {"a": True, "b": True, "c": False, "d": True, "e": True, "f": True, "g": False}
+
+
+def test_audit_bad_published_value(tmp_path, arm):
+    path = tmp_path / "pub.csv"
+    path.write_text("pose_id,quantity,published,unit,commanded\na,z,zero,m,0 0 0\n")
+    with pytest.raises(MeasurementError, match="row 2, column 'published'"):
+        audit_published(path, arm)
+
+
+def test_cli_errors_and_audit(tmp_path, capsys):
+    from labkit.cli import main
+
+    html = tmp_path / "t.html"
+    assert main(["errors", str(IK_SEED), "--html", str(html)]) == 0
+    out = capsys.readouterr().out
+    assert "t4_row5" in out and "RMS" in out
+    assert html.read_text().startswith("<style")
+    assert main(["audit", str(PUBLISHED)]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("57 of 63 published values agree")
+    assert "t3_j3_20deg" in out
+
+
+def test_ik_table_for_planar_and_6r_targets():
+    planar = Robot.load("planar3r_seed004")
+    q = np.array([0.3, 0.5, -0.4])
+    T = planar.fk(q)
+    df = pd.DataFrame({"pose_id": ["a"] * 3, "quantity": ["theta1", "theta2", "theta3"],
+                       "value": np.degrees(q), "unit": ["deg"] * 3, "resolution": [0.5] * 3,
+                       "target": [np.array([T[0, 3], T[1, 3], 0.4])] * 3})
+    table = error_table(df, planar, mode="ik", branch=None).table
+    # whichever branch IK picks, it reaches the target
+    q_ik = np.radians(table["calculated"].to_numpy())
+    np.testing.assert_allclose(planar.fk(q_ik)[:2, 3], T[:2, 3], atol=1e-9)
+    with pytest.raises(MeasurementError, match="has no z component"):
+        error_table(df.assign(quantity=["z", "x", "y"], unit="m", resolution=0.001), planar, mode="ik")
+    puma = Robot.load("puma560")
+    q6 = np.array([0.1, -0.4, 0.3, 0.2, 0.5, 0.1])
+    T6 = puma.fk(q6)
+    df = pd.DataFrame({"pose_id": ["a", "a"], "quantity": ["x", "theta1"], "value": [T6[0, 3], 5.0],
+                       "unit": ["m", "deg"], "resolution": [0.001, 0.5], "target": [T6, T6]})
+    table = error_table(df, puma, mode="ik", branch=None).table.set_index("quantity")
+    assert table.loc["x", "calculated"] == pytest.approx(T6[0, 3])
+    assert np.isfinite(table.loc["theta1", "calculated"])
