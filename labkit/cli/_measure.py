@@ -34,8 +34,8 @@ def add_commands(sub):
     sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
     sp.add_argument("--params", nargs="+", default=["joint_offsets", "link_lengths"],
                     help=f"groups {GROUPS} or names like offset[2] a[3] tool_x sag[2]")
-    sp.add_argument("--gravity", nargs=3, type=float, default=[0.0, 0.0, -1.0], metavar=("GX", "GY", "GZ"),
-                    help="gravity direction in the base frame (for sag terms)")
+    sp.add_argument("--gravity", nargs=3, type=float, default=None, metavar=("GX", "GY", "GZ"),
+                    help="gravity direction in world coordinates (for sag terms; default: minus the robot file's up)")
     sp.add_argument("--weighted", action="store_true", help="weight residuals by 1/uncertainty")
     sp.add_argument("--out", help="write the calibrated robot file here")
     sp.set_defaults(func=_cmd_calibrate)
@@ -71,7 +71,7 @@ def _cmd_calibrate(args):
     from labkit.measure import calibrate
 
     result = calibrate(args.file, args.robot, params=tuple(args.params), weighted=args.weighted,
-                       gravity=tuple(args.gravity))
+                       gravity=None if args.gravity is None else tuple(args.gravity))
     print(result.parameters().to_string(float_format=lambda v: f"{v:.3f}"))
     print(result.summary())
     if args.out:

@@ -199,7 +199,7 @@ def _sag_dq(robot, q, sag, gravity):
     return dq
 
 
-def predict_positions(robot, q, sag=None, gravity=(0.0, 0.0, -1.0)):
+def predict_positions(robot, q, sag=None, gravity=None):
     """Tool positions [m] of ``robot`` at commanded ``q`` with optional gravity sag.
 
     Parameters
@@ -209,18 +209,19 @@ def predict_positions(robot, q, sag=None, gravity=(0.0, 0.0, -1.0)):
         Commanded joint values [rad, m].
     sag : array_like, shape (n,), optional
         Sag coefficients [rad] (see module docstring).
-    gravity : array_like, shape (3,)
-        Gravity direction in the base frame.
+    gravity : array_like, shape (3,), optional
+        Gravity direction in world coordinates; default ``-robot.up``.
 
     Returns
     -------
     ndarray, shape (..., 3)
+        Tool positions [m].
     """
     from labkit.kinematics import fk_position
 
     q = np.asarray(q, dtype=float)
     if sag is not None and np.any(np.asarray(sag) != 0):
-        g = np.asarray(gravity, dtype=float)
+        g = -np.asarray(robot.up, dtype=float) if gravity is None else np.asarray(gravity, dtype=float)
         g = g / np.linalg.norm(g)
         shape = q.shape
         q2 = q.reshape(-1, robot.n)
@@ -430,7 +431,7 @@ def _pose_data(measurements, robot):
 
 
 def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_lengths"),
-              weighted=False, gravity=(0.0, 0.0, -1.0), confidence=0.95, leave_one_out=True):
+              weighted=False, gravity=None, confidence=0.95, leave_one_out=True):
     """Least-squares fit of robot parameters to measured tool positions.
 
     Parameters
@@ -446,10 +447,11 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
     weighted : bool
         Weight each residual by 1 / its measurement uncertainty (resolution
         combined with the half range); default unweighted.
-    gravity : array_like, shape (3,)
-        Gravity direction in the base frame (for ``sag``). The seed 000 arm's
-        base z axis points down: pass ``(0, 0, 1)`` there (only the sign of
-        the fitted sag depends on it).
+    gravity : array_like, shape (3,), optional
+        Gravity direction in world coordinates (for ``sag``); default
+        ``-robot.up``, the robot file's ``up`` key (the seed 000 arm's frame 0
+        has z pointing down, so its gravity is ``(0, 0, 1)``). Only the sign
+        of the fitted sag depends on it.
     confidence : float
         Level of the confidence intervals.
     leave_one_out : bool
@@ -499,7 +501,9 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
     nominal = np.array([_nominal(robot, nm) for nm in names])
     sag_index = [k for k, nm in enumerate(names) if nm.startswith("sag")]
     sag_joint = [int(_NAME.match(names[k]).group(2)) - 1 for k in sag_index]
-    g = np.asarray(gravity, dtype=float)
+    g = -np.asarray(robot.up, dtype=float) if gravity is None else np.asarray(gravity, dtype=float)
+    if g.shape != (3,) or not np.all(np.isfinite(g)) or not np.linalg.norm(g) > 0:
+        raise MeasurementError(f"expected gravity as a non-zero direction of shape (3,), got {np.asarray(gravity).tolist()!r}")
     g = g / np.linalg.norm(g)
     weights = 1.0 / sigma if weighted else np.ones_like(measured)
 

@@ -9,6 +9,7 @@ from labkit.motion._via import SplineEnds, via_law, via_trajectory, heuristic_ve
 from labkit.motion._checks import check_joint_limits, check_speed, speed_scale
 from labkit.motion._paths import Path, line, arc, circle, waypoints
 from labkit.motion._cartesian import path_law, cartesian_trajectory, cartesian_via_trajectory
+from labkit.motion._approach import height_above, approach_point, PickPlaceLeg, pick_and_place_legs
 
 __all__ = [
     "LawKind",
@@ -38,4 +39,8 @@ __all__ = [
     "path_law",
     "cartesian_trajectory",
     "cartesian_via_trajectory",
+    "height_above",
+    "approach_point",
+    "PickPlaceLeg",
+    "pick_and_place_legs",
 ]

@@ -27,7 +27,7 @@ from labkit.robot.types import (
 from labkit.data import robots_dir
 from labkit.exceptions import RobotFileError
 
-_TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "joint", "tool", "base", "gripper"}
+_TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
 _FRAME_KEYS = {"translation", "rpy"}
@@ -86,6 +86,19 @@ def _frame(path, field, table, L, A):
 
     T[:3, :3] = matrix_from_rpy([_num(path, f"{field}.rpy", v) * A for v in rpy])
     return T
+
+
+def _up(path, value):
+    """The world's up direction: a list of 3 numbers, not all zero; returned as a unit vector."""
+    if value is None:
+        return np.array([0.0, 0.0, 1.0])
+    if not isinstance(value, list) or len(value) != 3:
+        raise RobotFileError(path, "up", f"expected a list of 3 numbers (a direction in world coordinates), got {value!r}")
+    v = np.array([_num(path, "up", x) for x in value])
+    norm = float(np.linalg.norm(v))
+    if norm == 0.0:
+        raise RobotFileError(path, "up", f"expected a non-zero direction, got {value!r}")
+    return v / norm
 
 
 def parse(data, path):
@@ -209,6 +222,7 @@ def parse(data, path):
         convention=conv,
         base=_frame(path, "base", data.get("base"), L, A),
         tool=_frame(path, "tool", data.get("tool"), L, A),
+        up=_up(path, data.get("up")),
         title=str(data.get("title", "")),
         source=str(data.get("source", "")),
         gripper=gripper,
@@ -257,8 +271,10 @@ def dump(robot, length_unit="m", angle_unit="rad"):
         f"source = {_toml_str(robot.source)}",
         f'convention = "{robot.convention.value}"',
         f'units = {{ length = "{length_unit}", angle = "{angle_unit}" }}',
-        "",
     ]
+    if not np.array_equal(robot.up, [0.0, 0.0, 1.0]):
+        out.append("up = [" + ", ".join(_fmt(v) for v in robot.up) + "]  # world up, in world coordinates")
+    out.append("")
     for lk in robot.links:
         rev = lk.is_revolute
         qs = A if rev else L

@@ -37,6 +37,11 @@ class Robot:
         ``world_from_frame0`` transform [m].
     tool : ndarray, shape (4, 4)
         ``frame_n_from_tool`` transform [m].
+    up : ndarray, shape (3,)
+        Unit vector pointing up (against gravity) in world coordinates, the
+        frame ``base`` maps into and :func:`~labkit.kinematics.fk` reports in
+        (robot-file key ``up``; default ``(0, 0, 1)``). The seed 000 arm's
+        frame 0 has z pointing down: its file says ``up = [0, 0, -1]``.
     title, source : str
         Human description and provenance.
     gripper : Gripper or None
@@ -65,6 +70,7 @@ class Robot:
     path: str = ""
     length_unit: str = "m"
     angle_unit: str = "rad"
+    up: np.ndarray = field(default_factory=lambda: readonly(np.array([0.0, 0.0, 1.0])))
 
     def __post_init__(self):
         object.__setattr__(self, "links", tuple(self.links))
@@ -75,6 +81,13 @@ class Robot:
             T = getattr(self, name)
             if T.shape != (4, 4):
                 raise ShapeError(f"expected {name} with shape (4, 4), got {T.shape}")
+        up = np.asarray(self.up, dtype=float)
+        if up.shape != (3,):
+            raise ShapeError(f"expected up with shape (3,) (a direction in world coordinates), got {up.shape}")
+        norm = float(np.linalg.norm(up))
+        if not (np.isfinite(norm) and norm > 0.0):
+            raise ShapeError(f"expected up to be a finite non-zero direction, got {up.tolist()}")
+        object.__setattr__(self, "up", readonly(up / norm))
 
     # -- vectorised views of the DH table ---------------------------------
     @property

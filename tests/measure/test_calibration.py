@@ -168,3 +168,17 @@ def test_calibrates_the_virtual_arm_from_a_logged_session(tmp_path):
     for k in range(3):
         assert sag.ci_low[k] <= offsets[k] <= sag.ci_high[k]
     assert np.all(sag.sag[1:] > 0)  # the arm droops along gravity
+
+
+def test_default_gravity_is_minus_robot_up(arm, rng):
+    """Without ``gravity`` the fit pulls along -robot.up (+z0 on the seed 000 arm, whose z points down)."""
+    assert np.array_equal(arm.up, [0.0, 0.0, -1.0])
+    _, _, q, x = _synthetic(arm, rng, n_poses=30, noise=0.0002, sag=np.array([0.0, 0.02, 0.01]))
+    fit = dict(params=("joint_offsets", "gravity_sag"), leave_one_out=False)
+    default = calibrate((q, x), arm, **fit)
+    explicit = calibrate((q, x), arm, gravity=(0, 0, 1), **fit)
+    flipped = calibrate((q, x), arm, gravity=(0, 0, -1), **fit)
+    assert np.allclose(default.sag, explicit.sag) and np.all(default.sag[1:] > 0)
+    assert np.allclose(flipped.sag, -explicit.sag, atol=1e-9)
+    with pytest.raises(MeasurementError, match="gravity"):
+        calibrate((q, x), arm, params=("gravity_sag",), gravity=(0, 0, 0))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from labkit.robot import Convention, JointType, Robot, bundled_robots
-from labkit.exceptions import RobotFileError
+from labkit.exceptions import RobotFileError, ShapeError
 
 BUNDLED = [
     "arduino_arm_3dof",
@@ -239,3 +239,44 @@ def test_docs_example_file_is_valid_and_matches_bundled_arm(tmp_path):
     q = np.radians([[10, 20, 30], [170, 90, 5]])
     assert np.allclose(fk(r, q), fk(ref, q))
     assert [lk.servo.channel for lk in r.links] == [0, 1, 2] and r.gripper == ref.gripper
+
+
+# -- the world's up direction (key ``up``) ---------------------------------------------------
+
+def test_up_defaults_to_plus_z_and_is_read_normalised(tmp_path):
+    assert np.array_equal(Robot.load(_write(tmp_path, MINIMAL)).up, [0.0, 0.0, 1.0])
+    r = Robot.load(_write(tmp_path, MINIMAL.replace('convention = "standard"', 'convention = "standard"\nup = [0, 0, -2]')))
+    assert np.array_equal(r.up, [0.0, 0.0, -1.0])
+    with pytest.raises(ValueError):
+        r.up[2] = 1.0  # frozen data
+    assert np.array_equal(Robot.load("arduino_arm_3dof").up, [0.0, 0.0, -1.0])  # frame 0: z down
+
+
+@pytest.mark.parametrize("value, message", [
+    ("[0, 0]", "expected a list of 3 numbers"),
+    ('"down"', "expected a list of 3 numbers"),
+    ("[0, 0, 0]", "non-zero direction"),
+    ('[0, 0, "up"]', "finite number"),
+    ("[0, 0, nan]", "finite number"),
+])
+def test_bad_up_names_the_field(tmp_path, value, message):
+    text = MINIMAL.replace('convention = "standard"', f'convention = "standard"\nup = {value}')
+    with pytest.raises(RobotFileError, match=message) as info:
+        Robot.load(_write(tmp_path, text))
+    assert "up" in str(info.value)
+
+
+def test_up_round_trips_and_is_validated_in_code(tmp_path):
+    r = Robot.load("puma560").replace(up=[0.0, 1.0, 1.0])
+    assert np.allclose(r.up, [0.0, np.sqrt(0.5), np.sqrt(0.5)])
+    for units in (("m", "rad"), ("mm", "deg")):
+        r.to_toml(tmp_path / "u.toml", length_unit=units[0], angle_unit=units[1])
+        assert np.allclose(Robot.load(tmp_path / "u.toml").up, r.up, atol=1e-12)
+    arm = Robot.load("arduino_arm_3dof")
+    text = arm.to_toml(tmp_path / "a.toml")
+    assert "up = [0, 0, -1]" in text and np.array_equal(Robot.load(tmp_path / "a.toml").up, arm.up)
+    assert "up =" not in Robot.load("puma560").to_toml()  # the default is not written
+    with pytest.raises(ShapeError, match=r"up with shape \(3,\)"):
+        r.replace(up=[0.0, 1.0])
+    with pytest.raises(ShapeError, match="non-zero"):
+        r.replace(up=[0.0, 0.0, 0.0])
