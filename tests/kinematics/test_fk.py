@@ -160,6 +160,13 @@ def test_seed003_published_closed_form_discrepancy(rng):
     assert np.allclose(fk_position(misread, q)[:, 0], published_x)
     # they coincide at the home pose, which is why a check at q = 0 does not reveal it
     assert np.allclose(fk_position(arm, np.zeros(3)), fk_position(misread, np.zeros(3)))
+    # ... and exactly whenever theta2 + theta3 = 0: the difference is 145 (c123 - c1, s123 - s1) mm
+    q_on = q.copy()
+    q_on[:, 2] = -q_on[:, 1]
+    assert np.allclose(fk_position(arm, q_on), fk_position(misread, q_on), atol=1e-12)
+    gap = np.linalg.norm(fk_position(arm, q) - fk_position(misread, q), axis=1)
+    assert np.allclose(gap, 0.145 * np.hypot(c(0, 1, 2) - c(0), s(0, 1, 2) - s(0)))
+    assert np.all(gap[np.abs(np.sin((q[:, 1] + q[:, 2]) / 2)) > 1e-3] > 1e-4)
 
 
 def test_seed002_rpp_and_wrist_jacobians(rng):
