@@ -45,7 +45,7 @@ def test_seed000_line_matches_the_per_axis_cubic(seed000):
     np.testing.assert_allclose(seed000.xdd, law.acceleration(seed000.t), atol=1e-15)
     speed = np.linalg.norm(seed000.xd, axis=1)
     assert speed.max() == pytest.approx(1.5 * np.linalg.norm(np.subtract(UF, U0)) / 5.0)
-    assert speed.max() == pytest.approx(0.0446, abs=1e-4)  # the seed says 0.045
+    assert speed.max() == pytest.approx(0.0446, abs=1e-4)  # the seed's 0.045 at two significant figures
     assert seed000.t[np.argmax(speed)] == pytest.approx(2.5)
 
 
