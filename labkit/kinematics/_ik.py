@@ -273,9 +273,11 @@ def _targets(robot, target, kind):
         bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
+            which = "the target" if not lead else f"target {_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
-                f"[0, 0, 0, 1]); target {_index(i, lead)} is not (max |R R^T - I| = {err[i]:.2g})"
+                f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err[i]:.2g}, det {det[i]:.3g}, "
+                f"last row {T[i, 3].tolist()})"
             )
         return T, lead
     name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
@@ -358,11 +360,14 @@ def _solve_all(robot, impl, kind, flat, lead):
         )
     N = flat.shape[0]
     m = len(impl.branches)
+    flipped = np.flatnonzero(robot.flip)
     q = np.empty((N, m, n))
     reach = np.empty((N, m), dtype=bool)
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         qc, rc, dc = impl.solve(flat[s:s + _CHUNK])
+        if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
+            qc[..., flipped] *= -1.0
         q[s:s + _CHUNK] = _ik_analytic.normalize_angles(qc, limits, rev)
         reach[s:s + _CHUNK] = rc
         distance[s:s + _CHUNK] = dc

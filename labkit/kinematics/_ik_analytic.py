@@ -227,6 +227,8 @@ class _Arm:
         self.front = -1.0 if Wr < -_TOL * scale else 1.0
         lim = robot.joint_limits[1]
         mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+        if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
+            mid = -mid
         v_mid = self.L1 * math.sin(self.g1 - mid)
         self.up = -1.0 if v_mid < -0.2 * self.L1 else 1.0
         self.a = (a1, a2, a3)

@@ -239,3 +239,20 @@ def test_docs_example_file_is_valid_and_matches_bundled_arm(tmp_path):
     q = np.radians([[10, 20, 30], [170, 90, 5]])
     assert np.allclose(fk(r, q), fk(ref, q))
     assert [lk.servo.channel for lk in r.links] == [0, 1, 2] and r.gripper == ref.gripper
+
+
+def test_flip_key_loads_and_is_written_back(tmp_path):
+    text = MINIMAL.replace("a = 100", "a = 100\nflip = true").replace("d = 10", "d = 10\nflip = false")
+    r = Robot.load(_write(tmp_path, text, "flip.toml"))
+    assert [lk.flip for lk in r.links] == [True, False]
+    out = r.to_toml(length_unit="mm", angle_unit="deg")
+    assert out.count("flip = true") == 1 and "flip = false" not in out
+    r2 = Robot.load(_write(tmp_path, out, "flip2.toml"))
+    assert [lk.flip for lk in r2.links] == [True, False]
+    q = np.array([[0.3, 0.02], [-1.0, 0.04]])
+    assert np.abs(r2.fk(q) - r.fk(q)).max() < 1e-12
+    # the variable enters negated: flipping joint 1 is q1 -> -q1
+    unflipped = Robot.load(_write(tmp_path, MINIMAL, "plain.toml"))
+    assert np.abs(r.fk(q) - unflipped.fk(q * [-1, 1])).max() < 1e-12
+    with pytest.raises(RobotFileError, match=r"field 'joint\[1\].flip': expected true or false, got 'yes'"):
+        Robot.load(_write(tmp_path, MINIMAL.replace("a = 100", 'a = 100\nflip = "yes"'), "b.toml"))
