@@ -10,10 +10,11 @@ Targets, by :func:`target_kind`:
 
 The analytic solver is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
-:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_3r``,
-``yaw_pitch_pitch`` (3R, shoulder on the base axis, parallel pitch axes) or
-``spherical_wrist`` (6R, such an arm plus three wrist axes through one point:
-PUMA 560, the PUMA 600 of seed 002). Other robots use :func:`ik_numeric`.
+:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_2r`` (position in the
+arm's plane), ``planar_3r``, ``yaw_pitch_pitch`` (3R, shoulder on the base axis
+or offset from it, parallel pitch axes) or ``spherical_wrist`` (6R, such an arm
+plus three wrist axes through one point: PUMA 560, the PUMA 600 of seed 002,
+IRB140 and KR5 with their shoulder offset). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -31,7 +32,7 @@ import numpy as np
 
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
-from labkit.kinematics import _ik_analytic, _ik_numeric
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -55,6 +56,7 @@ class Solver(str, Enum):
     PLANAR_3R = "planar_3r"
     YAW_PITCH_PITCH = "yaw_pitch_pitch"
     SPHERICAL_WRIST = "spherical_wrist"
+    PLANAR_2R = "planar_2r"
     NUMERIC = "numeric"
 
 
@@ -207,7 +209,7 @@ def target_kind(robot):
     >>> [target_kind(Robot.load(n)) for n in ("arduino_arm_3dof", "planar3r_seed004", "puma560")]
     ['position', 'planar', 'pose']
     """
-    found, _ = _ik_analytic.detect(robot)
+    found, _ = _ik_detect.detect(robot)
     if found is not None:
         return found.kind
     return "pose" if robot.n >= 6 else "position"
@@ -232,7 +234,7 @@ def solver_for(robot):
     >>> solver_for(Robot.load("puma600_seed002")).value
     'spherical_wrist'
     """
-    found, _ = _ik_analytic.detect(robot)
+    found, _ = _ik_detect.detect(robot)
     return Solver(found.name) if found is not None else Solver.NUMERIC
 
 
@@ -240,13 +242,13 @@ def _analytic(robot, solver):
     solver = _as_solver(solver)
     if solver is Solver.NUMERIC:
         return None
-    found, reasons = _ik_analytic.detect(robot)
+    found, reasons = _ik_detect.detect(robot)
     if solver is Solver.AUTO:
         return found
     if found is not None and found.name == solver.value:
         return found
     try:
-        impl = _ik_analytic.build(robot, solver.value)
+        impl = _ik_detect.build(robot, solver.value)
     except _ik_analytic._NotThisStructure as exc:
         fits = found.name if found is not None else "numeric"
         raise OptionError(

@@ -106,12 +106,22 @@ def test_flipped_joints_match_roboticstoolbox(convention):
 
 def test_bundled_robots_match_roboticstoolbox():
     rng = np.random.default_rng(22)
-    for name in ("arduino_arm_3dof", "puma560", "puma600_seed002", "rpp_seed002", "planar3r_seed003"):
+    for name in ("arduino_arm_3dof", "puma560", "puma600_seed002", "rpp_seed002", "planar3r_seed003", "irb140", "kr5"):
         robot = Robot.load(name)
         ref = _rtb_model(robot)
         for qk in rng.uniform(-1.0, 1.0, size=(5, robot.n)):
             assert np.abs(fk(robot, qk) - ref.fkine(qk).A).max() < 1e-12
             assert np.abs(jacobian(robot, qk) - ref.jacob0(qk)).max() < 1e-12
+
+
+@pytest.mark.parametrize("name, model", [("irb140", "IRB140"), ("kr5", "KR5")])
+def test_shoulder_offset_arms_match_their_rtb_models(name, model):
+    rtb = require("roboticstoolbox")
+    ref = getattr(rtb.models.DH, model)()
+    robot = Robot.load(name)
+    assert np.allclose(robot.joint_limits, np.asarray(ref.qlim).T)
+    for qk in np.random.default_rng(26).uniform(-2, 2, size=(10, 6)):
+        assert np.abs(fk(robot, qk) - ref.fkine(qk).A).max() < 1e-12
 
 
 def test_puma560_fk_matches_the_rtb_model():

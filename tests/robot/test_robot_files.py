@@ -11,6 +11,8 @@ from labkit.exceptions import RobotFileError
 
 BUNDLED = [
     "arduino_arm_3dof",
+    "irb140",
+    "kr5",
     "planar3r_seed003",
     "planar3r_seed003_135",
     "planar3r_seed004",

@@ -1,0 +1,111 @@
+"""Closed-form IK families added beside the seed ones: planar 2R, 6R spherical wrist with a shoulder offset.
+
+For each family: FK of every returned branch hits the target, the configuration the target was
+made from is among the branches, and the branch set is complete: numeric IK started from many
+random configurations finds no solution that is not one of the valid branches.
+"""
+
+import numpy as np
+import pytest
+
+from labkit.exceptions import UnreachableError
+from labkit.kinematics import fk, ik, ik_all, ik_numeric, solver_for, target_kind
+from labkit.robot import Link, Robot
+from labkit.rotations import matrix_from_rpy, wrap_angle
+
+
+def _planar_2r():
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy([0.4, 1.0, -0.2])  # plane tilted in the world
+    base[:3, 3] = [0.1, 0.2, 0.3]
+    links = (Link(a=0.3, d=0.05, limits=(-2.5, 2.5)), Link(a=0.2, d=0.1, theta=0.3, alpha=np.pi, limits=(-2.8, 2.8)))
+    return Robot("planar_2r_tilted", links, base=base)
+
+
+ROBOTS = {
+    "planar_2r_tilted": (_planar_2r, "planar_2r"),
+    "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
+    "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
+}
+
+
+def _target(robot, q):
+    T = fk(robot, q)
+    return T if target_kind(robot) == "pose" else T[..., :3, 3]
+
+
+def _in_limits(robot, rng, size):
+    lim = robot.joint_limits
+    return rng.uniform(lim[:, 0], lim[:, 1], size=(size, robot.n))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_every_branch_hits_the_target_and_the_start_is_among_them(name):
+    make, family = ROBOTS[name]
+    robot = make()
+    assert solver_for(robot).value == family
+    rng = np.random.default_rng(5)
+    q = _in_limits(robot, rng, 3000)
+    target = _target(robot, q)
+    sols = ik_all(robot, target)
+    assert sols.solver == family
+    assert np.all(sols.reachable.any(axis=1))
+    reached = _target(robot, sols.q)
+    err = np.abs(reached - target[:, None]).reshape(len(q), len(sols.branches), -1).max(axis=-1)
+    assert err[sols.reachable].max() < 1e-9
+    found = np.abs(wrap_angle(sols.q - q[:, None])).max(axis=-1)
+    found = np.where(sols.valid, found, np.inf).min(axis=-1)
+    assert found.max() < 1e-7  # 100 % of the in-limit targets: the start is a valid branch
+    assert np.array_equal(sols.valid, sols.reachable & robot.within_limits(sols.q))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_branch_set_is_complete_against_numeric_ik_from_many_starts(name):
+    make, _ = ROBOTS[name]
+    robot = make()
+    rng = np.random.default_rng(6)
+    n_targets, n_starts = 12, 40
+    target = _target(robot, _in_limits(robot, rng, n_targets))
+    sols = ik_all(robot, target)
+    repeated = np.repeat(target, n_starts, axis=0)
+    res = ik_numeric(robot, repeated, q0=_in_limits(robot, rng, n_targets * n_starts), restarts=3, max_iter=100)
+    assert res.success.mean() > 0.5  # the comparison has material
+    qa = np.repeat(sols.q, n_starts, axis=0)
+    valid = np.repeat(sols.valid, n_starts, axis=0)
+    gap = np.where(valid, np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1), np.inf).min(axis=-1)
+    assert gap[res.success].max() < 1e-6, "numeric IK found a solution that no branch returned"
+    # and every valid branch of a target is found by some numeric start (the set is not padded)
+    hit = np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1) < 1e-6
+    hit &= res.success[:, None]
+    hit_any = hit.reshape(n_targets, n_starts, -1).any(axis=1)
+    distinct = sols.valid.sum(axis=1)
+    assert hit_any.sum() >= 0.75 * distinct.sum()
+
+
+def test_planar_2r_out_of_plane_and_out_of_reach():
+    robot = _planar_2r()
+    p = _target(robot, [0.3, -0.4])
+    normal = robot.base[:3, 2]
+    with pytest.raises(UnreachableError, match=r"out of reach by 0.01 m") as info:
+        ik(robot, p + 0.01 * normal)
+    assert info.value.distance == pytest.approx(0.01, abs=1e-12)
+    sols = ik_all(robot, p + 1e-12 * normal)  # rounding-size height errors are tolerated
+    assert sols.reachable.all()
+    far = robot.base[:3, 3] + 0.15 * normal + 0.9 * robot.base[:3, 0]
+    sols = ik_all(robot, far)
+    assert not sols.reachable.any() and sols.distance > 0.3
+    q = ik(robot, p, branch="elbow_down")
+    assert np.allclose(_target(robot, q), p, atol=1e-12)
+
+
+def test_shoulder_offset_front_and_back_reach_differently():
+    """Far out only the front branches reach (the back ones would need the shoulder offset twice)."""
+    kr5 = Robot.load("kr5")
+    q = np.array([0.0, -0.05, -0.2, 0.2, 0.5, 0.1])  # arm stretched forwards
+    T = fk(kr5, q)
+    sols = ik_all(kr5, T)
+    assert sols.reachable.tolist() == [True] * 4 + [False] * 4  # right_* reach, left_* do not
+    assert np.abs(fk(kr5, sols.q[:4]) - T).max() < 1e-9
+    assert np.all(np.isfinite(sols.q))
+    with pytest.raises(UnreachableError, match="branch 'left_up_noflip' cannot reach"):
+        ik(kr5, T, branch="left_up_noflip")
