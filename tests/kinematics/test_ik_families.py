@@ -109,3 +109,19 @@ def test_shoulder_offset_front_and_back_reach_differently():
     assert np.all(np.isfinite(sols.q))
     with pytest.raises(UnreachableError, match="branch 'left_up_noflip' cannot reach"):
         ik(kr5, T, branch="left_up_noflip")
+
+
+def test_benchmark_script_prints_full_success_and_ratios():
+    """The acceptance benchmark (10,000 targets without --quick) passes in its quick form."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_ik_families.py"
+    out = subprocess.run([sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    rows = [ln for ln in out.stdout.splitlines() if "targets/s" in ln]
+    assert len(rows) >= 3
+    for row in rows:
+        assert "solved 100.00%" in row and "(100.00%)" in row and re.search(r"ratio +[\d,]+x", row), row
