@@ -5,7 +5,7 @@ Run::
     python benchmarks/bench_ik_families.py            # 10,000 random in-limit targets per family
     python benchmarks/bench_ik_families.py --quick    # 500 targets
 
-For each family (planar 2R with a tilted plane, IRB140 and KR5 with their shoulder offset)
+For each family (planar 2R with a tilted plane, IRB140 and KR5 with their shoulder offset, UR5)
 it draws random configurations inside the joint limits, takes their FK as targets and prints:
 
 * solved: the share of targets whose starting configuration is among the valid branches
@@ -87,7 +87,7 @@ def main():
     n = 500 if args.quick else 10_000
     rng = np.random.default_rng(14)
     ok = True
-    for robot in (planar_2r(), Robot.load("irb140"), Robot.load("kr5")):
+    for robot in (planar_2r(), Robot.load("irb140"), Robot.load("kr5"), Robot.load("ur5")):
         ok &= run(robot, n, n_complete=20 if args.quick else 200, n_starts=20, rng=rng)
     print("all families: 100 % solved, complete" if ok else "FAILED: see the rows above")
     return 0 if ok else 1

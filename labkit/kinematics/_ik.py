@@ -14,7 +14,8 @@ The analytic solver is chosen from the robot's geometry (joint axes at
 arm's plane), ``planar_3r``, ``yaw_pitch_pitch`` (3R, shoulder on the base axis
 or offset from it, parallel pitch axes) or ``spherical_wrist`` (6R, such an arm
 plus three wrist axes through one point: PUMA 560, the PUMA 600 of seed 002,
-IRB140 and KR5 with their shoulder offset). Other robots use :func:`ik_numeric`.
+IRB140 and KR5 with their shoulder offset) or ``three_parallel`` (UR-type 6R:
+axes 2, 3, 4 parallel, up to 8 solutions). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -57,6 +58,7 @@ class Solver(str, Enum):
     YAW_PITCH_PITCH = "yaw_pitch_pitch"
     SPHERICAL_WRIST = "spherical_wrist"
     PLANAR_2R = "planar_2r"
+    THREE_PARALLEL = "three_parallel"
     NUMERIC = "numeric"
 
 

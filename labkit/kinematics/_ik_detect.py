@@ -11,13 +11,14 @@ import weakref
 
 from labkit.kinematics._ik_analytic import Planar3R, SphericalWrist, YawPitchPitch, _NotThisStructure
 from labkit.kinematics._ik_planar import Planar2R
+from labkit.kinematics._ik_ur import ThreeParallel
 
 #: analytic solver (or None) and reasons per robot object; entries die with the robot
 _DETECTED = weakref.WeakKeyDictionary()
 
-SOLVERS = {cls.name: cls for cls in (Planar2R, Planar3R, YawPitchPitch, SphericalWrist)}
+SOLVERS = {cls.name: cls for cls in (Planar2R, Planar3R, YawPitchPitch, SphericalWrist, ThreeParallel)}
 #: the order in which families are tried
-ORDER = ("planar_2r", "planar_3r", "yaw_pitch_pitch", "spherical_wrist")
+ORDER = ("planar_2r", "planar_3r", "yaw_pitch_pitch", "spherical_wrist", "three_parallel")
 
 
 def detect(robot):
@@ -58,7 +59,7 @@ def build(robot, name):
         The arm.
     name : str
         A key of :data:`SOLVERS` (``"planar_2r"``, ``"planar_3r"``, ``"yaw_pitch_pitch"``,
-        ``"spherical_wrist"``).
+        ``"spherical_wrist"``, ``"three_parallel"``).
 
     Returns
     -------

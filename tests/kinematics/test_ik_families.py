@@ -1,4 +1,5 @@
-"""Closed-form IK families added beside the seed ones: planar 2R, 6R spherical wrist with a shoulder offset.
+"""Closed-form IK families added beside the seed ones: planar 2R, 6R spherical wrist with a shoulder offset,
+UR-type 6R with three parallel axes.
 
 For each family: FK of every returned branch hits the target, the configuration the target was
 made from is among the branches, and the branch set is complete: numeric IK started from many
@@ -26,6 +27,7 @@ ROBOTS = {
     "planar_2r_tilted": (_planar_2r, "planar_2r"),
     "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
     "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
+    "ur5": (lambda: Robot.load("ur5"), "three_parallel"),
 }
 
 
@@ -125,3 +127,19 @@ def test_benchmark_script_prints_full_success_and_ratios():
     assert len(rows) >= 3
     for row in rows:
         assert "solved 100.00%" in row and "(100.00%)" in row and re.search(r"ratio +[\d,]+x", row), row
+
+
+def test_ur5_wrist_singularity_and_unreachable_targets():
+    ur5 = Robot.load("ur5")
+    q = np.array([0.3, -1.0, 1.2, 0.4, 0.0, 0.5])  # q5 = 0: axis 6 parallel to axes 2-4, only q4 + q6 is fixed
+    T = fk(ur5, q)
+    sols = ik_all(ur5, T)
+    assert np.all(np.isfinite(sols.q)) and sols.reachable.sum() >= 4
+    assert np.abs(fk(ur5, sols.q[sols.reachable]) - T).max() < 1e-9
+    far = T.copy()
+    far[:3, 3] *= 5.0
+    with pytest.raises(UnreachableError, match="out of reach by") as info:
+        ik(ur5, far)
+    assert info.value.distance > 0.5
+    q_ik = ik(ur5, fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2]), branch="lun", q_near=None)
+    assert np.abs(fk(ur5, q_ik) - fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2])).max() < 1e-9

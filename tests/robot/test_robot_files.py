@@ -20,6 +20,7 @@ BUNDLED = [
     "puma600_seed002",
     "puma_wrist_seed002",
     "rpp_seed002",
+    "ur5",
 ]
 
 MINIMAL = """
