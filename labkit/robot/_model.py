@@ -357,6 +357,43 @@ class Robot:
             return name_or_path
         return cls(**load_fields(name_or_path))
 
+    @classmethod
+    def from_urdf(cls, path, *, base_link=None, tip_link=None, name=None, parallel_tol=1e-12):
+        """Import the serial chain ``base_link`` -> ``tip_link`` of a URDF file as modified DH.
+
+        See :mod:`labkit.robot.urdf` for the conversion; save the result with
+        :meth:`to_toml` to use it as a robot file (``labkit robots`` lists it).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The ``.urdf`` file.
+        base_link, tip_link : str, optional
+            Ends of the chain; default the root link and the leaf below it with the
+            most moving joints on the way (it must be unique).
+        name : str, optional
+            Robot name; default the URDF's robot name.
+        parallel_tol : float
+            Angle [rad] within which consecutive axes count as parallel (see
+            :func:`labkit.robot.urdf.urdf_fields`).
+
+        Returns
+        -------
+        Robot
+            Forward kinematics equal to the URDF chain's (``base`` and ``tool``
+            carry the fixed transforms at the two ends).
+
+        Raises
+        ------
+        RobotError
+            Unreadable file, links not on one chain, or a joint that is not
+            revolute, continuous, prismatic or fixed (named in the message).
+        """
+        from labkit.robot.urdf import urdf_fields
+
+        return cls(**urdf_fields(path, base_link=base_link, tip_link=tip_link, name=name,
+                                 parallel_tol=parallel_tol))
+
     def to_toml(self, path=None, *, length_unit=None, angle_unit=None):
         """Write the robot as a robot file (returns the TOML text).
 
