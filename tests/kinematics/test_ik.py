@@ -627,7 +627,7 @@ def test_puma600_any_configuration_is_among_the_8_solutions(q):
         assert _wrapped(sols.q - q).max(axis=-1).min() < 1e-6
 
 
-@pytest.mark.parametrize("name", sorted(ANALYTIC))
+@pytest.mark.parametrize("name", sorted(ANALYTIC) + ["irb140", "kr5", "ur5"])
 def test_flipped_joints_keep_closed_form_ik_exact_and_branches_geometric(name):
     """Flipping joints (their limits mirrored) negates those columns of every branch, name for name."""
     from dataclasses import replace
@@ -651,7 +651,8 @@ def test_flipped_joints_keep_closed_form_ik_exact_and_branches_geometric(name):
     reached = _target_of(flipped, mirrored.q)
     if target_kind(robot) == "planar":
         reached[..., 2] = target[:, None, 2] + np.remainder(reached[..., 2] - target[:, None, 2] + np.pi, 2 * np.pi) - np.pi
-    assert np.abs(reached - target[:, None]).max() < 1e-9
+    miss = np.abs(reached - target[:, None]).reshape(len(q), len(plain.branches), -1).max(axis=-1)
+    assert miss[mirrored.reachable].max() < 1e-9  # (shoulder-offset and UR arms: not every branch reaches)
     # the configuration we started from (in the flipped robot's terms) is among the branches
     found = _wrapped(mirrored.q - (q * sign)[:, None]).max(axis=-1).min(axis=-1)
     assert np.quantile(found, 0.99) < 1e-6
