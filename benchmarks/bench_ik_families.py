@@ -5,7 +5,8 @@ Run::
     python benchmarks/bench_ik_families.py            # 10,000 random in-limit targets per family
     python benchmarks/bench_ik_families.py --quick    # 500 targets
 
-For each family (planar 2R with a tilted plane, IRB140 and KR5 with their shoulder offset, UR5)
+For each family (planar 2R with a tilted plane, a 4-DOF yaw-pitch-pitch-pitch arm, IRB140 and KR5
+with their shoulder offset, UR5)
 it draws random configurations inside the joint limits, takes their FK as targets and prints:
 
 * solved: the share of targets whose starting configuration is among the valid branches
@@ -41,6 +42,15 @@ def planar_2r():
     return Robot("planar_2r_tilted", links, base=base)
 
 
+def arm4():
+    """MeArm / Dobot-like 4-DOF arm (base yaw and three pitch joints)."""
+    links = (Link(d=0.1, alpha=np.pi / 2, limits=(-np.pi, np.pi), name="yaw"),
+             Link(a=0.15, theta=np.pi / 2, limits=(-np.pi, np.pi), name="shoulder"),
+             Link(a=0.15, limits=(-2.8, 2.8), name="elbow"),
+             Link(a=0.05, limits=(-2.8, 2.8), name="wrist"))
+    return Robot("arm4_mearm_like", links)
+
+
 def target_of(robot, q):
     T = fk(robot, q)
     return T if target_kind(robot) == "pose" else T[..., :3, 3]
@@ -72,7 +82,7 @@ def run(robot, n_targets, n_complete, n_starts, rng):
     gap = np.where(valid, np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1), np.inf).min(axis=-1)
     matched = gap[res.success] < 1e-6
     print(
-        f"{robot.name:18s} {sols.solver:16s} {len(sols.branches)} branches  solved {100 * solved.mean():6.2f}% "
+        f"{robot.name:18s} {sols.solver:21s} {len(sols.branches)} branches  solved {100 * solved.mean():6.2f}% "
         f"of {n_targets:,}  complete: {matched.sum():,}/{res.success.sum():,} numeric solutions matched "
         f"({100 * matched.mean():.2f}%)  closed form {n_targets / t_all:12,.0f} targets/s  "
         f"numeric {len(rep) / t_num:9,.0f} targets/s  ratio {n_targets / t_all / (len(rep) / t_num):8,.0f}x"
@@ -87,7 +97,7 @@ def main():
     n = 500 if args.quick else 10_000
     rng = np.random.default_rng(14)
     ok = True
-    for robot in (planar_2r(), Robot.load("irb140"), Robot.load("kr5"), Robot.load("ur5")):
+    for robot in (planar_2r(), arm4(), Robot.load("irb140"), Robot.load("kr5"), Robot.load("ur5")):
         ok &= run(robot, n, n_complete=20 if args.quick else 200, n_starts=20, rng=rng)
     print("all families: 100 % solved, complete" if ok else "FAILED: see the rows above")
     return 0 if ok else 1

@@ -59,6 +59,7 @@ class Solver(str, Enum):
     SPHERICAL_WRIST = "spherical_wrist"
     PLANAR_2R = "planar_2r"
     THREE_PARALLEL = "three_parallel"
+    YAW_PITCH_PITCH_PITCH = "yaw_pitch_pitch_pitch"
     NUMERIC = "numeric"
 
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import weakref
 
+from labkit.exceptions import OptionError
+from labkit.kinematics._ik_4dof import YawPitchPitchPitch, position_pitch_pose
 from labkit.kinematics._ik_analytic import Planar3R, SphericalWrist, YawPitchPitch, _NotThisStructure
 from labkit.kinematics._ik_planar import Planar2R
 from labkit.kinematics._ik_ur import ThreeParallel
@@ -16,9 +18,12 @@ from labkit.kinematics._ik_ur import ThreeParallel
 #: analytic solver (or None) and reasons per robot object; entries die with the robot
 _DETECTED = weakref.WeakKeyDictionary()
 
-SOLVERS = {cls.name: cls for cls in (Planar2R, Planar3R, YawPitchPitch, SphericalWrist, ThreeParallel)}
+SOLVERS = {cls.name: cls for cls in (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, SphericalWrist,
+                                     ThreeParallel)}
 #: the order in which families are tried
-ORDER = ("planar_2r", "planar_3r", "yaw_pitch_pitch", "spherical_wrist", "three_parallel")
+ORDER = ("planar_2r", "planar_3r", "yaw_pitch_pitch", "yaw_pitch_pitch_pitch", "spherical_wrist", "three_parallel")
+
+__all__ = ["pose_from_position_pitch"]
 
 
 def detect(robot):
@@ -59,7 +64,7 @@ def build(robot, name):
         The arm.
     name : str
         A key of :data:`SOLVERS` (``"planar_2r"``, ``"planar_3r"``, ``"yaw_pitch_pitch"``,
-        ``"spherical_wrist"``, ``"three_parallel"``).
+        ``"yaw_pitch_pitch_pitch"``, ``"spherical_wrist"``, ``"three_parallel"``).
 
     Returns
     -------
@@ -72,3 +77,39 @@ def build(robot, name):
         With the reason the robot does not have that structure.
     """
     return SOLVERS[name](robot)
+
+
+def pose_from_position_pitch(robot, target):
+    """Tool poses of ``(x, y, z, pitch)`` targets of a 4-DOF yaw-pitch-pitch-pitch arm.
+
+    A MeArm / uArm / Dobot type arm reaches a tool point and one pitch angle; its
+    IK targets are poses (``target_kind`` is ``"pose"``), built here.
+
+    Parameters
+    ----------
+    robot : Robot
+        An arm whose closed-form family is ``yaw_pitch_pitch_pitch``.
+    target : array_like, shape (..., 4)
+        Tool point ``(x, y, z)`` [m] and pitch [rad]: the elevation of the tool x
+        axis above the plane perpendicular to axis 1 (positive towards +axis 1;
+        0 = pointing away from axis 1 in the arm's plane).
+
+    Returns
+    -------
+    T : ndarray, shape (..., 4, 4)
+        ``world_from_tool`` poses to pass to :func:`ik` / :func:`ik_all`.
+
+    Raises
+    ------
+    OptionError
+        The robot is not of that family.
+    ShapeError
+        Bad target shape or values.
+    """
+    found, reasons = detect(robot)
+    if not isinstance(found, YawPitchPitchPitch):
+        raise OptionError(
+            f"{robot.name}: (x, y, z, pitch) targets need a 4-DOF yaw-pitch-pitch-pitch arm "
+            f"({reasons.get('yaw_pitch_pitch_pitch', 'its solver is ' + repr(getattr(found, 'name', None)))})"
+        )
+    return position_pitch_pose(found, target)

@@ -1,5 +1,5 @@
-"""Closed-form IK families added beside the seed ones: planar 2R, 6R spherical wrist with a shoulder offset,
-UR-type 6R with three parallel axes.
+"""Closed-form IK families added beside the seed ones: planar 2R, 4-DOF yaw-pitch-pitch-pitch,
+6R spherical wrist with a shoulder offset, UR-type 6R with three parallel axes.
 
 For each family: FK of every returned branch hits the target, the configuration the target was
 made from is among the branches, and the branch set is complete: numeric IK started from many
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from labkit.exceptions import UnreachableError
-from labkit.kinematics import fk, ik, ik_all, ik_numeric, solver_for, target_kind
+from labkit.kinematics import fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_kind
 from labkit.robot import Link, Robot
 from labkit.rotations import matrix_from_rpy, wrap_angle
 
@@ -23,7 +23,17 @@ def _planar_2r():
     return Robot("planar_2r_tilted", links, base=base)
 
 
+def _arm4():
+    """A MeArm / Dobot-like 4-DOF arm: base yaw, shoulder, elbow and wrist pitch, tool 50 mm past the wrist."""
+    links = (Link(d=0.1, alpha=np.pi / 2, limits=(-np.pi, np.pi), name="yaw"),
+             Link(a=0.15, theta=np.pi / 2, limits=(-np.pi, np.pi), name="shoulder"),
+             Link(a=0.15, limits=(-2.8, 2.8), name="elbow"),
+             Link(a=0.05, limits=(-2.8, 2.8), name="wrist"))
+    return Robot("arm4", links)
+
+
 ROBOTS = {
+    "arm4": (_arm4, "yaw_pitch_pitch_pitch"),
     "planar_2r_tilted": (_planar_2r, "planar_2r"),
     "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
     "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
@@ -143,3 +153,33 @@ def test_ur5_wrist_singularity_and_unreachable_targets():
     assert info.value.distance > 0.5
     q_ik = ik(ur5, fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2]), branch="lun", q_near=None)
     assert np.abs(fk(ur5, q_ik) - fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2])).max() < 1e-9
+
+
+def test_4dof_position_pitch_targets():
+    arm = _arm4()
+    assert target_kind(arm) == "pose"
+    targets = np.array([[0.2, 0.1, 0.15, -0.5], [0.05, -0.2, 0.3, 0.8], [-0.1, 0.0, 0.05, -1.4]])
+    T = pose_from_position_pitch(arm, targets)
+    assert T.shape == (3, 4, 4)
+    sols = ik_all(arm, T)
+    assert sols.reachable.all()
+    reached = fk(arm, sols.q)
+    assert np.abs(reached[..., :3, 3] - targets[:, None, :3]).max() < 1e-12
+    # the pitch: elevation of the tool x axis above the horizontal, in the arm's plane (facing the target)
+    x = reached[..., :3, 0]
+    radial = targets[:, None, :2] / np.linalg.norm(targets[:, :2], axis=1)[:, None, None]
+    pitch = np.arctan2(x[..., 2], (x[..., :2] * radial).sum(-1))
+    assert np.abs(pitch - targets[:, 3, None]).max() < 1e-12
+    # the two branches are different configurations (elbow above / below the shoulder -> wrist line)
+    assert np.all(np.abs(sols.q[:, 0] - sols.q[:, 1]).max(axis=-1) > 1e-3)
+    # an orientation no 4-DOF arm can take is unreachable (distance inf), a far point by its distance
+    twisted = T[0].copy()
+    twisted[:3, :3] = twisted[:3, :3] @ np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
+    s = ik_all(arm, twisted)
+    assert not s.reachable.any() and np.isinf(s.distance)
+    with pytest.raises(UnreachableError, match="out of reach by 0.5"):
+        ik(arm, pose_from_position_pitch(arm, [0.0, 0.9, 0.1, 0.0]))
+    from labkit.exceptions import OptionError
+
+    with pytest.raises(OptionError, match="need a 4-DOF yaw-pitch-pitch-pitch arm"):
+        pose_from_position_pitch(Robot.load("puma560"), [0.2, 0.1, 0.15, -0.5])
