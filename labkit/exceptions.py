@@ -14,6 +14,7 @@ __all__ = [
     "OptionError",
     "UnknownBranchError",
     "RotationMatrixError",
+    "RobotError",
     "RobotFileError",
     "UnreachableError",
     "JointLimitError",
@@ -56,7 +57,24 @@ class RotationMatrixError(LabkitError, ValueError):
     """A 3x3 matrix is not a proper rotation (not orthonormal or det != +1)."""
 
 
-class RobotFileError(LabkitError, ValueError):
+class RobotError(LabkitError, ValueError):
+    """A robot description (``Link``, ``Robot`` or robot file) is inconsistent.
+
+    The message names the field and says what was expected and what was
+    received, with the same wording as the robot-file loader.
+
+    Attributes
+    ----------
+    field : str or None
+        The offending field (``"limits"``, ``"joint[2].type"``, ``"tool"``...).
+    """
+
+    def __init__(self, message, field=None):
+        self.field = field
+        super().__init__(message)
+
+
+class RobotFileError(RobotError):
     """A robot file is missing, malformed or inconsistent.
 
     The message names the file, the field and what was expected.
@@ -64,8 +82,7 @@ class RobotFileError(LabkitError, ValueError):
 
     def __init__(self, path, field, message):
         self.path = str(path)
-        self.field = field
-        super().__init__(f"{self.path}: field '{field}': {message}")
+        super().__init__(f"{self.path}: field '{field}': {message}", field)
 
 
 class UnreachableError(LabkitError, ValueError):

@@ -15,6 +15,7 @@ from labkit.kinematics._ik import (
     ik_all,
     ik_numeric,
 )
+from labkit.kinematics._ik_detect import pose_from_position_pitch
 from labkit.kinematics._statics import (
     joint_torques,
     skew,
@@ -43,6 +44,7 @@ __all__ = [
     "ik",
     "ik_all",
     "ik_numeric",
+    "pose_from_position_pitch",
     "joint_torques",
     "skew",
     "wrench_transform_matrix",

@@ -147,10 +147,21 @@ def _as_point(point):
     return pt
 
 
+def _flipped(robot):
+    """Indices of the joints whose variable enters the chain negated (``Link.flip``)."""
+    return [i for i, lk in enumerate(robot.links) if lk.flip]
+
+
 def _prepare(robot, q):
+    """Validated ``q`` as (N, n) in the chain's sense (flipped joints negated), and the leading shape."""
     q = as_vector(q, robot.n, "q")
     lead = q.shape[:-1]
-    return q.reshape(-1, robot.n), lead
+    q = q.reshape(-1, robot.n)
+    flipped = _flipped(robot)
+    if flipped:  # the one place q enters the chain: theta_i = -q_i + theta (d_i = -q_i + d)
+        q = q.copy()
+        q[:, flipped] *= -1.0
+    return q, lead
 
 
 def fk(robot, q):
@@ -327,6 +338,9 @@ def fk_jacobian(robot, q, *, point=None, frame="base"):
     J = np.empty((N, 6, robot.n))
     for s in range(0, N, _CHUNK):
         T[s:s + _CHUNK], J[s:s + _CHUNK] = _jacobian_chunk(robot, q2[s:s + _CHUNK], pt, frame)
+    flipped = _flipped(robot)
+    if flipped:  # d/dq_i = -d/dtheta_i for a flipped joint
+        J[:, :, flipped] *= -1.0
     return T.reshape(lead + (4, 4)), J.reshape(lead + (6, robot.n))
 
 

@@ -10,10 +10,12 @@ Targets, by :func:`target_kind`:
 
 The analytic solver is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
-:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_3r``,
-``yaw_pitch_pitch`` (3R, shoulder on the base axis, parallel pitch axes) or
-``spherical_wrist`` (6R, such an arm plus three wrist axes through one point:
-PUMA 560, the PUMA 600 of seed 002). Other robots use :func:`ik_numeric`.
+:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_2r`` (position in the
+arm's plane), ``planar_3r``, ``yaw_pitch_pitch`` (3R, shoulder on the base axis
+or offset from it, parallel pitch axes) or ``spherical_wrist`` (6R, such an arm
+plus three wrist axes through one point: PUMA 560, the PUMA 600 of seed 002,
+IRB140 and KR5 with their shoulder offset) or ``three_parallel`` (UR-type 6R:
+axes 2, 3, 4 parallel, up to 8 solutions). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -31,7 +33,7 @@ import numpy as np
 
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
-from labkit.kinematics import _ik_analytic, _ik_numeric
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -55,6 +57,9 @@ class Solver(str, Enum):
     PLANAR_3R = "planar_3r"
     YAW_PITCH_PITCH = "yaw_pitch_pitch"
     SPHERICAL_WRIST = "spherical_wrist"
+    PLANAR_2R = "planar_2r"
+    THREE_PARALLEL = "three_parallel"
+    YAW_PITCH_PITCH_PITCH = "yaw_pitch_pitch_pitch"
     NUMERIC = "numeric"
 
 
@@ -207,7 +212,7 @@ def target_kind(robot):
     >>> [target_kind(Robot.load(n)) for n in ("arduino_arm_3dof", "planar3r_seed004", "puma560")]
     ['position', 'planar', 'pose']
     """
-    found, _ = _ik_analytic.detect(robot)
+    found, _ = _ik_detect.detect(robot)
     if found is not None:
         return found.kind
     return "pose" if robot.n >= 6 else "position"
@@ -232,7 +237,7 @@ def solver_for(robot):
     >>> solver_for(Robot.load("puma600_seed002")).value
     'spherical_wrist'
     """
-    found, _ = _ik_analytic.detect(robot)
+    found, _ = _ik_detect.detect(robot)
     return Solver(found.name) if found is not None else Solver.NUMERIC
 
 
@@ -240,13 +245,13 @@ def _analytic(robot, solver):
     solver = _as_solver(solver)
     if solver is Solver.NUMERIC:
         return None
-    found, reasons = _ik_analytic.detect(robot)
+    found, reasons = _ik_detect.detect(robot)
     if solver is Solver.AUTO:
         return found
     if found is not None and found.name == solver.value:
         return found
     try:
-        impl = _ik_analytic.build(robot, solver.value)
+        impl = _ik_detect.build(robot, solver.value)
     except _ik_analytic._NotThisStructure as exc:
         fits = found.name if found is not None else "numeric"
         raise OptionError(
@@ -273,9 +278,11 @@ def _targets(robot, target, kind):
         bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
+            which = "the target" if not lead else f"target {_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
-                f"[0, 0, 0, 1]); target {_index(i, lead)} is not (max |R R^T - I| = {err[i]:.2g})"
+                f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err[i]:.2g}, det {det[i]:.3g}, "
+                f"last row {T[i, 3].tolist()})"
             )
         return T, lead
     name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
@@ -358,11 +365,14 @@ def _solve_all(robot, impl, kind, flat, lead):
         )
     N = flat.shape[0]
     m = len(impl.branches)
+    flipped = np.flatnonzero(robot.flip)
     q = np.empty((N, m, n))
     reach = np.empty((N, m), dtype=bool)
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         qc, rc, dc = impl.solve(flat[s:s + _CHUNK])
+        if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
+            qc[..., flipped] *= -1.0
         q[s:s + _CHUNK] = _ik_analytic.normalize_angles(qc, limits, rev)
         reach[s:s + _CHUNK] = rc
         distance[s:s + _CHUNK] = dc

@@ -10,14 +10,18 @@ geometry, product-of-exponentials style. Three structures are recognised:
     axis, with a tool frame whose ``z`` is ``+z`` too. Target ``(x, y, phi)``,
     ``phi`` the angle of the tool ``x`` axis from world ``x``.
 ``yaw_pitch_pitch``
-    three revolute joints: axis 1, axis 2 perpendicular to and intersecting
-    axis 1 (the shoulder), axis 3 parallel to axis 2; the tool point may lie
-    off the arm plane by a constant lateral offset. Target: tool position.
+    three revolute joints: axis 1, axis 2 perpendicular to axis 1 and either
+    intersecting it or offset from it along their common normal (a *shoulder
+    offset*, ``a_1`` of IRB140 / KR5 arms), axis 3 parallel to axis 2; the
+    tool point may lie off the arm plane by a constant lateral offset.
+    Target: tool position.
 ``spherical_wrist``
-    six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` and axes 4, 5, 6
-    meeting in one point (the wrist centre), 4 not parallel to 5 and 5 not
-    parallel to 6. Target: tool pose. Joints 1-3 place the wrist centre,
-    joints 4-6 are a Paden-Kahan subproblem 2 + subproblem 1.
+    six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` (with or without a
+    shoulder offset: PUMA, IRB140, KR5) and axes 4, 5, 6 meeting in one point
+    (the wrist centre), 4 not parallel to 5 and 5 not parallel to 6. Target:
+    tool pose. Joints 1-3 place the wrist centre, joints 4-6 are a Paden-Kahan
+    subproblem 2 + subproblem 1. With a shoulder offset the front and back
+    arm solutions reach differently far: ``reachable`` is per branch.
 
 Every solver returns raw arrays ``q (N, m, n)`` and ``reachable (N, m)`` and an
 out-of-reach distance ``(N,)`` [m]; unreachable entries hold the finite
@@ -40,7 +44,6 @@ relative elbow angle is negative (seed 004's "elbow minus").
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
 
@@ -61,15 +64,14 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def _line_closest(p1, d1, p2, d2):
-    """Closest points of two non-parallel lines; returns (midpoint, distance)."""
+def _feet(p1, d1, p2, d2):
+    """Feet of the common normal of two non-parallel lines: the closest point on each."""
     w = p1 - p2
     b = d1 @ d2
     den = 1.0 - b * b
     t1 = (b * (d2 @ w) - (d1 @ w)) / den
     t2 = ((d2 @ w) - b * (d1 @ w)) / den
-    c1, c2 = p1 + t1 * d1, p2 + t2 * d2
-    return 0.5 * (c1 + c2), float(np.linalg.norm(c1 - c2))
+    return p1 + t1 * d1, p2 + t2 * d2
 
 
 def _axes(robot):
@@ -205,34 +207,37 @@ class _Arm:
             raise _NotThisStructure("axis 2 must be perpendicular to axis 1")
         if np.linalg.norm(np.cross(a2, a3)) > _TOL:
             raise _NotThisStructure("axis 3 must be parallel to axis 2")
-        S, gap = _line_closest(o[0], a1, o[1], a2)
         scale = _scale(robot)
-        if gap > _TOL * scale:
-            raise _NotThisStructure("axis 2 must intersect axis 1 (no shoulder offset along the normal)")
-        self.S = S
         self.ev, self.en, self.er = a1, a2, np.cross(a2, a1)
+        # the shoulder: foot of the common normal of axes 1 and 2 on axis 2, at the radial
+        # distance Sr from axis 1 (the shoulder offset a_1 of IRB140 / KR5 arms; 0 for a PUMA)
+        S1, S2 = _feet(o[0], a1, o[1], a2)
+        self.S = S1
+        self.Sr = float((S2 - S1) @ self.er)
         self.s3 = 1.0 if a3 @ a2 > 0 else -1.0
-        E = o[2] - S
+        E = o[2] - S2
         Er, Ev = E @ self.er, E @ self.ev
-        Wd = W0 - S
+        Wd = W0 - S1
         Wr, Wv = Wd @ self.er, Wd @ self.ev
         self.off = float(Wd @ self.en)
         self.L1 = float(math.hypot(Er, Ev))
-        self.L2 = float(math.hypot(Wr - Er, Wv - Ev))
+        self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
         if self.L1 < _TOL * scale or self.L2 < _TOL * scale:
             raise _NotThisStructure("the elbow must be away from the shoulder and the wrist")
         self.g1 = math.atan2(Ev, Er)
-        self.g2 = math.atan2(Wv - Ev, Wr - Er)
+        self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -_TOL * scale else 1.0
         lim = robot.joint_limits[1]
         mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+        if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
+            mid = -mid
         v_mid = self.L1 * math.sin(self.g1 - mid)
         self.up = -1.0 if v_mid < -0.2 * self.L1 else 1.0
         self.a = (a1, a2, a3)
 
     def solve(self, W):
-        """W (3, N) -> list of 4 (q1, q2, q3) tuples, reachable (N,) x4, distance (N,).
+        """W (3, N) -> list of 4 (q1, q2, q3) tuples, reachable (N, 4), distance (N,).
 
         Order: front elbow up, front elbow down, back elbow up, back elbow down.
         """
@@ -245,32 +250,37 @@ class _Arm:
         u0 = np.sqrt(np.maximum(rho2 - off * off, 0.0))
         shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - _REACH_TOL
         L1, L2 = self.L1, self.L2
-        D = np.sqrt(u0 * u0 + w * w)
-        cb = (u0 * u0 + w * w - L1 * L1 - L2 * L2) / (2 * L1 * L2)
-        ok = shoulder_ok & (np.abs(cb) <= 1.0 + _REACH_TOL)
-        distance = np.maximum(np.maximum(D - (L1 + L2), abs(L1 - L2) - D), 0.0)
-        distance = np.maximum(distance, np.maximum(abs(off) - np.sqrt(rho2), 0.0))
-        cb = np.clip(cb, -1.0, 1.0)
-        sb = np.sqrt(1.0 - cb * cb)
-        tb_abs = np.arctan2(sb, cb)
-        beta = np.arctan2(L2 * sb, L1 + L2 * cb)  # interior angle at the shoulder
+        lateral = np.maximum(abs(off) - np.sqrt(rho2), 0.0)
         az = np.arctan2(hn, hr)
-        out = []
+        out, ok, distance = [], [], None
         for side in (self.front, -self.front):
             u = side * u0
+            ur = u - self.Sr  # radial coordinate of W seen from the shoulder
+            D = np.sqrt(ur * ur + w * w)
+            cb = (ur * ur + w * w - L1 * L1 - L2 * L2) / (2 * L1 * L2)
+            side_ok = shoulder_ok & (np.abs(cb) <= 1.0 + _REACH_TOL)
+            dist = np.maximum(np.maximum(np.maximum(D - (L1 + L2), abs(L1 - L2) - D), 0.0), lateral)
+            distance = dist if distance is None else np.minimum(distance, dist)
+            cb = np.clip(cb, -1.0, 1.0)
+            sb = np.sqrt(1.0 - cb * cb)
+            tb_abs = np.arctan2(sb, cb)
+            beta = np.arctan2(L2 * sb, L1 + L2 * cb)  # interior angle at the shoulder
             q1 = az - np.arctan2(off, u)
-            aw = np.arctan2(w, u)
+            aw = np.arctan2(w, ur)
+            # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
+            forward = np.where(np.abs(ur) > 1e-12, ur > 0, side > 0)
             for elbow_up in (True, False):
-                # elbow above the shoulder->W line  <=>  (theta_b < 0) == (u > 0), with up = +ev
-                neg = (side > 0) == (self.up > 0)
+                # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +ev
+                neg = forward == (self.up > 0)
                 if not elbow_up:
-                    neg = not neg
-                sign = -1.0 if neg else 1.0
+                    neg = ~neg
+                sign = np.where(neg, -1.0, 1.0)
                 ta = aw - sign * beta
                 q2 = self.g1 - ta
                 q3 = self.s3 * (self.g2 - self.g1 - sign * tb_abs)
                 out.append((q1, q2, q3))
-        return out, ok, distance
+                ok.append(side_ok)
+        return out, np.stack(ok, axis=1), distance
 
     def rotation(self, q1, q23):
         """World rotation Rot(a1, q1) Rot(a2, q23) as (N, 3, 3) (q23 = q2 + s3 q3)."""
@@ -339,7 +349,7 @@ class YawPitchPitch:
         q = np.empty((target.shape[0], 4, 3))
         for k, (q1, q2, q3) in enumerate(sols):
             q[:, k, 0], q[:, k, 1], q[:, k, 2] = q1, q2, q3
-        return q, np.repeat(ok[:, None], 4, axis=1), distance
+        return q, ok, distance
 
 
 # --------------------------------------------------------------------------
@@ -426,7 +436,7 @@ class SphericalWrist:
         c5 = np.cross(a5, p)
         c6 = np.cross(a6, self.x6)
         q = np.empty((N, 8, 6))
-        reach = np.repeat(ok[:, None], 8, axis=1)
+        reach = np.repeat(ok, 2, axis=1)  # arm solution k -> wrist branches 2k, 2k + 1
         for side in (0, 1):
             q1 = arm_sols[2 * side][0]
             V1 = _rot(K1, np.concatenate([-q1, -q1]), V)  # undo joint 1
@@ -468,61 +478,3 @@ class SphericalWrist:
                     for j, t in ((3, t4), (4, t5), (5, t6)):
                         q[:, col, j] = np.where(take_plus, t[:N], t[N:])
         return q, reach, distance
-
-
-#: analytic solver (or None) and reasons per robot object; entries die with the robot
-_DETECTED = weakref.WeakKeyDictionary()
-
-SOLVERS = {cls.name: cls for cls in (YawPitchPitch, Planar3R, SphericalWrist)}
-
-
-def detect(robot):
-    """The analytic solver instance for ``robot`` or None (cached per robot object).
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm whose DH table is inspected.
-
-    Returns
-    -------
-    solver or None, dict
-        The solver and, for every solver tried, why it does not apply.
-    """
-    cached = _DETECTED.get(robot)
-    if cached is not None:
-        return cached
-    reasons = {}
-    found = None
-    for name in ("planar_3r", "yaw_pitch_pitch", "spherical_wrist"):
-        try:
-            found = SOLVERS[name](robot)
-            break
-        except _NotThisStructure as exc:
-            reasons[name] = str(exc)
-    result = (found, reasons)
-    _DETECTED[robot] = result
-    return result
-
-
-def build(robot, name):
-    """Force the analytic solver ``name`` on ``robot``.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm.
-    name : str
-        A key of :data:`SOLVERS` (``"planar_3r"``, ``"yaw_pitch_pitch"``, ``"spherical_wrist"``).
-
-    Returns
-    -------
-    solver
-        The solver instance.
-
-    Raises
-    ------
-    _NotThisStructure
-        With the reason the robot does not have that structure.
-    """
-    return SOLVERS[name](robot)

@@ -221,6 +221,8 @@ def link_transforms(robot, *, q=None, lengths=None, length_unit="m"):
     out = []
     for i, (lk, qi) in enumerate(zip(robot.links, qs), start=1):
         ia = i - 1 if mod else i
+        if lk.flip:  # the variable enters negated (Link.flip)
+            qi = -qi
         a = L(lk.a, f"a_{ia}")
         if lk.is_revolute:
             d = L(lk.d, f"d_{i}")
@@ -382,10 +384,11 @@ def geometric_jacobian(robot, *, point=None, q=None, lengths=None, length_unit="
     for i, lk in enumerate(robot.links):
         F = frames[i + 1] if mod else frames[i]
         z, o = F[:3, 2], F[:3, 3]
+        sign = -1 if lk.flip else 1  # d/dq = -d/dtheta for a flipped joint
         if lk.is_revolute:
-            cols.append(sp.Matrix.vstack(z.cross(pe - o), z))
+            cols.append(sign * sp.Matrix.vstack(z.cross(pe - o), z))
         else:
-            cols.append(sp.Matrix.vstack(z, sp.zeros(3, 1)))
+            cols.append(sign * sp.Matrix.vstack(z, sp.zeros(3, 1)))
     J = sp.Matrix.hstack(*cols)
     return _simplify_matrix(J) if simplify else J
 

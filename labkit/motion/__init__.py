@@ -1,5 +1,6 @@
 """Motion: time laws (cubic, quintic, LSPB, linear), joint trajectories, via
-points, Cartesian paths (lines, arcs, circles) and their trajectories.
+points (through them, or passed near with parabolic blends), Cartesian paths
+(lines, arcs, circles) and their trajectories.
 """
 
 from labkit.motion._timelaw import LawKind, TimeLaw
@@ -10,6 +11,7 @@ from labkit.motion._checks import check_joint_limits, check_speed, speed_scale
 from labkit.motion._paths import Path, line, arc, circle, waypoints
 from labkit.motion._cartesian import path_law, cartesian_trajectory, cartesian_via_trajectory
 from labkit.motion._approach import height_above, approach_point, PickPlaceLeg, pick_and_place_legs
+from labkit.motion._blend import blended_law, blended_trajectory, cartesian_blended_trajectory
 
 __all__ = [
     "LawKind",
@@ -43,4 +45,7 @@ __all__ = [
     "approach_point",
     "PickPlaceLeg",
     "pick_and_place_legs",
+    "blended_law",
+    "blended_trajectory",
+    "cartesian_blended_trajectory",
 ]

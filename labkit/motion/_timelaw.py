@@ -39,6 +39,7 @@ class LawKind(str, Enum):
     LINEAR = "linear"
     VIA_CUBIC = "via_cubic"
     SPLINE = "spline"
+    BLENDED = "blended"
 
     @classmethod
     def parse(cls, value, allowed=None):

@@ -28,7 +28,8 @@ from labkit.data import robots_dir
 from labkit.exceptions import RobotFileError
 
 _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper"}
-_JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration"}
+_JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
+               "flip"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
 _FRAME_KEYS = {"translation", "rpy"}
 
@@ -179,6 +180,9 @@ def parse(data, path):
                 pulse_range=pr,
                 feedback_adc=_pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
             )
+        flip = j.get("flip", False)
+        if not isinstance(flip, bool):
+            raise RobotFileError(path, f"{where}.flip", f"expected true or false, got {flip!r}")
         links.append(
             Link(
                 a=_num(path, f"{where}.a", j.get("a", 0.0)) * L,
@@ -191,6 +195,7 @@ def parse(data, path):
                 servo=servo,
                 max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity")) * qscale,
                 max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration")) * qscale,
+                flip=flip,
             )
         )
     names = [lk.name for lk in links]
@@ -288,6 +293,8 @@ def dump(robot, length_unit="m", angle_unit="rad"):
             f"theta = {_fmt(lk.theta / A)}",
             f"limits = [{_fmt(lk.limits[0] / qs)}, {_fmt(lk.limits[1] / qs)}]",
         ]
+        if lk.flip:
+            out.append("flip = true")
         if math.isfinite(lk.max_velocity):
             out.append(f"max_velocity = {_fmt(lk.max_velocity / qs)}")
         if math.isfinite(lk.max_acceleration):

@@ -15,11 +15,32 @@ from pathlib import Path
 import numpy as np
 
 from labkit.validation import readonly
-from labkit.exceptions import JointLimitError, ShapeError
-from labkit.robot.types import Convention, Gripper, _LENGTH_UNITS
+from labkit.exceptions import JointLimitError, RobotError, ShapeError
+from labkit.robot.types import Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
 from labkit.robot._files import load_fields
 
 __all__ = ["Robot"]
+
+
+def _rigid(owner, name, T):
+    """``T`` as a read-only (4, 4) rigid transform, else a clear error."""
+    try:
+        arr = np.array(T, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{owner}: expected {name} as a (4, 4) array of numbers, got {T!r}") from None
+    if arr.shape != (4, 4):
+        raise ShapeError(f"expected {name} with shape (4, 4), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ShapeError(f"{owner}: expected finite {name}, got a non-finite value")
+    R = arr[:3, :3]
+    err = float(np.abs(R @ R.T - np.eye(3)).max())
+    if err > 1e-9 or np.linalg.det(R) < 0 or np.abs(arr[3] - [0, 0, 0, 1]).max() > 1e-12:
+        raise RobotError(
+            f"{owner}: field '{name}': expected a rigid transform (orthonormal rotation, det +1, "
+            f"last row [0, 0, 0, 1]), got max |R R^T - I| = {err:.2g}, det {np.linalg.det(R):.3g}, "
+            f"last row {arr[3].tolist()}", name,
+        )
+    return readonly(arr)
 
 
 
@@ -73,14 +94,47 @@ class Robot:
     up: np.ndarray = field(default_factory=lambda: readonly(np.array([0.0, 0.0, 1.0])))
 
     def __post_init__(self):
-        object.__setattr__(self, "links", tuple(self.links))
+        if not isinstance(self.name, str) or not self.name:
+            raise RobotError(f"Robot: field 'name': expected a non-empty string, got {self.name!r}", "name")
+        owner = f"Robot {self.name!r}"
+        try:
+            links = tuple(self.links)
+        except TypeError:
+            raise RobotError(f"{owner}: field 'links': expected a sequence of Link, got {self.links!r}",
+                             "links") from None
+        if not links:
+            raise RobotError(f"{owner}: field 'links': expected at least one Link, got {self.links!r}", "links")
+        for i, lk in enumerate(links, start=1):
+            if not isinstance(lk, Link):
+                raise RobotError(f"{owner}: field 'links[{i}]': expected a Link, got {lk!r}", f"links[{i}]")
+        object.__setattr__(self, "links", links)
+        valid = [c.value for c in Convention] + ["craig"]
+        if self.convention == "craig":
+            object.__setattr__(self, "convention", Convention.MODIFIED)
+        elif self.convention not in valid:
+            raise RobotError(f"{owner}: field 'convention': expected one of {valid}, got {self.convention!r}",
+                             "convention")
         object.__setattr__(self, "convention", Convention(self.convention))
-        object.__setattr__(self, "base", readonly(self.base))
-        object.__setattr__(self, "tool", readonly(self.tool))
         for name in ("base", "tool"):
-            T = getattr(self, name)
-            if T.shape != (4, 4):
-                raise ShapeError(f"expected {name} with shape (4, 4), got {T.shape}")
+            object.__setattr__(self, name, _rigid(owner, name, getattr(self, name)))
+        names = self.joint_names
+        dup = sorted({nm for nm in names if names.count(nm) > 1})
+        if dup:
+            raise RobotError(f"{owner}: field 'joint.name': expected distinct joint names, got {dup[0]!r} twice",
+                             "joint.name")
+        if self.gripper is not None and not isinstance(self.gripper, Gripper):
+            raise RobotError(f"{owner}: field 'gripper': expected a Gripper or None, got {self.gripper!r}",
+                             "gripper")
+        channels = [lk.servo.channel for lk in links if lk.servo] + ([self.gripper.channel] if self.gripper else [])
+        if len(set(channels)) != len(channels):
+            raise RobotError(f"{owner}: field 'servo.channel': expected distinct servo channels, got {channels}",
+                             "servo.channel")
+        if self.length_unit not in _LENGTH_UNITS:
+            raise RobotError(f"{owner}: field 'units.length': expected one of {sorted(_LENGTH_UNITS)}, "
+                             f"got {self.length_unit!r}", "units.length")
+        if self.angle_unit not in _ANGLE_UNITS:
+            raise RobotError(f"{owner}: field 'units.angle': expected one of {sorted(_ANGLE_UNITS)}, "
+                             f"got {self.angle_unit!r}", "units.angle")
         up = np.asarray(self.up, dtype=float)
         if up.shape != (3,):
             raise ShapeError(f"expected up with shape (3,) (a direction in world coordinates), got {up.shape}")
@@ -119,6 +173,11 @@ class Robot:
     def is_revolute(self):
         """Boolean mask of revolute joints, shape (n,)."""
         return np.array([lk.is_revolute for lk in self.links])
+
+    @property
+    def flip(self):
+        """Boolean mask of flipped joints (variable enters negated), shape (n,)."""
+        return np.array([lk.flip for lk in self.links])
 
     @property
     def joint_limits(self):
@@ -310,6 +369,43 @@ class Robot:
         if isinstance(name_or_path, Robot):
             return name_or_path
         return cls(**load_fields(name_or_path))
+
+    @classmethod
+    def from_urdf(cls, path, *, base_link=None, tip_link=None, name=None, parallel_tol=1e-12):
+        """Import the serial chain ``base_link`` -> ``tip_link`` of a URDF file as modified DH.
+
+        See :mod:`labkit.robot.urdf` for the conversion; save the result with
+        :meth:`to_toml` to use it as a robot file (``labkit robots`` lists it).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The ``.urdf`` file.
+        base_link, tip_link : str, optional
+            Ends of the chain; default the root link and the leaf below it with the
+            most moving joints on the way (it must be unique).
+        name : str, optional
+            Robot name; default the URDF's robot name.
+        parallel_tol : float
+            Angle [rad] within which consecutive axes count as parallel (see
+            :func:`labkit.robot.urdf.urdf_fields`).
+
+        Returns
+        -------
+        Robot
+            Forward kinematics equal to the URDF chain's (``base`` and ``tool``
+            carry the fixed transforms at the two ends).
+
+        Raises
+        ------
+        RobotError
+            Unreadable file, links not on one chain, or a joint that is not
+            revolute, continuous, prismatic or fixed (named in the message).
+        """
+        from labkit.robot.urdf import urdf_fields
+
+        return cls(**urdf_fields(path, base_link=base_link, tip_link=tip_link, name=name,
+                                 parallel_tol=parallel_tol))
 
     def to_toml(self, path=None, *, length_unit=None, angle_unit=None):
         """Write the robot as a robot file (returns the TOML text).

@@ -15,7 +15,7 @@ from enum import Enum
 
 import numpy as np
 
-from labkit.exceptions import JointLimitError
+from labkit.exceptions import JointLimitError, RobotError
 
 __all__ = [
     "Convention",
@@ -49,6 +49,32 @@ class JointType(str, Enum):
     PRISMATIC = "prismatic"
 
 
+def _finite(owner, field, value):
+    """``value`` as a float, or :class:`RobotError` worded like the robot-file loader."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value):
+        raise RobotError(f"{owner}: field '{field}': expected a finite number, got {value!r}", field)
+    return float(value)
+
+
+def _limit_pair(owner, field, value):
+    """``(lower, upper)`` with ``lower < upper`` (infinite bounds allowed), as floats."""
+    try:
+        lo, hi = value
+        lo, hi = float(lo), float(hi)
+    except (TypeError, ValueError):
+        raise RobotError(f"{owner}: field '{field}': expected [lower, upper], got {value!r}", field) from None
+    if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+        raise RobotError(f"{owner}: field '{field}': expected lower < upper, got {value!r}", field)
+    return lo, hi
+
+
+def _check_channel(owner, field, channel):
+    """A servo channel: an integer 0-5 (message as the robot-file loader's)."""
+    if isinstance(channel, (bool, np.bool_)) or not isinstance(channel, (int, np.integer)) or not 0 <= channel <= 5:
+        raise RobotError(f"{owner}: field '{field}': expected an integer 0-5, got {channel!r}", field)
+
+
 @dataclass(frozen=True)
 class ServoCalibration:
     """Map between a DH joint value and a hobby-servo command.
@@ -79,6 +105,18 @@ class ServoCalibration:
     angle_range: tuple = (0.0, math.pi)
     pulse_range: tuple = (500.0, 2500.0)
     feedback_adc: tuple = (102.3, 920.7)
+
+    def __post_init__(self):
+        owner = "ServoCalibration"
+        _check_channel(owner, "channel", self.channel)
+        if self.direction not in (1, -1) or isinstance(self.direction, bool):
+            raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {self.direction!r}", "direction")
+        object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
+        for field in ("angle_range", "pulse_range", "feedback_adc"):
+            pair = _limit_pair(owner, field, getattr(self, field))
+            if not all(math.isfinite(v) for v in pair):
+                raise RobotError(f"{owner}: field '{field}': expected [lower, upper], got {getattr(self, field)!r}", field)
+            object.__setattr__(self, field, pair)
 
     def servo_angle(self, q):
         """Servo angle [rad] for joint value ``q`` [rad].
@@ -202,10 +240,19 @@ class Gripper:
     open_us: float
     closed_us: float
 
+    def __post_init__(self):
+        _check_channel("Gripper", "channel", self.channel)
+        for field in ("open_us", "closed_us"):
+            object.__setattr__(self, field, _finite("Gripper", field, getattr(self, field)))
+
 
 @dataclass(frozen=True)
 class Link:
     """One Denavit-Hartenberg row.
+
+    The constructor checks what the robot-file loader checks, with the same
+    messages (``Link(joint_type="spherical")`` raises :class:`RobotError`
+    "expected 'revolute' or 'prismatic', got 'spherical'").
 
     Attributes
     ----------
@@ -218,12 +265,27 @@ class Link:
         Joint angle offset [rad]; for a revolute joint the constant added to
         ``q``; for a prismatic joint the fixed angle.
     joint_type : JointType
+        Revolute or prismatic (the strings ``"revolute"`` / ``"prismatic"`` are accepted).
     limits : tuple of float
-        (lower, upper) limits of ``q`` [rad or m].
+        (lower, upper) limits of ``q`` [rad or m], ``lower < upper``.
     name : str
     servo : ServoCalibration or None
     max_velocity, max_acceleration : float
-        Joint speed [rad/s or m/s] and acceleration limits; ``inf`` if unknown.
+        Joint speed [rad/s or m/s] and acceleration limits (> 0); ``inf`` if unknown.
+    flip : bool
+        The joint variable enters the chain negated (roboticstoolbox's ``flip``):
+        ``theta_i = -q_i + theta`` (revolute) or ``d_i = -q_i + d`` (prismatic).
+        Limits, speeds and servo calibration stay in terms of ``q``.
+
+    Raises
+    ------
+    RobotError
+        A field the robot-file loader would reject.
+
+    Examples
+    --------
+    >>> Link(a=0.1, joint_type="revolute", flip=True).flip
+    True
     """
 
     a: float = 0.0
@@ -236,7 +298,39 @@ class Link:
     servo: ServoCalibration | None = None
     max_velocity: float = math.inf
     max_acceleration: float = math.inf
+    flip: bool = False
+
+    def __post_init__(self):
+        owner = f"Link {self.name!r}" if self.name else "Link"
+        jt = self.joint_type
+        if not isinstance(jt, JointType):
+            if jt not in ("revolute", "prismatic"):
+                raise RobotError(
+                    f"{owner}: field 'type': expected 'revolute' or 'prismatic', got {jt!r}", "type"
+                )
+            object.__setattr__(self, "joint_type", JointType(jt))
+        for field in ("a", "alpha", "d", "theta"):
+            object.__setattr__(self, field, _finite(owner, field, getattr(self, field)))
+        object.__setattr__(self, "limits", _limit_pair(owner, "limits", self.limits))
+        for field in ("max_velocity", "max_acceleration"):
+            v = getattr(self, field)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                    or math.isnan(v) or v == -math.inf:
+                raise RobotError(f"{owner}: field '{field}': expected a finite number, got {v!r}", field)
+            if not v > 0:
+                raise RobotError(f"{owner}: field '{field}': expected a positive number, got {v!r}", field)
+            object.__setattr__(self, field, float(v))
+        if not isinstance(self.name, str):
+            raise RobotError(f"{owner}: field 'name': expected a string, got {self.name!r}", "name")
+        if self.servo is not None and not isinstance(self.servo, ServoCalibration):
+            raise RobotError(
+                f"{owner}: field 'servo': expected a ServoCalibration or None, got {self.servo!r}", "servo"
+            )
+        if not isinstance(self.flip, (bool, np.bool_)):
+            raise RobotError(f"{owner}: field 'flip': expected true or false, got {self.flip!r}", "flip")
+        object.__setattr__(self, "flip", bool(self.flip))
 
     @property
     def is_revolute(self):
+        """Whether the joint is revolute (its variable is an angle) [bool]."""
         return self.joint_type is JointType.REVOLUTE

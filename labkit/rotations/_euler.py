@@ -1,15 +1,32 @@
-"""Euler and roll-pitch-yaw angles of rotation matrices (batched).
+"""Euler and roll-pitch-yaw angles of rotation matrices (batched): all 24 conventions.
 
 Angle sets (:class:`EulerConvention`)
 -------------------------------------
-* ``"xyz_fixed"`` (= roll-pitch-yaw): angles ``(gamma, beta, alpha)`` about the
-  fixed x, y, z axes, ``R = Rz(alpha) Ry(beta) Rx(gamma)``;
-* ``"zyx"`` Euler: angles ``(alpha, beta, gamma)`` about the moving z, y', x''
-  axes, the same matrix ``Rz(alpha) Ry(beta) Rx(gamma)``;
-* ``"zyz"`` Euler: angles ``(alpha, beta, gamma)``, ``R = Rz(alpha) Ry(beta) Rz(gamma)``.
+Every sequence of three axes with no axis repeated twice in a row (12:
+six Tait-Bryan ``xyz, xzy, yxz, yzx, zxy, zyx`` and six proper Euler
+``xyx, xzx, yxy, yzy, zxz, zyz``), read two ways:
+
+* **intrinsic** (moving axes), scipy's upper-case names ``"XYZ"``...:
+  angles ``(alpha, beta, gamma)`` about the moving axes, ``R = R_1(alpha)
+  R_2(beta) R_3(gamma)`` (:func:`~labkit.rotations.compose_moving_frame`);
+* **extrinsic** (fixed axes), scipy's lower-case names ``"xyz"``... or
+  ``"xyz_fixed"``: angles ``(gamma, beta, alpha)`` about the fixed axes in
+  the order applied, ``R = R_3(alpha) R_2(beta) R_1(gamma)``
+  (:func:`~labkit.rotations.compose_fixed_frame`). Extrinsic ``abc`` is intrinsic
+  ``CBA`` with the angles reversed.
+
+labkit's historical names keep their meaning: ``"rpy"`` = ``"xyz_fixed"`` =
+``"xyz"`` (roll, pitch, yaw), and ``"zyx"``, ``"zyz"`` are the *intrinsic* ZYX and
+ZYZ Euler angles (unlike scipy, where lower case means extrinsic); write
+``"zyx_fixed"``, ``"zyz_fixed"`` for the extrinsic ones. ``"<axes>_moving"`` is
+accepted for every intrinsic set.
 
 :func:`euler_from_matrix` returns *both* angle triples of a matrix and flags
-gimbal lock (where infinitely many triples exist).
+gimbal lock (where infinitely many triples exist), from one algorithm for all
+conventions: the middle angle and the first one come from column ``k`` (Tait-Bryan)
+or ``i`` (proper) of ``R``, the third from the residual rotation
+``(R_1(alpha) R_2(beta))^T R``, which keeps the reconstruction accurate to
+rounding even next to gimbal lock.
 """
 
 from __future__ import annotations
@@ -39,56 +56,107 @@ __all__ = [
     "rpy_from_matrix",
 ]
 
+_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx", "xyx", "xzx", "yxy", "yzy", "zxz", "zyz")
+
 
 class EulerConvention(str, Enum):
-    """Angle sets understood by :func:`matrix_from_euler` / :func:`euler_from_matrix`.
+    """The 24 angle sets of :func:`matrix_from_euler` / :func:`euler_from_matrix`.
 
-    ``XYZ_FIXED`` (alias ``"rpy"``): ``(gamma, beta, alpha)`` = (roll, pitch,
-    yaw) about the fixed x, y, z axes, ``R = Rz(alpha) Ry(beta) Rx(gamma)``.
-    ``ZYX``: Euler ``(alpha, beta, gamma)`` about moving z, y', x'',
-    ``R = Rz(alpha) Ry(beta) Rx(gamma)``.
-    ``ZYZ``: Euler ``(alpha, beta, gamma)``, ``R = Rz(alpha) Ry(beta) Rz(gamma)``.
+    Member ``ABC`` (value ``"ABC"``) is the intrinsic set about moving axes a, b', c'':
+    angles ``(alpha, beta, gamma)``, ``R = R_a(alpha) R_b(beta) R_c(gamma)``.
+    Member ``ABC_FIXED`` (value ``"abc_fixed"``) is the extrinsic set about fixed axes
+    a, b, c: angles ``(gamma, beta, alpha)`` in the order applied,
+    ``R = R_c(alpha) R_b(beta) R_a(gamma)``. ``XYZ_FIXED`` is roll-pitch-yaw.
+    :attr:`scipy_name` gives the name ``scipy.spatial.transform.Rotation`` uses.
     """
 
+    XYZ = "XYZ"
+    XZY = "XZY"
+    YXZ = "YXZ"
+    YZX = "YZX"
+    ZXY = "ZXY"
+    ZYX = "ZYX"
+    XYX = "XYX"
+    XZX = "XZX"
+    YXY = "YXY"
+    YZY = "YZY"
+    ZXZ = "ZXZ"
+    ZYZ = "ZYZ"
     XYZ_FIXED = "xyz_fixed"
-    ZYX = "zyx"
-    ZYZ = "zyz"
+    XZY_FIXED = "xzy_fixed"
+    YXZ_FIXED = "yxz_fixed"
+    YZX_FIXED = "yzx_fixed"
+    ZXY_FIXED = "zxy_fixed"
+    ZYX_FIXED = "zyx_fixed"
+    XYX_FIXED = "xyx_fixed"
+    XZX_FIXED = "xzx_fixed"
+    YXY_FIXED = "yxy_fixed"
+    YZY_FIXED = "yzy_fixed"
+    ZXZ_FIXED = "zxz_fixed"
+    ZYZ_FIXED = "zyz_fixed"
+
+    @property
+    def extrinsic(self):
+        """True for fixed-axis (extrinsic) sets [bool]."""
+        return self.value.endswith("_fixed")
+
+    @property
+    def axes(self):
+        """The three axes in the order the rotations are applied, e.g. ``"xyz"`` [str]."""
+        return self.value[:3].lower()
+
+    @property
+    def scipy_name(self):
+        """The sequence name of ``scipy.spatial.transform.Rotation`` (``"XYZ"`` / ``"xyz"``) [str]."""
+        return self.axes if self.extrinsic else self.axes.upper()
+
+
+#: labkit's historical names (``zyx`` and ``zyz`` are intrinsic, unlike scipy's lower case)
+_ALIASES = {"rpy": EulerConvention.XYZ_FIXED, "zyx": EulerConvention.ZYX, "zyz": EulerConvention.ZYZ}
 
 
 def _convention(convention):
     if isinstance(convention, EulerConvention):
         return convention
-    key = str(convention).lower()
-    if key == "rpy":
-        return EulerConvention.XYZ_FIXED
-    try:
-        return EulerConvention(key)
-    except ValueError:
-        valid = [c.value for c in EulerConvention] + ["rpy"]
-        raise OptionError(f"expected an Euler convention in {valid}, got {convention!r}") from None
+    key = str(convention)
+    if key in _ALIASES:
+        return _ALIASES[key]
+    low = key.lower()
+    if low[:3] in _SEQUENCES:
+        if low[3:] == "_fixed" or (key == low and len(key) == 3):
+            return EulerConvention(low[:3] + "_fixed")
+        if low[3:] == "_moving" or (key == low.upper() and len(key) == 3):
+            return EulerConvention(low[:3].upper())
+    raise OptionError(
+        "expected an Euler convention: scipy's 'XYZ' (intrinsic, moving axes) or 'xyz' (extrinsic, fixed "
+        "axes) for any of " + ", ".join(_SEQUENCES) + "; '<axes>_fixed' or '<axes>_moving'; or the aliases "
+        "'xyz_fixed', 'zyx', 'zyz', 'rpy' ('zyx' and 'zyz' are intrinsic); got " + repr(convention)
+    )
 
 
-_FAMILY = {
-    EulerConvention.XYZ_FIXED: (
-        "gimbal lock at beta = +-pi/2: R depends only on gamma - alpha (beta = +pi/2) "
-        "or gamma + alpha (beta = -pi/2); the representative has alpha (yaw) = 0"
-    ),
-    EulerConvention.ZYX: (
-        "gimbal lock at beta = +-pi/2: R depends only on gamma - alpha (beta = +pi/2) "
-        "or gamma + alpha (beta = -pi/2); the representative has alpha = 0"
-    ),
-    EulerConvention.ZYZ: (
-        "gimbal lock at beta = 0 or pi: R depends only on alpha + gamma (beta = 0) "
-        "or gamma - alpha (beta = pi); the representative has alpha = 0"
-    ),
-}
+def _intrinsic(conv):
+    """Axis indices (i, j, k) of the equivalent intrinsic sequence (extrinsic abc = intrinsic CBA)."""
+    axes = [{"x": 0, "y": 1, "z": 2}[a] for a in conv.axes]
+    return tuple(axes[::-1]) if conv.extrinsic else tuple(axes)
 
 
-_COLUMNS = {
-    EulerConvention.XYZ_FIXED: ("gamma (x)", "beta (y)", "alpha (z)"),
-    EulerConvention.ZYX: ("alpha (z)", "beta (y')", "gamma (x'')"),
-    EulerConvention.ZYZ: ("alpha (z)", "beta (y')", "gamma (z'')"),
-}
+def _names(conv):
+    """Angle names in the order of the convention's angle triple."""
+    a = conv.axes
+    if conv.extrinsic:
+        return (f"gamma ({a[0]})", f"beta ({a[1]})", f"alpha ({a[2]})")
+    return (f"alpha ({a[0]})", f"beta ({a[1]}')", f"gamma ({a[2]}'')")
+
+
+def _family(conv):
+    i, j, k = _intrinsic(conv)
+    if i == k:
+        return ("gimbal lock at beta = 0 or pi: R depends only on alpha + gamma (beta = 0) or "
+                "alpha - gamma (beta = pi); the representative has alpha = 0")
+    s = "+" if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else "-"
+    t = "-" if s == "+" else "+"
+    return (f"gimbal lock at beta = +-pi/2: R depends only on alpha {s} gamma (beta = +pi/2) or "
+            f"alpha {t} gamma (beta = -pi/2); the representative has alpha = 0")
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,14 +167,14 @@ class EulerAngles:
     ----------
     solutions : ndarray, shape (..., 2, 3)
         ``solutions[..., 0, :]`` and ``solutions[..., 1, :]``, the two angle
-        triples [rad] in the order of the convention (``(gamma, beta, alpha)``
-        for ``xyz_fixed``; ``(alpha, beta, gamma)`` for ``zyx`` and ``zyz``),
-        each angle wrapped to ``(-pi, pi]``. The first solution has
-        ``beta`` in ``[-pi/2, pi/2]`` (Tait-Bryan) or ``[0, pi]`` (ZYZ).
+        triples [rad] in the order of the convention (``(alpha, beta, gamma)``
+        for intrinsic sets, ``(gamma, beta, alpha)`` for extrinsic ones such as
+        ``xyz_fixed``), each angle wrapped to ``(-pi, pi]``. The first solution
+        has ``beta`` in ``[-pi/2, pi/2]`` (Tait-Bryan) or ``[0, pi]`` (proper Euler).
     gimbal_lock : ndarray of bool, shape (...)
         True where the matrix is at a singularity of the angle set. There
         infinitely many triples give the matrix (see :attr:`family`); both rows
-        then hold the same representative.
+        then hold the same representative (``alpha = 0``).
     convention : EulerConvention
     """
 
@@ -127,7 +195,7 @@ class EulerAngles:
     @property
     def family(self):
         """Text describing the one-parameter family of solutions at gimbal lock."""
-        return _FAMILY[self.convention]
+        return _family(self.convention)
 
     def to_dataframe(self, degrees=True):
         """Table with one row per (matrix, solution): the three angles and the lock flag.
@@ -152,7 +220,7 @@ class EulerAngles:
         """
         import pandas as pd
 
-        names = _COLUMNS[self.convention]
+        names = _names(self.convention)
         unit = " [deg]" if degrees else " [rad]"
         sol = np.degrees(self.solutions) if degrees else self.solutions
         sol = sol.reshape(-1, 2, 3)
@@ -170,11 +238,18 @@ def matrix_from_euler(angles, convention):
     ----------
     angles : array_like, shape (..., 3)
         Angles [rad] in the order of the convention (see :class:`EulerConvention`).
-    convention : {"xyz_fixed", "rpy", "zyx", "zyz"} or EulerConvention
+    convention : str or EulerConvention
+        ``"XYZ"`` ... (intrinsic), ``"xyz"`` ... or ``"xyz_fixed"`` ... (extrinsic),
+        or an alias (``"rpy"``; ``"zyx"``, ``"zyz"`` are intrinsic).
 
     Returns
     -------
     R : ndarray, shape (..., 3, 3)
+
+    Raises
+    ------
+    OptionError
+        For an unknown convention (the message lists the valid names).
 
     Examples
     --------
@@ -184,77 +259,81 @@ def matrix_from_euler(angles, convention):
     array([[ 0.866 ,  0.3536,  0.3536],
            [ 0.    ,  0.7071, -0.7071],
            [-0.5   ,  0.6124,  0.6124]])
+    >>> bool(np.allclose(matrix_from_euler([0.1, 0.2, 0.3], "xyz"),
+    ...                  matrix_from_euler([0.3, 0.2, 0.1], "ZYX")))
+    True
     """
     conv = _convention(convention)
     angles = as_batch(angles, (3,), "angles")
-    if conv is EulerConvention.XYZ_FIXED:
-        return compose_fixed_frame("xyz", angles)
-    return compose_moving_frame(conv.value, angles)
+    if conv.extrinsic:
+        return compose_fixed_frame(conv.axes, angles)
+    return compose_moving_frame(conv.axes, angles)
 
 
-def _residual(alpha, beta, R):
-    """``(Rz(alpha) Ry(beta))^T R``: what is left for the third rotation."""
-    Q = rotation_z(alpha) @ rotation_y(beta)
-    return np.swapaxes(Q, -1, -2) @ R
+_ROT = (rotation_x, rotation_y, rotation_z)
 
 
-def _pair_of_solutions(alpha, beta, gamma, lock, second_beta):
+def _solve_intrinsic(R, i, j, k, tol):
+    """(alpha, beta, gamma) pairs of ``R = R_i(alpha) R_j(beta) R_k(gamma)`` and the lock flag.
+
+    Tait-Bryan (i, j, k distinct; s = +1 for a cyclic sequence, else -1):
+    column k is ``R e_k = cos(b) (cos(a) e_k - s sin(a) e_j) + s sin(b) e_i``.
+    Proper Euler (k = i, l the third axis, s the parity of (i, j, l)):
+    column i is ``R e_i = cos(b) e_i + sin(b) sin(a) e_j - s sin(b) cos(a) e_l``.
+    The second solution is ``(a + pi, pi - b, c + pi)`` (Tait-Bryan) or
+    ``(a + pi, -b, c + pi)`` (proper).
+    """
+    proper = i == k
+    third = 3 - i - j
+    s = 1.0 if (i, j, third if proper else k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+    if proper:
+        rii, rji, rli = R[..., i, i], R[..., j, i], R[..., third, i]
+        sb = np.hypot(rji, rli)
+        lock = sb < tol
+        beta = np.where(lock, np.where(rii > 0, 0.0, np.pi), np.arctan2(sb, rii))
+        alpha = np.where(lock, 0.0, np.arctan2(rji, -s * rli))
+        second_beta = -beta
+    else:
+        rik, rjk, rkk = R[..., i, k], R[..., j, k], R[..., k, k]
+        cb = np.hypot(rjk, rkk)
+        lock = cb < tol
+        beta = np.where(lock, np.where(s * rik > 0, np.pi / 2, -np.pi / 2), np.arctan2(s * rik, cb))
+        alpha = np.where(lock, 0.0, np.arctan2(-s * rjk, rkk))  # representative alpha = 0 at gimbal lock
+        second_beta = np.pi - beta
+    Q = _ROT[i](alpha) @ _ROT[j](beta)
+    M = np.swapaxes(Q, -1, -2) @ R  # = R_k(gamma) up to rounding
+    p, r = (k + 1) % 3, (k + 2) % 3
+    gamma = np.arctan2(M[..., r, p], M[..., p, p])
     first = np.stack([alpha, beta, gamma], axis=-1)
     second = np.stack([alpha + np.pi, second_beta, gamma + np.pi], axis=-1)
     second = np.where(lock[..., None], first, second)
-    return wrap_angle(np.stack([first, second], axis=-2))
-
-
-def _tait_bryan_zyx(R, tol):
-    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rx(gamma).
-
-    alpha and beta come from the first column ``[c_a c_b, s_a c_b, -s_b]``; gamma from
-    the residual rotation ``Rx(gamma) = (Rz(alpha) Ry(beta))^T R``, which keeps the
-    reconstruction accurate to rounding even next to gimbal lock.
-    """
-    r11, r21, r31 = R[..., 0, 0], R[..., 1, 0], R[..., 2, 0]
-    cb = np.hypot(r11, r21)
-    lock = cb < tol
-    beta = np.where(lock, np.where(-r31 > 0, np.pi / 2, -np.pi / 2), np.arctan2(-r31, cb))
-    alpha = np.where(lock, 0.0, np.arctan2(r21, r11))  # representative alpha = 0 at gimbal lock
-    M = _residual(alpha, beta, R)
-    gamma = np.arctan2(M[..., 2, 1], M[..., 1, 1])
-    return _pair_of_solutions(alpha, beta, gamma, lock, np.pi - beta), lock
-
-
-def _proper_zyz(R, tol):
-    """(alpha, beta, gamma) solutions of R = Rz(alpha) Ry(beta) Rz(gamma).
-
-    alpha and beta come from the third column ``[c_a s_b, s_a s_b, c_b]``; gamma from
-    the residual rotation ``Rz(gamma) = (Rz(alpha) Ry(beta))^T R``.
-    """
-    r13, r23, r33 = R[..., 0, 2], R[..., 1, 2], R[..., 2, 2]
-    sb = np.hypot(r13, r23)
-    lock = sb < tol
-    beta = np.where(lock, np.where(r33 > 0, 0.0, np.pi), np.arctan2(sb, r33))
-    alpha = np.where(lock, 0.0, np.arctan2(r23, r13))
-    M = _residual(alpha, beta, R)
-    gamma = np.arctan2(M[..., 1, 0], M[..., 0, 0])
-    return _pair_of_solutions(alpha, beta, gamma, lock, -beta), lock
+    return wrap_angle(np.stack([first, second], axis=-2)), lock
 
 
 def euler_from_matrix(R, convention, *, tol=1e-9):
-    """Both angle triples of a rotation matrix, with a gimbal-lock flag.
+    """Both angle triples of a rotation matrix, with a gimbal-lock flag (any of the 24 conventions).
 
     Parameters
     ----------
     R : array_like, shape (..., 3, 3)
         Rotation matrices (not checked; see :func:`check_rotation` and
         :func:`nearest_rotation` for measured or rounded matrices).
-    convention : {"xyz_fixed", "rpy", "zyx", "zyz"} or EulerConvention
+    convention : str or EulerConvention
+        ``"XYZ"`` ... (intrinsic), ``"xyz"`` ... or ``"xyz_fixed"`` ... (extrinsic),
+        or an alias (``"rpy"``; ``"zyx"``, ``"zyz"`` are intrinsic).
     tol : float
         Gimbal lock is declared where ``|cos(beta)|`` (Tait-Bryan) or
-        ``|sin(beta)|`` (ZYZ) is below ``tol``.
+        ``|sin(beta)|`` (proper Euler) is below ``tol``.
 
     Returns
     -------
     EulerAngles
         ``solutions`` of shape (..., 2, 3) [rad] and the ``gimbal_lock`` flag.
+
+    Raises
+    ------
+    OptionError
+        For an unknown convention (the message lists the valid names).
 
     Examples
     --------
@@ -272,12 +351,9 @@ def euler_from_matrix(R, convention, *, tol=1e-9):
     """
     conv = _convention(convention)
     R = as_batch(R, (3, 3), "R")
-    if conv is EulerConvention.ZYZ:
-        sol, lock = _proper_zyz(R, tol)
-    else:
-        sol, lock = _tait_bryan_zyx(R, tol)
-        if conv is EulerConvention.XYZ_FIXED:
-            sol = sol[..., ::-1]
+    sol, lock = _solve_intrinsic(R, *_intrinsic(conv), tol)
+    if conv.extrinsic:
+        sol = sol[..., ::-1]
     return EulerAngles(solutions=sol, gimbal_lock=lock, convention=conv)
 
 

@@ -59,9 +59,9 @@ def _rtb_model(robot):
         else:
             cls = rtb.RevoluteMDH if lk.is_revolute else rtb.PrismaticMDH
         if lk.is_revolute:
-            links.append(cls(a=lk.a, alpha=lk.alpha, d=lk.d, offset=lk.theta))
+            links.append(cls(a=lk.a, alpha=lk.alpha, d=lk.d, offset=lk.theta, flip=lk.flip))
         else:
-            links.append(cls(a=lk.a, alpha=lk.alpha, theta=lk.theta, offset=lk.d, qlim=[-5, 5]))
+            links.append(cls(a=lk.a, alpha=lk.alpha, theta=lk.theta, offset=lk.d, qlim=[-5, 5], flip=lk.flip))
     return rtb.DHRobot(links, base=SE3(robot.base, check=False), tool=SE3(robot.tool, check=False))
 
 
@@ -81,14 +81,49 @@ def test_fk_and_jacobian_match_roboticstoolbox(convention):
             assert np.abs(Je[k] - ref.jacobe(q[k])).max() < 1e-12
 
 
+@pytest.mark.parametrize("convention", [Convention.STANDARD, Convention.MODIFIED])
+def test_flipped_joints_match_roboticstoolbox(convention):
+    """``Link.flip`` is rtb's ``flip``: FK and both Jacobians to 1e-12, revolute and prismatic."""
+    rng = np.random.default_rng(30 if convention is Convention.STANDARD else 31)
+    n_flipped = 0
+    for _ in range(10):
+        robot = _random_robot(rng, convention)
+        flips = rng.random(robot.n) < 0.5
+        flips[rng.integers(robot.n)] = True  # at least one flipped joint per robot
+        n_flipped += int(flips.sum())
+        robot = robot.replace(links=tuple(lk.__class__(**{**lk.__dict__, "flip": bool(f)})
+                                          for lk, f in zip(robot.links, flips)))
+        ref = _rtb_model(robot)
+        assert sum(link.isflip for link in ref.links) == flips.sum()
+        q = rng.uniform(-1.5, 1.5, size=(6, robot.n))
+        T, J0, Je = fk(robot, q), jacobian(robot, q), jacobian(robot, q, frame="tool")
+        for k in range(len(q)):
+            assert np.abs(T[k] - ref.fkine(q[k]).A).max() < 1e-12
+            assert np.abs(J0[k] - ref.jacob0(q[k])).max() < 1e-12
+            assert np.abs(Je[k] - ref.jacobe(q[k])).max() < 1e-12
+    assert n_flipped >= 10
+
+
 def test_bundled_robots_match_roboticstoolbox():
     rng = np.random.default_rng(22)
-    for name in ("arduino_arm_3dof", "puma560", "puma600_seed002", "rpp_seed002", "planar3r_seed003"):
+    for name in ("arduino_arm_3dof", "puma560", "puma600_seed002", "rpp_seed002", "planar3r_seed003", "irb140", "kr5",
+                 "ur5"):
         robot = Robot.load(name)
         ref = _rtb_model(robot)
         for qk in rng.uniform(-1.0, 1.0, size=(5, robot.n)):
             assert np.abs(fk(robot, qk) - ref.fkine(qk).A).max() < 1e-12
             assert np.abs(jacobian(robot, qk) - ref.jacob0(qk)).max() < 1e-12
+
+
+@pytest.mark.parametrize("name, model", [("irb140", "IRB140"), ("kr5", "KR5"), ("ur5", "UR5")])
+def test_new_bundled_arms_match_their_rtb_models(name, model):
+    rtb = require("roboticstoolbox")
+    ref = getattr(rtb.models.DH, model)()
+    robot = Robot.load(name)
+    if ref.qlim is not None and name != "ur5":  # rtb's UR5 has no limits; the file has +-360 deg
+        assert np.allclose(robot.joint_limits, np.asarray(ref.qlim).T)
+    for qk in np.random.default_rng(26).uniform(-2, 2, size=(10, 6)):
+        assert np.abs(fk(robot, qk) - ref.fkine(qk).A).max() < 1e-12
 
 
 def test_puma560_fk_matches_the_rtb_model():

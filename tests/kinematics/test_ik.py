@@ -625,3 +625,34 @@ def test_puma600_any_configuration_is_among_the_8_solutions(q):
     assert np.abs(fk(puma600, sols.q) - T).max() < 1e-9
     if abs(math.sin(q[4])) > 1e-6:  # away from the wrist singularity q5 = 0 (q4, q6 not unique there)
         assert _wrapped(sols.q - q).max(axis=-1).min() < 1e-6
+
+
+@pytest.mark.parametrize("name", sorted(ANALYTIC) + ["irb140", "kr5", "ur5"])
+def test_flipped_joints_keep_closed_form_ik_exact_and_branches_geometric(name):
+    """Flipping joints (their limits mirrored) negates those columns of every branch, name for name."""
+    from dataclasses import replace
+
+    robot = Robot.load(name)
+    flips = [j % 2 == 0 for j in range(robot.n)]  # joints 1, 3, 5 flipped
+    flipped = robot.replace(links=tuple(
+        replace(lk, flip=True, limits=(-lk.limits[1], -lk.limits[0])) if f else lk
+        for lk, f in zip(robot.links, flips)))
+    sign = np.where(flips, -1.0, 1.0)
+    rng = np.random.default_rng(77)
+    lim = robot.joint_limits
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(300, robot.n))
+    target = _target_of(robot, q)
+    assert np.abs(_target_of(flipped, q * sign) - target).max() < 1e-12
+    plain, mirrored = ik_all(robot, target), ik_all(flipped, target)
+    assert mirrored.solver == plain.solver and mirrored.branches == plain.branches
+    assert np.array_equal(mirrored.reachable, plain.reachable)
+    assert np.array_equal(mirrored.valid, plain.valid)
+    assert _wrapped(mirrored.q - plain.q * sign).max() < 1e-9
+    reached = _target_of(flipped, mirrored.q)
+    if target_kind(robot) == "planar":
+        reached[..., 2] = target[:, None, 2] + np.remainder(reached[..., 2] - target[:, None, 2] + np.pi, 2 * np.pi) - np.pi
+    miss = np.abs(reached - target[:, None]).reshape(len(q), len(plain.branches), -1).max(axis=-1)
+    assert miss[mirrored.reachable].max() < 1e-9  # (shoulder-offset and UR arms: not every branch reaches)
+    # the configuration we started from (in the flipped robot's terms) is among the branches
+    found = _wrapped(mirrored.q - (q * sign)[:, None]).max(axis=-1).min(axis=-1)
+    assert np.quantile(found, 0.99) < 1e-6

@@ -175,3 +175,16 @@ def test_latex_and_errors():
         forward_kinematics(arm, lengths="exact")
     with pytest.raises(ValueError, match=r"q with shape \(3,\)"):
         lambdify_joints(arm, forward_kinematics(arm))([0.0, 1.0])
+
+
+def test_flipped_joints_enter_negated_symbolically():
+    from dataclasses import replace
+
+    arm = Robot.load("arduino_arm_3dof")
+    flipped = arm.replace(links=(arm.links[0], replace(arm.links[1], flip=True), arm.links[2]))
+    T = forward_kinematics(flipped, simplify=False)
+    J = geometric_jacobian(flipped, simplify=False)
+    qv = np.array([0.4, 0.9, 1.3])
+    assert np.abs(lambdify_joints(flipped, T)(qv) - fk(flipped, qv)).max() < 1e-12
+    assert np.abs(lambdify_joints(flipped, J)(qv) - jacobian(flipped, qv)).max() < 1e-12
+    assert np.abs(fk(flipped, qv) - fk(arm, qv * [1, -1, 1])).max() < 1e-12

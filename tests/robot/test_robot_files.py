@@ -11,6 +11,8 @@ from labkit.exceptions import RobotFileError, ShapeError
 
 BUNDLED = [
     "arduino_arm_3dof",
+    "irb140",
+    "kr5",
     "planar3r_seed003",
     "planar3r_seed003_135",
     "planar3r_seed004",
@@ -18,6 +20,7 @@ BUNDLED = [
     "puma600_seed002",
     "puma_wrist_seed002",
     "rpp_seed002",
+    "ur5",
 ]
 
 MINIMAL = """
@@ -280,3 +283,20 @@ def test_up_round_trips_and_is_validated_in_code(tmp_path):
         r.replace(up=[0.0, 1.0])
     with pytest.raises(ShapeError, match="non-zero"):
         r.replace(up=[0.0, 0.0, 0.0])
+
+
+def test_flip_key_loads_and_is_written_back(tmp_path):
+    text = MINIMAL.replace("a = 100", "a = 100\nflip = true").replace("d = 10", "d = 10\nflip = false")
+    r = Robot.load(_write(tmp_path, text, "flip.toml"))
+    assert [lk.flip for lk in r.links] == [True, False]
+    out = r.to_toml(length_unit="mm", angle_unit="deg")
+    assert out.count("flip = true") == 1 and "flip = false" not in out
+    r2 = Robot.load(_write(tmp_path, out, "flip2.toml"))
+    assert [lk.flip for lk in r2.links] == [True, False]
+    q = np.array([[0.3, 0.02], [-1.0, 0.04]])
+    assert np.abs(r2.fk(q) - r.fk(q)).max() < 1e-12
+    # the variable enters negated: flipping joint 1 is q1 -> -q1
+    unflipped = Robot.load(_write(tmp_path, MINIMAL, "plain.toml"))
+    assert np.abs(r.fk(q) - unflipped.fk(q * [-1, 1])).max() < 1e-12
+    with pytest.raises(RobotFileError, match=r"field 'joint\[1\].flip': expected true or false, got 'yes'"):
+        Robot.load(_write(tmp_path, MINIMAL.replace("a = 100", 'a = 100\nflip = "yes"'), "b.toml"))

@@ -178,8 +178,10 @@ def test_gimbal_lock_tolerance_on_rounded_matrix():
 
 
 def test_euler_convention_errors_list_valid_values():
-    with pytest.raises(ValueError, match=r"xyz_fixed.*zyx.*zyz.*rpy.*got 'xyx'"):
-        matrix_from_euler([0, 0, 0], "xyx")
+    # 'xyx' (extrinsic proper Euler) is valid since all 24 conventions are; 'xyy' repeats an axis
+    for bad in ("xyy", "XYx", "xyz_moved", "abc"):
+        with pytest.raises(ValueError, match=rf"XYZ.*xyz.*xyz_fixed.*zyx.*zyz.*rpy.*got '{bad}'"):
+            matrix_from_euler([0, 0, 0], bad)
     assert euler_from_matrix(np.eye(3), EulerConvention.ZYZ).convention is EulerConvention.ZYZ
     with pytest.raises(ShapeError, match=r"\(\.\.\., 3, 3\), got \(3, 2\)"):
         euler_from_matrix(np.zeros((3, 2)), "zyz")

@@ -1,0 +1,185 @@
+"""Closed-form IK families added beside the seed ones: planar 2R, 4-DOF yaw-pitch-pitch-pitch,
+6R spherical wrist with a shoulder offset, UR-type 6R with three parallel axes.
+
+For each family: FK of every returned branch hits the target, the configuration the target was
+made from is among the branches, and the branch set is complete: numeric IK started from many
+random configurations finds no solution that is not one of the valid branches.
+"""
+
+import numpy as np
+import pytest
+
+from labkit.exceptions import UnreachableError
+from labkit.kinematics import fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_kind
+from labkit.robot import Link, Robot
+from labkit.rotations import matrix_from_rpy, wrap_angle
+
+
+def _planar_2r():
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy([0.4, 1.0, -0.2])  # plane tilted in the world
+    base[:3, 3] = [0.1, 0.2, 0.3]
+    links = (Link(a=0.3, d=0.05, limits=(-2.5, 2.5)), Link(a=0.2, d=0.1, theta=0.3, alpha=np.pi, limits=(-2.8, 2.8)))
+    return Robot("planar_2r_tilted", links, base=base)
+
+
+def _arm4():
+    """A MeArm / Dobot-like 4-DOF arm: base yaw, shoulder, elbow and wrist pitch, tool 50 mm past the wrist."""
+    links = (Link(d=0.1, alpha=np.pi / 2, limits=(-np.pi, np.pi), name="yaw"),
+             Link(a=0.15, theta=np.pi / 2, limits=(-np.pi, np.pi), name="shoulder"),
+             Link(a=0.15, limits=(-2.8, 2.8), name="elbow"),
+             Link(a=0.05, limits=(-2.8, 2.8), name="wrist"))
+    return Robot("arm4", links)
+
+
+ROBOTS = {
+    "arm4": (_arm4, "yaw_pitch_pitch_pitch"),
+    "planar_2r_tilted": (_planar_2r, "planar_2r"),
+    "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
+    "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
+    "ur5": (lambda: Robot.load("ur5"), "three_parallel"),
+}
+
+
+def _target(robot, q):
+    T = fk(robot, q)
+    return T if target_kind(robot) == "pose" else T[..., :3, 3]
+
+
+def _in_limits(robot, rng, size):
+    lim = robot.joint_limits
+    return rng.uniform(lim[:, 0], lim[:, 1], size=(size, robot.n))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_every_branch_hits_the_target_and_the_start_is_among_them(name):
+    make, family = ROBOTS[name]
+    robot = make()
+    assert solver_for(robot).value == family
+    rng = np.random.default_rng(5)
+    q = _in_limits(robot, rng, 3000)
+    target = _target(robot, q)
+    sols = ik_all(robot, target)
+    assert sols.solver == family
+    assert np.all(sols.reachable.any(axis=1))
+    reached = _target(robot, sols.q)
+    err = np.abs(reached - target[:, None]).reshape(len(q), len(sols.branches), -1).max(axis=-1)
+    assert err[sols.reachable].max() < 1e-9
+    found = np.abs(wrap_angle(sols.q - q[:, None])).max(axis=-1)
+    found = np.where(sols.valid, found, np.inf).min(axis=-1)
+    assert found.max() < 1e-7  # 100 % of the in-limit targets: the start is a valid branch
+    assert np.array_equal(sols.valid, sols.reachable & robot.within_limits(sols.q))
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_branch_set_is_complete_against_numeric_ik_from_many_starts(name):
+    make, _ = ROBOTS[name]
+    robot = make()
+    rng = np.random.default_rng(6)
+    n_targets, n_starts = 12, 40
+    target = _target(robot, _in_limits(robot, rng, n_targets))
+    sols = ik_all(robot, target)
+    repeated = np.repeat(target, n_starts, axis=0)
+    res = ik_numeric(robot, repeated, q0=_in_limits(robot, rng, n_targets * n_starts), restarts=3, max_iter=100)
+    assert res.success.mean() > 0.5  # the comparison has material
+    qa = np.repeat(sols.q, n_starts, axis=0)
+    valid = np.repeat(sols.valid, n_starts, axis=0)
+    gap = np.where(valid, np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1), np.inf).min(axis=-1)
+    assert gap[res.success].max() < 1e-6, "numeric IK found a solution that no branch returned"
+    # and every valid branch of a target is found by some numeric start (the set is not padded)
+    hit = np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1) < 1e-6
+    hit &= res.success[:, None]
+    hit_any = hit.reshape(n_targets, n_starts, -1).any(axis=1)
+    distinct = sols.valid.sum(axis=1)
+    assert hit_any.sum() >= 0.75 * distinct.sum()
+
+
+def test_planar_2r_out_of_plane_and_out_of_reach():
+    robot = _planar_2r()
+    p = _target(robot, [0.3, -0.4])
+    normal = robot.base[:3, 2]
+    with pytest.raises(UnreachableError, match=r"out of reach by 0.01 m") as info:
+        ik(robot, p + 0.01 * normal)
+    assert info.value.distance == pytest.approx(0.01, abs=1e-12)
+    sols = ik_all(robot, p + 1e-12 * normal)  # rounding-size height errors are tolerated
+    assert sols.reachable.all()
+    far = robot.base[:3, 3] + 0.15 * normal + 0.9 * robot.base[:3, 0]
+    sols = ik_all(robot, far)
+    assert not sols.reachable.any() and sols.distance > 0.3
+    q = ik(robot, p, branch="elbow_down")
+    assert np.allclose(_target(robot, q), p, atol=1e-12)
+
+
+def test_shoulder_offset_front_and_back_reach_differently():
+    """Far out only the front branches reach (the back ones would need the shoulder offset twice)."""
+    kr5 = Robot.load("kr5")
+    q = np.array([0.0, -0.05, -0.2, 0.2, 0.5, 0.1])  # arm stretched forwards
+    T = fk(kr5, q)
+    sols = ik_all(kr5, T)
+    assert sols.reachable.tolist() == [True] * 4 + [False] * 4  # right_* reach, left_* do not
+    assert np.abs(fk(kr5, sols.q[:4]) - T).max() < 1e-9
+    assert np.all(np.isfinite(sols.q))
+    with pytest.raises(UnreachableError, match="branch 'left_up_noflip' cannot reach"):
+        ik(kr5, T, branch="left_up_noflip")
+
+
+def test_benchmark_script_prints_full_success_and_ratios():
+    """The acceptance benchmark (10,000 targets without --quick) passes in its quick form."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_ik_families.py"
+    out = subprocess.run([sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    rows = [ln for ln in out.stdout.splitlines() if "targets/s" in ln]
+    assert len(rows) >= 3
+    for row in rows:
+        assert "solved 100.00%" in row and "(100.00%)" in row and re.search(r"ratio +[\d,]+x", row), row
+
+
+def test_ur5_wrist_singularity_and_unreachable_targets():
+    ur5 = Robot.load("ur5")
+    q = np.array([0.3, -1.0, 1.2, 0.4, 0.0, 0.5])  # q5 = 0: axis 6 parallel to axes 2-4, only q4 + q6 is fixed
+    T = fk(ur5, q)
+    sols = ik_all(ur5, T)
+    assert np.all(np.isfinite(sols.q)) and sols.reachable.sum() >= 4
+    assert np.abs(fk(ur5, sols.q[sols.reachable]) - T).max() < 1e-9
+    far = T.copy()
+    far[:3, 3] *= 5.0
+    with pytest.raises(UnreachableError, match="out of reach by") as info:
+        ik(ur5, far)
+    assert info.value.distance > 0.5
+    q_ik = ik(ur5, fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2]), branch="lun", q_near=None)
+    assert np.abs(fk(ur5, q_ik) - fk(ur5, [0.1, -0.8, 1.0, -0.5, 0.7, 0.2])).max() < 1e-9
+
+
+def test_4dof_position_pitch_targets():
+    arm = _arm4()
+    assert target_kind(arm) == "pose"
+    targets = np.array([[0.2, 0.1, 0.15, -0.5], [0.05, -0.2, 0.3, 0.8], [-0.1, 0.0, 0.05, -1.4]])
+    T = pose_from_position_pitch(arm, targets)
+    assert T.shape == (3, 4, 4)
+    sols = ik_all(arm, T)
+    assert sols.reachable.all()
+    reached = fk(arm, sols.q)
+    assert np.abs(reached[..., :3, 3] - targets[:, None, :3]).max() < 1e-12
+    # the pitch: elevation of the tool x axis above the horizontal, in the arm's plane (facing the target)
+    x = reached[..., :3, 0]
+    radial = targets[:, None, :2] / np.linalg.norm(targets[:, :2], axis=1)[:, None, None]
+    pitch = np.arctan2(x[..., 2], (x[..., :2] * radial).sum(-1))
+    assert np.abs(pitch - targets[:, 3, None]).max() < 1e-12
+    # the two branches are different configurations (elbow above / below the shoulder -> wrist line)
+    assert np.all(np.abs(sols.q[:, 0] - sols.q[:, 1]).max(axis=-1) > 1e-3)
+    # an orientation no 4-DOF arm can take is unreachable (distance inf), a far point by its distance
+    twisted = T[0].copy()
+    twisted[:3, :3] = twisted[:3, :3] @ np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
+    s = ik_all(arm, twisted)
+    assert not s.reachable.any() and np.isinf(s.distance)
+    with pytest.raises(UnreachableError, match="out of reach by 0.5"):
+        ik(arm, pose_from_position_pitch(arm, [0.0, 0.9, 0.1, 0.0]))
+    from labkit.exceptions import OptionError
+
+    with pytest.raises(OptionError, match="need a 4-DOF yaw-pitch-pitch-pitch arm"):
+        pose_from_position_pitch(Robot.load("puma560"), [0.2, 0.1, 0.15, -0.5])
