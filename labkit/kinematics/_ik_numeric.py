@@ -70,6 +70,43 @@ def _random_q(rng, limits, size):
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 
+def analytic_seeds(robot, kind, target, rng):
+    """Starting configurations from a closed-form family that fits the whole chain, or None.
+
+    When :func:`labkit.kinematics._ik_analytic.detect` finds a solver for
+    ``robot`` whose targets are of ``kind``, each target starts from its first
+    branch that is reachable and inside the joint limits (so LM only polishes
+    it); targets without such a branch start from a random configuration.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    rng : numpy.random.Generator
+        Draws the random starts.
+
+    Returns
+    -------
+    ndarray, shape (N, n), or None
+        Starting configurations [rad, m]; None when no closed form applies.
+    """
+    found, _ = _ik_analytic.detect(robot)
+    if found is None or found.kind != kind:
+        return None
+    limits = robot.joint_limits
+    q, reach, _ = found.solve(target)
+    q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
+    valid = reach & robot.within_limits(q) & np.isfinite(q).all(axis=-1)
+    seeds = _random_q(rng, limits, target.shape[0])
+    has = valid.any(axis=1)
+    seeds[has] = q[has, np.argmax(valid[has], axis=1)]
+    return seeds
+
+
 def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
     """Batched LM with restarts, then batched multi-start for the stragglers.
 
@@ -87,7 +124,9 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     target : ndarray, shape (N, 3) or (N, 4, 4)
         Targets [m, rad].
     q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None draws random in-limit starts.
+        Starting configurations [rad, m]; None starts from the closed-form
+        solution where a closed-form family fits the robot
+        (:func:`analytic_seeds`), else from random in-limit configurations.
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
     tol : float
@@ -110,6 +149,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     residual : ndarray, shape (N,)
         Final task-space error norm [m, rad].
     """
+    if q0 is None:
+        q0 = analytic_seeds(robot, kind, target, rng)
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng
     )
