@@ -18,7 +18,9 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
 3. numeric IK of the PUMA 560 (in-limit random targets, tolerance 1e-10):
    ms per target one by one, targets/s at batch 1000, success rate, against
    ``ik_LM`` (C++) one target at a time;
-4. the peak memory of a 1M-configuration Jacobian against its output.
+4. the peak memory of a 1M-configuration Jacobian against its output;
+5. start-up: ``import labkit, labkit.kinematics`` and ``labkit --help`` (wall
+   time of a fresh interpreter, beside a bare one and ``import numpy``).
 
 Times are process CPU time, best of several repeats (other jobs on a shared
 machine do not inflate them); threads are pinned to one. The issue's targets
@@ -328,16 +330,39 @@ def peak_memory(args):
           f"{J.nbytes / 2**20:.0f} MiB = {ratio:.3f}x (target <= 1.1x: {verdict(ratio <= 1.1)})")
 
 
+def startup(args):
+    import subprocess
+    import sys
+
+    def wall(code, repeat=5):
+        best = float("inf")
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, *code], check=True, capture_output=True)
+            best = min(best, time.perf_counter() - t0)
+        return best
+
+    bare = wall(["-c", "pass"])
+    npy = wall(["-c", "import numpy"])
+    kin = wall(["-c", "import labkit, labkit.kinematics"])
+    cli = wall(["-m", "labkit", "--help"])
+    print(f"\n5. start-up, wall time of a fresh interpreter (best of 5): bare python {bare:.3f} s, "
+          f"import numpy {npy:.3f} s")
+    print(f"import labkit, labkit.kinematics {kin:.3f} s (target <= 0.25 s: {verdict(kin <= 0.25)}); "
+          f"labkit --help {cli:.3f} s (target <= 0.3 s: {verdict(cli <= 0.3)})")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller batches and repeats")
-    ap.add_argument("--only", choices=("single", "batched", "ik", "memory"), help="run one section")
+    ap.add_argument("--only", choices=("single", "batched", "ik", "memory", "startup"), help="run one section")
     args = ap.parse_args(argv)
     import labkit
 
     print(f"labkit kinematics benchmark (labkit from {os.path.dirname(labkit.__file__)}); numpy {np.__version__}; "
           "one core, process CPU time, best of repeats")
-    sections = {"single": single_calls, "batched": batched, "ik": numeric_ik, "memory": peak_memory}
+    sections = {"single": single_calls, "batched": batched, "ik": numeric_ik, "memory": peak_memory,
+                "startup": startup}
     for name, func in sections.items():
         if args.only in (None, name):
             func(args)

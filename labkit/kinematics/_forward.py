@@ -29,8 +29,8 @@ __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
 #: configurations per chunk of the batched kernels (blocks stay in the L2 cache)
 _CHUNK = 8192
-#: smaller chunks for the Jacobian, whose per-chunk scratch is about n times larger
-_JCHUNK = 2048
+#: the Jacobian's per-chunk scratch grows with n: chunks of _JCHUNK_ENTRIES // n configurations
+_JCHUNK_ENTRIES = 12288
 #: at most this many configurations go through the pure-Python path
 SMALL_BATCH = 4
 _E = np.eye(3)[:, :, None]  # the unit columns as (3, 1) blocks
@@ -345,12 +345,13 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     T = _output(out_T, lead + (4, 4)) if want_T else None
     fJ = J.reshape(N, 6 * n)
     fT = T.reshape(N, 16) if want_T else None
-    m = min(N, _JCHUNK)
+    chunk = max(256, _JCHUNK_ENTRIES // n)
+    m = min(N, chunk)
     W = _pose_buffer(m) if want_T else None
     WJ = np.empty((6 * n, m))
     axes = np.empty((3, n, m)), np.empty((3, n, m))
-    for s in range(0, N, _JCHUNK):
-        qc = q2[s:s + _JCHUNK]
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
         k = qc.shape[0]
         _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
         np.copyto(fJ[s:s + k], WJ[:, :k].T)
