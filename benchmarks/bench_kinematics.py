@@ -45,19 +45,25 @@ from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
+#: a smaller per-timing budget in --smoke mode (set by main)
+BUDGET = []
+
+
 def seconds(func, number=1, repeat=5):
     """Best-of-``repeat`` process CPU time of one ``func()`` call, averaged over ``number`` calls [s]."""
     func()  # warm-up: imports, caches, JIT
+    number = max(1, int(number))
     best = float("inf")
     for _ in range(repeat):
         t0 = time.process_time()
         for _ in range(number):
             func()
         best = min(best, (time.process_time() - t0) / number)
-    return best
+    return max(best, 1e-9)  # a process-clock tick can read as 0 for a tiny smoke run
 
 
 def calls_for(batch, budget=2e5):
+    budget = BUDGET[0] if BUDGET else budget
     """How many calls of a batch to time together so that one timing is not too short."""
     return max(1, int(budget // max(batch, 1)))
 
@@ -164,7 +170,7 @@ def single_calls(args):
     q3 = np.radians([45.0, 60.0, 30.0])
     target = fk(arm, q3)[:3, 3]
     q6 = np.array([0.1, 0.5, -0.3, 0.2, 0.4, 0.1])
-    num = 200 if args.quick else 2000
+    num = 8 if args.smoke else 200 if args.quick else 2000
     rows = []
     for name, robot, q in (("3-DOF arm", arm, q3), ("PUMA 560", puma, q6)):
         peers = rtb_models(robot)
@@ -224,7 +230,7 @@ def batched(args):
     puma = Robot.load("puma560")
     lim = puma.joint_limits
     rng = np.random.default_rng(2026)
-    batches = (1, 10, 1000, 20_000 if args.quick else 100_000)
+    batches = (1, 10, 1000) if args.smoke else (1, 10, 1000, 20_000 if args.quick else 100_000)
     Q = rng.uniform(lim[:, 0], lim[:, 1], size=(batches[-1], 6))
     peers = rtb_models(puma)
     nb = numba_chain(puma)
@@ -238,7 +244,7 @@ def batched(args):
         check.append(max(np.abs(ets.eval(q) - fk(puma, q)).max() for q in Q[:20]))
         check.append(max(np.abs(ets.jacob0(q) - jacobian(puma, q)).max() for q in Q[:20]))
     print(f"max |difference| of the peers' results to labkit: {max(check) if check else float('nan'):.1e}")
-    rep = 3 if args.quick else 5
+    rep = 1 if args.smoke else 3 if args.quick else 5
     head = (f"{'quantity':<10}{'batch':>8}{'labkit':>9}{'numba':>9}{'x numba':>9}{'rtb C':>9}{'rtb DH':>9}"
             f"{'pin':>9}{'floor':>9}{'% floor':>9}")
     print(head)
@@ -276,6 +282,22 @@ def batched(args):
                   f"{fmt_rate(rtc):>9}{fmt_rate(rtd):>9}{fmt_rate(pn):>9}{fmt_rate(fl):>9}"
                   f"{(f'{100 * lk / fl:.1f}' if fl else ''):>9}")
             summary[quantity, N] = (lk, nbr)
+    # analytic IK: all 8 branches of the spherical-wrist solver against rtb's ikine_a (one branch per call)
+    T = fk(puma, Q)
+    n_ik = min(batches[-1], 20_000)
+    lk = n_ik / seconds(lambda: ik_all(puma, T[:n_ik]), 1, rep)
+    rta = None
+    if peers:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import roboticstoolbox as rtb
+
+            ref = rtb.models.DH.Puma560()  # the model labkit's puma560.toml reproduces; it has ikine_a
+            m = 10 if args.smoke else 100
+            rta = m / seconds(lambda: [ref.ikine_a(T[k], config=cf) for k in range(m)
+                                       for cf in ("lun", "luf", "ldn", "ldf", "run", "ruf", "rdn", "rdf")], 1, 2)
+    print(f"{'analytic IK':<12}{n_ik:>6,}{fmt_rate(lk):>9} targets/s (all 8 branches); rtb ikine_a x8: "
+          f"{fmt_rate(rta)} targets/s; {(f'{lk / rta:,.0f}x' if rta else '')}")
     big = batches[-1]
     for quantity in ("FK", "Jacobian"):
         lk, nbr = summary[quantity, big]
@@ -291,8 +313,8 @@ def numeric_ik(args):
     puma = Robot.load("puma560")
     lim = puma.joint_limits
     rng = np.random.default_rng(7)
-    n1 = 20 if args.quick else 100
-    nb = 200 if args.quick else 1000
+    n1 = 5 if args.smoke else 20 if args.quick else 100
+    nb = 50 if args.smoke else 200 if args.quick else 1000
     T = fk(puma, rng.uniform(lim[:, 0], lim[:, 1], size=(nb, 6)))
     res = [ik_numeric(puma, T[k]) for k in range(n1)]
     one = seconds(lambda: [ik_numeric(puma, T[k]) for k in range(n1)], 1, 2) / n1
@@ -303,7 +325,7 @@ def numeric_ik(args):
     lm = lm_ok = None
     if peers:
         ets = peers[1]
-        m = 50 if args.quick else 200
+        m = 10 if args.smoke else 50 if args.quick else 200
         sols = [ets.ik_LM(T[k], tol=1e-10) for k in range(m)]
         lm_ok = np.mean([s.success for s in sols])
         lm = m / seconds(lambda: [ets.ik_LM(T[k], tol=1e-10) for k in range(m)], 1, 2)
@@ -315,10 +337,33 @@ def numeric_ik(args):
         print(f"rtb ik_LM (C++, one by one): {lm:9,.0f} targets/s, success {lm_ok:.1%}; "
               f"labkit batch {nb} / ik_LM = {batch / lm:.2f}x (target >= 2x: {verdict(batch >= 2 * lm)}); "
               f"labkit batch 1 / ik_LM = {(1 / one) / lm:.2f}x")
+    print("(the PUMA 560 has a closed form: the LM starts from the analytic solution and only polishes it)")
+    # the same arm with a 2 mm offset a5: no closed form, so this is Levenberg-Marquardt from random starts
+    bent = puma.with_link(4, a=0.002)
+    Tb = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(nb, 6)))
+    res = [ik_numeric(bent, Tb[k]) for k in range(n1)]
+    one = seconds(lambda: [ik_numeric(bent, Tb[k]) for k in range(n1)], 1, 2) / n1
+    resb = ik_numeric(bent, Tb)
+    batch = nb / seconds(lambda: ik_numeric(bent, Tb), 1, 2)
+    lm = None
+    if peers:
+        ets_b = rtb_models(bent)[1]
+        m = 10 if args.smoke else 50 if args.quick else 200
+        lm_ok = np.mean([ets_b.ik_LM(Tb[k], tol=1e-10).success for k in range(m)])
+        lm = m / seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(m)], 1, 2)
+    print("PUMA 560 with a5 = 2 mm (no closed form; LM from random in-limit starts):")
+    print(f"batch 1:     {one * 1e3:7.3f} ms per target  (target <= 1 ms: {verdict(one <= 1e-3)}), "
+          f"success {np.mean([r.success for r in res]):.1%}, mean iterations {np.mean([r.iterations for r in res]):.1f}")
+    print(f"batch {nb}:  {batch:9,.0f} targets/s  success {resb.success.mean():.1%}, "
+          f"max residual {resb.residual.max():.1e}, mean iterations {resb.iterations.mean():.1f}")
+    if lm:
+        print(f"rtb ik_LM (C++, one by one): {lm:9,.0f} targets/s, success {lm_ok:.1%}; "
+              f"labkit batch {nb} / ik_LM = {batch / lm:.2f}x (target >= 2x: {verdict(batch >= 2 * lm)}); "
+              f"labkit batch 1 / ik_LM = {(1 / one) / lm:.2f}x")
 
 
 def peak_memory(args):
-    N = 200_000 if args.quick else 1_000_000
+    N = 20_000 if args.smoke else 200_000 if args.quick else 1_000_000
     puma = Robot.load("puma560")
     q = np.random.default_rng(3).uniform(-1, 1, size=(N, 6))
     tracemalloc.start()
@@ -334,7 +379,7 @@ def startup(args):
     import subprocess
     import sys
 
-    def wall(code, repeat=5):
+    def wall(code, repeat=1 if args.smoke else 5):
         best = float("inf")
         for _ in range(repeat):
             t0 = time.perf_counter()
@@ -346,7 +391,7 @@ def startup(args):
     npy = wall(["-c", "import numpy"])
     kin = wall(["-c", "import labkit, labkit.kinematics"])
     cli = wall(["-m", "labkit", "--help"])
-    print(f"\n5. start-up, wall time of a fresh interpreter (best of 5): bare python {bare:.3f} s, "
+    print(f"\n5. start-up, wall time of a fresh interpreter (best of {1 if args.smoke else 5}): bare python {bare:.3f} s, "
           f"import numpy {npy:.3f} s")
     print(f"import labkit, labkit.kinematics {kin:.3f} s (target <= 0.25 s: {verdict(kin <= 0.25)}); "
           f"labkit --help {cli:.3f} s (target <= 0.3 s: {verdict(cli <= 0.3)})")
@@ -355,8 +400,13 @@ def startup(args):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller batches and repeats")
+    ap.add_argument("--smoke", action="store_true",
+                    help="tiny batches, one repeat: checks that every row prints (the test suite runs this)")
     ap.add_argument("--only", choices=("single", "batched", "ik", "memory", "startup"), help="run one section")
     args = ap.parse_args(argv)
+    args.quick = args.quick or args.smoke
+    if args.smoke:
+        BUDGET.append(2e3)
     import labkit
 
     print(f"labkit kinematics benchmark (labkit from {os.path.dirname(labkit.__file__)}); numpy {np.__version__}; "
