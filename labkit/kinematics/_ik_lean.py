@@ -16,8 +16,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics import _forward_small as _small
-from labkit.kinematics._forward import _tool_offset
+from labkit.kinematics._forward import fk_jacobian
 
 _TWO_PI = 2.0 * math.pi
 
@@ -129,16 +128,14 @@ def attempt(robot, c, kind, target, q, rows, *, lo, hi, free, tol, max_iter, che
         Converged (inside the limits), gave up early, or ran out of iterations.
     """
     n = c.n
-    off = _tool_offset(c, None)
     tgt = target.tolist()
     wide = len(rows) < n
     all_rows = len(rows) == 6
     eye = np.eye(len(rows) if wide else n)
 
     def evaluate(qq):
-        T, J = _small.fk_jacobian(c, [qq.tolist()], off, False, True)
-        J = np.array(J).reshape(6, n)
-        e, res = error(kind, T, tgt, rows)
+        T, J = fk_jacobian(robot, qq)
+        e, res = error(kind, T.ravel().tolist(), tgt, rows)
         return (J if all_rows else J[rows]), np.array(e), res
 
     J, e, res = evaluate(q)
