@@ -45,13 +45,20 @@ from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
-#: a smaller per-timing budget in --smoke mode (set by main)
-BUDGET = []
+#: seconds one timing aims at when the number of calls is chosen automatically (--smoke: less)
+BUDGET = [0.05]
 
 
-def seconds(func, number=1, repeat=5):
-    """Best-of-``repeat`` process CPU time of one ``func()`` call, averaged over ``number`` calls [s]."""
+def seconds(func, number=None, repeat=5):
+    """Best-of-``repeat`` process CPU time of one ``func()`` call, averaged over ``number`` calls [s].
+
+    ``number=None`` picks enough calls for a timing of about ``BUDGET`` seconds (from the warm-up call).
+    """
+    t0 = time.process_time()
     func()  # warm-up: imports, caches, JIT
+    first = time.process_time() - t0
+    if number is None:
+        number = min(100_000, max(1, int(BUDGET[0] / max(first, 1e-7))))
     number = max(1, int(number))
     best = float("inf")
     for _ in range(repeat):
@@ -60,12 +67,6 @@ def seconds(func, number=1, repeat=5):
             func()
         best = min(best, (time.process_time() - t0) / number)
     return max(best, 1e-9)  # a process-clock tick can read as 0 for a tiny smoke run
-
-
-def calls_for(batch, budget=2e5):
-    budget = BUDGET[0] if BUDGET else budget
-    """How many calls of a batch to time together so that one timing is not too short."""
-    return max(1, int(budget // max(batch, 1)))
 
 
 # -- peers ------------------------------------------------------------------------------
@@ -170,7 +171,6 @@ def single_calls(args):
     q3 = np.radians([45.0, 60.0, 30.0])
     target = fk(arm, q3)[:3, 3]
     q6 = np.array([0.1, 0.5, -0.3, 0.2, 0.4, 0.1])
-    num = 8 if args.smoke else 200 if args.quick else 2000
     rows = []
     for name, robot, q in (("3-DOF arm", arm, q3), ("PUMA 560", puma, q6)):
         peers = rtb_models(robot)
@@ -178,27 +178,27 @@ def single_calls(args):
         pm = pinocchio_model(robot)
         T = fk(robot, q)
         r = {}
-        r["fk"] = (seconds(lambda: fk(robot, q), num),
-                   seconds(lambda: ets.fkine(q), num) if ets else None,
-                   seconds(lambda: ets.eval(q), num) if ets else None)
-        r["jacobian"] = (seconds(lambda: jacobian(robot, q), num),
-                         seconds(lambda: ets.jacob0(q), num) if ets else None, None)
+        r["fk"] = (seconds(lambda: fk(robot, q), None),
+                   seconds(lambda: ets.fkine(q), None) if ets else None,
+                   seconds(lambda: ets.eval(q), None) if ets else None)
+        r["jacobian"] = (seconds(lambda: jacobian(robot, q), None),
+                         seconds(lambda: ets.jacob0(q), None) if ets else None, None)
         if pm:
             pin, model, data, fid = pm
-            r["fk"] += (seconds(lambda: (pin.framesForwardKinematics(model, data, q), data.oMf[fid].homogeneous), num),)
+            r["fk"] += (seconds(lambda: (pin.framesForwardKinematics(model, data, q), data.oMf[fid].homogeneous), None),)
             r["jacobian"] += (seconds(lambda: pin.computeFrameJacobian(
-                model, data, q, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), num),)
+                model, data, q, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED), None),)
         tgt = target if robot is arm else T
         mask = np.array([1.0, 1, 1, 0, 0, 0]) if robot is arm else None  # the arm's target is a position
         lm = (lambda: ets.ik_LM(T, tol=1e-10, mask=mask)) if ets else None
         if robot is arm:
-            r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), num // 4),
-                                  seconds(lm, num // 4) if ets else None, None)
-            r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), num // 4), None, None)
+            r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
+                                  seconds(lm, None) if ets else None, None)
+            r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
         else:
-            r["ik one branch"] = (seconds(lambda: ik(robot, tgt), num // 4),
-                                  seconds(lm, num // 10) if ets else None, None)
-            r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), num // 4), None, None)
+            r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
+                                  seconds(lm, None) if ets else None, None)
+            r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
         rows.append((name, r))
     targets = {("3-DOF arm", "fk"): 25, ("3-DOF arm", "jacobian"): 40, ("3-DOF arm", "ik one branch"): 40,
                ("3-DOF arm", "ik_all"): 60, ("PUMA 560", "fk"): 40}
@@ -253,9 +253,8 @@ def batched(args):
     for quantity, lk_func, tail in (("FK", fk, (4, 4)), ("Jacobian", jacobian, (6, 6))):
         for N in batches:
             q = Q[:N]
-            num = calls_for(N)
-            lk = N / seconds(lambda: lk_func(puma, q), num, rep)
-            nbr = N / seconds(lambda: nb[0 if quantity == "FK" else 1](q), num, rep) if nb else None
+            lk = N / seconds(lambda: lk_func(puma, q), None, rep)
+            nbr = N / seconds(lambda: nb[0 if quantity == "FK" else 1](q), None, rep) if nb else None
             m = min(N, 2000)
             rtc = rtd = pn = None
             if peers:
@@ -406,7 +405,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     args.quick = args.quick or args.smoke
     if args.smoke:
-        BUDGET.append(2e3)
+        BUDGET[0] = 0.002
     import labkit
 
     print(f"labkit kinematics benchmark (labkit from {os.path.dirname(labkit.__file__)}); numpy {np.__version__}; "
