@@ -12,6 +12,7 @@ import argparse
 import sys
 
 from labkit.cli import _arm, _kinematics, _measure, _reports
+from labkit.cli._lazy import LazyParser
 from labkit.exceptions import LabkitError
 
 
@@ -24,7 +25,8 @@ def build_parser():
     argparse.ArgumentParser
     """
     p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
-    sub = p.add_subparsers(dest="command", required=True)
+    # subcommands add their arguments on first use: `labkit --help` imports no numerical library
+    sub = p.add_subparsers(dest="command", required=True, parser_class=LazyParser)
     for module in (_kinematics, _arm, _reports, _measure):
         module.add_commands(sub)
     return p

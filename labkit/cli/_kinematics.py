@@ -10,8 +10,6 @@ import argparse
 import math
 import sys
 
-import numpy as np
-
 from labkit.exceptions import LabkitError
 
 
@@ -75,6 +73,8 @@ def _cmd_robots(args):
 
 
 def _joint_values(robot, values, deg, mm):
+    import numpy as np
+
     q = np.array(values, dtype=float)
     if q.shape != (robot.n,):
         raise LabkitError(f"{robot.name} has {robot.n} joints; expected {robot.n} joint values, got {q.size}")
@@ -109,6 +109,8 @@ def _cmd_fk(args):
 
 
 def _cmd_ik(args):
+    import numpy as np
+
     from labkit import kinematics
     from labkit.robot import Robot
 

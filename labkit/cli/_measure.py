@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-#: uncertainty rules and calibration parameter groups offered as choices
-from labkit.measure import COMBINE_RULES, GROUPS
-
 
 def add_commands(sub):
     """Add ``errors``, ``audit`` and ``calibrate`` to the ``labkit`` subcommands.
@@ -14,7 +11,21 @@ def add_commands(sub):
     sub : argparse._SubParsersAction
         The subcommand collection of the ``labkit`` parser.
     """
-    sp = sub.add_parser("errors", help="measured-versus-calculated error table of a measurement CSV")
+    sub.add_parser("errors", help="measured-versus-calculated error table of a measurement CSV",
+                   build=_errors_arguments)
+
+    sp = sub.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
+    sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
+    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
+    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
+    sp.set_defaults(func=_cmd_audit)
+
+    sub.add_parser("calibrate", help="fit robot parameters to measured positions", build=_calibrate_arguments)
+
+
+def _errors_arguments(sp):
+    from labkit.measure import COMBINE_RULES  # uncertainty rules offered as choices
+
     sp.add_argument("file", help="measurement CSV (docs/measurements.md)")
     sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
     sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows (default elbow_up)")
@@ -23,13 +34,10 @@ def add_commands(sub):
     sp.add_argument("--latex", help="also write the styled table as LaTeX")
     sp.set_defaults(func=_cmd_errors)
 
-    sp = sub.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
-    sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
-    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
-    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
-    sp.set_defaults(func=_cmd_audit)
 
-    sp = sub.add_parser("calibrate", help="fit robot parameters to measured positions")
+def _calibrate_arguments(sp):
+    from labkit.measure import GROUPS  # calibration parameter groups
+
     sp.add_argument("file", help="measurement CSV with commanded joints and x/y/z readings")
     sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
     sp.add_argument("--params", nargs="+", default=["joint_offsets", "link_lengths"],

@@ -7,9 +7,6 @@ import os
 import sys
 from pathlib import Path
 
-#: seconds one notebook cell may run (the default of ``--timeout``)
-from labkit.reports import CELL_TIMEOUT
-
 
 def add_commands(sub):
     """Add ``run`` and ``render`` to the ``labkit`` subcommands.
@@ -28,7 +25,13 @@ def add_commands(sub):
     sp.add_argument("--no-input", action="store_true", help="report mode: hide code in the HTML")
     sp.set_defaults(func=_cmd_run)
 
-    sp = sub.add_parser("render", help="execute notebooks in parallel and write HTML/PDF reports + index")
+    sub.add_parser("render", help="execute notebooks in parallel and write HTML/PDF reports + index",
+                   build=_render_arguments)
+
+
+def _render_arguments(sp):
+    from labkit.reports import CELL_TIMEOUT  # seconds one notebook cell may run (default of --timeout)
+
     sp.add_argument("notebooks", nargs="*", metavar="NOTEBOOK_OR_LAB",
                     help="notebooks, lab folders or lab names (default: all under notebooks/)")
     sp.add_argument("-j", "--jobs", type=int, default=2, help="parallel worker processes (default 2)")

@@ -5,136 +5,160 @@ m for prismatic joints] and return arrays with the same leading dimensions.
 
 Implementation note: the chain is evaluated column by column on
 structure-of-arrays blocks (each rotation column and the origin stored as a
-``(3, N)`` array), in cache-sized chunks. Each DH step is then a handful of
-vectorised multiply-adds instead of a batched 4x4 matrix product, which is what
-makes batched FK run at millions of configurations per second in pure NumPy.
+``(3, m)`` array), in cache-sized chunks. Each joint's cosine and sine are
+computed once per chunk, for all joints together on one contiguous block
+(through the half-angle tangent, see :mod:`labkit.kinematics._chain`); each DH
+step is then a handful of vectorised multiply-adds instead of a batched 4x4
+matrix product; an identity base or tool is skipped; and the results go
+straight into the output array (written once, or into the caller's ``out``).
+A handful of configurations (``N <= SMALL_BATCH``) takes the pure-Python path
+of :mod:`labkit.kinematics._forward_small` instead, which skips the array
+bookkeeping (same results to ~1e-16).
 """
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
-from labkit.validation import as_vector
-from labkit.robot.types import Convention
 from labkit.exceptions import OptionError, ShapeError
+from labkit.kinematics import _forward_small as _small
+from labkit.kinematics._chain import check_out, half_angle_trig, prepare
+from labkit.validation import as_vector
 
 __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
+#: configurations per chunk of the batched kernels (blocks stay in the L2 cache)
 _CHUNK = 8192
-#: per-link constants per robot object (a keyed cache: Robot stays plain frozen data)
-_PLANS = weakref.WeakKeyDictionary()
+#: the Jacobian's per-chunk scratch grows with n: chunks of _JCHUNK_ENTRIES // n configurations
+_JCHUNK_ENTRIES = 12288
+#: at most this many configurations go through the pure-Python path
+SMALL_BATCH = 4
+_E = np.eye(3)[:, :, None]  # the unit columns as (3, 1) blocks
+_ZERO = np.zeros((3, 1))
 
 
-def _clean(v):
-    """cos/sin of DH constants with exact zeros and ones (cos(pi/2) -> 0)."""
-    return 0.0 if abs(v) < 1e-15 else (1.0 if abs(v - 1) < 1e-15 else (-1.0 if abs(v + 1) < 1e-15 else v))
+def _trig(c, qc):
+    """Cosines and sines of the revolute joints for a chunk ``qc`` (m, n): two (r, m) blocks."""
+    m = qc.shape[0]
+    h = np.empty((c.revolute.size, m))
+    np.multiply((qc if c.all_revolute else qc[:, c.revolute]).T, 0.5, out=h)
+    if c.half_theta is not None:
+        h += c.half_theta
+    np.tan(h, out=h)
+    return half_angle_trig(h)
 
 
-def _plan(robot):
-    """Per-link constants of the chain (cached per robot object)."""
-    cached = _PLANS.get(robot)
-    if cached is not None:
-        return cached
-    steps = []
-    for lk in robot.links:
-        steps.append(
-            (
-                lk.is_revolute,
-                float(lk.a),
-                _clean(np.cos(lk.alpha)),
-                _clean(np.sin(lk.alpha)),
-                float(lk.d),
-                float(lk.theta),
-            )
-        )
-    plan = (robot.convention is Convention.MODIFIED, tuple(steps))
-    _PLANS[robot] = plan
-    return plan
+def _comb(x, cx, y, cy):
+    """``x * cx + y * cy`` for (3, 1) or (3, m) blocks, with one temporary."""
+    r = x * cx
+    s = y * cy
+    if r.shape[-1] >= s.shape[-1]:
+        r += s
+        return r
+    s += r
+    return s
 
 
 def _rotate_x(c1, c2, ca, sa):
     """Columns 1, 2 after post-multiplying by Rx(alpha)."""
     if sa == 0.0:
-        if ca == 1.0:
-            return c1, c2
-        return -c1, -c2
+        return (c1, c2) if ca == 1.0 else (-c1, -c2)
     if ca == 0.0:
         return (c2, -c1) if sa > 0 else (-c2, c1)
-    return ca * c1 + sa * c2, ca * c2 - sa * c1
+    return _comb(c1, ca, c2, sa), _comb(c2, ca, c1, -sa)
 
 
-def _walk(robot, q, *, axes=False, frames=False):
-    """Run the chain for ``q`` of shape (N, n).
+def _walk(c, qc, *, axes=None, frames=False):
+    """Run the chain for a chunk ``qc`` of shape (m, n).
 
-    Returns the final ``(c0, c1, c2, p)`` of frame n (before the tool), and
-    optionally the joint axes/origins ``[(z_i, o_i)]`` and every frame.
+    Returns the final ``(c0, c1, c2, p)`` of frame n (before the tool) and,
+    with ``frames``, every frame. ``axes``, a pair of (3, n, m) arrays,
+    receives each joint's axis direction and a point on it. Blocks are never
+    modified once made, so the stored frames stay valid.
     """
-    modified, steps = _plan(robot)
-    B = robot.base
-    c0, c1, c2, p = (B[:3, k, None] for k in range(4))
-    joint_axes = []
+    cos, sin = _trig(c, qc)
+    if c.base is None:
+        c0, c1, c2, p = _E[0], _E[1], _E[2], _ZERO
+    else:
+        c0, c1, c2, p = (c.base[:3, k, None] for k in range(4))
     all_frames = []
-    for i, (rev, a, ca, sa, d, th) in enumerate(steps):
-        qi = q[:, i]
+    j = 0
+    for i, (rev, a, ca, sa, d, _, cth, sth) in enumerate(c.steps):
         if rev:
-            ang = qi + th if th != 0.0 else qi
-            ct, st = np.cos(ang), np.sin(ang)
+            ct, st = cos[j], sin[j]
+            j += 1
         else:
-            ct, st = _clean(np.cos(th)), _clean(np.sin(th))
-            dd = qi + d if d != 0.0 else qi
-        if modified:
+            ct, st = cth, sth
+            dd = qc[:, i] + d if d != 0.0 else qc[:, i]
+        if c.modified:
             c1, c2 = _rotate_x(c1, c2, ca, sa)
             if a != 0.0:
                 p = p + a * c0
-            if axes:
-                joint_axes.append((c2, p))
-            n0 = c0 * ct + c1 * st
-            c1 = c1 * ct - c0 * st
-            c0 = n0
-            if rev:
-                if d != 0.0:
-                    p = p + d * c2
-            else:
+            if axes is not None:
+                axes[0][:, i] = c2
+                axes[1][:, i] = p
+            c0, c1 = _comb(c0, ct, c1, st), _comb(c1, ct, c0, -st)
+            if not rev:
                 p = p + c2 * dd
+            elif d != 0.0:
+                p = p + d * c2
         else:
-            if axes:
-                joint_axes.append((c2, p))
-            n0 = c0 * ct + c1 * st
-            n1 = c1 * ct - c0 * st
-            if rev:
-                if d != 0.0:
-                    p = p + d * c2
-            else:
+            if axes is not None:
+                axes[0][:, i] = c2
+                axes[1][:, i] = p
+            n0, n1 = _comb(c0, ct, c1, st), _comb(c1, ct, c0, -st)
+            if not rev:
                 p = p + c2 * dd
+            elif d != 0.0:
+                p = p + d * c2
             if a != 0.0:
                 p = p + a * n0
             c0 = n0
             c1, c2 = _rotate_x(n1, c2, ca, sa)
         if frames:
             all_frames.append((c0, c1, c2, p))
-    return (c0, c1, c2, p), joint_axes, all_frames
+    return (c0, c1, c2, p), all_frames
 
 
-def _apply_tool(robot, c0, c1, c2, p, point=None):
-    T = robot.tool
-    cols = []
-    for k in range(3):
-        t = T[:3, k]
-        cols.append(c0 * t[0] + c1 * t[1] + c2 * t[2])
-    t = T[:3, 3] if point is None else T[:3, 3] + T[:3, :3] @ point
-    p = p + c0 * t[0] + c1 * t[1] + c2 * t[2]
-    return cols[0], cols[1], cols[2], p
+def _tool_offset(c, point):
+    """Origin of the output frame in frame-n coordinates [m] (None: frame n's origin)."""
+    if c.tool is None:
+        return point
+    return c.tool[:3, 3] if point is None else c.tool[:3, 3] + c.tool[:3, :3] @ point
 
 
-def _assemble(cols, N):
-    """(3, N) columns -> (N, 4, 4) homogeneous transforms."""
-    out = np.zeros((N, 4, 4))
-    for k, c in enumerate(cols):
-        out[:, :3, k] = np.broadcast_to(c, (3, N)).T
-    out[:, 3, 3] = 1.0
-    return out
+def _apply_tool(c, c0, c1, c2, p, point=None):
+    """The final frame's columns after the tool transform, its origin moved to ``point``."""
+    off = _tool_offset(c, point)
+    if off is not None:
+        p = _lincomb(p, (c0, c1, c2), off)
+    if c.tool is not None and not np.array_equal(c.tool[:3, :3], np.eye(3)):
+        R = c.tool
+        c0, c1, c2 = (_lincomb(None, (c0, c1, c2), R[:3, k]) for k in range(3))
+    return c0, c1, c2, p
+
+
+def _lincomb(p, cols, w):
+    """``p + sum_k cols[k] * w[k]`` (``p`` may be None), skipping zero weights."""
+    for col, v in zip(cols, w):
+        if v != 0.0:
+            term = col * v
+            p = term if p is None else p + term
+    return p if p is not None else np.zeros_like(cols[0])
+
+
+def _pose_buffer(m):
+    """A (16, m) block for m poses, bottom rows ``[0, 0, 0, 1]`` already filled in."""
+    W = np.empty((16, m))
+    W[12:15] = 0.0
+    W[15] = 1.0
+    return W
+
+
+def _write_pose(O, cols):
+    """Write a (3, m) column set into rows 0-11 of ``O``, a (16, m) block of (m, 4, 4) poses."""
+    for k, col in enumerate(cols):
+        O[k:12:4] = col
 
 
 def _as_point(point):
@@ -147,24 +171,11 @@ def _as_point(point):
     return pt
 
 
-def _flipped(robot):
-    """Indices of the joints whose variable enters the chain negated (``Link.flip``)."""
-    return [i for i, lk in enumerate(robot.links) if lk.flip]
+def _output(out, shape):
+    return np.empty(shape) if out is None else check_out(out, shape)
 
 
-def _prepare(robot, q):
-    """Validated ``q`` as (N, n) in the chain's sense (flipped joints negated), and the leading shape."""
-    q = as_vector(q, robot.n, "q")
-    lead = q.shape[:-1]
-    q = q.reshape(-1, robot.n)
-    flipped = _flipped(robot)
-    if flipped:  # the one place q enters the chain: theta_i = -q_i + theta (d_i = -q_i + d)
-        q = q.copy()
-        q[:, flipped] *= -1.0
-    return q, lead
-
-
-def fk(robot, q):
+def fk(robot, q, *, out=None):
     """End-effector pose ``world_from_tool`` for joint values ``q``.
 
     Parameters
@@ -172,6 +183,8 @@ def fk(robot, q):
     robot : Robot
     q : array_like, shape (..., n)
         Joint values [rad for revolute, m for prismatic joints].
+    out : ndarray, shape (..., 4, 4), optional
+        C-contiguous float64 array to write the result into (and return).
 
     Returns
     -------
@@ -181,7 +194,8 @@ def fk(robot, q):
     Raises
     ------
     ShapeError
-        If ``q`` does not end in ``n`` or holds non-finite values.
+        If ``q`` does not end in ``n`` or holds non-finite values, or ``out``
+        does not fit.
 
     Examples
     --------
@@ -190,18 +204,24 @@ def fk(robot, q):
     >>> np.round(fk(arm, np.radians([5.0, 0.0, 0.0]))[:3, 3], 4)
     array([0.273 , 0.0239, 0.    ])
     """
-    q2, lead = _prepare(robot, q)
+    c, q2, lead = prepare(robot, q)
     N = q2.shape[0]
-    out = np.empty((N, 4, 4))
+    shape = lead + (4, 4)
+    if N <= SMALL_BATCH and out is None:
+        return np.array(_small.fk(c, q2.tolist(), _tool_offset(c, None))).reshape(shape)
+    res = _output(out, shape)
+    flat = res.reshape(N, 16)
+    W = _pose_buffer(min(N, _CHUNK))
     for s in range(0, N, _CHUNK):
         qc = q2[s:s + _CHUNK]
-        (c0, c1, c2, p), _, _ = _walk(robot, qc)
-        cols = _apply_tool(robot, c0, c1, c2, p)
-        out[s:s + _CHUNK] = _assemble(cols, qc.shape[0])
-    return out.reshape(lead + (4, 4))
+        m = qc.shape[0]
+        cols, _ = _walk(c, qc)
+        _write_pose(W[:, :m], _apply_tool(c, *cols))
+        np.copyto(flat[s:s + m], W[:, :m].T)
+    return res
 
 
-def fk_position(robot, q, point=None):
+def fk_position(robot, q, point=None, *, out=None):
     """End-effector position only (faster than :func:`fk` when orientation is not needed).
 
     Parameters
@@ -211,6 +231,8 @@ def fk_position(robot, q, point=None):
         Joint values [rad, m].
     point : array_like, shape (3,), optional
         A point given in the tool frame [m]; default the tool-frame origin.
+    out : ndarray, shape (..., 3), optional
+        C-contiguous float64 array to write the result into (and return).
 
     Returns
     -------
@@ -223,17 +245,20 @@ def fk_position(robot, q, point=None):
     >>> np.round(fk_position(Robot.load("planar3r_seed004"), [0.0, 0.0, np.pi / 2]), 3)
     array([0.35, 0.12, 0.  ])
     """
-    q2, lead = _prepare(robot, q)
-    pt = _as_point(point)
+    c, q2, lead = prepare(robot, q)
+    off = _tool_offset(c, _as_point(point))
     N = q2.shape[0]
-    out = np.empty((N, 3))
+    shape = lead + (3,)
+    if N <= SMALL_BATCH and out is None:
+        return np.array(_small.position(c, q2.tolist(), off)).reshape(shape)
+    res = _output(out, shape)
+    flat = res.reshape(N, 3)
     for s in range(0, N, _CHUNK):
-        (c0, c1, c2, p), _, _ = _walk(robot, q2[s:s + _CHUNK])
-        T = robot.tool
-        t = T[:3, 3] if pt is None else T[:3, 3] + T[:3, :3] @ pt
-        p = p + c0 * t[0] + c1 * t[1] + c2 * t[2]
-        out[s:s + _CHUNK] = np.broadcast_to(p, (3, min(_CHUNK, N - s))).T
-    return out.reshape(lead + (3,))
+        (c0, c1, c2, p), _ = _walk(c, q2[s:s + _CHUNK])
+        if off is not None:
+            p = _lincomb(p, (c0, c1, c2), off)
+        flat[s:s + _CHUNK].T[...] = p
+    return res
 
 
 def fk_frames(robot, q):
@@ -257,49 +282,89 @@ def fk_frames(robot, q):
     >>> fk_frames(Robot.load("puma560"), np.zeros(6)).shape
     (8, 4, 4)
     """
-    q2, lead = _prepare(robot, q)
+    c, q2, lead = prepare(robot, q)
     N = q2.shape[0]
-    n = robot.n
+    n = c.n
     out = np.empty((N, n + 2, 4, 4))
-    B = robot.base
-    out[:, 0] = B
+    out[:, 0] = robot.base
+    flat = out.reshape(N, n + 2, 16)
     for s in range(0, N, _CHUNK):
         qc = q2[s:s + _CHUNK]
-        m = qc.shape[0]
-        (c0, c1, c2, p), _, frames = _walk(robot, qc, frames=True)
-        for i, cols in enumerate(frames):
-            out[s:s + m, i + 1] = _assemble(cols, m)
-        out[s:s + m, n + 1] = _assemble(_apply_tool(robot, c0, c1, c2, p), m)
+        cols, frames = _walk(c, qc, frames=True)
+        for i, fr in enumerate(frames + [_apply_tool(c, *cols)]):
+            O = flat[s:s + _CHUNK, i + 1].T
+            _write_pose(O, fr)
+            O[12:15] = 0.0
+            O[15] = 1.0
     return out.reshape(lead + (n + 2, 4, 4))
 
 
-def _cross(a, b):
-    return np.stack(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+def _jacobian_chunk(c, qc, pt, frame, W, WJ, axes):
+    """Pose (into ``W``, (16, m), unless None) and Jacobian (into ``WJ``, (6n, m)) of a chunk.
+
+    ``axes`` is scratch: two (3, n, m) arrays.
+    """
+    n, m = c.n, qc.shape[0]
+    Z, O = axes[0][:, :, :m], axes[1][:, :, :m]
+    V, Wr = WJ[:3 * n].reshape(3, n, m), WJ[3 * n:].reshape(3, n, m)
+    (c0, c1, c2, p), _ = _walk(c, qc, axes=(Wr, O))  # axes straight into the angular rows
+    t0, t1, t2, pe = _apply_tool(c, c0, c1, c2, p, pt)
+    np.subtract(pe[:, None, :], O, out=O)  # lever arms pe - o_i, all joints at once
+    for k in range(3):
+        k1, k2 = (k + 1) % 3, (k + 2) % 3
+        np.multiply(Wr[k1], O[k2], out=V[k])
+        np.multiply(Wr[k2], O[k1], out=Z[k])
+        V[k] -= Z[k]
+    for i, step in enumerate(c.steps):
+        if not step[0]:  # prismatic: the axis moves the point, no rotation
+            V[:, i] = Wr[:, i]
+            Wr[:, i] = 0.0
+    if frame == "tool":  # rows of R^T J: tool axis k dotted with the linear and the angular parts
+        for part in (V, Wr):
+            P = part.copy()
+            for k, t in enumerate((t0, t1, t2)):
+                np.multiply(P[0], t[0], out=part[k])
+                part[k] += P[1] * t[1]
+                part[k] += P[2] * t[2]
+    if W is not None:
+        _write_pose(W, (t0, t1, t2, pe))
 
 
-def _jacobian_chunk(robot, qc, point, frame):
-    m = qc.shape[0]
-    (c0, c1, c2, p), joint_axes, _ = _walk(robot, qc, axes=True)
-    t0, t1, t2, pe = _apply_tool(robot, c0, c1, c2, p, point)
-    J = np.zeros((m, 6, robot.n))
-    for i, ((z, o), lk) in enumerate(zip(joint_axes, robot.links)):
-        z = np.broadcast_to(z, (3, m))
-        if lk.is_revolute:
-            J[:, :3, i] = _cross(z, pe - o).T
-            J[:, 3:, i] = z.T
-        else:
-            J[:, :3, i] = z.T
-    T = _assemble((t0, t1, t2, pe), m)
-    if frame == "tool":
-        Rt = np.swapaxes(T[:, :3, :3], -1, -2)
-        J[:, :3] = Rt @ J[:, :3]
-        J[:, 3:] = Rt @ J[:, 3:]
+def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
+    if frame not in ("base", "tool"):
+        raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
+    c, q2, lead = prepare(robot, q)
+    pt = _as_point(point)
+    off = _tool_offset(c, pt)
+    N, n = q2.shape[0], c.n
+    if N <= SMALL_BATCH and out_T is None and out_J is None:
+        T, J = _small.fk_jacobian(c, q2.tolist(), off, frame == "tool", want_T)
+        J = np.array(J).reshape(lead + (6, n))
+        if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
+            J[..., c.flipped] *= -1.0
+        return (np.array(T).reshape(lead + (4, 4)) if want_T else None), J
+    J = _output(out_J, lead + (6, n))
+    T = _output(out_T, lead + (4, 4)) if want_T else None
+    fJ = J.reshape(N, 6 * n)
+    fT = T.reshape(N, 16) if want_T else None
+    chunk = max(256, _JCHUNK_ENTRIES // n)
+    m = min(N, chunk)
+    W = _pose_buffer(m) if want_T else None
+    WJ = np.empty((6 * n, m))
+    axes = np.empty((3, n, m)), np.empty((3, n, m))
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
+        k = qc.shape[0]
+        _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
+        np.copyto(fJ[s:s + k], WJ[:, :k].T)
+        if want_T:
+            np.copyto(fT[s:s + k], W[:, :k].T)
+    if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
+        J[..., c.flipped] *= -1.0
     return T, J
 
 
-def fk_jacobian(robot, q, *, point=None, frame="base"):
+def fk_jacobian(robot, q, *, point=None, frame="base", out=None):
     """Pose and geometric Jacobian together (one pass over the chain).
 
     Same results as :func:`fk` and :func:`jacobian`, cheaper than calling both.
@@ -314,6 +379,9 @@ def fk_jacobian(robot, q, *, point=None, frame="base"):
         maps to its velocity and ``T`` has it as origin (tool orientation).
     frame : {"base", "tool"}
         Frame the velocity is expressed in.
+    out : tuple of ndarray, optional
+        ``(T_out, J_out)``, C-contiguous float64 arrays of shapes
+        ``(..., 4, 4)`` and ``(..., 6, n)`` to write the results into.
 
     Returns
     -------
@@ -325,31 +393,34 @@ def fk_jacobian(robot, q, *, point=None, frame="base"):
     Raises
     ------
     ShapeError
-        If ``q`` does not end in ``n`` or holds non-finite values.
-    ValueError
+        If ``q`` does not end in ``n`` or holds non-finite values, or ``out``
+        does not fit.
+    OptionError
         If ``frame`` is neither "base" nor "tool".
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> T, J = fk_jacobian(Robot.load("puma560"), np.zeros((10, 6)))
+    >>> T.shape, J.shape
+    ((10, 4, 4), (10, 6, 6))
     """
-    if frame not in ("base", "tool"):
-        raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
-    q2, lead = _prepare(robot, q)
-    pt = _as_point(point)
-    N = q2.shape[0]
-    T = np.empty((N, 4, 4))
-    J = np.empty((N, 6, robot.n))
-    for s in range(0, N, _CHUNK):
-        T[s:s + _CHUNK], J[s:s + _CHUNK] = _jacobian_chunk(robot, q2[s:s + _CHUNK], pt, frame)
-    flipped = _flipped(robot)
-    if flipped:  # d/dq_i = -d/dtheta_i for a flipped joint
-        J[:, :, flipped] *= -1.0
-    return T.reshape(lead + (4, 4)), J.reshape(lead + (6, robot.n))
+    if out is None:
+        out_T = out_J = None
+    else:
+        try:
+            out_T, out_J = out
+        except (TypeError, ValueError):
+            raise ShapeError(f"expected out as a pair (T_out, J_out), got {type(out).__name__}") from None
+    return _jacobian_call(robot, q, point, frame, True, out_T, out_J)
 
 
-def jacobian(robot, q, *, point=None, frame="base"):
+def jacobian(robot, q, *, point=None, frame="base", out=None):
     """Geometric Jacobian of a point fixed to the tool frame.
 
     Maps joint rates to the spatial velocity ``[v; omega]`` of the point:
     ``v`` its linear velocity [m/s] and ``omega`` the angular velocity of the
-    tool frame [rad/s].
+    tool frame [rad/s]. Poses are not materialised.
 
     Parameters
     ----------
@@ -360,6 +431,8 @@ def jacobian(robot, q, *, point=None, frame="base"):
         Point in tool-frame coordinates [m] (default: tool-frame origin).
     frame : {"base", "tool"}
         Frame the velocity is expressed in.
+    out : ndarray, shape (..., 6, n), optional
+        C-contiguous float64 array to write the result into (and return).
 
     Returns
     -------
@@ -373,4 +446,4 @@ def jacobian(robot, q, *, point=None, frame="base"):
     >>> np.round(jacobian(rpp, [0.0, 1.0, 1.0], point=None), 6)[:, 0]
     array([0., 1., 0., 0., 0., 1.])
     """
-    return fk_jacobian(robot, q, point=point, frame=frame)[1]
+    return _jacobian_call(robot, q, point, frame, False, None, out)[1]

@@ -391,6 +391,12 @@ class SphericalWrist:
         # a vector perpendicular to axis 6, to recover q6
         t = np.eye(3)[int(np.argmin(np.abs(a6)))]
         self.x6 = _unit(t - a6 * (t @ a6))
+        # constants of the wrist subproblems (per robot, not per call)
+        self._k12 = float(a4 @ a5)
+        self._cr = np.cross(a4, a5)
+        self._a5p = float(a5 @ a6)
+        self._c5 = np.cross(a5, a6)
+        self._c6 = np.cross(a6, self.x6)
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
@@ -428,13 +434,9 @@ class SphericalWrist:
         V = np.concatenate([(RR0t @ self.a6).T, (RR0t @ self.x6).T], axis=1)  # (3, 2N)
         a4, a5, a6, p = self.a4, self.a5, self.a6, self.a6
         K1, K2, K4, K5 = self._K
-        k12 = a4 @ a5
+        k12, cr, a5p, c5, c6 = self._k12, self._cr, self._a5p, self._c5, self._c6
         den = k12 * k12 - 1.0
-        cr = np.cross(a4, a5)
         cr2 = cr @ cr
-        a5p = a5 @ p
-        c5 = np.cross(a5, p)
-        c6 = np.cross(a6, self.x6)
         q = np.empty((N, 8, 6))
         reach = np.repeat(ok, 2, axis=1)  # arm solution k -> wrist branches 2k, 2k + 1
         for side in (0, 1):

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.kinematics import _ik_analytic
+from labkit.kinematics import _ik_analytic, _ik_lean
+from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
 from labkit.rotations import wrap_angle
 
@@ -70,6 +71,43 @@ def _random_q(rng, limits, size):
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 
+def analytic_seeds(robot, kind, target, rng):
+    """Starting configurations from a closed-form family that fits the whole chain, or None.
+
+    When :func:`labkit.kinematics._ik_analytic.detect` finds a solver for
+    ``robot`` whose targets are of ``kind``, each target starts from its first
+    branch that is reachable and inside the joint limits (so LM only polishes
+    it); targets without such a branch start from a random configuration.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    rng : numpy.random.Generator
+        Draws the random starts.
+
+    Returns
+    -------
+    ndarray, shape (N, n), or None
+        Starting configurations [rad, m]; None when no closed form applies.
+    """
+    found, _ = _ik_analytic.detect(robot)
+    if found is None or found.kind != kind:
+        return None
+    limits = robot.joint_limits
+    q, reach, _ = found.solve(target)
+    q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
+    valid = reach & robot.within_limits(q) & np.isfinite(q).all(axis=-1)
+    seeds = _random_q(rng, limits, target.shape[0])
+    has = valid.any(axis=1)
+    seeds[has] = q[has, np.argmax(valid[has], axis=1)]
+    return seeds
+
+
 def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
     """Batched LM with restarts, then batched multi-start for the stragglers.
 
@@ -87,7 +125,9 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     target : ndarray, shape (N, 3) or (N, 4, 4)
         Targets [m, rad].
     q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None draws random in-limit starts.
+        Starting configurations [rad, m]; None starts from the closed-form
+        solution where a closed-form family fits the robot
+        (:func:`analytic_seeds`), else from random in-limit configurations.
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
     tol : float
@@ -110,6 +150,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     residual : ndarray, shape (N,)
         Final task-space error norm [m, rad].
     """
+    if q0 is None:
+        q0 = analytic_seeds(robot, kind, target, rng)
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng
     )
@@ -123,7 +165,7 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
             break
         tg = np.repeat(target[fail], K, axis=0)
         qr, okr, itr, resr = _attempts(
-            robot, kind, tg, None, rows, tol=tol, max_iter=max_iter, restarts=1, rng=rng
+            robot, kind, tg, None, rows, tol=tol, max_iter=max_iter, restarts=1, rng=rng, group=K
         )
         okr = okr.reshape(-1, K)
         resr = resr.reshape(-1, K)
@@ -139,13 +181,15 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     return q, success, iterations, residual
 
 
-def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8):
+def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8, group=1):
     """Run batched LM; target (N, ...) flattened, q0 (N, n) or None.
 
     An attempt ends for a target when it converges, after ``max_iter``
     iterations, or when its squared error has not dropped by 10x over the last
     ``check_every`` iterations (stalled, typically against a joint limit);
     it then restarts from a random configuration, up to ``restarts`` times.
+    Rows come in consecutive groups of ``group`` copies of one target (the
+    multi-start): once a copy converges, its siblings stop iterating.
 
     Parameters
     ----------
@@ -167,8 +211,8 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         Sequential restarts, then multi-start rounds, for failing targets.
     rng : numpy.random.Generator
         Draws the random starts (seeded by the caller).
-    multistart : int
-        Most copies per failing target in a multi-start round.
+    group : int
+        Size of the groups of copies of one target (1: every row its own).
 
     Returns
     -------
@@ -180,6 +224,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         Final task-space error norm [m, rad].
     """
     N = target.shape[0]
+    group_done = np.zeros(-(-N // group), dtype=bool)
     n = robot.n
     limits = robot.joint_limits
     lo, hi = limits[:, 0], limits[:, 1]
@@ -195,15 +240,39 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     rev = robot.is_revolute
     free_lo = np.where(rev, -np.inf, lo)
     free_hi = np.where(rev, np.inf, hi)
+    c = chain(robot)
+
+    def lean(i, qi, lam_i, first, E_check, checked=False):
+        """Finish the current attempt of target ``i`` alone (same iteration, same bookkeeping)."""
+        qi, res_i, its, outcome = _ik_lean.attempt(
+            robot, c, kind, target[i], qi, rows, lo=alo, hi=ahi, free=free, tol=tol, max_iter=max_iter,
+            check_every=check_every, lam0=lam_i, first=first, E_check=E_check, checked=checked,
+            normalize=lambda qq: _ik_analytic.normalize_angles(qq, limits, rev),
+        )
+        iterations[i] += its
+        inside = bool(robot.within_limits(qi))
+        if outcome == "done" or (outcome == "exhausted" and res_i < tol and inside):
+            q[i], success[i], residual[i] = qi, True, res_i
+            return
+        if res_i < residual[i] and inside:
+            residual[i], best_q[i] = res_i, qi
+        if outcome == "exhausted":
+            q[i] = qi
+
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (free_lo, free_hi) if free else (lo, hi)
         act = np.flatnonzero(~success)
+        if group > 1:
+            act = act[~group_done[act // group]]
         if act.size == 0:
             break
         if attempt > 0:
             q[act] = _random_q(rng, limits, act.size)
+        if act.size == 1 and group == 1:  # one target: the lean path, no batch bookkeeping
+            lean(act[0], q[act[0]], lam0, 1, None)
+            continue
         qa = q[act]
         tg = target[act]
         T, J = fk_jacobian(robot, qa)
@@ -239,9 +308,15 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 residual[s_idx[better]] = res[stalled][better]
                 best_q[s_idx[better]] = qa[stalled][better]
                 keep = ~(done | stalled)
+                if group > 1 and np.any(done):  # a copy converged: its siblings stop
+                    group_done[act[done] // group] = True
+                    keep &= ~group_done[act // group]
                 act, qa, tg, J, e, res, lam, E, E_check = (
                     x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
                 )
+                if act.size == 1 and group == 1:  # the last target finishes the attempt alone
+                    lean(act[0], qa[0], lam[0], it, E_check[0], checked=True)
+                    act = act[:0]
             if act.size == 0:
                 break
             iterations[act] += 1

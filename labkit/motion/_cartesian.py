@@ -207,19 +207,37 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         ) from exc
 
 
-def _solve3(J, b):
-    """Solve J x = b for a batch of 3x3 matrices (adjugate; rows with det ~ 0 by lstsq)."""
-    c0 = np.cross(J[:, :, 1], J[:, :, 2])
-    c1 = np.cross(J[:, :, 2], J[:, :, 0])
-    c2 = np.cross(J[:, :, 0], J[:, :, 1])
-    det = np.einsum("ni,ni->n", J[:, :, 0], c0)
-    scale = np.abs(J).max(axis=(1, 2)) ** 3 + 1e-300
-    ok = np.abs(det) > 1e-12 * scale
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.stack([np.einsum("ni,ni->n", c, b) for c in (c0, c1, c2)], axis=-1) / det[:, None]
-    if not np.all(ok):  # singular samples: least squares (finite, the minimum-norm rate)
-        x[~ok] = np.einsum("nij,nj->ni", np.linalg.pinv(J[~ok]), b[~ok])
-    return x
+def _solver3(J):
+    """``b -> J^-1 b`` for a batch of 3x3 matrices J (N, 3, 3), factored once (adjugate).
+
+    Rows whose determinant is below 1e-12 of the product of the column norms
+    (a singular arm) get the least-squares, minimum-norm solution instead.
+    """
+    A = np.ascontiguousarray(J.transpose(1, 2, 0))  # A[i, j] = J[:, i, j], each (N,) contiguous
+    # rows of the adjugate: cross products of the columns (c_k . column_k = det)
+    cof = np.empty_like(A)
+    for k in range(3):
+        j1, j2 = (k + 1) % 3, (k + 2) % 3
+        for i in range(3):
+            i1, i2 = (i + 1) % 3, (i + 2) % 3
+            np.multiply(A[i1, j1], A[i2, j2], out=cof[k, i])
+            cof[k, i] -= A[i2, j1] * A[i1, j2]
+    det = cof[0, 0] * A[0, 0] + cof[0, 1] * A[1, 0] + cof[0, 2] * A[2, 0]
+    norms = np.sqrt((A * A).sum(axis=0))  # (3, N) column norms
+    ok = np.abs(det) > 1e-12 * (norms[0] * norms[1] * norms[2] + 1e-300)
+    inv_det = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    pinv = np.linalg.pinv(J[~ok]) if not np.all(ok) else None
+
+    def solve(b):
+        bt = b.T
+        x = np.empty_like(b)
+        for k in range(3):
+            x[:, k] = (cof[k, 0] * bt[0] + cof[k, 1] * bt[1] + cof[k, 2] * bt[2]) * inv_det
+        if pinv is not None:  # singular samples: least squares (finite, the minimum-norm rate)
+            x[~ok] = np.einsum("nij,nj->ni", pinv, b[~ok])
+        return x
+
+    return solve
 
 
 def _joint_rates(robot, kind, q, xd, xdd):
@@ -229,14 +247,14 @@ def _joint_rates(robot, kind, q, xd, xdd):
     T, J = kinematics.fk_jacobian(robot, q)
     J = J[:, rows, :]
     if J.shape[-1] == 3 == J.shape[-2]:
-        solve = _solve3
+        solve = _solver3(J)
     else:
         Jinv = np.linalg.pinv(J)
 
-        def solve(_, b):
+        def solve(b):
             return np.einsum("nij,nj->ni", Jinv, b)
 
-    qd = solve(J, xd)
+    qd = solve(xd)
     if kind == "pose":
         h = 1e-6
         Jp = kinematics.jacobian(robot, q + h * qd)[:, rows, :]
@@ -252,7 +270,7 @@ def _joint_rates(robot, kind, q, xd, xdd):
         second = kinematics.fk_position(robot, q + step) + kinematics.fk_position(robot, q - step) - 2 * T[:, :3, 3]
         jdot_qd = second / (h * h)[:, None]
         jdot_qd = jdot_qd if kind == "position" else np.column_stack([jdot_qd[:, :2], np.zeros(len(q))])
-    qdd = solve(J, xdd - jdot_qd)
+    qdd = solve(xdd - jdot_qd)
     return qd, qdd
 
 
