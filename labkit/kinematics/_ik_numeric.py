@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.kinematics import _ik_analytic, _ik_lean
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean
 from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
 from labkit.rotations import wrap_angle
@@ -74,7 +74,7 @@ def _random_q(rng, limits, size):
 def analytic_seeds(robot, kind, target, rng):
     """Starting configurations from a closed-form family that fits the whole chain, or None.
 
-    When :func:`labkit.kinematics._ik_analytic.detect` finds a solver for
+    When :func:`labkit.kinematics._ik_detect.detect` finds a solver for
     ``robot`` whose targets are of ``kind``, each target starts from its first
     branch that is reachable and inside the joint limits (so LM only polishes
     it); targets without such a branch start from a random configuration.
@@ -95,11 +95,14 @@ def analytic_seeds(robot, kind, target, rng):
     ndarray, shape (N, n), or None
         Starting configurations [rad, m]; None when no closed form applies.
     """
-    found, _ = _ik_analytic.detect(robot)
+    found, _ = _ik_detect.detect(robot)
     if found is None or found.kind != kind:
         return None
     limits = robot.joint_limits
     q, reach, _ = found.solve(target)
+    flipped = np.flatnonzero(robot.flip)
+    if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
+        q[..., flipped] *= -1.0
     q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
     valid = reach & robot.within_limits(q) & np.isfinite(q).all(axis=-1)
     seeds = _random_q(rng, limits, target.shape[0])
