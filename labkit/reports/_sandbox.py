@@ -31,6 +31,7 @@ from __future__ import annotations
 import asyncio
 import os
 import shutil
+import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -119,8 +120,12 @@ def _sandboxed_kernel_manager(work: Path, private: Path, limits: Limits, hide):
             return [*prefix, *cmd]  # prlimit execs bwrap: the launched process is the sandbox
 
         async def _async_launch_kernel(self, kernel_cmd, **kw):
+            kw["stdout"] = subprocess.DEVNULL  # ipykernel's banner; the notebook's output goes over ZMQ
+            log = open(private / "kernel.log", "ab")  # noqa: SIM115 - closed by run_untrusted
+            launched.append(log)
+            kw["stderr"] = log
             await super()._async_launch_kernel(kernel_cmd, **kw)
-            launched.append(self.provisioner.process)  # its exit status tells a CPU-limit kill
+            launched.insert(0, self.provisioner.process)  # its exit status tells a CPU-limit kill
 
     km = SandboxedKernelManager(transport="ipc", ip=str(private / "kernel"),
                                 connection_file=str(private / "kernel.json"))
@@ -164,6 +169,7 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
     limits = limits or Limits()
     work = Path(work).resolve()
     private = Path(tempfile.mkdtemp(prefix="labkit-kernel-"))
+    launched = []  # the sandbox's Popen, then its log file
     try:
         (private / "mpl").mkdir()
         cache = Path(os.path.expanduser("~/.cache/matplotlib"))
@@ -181,10 +187,17 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
         except (asyncio.TimeoutError, CellTimeoutError):
             return "timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s"
         except DeadKernelError:
-            code = launched[0].wait(timeout=10) if launched else None
+            try:
+                code = launched[0].wait(timeout=10) if launched and hasattr(launched[0], "wait") else None
+            except subprocess.TimeoutExpired:
+                code = None
             if code in (128 + _SIGXCPU, 128 + _SIGKILL):
                 return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
-            return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code})"
+            try:
+                tail = " ".join((private / "kernel.log").read_text(errors="replace").strip().splitlines()[-2:])
+            except OSError:
+                tail = ""
+            return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code}) {tail}"[:400]
         except RuntimeError as exc:  # kernel failed to start
             return "crash", f"{type(exc).__name__}: {exc}"
         if _memory_error(nb):
@@ -195,4 +208,6 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
                     return "error", f"{out.get('ename')}: {out.get('evalue', '')}"[:300]
         return "ok", ""
     finally:
+        for item in launched[1:]:
+            item.close()
         shutil.rmtree(private, ignore_errors=True)

@@ -136,10 +136,11 @@ def free_port():
         return s.getsockname()[1]
 
 
-@pytest.fixture
-def dask_cluster(tmp_path):
+@pytest.fixture(scope="module")
+def dask_cluster(tmp_path_factory):
     """A dask scheduler and two workers (separate processes, TCP on 127.0.0.1), stopped afterwards."""
     require("distributed")
+    tmp_path = tmp_path_factory.mktemp("dask")
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
     env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
@@ -167,6 +168,30 @@ def dask_cluster(tmp_path):
             except subprocess.TimeoutExpired:
                 p.kill()
         log.close()
+
+
+def test_render_on_dask_sends_reports_back(tmp_path, dask_cluster):
+    """labkit render --scheduler: notebooks shipped to the workers, reports and their files written by the driver."""
+    nbformat = require("nbformat")
+    from labkit.cli import main
+
+    address, _ = dask_cluster
+    nb = nbformat.v4.new_notebook(cells=[
+        nbformat.v4.new_code_cell("output_dir = 'out'\nport = 'serial:///dev/ttyACM0'", metadata={"tags": ["parameters"]}),
+        nbformat.v4.new_code_cell("import os, pathlib\npathlib.Path(output_dir).mkdir(parents=True, exist_ok=True)\n"
+                                  "(pathlib.Path(output_dir) / 'made.txt').write_text(port)\nprint('worker pid', os.getpid())")])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    (tmp_path / "labx").mkdir()
+    for name in ("a", "b"):
+        nbformat.write(nb, str(tmp_path / "labx" / f"{name}.ipynb"))
+    out = tmp_path / "reports"
+    assert main(["render", str(tmp_path / "labx"), "--scheduler", address, "--no-pdf", "-o", str(out),
+                 "-p", "port", "sim://"]) == 0
+    for name in ("a", "b"):
+        assert "worker pid" in (out / "labx" / f"{name}.html").read_text()
+        assert (out / "labx" / f"{name}_files" / "made.txt").read_text() == "sim://"
+    index = (out / "index.html").read_text()
+    assert "2 notebooks, 2 passed, 0 failed" in index
 
 
 def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
