@@ -240,3 +240,22 @@ def test_run_tasks_local_pool_keeps_input_order():
     assert run_tasks(json.dumps, [([i],) for i in range(5)], jobs=2, progress=False) == [f"[{i}]" for i in range(5)]
     with pytest.raises(LabkitError, match="jobs >= 1"):
         run_tasks(json.dumps, [(1,)], jobs=0, progress=False)
+
+
+def test_seed004_is_a_worked_assignment(tmp_path):
+    """The worked example: seed 004's lab tagged; its student version keeps hints and checks, not answers."""
+    nbformat = require("nbformat")
+    from labkit.reports import assign, lab_checks
+
+    lab = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
+    result = assign(lab, tmp_path / "student")
+    assert [c.hidden for c in result.checks] == [False, True, False, False]
+    assert sum(c.points for c in result.checks) == 9
+    student = nbformat.read(str(tmp_path / "student" / "01_ik_elbow_minus.ipynb"), as_version=4)
+    text = "\n".join(c.source for c in student.cells)
+    assert "np.linalg.solve(M, [x3, y3])" not in text and "Hidden checks" not in text
+    assert "# Hint: step 1 joint 3" in text and "raise NotImplementedError()" in text
+    original = nbformat.read(str(lab / "01_ik_elbow_minus.ipynb"), as_version=4)
+    assert "np.linalg.solve(M, [x3, y3])" in "\n".join(c.source for c in original.cells)
+    assert lab_checks(original)[1].name == "A.2 steps"
+    assert [c.id for c in student.cells] == [c.id for c in original.cells if "hidden-tests" not in tags(c)]
