@@ -34,6 +34,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,11 +183,15 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
         async def go():
             await asyncio.wait_for(client.async_execute(), limits.wall_seconds)
 
+        timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
+        t0 = time.monotonic()
         try:
             asyncio.run(go())
         except (asyncio.TimeoutError, CellTimeoutError):
-            return "timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s"
+            return timed_out
         except DeadKernelError:
+            if time.monotonic() - t0 >= limits.wall_seconds:  # killed by the client at the deadline
+                return timed_out
             try:
                 code = launched[0].wait(timeout=10) if launched and hasattr(launched[0], "wait") else None
             except subprocess.TimeoutExpired:

@@ -19,7 +19,7 @@ from labkit.exceptions import LabkitError
 
 pytestmark = pytest.mark.slow
 REMOTE = re.compile(r"""<(?:script|link|img)\b[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", re.IGNORECASE)
-LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=60)
+LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=120)
 
 
 def tags(cell):
@@ -259,3 +259,30 @@ def test_seed004_is_a_worked_assignment(tmp_path):
     assert "np.linalg.solve(M, [x3, y3])" in "\n".join(c.source for c in original.cells)
     assert lab_checks(original)[1].name == "A.2 steps"
     assert [c.id for c in student.cells] == [c.id for c in original.cells if "hidden-tests" not in tags(c)]
+
+
+@pytest.mark.parametrize("sandbox", [True, False])
+def test_run_untrusted_wall_clock_limit(tmp_path, sandbox):
+    """A kernel that sleeps (no CPU used) is stopped at the wall-clock limit; without the sandbox too."""
+    nbformat = require("nbformat")
+    from labkit.reports import Limits, run_untrusted
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import os\nprint(os.getcwd())"),
+                                         nbformat.v4.new_code_cell("import time\ntime.sleep(120)")])
+    t0 = time.monotonic()
+    status, detail = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=10, memory_bytes=2 * 2**30,
+                                                               wall_seconds=8, sandbox=sandbox))
+    assert (status, time.monotonic() - t0 < 60) == ("timeout", True), detail
+    assert nb.cells[0].outputs[0]["text"].strip() == str(tmp_path.resolve())
+
+
+def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
+    from labkit.cli import main
+
+    cl.write_lab(tmp_path / "lab")
+    assert main(["grade", str(tmp_path / "nope"), "--lab", str(tmp_path / "lab"), "-o", str(tmp_path / "g.csv")]) == 2
+    assert "expected one folder per student" in capsys.readouterr().err
+    with pytest.raises(LabkitError, match="expected cpu_seconds > 0"):
+        from labkit.reports import Limits
+
+        Limits(cpu_seconds=0)
