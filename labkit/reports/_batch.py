@@ -15,7 +15,7 @@ Example
 >>> with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
 ...     _ = (pathlib.Path(a) / "x" ).mkdir()
 ...     _ = (pathlib.Path(a) / "x" / "f.txt").write_text("hi")
-...     unpack_dir(pack_dir(a), b)
+...     _ = unpack_dir(pack_dir(a), b)
 ...     (pathlib.Path(b) / "x" / "f.txt").read_text()
 'hi'
 """
