@@ -159,14 +159,15 @@ def dask_cluster(tmp_path_factory):
             client.wait_for_workers(2, timeout=120)
         yield address, procs
     finally:
-        for p in reversed(procs):
+        for p in reversed(procs):  # the workers first (killed: nothing of theirs to save), then the scheduler
             if p.poll() is None:
-                p.terminate()
+                p.kill() if p is not procs[0] else p.terminate()
         for p in procs:
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 p.kill()
+                p.wait()
         log.close()
 
 
