@@ -35,6 +35,8 @@ def _render_arguments(sp):
     sp.add_argument("notebooks", nargs="*", metavar="NOTEBOOK_OR_LAB",
                     help="notebooks, lab folders or lab names (default: all under notebooks/)")
     sp.add_argument("-j", "--jobs", type=int, default=2, help="parallel worker processes (default 2)")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="run on this dask.distributed scheduler (workers need labkit, and Chromium for PDFs)")
     sp.add_argument("--no-input", action="store_true", help="report mode: hide code cells")
     sp.add_argument("--pdf", action=argparse.BooleanOptionalAction, default=True,
                     help="print each report to PDF with headless Chromium (default on)")
@@ -70,10 +72,14 @@ def _cmd_run(args):
 
 
 def _cmd_render(args):
-    from labkit.reports import render
+    from labkit.reports import render, render_batch
 
-    results, wall = render(args.notebooks, args.output, jobs=args.jobs, no_input=args.no_input, pdf=args.pdf,
-                           parameters=_parse_params(args.parameters), timeout=args.timeout)
+    if args.scheduler:  # portable tasks: notebooks shipped to the workers, reports written here
+        results, wall = render_batch(args.notebooks, args.output, scheduler=args.scheduler, no_input=args.no_input,
+                                     pdf=args.pdf, parameters=_parse_params(args.parameters), timeout=args.timeout)
+    else:
+        results, wall = render(args.notebooks, args.output, jobs=args.jobs, no_input=args.no_input, pdf=args.pdf,
+                               parameters=_parse_params(args.parameters), timeout=args.timeout)
     failed = [r for r in results if not r.ok]
     import resource
 

@@ -1,5 +1,7 @@
-"""Reports: executing lab notebooks, rendering HTML/PDF reports, and the helpers
-notebooks use (:class:`Checks`, tables, LaTeX).
+"""Reports: executing lab notebooks, rendering HTML/PDF reports, the helpers
+notebooks use (:class:`Checks`, tables, LaTeX), and a course's loop: student
+versions (:func:`assign`), sandboxed autograding (:func:`grade`) and batches on a
+local pool or a dask.distributed cluster.
 """
 
 from labkit.reports._execute import (
@@ -14,6 +16,30 @@ from labkit.reports._execute import (
 )
 from labkit.reports._render import RenderResult, export_html, print_pdf, render, render_one, write_index
 from labkit.reports._nbtools import CheckRow, Checks, check, show_latex, matrix_latex, show_table
+from labkit.reports._assign import (
+    CODE_STUB,
+    HIDDEN_TESTS_TAG,
+    PARAMETERS_TAG,
+    SOLUTION_TAG,
+    TESTS_TAG,
+    AssignResult,
+    Check,
+    assign,
+    cell_role,
+    lab_checks,
+    student_notebook,
+)
+from labkit.reports._sandbox import Limits, run_untrusted
+from labkit.reports._grade import CheckScore, SubmissionResult, grade_submission, graded_notebook
+from labkit.reports._batch import (
+    grade,
+    gradebook_frame,
+    pack_dir,
+    render_batch,
+    run_tasks,
+    unpack_dir,
+    write_gradebook,
+)
 
 __all__ = [
     "CELL_TIMEOUT",
@@ -36,4 +62,28 @@ __all__ = [
     "show_latex",
     "matrix_latex",
     "show_table",
+    "CODE_STUB",
+    "HIDDEN_TESTS_TAG",
+    "PARAMETERS_TAG",
+    "SOLUTION_TAG",
+    "TESTS_TAG",
+    "AssignResult",
+    "Check",
+    "assign",
+    "cell_role",
+    "lab_checks",
+    "student_notebook",
+    "Limits",
+    "run_untrusted",
+    "CheckScore",
+    "SubmissionResult",
+    "grade_submission",
+    "graded_notebook",
+    "grade",
+    "gradebook_frame",
+    "pack_dir",
+    "render_batch",
+    "run_tasks",
+    "unpack_dir",
+    "write_gradebook",
 ]

@@ -1,0 +1,82 @@
+"""``labkit assign`` and ``labkit grade``: a course's student versions and autograding.
+
+``labkit render --scheduler`` (in ``_reports``) uses the same batch engine.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+
+def add_commands(sub):
+    """Add ``assign`` and ``grade`` to the ``labkit`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommand collection of the ``labkit`` parser.
+    """
+    sp = sub.add_parser("assign", help="write the student version of a tagged lab folder (nbgrader)")
+    sp.add_argument("lab_dir", metavar="LAB_DIR", help="instructor lab folder (cells tagged solution/tests/hidden-tests)")
+    sp.add_argument("out_dir", metavar="OUT_DIR", help="where the student notebooks go")
+    sp.set_defaults(func=_cmd_assign)
+
+    sp = sub.add_parser("grade", help="grade every submission in a sandbox; gradebook CSV/Excel + HTML feedback")
+    sp.add_argument("submissions", metavar="SUBMISSIONS_DIR", help="one folder per student with their notebooks")
+    sp.add_argument("--lab", required=True, metavar="LAB_DIR", help="the instructor's lab folder (with hidden tests)")
+    sp.add_argument("-o", "--output", default="gradebook.csv",
+                    help="gradebook .csv (an .xlsx twin is written too) or .xlsx (default gradebook.csv)")
+    sp.add_argument("--feedback", metavar="DIR", help="feedback reports folder (default: <gradebook stem>_feedback/)")
+    add_engine_options(sp)
+    sp.add_argument("--cpu", type=float, default=120.0, metavar="SECONDS", help="CPU time per notebook (default 120)")
+    sp.add_argument("--memory", type=float, default=4.0, metavar="GIB", help="memory per notebook [GiB] (default 4)")
+    sp.add_argument("--wall", type=float, default=300.0, metavar="SECONDS",
+                    help="wall-clock time per notebook (default 300)")
+    sp.add_argument("--no-sandbox", action="store_true",
+                    help="limits only, no bubblewrap (for machines without it; student code then sees every file)")
+    sp.add_argument("--no-html", action="store_true", help="skip the HTML feedback reports")
+    sp.set_defaults(func=_cmd_grade)
+
+
+def add_engine_options(sp):
+    """Add ``--jobs`` and ``--scheduler`` (the batch engine) to a subcommand's parser.
+
+    Parameters
+    ----------
+    sp : argparse.ArgumentParser
+        The subcommand's parser.
+    """
+    sp.add_argument("-j", "--jobs", type=int, default=2, help="local worker processes (default 2)")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="run on this dask.distributed scheduler instead of the local pool")
+
+
+def _cmd_assign(args):
+    from labkit.reports import assign
+
+    result = assign(args.lab_dir, args.out_dir)
+    hidden = sum(c.hidden for c in result.checks)
+    print(f"{len(result.notebooks)} student notebook(s) in {Path(args.out_dir).resolve()} "
+          f"({len(result.checks) - hidden} public checks kept, {hidden} hidden checks removed, "
+          f"{len(result.other_files)} other file(s) copied)")
+    return 0
+
+
+def _cmd_grade(args):
+    from labkit.reports import Limits, grade, gradebook_frame, write_gradebook
+
+    out = Path(args.output)
+    feedback = Path(args.feedback) if args.feedback else out.with_name(out.stem + "_feedback")
+    limits = Limits(cpu_seconds=args.cpu, memory_bytes=int(args.memory * 2**30), wall_seconds=args.wall,
+                    sandbox=not args.no_sandbox)
+    results = grade(args.submissions, args.lab, feedback, limits=limits, scheduler=args.scheduler, jobs=args.jobs,
+                    html=not args.no_html)
+    frame = gradebook_frame(results)
+    written = write_gradebook(frame, out)
+    not_ok = frame[frame["status"] != "ok"]
+    print(f"{len(frame)} submissions graded; mean {frame['points'].mean():.2f} / {frame['max_points'].max():g} points; "
+          f"gradebook: {', '.join(str(p) for p in written)}; feedback: {feedback.resolve()}")
+    if len(not_ok):
+        print("not ok: " + ", ".join(f"{s} ({st})" for s, st in not_ok["status"].items()), file=sys.stderr)
+    return 0

@@ -1,0 +1,378 @@
+"""Batches of gradings and renders on a local process pool or a dask.distributed cluster.
+
+A task carries its inputs as file contents (relative path -> bytes) and sends its
+outputs back the same way, so workers on other machines need labkit installed but
+share no folder with the driver; only the driver writes files. The default
+engine is a local pool of worker processes; ``scheduler="tcp://host:port"`` runs
+the same tasks on a dask.distributed cluster, where a task whose worker is lost is
+rerun on another worker (each task has one result slot, so nothing is lost or
+counted twice). One progress bar (tqdm) counts the whole batch.
+
+Example
+-------
+>>> import tempfile, pathlib
+>>> from labkit.reports._batch import pack_dir, unpack_dir
+>>> with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
+...     _ = (pathlib.Path(a) / "x" ).mkdir()
+...     _ = (pathlib.Path(a) / "x" / "f.txt").write_text("hi")
+...     _ = unpack_dir(pack_dir(a), b)
+...     (pathlib.Path(b) / "x" / "f.txt").read_text()
+'hi'
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path, PurePosixPath
+
+from labkit.exceptions import LabkitError
+from labkit.reports._execute import find_notebooks, lab_of
+from labkit.reports._grade import SubmissionResult, grade_submission
+from labkit.reports._render import RenderResult, find_chromium, render_one, write_index
+from labkit.reports._sandbox import Limits
+
+__all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]
+
+#: largest submission folder accepted [bytes]
+MAX_SUBMISSION_BYTES = 50 * 2**20
+
+
+def pack_dir(path, *, limit=None) -> dict:
+    """The regular files under a folder as ``{relative posix path: bytes}`` (symlinks skipped).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The folder.
+    limit : int, optional
+        Largest total size accepted [bytes].
+
+    Returns
+    -------
+    dict of str to bytes
+
+    Raises
+    ------
+    LabkitError
+        If the folder is over ``limit``.
+    """
+    root, files, total = Path(path), {}, 0
+    for p in sorted(root.rglob("*")):
+        rel = p.relative_to(root)
+        if p.is_symlink() or not p.is_file() or ".ipynb_checkpoints" in rel.parts:
+            continue
+        data = p.read_bytes()
+        total += len(data)
+        if limit is not None and total > limit:
+            raise LabkitError(f"expected at most {limit} bytes in {root}, got more")
+        files[rel.as_posix()] = data
+    return files
+
+
+def unpack_dir(files, dest) -> Path:
+    """Write ``{relative path: bytes}`` under ``dest`` (paths escaping ``dest`` are rejected).
+
+    Parameters
+    ----------
+    files : dict of str to bytes
+        As returned by :func:`pack_dir`.
+    dest : str or os.PathLike
+        Target folder (created).
+
+    Returns
+    -------
+    Path
+        ``dest``.
+
+    Raises
+    ------
+    LabkitError
+        For an absolute path or one with ``..``.
+    """
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    for rel, data in files.items():
+        pure = PurePosixPath(rel)
+        if pure.is_absolute() or ".." in pure.parts:
+            raise LabkitError(f"expected a relative path inside the folder, got {rel!r}")
+        target = dest.joinpath(*pure.parts)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(data)
+    return dest
+
+
+def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None) -> list:
+    """Run ``fn(*args)`` for every args tuple; results in input order.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (it is pickled to the workers).
+    argsets : sequence of tuple
+        Arguments of each task.
+    scheduler : str, optional
+        ``"tcp://host:port"`` of a dask.distributed scheduler; default a local pool.
+    jobs : int
+        Worker processes of the local pool.
+    desc : str
+        Progress-bar label.
+    progress : bool
+        Show one tqdm progress bar for the batch (on stderr).
+    on_result : callable, optional
+        Called as ``on_result(index, result)`` in the driver as each task finishes.
+
+    Returns
+    -------
+    list
+        ``fn``'s results, in the order of ``argsets``.
+
+    Raises
+    ------
+    LabkitError
+        If ``jobs < 1``, the scheduler cannot be reached, or a task failed on every try.
+    """
+    from tqdm.auto import tqdm
+
+    argsets = list(argsets)
+    results = [None] * len(argsets)
+    bar = tqdm(total=len(argsets), desc=desc, unit="task", disable=not progress)
+
+    def done(i, value):
+        results[i] = value
+        bar.update(1)
+        if on_result is not None:
+            on_result(i, value)
+
+    try:
+        if scheduler is None:
+            if jobs < 1:
+                raise LabkitError(f"expected jobs >= 1, got {jobs}")
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(argsets))),
+                                     mp_context=multiprocessing.get_context("spawn")) as pool:
+                futures = {pool.submit(fn, *args): i for i, args in enumerate(argsets)}
+                for fut in as_completed(futures):
+                    done(futures[fut], fut.result())
+        else:
+            from distributed import Client, as_completed
+
+            try:
+                client = Client(scheduler, timeout=30)
+            except OSError as exc:
+                raise LabkitError(f"cannot reach the dask scheduler at {scheduler!r}: {exc}") from exc
+            try:
+                token = f"{desc}-{time.time_ns()}"
+                futures = [client.submit(fn, *args, key=f"{token}-{i}", pure=False, retries=2)
+                           for i, args in enumerate(argsets)]
+                index = {f.key: i for i, f in enumerate(futures)}
+                for fut in as_completed(futures):
+                    try:
+                        value = fut.result()
+                    except Exception as exc:
+                        raise LabkitError(f"task {fut.key} failed on every try: {type(exc).__name__}: {exc}") from exc
+                    done(index[fut.key], value)
+            finally:
+                client.close()
+    finally:
+        bar.close()
+    return results
+
+
+def _grade_task(student, submission_files, lab_files, limits, html):
+    """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``."""
+    from dataclasses import replace
+
+    with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
+        sub = unpack_dir(submission_files, Path(tmp) / "submissions" / student)
+        lab = unpack_dir(lab_files, Path(tmp) / "lab")
+        out = Path(tmp) / "feedback"
+        result = grade_submission(sub, lab, out, limits=limits, html=html)
+        return replace(result, files=pack_dir(out / student))
+
+
+def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True):
+    """Grade every submission folder under ``submissions_dir``; feedback goes to ``output_dir/<student>/``.
+
+    Parameters
+    ----------
+    submissions_dir : str or os.PathLike
+        One folder per student holding their notebooks.
+    lab_dir : str or os.PathLike
+        The instructor's lab folder.
+    output_dir : str or os.PathLike
+        Feedback folder (created).
+    limits : Limits, optional
+        Per-notebook limits.
+    scheduler : str, optional
+        dask.distributed scheduler address; default the local pool.
+    jobs : int
+        Local pool size.
+    html : bool
+        Write HTML feedback reports.
+    progress : bool
+        Show the progress bar.
+
+    Returns
+    -------
+    list of SubmissionResult
+        Sorted by student (``files`` emptied once written).
+
+    Raises
+    ------
+    LabkitError
+        If there is no submission folder, or a folder is over the size limit.
+    """
+    from dataclasses import replace
+
+    subs, lab = Path(submissions_dir).resolve(), Path(lab_dir).resolve()
+    if not lab.is_dir():
+        raise LabkitError(f"expected the lab folder, got {lab}")
+    students = sorted(p for p in subs.iterdir() if p.is_dir() and not p.name.startswith(".")) \
+        if subs.is_dir() else []
+    if not students:
+        raise LabkitError(f"expected one folder per student in {subs}, found none")
+    out = Path(output_dir).resolve()
+    lab_files = pack_dir(lab)
+    argsets = [(p.name, pack_dir(p, limit=MAX_SUBMISSION_BYTES), lab_files, limits or Limits(), html)
+               for p in students]
+
+    def write(i, result):
+        if (out / result.student).exists():
+            import shutil
+
+            shutil.rmtree(out / result.student)
+        unpack_dir(result.files, out / result.student)
+
+    results = run_tasks(_grade_task, argsets, scheduler=scheduler, jobs=jobs, desc="grading", progress=progress,
+                        on_result=write)
+    return [replace(r, files={}) for r in results]
+
+
+def gradebook_frame(results):
+    """The gradebook as a pandas table: one row per student, one column per check.
+
+    Parameters
+    ----------
+    results : sequence of SubmissionResult
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index ``student``; columns ``status``, ``points``, ``max_points``, then
+        ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``),
+        ``seconds`` and ``detail``.
+    """
+    import pandas as pd
+
+    rows = []
+    for r in results:
+        row = {"student": r.student, "status": r.status, "points": r.points, "max_points": r.max_points}
+        for s in r.scores:
+            row[f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else "")] = s.points
+        row.update(seconds=round(r.seconds, 2), detail=r.detail)
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("student")
+
+
+def write_gradebook(frame, path) -> list:
+    """Write the gradebook as CSV or Excel (by suffix); a ``.csv`` also gets its ``.xlsx`` twin.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        From :func:`gradebook_frame`.
+    path : str or os.PathLike
+        ``*.csv`` or ``*.xlsx``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    LabkitError
+        For another suffix.
+    """
+    path = Path(path)
+    if path.suffix not in (".csv", ".xlsx"):
+        raise LabkitError(f"expected a gradebook path ending .csv or .xlsx, got {path.name!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    written = []
+    if path.suffix == ".csv":
+        frame.to_csv(path)
+        written.append(path)
+    xlsx = path.with_suffix(".xlsx")
+    frame.to_excel(xlsx, sheet_name="gradebook", engine="openpyxl")
+    return written + [xlsx]
+
+
+def _render_task(lab, name, lab_files, no_input, pdf, parameters, timeout):
+    """Worker side of :func:`render_batch`: render one notebook, send back its report files."""
+    with tempfile.TemporaryDirectory(prefix="labkit-render-") as tmp:
+        nb = unpack_dir(lab_files, Path(tmp) / "notebooks" / lab) / f"{name}.ipynb"
+        out = Path(tmp) / "reports"
+        r = render_one(nb, out, no_input=no_input, pdf=pdf, parameters=parameters, timeout=timeout)
+        files = {rel: data for rel, data in pack_dir(out / lab).items() if rel.split("/")[0].startswith(name)}
+        return r, files
+
+
+def render_batch(notebooks=None, output_dir="reports", *, scheduler=None, jobs=2, no_input=False, pdf=True,
+                 parameters=None, timeout=None, progress=True):
+    """Render notebooks as portable tasks (local pool or dask cluster); reports written by the driver.
+
+    Parameters
+    ----------
+    notebooks : sequence of str or Path, optional
+        Notebooks, lab folders or lab names (see :func:`labkit.reports.find_notebooks`).
+    output_dir : str or Path
+        Reports folder; ``<output_dir>/<lab>/`` receives each notebook's files, plus the index.
+    scheduler : str, optional
+        dask.distributed scheduler address; default a local pool of ``jobs`` processes.
+    jobs : int
+        Local pool size.
+    no_input, pdf : bool
+        Report mode; print PDFs (on the workers: they need Chromium).
+    parameters : dict, optional
+        Overrides for every notebook that declares them.
+    timeout : float, optional
+        Seconds one cell may run.
+    progress : bool
+        Show the progress bar.
+
+    Returns
+    -------
+    (list of RenderResult, float)
+        Results (paths in ``output_dir``) in notebook order, and the wall time [s].
+
+    Raises
+    ------
+    LabkitError
+        If no notebook matches.
+    """
+    from dataclasses import replace
+
+    paths = find_notebooks(notebooks)
+    if not paths:
+        raise LabkitError("no notebooks to render")
+    if pdf and scheduler is None:
+        find_chromium()
+    out = Path(output_dir).resolve()
+    labs = {}
+    for p in paths:
+        labs.setdefault(lab_of(p), pack_dir(p.parent))
+    argsets = [(lab_of(p), p.stem, labs[lab_of(p)], no_input, pdf, parameters, timeout) for p in paths]
+    t0 = time.perf_counter()
+    pairs = run_tasks(_render_task, argsets, scheduler=scheduler, jobs=jobs, desc="rendering", progress=progress,
+                      on_result=lambda i, pair: unpack_dir(pair[1], out / argsets[i][0]))
+    results = []
+    for (lab, name, *_), (r, _files) in zip(argsets, pairs):
+        moved = {k: (out / lab / Path(getattr(r, k)).name) if getattr(r, k) else None
+                 for k in ("notebook", "html", "pdf")}
+        results.append(replace(r, **moved))
+    wall = time.perf_counter() - t0
+    write_index(results, out, wall_seconds=wall)
+    return results, wall

@@ -1,0 +1,289 @@
+"""A course's loop: labkit assign -> simulated submissions -> labkit grade (sandboxed), locally and on dask."""
+
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.reports import course_lab as cl
+from conftest import require
+from labkit.exceptions import LabkitError
+
+pytestmark = pytest.mark.slow
+REMOTE = re.compile(r"""<(?:script|link|img)\b[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", re.IGNORECASE)
+LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=120)
+
+
+def tags(cell):
+    return cell.get("metadata", {}).get("tags", [])
+
+
+@pytest.fixture
+def course(tmp_path):
+    """The instructor's lab and its student version (written by the CLI)."""
+    require("nbgrader")
+    from labkit.cli import main
+
+    lab = cl.write_lab(tmp_path / "lab")
+    assert main(["assign", str(lab), str(tmp_path / "student")]) == 0
+    return lab, tmp_path / "student"
+
+
+def test_assign_writes_the_student_version(course):
+    nbformat = require("nbformat")
+    lab, student = course
+    text = (student / cl.NOTEBOOK).read_text()
+    assert "SECRET-HIDDEN-MARKER" not in text and "SECRET-HIDDEN-MARKER" in (lab / cl.NOTEBOOK).read_text()
+    assert (student / "data.txt").read_text() == "lab data\n"
+    source, nb = (nbformat.read(str(p / cl.NOTEBOOK), as_version=4) for p in (lab, student))
+    by_id = {c.id: c for c in nb.cells}
+    assert [c.id for c in nb.cells] == [c.id for c in source.cells if "hidden-tests" not in tags(c)]
+    work = by_id["work"].source
+    assert work.startswith("# Hint: labkit.kinematics.fk") and "raise NotImplementedError()" in work
+    assert "T = fk(arm, q)" not in work
+    assert by_id["params"].source == source.cells[1].source and tags(by_id["params"]) == ["parameters"]
+    assert by_id["public"].source == source.cells[4].source
+    assert by_id["public"].metadata["editable"] is False and by_id["public"].metadata["deletable"] is False
+    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
+
+
+def test_assign_rejects_bad_tags(tmp_path):
+    nbformat = require("nbformat")
+    from labkit.reports import assign
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("x = 1", metadata={"tags": ["solution", "tests"]})])
+    (tmp_path / "lab").mkdir()
+    nbformat.write(nb, str(tmp_path / "lab" / "a.ipynb"))
+    with pytest.raises(LabkitError, match="expected at most one of"):
+        assign(tmp_path / "lab", tmp_path / "out")
+    with pytest.raises(LabkitError, match="found none"):
+        assign(tmp_path / "out_missing", tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
+def test_graded_notebook_restores_deleted_and_edited_checks(course):
+    nbformat = require("nbformat")
+    from labkit.reports import graded_notebook
+
+    lab, student = course
+    source, nb = (nbformat.read(str(p / cl.NOTEBOOK), as_version=4) for p in (lab, student))
+    nb.cells = [c for c in nb.cells if c.id != "public"]  # the student deleted the public check
+    nb.cells.append(nbformat.v4.new_code_cell("pass", metadata={"tags": ["tests"]}))  # and added a fake one
+    merged = graded_notebook(source, nb)
+    ids = [c.id for c in merged.cells]
+    assert ids.index("work") < ids.index("public") < ids.index("hidden-x") < ids.index("hidden-y") < ids.index("end")
+    assert merged.cells[ids.index("hidden-x")].source == cl.HIDDEN_1
+    assert sum("tests" in tags(c) or "hidden-tests" in tags(c) for c in merged.cells) == 3
+
+
+def make_submissions(student, folder, lab):
+    for name, code in cl.SUBMISSIONS.items():
+        cl.write_submission(student, folder / name, code)
+    cl.write_submission(student, folder / "snooper", cl.snooper_code(folder, lab))
+    (folder / "correct" / "private_notes.txt").write_text("only mine")
+
+
+def test_round_trip_grade_on_the_local_pool(course, tmp_path):
+    """Assign -> six submissions -> grade (CLI, local pool): scores, failure kinds, isolation, gradebook, feedback."""
+    require("openpyxl")
+    pd = require("pandas")
+    nbformat = require("nbformat")
+    from labkit.cli import main
+    from labkit.reports import Limits
+
+    lab, student = course
+    subs = tmp_path / "submissions"
+    make_submissions(student, subs, lab)
+    gradebook = tmp_path / "grades" / "gradebook.csv"
+    argv = ["grade", str(subs), "--lab", str(lab), "-o", str(gradebook), "--jobs", "2",
+            "--cpu", str(LIMITS["cpu_seconds"]), "--memory", "2", "--wall", str(LIMITS["wall_seconds"])]
+    assert Limits(**LIMITS).memory_bytes == 2 * 2**30
+    assert main(argv) == 0
+    table = pd.read_csv(gradebook, index_col="student")
+    excel = pd.read_excel(gradebook.with_suffix(".xlsx"), index_col="student")
+    assert list(excel.index) == list(table.index) == sorted(cl.EXPECTED)
+    for name, (points, status) in cl.EXPECTED.items():
+        assert (table.loc[name, "points"], table.loc[name, "status"]) == (points, status), name
+        assert excel.loc[name, "points"] == points
+    assert table.loc["correct", "max_points"] == 4
+    assert table.loc["partly_wrong", "01_fk.ipynb: x value (hidden)"] == 0
+    assert table.loc["partly_wrong", "01_fk.ipynb: x is a number, on sim://"] == 1
+    assert "CPU-time limit" in table.loc["infinite_loop", "detail"]
+
+    feedback = tmp_path / "grades" / "gradebook_feedback"
+    snooped = nbformat.read(str(feedback / "snooper" / cl.NOTEBOOK), as_version=4)
+    printed = "".join(o.get("text", "") for c in snooped.cells for o in c.get("outputs", []))
+    assert "SNOOPED []" in printed, printed  # saw no other submission, no lab file, nothing in /tmp or $HOME
+    assert not (subs / "correct" / "planted.txt").exists()
+    for name in cl.EXPECTED:
+        html = (feedback / name / "01_fk.html").read_text()
+        assert REMOTE.search(html) is None and "Score" in html
+    assert "SECRET-HIDDEN-MARKER" in (feedback / "correct" / cl.NOTEBOOK).read_text()  # shown once graded
+    assert not any(p.name == "private_notes.txt" for p in feedback.rglob("*") if "correct" not in p.parts)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def dask_cluster(tmp_path_factory):
+    """A dask scheduler and two workers (separate processes, TCP on 127.0.0.1), stopped afterwards."""
+    require("distributed")
+    tmp_path = tmp_path_factory.mktemp("dask")
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    log = open(tmp_path / "dask.log", "wb")
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                               "--port", str(port), "--no-dashboard"], stdout=log, stderr=log, env=env)]
+    try:
+        from distributed import Client
+
+        for i in range(2):
+            procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                                           "--nthreads", "1", "--no-nanny", "--no-dashboard", "--name", f"w{i}",
+                                           "--local-directory", str(tmp_path / f"w{i}")],
+                                          stdout=log, stderr=log, env=env))
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        yield address, procs
+    finally:
+        for p in reversed(procs):  # the workers first (killed: nothing of theirs to save), then the scheduler
+            if p.poll() is None:
+                p.kill() if p is not procs[0] else p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        log.close()
+
+
+def test_render_on_dask_sends_reports_back(tmp_path, dask_cluster):
+    """labkit render --scheduler: notebooks shipped to the workers, reports and their files written by the driver."""
+    nbformat = require("nbformat")
+    from labkit.cli import main
+
+    address, _ = dask_cluster
+    nb = nbformat.v4.new_notebook(cells=[
+        nbformat.v4.new_code_cell("output_dir = 'out'\nport = 'serial:///dev/ttyACM0'", metadata={"tags": ["parameters"]}),
+        nbformat.v4.new_code_cell("import os, pathlib\npathlib.Path(output_dir).mkdir(parents=True, exist_ok=True)\n"
+                                  "(pathlib.Path(output_dir) / 'made.txt').write_text(port)\nprint('worker pid', os.getpid())")])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    (tmp_path / "labx").mkdir()
+    for name in ("a", "b"):
+        nbformat.write(nb, str(tmp_path / "labx" / f"{name}.ipynb"))
+    out = tmp_path / "reports"
+    assert main(["render", str(tmp_path / "labx"), "--scheduler", address, "--no-pdf", "-o", str(out),
+                 "-p", "port", "sim://"]) == 0
+    for name in ("a", "b"):
+        assert "worker pid" in (out / "labx" / f"{name}.html").read_text()
+        assert (out / "labx" / f"{name}_files" / "made.txt").read_text() == "sim://"
+    index = (out / "index.html").read_text()
+    assert "2 notebooks, 2 passed, 0 failed" in index
+
+
+def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
+    """Grading on a real scheduler + 2 TCP workers; one worker is killed mid-batch: its task reruns elsewhere."""
+    from distributed import Client
+
+    from labkit.reports import Limits, grade
+
+    lab, student = course
+    address, procs = dask_cluster
+    subs = tmp_path / "submissions"
+    codes = {f"s{i}": cl.SOLUTION if i % 2 == 0 else cl.SUBMISSIONS["partly_wrong"] for i in range(6)}
+    for name, code in codes.items():
+        cl.write_submission(student, subs / name, code)
+    killed = {}
+
+    def kill_busy_worker():
+        with Client(address, timeout=30) as client:
+            victim = procs[1]
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and "tasks" not in killed:
+                for worker, tasks in client.processing().items():
+                    info = client.scheduler_info()["workers"].get(worker, {})
+                    if tasks and info.get("name") == "w0":
+                        killed["tasks"] = list(tasks)
+                        victim.send_signal(signal.SIGKILL)
+                        break
+                time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_busy_worker)
+    killer.start()
+    results = grade(subs, lab, tmp_path / "feedback", limits=Limits(**LIMITS), scheduler=address, progress=False)
+    killer.join()
+    assert killed.get("tasks"), "the worker was never busy"
+    assert procs[1].poll() is not None  # it is really dead
+    assert [r.student for r in results] == sorted(codes)  # every submission once, none lost or twice
+    for r in results:
+        assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
+        assert (tmp_path / "feedback" / r.student / "01_fk.html").is_file()
+    assert sorted(p.name for p in (tmp_path / "feedback").iterdir()) == sorted(codes)
+
+
+def test_run_tasks_local_pool_keeps_input_order():
+    from labkit.reports import run_tasks
+
+    assert run_tasks(json.dumps, [([i],) for i in range(5)], jobs=2, progress=False) == [f"[{i}]" for i in range(5)]
+    with pytest.raises(LabkitError, match="jobs >= 1"):
+        run_tasks(json.dumps, [(1,)], jobs=0, progress=False)
+
+
+def test_seed004_is_a_worked_assignment(tmp_path):
+    """The worked example: seed 004's lab tagged; its student version keeps hints and checks, not answers."""
+    nbformat = require("nbformat")
+    from labkit.reports import assign, lab_checks
+
+    lab = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
+    result = assign(lab, tmp_path / "student")
+    assert [c.hidden for c in result.checks] == [False, True, False, False]
+    assert sum(c.points for c in result.checks) == 9
+    student = nbformat.read(str(tmp_path / "student" / "01_ik_elbow_minus.ipynb"), as_version=4)
+    text = "\n".join(c.source for c in student.cells)
+    assert "np.linalg.solve(M, [x3, y3])" not in text and "Hidden checks" not in text
+    assert "# Hint: step 1 joint 3" in text and "raise NotImplementedError()" in text
+    original = nbformat.read(str(lab / "01_ik_elbow_minus.ipynb"), as_version=4)
+    assert "np.linalg.solve(M, [x3, y3])" in "\n".join(c.source for c in original.cells)
+    assert lab_checks(original)[1].name == "A.2 steps"
+    assert [c.id for c in student.cells] == [c.id for c in original.cells if "hidden-tests" not in tags(c)]
+
+
+@pytest.mark.parametrize("sandbox", [True, False])
+def test_run_untrusted_wall_clock_limit(tmp_path, sandbox):
+    """A kernel that sleeps (no CPU used) is stopped at the wall-clock limit; without the sandbox too."""
+    nbformat = require("nbformat")
+    from labkit.reports import Limits, run_untrusted
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import os\nprint(os.getcwd())"),
+                                         nbformat.v4.new_code_cell("import time\ntime.sleep(120)")])
+    t0 = time.monotonic()
+    status, detail = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=10, memory_bytes=2 * 2**30,
+                                                               wall_seconds=8, sandbox=sandbox))
+    assert (status, time.monotonic() - t0 < 60) == ("timeout", True), detail
+    assert nb.cells[0].outputs[0]["text"].strip() == str(tmp_path.resolve())
+
+
+def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
+    from labkit.cli import main
+
+    cl.write_lab(tmp_path / "lab")
+    assert main(["grade", str(tmp_path / "nope"), "--lab", str(tmp_path / "lab"), "-o", str(tmp_path / "g.csv")]) == 2
+    assert "expected one folder per student" in capsys.readouterr().err
+    with pytest.raises(LabkitError, match="expected cpu_seconds > 0"):
+        from labkit.reports import Limits
+
+        Limits(cpu_seconds=0)
