@@ -1,4 +1,4 @@
-/* labkit arm firmware core: protocol v1 parser, limits, calibration, segment queue, EEPROM image.
+/* labkit arm firmware core: protocol v2 parser, limits, calibration, segment queue, EEPROM image.
  * See labkit_core.h and docs/protocol.md. No Arduino headers; avr-libc's pgmspace only on AVR. */
 #include "labkit_core.h"
 
@@ -25,12 +25,22 @@
 #define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 2 + 2)
 
 /* ------------------------------------------------------------------ output */
-static uint8_t g_cs; /* running XOR of the board line being written */
+static uint16_t g_cs;   /* running CRC-16 of the board line being written */
+static uint8_t g_mute;  /* 1: only update the CRC (computing the echo of a request) */
+static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-changing requests) */
+static uint16_t g_echo;
+
+static uint16_t crc_step(uint16_t crc, uint8_t b) {
+    uint8_t i;
+    crc ^= (uint16_t)b << 8;
+    for (i = 0; i < 8; i++) crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
+    return crc;
+}
 
 static void out_n(const char *s, uint8_t n) {
     uint8_t i;
-    for (i = 0; i < n; i++) g_cs ^= (uint8_t)s[i];
-    lk_hw_write(s, n);
+    for (i = 0; i < n; i++) g_cs = crc_step(g_cs, (uint8_t)s[i]);
+    if (!g_mute) lk_hw_write(s, n);
 }
 static void out_c(char c) { out_n(&c, 1); }
 static void out_p(const char *p) { /* string in program memory */
@@ -53,17 +63,21 @@ static void out_i(int32_t v) {
 }
 static void out_sp_i(int32_t v) { out_c(' '); out_i(v); }
 static char hexdigit(uint8_t v) { return (char)(v < 10 ? '0' + v : 'A' + v - 10); }
-static void out_begin(void) { g_cs = 0; }
+static void out_begin(void) { g_cs = 0xFFFF; }
+static void hex4(char *b, uint16_t v) {
+    b[0] = hexdigit((uint8_t)(v >> 12)); b[1] = hexdigit((v >> 8) & 15); b[2] = hexdigit((v >> 4) & 15); b[3] = hexdigit(v & 15);
+}
 static void out_end(void) {
-    char b[5];
-    b[0] = '*'; b[1] = hexdigit(g_cs >> 4); b[2] = hexdigit(g_cs & 15); b[3] = '\r'; b[4] = '\n';
-    lk_hw_write(b, 5);
+    char b[7];
+    b[0] = '*'; hex4(b + 1, g_cs); b[5] = '\r'; b[6] = '\n';
+    lk_hw_write(b, 7);
 }
 static void out_seq(int32_t seq) {
     if (seq >= 0) { out_p(LK_P(" #")); out_u((uint32_t)seq); }
 }
 static void ok_begin(int32_t seq, const char *name_p) {
     out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
+    if (g_echo_on) { char b[4]; out_p(LK_P(" p=")); hex4(b, g_echo); out_n(b, 4); }
 }
 static void err_begin(int32_t seq, uint8_t code) {
     const char *name;
@@ -77,7 +91,8 @@ static void err_begin(int32_t seq, uint8_t code) {
     case LK_E_QFULL: name = LK_P("QFULL"); break;
     case LK_E_BUSY: name = LK_P("BUSY"); break;
     case LK_E_DISCONT: name = LK_P("DISCONT"); break;
-    default: name = LK_P("EEPROM"); break;
+    case LK_E_EEPROM: name = LK_P("EEPROM"); break;
+    default: name = LK_P("SPEED"); break;
     }
     out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_c(' '); out_u(code); out_c(' '); out_p(name);
 }
@@ -88,19 +103,9 @@ static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
 }
 
 /* ------------------------------------------------------------------ helpers */
-uint8_t lk_xor(const char *s, uint8_t n) {
-    uint8_t x = 0;
-    while (n--) x ^= (uint8_t)*s++;
-    return x;
-}
-
 uint16_t lk_crc16(const uint8_t *d, uint16_t n) { /* CRC-16/CCITT-FALSE */
     uint16_t crc = 0xFFFF;
-    uint8_t i;
-    while (n--) {
-        crc ^= (uint16_t)(*d++) << 8;
-        for (i = 0; i < 8; i++) crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
-    }
+    while (n--) crc = crc_step(crc, *d++);
     return crc;
 }
 
@@ -247,7 +252,9 @@ void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us) {
     if (reset_cause == LK_RESET_WATCHDOG) lk->flags |= LK_F_WATCHDOG_RESET;
     home(lk);
     out_begin();
-    out_p(LK_P("EV BOOT labkit-arm fw=" LK_FW_VERSION " proto=1 reset="));
+    out_p(LK_P("READY labkit-arm 2 fw=" LK_FW_VERSION " joints="));
+    out_u(LK_JOINTS);
+    out_p(LK_P(" reset="));
     switch (reset_cause) {
     case LK_RESET_EXTERNAL: out_p(LK_P("EXTERNAL")); break;
     case LK_RESET_WATCHDOG: out_p(LK_P("WATCHDOG")); break;
@@ -392,6 +399,7 @@ static void cmd_status(lk_t *lk, const call_t *c) {
     out_p(LK_P(" flags=")); out_c(hexdigit(lk->flags >> 4)); out_c(hexdigit(lk->flags & 15));
     out_p(LK_P(" mem=")); out_u(lk_hw_mem_free());
     out_p(LK_P(" t=")); out_u(lk->now_ms);
+    out_p(LK_P(" last=")); out_u(lk->last_seq);
     out_end();
 }
 
@@ -480,7 +488,7 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
     for (j = 0; j < LK_JOINTS; j++) lk->tail_q[j] = lk_poly(seg->c[j], order, 1.0f);
     lk->q_count++;
     if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
-    ok_begin(c->seq, LK_P("SEG ")); out_u(LK_QUEUE - lk->q_count); out_end();
+    ok_begin(c->seq, LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();
     return 1;
 }
 
@@ -519,34 +527,33 @@ static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
         memcpy(lk->cal, cal, sizeof cal);
         update_pulses(lk);
     }
-    ok_begin(c->seq, LK_P("CAL ")); out_u(ch); out_cal(&lk->cal[ch]); out_end();
+    ok_begin(c->seq, LK_P("CAL")); out_sp_i(ch); out_cal(&lk->cal[ch]); out_end();
     return 1;
 }
 
 static const char command_names[] LK_FLASH = "HELLO\0PING\0STATUS\0MOVE\0GRIP\0SEG\0STOP\0TIMEOUT\0READ\0STREAM\0CAL\0DEFAULTS\0SAVE\0";
 
 /* index of the command in command_names, or -1 */
-static int8_t command_index(const char *tok) {
+static int8_t command_index(const char *tok, const char **name_p) {
     const char *n = command_names;
     int8_t i;
     for (i = 0; LK_RD(n); i++) {
-        if (name_is(tok, n)) return i;
+        if (name_is(tok, n)) { *name_p = n; return i; }
         while (LK_RD(n)) n++;
         n++;
     }
     return -1;
 }
 
-static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
+static uint8_t dispatch(lk_t *lk, int8_t idx, const call_t *c) {
     const int32_t *a = c->a;
     uint8_t j;
-    int8_t idx = command_index(cmd);
-    if (idx >= 0 && c->argc == 0xFF) { err_msg(c->seq, LK_E_SYNTAX, LK_P("arguments are integers")); return 0; }
+    if (c->argc == 0xFF) { err_msg(c->seq, LK_E_SYNTAX, LK_P("arguments are integers")); return 0; }
 #define NOARGS() if (c->argc) { err_msg(c->seq, LK_E_SYNTAX, LK_P("takes no arguments")); return 0; }
 #define NOTBUSY() if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running, STOP first")); return 0; }
     if (idx == 0 /* HELLO */) {
         NOARGS();
-        ok_begin(c->seq, LK_P("HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints="));
+        ok_begin(c->seq, LK_P("HELLO labkit-arm fw=" LK_FW_VERSION " proto=2 joints="));
         out_u(LK_JOINTS); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
         out_u(LK_QUEUE); out_p(LK_P(" maxline=")); out_u(LK_MAXLINE); out_end();
     } else if (idx == 1 /* PING */) {
@@ -572,7 +579,7 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         }
         lk->grip_us = (uint16_t)a[0];
         update_pulses(lk);
-        ok_begin(c->seq, LK_P("GRIP ")); out_u(lk->grip_us); out_end();
+        ok_begin(c->seq, LK_P("GRIP")); out_sp_i(lk->grip_us); out_end();
     } else if (idx == 5 /* SEG */) {
         return cmd_seg(lk, c);
     } else if (idx == 6 /* STOP */) {
@@ -585,7 +592,7 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
             if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout 0 or 50..60000 ms")); return 0; }
             lk->timeout_ms = (uint16_t)a[0];
         }
-        ok_begin(c->seq, LK_P("TIMEOUT ")); out_u(lk->timeout_ms); out_end();
+        ok_begin(c->seq, LK_P("TIMEOUT")); out_sp_i(lk->timeout_ms); out_end();
     } else if (idx == 8 /* READ */) {
         NOARGS();
         ok_begin(c->seq, LK_P("READ"));
@@ -598,7 +605,7 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         lk->stream_hz = (uint8_t)a[0];
         lk->frame_counter = 0;
         if (lk->stream_hz) { lk->stream_period_us = 1000000UL / lk->stream_hz; lk->stream_arm = 1; }
-        ok_begin(c->seq, LK_P("STREAM ")); out_u(lk->stream_hz); out_end();
+        ok_begin(c->seq, LK_P("STREAM")); out_sp_i(lk->stream_hz); out_end();
     } else if (idx == 10 /* CAL */) {
         return cmd_cal(lk, c);
     } else if (idx == 11 /* DEFAULTS */) {
@@ -618,26 +625,23 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         NOTBUSY();
         n = lk_ee_save(lk);
         if (!n) { err_msg(c->seq, LK_E_EEPROM, LK_P("read-back differs")); return 0; }
-        ok_begin(c->seq, LK_P("SAVE ")); out_u(n); out_end();
-    } else {
-        uint8_t n = 0;
-        err_begin(c->seq, LK_E_UNKNOWN); out_c(' ');
-        for (; *cmd && n < 12; cmd++, n++) {
-            char ch = *cmd;
-            out_c((ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') ? ch : '?');
-        }
-        out_end();
-        return 0;
+        ok_begin(c->seq, LK_P("SAVE")); out_sp_i(n); out_end();
     }
     return 1;
 #undef NOARGS
 #undef NOTBUSY
 }
 
+/* HELLO, PING, STATUS and READ (bit set) may be sent without #seq and CRC; every other command must be sealed */
+#define LK_READ_ONLY ((1u << 0) | (1u << 1) | (1u << 2) | (1u << 8))
+
 void lk_exec(lk_t *lk, char *line, uint8_t len) {
     char *p = line, *end = line + len, *star = 0, *r, *cmd, *tok;
+    const char *name;
     int32_t args[LK_MAXARGS];
     call_t c;
+    int8_t idx;
+    uint8_t sealed = 0, i;
     line[len] = 0;
     while (p < end && is_ws(*p)) p++;
     while (end > p && is_ws(end[-1])) end--;
@@ -647,14 +651,18 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         if (*--r == '*') { star = r; break; }
     }
     if (star) {
-        uint8_t h1, h2;
-        if (end - star != 3 || (h1 = hexval(star[1])) > 15 || (h2 = hexval(star[2])) > 15) {
-            err_msg(-1, LK_E_BADCHK, LK_P("malformed checksum")); return;
+        uint16_t v = 0;
+        if (end - star != 5) { err_msg(-1, LK_E_BADCHK, LK_P("malformed checksum")); return; }
+        for (i = 1; i <= 4; i++) {
+            uint8_t h = hexval(star[i]);
+            if (h > 15) { err_msg(-1, LK_E_BADCHK, LK_P("malformed checksum")); return; }
+            v = (uint16_t)((v << 4) | h);
         }
-        if (((h1 << 4) | h2) != lk_xor(p, (uint8_t)(star - p))) {
+        if (v != lk_crc16((const uint8_t *)p, (uint16_t)(star - p))) {
             err_msg(-1, LK_E_BADCHK, LK_P("checksum mismatch")); return;
         }
         end = star;
+        sealed = 1;
     }
     *end = 0;
     c.seq = -1;
@@ -673,12 +681,39 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         cmd = next_token(&p);
     }
     if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("missing command")); return; }
+    idx = command_index(cmd, &name);
+    if (idx < 0) {
+        uint8_t n = 0;
+        err_begin(c.seq, LK_E_UNKNOWN); out_c(' ');
+        for (; *cmd && n < 12; cmd++, n++) {
+            char ch = *cmd;
+            out_c((ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') ? ch : '?');
+        }
+        out_end();
+        return;
+    }
+    if (!((LK_READ_ONLY >> idx) & 1) && (!sealed || c.seq < 0)) {
+        err_msg(-1, LK_E_BADCHK, LK_P("#seq and *CRC required")); return;
+    }
     while ((tok = next_token(&p)) != 0) {
         if (c.argc >= LK_MAXARGS) { err_msg(c.seq, LK_E_SYNTAX, LK_P("too many arguments")); return; }
         if (!parse_int(tok, &args[c.argc])) { c.argc = 0xFF; break; } /* reported by dispatch */
         c.argc++;
     }
-    if (dispatch(lk, cmd, &c)) lk->last_accept_ms = lk->now_ms;
+    if (!((LK_READ_ONLY >> idx) & 1) && c.argc != 0xFF) {
+        /* echo: CRC of what was parsed, "NAME a0 a1 ..." (canonical integers) */
+        g_mute = 1;
+        out_begin(); out_p(name);
+        for (i = 0; i < c.argc; i++) out_sp_i(args[i]);
+        g_mute = 0;
+        g_echo = g_cs;
+        g_echo_on = 1;
+    }
+    if (dispatch(lk, idx, &c)) {
+        lk->last_accept_ms = lk->now_ms;
+        if (g_echo_on) lk->last_seq = (uint16_t)c.seq;
+    }
+    g_echo_on = 0;
 }
 
 void lk_rx(lk_t *lk, uint8_t b, uint32_t now_ms) {

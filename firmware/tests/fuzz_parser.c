@@ -1,6 +1,7 @@
 /* libFuzzer target: arbitrary bytes into the firmware core's receiver, interleaved with servo
  * frames and polls driven by the input. Invariants checked after every input (abort on failure):
- *   - every board line is <= 160 bytes and ends with a correct *HH checksum and CR LF;
+ *   - every board line is <= 160 bytes and ends with a correct *HHHH CRC-16 and CR LF;
+ *   - no unsealed state-changing line is ever acknowledged (OK without #seq and p= echo);
  *   - every commanded joint position lies within its limits and the servo range;
  *   - every pulse width lies within 400..2600 us.
  * Build: make -C firmware tests; run: firmware/build/fuzz_parser -runs=N (or -max_total_time=S). */
@@ -22,10 +23,16 @@ static void check_output(void) {
             if (stub_out_len - (size_t)(p - stub_out) > 160) abort();
             return; /* partial line at the end of the capture buffer */
         }
-        if (eol - p < 3 || eol - p > 160 || eol[-3] != '*') abort();
-        unsigned x = 0, hh;
-        for (const char *c = p; c < eol - 3; c++) x ^= (unsigned char)*c;
-        if (sscanf(eol - 2, "%2X", &hh) != 1 || hh != x) abort();
+        unsigned hh;
+        if (eol - p < 5 || eol - p > 160 || eol[-5] != '*') abort();
+        if (sscanf(eol - 4, "%4X", &hh) != 1 || hh != lk_crc16((const uint8_t *)p, (uint16_t)(eol - 5 - p))) abort();
+        if (!strncmp(p, "OK ", 3) && strncmp(p, "OK HELLO", 8) && strncmp(p, "OK PING", 7) &&
+            strncmp(p, "OK STATUS", 9) && strncmp(p, "OK READ", 7)) {
+            /* a state-changing command was accepted: it must have been sealed (#seq echoed, p= echo) */
+            const char *sp = strchr(p + 4, ' ');
+            if (p[3] != '#' || !sp || !strchr(sp + 1, ' ')) abort();
+            if (strncmp(strchr(sp + 1, ' ') + 1, "p=", 2)) abort();
+        }
         p = eol + 2;
     }
 }

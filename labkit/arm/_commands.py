@@ -1,4 +1,4 @@
-"""The virtual board's request lines and commands (protocol v1, ``docs/protocol.md`` sections 2 and 4).
+"""The virtual board's request lines and commands (protocol v2, ``docs/protocol.md`` sections 2 and 4).
 
 :class:`BoardCommands` is the half of :class:`labkit.arm.VirtualBoard` that
 reads a request line (characters, optional checksum and sequence id, integer
@@ -23,15 +23,17 @@ from labkit.arm._protocol import (
     REQUEST_CHECKSUM,
     REQUEST_INT,
     REQUEST_SEQ,
+    READ_ONLY,
     CommandRejected,
     checksum,
     crc16,
+    echo,
 )
 
 __all__ = ["FW_VERSION"]
 
-#: firmware version the virtual board reports (``HELLO`` ``fw=``, ``EV BOOT``)
-FW_VERSION = "1.0.0"
+#: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
+FW_VERSION = "2.0.0"
 #: factory calibration of every channel: pmin, pmax [us], zero [cdeg], direction, lo, hi [cdeg]
 FACTORY = (500, 2500, 0, 1, 0, 18000)
 
@@ -101,24 +103,26 @@ class BoardCommands:
     # -- request lines -------------------------------------------------------------
     def _handle(self, raw):
         if any(not (0x20 <= b <= 0x7E or b == 9) for b in raw):
-            self._emit("ERR 2 SYNTAX bad character in line")
+            self._emit("ERR 2 SYNTAX bad character")
             return
         line = raw.decode("ascii").strip(" \t")
         if not line:
             return
         body = line[1:] if line.startswith("$") else line
-        if "*" in body:
+        sealed = "*" in body
+        if sealed:
             k = body.rindex("*")
             tail = body[k + 1:]
-            if not REQUEST_CHECKSUM.match(tail) or int(tail[:2], 16) != checksum(body[:k]):
-                self._emit("ERR 1 BADCHK")
+            if not REQUEST_CHECKSUM.match(tail) or len(tail) != 4:
+                self._emit("ERR 1 BADCHK malformed checksum")
+                return
+            if int(tail, 16) != checksum(body[:k]):
+                self._emit("ERR 1 BADCHK checksum mismatch")
                 return
             body = body[:k]
         tokens = body.split()
-        if not tokens:
-            return
         seq = None
-        if tokens[0].startswith("#"):
+        if tokens and tokens[0].startswith("#"):
             m = REQUEST_SEQ.match(tokens[0])
             if not m or int(m.group(1)) > 65535:
                 self._emit("ERR 2 SYNTAX bad sequence id")
@@ -135,18 +139,25 @@ class BoardCommands:
             shown = "".join(ch if ch.isalnum() else "?" for ch in tokens[0][:12])
             self._emit(f"ERR{tag} 3 UNKNOWN {shown}")
             return
+        if name not in READ_ONLY and (not sealed or seq is None):
+            self._emit("ERR 1 BADCHK #seq and *CRC required")
+            return
         try:
             args = []
             for tok in tokens[1:]:
-                if not REQUEST_INT.match(tok) or not -2**31 <= int(tok) < 2**31:
-                    raise _Reject(2, f"malformed number {tok[:12]}")
+                if not REQUEST_INT.match(tok) or not -2**31 < int(tok) < 2**31:
+                    raise _Reject(2, "arguments are integers")
                 args.append(int(tok))
             fields = handler(args)
         except _Reject as rej:
             self._emit(f"ERR{tag} {rej}")
             return
         self.last_ok = self.time
-        self._emit(f"OK{tag} {name}" + (f" {fields}" if fields else ""))
+        head = f"OK{tag} {name}"
+        if name not in READ_ONLY:
+            head += " " + echo(name, args)
+            self.last_seq = seq
+        self._emit(head + (f" {fields}" if fields else ""))
 
     @staticmethod
     def _nargs(args, *counts):
@@ -167,7 +178,8 @@ class BoardCommands:
         used = len(self.segments)
         return (f"state={self.state} q={','.join(str(v) for v in self._q_int())} grip={int(self.grip)} "
                 f"queue={used} free={self.queue_depth - used} done={self.done} timeout={self.timeout_ms} "
-                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={self.clock_ms}")
+                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={self.clock_ms} "
+                f"last={self.last_seq}")
 
     def _check_joints(self, q):
         for j, v in enumerate(q):
@@ -258,8 +270,8 @@ class BoardCommands:
             raise _Reject(5, f"channel must be 0..{self.channels - 1}")
         if len(args) == 7:
             pmin, pmax, zero, d, lo, hi = args[1:]
-            if (not 400 <= pmin <= 2600 or not 400 <= pmax <= 2600 or pmin == pmax or not -36000 <= zero <= 36000
-                    or d not in (1, -1) or not -36000 <= lo <= hi <= 36000 or hi > 36000):
+            if (not 400 <= pmin <= 2600 or not 400 <= pmax <= 2600 or pmin == pmax or not -32000 <= zero <= 32000
+                    or d not in (1, -1) or not -32000 <= lo <= hi <= 32000):
                 raise _Reject(5, "calibration field out of range")
             if self.state == "RUN":
                 raise _Reject(8, "trajectory running")

@@ -1,19 +1,22 @@
-"""Host link to the arm: a pyserial client of protocol v1 (``docs/protocol.md``).
+"""Host link to the arm: a pyserial client of protocol v2 (``docs/protocol.md``).
 
 :class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected),
 the virtual arm (``sim://``) or the firmware simulator (``simavr://``),
-waits out the reset-on-open, shakes hands, and offers the lab operations in SI
+waits for the board's ``READY`` after the reset-on-open, shakes hands, and offers the lab operations in SI
 units: joint moves (checked against the robot file's limits and servo ranges
 *before* anything is sent), Cartesian moves through :func:`labkit.kinematics.ik`,
 trajectories streamed as polynomial segments, gripper, stop, joint read-back
 and feedback streams into pandas.
 
 Reliability rules (``docs/link.md``): every request carries a sequence id and
-a checksum; board lines with a bad checksum or an implausible content are
-dropped and counted, never used; idempotent requests are retried; a motion
+a CRC-16; board lines with a bad CRC are dropped and counted, never used; the
+reply to a state-changing request echoes the CRC of what the board parsed and
+a different echo stops the arm; idempotent requests are retried; a motion
 request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
-host asks ``STATUS`` whether it was executed and resends only if it was not;
-anything that cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
+host asks ``STATUS`` (``last=``, the sequence id of the last state-changing
+request run) whether it was executed and resends only if it was not; a request
+the host never had acknowledged showing up there stops the arm; anything that
+cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
 
 Examples
 --------
@@ -91,12 +94,15 @@ class Arm:
     retries : int
         Extra attempts of a request whose reply was lost or garbled.
     boot_wait : float
-        How long to wait for the board's ``EV BOOT`` after opening [s].
+        How long to wait for the board's ``READY`` after opening [s] (a real Uno
+        resets when the port opens and needs about 1.6 s); without it the host
+        still tries ``HELLO`` once before giving up.
     sync_calibration : bool
         Send the robot file's servo calibrations (``CAL``) after the handshake.
     check_moves : bool
         After each acknowledged ``MOVE``, read the commanded joints back with
-        ``STATUS`` and raise if they differ from what was sent.
+        ``STATUS`` and raise if they differ from what was sent (a second check
+        besides the reply's echo).
 
     Attributes
     ----------
@@ -117,10 +123,10 @@ class Arm:
     """
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
-                 boot_wait=2.5, sync_calibration=True, check_moves=True):
+                 boot_wait=3.0, sync_calibration=True, check_moves=True):
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot = Robot.load(robot)
-        #: read the commanded joints back after every MOVE (protocol v1 cannot detect every corrupted line)
+        #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate)
         name = getattr(opened, "port", None) or getattr(opened, "name", repr(opened))
@@ -155,20 +161,40 @@ class Arm:
             raise DeviceError(f"cannot open {port!r}: {exc}") from None
 
     def _handshake(self, boot_wait):
-        self._wire.wait_boot(boot_wait)
+        wire = self._wire
+        ready = wire.wait_ready(boot_wait)
+        self._refuse_v1()
+        if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
+            raise DeviceError(f"{self.name}: the board announced {' '.join(ready)!r}, labkit expects "
+                              f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
         try:
             info = self._transact("HELLO", parse=parse_hello)
         except DeviceError as exc:
+            self._refuse_v1()
+            if ready is None:
+                raise DeviceError(
+                    f"{self.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
+                    f"no answer to HELLO ({exc}); is the labkit firmware flashed (README: 'Flash the "
+                    f"firmware'), the baud rate 115200 and the right port chosen (labkit ports)?") from None
             raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
         if not isinstance(info, BoardInfo):
             raise ProtocolError(f"{self.name}: not a labkit arm: HELLO answered {info!r}")
-        self._wire.info = info
+        wire.info = info
         if info.protocol != PROTOCOL_VERSION:
             raise DeviceError(f"{self.name}: board speaks protocol {info.protocol}, "
                               f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
         if info.joints != self.robot.n:
             raise DeviceError(f"{self.name}: board has {info.joints} joints, robot "
                               f"{self.robot.name} has {self.robot.n}")
+        # what ran before this connection is not ours to judge
+        wire.last_seq = self._verify_status()[0].last
+
+    def _refuse_v1(self):
+        old = self._wire.v1_seen
+        if old is not None:
+            raise DeviceError(f"{self.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
+                              f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
+                              f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
 
     def close(self):
         """Close the port (never raises, even if the port has vanished)."""
@@ -271,11 +297,18 @@ class Arm:
             No valid reply after all retries.
         """
         queue = self.info.queue if self.info is not None else None
-        return self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+        if self._wire.last_seq is not None:
+            self._wire.check_last(st.last)
+        return st
 
-    def _verify_status(self):
-        # settling whether a motion request ran is worth a larger retry budget
-        return self.status(retries=4 * self.retries + 4)
+    def _verify_status(self, seq=None):
+        """STATUS with a larger retry budget; with ``seq`` (a request whose reply was lost) settles whether it ran."""
+        queue = self.info.queue if self.info is not None else None
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue),
+                            retries=4 * self.retries + 4)
+        ran = self._wire.check_last(st.last, pending=seq) if self._wire.last_seq is not None else False
+        return st, ran
 
     def commanded_joints(self):
         """Joint values the servos are commanded to now, shape (n,) [rad].
@@ -383,13 +416,12 @@ class Arm:
         q = self._check_q(q)
         target = [cdeg(v) for v in q]
 
-        def verify():
-            return [cdeg(v) for v in self._verify_status().q] == target
-
-        self._transact("MOVE", *target, motion=True, verify=verify)
-        if self.check_moves and not verify():
-            raise DeviceError(f"{self.name}: the board is commanded to {self.status().q} rad, not the "
-                              f"{q} rad sent (a line corrupted in transit executed?) - check the arm")
+        self._transact("MOVE", *target, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        if self.check_moves:
+            got = [cdeg(v) for v in self.status().q]
+            if got != target:
+                self._wire.hold(f"after MOVE {' '.join(map(str, target))} the board is commanded to "
+                                f"{' '.join(map(str, got))} cdeg")
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
