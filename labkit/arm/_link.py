@@ -41,28 +41,9 @@ from labkit.arm._replies import BoardInfo, parse_hello, parse_ping, parse_read, 
 from labkit.arm._wire import Wire
 from labkit.arm._segments import feed_segments, segments_from_trajectory
 from labkit.arm._feedback import record_stream
+from labkit.arm._ports import find_ports, open_port
 
-__all__ = ["Arm", "find_ports"]
-
-_ARDUINO_VIDS = {0x2341, 0x2A03, 0x1A86, 0x0403, 0x10C4, 0x239A}
-
-
-def find_ports():
-    """Serial ports that look like an Arduino (USB VID or description), best first.
-
-    Returns
-    -------
-    list of str
-        Device names (``/dev/ttyACM0``, ``COM3`` ...).
-    """
-    from serial.tools import list_ports
-
-    found = []
-    for p in list_ports.comports():
-        text = f"{p.description} {p.manufacturer or ''}".lower()
-        if p.vid in _ARDUINO_VIDS or "arduino" in text or "ch340" in text:
-            found.append(p.device)
-    return sorted(found, key=lambda d: ("ACM" not in d, d))
+__all__ = ["Arm"]
 
 
 def _on_wire(attr, doc, convert=None):
@@ -142,8 +123,6 @@ class Arm:
     # -- opening ------------------------------------------------------------------------
     @staticmethod
     def _open(port, baudrate):
-        import serial
-
         from labkit.arm.urlhandler import register
 
         register()
@@ -152,13 +131,11 @@ class Arm:
         if port is None:
             ports = find_ports()
             if not ports:
-                raise DeviceError("no Arduino-like serial port found; plug the board in, name the port "
-                                  "(e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'")
+                raise DeviceError("no Arduino-like serial port found ('labkit ports' lists them); plug the "
+                                  "board in, name the port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual "
+                                  "arm 'sim://'")
             port = ports[0]
-        try:
-            return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
-        except (serial.SerialException, OSError, ValueError) as exc:
-            raise DeviceError(f"cannot open {port!r}: {exc}") from None
+        return open_port(port, baudrate)
 
     def _handshake(self, boot_wait):
         wire = self._wire
