@@ -60,6 +60,8 @@ typedef struct {
     /* configuration (EEPROM) */
     lk_cal_t cal[LK_CHANNELS];
     uint16_t timeout_ms;
+    uint32_t vmax[LK_JOINTS];    /* joint speed limits [cdeg/s], 0: unchecked */
+    uint32_t amax[LK_JOINTS];    /* joint acceleration limits [cdeg/s^2], 0: unchecked */
     /* commanded state */
     int32_t q[LK_JOINTS];        /* cdeg */
     uint16_t grip_us;
@@ -104,6 +106,7 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback s
 uint16_t lk_crc16(const uint8_t *data, uint16_t n);
 float lk_poly(const float *c, uint8_t order, float s);
 uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi); /* Bernstein bound */
+uint8_t lk_speed_ok(const float *c, uint8_t order, float vlim, float alim); /* |dq/ds|, |d2q/ds2| sampled */
 int32_t lk_round(float x);
 uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
 uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */

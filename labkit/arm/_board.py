@@ -93,7 +93,7 @@ class VirtualBoard(BoardCommands):
         self._inbuf = bytearray()
         self._discarding = False
         self.flags = 0
-        self.cal, self.timeout_ms, ok = read_eeprom(self.eeprom, self.channels)
+        self.cal, self.vmax, self.amax, self.timeout_ms, ok = read_eeprom(self.eeprom, self.channels)
         if not ok:
             self.flags |= 0x01
         self.q = [self._clamp_servo(j, (self.cal[j][4] + self.cal[j][5]) / 2) for j in range(self.joints)]
@@ -251,7 +251,8 @@ class VirtualBoard(BoardCommands):
                 self.time = max(self.time, self.boot_time + BOOT_S)
                 reason, ok = self._boot_pending
                 self._boot_pending = None
-                self._emit(f"READY labkit-arm {PROTOCOL_VERSION} fw={FW_VERSION} joints={self.joints} "
+                self._emit(f"READY labkit-arm {PROTOCOL_VERSION} fw={FW_VERSION} proto={PROTOCOL_VERSION} "
+                           f"joints={self.joints} "
                            f"reset={reason} eeprom={'OK' if ok else 'DEFAULTS'}")
                 continue
             nxt = min(self.next_frame, self.stream_next)

@@ -39,7 +39,7 @@ from labkit.exceptions import DeviceError, JointLimitError, OptionError, Protoco
 from labkit.arm._protocol import PROTOCOL_VERSION, cdeg
 from labkit.arm._replies import BoardInfo, parse_hello, parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm._wire import Wire
-from labkit.arm._segments import feed_segments, segments_from_trajectory
+from labkit.arm._segments import check_segment_speeds, feed_segments, segments_from_trajectory, wire_speed_limits
 from labkit.arm._feedback import record_stream
 from labkit.arm._ports import find_ports, open_port
 
@@ -262,7 +262,8 @@ class Arm:
         Parameters
         ----------
         retries : int, optional
-            Resend attempts after a lost or garbled reply; default ``self.retries``.
+            Resend attempts after a lost or garbled reply; default ``4 * self.retries + 4`` (the
+            reply is long, so it is the most likely to be damaged on a noisy line).
 
         Returns
         -------
@@ -274,6 +275,8 @@ class Arm:
             No valid reply after all retries.
         """
         queue = self.info.queue if self.info is not None else None
+        if retries is None:  # the longest reply (about 150 bytes): the first to be hit on a noisy line
+            retries = 4 * self.retries + 4
         st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
         if self._wire.last_seq is not None:
             self._wire.check_last(st.last)
@@ -325,8 +328,21 @@ class Arm:
         return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
 
     # -- configuration ---------------------------------------------------------------------
+    def speed_limits(self):
+        """Per-joint speed [cdeg/s] and acceleration [cdeg/s^2] limits as sent to the board (0: unchecked).
+
+        Returns
+        -------
+        vmax, amax : list of int
+            From the robot file (:func:`wire_speed_limits`).
+        """
+        return wire_speed_limits(self.robot)
+
     def sync_calibration(self):
-        """Send every servo calibration of the robot file to the board (``CAL``, RAM only)."""
+        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only)."""
+        vmax, amax = self.speed_limits()
+        for j in range(self.robot.n):
+            self._transact("LIMITS", j, vmax[j], amax[j])
         for j, lk in enumerate(self.robot.links):
             cal = lk.servo
             if cal is None:
@@ -395,7 +411,7 @@ class Arm:
 
         self._transact("MOVE", *target, motion=True, verify=lambda seq: self._verify_status(seq)[1])
         if self.check_moves:
-            got = [cdeg(v) for v in self.status().q]
+            got = [cdeg(v) for v in self._verify_status()[0].q]
             if got != target:
                 self._wire.hold(f"after MOVE {' '.join(map(str, target))} the board is commanded to "
                                 f"{' '.join(map(str, got))} cdeg")
@@ -534,6 +550,8 @@ class Arm:
         ------
         JointLimitError
             A sample outside the joint limits or servo ranges (nothing is sent).
+        TrajectoryError
+            A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
         DeviceError
             A segment rejected or lost, or the board held (host-silence timeout).
         """
@@ -544,6 +562,7 @@ class Arm:
             for row in np.asarray(traj.q):
                 self._check_q(row)
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+        check_segment_speeds(self.robot, segs, *self.speed_limits())
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------

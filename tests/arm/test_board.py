@@ -59,19 +59,19 @@ def test_ready_line_and_hello_match_the_protocol_examples():
     b.advance_to(0.05)
     assert b.take_output() == b""
     b.advance_to(0.2)
-    assert b.take_output() == b"READY labkit-arm 2 fw=2.0.0 joints=3 reset=POWER eeprom=DEFAULTS*0E76\r\n"
+    assert b.take_output() == b"READY labkit-arm 2 fw=2.0.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*6FFC\r\n"
     assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=2.0.0 proto=2 joints=3 channels=4 queue=6 maxline=160*CC23"]
 
 
 def test_example_session_lines_and_checksums():
     b = booted()
     assert talk(b, "#1 MOVE 4500 9000 3000 *73E0") == ["OK #1 MOVE p=BE59*2FA3"]
-    assert talk(b, "#2 MOVE 4500 19000 3000 *ACB5") == ["ERR #2 6 LIMIT joint 1 19000 outside 0..18000*D17A"]
-    assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed checksum*F4D6"]
-    assert talk(b, "FLY") == ["ERR 3 UNKNOWN FLY*E700"]
+    assert talk(b, "#2 MOVE 4500 19000 3000 *ACB5") == ["ERR #2 6 LIMIT joint 1*ADC7"]
+    assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed*5F65"]
+    assert talk(b, "FLY") == ["ERR 3 UNKNOWN*B3FC"]
     assert talk(b, "#4 ping")[0].startswith("OK #4 PING ")
     assert talk(b, "  $#5 PING*12  ")[0].startswith("ERR 1 BADCHK malformed")  # two hex digits: protocol 1
-    assert talk(b, f"$#5 PING*{checksum('#5 PING') ^ 1:04X}")[0].startswith("ERR 1 BADCHK checksum mismatch")
+    assert talk(b, f"$#5 PING*{checksum('#5 PING') ^ 1:04X}")[0].startswith("ERR 1 BADCHK mismatch")
     assert talk(b, f"$#5 PING*{checksum('#5 PING'):04x}")[0].startswith("OK #5 PING")
 
 
@@ -80,7 +80,7 @@ def test_state_changing_lines_need_seq_and_crc():
     before = list(b.q)
     for line in ["MOVE 4500 9000 3000", "#5 MOVE 4500 9000 3000", seal("MOVE 4500 9000 3000 "),
                  "GRIP 1200", "TIMEOUT 0", "STREAM 10", "SAVE", "DEFAULTS", "STOP", "CAL 0"]:
-        assert talk(b, line) == [seal("ERR 1 BADCHK #seq and *CRC required")], line
+        assert talk(b, line) == [seal("ERR 1 BADCHK unsealed")], line
     assert b.q == before and b.grip == 1500 and b.stream_hz == 0 and b.timeout_ms == 500
 
 
@@ -104,13 +104,13 @@ def test_lines_without_reply_and_malformed_lines():
     assert strip(talk(b, "#99999 PING")[0]).startswith("ERR 2 SYNTAX")
     assert cmd(b, "MOVE 1 2 x")[0].startswith("ERR 2 SYNTAX")
     assert cmd(b, "MOVE -2147483648 0 0")[0].startswith("ERR 2 SYNTAX")  # int32 without its minimum
-    assert strip(talk(b, "#1 PING*4")[0]) == "ERR 1 BADCHK malformed checksum"
+    assert strip(talk(b, "#1 PING*4")[0]) == "ERR 1 BADCHK malformed"
     b.receive(b"PI\xffNG\n")
     assert strip(b.take_output().decode().strip()).startswith("ERR 2 SYNTAX")
     assert strip(talk(b, "PING " + "1" * 200)[0]).startswith("ERR 4 TOOLONG")
     assert " flags=11 " in talk(b, "STATUS")[0]  # EEPROM defaults + a line too long
-    assert strip(talk(b, "$")[0]) == "ERR 2 SYNTAX missing command"
-    assert strip(talk(b, "*0000")[0]) == "ERR 1 BADCHK checksum mismatch"
+    assert strip(talk(b, "$")[0]) == "ERR 2 SYNTAX command"
+    assert strip(talk(b, "*0000")[0]) == "ERR 1 BADCHK mismatch"
 
 
 def test_every_request_gets_exactly_one_reply_in_order():
@@ -200,7 +200,7 @@ def test_stream_frames_counter_and_clock():
 def test_calibration_save_survives_reset():
     b = booted()
     assert cmd(b, "CAL 2 600 2400 18000 -1 0 17000") == ["OK CAL 2 600 2400 18000 -1 0 17000"]
-    assert cmd(b, "SAVE") == ["OK SAVE 52"]
+    assert cmd(b, "SAVE") == ["OK SAVE 76"]  # EEPROM image version 2 (with the speed limits)
     b.reset()
     b.advance(0.2)
     assert b"reset=EXTERNAL eeprom=OK" in b.take_output()

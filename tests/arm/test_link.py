@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import serial
 
-from labkit.exceptions import DeviceError, JointLimitError, ProtocolError
+from labkit.exceptions import DeviceError, JointLimitError, ProtocolError, TrajectoryError
 from labkit.arm import FaultConfig, FaultyPort, PortWrapper
 from labkit.arm import Arm, CommandRejected, find_ports, segments_from_trajectory
 from labkit.arm import checksum
@@ -376,3 +376,20 @@ def test_long_segments_keep_the_host_silence_timer_alive(arm):
     report = arm.run_trajectory(segs)
     assert report.queue_full_waits > 0 and report.segments == 10
     assert arm.status().flags & 0x02 == 0 and arm.port.board.done == 10
+
+
+def test_speed_limits_are_sent_and_checked_before_sending(arm):
+    board = arm.port.board
+    assert board.vmax == [30000] * 3 and board.amax == [150000] * 3  # 300 deg/s, 1500 deg/s^2 (robot file)
+    q = [round(math.degrees(v) * 100) for v in arm.commanded_joints()]
+    fast = [(5, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])]  # 10 deg in 5 ms
+    sent = arm.stats.sent
+    with pytest.raises(TrajectoryError, match=r"segment 0 \(5 ms\): joint 1 \(base_yaw\) exceeds.*nothing was sent"):
+        arm.run_trajectory(fast)
+    assert arm.stats.sent == sent and board.segments == [] and board.done == 0
+    # the board refuses the same segment on its own (a host that skips the check)
+    with pytest.raises(CommandRejected, match="11 SPEED joint 0") as exc:
+        arm._transact("SEG", *fast[0][:2], *fast[0][2])
+    assert exc.value.code == 11 and board.done == 0 and board.segments == []
+    report = arm.run_trajectory([(1000, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])])
+    assert report.segments == 1 and board.done == 1

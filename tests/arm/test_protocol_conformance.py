@@ -447,3 +447,28 @@ def test_calibration_persists_across_reset_only_when_saved(board, host):
     board.reset()
     host.wait_event("READY")
     assert host.ok("CAL 2")[1:] == ["2", "500", "2500", "0", "1", "0", "18000"]
+
+
+# ------------------------------------------------------------------------------ speed limits
+def test_out_of_speed_segments_are_rejected_without_motion(board, host):
+    """Issue 13: a 500 ms segment whose duration lost "00" ran 100x too fast; now both boards refuse it."""
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    assert host.ok("LIMITS 0") == ["LIMITS", "0", "60000", "0"]  # factory: 600 deg/s, acceleration unchecked
+    assert host.ok("LIMITS 0 30000 150000") == ["LIMITS", "0", "30000", "150000"]
+    board.advance(0.05)
+    before = board.pulses()
+    still = [9000, 0, 0, 0], [3000, 0, 0, 0]
+    up = cubic_coeffs(4500, 9000)
+    assert host.err(seg_line(5, [up, *still]), 11).split()[-2:] == ["joint", "0"]  # 6750 deg/s
+    host.err(seg_line(250, [up, *still]), 11)  # 270 deg/s but 4320 deg/s^2
+    host.err("LIMITS 0 -1 0", 5)
+    host.err("LIMITS 3", 5)
+    board.advance(0.1)
+    assert_pulses(board, before, tol=1.0)
+    status = host.status()
+    assert status["q"] == "4500,9000,3000" and status["state"] == "IDLE" and status["queue"] == "0"
+    host.ok(seg_line(1000, [up, *still]))  # 67.5 deg/s, 270 deg/s^2: runs
+    board.advance(1.1)
+    assert host.wait_event("EV DONE")
+    assert host.status()["q"] == "9000,9000,3000"
