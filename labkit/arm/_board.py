@@ -183,7 +183,7 @@ class VirtualBoard(BoardCommands):
             if b in (10, 13):
                 if self._discarding:
                     self._discarding = False
-                    self._emit(f"ERR 4 TOOLONG line longer than {MAX_LINE} bytes")
+                    self._emit("ERR 4 TOOLONG")
                 elif self._inbuf:
                     line = bytes(self._inbuf)
                     self._inbuf.clear()
