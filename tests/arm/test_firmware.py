@@ -263,6 +263,25 @@ def test_firmware_fits_in_half_of_the_uno(build_log):
     assert sec[".data"] + sec[".bss"] + sec.get(".noinit", 0) == sram
 
 
+ARDUINO_BUILDER = [
+    "arduino-builder", "-compile", "-hardware", "/usr/share/arduino-builder", "-hardware", "/usr/share/arduino/hardware",
+    "-tools", "/usr/bin", "-fqbn", "arduino:avr:uno", "-prefs", "compiler.cpp.extra_flags=-DDECIMAL_DIG=17",
+]
+
+
+def test_arduino_builder_builds_the_sketch_within_half_of_the_uno(tmp_path):
+    """The Arduino IDE's own build engine (Debian arduino-builder, arduino:avr:uno) builds the sketch as is."""
+    proc = subprocess.run([*ARDUINO_BUILDER, "-build-path", str(tmp_path), str(FIRMWARE_DIR / "labkit_arm" / "labkit_arm.ino")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    flash = int(re.search(r"Sketch uses (\d+) bytes", proc.stdout).group(1))
+    sram = int(re.search(r"Global variables use (\d+) bytes", proc.stdout).group(1))
+    print(f"arduino-builder (arduino:avr:uno): flash {flash} B ({100 * flash / 32768:.1f}% of 32768), "
+          f"SRAM {sram} B ({100 * sram / 2048:.1f}% of 2048)")
+    assert (tmp_path / "labkit_arm.ino.hex").exists()
+    assert flash <= 32768 // 2 and sram <= 2048 // 2, (flash, sram)
+
+
 def test_sketch_is_an_arduino_ide_sketch_with_a_portable_core(build_log):
     sketch = FIRMWARE_DIR / "labkit_arm"
     assert (sketch / "labkit_arm.ino").exists()  # folder name == sketch name
