@@ -33,15 +33,15 @@ import math
 
 import numpy as np
 
-from labkit.validation import as_vector
 from labkit.robot import Robot
-from labkit.exceptions import DeviceError, JointLimitError, OptionError, ProtocolError
-from labkit.arm._protocol import PROTOCOL_VERSION, cdeg
-from labkit.arm._replies import BoardInfo, parse_hello, parse_ping, parse_read, parse_status, parse_stop
+from labkit.exceptions import DeviceError, OptionError
+from labkit.arm._protocol import cdeg
+from labkit.arm._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm._wire import Wire
 from labkit.arm._segments import check_segment_speeds, feed_segments, segments_from_trajectory, wire_speed_limits
 from labkit.arm._feedback import record_stream
-from labkit.arm._ports import find_ports, open_port
+from labkit.arm._ports import find_ports, handshake, open_port
+from labkit.arm._checks import finite, joint_vector
 
 __all__ = ["Arm"]
 
@@ -113,7 +113,7 @@ class Arm:
         name = getattr(opened, "port", None) or getattr(opened, "name", repr(opened))
         self._wire = Wire(opened, name=name, timeout=timeout, retries=retries)
         try:
-            self._handshake(boot_wait)
+            handshake(self, boot_wait)
             if sync_calibration:
                 self.sync_calibration()
         except BaseException:
@@ -136,42 +136,6 @@ class Arm:
                                   "arm 'sim://'")
             port = ports[0]
         return open_port(port, baudrate)
-
-    def _handshake(self, boot_wait):
-        wire = self._wire
-        ready = wire.wait_ready(boot_wait)
-        self._refuse_v1()
-        if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
-            raise DeviceError(f"{self.name}: the board announced {' '.join(ready)!r}, labkit expects "
-                              f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
-        try:
-            info = self._transact("HELLO", parse=parse_hello)
-        except DeviceError as exc:
-            self._refuse_v1()
-            if ready is None:
-                raise DeviceError(
-                    f"{self.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
-                    f"no answer to HELLO ({exc}); is the labkit firmware flashed (README: 'Flash the "
-                    f"firmware'), the baud rate 115200 and the right port chosen (labkit ports)?") from None
-            raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
-        if not isinstance(info, BoardInfo):
-            raise ProtocolError(f"{self.name}: not a labkit arm: HELLO answered {info!r}")
-        wire.info = info
-        if info.protocol != PROTOCOL_VERSION:
-            raise DeviceError(f"{self.name}: board speaks protocol {info.protocol}, "
-                              f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
-        if info.joints != self.robot.n:
-            raise DeviceError(f"{self.name}: board has {info.joints} joints, robot "
-                              f"{self.robot.name} has {self.robot.n}")
-        # what ran before this connection is not ours to judge
-        wire.last_seq = self._verify_status()[0].last
-
-    def _refuse_v1(self):
-        old = self._wire.v1_seen
-        if old is not None:
-            raise DeviceError(f"{self.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
-                              f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
-                              f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
 
     def close(self):
         """Close the port (never raises, even if the port has vanished)."""
@@ -364,23 +328,21 @@ class Arm:
         ----------
         seconds : float
             Time without a host line after which the board holds [s]; sent
-            rounded to ms; 0 disables the timeout.
+            rounded to ms; 0 disables the timeout, else 0.05..60 s.
+
+        Raises
+        ------
+        OptionError
+            Not a finite number, or neither 0 nor within 0.05..60 s (nothing is sent).
         """
+        seconds = finite("seconds", seconds, lo=0.0, hi=60.0, unit="s")
+        if 0 < seconds < 0.05:
+            raise OptionError(f"expected seconds 0 (off) or 0.05..60 s, got {seconds:g}")
         self._transact("TIMEOUT", int(round(seconds * 1000)))
 
     # -- motion ----------------------------------------------------------------------------
     def _check_q(self, q):
-        q = as_vector(q, self.robot.n, "q")
-        if q.ndim != 1:
-            raise JointLimitError(f"expected one configuration q with shape ({self.robot.n},), got {q.shape}")
-        self.robot.check_limits(q)
-        for j, lk in enumerate(self.robot.links):
-            if lk.servo is not None:
-                try:
-                    lk.servo.pulse_us(q[j])
-                except JointLimitError as exc:
-                    raise JointLimitError(f"{self.robot.name}: joint {j + 1}: {exc}", joint=j) from None
-        return q
+        return joint_vector(self.robot, q)
 
     def move_joints(self, q, *, wait=False, tol=math.radians(1.0), max_wait=10.0):
         """Command all joints at once (``MOVE``).
@@ -492,9 +454,17 @@ class Arm:
         Parameters
         ----------
         us : float
-            Pulse width sent to the gripper servo [us] (rounded to an integer).
+            Pulse width sent to the gripper servo [us] (rounded to an integer); the board
+            checks it against the gripper channel's range.
+
+        Raises
+        ------
+        OptionError
+            Not a finite number (nothing is sent).
+        CommandRejected
+            Outside the gripper's pulse range (``ERR 5 RANGE``).
         """
-        self._transact("GRIP", int(round(us)))
+        self._transact("GRIP", int(round(finite("us", us, unit="us"))))
 
     def open_gripper(self):
         """Open the gripper (robot file's ``open_us``)."""
@@ -589,9 +559,13 @@ class Arm:
         Raises
         ------
         OptionError
-            ``hz`` outside 1..200 (a ``ValueError``).
+            ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200 (a ``ValueError``).
         """
+        duration = finite("duration", duration, unit="s")
+        if duration <= 0:
+            raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")
+        hz = finite("hz", hz, lo=1, hi=200, unit="Hz")
+        if hz != int(hz):
+            raise OptionError(f"expected hz as a whole number of frames per second, got {hz:g}")
         hz = int(hz)
-        if not 1 <= hz <= 200:
-            raise OptionError(f"expected hz in 1..200, got {hz}")
         return record_stream(self._wire, self.robot, duration, hz)

@@ -1,10 +1,11 @@
-"""Serial ports of real boards (private; the public names are re-exported by :mod:`labkit.arm`).
+"""Real-board start-up (private; the public names are re-exported by :mod:`labkit.arm`).
 
-Which ports exist and which look like an Arduino (pyserial's
-:func:`serial.tools.list_ports.comports`, USB vendor/product ids), and opening
+Which serial ports exist and which look like an Arduino (pyserial's
+:func:`serial.tools.list_ports.comports`, USB vendor/product ids); opening
 one with errors that say what to do: a port held by another program (the
 Arduino IDE's serial monitor) or one the user may not open (Linux: the
-``dialout`` group).
+``dialout`` group); and the handshake: wait for the board's ``READY`` (an Uno
+resets when its port opens), refuse a protocol-1 board, ``HELLO``.
 
 Examples
 --------
@@ -18,7 +19,9 @@ import errno
 import sys
 from dataclasses import dataclass
 
-from labkit.exceptions import DeviceError
+from labkit.exceptions import DeviceError, ProtocolError
+from labkit.arm._protocol import PROTOCOL_VERSION
+from labkit.arm._replies import BoardInfo, parse_hello
 
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 
@@ -127,3 +130,57 @@ def open_port(port, baudrate):
         else:
             hint = "'labkit ports' lists the serial ports"
         raise DeviceError(f"cannot open {port!r}: {text}; {hint}") from None
+
+
+def handshake(arm, boot_wait):
+    """Wait for ``READY``, refuse an older board, ``HELLO``, check the joints, read ``STATUS last=``.
+
+    Parameters
+    ----------
+    arm : labkit.arm.Arm
+        The connection being opened (its wire object and robot).
+    boot_wait : float
+        Longest wait for ``READY`` [s]; without it ``HELLO`` is still tried.
+
+    Raises
+    ------
+    DeviceError
+        No ``READY`` and no answer, a protocol-1 board, another protocol version or joint count.
+    ProtocolError
+        The device answers ``HELLO`` but is not a labkit arm.
+    """
+    wire = arm._wire
+    ready = wire.wait_ready(boot_wait)
+    _refuse_v1(arm)
+    if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
+        raise DeviceError(f"{arm.name}: the board announced {' '.join(ready)!r}, labkit expects "
+                          f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
+    try:
+        info = wire.transact("HELLO", parse=parse_hello)
+    except DeviceError as exc:
+        _refuse_v1(arm)
+        if ready is None:
+            raise DeviceError(
+                f"{arm.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
+                f"no answer to HELLO ({exc}); is the labkit firmware flashed (README: 'Flash the "
+                f"firmware'), the baud rate 115200 and the right port chosen (labkit ports)?") from None
+        raise DeviceError(f"{arm.name}: no handshake with the board ({exc})") from None
+    if not isinstance(info, BoardInfo):
+        raise ProtocolError(f"{arm.name}: not a labkit arm: HELLO answered {info!r}")
+    wire.info = info
+    if info.protocol != PROTOCOL_VERSION:
+        raise DeviceError(f"{arm.name}: board speaks protocol {info.protocol}, "
+                          f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+    if info.joints != arm.robot.n:
+        raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
+                          f"{arm.robot.name} has {arm.robot.n}")
+    # what ran before this connection is not ours to judge
+    wire.last_seq = arm._verify_status()[0].last
+
+
+def _refuse_v1(arm):
+    old = arm._wire.v1_seen
+    if old is not None:
+        raise DeviceError(f"{arm.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
+                          f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
+                          f"(make -C firmware, then avrdude or the Arduino IDE, see README)")

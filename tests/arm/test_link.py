@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import serial
 
-from labkit.exceptions import DeviceError, JointLimitError, ProtocolError, TrajectoryError
+from labkit.exceptions import DeviceError, JointLimitError, OptionError, ProtocolError, TrajectoryError
 from labkit.arm import FaultConfig, FaultyPort, PortWrapper
 from labkit.arm import Arm, CommandRejected, find_ports, segments_from_trajectory
 from labkit.arm import checksum
@@ -393,3 +393,21 @@ def test_speed_limits_are_sent_and_checked_before_sending(arm):
     assert exc.value.code == 11 and board.done == 0 and board.segments == []
     report = arm.run_trajectory([(1000, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])])
     assert report.segments == 1 and board.done == 1
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda arm: arm.grip(float("nan")), "expected us as a finite number, got nan"),
+    (lambda arm: arm.grip("open"), "expected us as a number"),
+    (lambda arm: arm.set_host_timeout(float("nan")), "expected seconds as a finite number, got nan"),
+    (lambda arm: arm.set_host_timeout(0.01), r"expected seconds 0 \(off\) or 0.05..60 s, got 0.01"),
+    (lambda arm: arm.set_host_timeout(-1), r"expected seconds in 0..60 s, got -1"),
+    (lambda arm: arm.stream(-1), "expected a recording time duration > 0 s, got -1"),
+    (lambda arm: arm.stream(float("inf")), "expected duration as a finite number"),
+    (lambda arm: arm.stream(1.0, hz=float("nan")), "expected hz as a finite number"),
+    (lambda arm: arm.stream(1.0, hz=50.5), "expected hz as a whole number"),
+])
+def test_bad_arguments_are_refused_before_anything_is_sent(arm, call, match):
+    sent = arm.stats.sent
+    with pytest.raises(OptionError, match=match):
+        call(arm)
+    assert arm.stats.sent == sent
