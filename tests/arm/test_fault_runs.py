@@ -125,8 +125,12 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
             dispatch(line)
 
         wire._dispatch = spy
-        arm.set_host_timeout(0) if not faulty.counts.disconnected else None
         try:
+            try:
+                arm.set_host_timeout(0)  # long pauses between commands on a loaded machine
+            except DeviceError:
+                out["raised"] += 1
+                continue
             while out["commands"] < commands:
                 if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
                     commands = out["commands"]
