@@ -55,6 +55,7 @@ def board(request):
 def test_board_answers_every_line_of_the_table_exactly(board):
     ready, rows = load_table()
     port = board.open()
+    port.timeout = 60.0  # a loaded test machine can hold the simulated board back for seconds
     got_ready = port.readline()
     mismatches = []
     if got_ready.rstrip(b"\r\n").decode("latin-1") != ready:
@@ -65,7 +66,7 @@ def test_board_answers_every_line_of_the_table_exactly(board):
             line = port.readline()
             if not line.endswith(b"\r\n") or line[:-2].decode("latin-1") != want:
                 mismatches.append((request[:60], want, line))
+    assert not mismatches, "\n".join(f"{r!r}: expected {w!r}, got {g!r}" for r, w, g in mismatches[:20])
     port.write(b"HELLO\n")  # nothing left over: the next line answers this
     tail = port.readline()
     assert tail.startswith(b"OK HELLO"), tail
-    assert not mismatches, "\n".join(f"{r!r}: expected {w!r}, got {g!r}" for r, w, g in mismatches[:20])
