@@ -4,7 +4,9 @@ what the board really received and sent:
 
 - damaged requests executed: a state-changing request the board acknowledged (``OK #seq NAME p=...``,
   read below the fault injection) whose seq/echo the host never sent;
-- wrong replies accepted: a board line the host took that the board never sent;
+- wrong replies accepted: a reply the host used (matched to its request) that the board never sent;
+  ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-16 at all (about one
+  in 65,536 damaged lines can; the host then drops it as stale, implausible or unmatched);
 - unrequested motions left unreported: an API call that returned normally while the board ran more
   (or fewer) MOVE/SEG than it asked for.
 
@@ -99,6 +101,7 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
     """
     rng = np.random.default_rng(seed)
     out = dict(url=url, commands=0, api_calls=0, damaged_executed=0, wrong_replies_accepted=0,
+               wrong_lines_passing_crc=0, examples=[],
                unreported_motions=0, lost_motions=0, raised=0, disconnects=0, reconnects=0,
                corrupted_bytes=0, dropped_bytes=0, verified=0, wrong_echoes=0, seconds=0.0)
     t0 = time.perf_counter()
@@ -125,6 +128,15 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
             dispatch(line)
 
         wire._dispatch = spy
+        used = []
+        await_ = wire._await
+
+        def spy_await(seq, await_=await_, used=used):
+            line = await_(seq)
+            used.append(" ".join([line.kind, *([f"#{line.seq}"] if line.seq is not None else []), *line.tokens[1:]]))
+            return line
+
+        wire._await = spy_await
         try:
             try:
                 arm.set_host_timeout(0)  # long pauses between commands on a loaded machine
@@ -188,7 +200,11 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
                 if m and sent.get(int(m.group(1))) != b"p=" + m.group(3):
                     out["damaged_executed"] += 1
             truth_lines = set(_lines(truth.board_out))
-            out["wrong_replies_accepted"] += sum(1 for ln in accepted if ln not in truth_lines)
+            wrong = [ln for ln in accepted if ln not in truth_lines]
+            out["wrong_lines_passing_crc"] += len(wrong)
+            out["examples"] += [ln.decode("latin-1") for ln in wrong][:3]
+            true_bodies = {" ".join(b.decode("latin-1").split()) for b in map(unseal, truth_lines) if b is not None}
+            out["wrong_replies_accepted"] += sum(1 for u in used if u not in true_bodies)
             _close(raw, faulty, out)
             arm.close()
     out["seconds"] = round(time.perf_counter() - t0, 1)
