@@ -4,9 +4,10 @@ what the board really received and sent:
 
 - damaged requests executed: a state-changing request the board acknowledged (``OK #seq NAME p=...``,
   read below the fault injection) whose seq/echo the host never sent;
-- wrong replies accepted: a reply the host used (matched to its request) that the board never sent;
-  ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-16 at all (about one
-  in 65,536 damaged lines can; the host then drops it as stale, implausible or unmatched);
+- wrong replies accepted: a reply the host used (its request succeeded with it) that the board never
+  sent; ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-16 at all (about
+  one in 65,536 damaged lines can), ``wrong_replies_matched`` those of them matched to the awaited
+  request, which the content checks then refused (the request was sent again);
 - unrequested motions left unreported: an API call that returned normally while the board ran more
   (or fewer) MOVE/SEG than it asked for.
 
@@ -101,7 +102,7 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
     """
     rng = np.random.default_rng(seed)
     out = dict(url=url, commands=0, api_calls=0, damaged_executed=0, wrong_replies_accepted=0,
-               wrong_lines_passing_crc=0, examples=[],
+               wrong_lines_passing_crc=0, wrong_replies_matched=0, examples=[],
                unreported_motions=0, lost_motions=0, raised=0, disconnects=0, reconnects=0,
                corrupted_bytes=0, dropped_bytes=0, verified=0, wrong_echoes=0, seconds=0.0)
     t0 = time.perf_counter()
@@ -137,6 +138,17 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
             return line
 
         wire._await = spy_await
+        taken = []  # the reply of every request that succeeded (its content passed the host's checks)
+        transact_ = wire.transact
+
+        def spy_transact(*args, transact_=transact_, used=used, taken=taken, **kwargs):
+            n0 = len(used)
+            result = transact_(*args, **kwargs)
+            if len(used) > n0:
+                taken.append(used[-1])
+            return result
+
+        wire.transact = spy_transact
         try:
             try:
                 arm.set_host_timeout(0)  # long pauses between commands on a loaded machine
@@ -204,7 +216,8 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
             out["wrong_lines_passing_crc"] += len(wrong)
             out["examples"] += [ln.decode("latin-1") for ln in wrong][:3]
             true_bodies = {" ".join(b.decode("latin-1").split()) for b in map(unseal, truth_lines) if b is not None}
-            out["wrong_replies_accepted"] += sum(1 for u in used if u not in true_bodies)
+            out["wrong_replies_matched"] += sum(1 for u in used if u not in true_bodies)
+            out["wrong_replies_accepted"] += sum(1 for u in taken if u not in true_bodies)
             _close(raw, faulty, out)
             arm.close()
     out["seconds"] = round(time.perf_counter() - t0, 1)
