@@ -22,6 +22,7 @@ __all__ = [
     "MeasurementError",
     "DeviceError",
     "ProtocolError",
+    "StorageError",
     "CheckFailed",
 ]
 
@@ -156,6 +157,10 @@ class DeviceError(LabkitError, OSError):
 
 class ProtocolError(DeviceError):
     """The board answered, but not with a valid protocol reply."""
+
+
+class StorageError(LabkitError, OSError):
+    """Writing a file failed (disk full, I/O error); the message says which file and what to do."""
 
 
 class CheckFailed(LabkitError, AssertionError):

@@ -4,12 +4,12 @@ A *board* is what ``tests/arm/test_protocol_conformance.py`` runs against. Inter
 (duck-typed; see :class:`Board`):
 
 - ``open() -> port``: a pyserial-like object (``write``, ``readline``, ``timeout``) on which
-  the board has just booted (its ``EV BOOT`` line is readable);
+  the board has just booted (its ``READY`` line is readable);
 - ``pulses() -> {channel: width_us}``: the pulse widths the servos are really commanded now;
 - ``pulse_history(since=0.0) -> [(t_s, channel, width_us), ...]``: changes of pulse width in
   board time (for checking trajectories);
 - ``set_analog(pin, volts)``: voltage on analog pin 0..5 (A5 = user pot);
-- ``reset()``: MCU reset (EEPROM kept; the port stays open and a new ``EV BOOT`` follows);
+- ``reset()``: MCU reset (EEPROM kept; the port stays open and a new ``READY`` follows);
 - ``time() -> s`` board time; ``advance(seconds)``: let board time pass (blocking);
 - ``close()``.
 

@@ -1,4 +1,4 @@
-/* labkit arm firmware core: protocol v1 parser, limits, calibration, segment queue, EEPROM image.
+/* labkit arm firmware core: protocol v2 parser, limits, calibration, segment queue, EEPROM image.
  * See labkit_core.h and docs/protocol.md. No Arduino headers; avr-libc's pgmspace only on AVR. */
 #include "labkit_core.h"
 
@@ -10,26 +10,49 @@
 #define LK_RD(p) ((char)pgm_read_byte(p))
 #define LK_FLASH PROGMEM
 #define LK_RDF(p) pgm_read_float(p)
+#define pgm_byte(p) pgm_read_byte(p)
 #else
 #define LK_RDF(p) (*(p))
+#define pgm_byte(p) (*(p))
 #define LK_P(s) (s)
 #define LK_RD(p) (*(const char *)(p))
 #define LK_FLASH
+#endif
+
+#if defined(__GNUC__)
+#define LK_NOINLINE __attribute__((noinline))
+#else
+#define LK_NOINLINE
 #endif
 
 #define LK_MAXARGS (2 + LK_JOINTS * (LK_MAX_ORDER + 1))
 #define LK_COEF_MAX 10000000L
 #define LK_DISCONT_CDEG 50
 #define LK_LIMIT_SAMPLES 32
-#define LK_EE_VERSION 1
-#define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 2 + 2)
+#define LK_EE_VERSION 2
+#define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 2)
+#define LK_VMAX_DEFAULT 60000UL
+#define LK_VMAX_MAX 1000000UL   /* 10000 deg/s */
+#define LK_AMAX_MAX 100000000UL /* 10^6 deg/s^2 */ /* factory speed limit [cdeg/s]: 600 deg/s, above any hobby servo */
+#define LK_SPEED_SAMPLES 16
 
 /* ------------------------------------------------------------------ output */
-static uint8_t g_cs; /* running XOR of the board line being written */
+static uint16_t g_cs;   /* running CRC-16 of the board line being written */
+static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-changing requests) */
+static uint16_t g_echo;
+
+static LK_NOINLINE uint16_t crc_step(uint16_t crc, uint8_t b) { /* CRC-16/CCITT-FALSE, one byte, no table */
+    crc = (uint16_t)((crc >> 8) | (crc << 8));
+    crc ^= b;
+    crc ^= (uint8_t)(crc & 0xFF) >> 4;
+    crc ^= (uint16_t)(crc << 12);
+    crc ^= (uint16_t)((crc & 0xFF) << 5);
+    return crc;
+}
 
 static void out_n(const char *s, uint8_t n) {
     uint8_t i;
-    for (i = 0; i < n; i++) g_cs ^= (uint8_t)s[i];
+    for (i = 0; i < n; i++) g_cs = crc_step(g_cs, (uint8_t)s[i]);
     lk_hw_write(s, n);
 }
 static void out_c(char c) { out_n(&c, 1); }
@@ -40,11 +63,7 @@ static void out_p(const char *p) { /* string in program memory */
 static void out_u(uint32_t v) {
     char b[10];
     uint8_t n = 0;
-    while (v > 0xFFFFu) { b[9 - n++] = (char)('0' + v % 10); v /= 10; }
-    {
-        uint16_t w = (uint16_t)v; /* 16-bit divisions are ~4x cheaper on the AVR */
-        do { b[9 - n++] = (char)('0' + w % 10); w /= 10; } while (w);
-    }
+    do { b[9 - n++] = (char)('0' + v % 10); v /= 10; } while (v);
     out_n(b + 10 - n, n);
 }
 static void out_i(int32_t v) {
@@ -53,32 +72,29 @@ static void out_i(int32_t v) {
 }
 static void out_sp_i(int32_t v) { out_c(' '); out_i(v); }
 static char hexdigit(uint8_t v) { return (char)(v < 10 ? '0' + v : 'A' + v - 10); }
-static void out_begin(void) { g_cs = 0; }
+static void out_begin(void) { g_cs = 0xFFFF; }
+static void hex4(char *b, uint16_t v) {
+    b[0] = hexdigit((uint8_t)(v >> 12)); b[1] = hexdigit((v >> 8) & 15); b[2] = hexdigit((v >> 4) & 15); b[3] = hexdigit(v & 15);
+}
 static void out_end(void) {
-    char b[5];
-    b[0] = '*'; b[1] = hexdigit(g_cs >> 4); b[2] = hexdigit(g_cs & 15); b[3] = '\r'; b[4] = '\n';
-    lk_hw_write(b, 5);
+    char b[7];
+    b[0] = '*'; hex4(b + 1, g_cs); b[5] = '\r'; b[6] = '\n';
+    lk_hw_write(b, 7);
 }
 static void out_seq(int32_t seq) {
     if (seq >= 0) { out_p(LK_P(" #")); out_u((uint32_t)seq); }
 }
 static void ok_begin(int32_t seq, const char *name_p) {
     out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
+    if (g_echo_on) { char b[4]; out_p(LK_P(" p=")); hex4(b, g_echo); out_n(b, 4); }
 }
+/* error names, in code order from 1 */
+static const char error_names[] LK_FLASH =
+    "BADCHK\0SYNTAX\0UNKNOWN\0TOOLONG\0RANGE\0LIMIT\0QFULL\0BUSY\0DISCONT\0EEPROM\0SPEED";
 static void err_begin(int32_t seq, uint8_t code) {
-    const char *name;
-    switch (code) {
-    case LK_E_BADCHK: name = LK_P("BADCHK"); break;
-    case LK_E_SYNTAX: name = LK_P("SYNTAX"); break;
-    case LK_E_UNKNOWN: name = LK_P("UNKNOWN"); break;
-    case LK_E_TOOLONG: name = LK_P("TOOLONG"); break;
-    case LK_E_RANGE: name = LK_P("RANGE"); break;
-    case LK_E_LIMIT: name = LK_P("LIMIT"); break;
-    case LK_E_QFULL: name = LK_P("QFULL"); break;
-    case LK_E_BUSY: name = LK_P("BUSY"); break;
-    case LK_E_DISCONT: name = LK_P("DISCONT"); break;
-    default: name = LK_P("EEPROM"); break;
-    }
+    const char *name = error_names;
+    uint8_t k;
+    for (k = 1; k < code; k++) while (LK_RD(name++)) {}
     out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_c(' '); out_u(code); out_c(' '); out_p(name);
 }
 static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
@@ -86,21 +102,20 @@ static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
     if (msg_p) { out_c(' '); out_p(msg_p); }
     out_end();
 }
+static uint8_t err_joint(int32_t seq, uint8_t code, uint8_t j) { /* "ERR ... joint <j>"; returns 0 */
+    err_begin(seq, code); out_p(LK_P(" joint ")); out_u(j); out_end();
+    return 0;
+}
+static const char s_arguments[] LK_FLASH = "arguments";
+#define LK_STR2(x) #x
+#define LK_STR(x) LK_STR2(x)
+static const char s_ident[] LK_FLASH = "fw=" LK_FW_VERSION " proto=2 joints=" LK_STR(LK_JOINTS);
+static const char s_gripper[] LK_FLASH = "gripper";
 
 /* ------------------------------------------------------------------ helpers */
-uint8_t lk_xor(const char *s, uint8_t n) {
-    uint8_t x = 0;
-    while (n--) x ^= (uint8_t)*s++;
-    return x;
-}
-
 uint16_t lk_crc16(const uint8_t *d, uint16_t n) { /* CRC-16/CCITT-FALSE */
     uint16_t crc = 0xFFFF;
-    uint8_t i;
-    while (n--) {
-        crc ^= (uint16_t)(*d++) << 8;
-        for (i = 0; i < 8; i++) crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
-    }
+    while (n--) crc = crc_step(crc, *d++);
     return crc;
 }
 
@@ -166,7 +181,14 @@ static void default_cal(lk_cal_t *cal, uint16_t *timeout_ms) {
     *timeout_ms = 500;
 }
 
-void lk_defaults(lk_t *lk) { default_cal(lk->cal, &lk->timeout_ms); }
+void lk_defaults(lk_t *lk) {
+    uint8_t j;
+    default_cal(lk->cal, &lk->timeout_ms);
+    for (j = 0; j < LK_JOINTS; j++) { lk->vmax[j] = LK_VMAX_DEFAULT; lk->amax[j] = 0; }
+}
+
+static void put32(uint8_t *b, uint32_t v) { b[0] = (uint8_t)v; b[1] = (uint8_t)(v >> 8); b[2] = (uint8_t)(v >> 16); b[3] = (uint8_t)(v >> 24); }
+static uint32_t get32(const uint8_t *b) { return b[0] | ((uint32_t)b[1] << 8) | ((uint32_t)b[2] << 16) | ((uint32_t)b[3] << 24); }
 
 static void put16(uint8_t *b, int16_t v) { b[0] = (uint8_t)v; b[1] = (uint8_t)((uint16_t)v >> 8); }
 static int16_t get16(const uint8_t *b) { return (int16_t)(b[0] | ((uint16_t)b[1] << 8)); }
@@ -180,6 +202,7 @@ static void ee_image(const lk_t *lk, uint8_t *b) {
         put16(p, k->pmin); put16(p + 2, k->pmax); put16(p + 4, k->zero);
         p[6] = (uint8_t)k->dir; put16(p + 7, k->lo); put16(p + 9, k->hi);
     }
+    for (c = 0; c < LK_JOINTS; c++, p += 8) { put32(p, lk->vmax[c]); put32(p + 4, lk->amax[c]); }
     put16(p, (int16_t)lk->timeout_ms);
     crc = lk_crc16(b, LK_EE_SIZE - 2);
     put16(p + 2, (int16_t)crc);
@@ -206,6 +229,7 @@ static uint8_t timeout_valid(int32_t t) { return t == 0 || (t >= 50 && t <= 6000
 uint8_t lk_ee_load(lk_t *lk) {
     uint8_t b[LK_EE_SIZE], c, *p = b + 4;
     lk_cal_t cal[LK_CHANNELS];
+    uint32_t vmax[LK_JOINTS], amax[LK_JOINTS];
     uint16_t i, t;
     int32_t lo, hi;
     for (i = 0; i < LK_EE_SIZE; i++) b[i] = lk_hw_ee_read(i);
@@ -217,9 +241,12 @@ uint8_t lk_ee_load(lk_t *lk) {
         if (!cal_valid(&cal[c])) return 0;
         if (c < LK_JOINTS && !feasible(&cal[c], &lo, &hi)) return 0;
     }
+    for (c = 0; c < LK_JOINTS; c++, p += 8) { vmax[c] = get32(p); amax[c] = get32(p + 4); } /* the CRC vouches for them */
     t = (uint16_t)get16(p);
     if (!timeout_valid(t)) return 0;
     memcpy(lk->cal, cal, sizeof cal);
+    memcpy(lk->vmax, vmax, sizeof vmax);
+    memcpy(lk->amax, amax, sizeof amax);
     lk->timeout_ms = t;
     return 1;
 }
@@ -247,7 +274,8 @@ void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us) {
     if (reset_cause == LK_RESET_WATCHDOG) lk->flags |= LK_F_WATCHDOG_RESET;
     home(lk);
     out_begin();
-    out_p(LK_P("EV BOOT labkit-arm fw=" LK_FW_VERSION " proto=1 reset="));
+    out_p(LK_P("READY labkit-arm 2 ")); out_p(s_ident);
+    out_p(LK_P(" reset="));
     switch (reset_cause) {
     case LK_RESET_EXTERNAL: out_p(LK_P("EXTERNAL")); break;
     case LK_RESET_WATCHDOG: out_p(LK_P("WATCHDOG")); break;
@@ -377,6 +405,13 @@ typedef struct {
     int32_t *a;
 } call_t;
 
+static const char s_busy[] LK_FLASH = "STOP first";
+static uint8_t busy(lk_t *lk, const call_t *c) {
+    if (lk->state != LK_RUN) return 0;
+    err_msg(c->seq, LK_E_BUSY, s_busy);
+    return 1;
+}
+
 static void cmd_status(lk_t *lk, const call_t *c) {
     uint8_t j;
     ok_begin(c->seq, LK_P("STATUS state="));
@@ -392,6 +427,7 @@ static void cmd_status(lk_t *lk, const call_t *c) {
     out_p(LK_P(" flags=")); out_c(hexdigit(lk->flags >> 4)); out_c(hexdigit(lk->flags & 15));
     out_p(LK_P(" mem=")); out_u(lk_hw_mem_free());
     out_p(LK_P(" t=")); out_u(lk->now_ms);
+    out_p(LK_P(" last=")); out_u(lk->last_seq);
     out_end();
 }
 
@@ -399,11 +435,7 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
     uint8_t j;
     for (j = 0; j < LK_JOINTS; j++) {
         if (!joint_ok(&cal[j], q[j])) {
-            err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_sp_i(q[j]);
-            out_p(LK_P(" outside")); out_sp_i(cal[j].lo); out_p(LK_P("..")); out_i(cal[j].hi);
-            if (q[j] >= cal[j].lo && q[j] <= cal[j].hi) out_p(LK_P(" or servo range"));
-            out_end();
-            return 0;
+            return err_joint(c->seq, LK_E_LIMIT, j);
         }
     }
     (void)lk;
@@ -414,15 +446,39 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
    coefficients b_k = sum_{i<=k} C(k,i)/C(n,i) c_i (orders 3 and 5), so if every b_k is inside the feasible joint
    range the whole segment is. Cheap (no sampling) and exact for rest-to-rest segments. */
 /* w[k][i] = C(k,i)/C(n,i) for n = 3 and n = 5 */
-static const float bern3[4][4] LK_FLASH = {{1.0f}, {1.0f, 0.33333333f}, {1.0f, 0.66666667f, 0.33333333f}, {1.0f, 1.0f, 1.0f, 1.0f}};
-static const float bern5[6][6] LK_FLASH = {{1.0f}, {1.0f, 0.2f}, {1.0f, 0.4f, 0.1f}, {1.0f, 0.6f, 0.3f, 0.1f}, {1.0f, 0.8f, 0.6f, 0.4f, 0.2f}, {1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f}};
+/* stored times 3 (n = 3) and times 10 (n = 5) as bytes */
+static const uint8_t bern3[4][4] LK_FLASH = {{3}, {3, 1}, {3, 2, 1}, {3, 3, 3, 3}};
+static const uint8_t bern5[6][6] LK_FLASH = {{10}, {10, 2}, {10, 4, 1}, {10, 6, 3, 1}, {10, 8, 6, 4, 2}, {10, 10, 10, 10, 10, 10}};
 
 uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi) {
     uint8_t k, i;
     for (k = 0; k <= order; k++) {
         float b = 0;
-        for (i = 0; i <= k; i++) b += c[i] * LK_RDF(order == 3 ? &bern3[k][i] : &bern5[k][i]);
+        for (i = 0; i <= k; i++) b += c[i] * (float)pgm_byte(order == 3 ? &bern3[k][i] : &bern5[k][i]);
+        b *= order == 3 ? (1.0f / 3.0f) : 0.1f;
         if (b < lo || b > hi) return 0;
+    }
+    return 1;
+}
+
+/* |dq/ds| <= vlim and |d2q/ds2| <= alim (normalised time, cdeg) at s = k/16, k = 0..16; a limit < 0 is unchecked */
+LK_NOINLINE uint8_t lk_speed_ok(const float *c, uint8_t order, float vlim, float alim) {
+    float s = 0.0f, vb = 0.0f, ab = 0.0f, w, fi;
+    uint8_t i, k;
+    /* fast accept: |q'(s)| <= sum |i c_i| and |q''(s)| <= sum |i (i-1) c_i| on [0, 1] (then every sample passes) */
+    for (i = 1, fi = 1.0f; i <= order; i++, fi += 1.0f) {
+        w = c[i] < 0 ? -c[i] : c[i];
+        vb += w * fi;
+        ab += w * fi * (fi - 1.0f);
+    }
+    if ((vlim < 0 || vb <= vlim) && (alim < 0 || ab <= alim)) return 1;
+    for (k = 0; k <= LK_SPEED_SAMPLES; k++, s += 1.0f / LK_SPEED_SAMPLES) {
+        /* Horner for the value, first and half the second derivative at once */
+        float p = c[order], d = 0.0f, h = 0.0f;
+        for (i = order; i-- > 0;) { h = h * s + d; d = d * s + p; p = p * s + c[i]; }
+        h += h;
+        if (vlim >= 0 && (d > vlim || d < -vlim)) return 0;
+        if (alim >= 0 && (h > alim || h < -alim)) return 0;
     }
     return 1;
 }
@@ -438,18 +494,14 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
     uint8_t order, j, k, slot;
     uint16_t i;
     lk_seg_t *seg;
-    if (c->argc < 2) { err_msg(c->seq, LK_E_SYNTAX, LK_P("SEG dur_ms order coefficients")); return 0; }
-    if (a[0] < 1 || a[0] > 60000) { err_msg(c->seq, LK_E_RANGE, LK_P("dur_ms 1..60000")); return 0; }
-    if (a[1] != 3 && a[1] != 5) { err_msg(c->seq, LK_E_RANGE, LK_P("order 3 or 5")); return 0; }
+    if (c->argc < 2) { err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0; }
+    if (a[0] < 1 || a[0] > 60000) { err_msg(c->seq, LK_E_RANGE, LK_P("duration")); return 0; }
+    if (a[1] != 3 && a[1] != 5) { err_msg(c->seq, LK_E_RANGE, LK_P("order")); return 0; }
     order = (uint8_t)a[1];
-    if (c->argc != 2 + LK_JOINTS * (order + 1)) {
-        err_begin(c->seq, LK_E_SYNTAX); out_p(LK_P(" expected")); out_sp_i(LK_JOINTS * (order + 1));
-        out_p(LK_P(" coefficients")); out_end();
-        return 0;
-    }
+    if (c->argc != 2 + LK_JOINTS * (order + 1)) { err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0; }
     for (i = 2; i < c->argc; i++)
         if (a[i] > LK_COEF_MAX || a[i] < -LK_COEF_MAX) { err_msg(c->seq, LK_E_RANGE, LK_P("coefficient")); return 0; }
-    if (lk->q_count >= LK_QUEUE) { err_msg(c->seq, LK_E_QFULL, LK_P("queue full")); return 0; }
+    if (lk->q_count >= LK_QUEUE) { err_msg(c->seq, LK_E_QFULL, 0); return 0; }
     slot = (uint8_t)((lk->q_head + lk->q_count) % LK_QUEUE);
     seg = &lk->queue[slot];
     seg->dur_ms = (uint16_t)a[0];
@@ -464,23 +516,20 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
             /* hull test inconclusive: sample at s = k/32 (runtime clamping covers the rest) */
             for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
                 int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
-                if (!joint_ok(&lk->cal[j], q)) {
-                    err_begin(c->seq, LK_E_LIMIT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" reaches"));
-                    out_sp_i(q); out_p(LK_P(" at s=")); out_u(k); out_p(LK_P("/32")); out_end();
-                    return 0;
-                }
+                if (!joint_ok(&lk->cal[j], q)) return err_joint(c->seq, LK_E_LIMIT, j);
             }
         }
-        if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) {
-            err_begin(c->seq, LK_E_DISCONT); out_p(LK_P(" joint ")); out_u(j); out_p(LK_P(" starts at"));
-            out_sp_i(lk_round(start)); out_p(LK_P(" not")); out_sp_i(lk_round(prev)); out_end();
-            return 0;
-        }
+        if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c->seq, LK_E_DISCONT, j);
+    }
+    for (j = 0; j < LK_JOINTS; j++) {
+        float T = (float)seg->dur_ms * 0.001f;
+        float vl = lk->vmax[j] ? (float)lk->vmax[j] * T : -1.0f, al = lk->amax[j] ? (float)lk->amax[j] * T * T : -1.0f;
+        if (!lk_speed_ok(seg->c[j], order, vl, al)) return err_joint(c->seq, LK_E_SPEED, j);
     }
     for (j = 0; j < LK_JOINTS; j++) lk->tail_q[j] = lk_poly(seg->c[j], order, 1.0f);
     lk->q_count++;
     if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
-    ok_begin(c->seq, LK_P("SEG ")); out_u(LK_QUEUE - lk->q_count); out_end();
+    ok_begin(c->seq, LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();
     return 1;
 }
 
@@ -492,7 +541,7 @@ static void out_cal(const lk_cal_t *k) {
 static uint8_t positions_valid(lk_t *lk, const call_t *c, const lk_cal_t *cal) {
     if (!check_joints(lk, c, lk->q, cal)) return 0;
     if (!grip_ok(&cal[LK_JOINTS], lk->grip_us)) {
-        err_msg(c->seq, LK_E_LIMIT, LK_P("gripper pulse outside new range")); return 0;
+        err_msg(c->seq, LK_E_LIMIT, s_gripper); return 0;
     }
     return 1;
 }
@@ -501,15 +550,14 @@ static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
     const int32_t *a = c->a;
     lk_cal_t cal[LK_CHANNELS];
     uint8_t ch;
-    if (c->argc != 1 && c->argc != 7) { err_msg(c->seq, LK_E_SYNTAX, LK_P("CAL ch [pmin pmax zero dir lo hi]")); return 0; }
     if (a[0] < 0 || a[0] >= LK_CHANNELS) { err_msg(c->seq, LK_E_RANGE, LK_P("channel")); return 0; }
     ch = (uint8_t)a[0];
     if (c->argc == 7) {
         lk_cal_t *k = &cal[ch];
-        if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running")); return 0; }
+        if (busy(lk, c)) return 0;
         if (a[1] < 400 || a[1] > 2600 || a[2] < 400 || a[2] > 2600 || a[1] == a[2] || a[3] < -32000 ||
             a[3] > 32000 || (a[4] != 1 && a[4] != -1) || a[5] < -32000 || a[6] > 32000 || a[5] > a[6]) {
-            err_msg(c->seq, LK_E_RANGE, LK_P("pmin,pmax 400..2600 differ; zero,lo,hi -32000..32000; dir 1,-1; lo<=hi"));
+            err_msg(c->seq, LK_E_RANGE, LK_P("calibration field"));
             return 0;
         }
         memcpy(cal, lk->cal, sizeof cal);
@@ -519,44 +567,43 @@ static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
         memcpy(lk->cal, cal, sizeof cal);
         update_pulses(lk);
     }
-    ok_begin(c->seq, LK_P("CAL ")); out_u(ch); out_cal(&lk->cal[ch]); out_end();
+    ok_begin(c->seq, LK_P("CAL")); out_sp_i(ch); out_cal(&lk->cal[ch]); out_end();
     return 1;
 }
 
-static const char command_names[] LK_FLASH = "HELLO\0PING\0STATUS\0MOVE\0GRIP\0SEG\0STOP\0TIMEOUT\0READ\0STREAM\0CAL\0DEFAULTS\0SAVE\0";
+static const char command_names[] LK_FLASH = "HELLO\0PING\0STATUS\0MOVE\0GRIP\0SEG\0STOP\0TIMEOUT\0READ\0STREAM\0CAL\0DEFAULTS\0SAVE\0LIMITS\0";
 
 /* index of the command in command_names, or -1 */
-static int8_t command_index(const char *tok) {
+static int8_t command_index(const char *tok, const char **name_p) {
     const char *n = command_names;
     int8_t i;
     for (i = 0; LK_RD(n); i++) {
-        if (name_is(tok, n)) return i;
+        if (name_is(tok, n)) { *name_p = n; return i; }
         while (LK_RD(n)) n++;
         n++;
     }
     return -1;
 }
 
-static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
+/* argument counts each command accepts (bit n: n arguments), in command_names order; SEG checks its own */
+static const uint8_t command_argc[] LK_FLASH = {
+    1, 1, 1, 1u << LK_JOINTS, 2, 0xFF, 1, 3, 1, 2, (1u << 1) | (1u << 7), 1, 1, (1u << 1) | (1u << 3)};
+
+static uint8_t dispatch(lk_t *lk, int8_t idx, const call_t *c) {
     const int32_t *a = c->a;
-    uint8_t j;
-    int8_t idx = command_index(cmd);
-    if (idx >= 0 && c->argc == 0xFF) { err_msg(c->seq, LK_E_SYNTAX, LK_P("arguments are integers")); return 0; }
-#define NOARGS() if (c->argc) { err_msg(c->seq, LK_E_SYNTAX, LK_P("takes no arguments")); return 0; }
-#define NOTBUSY() if (lk->state == LK_RUN) { err_msg(c->seq, LK_E_BUSY, LK_P("trajectory running, STOP first")); return 0; }
+    uint8_t j, allowed = (uint8_t)pgm_byte(&command_argc[idx]);
+    if (c->argc == 0xFF || (allowed != 0xFF && (c->argc > 7 || !((allowed >> c->argc) & 1)))) {
+        err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0;
+    }
+#define NOTBUSY() if (busy(lk, c)) return 0;
     if (idx == 0 /* HELLO */) {
-        NOARGS();
-        ok_begin(c->seq, LK_P("HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints="));
-        out_u(LK_JOINTS); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
+        ok_begin(c->seq, LK_P("HELLO labkit-arm ")); out_p(s_ident); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
         out_u(LK_QUEUE); out_p(LK_P(" maxline=")); out_u(LK_MAXLINE); out_end();
     } else if (idx == 1 /* PING */) {
-        NOARGS();
         ok_begin(c->seq, LK_P("PING ")); out_u(lk->now_ms); out_end();
     } else if (idx == 2 /* STATUS */) {
-        NOARGS();
         cmd_status(lk, c);
     } else if (idx == 3 /* MOVE */) {
-        if (c->argc != LK_JOINTS) { err_msg(c->seq, LK_E_SYNTAX, LK_P("MOVE needs one value per joint")); return 0; }
         NOTBUSY();
         if (!check_joints(lk, c, a, lk->cal)) return 0;
         for (j = 0; j < LK_JOINTS; j++) lk->q[j] = a[j];
@@ -564,47 +611,37 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         update_pulses(lk);
         ok_begin(c->seq, LK_P("MOVE")); out_end();
     } else if (idx == 4 /* GRIP */) {
-        if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("GRIP us")); return 0; }
-        if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) {
-            err_begin(c->seq, LK_E_RANGE); out_p(LK_P(" gripper pulse outside")); out_sp_i(lk->cal[LK_JOINTS].pmin);
-            out_p(LK_P("..")); out_i(lk->cal[LK_JOINTS].pmax); out_end();
-            return 0;
-        }
+        if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) { err_msg(c->seq, LK_E_RANGE, s_gripper); return 0; }
         lk->grip_us = (uint16_t)a[0];
         update_pulses(lk);
-        ok_begin(c->seq, LK_P("GRIP ")); out_u(lk->grip_us); out_end();
+        ok_begin(c->seq, LK_P("GRIP")); out_sp_i(lk->grip_us); out_end();
     } else if (idx == 5 /* SEG */) {
         return cmd_seg(lk, c);
     } else if (idx == 6 /* STOP */) {
-        NOARGS();
         halt(lk);
         ok_begin(c->seq, LK_P("STOP")); out_q(lk); out_end();
     } else if (idx == 7 /* TIMEOUT */) {
-        if (c->argc > 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("TIMEOUT [ms]")); return 0; }
         if (c->argc == 1) {
-            if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout 0 or 50..60000 ms")); return 0; }
+            if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout")); return 0; }
             lk->timeout_ms = (uint16_t)a[0];
         }
-        ok_begin(c->seq, LK_P("TIMEOUT ")); out_u(lk->timeout_ms); out_end();
+        ok_begin(c->seq, LK_P("TIMEOUT")); out_sp_i(lk->timeout_ms); out_end();
     } else if (idx == 8 /* READ */) {
-        NOARGS();
         ok_begin(c->seq, LK_P("READ"));
         for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
         out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
         out_end();
     } else if (idx == 9 /* STREAM */) {
-        if (c->argc != 1) { err_msg(c->seq, LK_E_SYNTAX, LK_P("STREAM hz")); return 0; }
-        if (a[0] < 0 || a[0] > 200) { err_msg(c->seq, LK_E_RANGE, LK_P("rate 0..200 Hz")); return 0; }
+        if (a[0] < 0 || a[0] > 200) { err_msg(c->seq, LK_E_RANGE, LK_P("rate")); return 0; }
         lk->stream_hz = (uint8_t)a[0];
         lk->frame_counter = 0;
         if (lk->stream_hz) { lk->stream_period_us = 1000000UL / lk->stream_hz; lk->stream_arm = 1; }
-        ok_begin(c->seq, LK_P("STREAM ")); out_u(lk->stream_hz); out_end();
+        ok_begin(c->seq, LK_P("STREAM")); out_sp_i(lk->stream_hz); out_end();
     } else if (idx == 10 /* CAL */) {
         return cmd_cal(lk, c);
     } else if (idx == 11 /* DEFAULTS */) {
         lk_cal_t cal[LK_CHANNELS];
         uint16_t timeout_ms;
-        NOARGS();
         NOTBUSY();
         default_cal(cal, &timeout_ms);
         if (!positions_valid(lk, c, cal)) return 0;
@@ -614,30 +651,48 @@ static uint8_t dispatch(lk_t *lk, const char *cmd, const call_t *c) {
         ok_begin(c->seq, LK_P("DEFAULTS")); out_end();
     } else if (idx == 12 /* SAVE */) {
         uint16_t n;
-        NOARGS();
         NOTBUSY();
         n = lk_ee_save(lk);
-        if (!n) { err_msg(c->seq, LK_E_EEPROM, LK_P("read-back differs")); return 0; }
-        ok_begin(c->seq, LK_P("SAVE ")); out_u(n); out_end();
-    } else {
-        uint8_t n = 0;
-        err_begin(c->seq, LK_E_UNKNOWN); out_c(' ');
-        for (; *cmd && n < 12; cmd++, n++) {
-            char ch = *cmd;
-            out_c((ch >= '0' && ch <= '9') || (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') ? ch : '?');
+        if (!n) { err_msg(c->seq, LK_E_EEPROM, LK_P("read-back")); return 0; }
+        ok_begin(c->seq, LK_P("SAVE")); out_sp_i(n); out_end();
+    } else { /* 13: LIMITS j [vmax amax] */
+        if (a[0] < 0 || a[0] >= LK_JOINTS) { err_msg(c->seq, LK_E_RANGE, LK_P("joint")); return 0; }
+        j = (uint8_t)a[0];
+        if (c->argc == 3) {
+            if (a[1] < 0 || (uint32_t)a[1] > LK_VMAX_MAX || a[2] < 0 || (uint32_t)a[2] > LK_AMAX_MAX) {
+                err_msg(c->seq, LK_E_RANGE, LK_P("limits")); return 0;
+            }
+            NOTBUSY();
+            lk->vmax[j] = (uint32_t)a[1]; lk->amax[j] = (uint32_t)a[2];
         }
-        out_end();
-        return 0;
+        ok_begin(c->seq, LK_P("LIMITS")); out_sp_i(j); out_sp_i((int32_t)lk->vmax[j]); out_sp_i((int32_t)lk->amax[j]); out_end();
     }
     return 1;
-#undef NOARGS
 #undef NOTBUSY
 }
 
+/* CRC of a valid integer token as the board would write it (no '+', no leading zeros, no "-0") */
+static uint16_t crc_canonical(uint16_t crc, const char *t) {
+    uint8_t neg = *t == '-';
+    if (*t == '+' || *t == '-') t++;
+    while (t[0] == '0' && t[1]) t++;
+    if (neg && *t != '0') crc = crc_step(crc, '-');
+    while (*t) crc = crc_step(crc, (uint8_t)*t++);
+    return crc;
+}
+
+/* HELLO, PING, STATUS and READ (bit set) may be sent without #seq and CRC; every other command must be sealed */
+#define LK_READ_ONLY ((1u << 0) | (1u << 1) | (1u << 2) | (1u << 8))
+
 void lk_exec(lk_t *lk, char *line, uint8_t len) {
     char *p = line, *end = line + len, *star = 0, *r, *cmd, *tok;
+    const char *name;
     int32_t args[LK_MAXARGS];
     call_t c;
+    int8_t idx;
+    uint8_t sealed = 0, i;
+    uint16_t echo = 0xFFFF;
+    char ch;
     line[len] = 0;
     while (p < end && is_ws(*p)) p++;
     while (end > p && is_ws(end[-1])) end--;
@@ -647,14 +702,17 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         if (*--r == '*') { star = r; break; }
     }
     if (star) {
-        uint8_t h1, h2;
-        if (end - star != 3 || (h1 = hexval(star[1])) > 15 || (h2 = hexval(star[2])) > 15) {
-            err_msg(-1, LK_E_BADCHK, LK_P("malformed checksum")); return;
+        uint16_t v = 0;
+        for (i = 1; i <= 4; i++) {
+            uint8_t h = end - star != 5 ? 0xFF : hexval(star[i]);
+            if (h > 15) { err_msg(-1, LK_E_BADCHK, LK_P("malformed")); return; }
+            v = (uint16_t)((v << 4) | h);
         }
-        if (((h1 << 4) | h2) != lk_xor(p, (uint8_t)(star - p))) {
-            err_msg(-1, LK_E_BADCHK, LK_P("checksum mismatch")); return;
+        if (v != lk_crc16((const uint8_t *)p, (uint16_t)(star - p))) {
+            err_msg(-1, LK_E_BADCHK, LK_P("mismatch")); return;
         }
         end = star;
+        sealed = 1;
     }
     *end = 0;
     c.seq = -1;
@@ -667,18 +725,31 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         uint8_t nd = 0;
         while (d[nd] >= '0' && d[nd] <= '9') nd++;
         if (nd < 1 || nd > 5 || d[nd] || !parse_int(d, &s) || s > 65535) {
-            err_msg(-1, LK_E_SYNTAX, LK_P("bad sequence id")); return;
+            err_msg(-1, LK_E_SYNTAX, LK_P("seq")); return;
         }
         c.seq = s;
         cmd = next_token(&p);
     }
-    if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("missing command")); return; }
+    if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("command")); return; }
+    idx = command_index(cmd, &name);
+    if (idx < 0) { err_msg(c.seq, LK_E_UNKNOWN, 0); return; }
+    if (!((LK_READ_ONLY >> idx) & 1) && (!sealed || c.seq < 0)) {
+        err_msg(-1, LK_E_BADCHK, LK_P("unsealed")); return;
+    }
+    /* echo: CRC of what was parsed, "NAME a0 a1 ..." with the integers written canonically */
+    while ((ch = LK_RD(name++)) != 0) echo = crc_step(echo, (uint8_t)ch);
     while ((tok = next_token(&p)) != 0) {
-        if (c.argc >= LK_MAXARGS) { err_msg(c.seq, LK_E_SYNTAX, LK_P("too many arguments")); return; }
+        if (c.argc >= LK_MAXARGS) { err_msg(c.seq, LK_E_SYNTAX, s_arguments); return; }
         if (!parse_int(tok, &args[c.argc])) { c.argc = 0xFF; break; } /* reported by dispatch */
         c.argc++;
+        echo = crc_canonical(crc_step(echo, ' '), tok);
     }
-    if (dispatch(lk, cmd, &c)) lk->last_accept_ms = lk->now_ms;
+    if (!((LK_READ_ONLY >> idx) & 1)) { g_echo = echo; g_echo_on = 1; }
+    if (dispatch(lk, idx, &c)) {
+        lk->last_accept_ms = lk->now_ms;
+        if (g_echo_on) lk->last_seq = (uint16_t)c.seq;
+    }
+    g_echo_on = 0;
 }
 
 void lk_rx(lk_t *lk, uint8_t b, uint32_t now_ms) {
@@ -686,9 +757,9 @@ void lk_rx(lk_t *lk, uint8_t b, uint32_t now_ms) {
     if (b == '\r' || b == '\n') {
         if (lk->overflow) {
             lk->flags |= LK_F_INPUT_LOST;
-            err_msg(-1, LK_E_TOOLONG, LK_P("line longer than 160 bytes discarded"));
+            err_msg(-1, LK_E_TOOLONG, 0);
         } else if (lk->badchar) {
-            err_msg(-1, LK_E_SYNTAX, LK_P("bad character"));
+            err_msg(-1, LK_E_SYNTAX, LK_P("character"));
         } else {
             lk_exec(lk, lk->line, lk->len);
         }

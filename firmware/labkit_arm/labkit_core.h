@@ -1,4 +1,4 @@
-/* labkit arm firmware: hardware-independent core (protocol v1, docs/protocol.md).
+/* labkit arm firmware: hardware-independent core (protocol v2, docs/protocol.md).
  *
  * Plain C99, no Arduino headers: the same file builds for the ATmega328P (avr-gcc, Arduino IDE)
  * and on the host (gcc/clang) for unit tests and fuzzing. The glue (labkit_arm.ino) feeds bytes,
@@ -13,8 +13,8 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "1.0.0"
-#define LK_PROTO_VERSION 1
+#define LK_FW_VERSION "2.0.0"
+#define LK_PROTO_VERSION 2
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
 #endif
@@ -34,7 +34,7 @@ extern "C" {
 
 enum lk_error {
     LK_E_BADCHK = 1, LK_E_SYNTAX = 2, LK_E_UNKNOWN = 3, LK_E_TOOLONG = 4, LK_E_RANGE = 5,
-    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10
+    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10, LK_E_SPEED = 11
 };
 enum lk_state { LK_IDLE = 0, LK_RUN = 1, LK_HOLD = 2 };
 enum lk_flag {
@@ -60,6 +60,8 @@ typedef struct {
     /* configuration (EEPROM) */
     lk_cal_t cal[LK_CHANNELS];
     uint16_t timeout_ms;
+    uint32_t vmax[LK_JOINTS];    /* joint speed limits [cdeg/s], 0: unchecked */
+    uint32_t amax[LK_JOINTS];    /* joint acceleration limits [cdeg/s^2], 0: unchecked */
     /* commanded state */
     int32_t q[LK_JOINTS];        /* cdeg */
     uint16_t grip_us;
@@ -73,6 +75,7 @@ typedef struct {
     uint32_t done;
     uint8_t state, flags;
     uint32_t last_accept_ms;
+    uint16_t last_seq;           /* #seq of the last accepted sealed request */
     /* feedback stream */
     uint8_t stream_hz, stream_arm;
     uint16_t frame_counter;
@@ -100,10 +103,10 @@ void lk_frame(lk_t *lk, uint32_t frame_index);       /* program servo frame #fra
 void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback stream */
 
 /* helpers exposed for unit tests */
-uint8_t lk_xor(const char *s, uint8_t n);
 uint16_t lk_crc16(const uint8_t *data, uint16_t n);
 float lk_poly(const float *c, uint8_t order, float s);
 uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi); /* Bernstein bound */
+uint8_t lk_speed_ok(const float *c, uint8_t order, float vlim, float alim); /* |dq/ds|, |d2q/ds2| sampled */
 int32_t lk_round(float x);
 uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
 uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */

@@ -1,6 +1,7 @@
 /* libFuzzer target: arbitrary bytes into the firmware core's receiver, interleaved with servo
  * frames and polls driven by the input. Invariants checked after every input (abort on failure):
- *   - every board line is <= 160 bytes and ends with a correct *HH checksum and CR LF;
+ *   - every board line is <= 160 bytes and ends with a correct *HHHH CRC-16 and CR LF;
+ *   - no unsealed state-changing line is ever acknowledged (OK without #seq and p= echo);
  *   - every commanded joint position lies within its limits and the servo range;
  *   - every pulse width lies within 400..2600 us.
  * Build: make -C firmware tests; run: firmware/build/fuzz_parser -runs=N (or -max_total_time=S). */
@@ -22,10 +23,19 @@ static void check_output(void) {
             if (stub_out_len - (size_t)(p - stub_out) > 160) abort();
             return; /* partial line at the end of the capture buffer */
         }
-        if (eol - p < 3 || eol - p > 160 || eol[-3] != '*') abort();
-        unsigned x = 0, hh;
-        for (const char *c = p; c < eol - 3; c++) x ^= (unsigned char)*c;
-        if (sscanf(eol - 2, "%2X", &hh) != 1 || hh != x) abort();
+        unsigned hh;
+        if (eol - p < 5 || eol - p > 160 || eol[-5] != '*') abort();
+        if (sscanf(eol - 4, "%4X", &hh) != 1 || hh != lk_crc16((const uint8_t *)p, (uint16_t)(eol - 5 - p))) abort();
+        if (!strncmp(p, "OK ", 3)) {
+            /* the command name follows "OK " or "OK #seq " */
+            const char *name = p[3] == '#' ? strchr(p + 3, ' ') + 1 : p + 3;
+            const char *after = strchr(name, ' ');
+            if (strncmp(name, "HELLO", 5) && strncmp(name, "PING", 4) && strncmp(name, "STATUS", 6) &&
+                strncmp(name, "READ", 4)) {
+                /* a state-changing command was accepted: it must have been sealed (#seq echoed, p= echo) */
+                if (p[3] != '#' || !after || after > eol || strncmp(after + 1, "p=", 2)) abort();
+            }
+        }
         p = eol + 2;
     }
 }

@@ -24,24 +24,55 @@ static int checks, failed;
 static lk_t lk;
 static uint32_t now_ms;
 
-/* every board line must end with *HH\r\n where HH is the XOR of the bytes before '*' */
+/* every board line must end with *HHHH\r\n where HHHH is the CRC-16/CCITT-FALSE of the bytes before '*' */
 static int lines_valid(const char *out) {
     const char *p = out;
     while (*p) {
         const char *eol = strstr(p, "\r\n");
-        if (!eol || eol - p < 3 || eol - p > 160 || eol[-3] != '*') return 0;
-        unsigned x = 0, hh;
-        for (const char *c = p; c < eol - 3; c++) x ^= (unsigned char)*c;
-        if (sscanf(eol - 2, "%2X", &hh) != 1 || hh != x) return 0;
+        unsigned hh;
+        if (!eol || eol - p < 5 || eol - p > 160 || eol[-5] != '*') return 0;
+        if (sscanf(eol - 4, "%4X", &hh) != 1 || hh != lk_crc16((const uint8_t *)p, (uint16_t)(eol - 5 - p))) return 0;
         p = eol + 2;
     }
     return 1;
 }
 
-static const char *send(const char *line) {
+static const char *send_raw(const char *line) {
     stub_clear();
     for (const char *c = line; *c; c++) lk_rx(&lk, (uint8_t)*c, now_ms);
     lk_rx(&lk, '\n', now_ms);
+    return stub_out;
+}
+
+/* "#<seq> <line> *CRC" in buf */
+static const char *sealed(char *buf, size_t size, unsigned seq, const char *line) {
+    int n = snprintf(buf, size, "#%u %s ", seq, line);
+    snprintf(buf + n, size - (size_t)n, "*%04X", lk_crc16((const uint8_t *)buf, (uint16_t)n));
+    return buf;
+}
+
+static int read_only(const char *line) {
+    return !strncmp(line, "HELLO", 5) || !strncmp(line, "PING", 4) || !strncmp(line, "STATUS", 6) ||
+           !strncmp(line, "READ", 4);
+}
+
+/* A state-changing command is sent sealed (#1 ... *CRC); its replies are shown without " #1" and " p=HHHH"
+   (after checking that they are valid lines), so the expectations below read like the commands. */
+static const char *send(const char *line) {
+    char buf[256];
+    if (strlen(line) > 150 || strspn(line, " ") == strlen(line) || line[0] == '#' || line[0] == '$' || strchr(line, '*') || read_only(line)) return send_raw(line);
+    send_raw(sealed(buf, sizeof buf, 1, line));
+    if (!lines_valid(stub_out)) return stub_out;
+    char norm[STUB_OUT_SIZE];
+    size_t n = 0;
+    for (const char *p = stub_out; *p;) {
+        if (!strncmp(p, " #1 ", 4) && (p - stub_out == 2 || p - stub_out == 3)) { p += 3; continue; }
+        if (!strncmp(p, " p=", 3) && strlen(p) > 7) { p += 7; continue; }
+        norm[n++] = *p++;
+    }
+    norm[n] = 0;
+    memcpy(stub_out, norm, n + 1);
+    stub_out_len = n;
     return stub_out;
 }
 
@@ -63,7 +94,6 @@ static void run_frames(uint32_t from, uint32_t to) {
 }
 
 static void test_helpers(void) {
-    CHECK(lk_xor("#7 PING", 7) == 0x24, "xor %02X", lk_xor("#7 PING", 7));
     CHECK(lk_crc16((const uint8_t *)"123456789", 9) == 0x29B1, "crc %04X", lk_crc16((const uint8_t *)"123456789", 9));
     float c[4] = {4500, 0, 13500, -9000};
     CHECK(fabsf(lk_poly(c, 3, 0.5f) - 6750.0f) < 1e-3f, "poly(0.5) = %f", lk_poly(c, 3, 0.5f));
@@ -79,36 +109,76 @@ static void test_helpers(void) {
 }
 
 static void test_handshake_and_framing(void) {
+    char buf[256];
     boot();
-    CHECK(starts(stub_out, "EV BOOT labkit-arm fw=" LK_FW_VERSION " proto=1 reset=POWER eeprom=DEFAULTS*"), "%s", stub_out);
+    CHECK(starts(stub_out, "READY labkit-arm 2 fw=" LK_FW_VERSION " proto=2 joints=3 reset=POWER eeprom=DEFAULTS*"), "%s", stub_out);
     CHECK(lines_valid(stub_out), "%s", stub_out);
     send("HELLO");
-    CHECK(starts(stub_out, "OK HELLO labkit-arm fw=" LK_FW_VERSION " proto=1 joints=3 channels=4 queue="), "%s", stub_out);
+    CHECK(starts(stub_out, "OK HELLO labkit-arm fw=" LK_FW_VERSION " proto=2 joints=3 channels=4 queue="), "%s", stub_out);
     CHECK(strstr(stub_out, "maxline=160*") != NULL && lines_valid(stub_out), "%s", stub_out);
-    send("#7 PING*24");
+    send("#7 PING*4824");
     CHECK(starts(stub_out, "OK #7 PING 0*"), "%s", stub_out);
-    send("$#7 pinG*24");
-    CHECK(starts(stub_out, "ERR 1 BADCHK"), "an odd number of case flips changes the checksum: %s", stub_out);
-    send("$#7 ping*24");
-    CHECK(starts(stub_out, "OK #7 PING"), "commands are case-insensitive: %s", stub_out);
-    send("$#7 PING*24");
+    send("$#7 PING*4824");
     CHECK(starts(stub_out, "OK #7 PING"), "%s", stub_out);
-    send("#7 PING*25");
-    CHECK(starts(stub_out, "ERR 1 BADCHK checksum mismatch*"), "%s", stub_out);
-    send("PING*2");
+    send("$#7 pinG*4824");
+    CHECK(starts(stub_out, "ERR 1 BADCHK mismatch"), "a case flip changes the CRC: %s", stub_out);
+    send("#7 PING*4825");
+    CHECK(starts(stub_out, "ERR 1 BADCHK mismatch*"), "%s", stub_out);
+    send("PING*24");
+    CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "protocol-1 checksum: %s", stub_out);
+    send("PING*48244");
     CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "%s", stub_out);
+    /* state-changing commands must be sealed; read-only ones may be typed */
+    uint16_t before[4];
+    memcpy(before, stub_pulses, sizeof before);
+    const char *unsealed[] = {"MOVE 4500 9000 3000", "#5 MOVE 4500 9000 3000", "GRIP 1200", "STOP", "TIMEOUT 0",
+                              "STREAM 10", "CAL 0", "SAVE", "DEFAULTS", "$MOVE 4500 9000 3000"};
+    for (size_t i = 0; i < sizeof unsealed / sizeof *unsealed; i++) {
+        send_raw(unsealed[i]);
+        CHECK(starts(stub_out, "ERR 1 BADCHK unsealed*"), "%s -> %s", unsealed[i], stub_out);
+    }
+    /* sealed without #seq */
+    {
+        const char *body = "MOVE 4500 9000 3000 ";
+        char line[64];
+        snprintf(line, sizeof line, "%s*%04X", body, lk_crc16((const uint8_t *)body, (uint16_t)strlen(body)));
+        send_raw(line);
+        CHECK(starts(stub_out, "ERR 1 BADCHK unsealed*"), "%s", stub_out);
+    }
+    CHECK(memcmp(before, stub_pulses, sizeof before) == 0 && lk.timeout_ms == 500 && lk.stream_hz == 0, "unsealed ran");
+    /* the line-split attack of issue 13: a byte turned into CR/LF runs neither half */
+    sealed(buf, sizeof buf, 5, "MOVE 4500 9000 3000");
+    for (size_t k = 1; k < strlen(buf); k++) {
+        char split[256];
+        memcpy(split, buf, strlen(buf) + 1);
+        split[k] = (k & 1) ? '\n' : '\r';
+        send_raw(split);
+        CHECK(strstr(stub_out, "OK") == NULL, "split at %zu ran: %s", k, stub_out);
+    }
+    CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "a split line moved something");
+    /* the echo: CRC of what was parsed */
+    send_raw(sealed(buf, sizeof buf, 9, "MOVE +4500 09000 3000"));
+    CHECK(starts(stub_out, "OK #9 MOVE p=BE59*"), "echo of the canonical MOVE 4500 9000 3000: %s", stub_out);
+    send("STATUS");
+    CHECK(strstr(stub_out, " last=9*") != NULL, "%s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 10, "MOVE 4500 90000 3000"));
+    CHECK(starts(stub_out, "ERR #10 6 LIMIT"), "%s", stub_out);
+    send("STATUS");
+    CHECK(strstr(stub_out, " last=9*") != NULL, "a rejected request is not last: %s", stub_out);
     send("   ");
     CHECK(stub_out_len == 0, "blank line answered: %s", stub_out);
     send("");
     CHECK(stub_out_len == 0, "empty line answered");
     send("FLY*4D");
     CHECK(starts(stub_out, "ERR 1 BADCHK"), "%s", stub_out);
+    send("$");
+    CHECK(starts(stub_out, "ERR 2 SYNTAX command"), "%s", stub_out);
     send("#65536 PING");
-    CHECK(starts(stub_out, "ERR 2 SYNTAX bad sequence id*"), "%s", stub_out);
+    CHECK(starts(stub_out, "ERR 2 SYNTAX seq*"), "%s", stub_out);
     send("#1 FLY\x01");
-    CHECK(starts(stub_out, "ERR 2 SYNTAX bad character"), "%s", stub_out);
+    CHECK(starts(stub_out, "ERR 2 SYNTAX character"), "%s", stub_out);
     send("#3 fly away");
-    CHECK(starts(stub_out, "ERR #3 3 UNKNOWN fly*"), "%s", stub_out);
+    CHECK(starts(stub_out, "ERR #3 3 UNKNOWN*"), "%s", stub_out);
     char longline[400];
     memset(longline, 'A', sizeof longline - 1);
     longline[sizeof longline - 1] = 0;
@@ -116,7 +186,7 @@ static void test_handshake_and_framing(void) {
     CHECK(starts(stub_out, "ERR 4 TOOLONG"), "%s", stub_out);
     longline[160] = 0; /* exactly maxline: accepted as a line (unknown command) */
     send(longline);
-    CHECK(starts(stub_out, "ERR 3 UNKNOWN AAAAAAAAAAAA*"), "%s", stub_out);
+    CHECK(starts(stub_out, "ERR 3 UNKNOWN*"), "%s", stub_out);
     send("PING");
     CHECK(starts(stub_out, "OK PING"), "recovers after long lines: %s", stub_out);
     /* CR LF and lone CR both end lines */
@@ -147,7 +217,7 @@ static void test_moves_and_limits(void) {
         CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "%s moved something", bad[i]);
     }
     send("MOVE 4500 19000 3000");
-    CHECK(starts(stub_out, "ERR 6 LIMIT joint 1 19000 outside 0..18000*"), "%s", stub_out);
+    CHECK(starts(stub_out, "ERR 6 LIMIT joint 1*"), "%s", stub_out);
     send("GRIP 1900");
     CHECK(starts(stub_out, "OK GRIP 1900") && stub_pulses[3] == 3800, "%s", stub_out);
     send("STATUS");
@@ -197,9 +267,50 @@ static void test_segments(void) {
     send("SEG 500 3 9051 0 0 0 9000 0 0 0 3000 0 0 0");
     CHECK(starts(stub_out, "ERR 9 DISCONT joint 0"), "%s", stub_out);
     send("SEG 500 3 9000 0 81000 -81000 9000 0 0 0 3000 0 0 0");
-    CHECK(starts(stub_out, "ERR 6 LIMIT joint 0 reaches"), "overshoot: %s", stub_out);
+    CHECK(starts(stub_out, "ERR 6 LIMIT joint 0*"), "overshoot: %s", stub_out);
     send("SEG 60001 3 9000 0 0 0 9000 0 0 0 3000 0 0 0");
     CHECK(starts(stub_out, "ERR 5 RANGE"), "%s", stub_out);
+}
+
+static void test_speed_limits(void) {
+    boot();
+    send("TIMEOUT 0");
+    send("MOVE 4500 9000 3000");
+    send("LIMITS 0");
+    CHECK(starts(stub_out, "OK LIMITS 0 60000 0*"), "factory limits: %s", stub_out);
+    send("LIMITS 0 30000 150000");
+    CHECK(starts(stub_out, "OK LIMITS 0 30000 150000*"), "%s", stub_out);
+    send("LIMITS 3 1 1");
+    CHECK(starts(stub_out, "ERR 5 RANGE joint"), "%s", stub_out);
+    send("LIMITS 0 -1 0");
+    CHECK(starts(stub_out, "ERR 5 RANGE limits"), "%s", stub_out);
+    /* issue 13: a 500 ms segment whose duration lost "00" (45 -> 90 deg in 5 ms) */
+    uint16_t before[4];
+    memcpy(before, stub_pulses, sizeof before);
+    send("SEG 5 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "ERR 11 SPEED joint 0*") && lk.q_count == 0 && lk.state == LK_IDLE, "%s", stub_out);
+    /* 45 deg in 0.25 s: peak 270 deg/s < 300, but 4320 deg/s^2 > 1500 */
+    send("SEG 250 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "ERR 11 SPEED joint 0*"), "acceleration: %s", stub_out);
+    send("SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0");
+    CHECK(starts(stub_out, "OK SEG"), "67.5 deg/s, 270 deg/s^2: %s", stub_out);
+    run_frames(0, 2);
+    send("LIMITS 1 0 0");
+    CHECK(starts(stub_out, "ERR 8 BUSY"), "%s", stub_out);
+    send("STOP");
+    CHECK(memcmp(before, stub_pulses, sizeof before) != 0, "the good segment moved");
+    send("LIMITS 1 0 0");
+    send("SAVE");
+    CHECK(starts(stub_out, "OK SAVE 76*"), "%s", stub_out);
+    boot();
+    send("LIMITS 0");
+    CHECK(starts(stub_out, "OK LIMITS 0 30000 150000*"), "limits survive a reset: %s", stub_out);
+    send("LIMITS 1");
+    CHECK(starts(stub_out, "OK LIMITS 1 0 0*"), "%s", stub_out);
+    float c[4] = {0, 0, 3000, -2000}; /* 10 deg rest-to-rest: |dq/ds| peaks at 1500 (s = 1/2), |d2q/ds2| at 6000 */
+    CHECK(lk_speed_ok(c, 3, 1500.0f, 6000.0f) && !lk_speed_ok(c, 3, 1499.0f, -1.0f) && !lk_speed_ok(c, 3, -1.0f, 5999.0f),
+          "speed samples");
+    memset(stub_eeprom, 0xFF, sizeof stub_eeprom);
 }
 
 static void test_timeout_and_stream(void) {
@@ -249,7 +360,7 @@ static void test_eeprom(void) {
     CHECK(starts(stub_out, "OK CAL 2 600 2400 18000 -1 0 17000*"), "%s", stub_out);
     send("TIMEOUT 1500");
     send("SAVE");
-    CHECK(starts(stub_out, "OK SAVE 52*"), "%s", stub_out);
+    CHECK(starts(stub_out, "OK SAVE 76*"), "%s", stub_out);
     boot();
     CHECK(!(lk.flags & LK_F_EEPROM_DEFAULTS) && strstr(stub_out, "eeprom=OK"), "%s", stub_out);
     CHECK(lk.cal[2].pmin == 600 && lk.cal[2].dir == -1 && lk.cal[2].hi == 17000 && lk.timeout_ms == 1500, "loaded");
@@ -268,6 +379,7 @@ int main(void) {
     test_handshake_and_framing();
     test_moves_and_limits();
     test_segments();
+    test_speed_limits();
     test_timeout_and_stream();
     test_eeprom();
     printf("core tests: %d checks, %d failed\n", checks, failed);

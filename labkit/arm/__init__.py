@@ -7,7 +7,8 @@ from labkit.arm._protocol import checksum, CommandRejected, PROTOCOL_VERSION, MA
 from labkit.arm._replies import BoardInfo, Status
 from labkit.arm._wire import LinkStats
 from labkit.arm._segments import TrajectoryReport, segments_from_trajectory
-from labkit.arm._link import Arm, find_ports
+from labkit.arm._ports import PortInfo, list_ports, find_ports
+from labkit.arm._link import Arm
 from labkit.arm._physics import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX
 from labkit.arm._model import ArmModel, FirmwareAdapter
 from labkit.arm._commands import FW_VERSION
@@ -29,6 +30,8 @@ __all__ = [
     "segments_from_trajectory",
     "Arm",
     "find_ports",
+    "list_ports",
+    "PortInfo",
     "PhysicsConfig",
     "ServoBank",
     "gravity_sag",

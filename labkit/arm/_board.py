@@ -1,4 +1,4 @@
-"""The virtual arm: a pure-Python board speaking ``docs/protocol.md`` (version 1).
+"""The virtual arm: a pure-Python board speaking ``docs/protocol.md`` (version 2).
 
 :class:`VirtualBoard` is the board's state machine (segment queue, servo
 frames, feedback stream, host-silence timeout, virtual EEPROM) driving the
@@ -18,11 +18,11 @@ Examples
 --------
 >>> board = VirtualBoard("arduino_arm_3dof")
 >>> board.advance_to(0.2)
->>> board.take_output().split(b" ")[:2]
-[b'EV', b'BOOT']
->>> board.receive(b"#7 PING*24\\n")
+>>> board.take_output().split(b" ")[:3]
+[b'READY', b'labkit-arm', b'2']
+>>> board.receive(b"#7 PING\\n")
 >>> board.take_output()
-b'OK #7 PING 200*12\\r\\n'
+b'OK #7 PING 200*232C\\r\\n'
 """
 
 from __future__ import annotations
@@ -40,11 +40,11 @@ from labkit.arm._commands import FW_VERSION, BoardCommands, read_eeprom
 __all__ = ["VirtualBoard"]
 
 FRAME_S = 0.020  # servo frame period [s]
-BOOT_S = 0.1  # reset to EV BOOT [s]
+BOOT_S = 0.1  # reset to READY [s]
 
 
 class VirtualBoard(BoardCommands):
-    """Protocol-v1 board with simulated servo physics.
+    """Protocol-v2 board with simulated servo physics.
 
     Parameters
     ----------
@@ -93,7 +93,7 @@ class VirtualBoard(BoardCommands):
         self._inbuf = bytearray()
         self._discarding = False
         self.flags = 0
-        self.cal, self.timeout_ms, ok = read_eeprom(self.eeprom, self.channels)
+        self.cal, self.vmax, self.amax, self.timeout_ms, ok = read_eeprom(self.eeprom, self.channels)
         if not ok:
             self.flags |= 0x01
         self.q = [self._clamp_servo(j, (self.cal[j][4] + self.cal[j][5]) / 2) for j in range(self.joints)]
@@ -106,6 +106,7 @@ class VirtualBoard(BoardCommands):
         self.stream_next = math.inf
         self.stream_counter = 0
         self.last_ok = self.time
+        self.last_seq = 0
         self.next_frame = self.time
         self.mem = 812
         if self.model is None:  # power-up: the arm rests at the boot position; a reset keeps it where it is
@@ -113,12 +114,12 @@ class VirtualBoard(BoardCommands):
         self._boot_pending = (reason, ok)
 
     def reset(self, reason="EXTERNAL"):
-        """Reset the MCU (as DTR on open does): RAM state lost, EEPROM kept, ``EV BOOT`` 0.1 s later.
+        """Reset the MCU (as DTR on open does): RAM state lost, EEPROM kept, ``READY`` 0.1 s later.
 
         Parameters
         ----------
         reason : str
-            Reset cause reported in ``EV BOOT ... reset=<reason>``.
+            Reset cause reported in ``READY ... reset=<reason>``.
         """
         self._boot(reason, self.config)
 
@@ -182,7 +183,7 @@ class VirtualBoard(BoardCommands):
             if b in (10, 13):
                 if self._discarding:
                     self._discarding = False
-                    self._emit(f"ERR 4 TOOLONG line longer than {MAX_LINE} bytes")
+                    self._emit("ERR 4 TOOLONG")
                 elif self._inbuf:
                     line = bytes(self._inbuf)
                     self._inbuf.clear()
@@ -250,8 +251,9 @@ class VirtualBoard(BoardCommands):
                 self.time = max(self.time, self.boot_time + BOOT_S)
                 reason, ok = self._boot_pending
                 self._boot_pending = None
-                self._emit(f"EV BOOT labkit-arm fw={FW_VERSION} proto={PROTOCOL_VERSION} reset={reason} "
-                           f"eeprom={'OK' if ok else 'DEFAULTS'}")
+                self._emit(f"READY labkit-arm {PROTOCOL_VERSION} fw={FW_VERSION} proto={PROTOCOL_VERSION} "
+                           f"joints={self.joints} "
+                           f"reset={reason} eeprom={'OK' if ok else 'DEFAULTS'}")
                 continue
             nxt = min(self.next_frame, self.stream_next)
             if nxt > t:

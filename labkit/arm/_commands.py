@@ -1,4 +1,4 @@
-"""The virtual board's request lines and commands (protocol v1, ``docs/protocol.md`` sections 2 and 4).
+"""The virtual board's request lines and commands (protocol v2, ``docs/protocol.md`` sections 2 and 4).
 
 :class:`BoardCommands` is the half of :class:`labkit.arm.VirtualBoard` that
 reads a request line (characters, optional checksum and sequence id, integer
@@ -22,18 +22,26 @@ from labkit.arm._protocol import (
     PROTOCOL_VERSION,
     REQUEST_CHECKSUM,
     REQUEST_INT,
+    AMAX_MAX,
     REQUEST_SEQ,
+    READ_ONLY,
+    VMAX_FACTORY,
+    VMAX_MAX,
     CommandRejected,
     checksum,
     crc16,
+    echo,
+    segment_speed_ok,
 )
 
 __all__ = ["FW_VERSION"]
 
-#: firmware version the virtual board reports (``HELLO`` ``fw=``, ``EV BOOT``)
-FW_VERSION = "1.0.0"
+#: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
+FW_VERSION = "2.0.0"
 #: factory calibration of every channel: pmin, pmax [us], zero [cdeg], direction, lo, hi [cdeg]
 FACTORY = (500, 2500, 0, 1, 0, 18000)
+#: EEPROM image version (2: with the speed limits)
+EE_VERSION = 2
 
 
 class _Reject(CommandRejected):
@@ -57,37 +65,72 @@ class _Segment:
         return np.polynomial.polynomial.polyval(s, self.coef.T)
 
 
+def eeprom_image(cal, vmax, amax, timeout_ms):
+    """The EEPROM image (version 2) of a calibration, speed limits and host timeout (``docs/protocol.md`` 4.6).
+
+    Parameters
+    ----------
+    cal : list of list
+        Per channel ``[pmin, pmax, zero, direction, lo, hi]``.
+    vmax, amax : list of int
+        Per joint speed [cdeg/s] and acceleration [cdeg/s^2] limits (0: unchecked).
+    timeout_ms : int
+        Host-silence timeout [ms].
+
+    Returns
+    -------
+    bytes
+    """
+    img = bytearray(b"LK") + bytes([EE_VERSION, len(cal)])
+    for c in cal:
+        img += struct.pack("<hhhbhh", *c)
+    for v, a in zip(vmax, amax):
+        img += struct.pack("<II", v, a)
+    img += struct.pack("<H", timeout_ms)
+    img += struct.pack("<H", crc16(img))
+    return bytes(img)
+
+
 def read_eeprom(eeprom, channels):
-    """Calibration and host timeout stored in an EEPROM image, or the factory defaults.
+    """Calibration, speed limits and host timeout stored in an EEPROM image, or the factory defaults.
 
     Parameters
     ----------
     eeprom : bytes-like
         EEPROM contents from address 0.
     channels : int
-        Servo channels of the board.
+        Servo channels of the board (joints + 1).
 
     Returns
     -------
     cal : list of list
         Per channel ``[pmin, pmax, zero, direction, lo, hi]``.
+    vmax, amax : list of int
+        Per joint speed [cdeg/s] and acceleration [cdeg/s^2] limits (0: unchecked).
     timeout_ms : int
         Host-silence timeout [ms].
     valid : bool
         False when magic, version, channel count or CRC is wrong (the defaults are returned).
     """
+    joints = channels - 1
     cal = [list(FACTORY) for _ in range(channels)]
+    defaults = cal, [VMAX_FACTORY] * joints, [0] * joints, 500, False
     e = eeprom
-    size = 4 + 11 * channels + 2
-    if e[0:2] != b"LK" or e[2] != 1 or e[3] != channels or crc16(e[:size]) != struct.unpack_from(
+    size = 4 + 11 * channels + 8 * joints + 2
+    if e[0:2] != b"LK" or e[2] != EE_VERSION or e[3] != channels or crc16(e[:size]) != struct.unpack_from(
             "<H", e, size)[0]:
-        return cal, 500, False
+        return defaults
     off = 4
     for c in range(channels):
-        pmin, pmax, zero, d, lo, hi = struct.unpack_from("<hhhbhh", e, off)
-        cal[c] = [pmin, pmax, zero, d, lo, hi]
+        cal[c] = list(struct.unpack_from("<hhhbhh", e, off))
         off += 11
-    return cal, struct.unpack_from("<H", e, off)[0], True
+    vmax, amax = [], []
+    for _ in range(joints):
+        v, a = struct.unpack_from("<II", e, off)
+        vmax.append(v)
+        amax.append(a)
+        off += 8
+    return cal, vmax, amax, struct.unpack_from("<H", e, off)[0], True
 
 
 class BoardCommands:
@@ -101,57 +144,69 @@ class BoardCommands:
     # -- request lines -------------------------------------------------------------
     def _handle(self, raw):
         if any(not (0x20 <= b <= 0x7E or b == 9) for b in raw):
-            self._emit("ERR 2 SYNTAX bad character in line")
+            self._emit("ERR 2 SYNTAX character")
             return
         line = raw.decode("ascii").strip(" \t")
         if not line:
             return
         body = line[1:] if line.startswith("$") else line
-        if "*" in body:
+        sealed = "*" in body
+        if sealed:
             k = body.rindex("*")
             tail = body[k + 1:]
-            if not REQUEST_CHECKSUM.match(tail) or int(tail[:2], 16) != checksum(body[:k]):
-                self._emit("ERR 1 BADCHK")
+            if not REQUEST_CHECKSUM.match(tail) or len(tail) != 4:
+                self._emit("ERR 1 BADCHK malformed")
+                return
+            if int(tail, 16) != checksum(body[:k]):
+                self._emit("ERR 1 BADCHK mismatch")
                 return
             body = body[:k]
         tokens = body.split()
-        if not tokens:
-            return
         seq = None
-        if tokens[0].startswith("#"):
+        if tokens and tokens[0].startswith("#"):
             m = REQUEST_SEQ.match(tokens[0])
             if not m or int(m.group(1)) > 65535:
-                self._emit("ERR 2 SYNTAX bad sequence id")
+                self._emit("ERR 2 SYNTAX seq")
                 return
             seq = int(m.group(1))
             tokens = tokens[1:]
         tag = f" #{seq}" if seq is not None else ""
         if not tokens:
-            self._emit(f"ERR{tag} 2 SYNTAX missing command")
+            self._emit(f"ERR{tag} 2 SYNTAX command")
             return
         name = tokens[0].upper()
         handler = getattr(self, f"_cmd_{name.lower()}", None) if name.isalpha() else None
         if handler is None:
-            shown = "".join(ch if ch.isalnum() else "?" for ch in tokens[0][:12])
-            self._emit(f"ERR{tag} 3 UNKNOWN {shown}")
+            self._emit(f"ERR{tag} 3 UNKNOWN")
+            return
+        if name not in READ_ONLY and (not sealed or seq is None):
+            self._emit("ERR 1 BADCHK unsealed")
             return
         try:
             args = []
             for tok in tokens[1:]:
-                if not REQUEST_INT.match(tok) or not -2**31 <= int(tok) < 2**31:
-                    raise _Reject(2, f"malformed number {tok[:12]}")
+                if not REQUEST_INT.match(tok) or not -2**31 < int(tok) < 2**31:
+                    raise _Reject(2, "arguments")
                 args.append(int(tok))
             fields = handler(args)
         except _Reject as rej:
             self._emit(f"ERR{tag} {rej}")
             return
         self.last_ok = self.time
-        self._emit(f"OK{tag} {name}" + (f" {fields}" if fields else ""))
+        head = f"OK{tag} {name}"
+        if name not in READ_ONLY:
+            head += " " + echo(name, args)
+            self.last_seq = seq
+        self._emit(head + (f" {fields}" if fields else ""))
 
     @staticmethod
     def _nargs(args, *counts):
         if len(args) not in counts:
-            raise _Reject(2, f"expected {' or '.join(map(str, counts))} arguments, got {len(args)}")
+            raise _Reject(2, "arguments")
+
+    def _not_busy(self):
+        if self.state == "RUN":
+            raise _Reject(8, "STOP first")
 
     def _cmd_hello(self, args):
         self._nargs(args, 0)
@@ -167,19 +222,18 @@ class BoardCommands:
         used = len(self.segments)
         return (f"state={self.state} q={','.join(str(v) for v in self._q_int())} grip={int(self.grip)} "
                 f"queue={used} free={self.queue_depth - used} done={self.done} timeout={self.timeout_ms} "
-                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={self.clock_ms}")
+                f"stream={self.stream_hz} flags={self.flags:02X} mem={self.mem} t={self.clock_ms} "
+                f"last={self.last_seq}")
 
-    def _check_joints(self, q):
+    def _check_joints(self, q, cal=None):
         for j, v in enumerate(q):
-            if not self._valid(j, v):
-                c = self.cal[j]
-                raise _Reject(6, f"joint {j} {v} outside {c[4]}..{c[5]}")
+            if not self._valid(j, v, None if cal is None else cal[j]):
+                raise _Reject(6, f"joint {j}")
 
     def _cmd_move(self, args):
         self._nargs(args, self.joints)
+        self._not_busy()
         self._check_joints(args)
-        if self.state == "RUN":
-            raise _Reject(8, "trajectory running; send STOP first")
         self.q = [float(v) for v in args]
         self.state = "IDLE"
         return ""
@@ -188,35 +242,36 @@ class BoardCommands:
         self._nargs(args, 1)
         c = self.cal[self.joints]
         if not min(c[0], c[1]) <= args[0] <= max(c[0], c[1]):
-            raise _Reject(5, f"pulse {args[0]} outside {min(c[0], c[1])}..{max(c[0], c[1])}")
+            raise _Reject(5, "gripper")
         self.grip = args[0]
         return str(args[0])
 
     def _cmd_seg(self, args):
         if len(args) < 2:
-            raise _Reject(2, "expected dur_ms order coefficients")
+            raise _Reject(2, "arguments")
         dur, order = args[0], args[1]
-        if not 1 <= dur <= 60000 or order not in (3, 5):
-            raise _Reject(5, "dur_ms must be 1..60000 and order 3 or 5")
-        need = self.joints * (order + 1)
-        if len(args) - 2 != need:
-            raise _Reject(2, f"expected {need} coefficients, got {len(args) - 2}")
-        if len(self.segments) >= self.queue_depth:
-            raise _Reject(7, "queue full")
+        if not 1 <= dur <= 60000:
+            raise _Reject(5, "duration")
+        if order not in (3, 5):
+            raise _Reject(5, "order")
+        if len(args) - 2 != self.joints * (order + 1):
+            raise _Reject(2, "arguments")
         if any(abs(c) > 10_000_000 for c in args[2:]):
-            raise _Reject(5, "coefficient outside +-10000000")
+            raise _Reject(5, "coefficient")
+        if len(self.segments) >= self.queue_depth:
+            raise _Reject(7)
         coef = np.array(args[2:], dtype=float).reshape(self.joints, order + 1)
         seg = _Segment(dur / 1000.0, coef)
         samples = np.round(np.polynomial.polynomial.polyval(np.arange(33) / 32.0, coef.T))  # (J, 33)
-        for j in range(self.joints):
-            for v in samples[j]:
-                if not self._valid(j, v):
-                    raise _Reject(6, f"joint {j} sample {int(round(v))} outside limits")
         prev = self.segments[-1].at(1.0) if self.segments else np.array(self.q)
-        start = coef[:, 0]
         for j in range(self.joints):
-            if abs(start[j] - prev[j]) > 50:
-                raise _Reject(9, f"joint {j} starts at {int(start[j])}, previous end {int(round(prev[j]))}")
+            if not all(self._valid(j, v) for v in samples[j]):
+                raise _Reject(6, f"joint {j}")
+            if abs(coef[j, 0] - prev[j]) > 50:
+                raise _Reject(9, f"joint {j}")
+        for j in range(self.joints):
+            if not segment_speed_ok(coef[j], dur, self.vmax[j], self.amax[j]):
+                raise _Reject(11, f"joint {j}")
         if not self.segments:
             seg.start = self.time
             self.state = "RUN"
@@ -232,7 +287,7 @@ class BoardCommands:
         self._nargs(args, 0, 1)
         if args:
             if not (args[0] == 0 or 50 <= args[0] <= 60000):
-                raise _Reject(5, "timeout must be 0 or 50..60000 ms")
+                raise _Reject(5, "timeout")
             self.timeout_ms = args[0]
         return str(self.timeout_ms)
 
@@ -243,7 +298,7 @@ class BoardCommands:
     def _cmd_stream(self, args):
         self._nargs(args, 1)
         if not 0 <= args[0] <= 200:
-            raise _Reject(5, "rate must be 0..200 Hz")
+            raise _Reject(5, "rate")
         self.stream_hz = args[0]
         self.stream_counter = 0
         self._stream_t0 = self.time
@@ -255,42 +310,49 @@ class BoardCommands:
         self._nargs(args, 1, 7)
         ch = args[0]
         if not 0 <= ch < self.channels:
-            raise _Reject(5, f"channel must be 0..{self.channels - 1}")
+            raise _Reject(5, "channel")
         if len(args) == 7:
+            self._not_busy()
             pmin, pmax, zero, d, lo, hi = args[1:]
-            if (not 400 <= pmin <= 2600 or not 400 <= pmax <= 2600 or pmin == pmax or not -36000 <= zero <= 36000
-                    or d not in (1, -1) or not -36000 <= lo <= hi <= 36000 or hi > 36000):
-                raise _Reject(5, "calibration field out of range")
-            if self.state == "RUN":
-                raise _Reject(8, "trajectory running")
-            new = [pmin, pmax, zero, d, lo, hi]
-            if ch < self.joints and not self._valid(ch, self.q[ch], new):
-                raise _Reject(6, f"joint {ch} position {int(self.q[ch])} invalid under the new calibration")
-            if ch == self.joints and not min(pmin, pmax) <= self.grip <= max(pmin, pmax):
-                raise _Reject(6, "gripper pulse outside the new range")
-            self.cal[ch] = new
+            if (not 400 <= pmin <= 2600 or not 400 <= pmax <= 2600 or pmin == pmax or not -32000 <= zero <= 32000
+                    or d not in (1, -1) or not -32000 <= lo <= hi <= 32000):
+                raise _Reject(5, "calibration field")
+            new = [list(c) for c in self.cal]
+            new[ch] = [pmin, pmax, zero, d, lo, hi]
+            self._positions_valid(new)
+            self.cal[ch] = new[ch]
         return " ".join(str(v) for v in [ch] + self.cal[ch])
+
+    def _positions_valid(self, cal):
+        self._check_joints(self.q, cal)
+        g = cal[self.joints]
+        if not min(g[0], g[1]) <= self.grip <= max(g[0], g[1]):
+            raise _Reject(6, "gripper")
+
+    def _cmd_limits(self, args):
+        self._nargs(args, 1, 3)
+        j = args[0]
+        if not 0 <= j < self.joints:
+            raise _Reject(5, "joint")
+        if len(args) == 3:
+            if not (0 <= args[1] <= VMAX_MAX and 0 <= args[2] <= AMAX_MAX):
+                raise _Reject(5, "limits")
+            self._not_busy()
+            self.vmax[j], self.amax[j] = args[1], args[2]
+        return f"{j} {self.vmax[j]} {self.amax[j]}"
 
     def _cmd_defaults(self, args):
         self._nargs(args, 0)
-        if self.state == "RUN":
-            raise _Reject(8, "trajectory running")
+        self._not_busy()
         new = [list(FACTORY) for _ in range(self.channels)]
-        for j in range(self.joints):
-            if not self._valid(j, self.q[j], new[j]):
-                raise _Reject(6, f"joint {j} position invalid under the defaults")
+        self._positions_valid(new)
         self.cal = new
         self.timeout_ms = 500
         return ""
 
     def _cmd_save(self, args):
         self._nargs(args, 0)
-        if self.state == "RUN":
-            raise _Reject(8, "trajectory running")
-        img = bytearray(b"LK") + bytes([1, self.channels])
-        for c in self.cal:
-            img += struct.pack("<hhhbhh", *c)
-        img += struct.pack("<H", self.timeout_ms)
-        img += struct.pack("<H", crc16(img))
+        self._not_busy()
+        img = eeprom_image(self.cal, self.vmax, self.amax, self.timeout_ms)
         self.eeprom[: len(img)] = img
         return str(len(img))

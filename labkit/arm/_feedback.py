@@ -1,7 +1,8 @@
 """Feedback stream of the host link: which ``FB`` frames to trust, and the table of a recording.
 
-The XOR checksum misses some damage (a dropped digit, two flipped bits), so a
-frame counts only when a neighbouring frame confirms it: consecutive
+Every frame carries a CRC-16; on top of it (a board that writes a wrong
+value seals it with a good CRC), a frame counts only when a neighbouring frame
+confirms it: consecutive
 counters, board times that fit the stream rate, and joint readings that
 cannot have moved faster than the joints can. :class:`FrameFilter` is the
 sink :class:`labkit.arm.Arm` sets on its wire while it records;
@@ -78,7 +79,7 @@ class FrameFilter:
         # the firmware stamps a frame when it sends it: a few ms of jitter, never drift
         if abs((b[1] - a[1]) - gap * 1000.0 / self.hz) > 2.0 + 250.0 / self.hz:
             return False
-        # joints cannot jump: a dropped digit (invisible to the XOR checksum) changes a value a lot
+        # joints cannot jump: a wrong digit changes a value a lot
         J = self.joints
         step = np.abs(np.array(b[2:2 + J]) - np.array(a[2:2 + J]))
         return bool(np.all(step <= self.slew * gap / self.hz + 12))

@@ -152,8 +152,8 @@ class FirmwareSim:
     >>> with FirmwareSim() as sim:                       # doctest: +SKIP
     ...     port = serial.Serial(sim.port, 115200, timeout=1)
     ...     sim.run()
-    ...     port.readline()                               # b'EV BOOT labkit-arm ...'
-    ...     port.write(b"MOVE 4500 9000 9000\\n"); port.readline()
+    ...     port.readline()                               # b'READY labkit-arm 2 ...'
+    ...     port.write(b"#1 MOVE 4500 9000 9000 *354E\\n"); port.readline()
     ...     sim.sleep(0.1); sim.pulses()[0]               # 1000.0 us
     """
 

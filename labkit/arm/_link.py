@@ -1,19 +1,22 @@
-"""Host link to the arm: a pyserial client of protocol v1 (``docs/protocol.md``).
+"""Host link to the arm: a pyserial client of protocol v2 (``docs/protocol.md``).
 
 :class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected),
 the virtual arm (``sim://``) or the firmware simulator (``simavr://``),
-waits out the reset-on-open, shakes hands, and offers the lab operations in SI
+waits for the board's ``READY`` after the reset-on-open, shakes hands, and offers the lab operations in SI
 units: joint moves (checked against the robot file's limits and servo ranges
 *before* anything is sent), Cartesian moves through :func:`labkit.kinematics.ik`,
 trajectories streamed as polynomial segments, gripper, stop, joint read-back
 and feedback streams into pandas.
 
 Reliability rules (``docs/link.md``): every request carries a sequence id and
-a checksum; board lines with a bad checksum or an implausible content are
-dropped and counted, never used; idempotent requests are retried; a motion
+a CRC-16; board lines with a bad CRC are dropped and counted, never used; the
+reply to a state-changing request echoes the CRC of what the board parsed and
+a different echo stops the arm; idempotent requests are retried; a motion
 request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
-host asks ``STATUS`` whether it was executed and resends only if it was not;
-anything that cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
+host asks ``STATUS`` (``last=``, the sequence id of the last state-changing
+request run) whether it was executed and resends only if it was not; a request
+the host never had acknowledged showing up there stops the arm; anything that
+cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
 
 Examples
 --------
@@ -30,36 +33,17 @@ import math
 
 import numpy as np
 
-from labkit.validation import as_vector
 from labkit.robot import Robot
-from labkit.exceptions import DeviceError, JointLimitError, OptionError, ProtocolError
-from labkit.arm._protocol import PROTOCOL_VERSION, cdeg
-from labkit.arm._replies import BoardInfo, parse_hello, parse_ping, parse_read, parse_status, parse_stop
+from labkit.exceptions import DeviceError, OptionError
+from labkit.arm._protocol import cdeg
+from labkit.arm._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm._wire import Wire
-from labkit.arm._segments import feed_segments, segments_from_trajectory
+from labkit.arm._segments import check_segment_speeds, feed_segments, segments_from_trajectory, wire_speed_limits
 from labkit.arm._feedback import record_stream
+from labkit.arm._ports import find_ports, handshake, open_port
+from labkit.arm._checks import finite, joint_vector
 
-__all__ = ["Arm", "find_ports"]
-
-_ARDUINO_VIDS = {0x2341, 0x2A03, 0x1A86, 0x0403, 0x10C4, 0x239A}
-
-
-def find_ports():
-    """Serial ports that look like an Arduino (USB VID or description), best first.
-
-    Returns
-    -------
-    list of str
-        Device names (``/dev/ttyACM0``, ``COM3`` ...).
-    """
-    from serial.tools import list_ports
-
-    found = []
-    for p in list_ports.comports():
-        text = f"{p.description} {p.manufacturer or ''}".lower()
-        if p.vid in _ARDUINO_VIDS or "arduino" in text or "ch340" in text:
-            found.append(p.device)
-    return sorted(found, key=lambda d: ("ACM" not in d, d))
+__all__ = ["Arm"]
 
 
 def _on_wire(attr, doc, convert=None):
@@ -91,12 +75,15 @@ class Arm:
     retries : int
         Extra attempts of a request whose reply was lost or garbled.
     boot_wait : float
-        How long to wait for the board's ``EV BOOT`` after opening [s].
+        How long to wait for the board's ``READY`` after opening [s] (a real Uno
+        resets when the port opens and needs about 1.6 s); without it the host
+        still tries ``HELLO`` once before giving up.
     sync_calibration : bool
         Send the robot file's servo calibrations (``CAL``) after the handshake.
     check_moves : bool
         After each acknowledged ``MOVE``, read the commanded joints back with
-        ``STATUS`` and raise if they differ from what was sent.
+        ``STATUS`` and raise if they differ from what was sent (a second check
+        besides the reply's echo).
 
     Attributes
     ----------
@@ -117,16 +104,16 @@ class Arm:
     """
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
-                 boot_wait=2.5, sync_calibration=True, check_moves=True):
+                 boot_wait=3.0, sync_calibration=True, check_moves=True):
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot = Robot.load(robot)
-        #: read the commanded joints back after every MOVE (protocol v1 cannot detect every corrupted line)
+        #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate)
         name = getattr(opened, "port", None) or getattr(opened, "name", repr(opened))
         self._wire = Wire(opened, name=name, timeout=timeout, retries=retries)
         try:
-            self._handshake(boot_wait)
+            handshake(self, boot_wait)
             if sync_calibration:
                 self.sync_calibration()
         except BaseException:
@@ -136,8 +123,6 @@ class Arm:
     # -- opening ------------------------------------------------------------------------
     @staticmethod
     def _open(port, baudrate):
-        import serial
-
         from labkit.arm.urlhandler import register
 
         register()
@@ -146,29 +131,11 @@ class Arm:
         if port is None:
             ports = find_ports()
             if not ports:
-                raise DeviceError("no Arduino-like serial port found; plug the board in, name the port "
-                                  "(e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'")
+                raise DeviceError("no Arduino-like serial port found ('labkit ports' lists them); plug the "
+                                  "board in, name the port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual "
+                                  "arm 'sim://'")
             port = ports[0]
-        try:
-            return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
-        except (serial.SerialException, OSError, ValueError) as exc:
-            raise DeviceError(f"cannot open {port!r}: {exc}") from None
-
-    def _handshake(self, boot_wait):
-        self._wire.wait_boot(boot_wait)
-        try:
-            info = self._transact("HELLO", parse=parse_hello)
-        except DeviceError as exc:
-            raise DeviceError(f"{self.name}: no handshake with the board ({exc})") from None
-        if not isinstance(info, BoardInfo):
-            raise ProtocolError(f"{self.name}: not a labkit arm: HELLO answered {info!r}")
-        self._wire.info = info
-        if info.protocol != PROTOCOL_VERSION:
-            raise DeviceError(f"{self.name}: board speaks protocol {info.protocol}, "
-                              f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
-        if info.joints != self.robot.n:
-            raise DeviceError(f"{self.name}: board has {info.joints} joints, robot "
-                              f"{self.robot.name} has {self.robot.n}")
+        return open_port(port, baudrate)
 
     def close(self):
         """Close the port (never raises, even if the port has vanished)."""
@@ -259,7 +226,8 @@ class Arm:
         Parameters
         ----------
         retries : int, optional
-            Resend attempts after a lost or garbled reply; default ``self.retries``.
+            Resend attempts after a lost or garbled reply; default ``4 * self.retries + 4`` (the
+            reply is long, so it is the most likely to be damaged on a noisy line).
 
         Returns
         -------
@@ -271,11 +239,20 @@ class Arm:
             No valid reply after all retries.
         """
         queue = self.info.queue if self.info is not None else None
-        return self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+        if retries is None:  # the longest reply (about 150 bytes): the first to be hit on a noisy line
+            retries = 4 * self.retries + 4
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+        if self._wire.last_seq is not None:
+            self._wire.check_last(st.last)
+        return st
 
-    def _verify_status(self):
-        # settling whether a motion request ran is worth a larger retry budget
-        return self.status(retries=4 * self.retries + 4)
+    def _verify_status(self, seq=None):
+        """STATUS with a larger retry budget; with ``seq`` (a request whose reply was lost) settles whether it ran."""
+        queue = self.info.queue if self.info is not None else None
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue),
+                            retries=4 * self.retries + 4)
+        ran = self._wire.check_last(st.last, pending=seq) if self._wire.last_seq is not None else False
+        return st, ran
 
     def commanded_joints(self):
         """Joint values the servos are commanded to now, shape (n,) [rad].
@@ -315,8 +292,21 @@ class Arm:
         return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
 
     # -- configuration ---------------------------------------------------------------------
+    def speed_limits(self):
+        """Per-joint speed [cdeg/s] and acceleration [cdeg/s^2] limits as sent to the board (0: unchecked).
+
+        Returns
+        -------
+        vmax, amax : list of int
+            From the robot file (:func:`wire_speed_limits`).
+        """
+        return wire_speed_limits(self.robot)
+
     def sync_calibration(self):
-        """Send every servo calibration of the robot file to the board (``CAL``, RAM only)."""
+        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only)."""
+        vmax, amax = self.speed_limits()
+        for j in range(self.robot.n):
+            self._transact("LIMITS", j, vmax[j], amax[j])
         for j, lk in enumerate(self.robot.links):
             cal = lk.servo
             if cal is None:
@@ -338,23 +328,21 @@ class Arm:
         ----------
         seconds : float
             Time without a host line after which the board holds [s]; sent
-            rounded to ms; 0 disables the timeout.
+            rounded to ms; 0 disables the timeout, else 0.05..60 s.
+
+        Raises
+        ------
+        OptionError
+            Not a finite number, or neither 0 nor within 0.05..60 s (nothing is sent).
         """
+        seconds = finite("seconds", seconds, lo=0.0, hi=60.0, unit="s")
+        if 0 < seconds < 0.05:
+            raise OptionError(f"expected seconds 0 (off) or 0.05..60 s, got {seconds:g}")
         self._transact("TIMEOUT", int(round(seconds * 1000)))
 
     # -- motion ----------------------------------------------------------------------------
     def _check_q(self, q):
-        q = as_vector(q, self.robot.n, "q")
-        if q.ndim != 1:
-            raise JointLimitError(f"expected one configuration q with shape ({self.robot.n},), got {q.shape}")
-        self.robot.check_limits(q)
-        for j, lk in enumerate(self.robot.links):
-            if lk.servo is not None:
-                try:
-                    lk.servo.pulse_us(q[j])
-                except JointLimitError as exc:
-                    raise JointLimitError(f"{self.robot.name}: joint {j + 1}: {exc}", joint=j) from None
-        return q
+        return joint_vector(self.robot, q)
 
     def move_joints(self, q, *, wait=False, tol=math.radians(1.0), max_wait=10.0):
         """Command all joints at once (``MOVE``).
@@ -383,13 +371,12 @@ class Arm:
         q = self._check_q(q)
         target = [cdeg(v) for v in q]
 
-        def verify():
-            return [cdeg(v) for v in self._verify_status().q] == target
-
-        self._transact("MOVE", *target, motion=True, verify=verify)
-        if self.check_moves and not verify():
-            raise DeviceError(f"{self.name}: the board is commanded to {self.status().q} rad, not the "
-                              f"{q} rad sent (a line corrupted in transit executed?) - check the arm")
+        self._transact("MOVE", *target, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        if self.check_moves:
+            got = [cdeg(v) for v in self._verify_status()[0].q]
+            if got != target:
+                self._wire.hold(f"after MOVE {' '.join(map(str, target))} the board is commanded to "
+                                f"{' '.join(map(str, got))} cdeg")
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
@@ -467,9 +454,17 @@ class Arm:
         Parameters
         ----------
         us : float
-            Pulse width sent to the gripper servo [us] (rounded to an integer).
+            Pulse width sent to the gripper servo [us] (rounded to an integer); the board
+            checks it against the gripper channel's range.
+
+        Raises
+        ------
+        OptionError
+            Not a finite number (nothing is sent).
+        CommandRejected
+            Outside the gripper's pulse range (``ERR 5 RANGE``).
         """
-        self._transact("GRIP", int(round(us)))
+        self._transact("GRIP", int(round(finite("us", us, unit="us"))))
 
     def open_gripper(self):
         """Open the gripper (robot file's ``open_us``)."""
@@ -525,6 +520,8 @@ class Arm:
         ------
         JointLimitError
             A sample outside the joint limits or servo ranges (nothing is sent).
+        TrajectoryError
+            A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
         DeviceError
             A segment rejected or lost, or the board held (host-silence timeout).
         """
@@ -535,6 +532,7 @@ class Arm:
             for row in np.asarray(traj.q):
                 self._check_q(row)
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+        check_segment_speeds(self.robot, segs, *self.speed_limits())
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------
@@ -561,9 +559,13 @@ class Arm:
         Raises
         ------
         OptionError
-            ``hz`` outside 1..200 (a ``ValueError``).
+            ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200 (a ``ValueError``).
         """
+        duration = finite("duration", duration, unit="s")
+        if duration <= 0:
+            raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")
+        hz = finite("hz", hz, lo=1, hi=200, unit="Hz")
+        if hz != int(hz):
+            raise OptionError(f"expected hz as a whole number of frames per second, got {hz:g}")
         hz = int(hz)
-        if not 1 <= hz <= 200:
-            raise OptionError(f"expected hz in 1..200, got {hz}")
         return record_stream(self._wire, self.robot, duration, hz)

@@ -1,68 +1,83 @@
-"""Protocol v1 definitions shared by both ends of the wire (``docs/protocol.md``).
+"""Protocol v2 definitions shared by both ends of the wire (``docs/protocol.md``).
 
 The host link (:class:`labkit.arm.Arm` and its wire layer) and the virtual
 board (:class:`labkit.arm.VirtualBoard`) both take from here what the
 protocol fixes: the protocol version, the line length limit, the error codes,
-the XOR line checksum and how a line is sealed with it, the strict integer
-syntax of board lines, the angle unit (centidegrees), the CRC-16 of the
-EEPROM image, and :class:`CommandRejected`, the error of an ``ERR`` reply.
-Nothing here knows about ports, clocks or physics.
+the CRC-16/CCITT-FALSE line checksum and how a line is sealed with it, which
+commands may go unsealed, the echo of a parsed request, the strict integer
+syntax of board lines, the angle unit (centidegrees), and
+:class:`CommandRejected`, the error of an ``ERR`` reply. Nothing here knows
+about ports, clocks or physics.
 
 Examples
 --------
->>> seal("#7 PING")
-'#7 PING*24'
->>> unseal(b"OK #7 PING 200*12")
+>>> seal("#7 MOVE 4500 9000 3000 ")
+'#7 MOVE 4500 9000 3000 *0F11'
+>>> unseal(b"OK #7 PING 200*232C")
 b'OK #7 PING 200'
->>> unseal(b"OK #7 PING 201*12") is None  # checksum mismatch
+>>> unseal(b"OK #7 PING 201*232C") is None  # checksum mismatch
 True
->>> ERRORS[6]
-'LIMIT'
+>>> echo("MOVE", [4500, 9000, 3000])
+'p=BE59'
+>>> ERRORS[11]
+'SPEED'
 """
 
 from __future__ import annotations
 
+import binascii
 import math
 import re
 
 from labkit.exceptions import DeviceError, ProtocolError
 
-__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS"]
+__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
 
-#: protocol version spoken by both ends (``HELLO`` ``proto=``, ``EV BOOT`` ``proto=``)
-PROTOCOL_VERSION = 1
+#: protocol version spoken by both ends (``HELLO`` ``proto=``, ``READY labkit-arm <version>``)
+PROTOCOL_VERSION = 2
 #: longest line [bytes] before the end of line, either direction (``HELLO`` ``maxline=``)
 MAX_LINE = 160
 #: error codes of ``ERR <code> <NAME>`` replies (``docs/protocol.md`` section 5)
 ERRORS = {1: "BADCHK", 2: "SYNTAX", 3: "UNKNOWN", 4: "TOOLONG", 5: "RANGE", 6: "LIMIT", 7: "QFULL",
-          8: "BUSY", 9: "DISCONT", 10: "EEPROM"}
+          8: "BUSY", 9: "DISCONT", 10: "EEPROM", 11: "SPEED"}
+#: factory speed limit of every joint [cdeg/s] (600 deg/s, above any hobby servo); acceleration unchecked
+VMAX_FACTORY = 60000
+#: largest speed [cdeg/s] and acceleration [cdeg/s^2] limits ``LIMITS`` accepts
+VMAX_MAX = 1_000_000
+AMAX_MAX = 100_000_000
+#: samples of the speed check of a segment: s = k / SPEED_SAMPLES, k = 0..SPEED_SAMPLES
+SPEED_SAMPLES = 16
+#: commands a person may type without ``#seq`` and ``*CRC`` (they change nothing); all others must be sealed
+READ_ONLY = frozenset({"HELLO", "PING", "STATUS", "READ"})
 #: codes of a request that never ran (damaged on the way: checksum, syntax, unknown, too long)
 NOT_EXECUTED = frozenset({1, 2, 3, 4})
 
-#: a board line without its CR LF: printable body, ``*``, two upper-case hex digits
-BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2})$")
+#: a board line without its CR LF: printable body, ``*``, four upper-case hex digits (CRC-16)
+BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{4})$")
+#: a protocol-1 board line (XOR checksum, two hex digits): recognised only to refuse an old board
+V1_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2})$")
 #: an integer as the board writes it (never ``+``, leading zeros or ``-0``)
 STRICT_INT = re.compile(r"^(0|-?[1-9][0-9]{0,9})$")
 #: an integer argument of a request (optional sign, 1 to 10 digits)
 REQUEST_INT = re.compile(r"^[+-]?[0-9]{1,10}$")
 #: the optional sequence id token of a request
 REQUEST_SEQ = re.compile(r"^#([0-9]{1,5})$")
-#: what may follow the last ``*`` of a request: two hex digits (either case), then blanks
-REQUEST_CHECKSUM = re.compile(r"^[0-9A-Fa-f]{2}[ \t]*$")
+#: what may follow the last ``*`` of a request: four hex digits (either case), then blanks
+REQUEST_CHECKSUM = re.compile(r"^[0-9A-Fa-f]{4}[ \t]*$")
 
 
 def checksum(text):
-    """XOR of the bytes of ``text`` (str or bytes), the protocol's line checksum (int 0..255).
+    """CRC-16/CCITT-FALSE of the bytes of ``text``, the protocol's line checksum (int 0..65535).
 
     Parameters
     ----------
     text : str or bytes-like
-        Line body (ASCII), without the ``*HH`` suffix.
+        Line body (ASCII), without the ``*HHHH`` suffix.
 
     Returns
     -------
     int
-        Checksum, 0..255 (sent as two hex digits).
+        Checksum, 0..65535 (sent as four hex digits).
 
     Raises
     ------
@@ -71,18 +86,14 @@ def checksum(text):
 
     Examples
     --------
-    >>> f"{checksum('#7 PING'):02X}"
-    '24'
+    >>> f"{checksum('#7 PING'):04X}"
+    '4824'
     """
-    data = text.encode("ascii") if isinstance(text, str) else bytes(text)
-    x = 0
-    for b in data:
-        x ^= b
-    return x
+    return crc16(text.encode("ascii") if isinstance(text, str) else bytes(text))
 
 
 def seal(body):
-    """``body`` with its checksum appended, ``"<body>*HH"`` (no end of line).
+    """``body`` with its checksum appended, ``"<body>*HHHH"`` (no end of line).
 
     Parameters
     ----------
@@ -93,7 +104,7 @@ def seal(body):
     -------
     str
     """
-    return f"{body}*{checksum(body):02X}"
+    return f"{body}*{checksum(body):04X}"
 
 
 def unseal(raw):
@@ -107,12 +118,51 @@ def unseal(raw):
     Returns
     -------
     bytes or None
-        The body before ``*HH``; ``None`` for a malformed line or a checksum mismatch.
+        The body before ``*HHHH``; ``None`` for a malformed line or a checksum mismatch.
     """
     m = BOARD_LINE.match(raw)
     if not m or int(m.group(2), 16) != checksum(m.group(1)):
         return None
     return m.group(1)
+
+
+def is_v1_line(raw):
+    """Whether ``raw`` (bytes, no CR LF) is an intact protocol-1 board line (XOR checksum ``*HH``).
+
+    Parameters
+    ----------
+    raw : bytes
+        One line as received, end of line removed.
+
+    Returns
+    -------
+    bool
+    """
+    m = V1_LINE.match(raw)
+    if not m:
+        return False
+    x = 0
+    for b in m.group(1):
+        x ^= b
+    return x == int(m.group(2), 16)
+
+
+def echo(command, args):
+    """The ``p=HHHH`` field a board puts in the ``OK`` reply to a sealed request: CRC of what it parsed.
+
+    Parameters
+    ----------
+    command : str
+        Command name (any case; the echo uses upper case).
+    args : sequence of int
+        The integer arguments as parsed.
+
+    Returns
+    -------
+    str
+        ``"p=HHHH"``, the CRC-16 of ``"NAME a0 a1 ..."`` (integers written plainly).
+    """
+    return f"p={checksum(' '.join([command.upper(), *(str(int(a)) for a in args)])):04X}"
 
 
 def board_int(text):
@@ -152,7 +202,7 @@ def cdeg(q):
 
 
 def crc16(data):
-    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) of the EEPROM image.
+    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection, no final XOR) of ``data``.
 
     Parameters
     ----------
@@ -168,12 +218,57 @@ def crc16(data):
     >>> hex(crc16(b"123456789"))
     '0x29b1'
     """
-    crc = 0xFFFF
-    for b in bytes(data):
-        crc ^= b << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
-    return crc
+    return binascii.crc_hqx(bytes(data), 0xFFFF)
+
+
+def segment_speed_ok(coef, dur_ms, vmax, amax):
+    """Whether one joint's ``SEG`` polynomial keeps to the speed and acceleration limits (the board's check).
+
+    Samples ``dq/dt`` and ``d2q/dt2`` at ``s = k/16``, ``k = 0..16`` in single precision
+    exactly as the firmware does, so host, virtual board and firmware agree.
+
+    Parameters
+    ----------
+    coef : sequence of float, shape (order + 1,)
+        Coefficients [cdeg] over normalised time ``s = t / T``.
+    dur_ms : int
+        Segment duration ``T`` [ms].
+    vmax : int
+        Speed limit [cdeg/s]; 0 leaves the speed unchecked.
+    amax : int
+        Acceleration limit [cdeg/s^2]; 0 leaves the acceleration unchecked.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> segment_speed_ok([4500, 0, 13500, -9000], 1000, 30000, 150000)  # 45 -> 90 deg in 1 s
+    True
+    >>> segment_speed_ok([4500, 0, 13500, -9000], 10, 30000, 0)  # ... in 10 ms: 6750 deg/s
+    False
+    """
+    import numpy as np
+
+    f = np.float32
+    c = [f(v) for v in coef]
+    T = f(dur_ms) * f(0.001)
+    vl = f(vmax) * T if vmax else None
+    al = f(amax) * T * T if amax else None
+    step = f(1.0) / f(SPEED_SAMPLES)
+    s = f(0.0)
+    for _ in range(SPEED_SAMPLES + 1):
+        p, d, h = c[-1], f(0.0), f(0.0)
+        for ci in reversed(c[:-1]):
+            h = h * s + d
+            d = d * s + p
+            p = p * s + ci
+        h = h + h
+        if (vl is not None and abs(d) > vl) or (al is not None and abs(h) > al):
+            return False
+        s = s + step
+    return True
 
 
 class CommandRejected(DeviceError):

@@ -2,9 +2,9 @@
 
 The fields after ``OK [#seq] <COMMAND>`` of ``HELLO``, ``PING``, ``STATUS``,
 ``READ`` and ``STOP`` (``docs/protocol.md`` section 4) as Python values. A
-field that passed the (weak) XOR checksum but is still malformed raises
-:class:`~labkit.exceptions.ProtocolError`; the wire layer counts it as a bad
-line and asks again.
+field that passed the CRC but is still malformed (a board bug, not line noise)
+raises :class:`~labkit.exceptions.ProtocolError`; the wire layer counts it as
+a bad line and asks again.
 """
 
 from __future__ import annotations
@@ -34,7 +34,10 @@ class BoardInfo:
 
 @dataclass(frozen=True)
 class Status:
-    """``STATUS`` answer in SI units (``q`` [rad], ``t`` [s], ``timeout`` [s])."""
+    """``STATUS`` answer in SI units (``q`` [rad], ``t`` [s], ``timeout`` [s]).
+
+    ``last`` is the ``#seq`` of the last state-changing request the board executed.
+    """
 
     state: str
     q: np.ndarray
@@ -47,6 +50,7 @@ class Status:
     flags: int
     mem: int
     t: float
+    last: int = 0
 
 
 def parse_hello(fields):
@@ -149,7 +153,8 @@ def parse_status(fields, n, queue_depth=None):
         raise ProtocolError(f"expected flags as 1 to 8 hex digits, got {kv['flags']!r}")
     st = Status(kv["state"], np.radians(np.array(q) / 100.0), board_int(kv["grip"]), board_int(kv["queue"]),
                 board_int(kv["free"]), board_int(kv["done"]), board_int(kv["timeout"]) / 1000.0,
-                board_int(kv["stream"]), int(kv["flags"], 16), board_int(kv["mem"]), board_int(kv["t"]) / 1000.0)
+                board_int(kv["stream"]), int(kv["flags"], 16), board_int(kv["mem"]), board_int(kv["t"]) / 1000.0,
+                board_int(kv["last"]))
     if queue_depth is not None and st.queue + st.free != queue_depth:
         raise ProtocolError(f"expected queue + free = {queue_depth} (queue depth), got {st.queue} + {st.free}")
     return st

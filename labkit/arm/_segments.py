@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.exceptions import DeviceError, OptionError
-from labkit.arm._protocol import CommandRejected
+from labkit.exceptions import DeviceError, OptionError, TrajectoryError
+from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected, segment_speed_ok
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -95,6 +95,53 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
     return segs
 
 
+def wire_speed_limits(robot):
+    """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``inf``: none).
+
+    Returns
+    -------
+    vmax, amax : list of int
+        [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
+    """
+    def wire(value, largest):
+        return 0 if not math.isfinite(value) else min(int(math.floor(math.degrees(value) * 100)), largest)
+
+    return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
+            [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])
+
+
+def check_segment_speeds(robot, segs, vmax, amax):
+    """Raise if a segment breaks a joint's speed or acceleration limit, exactly as the board checks it.
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        For the joint names in the message.
+    segs : list of tuple
+        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [cdeg]).
+    vmax, amax : sequence of int
+        Per-joint limits [cdeg/s], [cdeg/s^2] (0: unchecked), as sent with ``LIMITS``.
+
+    Raises
+    ------
+    TrajectoryError
+        Names the segment and joint; nothing has been sent.
+    """
+    for k, (dur, order, coef) in enumerate(segs):
+        for j in range(robot.n):
+            row = coef[j * (order + 1):(j + 1) * (order + 1)]
+            if not segment_speed_ok(row, dur, vmax[j], amax[j]):
+                raise TrajectoryError(
+                    f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) exceeds its speed limit "
+                    f"{vmax[j] / 100:g} deg/s or acceleration limit {amax[j] / 100:g} deg/s^2 (0: unchecked); "
+                    f"nothing was sent - slow the trajectory down")
+
+
 def feed_segments(arm, segs, *, progress=None, wait=True):
     """Stream ``segs`` to the board's segment queue through ``arm``, keeping the queue fed.
 
@@ -134,14 +181,14 @@ def feed_segments(arm, segs, *, progress=None, wait=True):
     retries0, qfull, underruns = arm.stats.retries, 0, 0
     dones_seen = len([e for e in arm.events if e[0] == "DONE"])
     for k, (dur, order_k, coef) in enumerate(segs):
-        def verify(expected=accepted):
-            s = arm._verify_status()
+        def verify(seq, expected=accepted):
+            s, ran = arm._verify_status(seq)
             if s.state == "HOLD":
                 raise DeviceError(f"{arm.name}: the board halted the trajectory (host-silence timeout)")
             total = s.done + s.queue
-            if total not in (expected, expected + 1):
-                raise DeviceError(f"{arm.name}: segment bookkeeping lost (board {total}, host {expected})")
-            return total == expected + 1
+            if total != expected + ran:
+                arm._wire.hold(f"SEG #{seq}: segment bookkeeping lost (board {total}, host {expected + ran})")
+            return ran
 
         while True:
             try:

@@ -1,9 +1,10 @@
 """Wire layer of the host link (private; the public names are re-exported by :mod:`labkit.arm`).
 
 Everything between :class:`labkit.arm.Arm`'s lab operations and the serial
-port, in protocol v1 (``docs/protocol.md``): request lines with sequence id
-and checksum, the byte stream cut into lines, checksum checks of board lines,
-event handling, and the request/retry loop. :class:`Wire` owns one open
+port, in protocol v2 (``docs/protocol.md``): request lines sealed with
+sequence id and CRC-16, the byte stream cut into lines, CRC checks of board
+lines, the ``READY`` announcement, event handling, the echo check of
+state-changing requests, and the request/retry loop. :class:`Wire` owns one open
 port; ``Arm`` creates one and keeps it. What the fields of a reply mean is in
 ``_replies.py``; feedback frames (``FB``) go to whatever sink is set as
 :attr:`Wire.frames` (see ``_feedback.py``).
@@ -15,7 +16,17 @@ import time
 from dataclasses import dataclass, field
 
 from labkit.exceptions import DeviceError, ProtocolError
-from labkit.arm._protocol import MAX_LINE, NOT_EXECUTED, STRICT_INT, CommandRejected, seal, unseal
+from labkit.arm._protocol import (
+    MAX_LINE,
+    NOT_EXECUTED,
+    READ_ONLY,
+    STRICT_INT,
+    CommandRejected,
+    echo,
+    is_v1_line,
+    seal,
+    unseal,
+)
 
 __all__ = ["LinkStats"]
 
@@ -42,6 +53,7 @@ class LinkStats:
     frames: int = 0
     lost_frames: int = 0
     rejected_frames: int = 0
+    wrong_echoes: int = 0
 
 
 @dataclass
@@ -82,8 +94,13 @@ class Wire:
         self.info = None
         #: object with ``add(tokens)`` receiving every ``FB`` line, or None (frames are ignored)
         self.frames = None
-        #: an ``EV BOOT`` has been received since the port was opened
-        self.booted = False
+        #: the fields of the board's ``READY`` line once received since the port was opened
+        self.ready = None
+        #: an intact protocol-1 line (XOR checksum) has been received: an old firmware
+        self.v1_seen = None
+        #: ``#seq`` of the last state-changing request known to have run (the board's ``STATUS last=``);
+        #: ``None`` until the handshake has read it
+        self.last_seq = None
         self._seq = 0
         self._buf = bytearray()
         self._lines = []
@@ -191,6 +208,8 @@ class Wire:
     def _dispatch(self, raw):
         body = unseal(raw)
         if body is None:
+            if self.v1_seen is None and is_v1_line(raw):
+                self.v1_seen = raw.decode("ascii")
             self.stats.bad_lines += 1
             return
         tokens = body.decode("ascii").split()
@@ -199,11 +218,13 @@ class Wire:
             if self.frames is not None:
                 self.frames.add(tokens)
             return
+        if kind == "READY":
+            if self.ready is not None and self.info is not None:
+                self.events.append(("RESET-UNEXPECTED", tokens[1:]))
+            self.ready = tokens[1:]
+            self.events.append(("READY", tokens[1:]))
+            return
         if kind == "EV" and len(tokens) >= 2:
-            if tokens[1] == "BOOT":
-                if self.booted and self.info is not None:
-                    self.events.append(("BOOT-UNEXPECTED", tokens[2:]))
-                self.booted = True
             self.events.append((tokens[1], tokens[2:]))
             return
         if kind in ("OK", "ERR") and len(tokens) >= 2:
@@ -218,8 +239,8 @@ class Wire:
             return
         self.stats.bad_lines += 1
 
-    def wait_boot(self, seconds):
-        """Handle lines until ``EV BOOT`` arrives or ``seconds`` [board time] pass; drop stray ``ERR`` lines.
+    def wait_ready(self, seconds):
+        """Handle lines until the board's ``READY`` arrives or ``seconds`` [board time] pass; drop stray ``ERR`` lines.
 
         Parameters
         ----------
@@ -228,14 +249,14 @@ class Wire:
 
         Returns
         -------
-        bool
-            Whether the board announced its boot.
+        list of str or None
+            The fields of the ``READY`` line (``["labkit-arm", "2", "fw=...", ...]``), or ``None``.
         """
         deadline = self.clock() + seconds
-        while not self.booted and self.clock() < deadline:
+        while self.ready is None and self.v1_seen is None and self.clock() < deadline:
             self.pump(0.05)
         self._lines = [ln for ln in self._lines if ln.kind != "ERR"]
-        return self.booted
+        return self.ready
 
     # -- requests ----------------------------------------------------------------------------
     def _next_seq(self):
@@ -266,8 +287,61 @@ class Wire:
             self.pump(0.0)
         self._lines.clear()
 
-    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None):
+    def hold(self, why):
+        """Stop the arm (``STOP``) after something went wrong, then raise :class:`DeviceError` saying ``why``.
+
+        Parameters
+        ----------
+        why : str
+            What went wrong (names the command).
+
+        Raises
+        ------
+        DeviceError
+            Always; the message says whether the arm is now stopped.
+        """
+        try:
+            self.transact("STOP", retries=max(self.retries, 3), stop_on_wrong_echo=False)
+            state = "the arm is stopped (STOP sent)"
+        except DeviceError as exc:
+            state = f"STOP failed too ({exc}): switch the arm off"
+        raise DeviceError(f"{self.name}: {why}; {state}")
+
+    def check_last(self, last, pending=None):
+        """Compare the board's ``STATUS last=`` with the state-changing requests the host knows ran.
+
+        Parameters
+        ----------
+        last : int
+            ``#seq`` of the last state-changing request the board executed.
+        pending : int, optional
+            ``#seq`` of a request whose reply was lost (it may have run).
+
+        Returns
+        -------
+        bool
+            Whether ``pending`` ran.
+
+        Raises
+        ------
+        DeviceError
+            The board executed a request the host did not send (the arm is stopped first).
+        """
+        if pending is not None and last == pending:
+            self.last_seq = last
+            return True
+        if last != self.last_seq:
+            self.hold(f"the board executed request #{last}, which the host never had acknowledged "
+                      f"(last known #{self.last_seq}): unrequested motion")
+        return False
+
+    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None, stop_on_wrong_echo=True):
         """Send one request until it is acknowledged; return the (parsed) reply.
+
+        Every request is sealed (``#seq`` and CRC-16). The ``OK`` reply to a
+        state-changing request must echo the CRC of exactly what was sent
+        (``p=HHHH``); a different echo means the board ran something else: the
+        arm is stopped and :class:`DeviceError` raised.
 
         Parameters
         ----------
@@ -276,48 +350,50 @@ class Wire:
         *args : int
             Integer arguments.
         motion : bool
-            A motion request: after a lost reply, ``verify()`` tells whether it ran
+            A motion request: after a lost reply, ``verify(seq)`` tells whether it ran
             (it is never blindly repeated).
         verify : callable, optional
-            ``verify() -> bool`` for motion requests.
+            ``verify(seq) -> bool`` for motion requests.
         parse : callable, optional
-            ``parse(fields)`` of the ``OK`` reply's fields after the command name.
+            ``parse(fields)`` of the ``OK`` reply's fields after the command name (and echo).
         retries : int, optional
             Extra attempts; default :attr:`retries`.
+        stop_on_wrong_echo : bool
+            Send ``STOP`` (through :meth:`hold`) before raising on a wrong echo; off for that
+            ``STOP`` itself.
 
         Returns
         -------
         object
             ``parse(fields)``, or without ``parse`` the reply line (``tokens``:
-            ``["OK", command, fields...]``).
+            ``["OK", command, fields...]``, echo removed).
 
         Raises
         ------
         CommandRejected
             The board answered ``ERR`` for a request that arrived intact.
         DeviceError
-            No valid reply after all attempts, or the board reset itself.
+            No valid reply after all attempts, a wrong echo, or the board reset itself.
         """
-        if any(k == "BOOT-UNEXPECTED" for k, _ in self.events):
-            raise DeviceError(f"{self.name}: the board reset itself (EV BOOT); its state is lost - reconnect")
+        if any(k == "RESET-UNEXPECTED" for k, _ in self.events):
+            raise DeviceError(f"{self.name}: the board reset itself (READY); its state is lost - reconnect")
+        args = [int(a) for a in args]
+        state_changing = command not in READ_ONLY
+        expected_echo = echo(command, args) if state_changing else None
         last = None
-        rejected = set()
         retries = self.retries if retries is None else retries
         for attempt in range(retries + 1):
             self._drain()
             seq = self._next_seq()
-            body = " ".join([f"#{seq}", command, *(str(int(a)) for a in args)])
-            # the space before "*" makes a line whose "*" is lost fail the argument count
-            # instead of running with the checksum digits glued to its last number
-            body += " "
+            body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
             self._send(("\n" if attempt else "") + seal(body) + "\n")
             try:
                 reply = self._await(seq)
             except _NoReply as exc:
                 last = exc
                 self.stats.retries += attempt < retries
-                if motion:  # even "garbled" may be a stale reply to an earlier line: ask the board
-                    if verify():
+                if motion:  # the reply may be lost after the request ran: ask the board
+                    if verify(seq):
                         self.stats.verified += 1
                         return _Line("OK", seq, ["OK", command])
                 continue
@@ -326,23 +402,31 @@ class Wire:
                 if reply.tokens[1:2] != [command]:
                     last = _NoReply(f"reply names {reply.tokens[1:2]}, expected {command}")
                     continue
+                if state_changing:
+                    got = reply.tokens[2] if len(reply.tokens) > 2 else None
+                    if got != expected_echo:
+                        self.stats.wrong_echoes += 1
+                        if stop_on_wrong_echo:
+                            self.hold(f"{command} {' '.join(map(str, args))} (#{seq}) was answered with echo "
+                                      f"{got}, expected {expected_echo}: the board ran something else")
+                        raise DeviceError(f"{self.name}: {command} #{seq}: wrong echo {got}")
+                    del reply.tokens[2]
+                    if self.last_seq is not None:
+                        self.last_seq = seq
                 if parse is None:
                     return reply
                 try:
                     return parse(reply.tokens[2:])
-                except (ProtocolError, ValueError, KeyError, IndexError) as exc:  # passed the weak checksum, still garbled
+                except (ProtocolError, ValueError, KeyError, IndexError) as exc:
                     self.stats.bad_lines += 1
                     last = _NoReply(f"malformed {command} reply {' '.join(reply.tokens)!r} ({exc})")
                     if motion:
                         return reply  # acknowledged; only the extra fields are unusable
                     continue
             code = int(reply.tokens[1]) if len(reply.tokens) > 1 and reply.tokens[1].isdigit() else 0
-            if code in (2, 3) or (code not in (7, 8) and code not in rejected):
-                # labkit never sends bad syntax, and it checks ranges and limits before sending: the
-                # line was probably corrupted in transit (the XOR checksum misses some damage). A
-                # rejected request had no effect, so sending it again repeats nothing; a genuine
-                # rejection comes back the same way and is raised below.
-                rejected.add(code)
+            if code in NOT_EXECUTED:
+                # labkit never sends bad syntax: the line was damaged on the way (e.g. the "*" of a read-only
+                # request, which the board may then take as typed by a person); it did not run: send it again
                 last = _NoReply(" ".join(reply.tokens))
                 continue
             name = reply.tokens[2] if len(reply.tokens) > 2 else "?"

@@ -1,9 +1,9 @@
 """The ``labkit`` command line.
 
 Every subcommand's argparse lives in this package, one module per concept
-(``_kinematics``: robots, fk, ik; ``_arm``: sim; ``_measure``: errors, audit,
-calibrate; ``_reports``: run, render; ``_course``: assign, grade), each a thin
-call into the library. The library modules hold no command-line code.
+(``_kinematics``: robots, fk, ik; ``_arm``: sim, ports; ``_measure``: errors,
+audit, calibrate; ``_reports``: run, render; ``_course``: assign, grade), each a
+thin call into the library. The library modules hold no command-line code.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""``labkit sim``: serve the virtual arm on a pseudo-terminal for any serial tool."""
+"""``labkit sim``: serve the virtual arm on a pseudo-terminal for any serial tool;
+``labkit ports``: list the serial ports, likely Arduinos marked."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import sys
 
 
 def add_commands(sub):
-    """Add ``sim`` to the ``labkit`` subcommands.
+    """Add ``sim`` and ``ports`` to the ``labkit`` subcommands.
 
     Parameters
     ----------
@@ -18,6 +19,23 @@ def add_commands(sub):
     sp.add_argument("--seed", type=int, default=0, help="physics seed (offsets, noise)")
     sp.add_argument("--time-scale", type=float, default=1.0, help="board seconds per wall-clock second")
     sp.set_defaults(func=_cmd_sim)
+    sp = sub.add_parser("ports", help="list serial ports (USB VID:PID; likely Arduinos marked with *)")
+    sp.set_defaults(func=_cmd_ports)
+
+
+def _cmd_ports(args):
+    from labkit.arm import list_ports
+
+    ports = list_ports()
+    if not ports:
+        print("no serial ports found (plug the board in; the virtual arm is 'sim://')")
+        return 0
+    width = max(len(p.device) for p in ports)
+    for p in ports:
+        print(f"{'*' if p.arduino else ' '} {p.device:<{width}}  {p.usb_id:<9}  {p.description}")
+    if any(p.arduino for p in ports):
+        print("* looks like an Arduino; Arm() without a port takes the first of these")
+    return 0
 
 
 def _cmd_sim(args):

@@ -3,6 +3,7 @@ written, flushed and ``fsync``-ed before :meth:`MeasurementLog.record` returns."
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import secrets
@@ -13,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError
+from labkit.exceptions import MeasurementError, StorageError
 from labkit.measure._schema import MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
 from labkit.measure._csv import _check_quantity_unit, _check_ranges, _read_rows, load_measurements
 
@@ -137,10 +138,16 @@ class MeasurementLog:
         data = (("\n" if self._torn else "") + text).encode("utf-8")
         view = memoryview(data)
         self._torn = True
-        while view:
-            n = os.write(self._fd, view)
-            view = view[n:]
-        os.fsync(self._fd)
+        try:
+            while view:
+                n = os.write(self._fd, view)
+                view = view[n:]
+            os.fsync(self._fd)
+        except OSError as exc:
+            hint = ("the disk is full: free some space" if exc.errno == errno.ENOSPC
+                    else "check the disk or the file system")
+            raise StorageError(f"cannot write the measurement log {self.path}: {exc.strerror or exc}; {hint}, "
+                               f"then record again (every reading recorded before is safe on disk)") from exc
         self._torn = False
 
     def record(self, pose_id, quantity, value, *, unit, instrument, resolution,

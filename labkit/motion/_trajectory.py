@@ -358,6 +358,11 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
         raise ShapeError(f"expected q0 with shape (n,), got {q0.shape}")
     qf = as_batch(qf, (n,), "qf")
     names, rev = _robot_info(robot, n)
+    if duration is not None and t is None:
+        d = float(duration) if isinstance(duration, (int, float)) and not isinstance(duration, bool) else math.nan
+        if not (math.isfinite(d) and d >= dt):
+            raise TrajectoryError(f"expected a finite duration of at least one step dt = {dt:g} s (else the "
+                                  f"trajectory never leaves q0), got {duration!r}")
     if duration is None:
         if robot is None:
             raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration")

@@ -11,6 +11,7 @@ from labkit.reports._execute import (
     find_notebooks,
     lab_of,
     parse_parameter,
+    check_parameter_types,
     notebook_parameters,
     execute_notebook,
 )
@@ -48,6 +49,7 @@ __all__ = [
     "find_notebooks",
     "lab_of",
     "parse_parameter",
+    "check_parameter_types",
     "notebook_parameters",
     "execute_notebook",
     "RenderResult",

@@ -23,7 +23,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, OptionError
 
 __all__ = ["CELL_TIMEOUT", 
     "ExecutionResult",
@@ -224,6 +224,52 @@ def notebook_parameters(notebook) -> dict:
     return params
 
 
+def check_parameter_types(name, declared, parameters):
+    """Refuse overrides whose type does not fit the notebook's default (before anything runs).
+
+    A default that is a Python literal fixes the type: a number needs a finite number (an int
+    where the default is an int), a bool a bool, a string a string, a list or tuple a list or
+    tuple; ``None`` and defaults that are expressions accept anything.
+
+    Parameters
+    ----------
+    name : str
+        Notebook name for the message.
+    declared : dict of str to str
+        Parameter name -> source text of its default (:func:`notebook_parameters`).
+    parameters : dict
+        Overrides (name -> value).
+
+    Raises
+    ------
+    OptionError
+        Naming the parameter, its default and the value received (a ``ValueError``).
+    """
+    import math
+
+    for key, value in parameters.items():
+        try:
+            default = ast.literal_eval(declared.get(key, "None"))
+        except (ValueError, SyntaxError, MemoryError, RecursionError):
+            continue  # an expression: no type to compare with
+        if default is None:
+            continue
+        if isinstance(default, bool):
+            ok = isinstance(value, bool)
+        elif isinstance(default, int):
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        elif isinstance(default, float):
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        elif isinstance(default, (list, tuple)):
+            ok = isinstance(value, (list, tuple))
+        else:
+            ok = isinstance(value, type(default))
+        if not ok:
+            kind = "a finite number" if isinstance(default, float) else f"a {type(default).__name__}"
+            raise OptionError(f"{name}: parameter {key} expects {kind} like its default {declared[key]}, "
+                              f"got {value!r} ({type(value).__name__}); nothing was run")
+
+
 _KERNEL_MANAGER = None
 
 
@@ -319,6 +365,7 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
         if unknown:
             raise LabkitError(f"{notebook.name} has no parameter {', '.join(unknown)}; "
                               f"its parameters are: {', '.join(declared) or '(none)'}")
+        check_parameter_types(notebook.name, declared, parameters)
     output.parent.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     try:

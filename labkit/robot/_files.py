@@ -61,6 +61,14 @@ def _pair(path, field, value):
     return lo, hi
 
 
+def _within(path, field, values, lo, hi, unit):
+    """``values`` (a tuple of numbers) if each lies in ``lo..hi``, else a RobotFileError."""
+    if any(not lo <= v <= hi for v in values):
+        shown = values[0] if len(values) == 1 else list(values)
+        raise RobotFileError(path, field, f"expected values within {lo}..{hi} {unit}, got {shown!r}")
+    return values
+
+
 def _check_keys(path, where, table, allowed):
     if not isinstance(table, dict):
         raise RobotFileError(path, where, f"expected a table, got {table!r}")
@@ -129,14 +137,17 @@ def parse(data, path):
     units = data.get("units", {})
     _check_keys(path, "units", units, {"length", "angle"})
     lu, au = units.get("length", "m"), units.get("angle", "rad")
-    if lu not in _LENGTH_UNITS:
+    if not isinstance(lu, str) or lu not in _LENGTH_UNITS:
         raise RobotFileError(path, "units.length", f"expected one of {sorted(_LENGTH_UNITS)}, got {lu!r}")
-    if au not in _ANGLE_UNITS:
+    if not isinstance(au, str) or au not in _ANGLE_UNITS:
         raise RobotFileError(path, "units.angle", f"expected one of {sorted(_ANGLE_UNITS)}, got {au!r}")
     L, A = _LENGTH_UNITS[lu], _ANGLE_UNITS[au]
+    for key in ("title", "source"):
+        if not isinstance(data.get(key, ""), str):
+            raise RobotFileError(path, key, f"expected a string, got {data[key]!r}")
     conv = data.get("convention")
     valid = [c.value for c in Convention] + ["craig"]
-    if conv not in valid:
+    if not isinstance(conv, str) or conv not in valid:
         raise RobotFileError(path, "convention", f"expected one of {valid}, got {conv!r}")
     conv = Convention.MODIFIED if conv == "craig" else Convention(conv)
     joints = data.get("joint")
@@ -146,8 +157,10 @@ def parse(data, path):
     for i, j in enumerate(joints, start=1):
         where = f"joint[{i}]"
         _check_keys(path, where, j, _JOINT_KEYS)
+        if not isinstance(j.get("name", ""), str):
+            raise RobotFileError(path, f"{where}.name", f"expected a string, got {j['name']!r}")
         jt = j.get("type", "revolute")
-        if jt not in ("revolute", "prismatic"):
+        if not isinstance(jt, str) or jt not in ("revolute", "prismatic"):
             raise RobotFileError(path, f"{where}.type", f"expected 'revolute' or 'prismatic', got {jt!r}")
         jt = JointType(jt)
         rev = jt is JointType.REVOLUTE
@@ -172,13 +185,16 @@ def parse(data, path):
                 raise RobotFileError(path, f"{where}.servo.direction", f"expected 1 or -1, got {direction!r}")
             ar = _pair(path, f"{where}.servo.range", s.get("range", [0, 180 if au == "deg" else math.pi]))
             pr = _pair(path, f"{where}.servo.pulse_us", s.get("pulse_us", [500, 2500]))
+            _within(path, f"{where}.servo.pulse_us", pr, 400, 2600, "us (RC servo pulses)")
             servo = ServoCalibration(
                 channel=ch,
                 zero=_num(path, f"{where}.servo.zero", s.get("zero", 0.0)) * qscale,
                 direction=direction,
                 angle_range=(ar[0] * qscale, ar[1] * qscale),
                 pulse_range=pr,
-                feedback_adc=_pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
+                feedback_adc=_within(path, f"{where}.servo.feedback_adc",
+                                     _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
+                                     0, 1023, "ADC counts"),
             )
         flip = j.get("flip", False)
         if not isinstance(flip, bool):
@@ -212,8 +228,8 @@ def parse(data, path):
             raise RobotFileError(path, "gripper.channel", f"expected an integer 0-5, got {ch!r}")
         gripper = Gripper(
             ch,
-            _num(path, "gripper.open_us", g.get("open_us")),
-            _num(path, "gripper.closed_us", g.get("closed_us")),
+            *(_within(path, f"gripper.{key}", (_num(path, f"gripper.{key}", g.get(key)),), 400, 2600,
+                      "us (RC servo pulses)")[0] for key in ("open_us", "closed_us")),
         )
         channels.append(ch)
     if len(set(channels)) != len(channels):

@@ -12,6 +12,7 @@ import serial
 from labkit.arm import PhysicsConfig
 from labkit.arm import VirtualBoard, checksum
 from labkit.arm.urlhandler import register
+from labkit.arm._protocol import echo, seal
 
 register()
 
@@ -29,42 +30,87 @@ def talk(board, line):
 
 
 def strip(line):
-    body, _, hh = line.rpartition("*")
-    assert int(hh, 16) == checksum(body), line
+    body, _, hhhh = line.rpartition("*")
+    assert len(hhhh) == 4 and int(hhhh, 16) == checksum(body), line
     return body
 
 
-def test_boot_event_and_hello_match_the_protocol_examples():
+_SEQ = [100]
+
+
+def cmd(board, line):
+    """Send ``line`` sealed (``#seq`` and CRC, as state-changing commands must be); return the reply bodies
+    with the CRC, the ``#seq`` and a correct echo removed (``"OK MOVE"``, ``"ERR 6 LIMIT ..."``)."""
+    _SEQ[0] += 1
+    seq = _SEQ[0]
+    out = []
+    for ln in talk(board, seal(f"#{seq} {line} ")):
+        body = strip(ln).replace(f" #{seq}", "", 1)
+        words = line.split()
+        want = echo(words[0], [int(w) for w in words[1:]]) if body.startswith("OK") else None
+        if want and body.split()[2:3] == [want]:
+            body = body.replace(f" {want}", "", 1)
+        out.append(body)
+    return out
+
+
+def test_ready_line_and_hello_match_the_protocol_examples():
     b = VirtualBoard()
     b.advance_to(0.05)
     assert b.take_output() == b""
     b.advance_to(0.2)
-    assert b.take_output() == b"EV BOOT labkit-arm fw=1.0.0 proto=1 reset=POWER eeprom=DEFAULTS*1A\r\n"
-    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=1.0.0 proto=1 joints=3 channels=4 queue=6 maxline=160*73"]
+    assert b.take_output() == b"READY labkit-arm 2 fw=2.0.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*6FFC\r\n"
+    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=2.0.0 proto=2 joints=3 channels=4 queue=6 maxline=160*CC23"]
 
 
 def test_example_session_lines_and_checksums():
     b = booted()
-    assert talk(b, "#1 MOVE 4500 9000 3000*08") == ["OK #1 MOVE*07"]
-    assert talk(b, "#2 MOVE 4500 19000 3000") == ["ERR #2 6 LIMIT joint 1 19000 outside 0..18000*34"]
-    assert talk(b, "#3 PING*XX") == ["ERR 1 BADCHK*73"]
-    assert talk(b, "FLY") == ["ERR 3 UNKNOWN FLY*4D"]
-    assert talk(b, "#4 ping") [0].startswith("OK #4 PING ")
-    assert talk(b, "  $#5 PING*12  ")[0].startswith("ERR 1 BADCHK")  # XOR of "#5 PING" is 0x22
-    assert talk(b, f"$#5 PING*{checksum('#5 PING'):02X}")[0].startswith("OK #5 PING")
+    assert talk(b, "#1 MOVE 4500 9000 3000 *73E0") == ["OK #1 MOVE p=BE59*2FA3"]
+    assert talk(b, "#2 MOVE 4500 19000 3000 *ACB5") == ["ERR #2 6 LIMIT joint 1*ADC7"]
+    assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed*5F65"]
+    assert talk(b, "FLY") == ["ERR 3 UNKNOWN*B3FC"]
+    assert talk(b, "#4 ping")[0].startswith("OK #4 PING ")
+    assert talk(b, "  $#5 PING*12  ")[0].startswith("ERR 1 BADCHK malformed")  # two hex digits: protocol 1
+    assert talk(b, f"$#5 PING*{checksum('#5 PING') ^ 1:04X}")[0].startswith("ERR 1 BADCHK mismatch")
+    assert talk(b, f"$#5 PING*{checksum('#5 PING'):04x}")[0].startswith("OK #5 PING")
+
+
+def test_state_changing_lines_need_seq_and_crc():
+    b = booted()
+    before = list(b.q)
+    for line in ["MOVE 4500 9000 3000", "#5 MOVE 4500 9000 3000", seal("MOVE 4500 9000 3000 "),
+                 "GRIP 1200", "TIMEOUT 0", "STREAM 10", "SAVE", "DEFAULTS", "STOP", "CAL 0"]:
+        assert talk(b, line) == [seal("ERR 1 BADCHK unsealed")], line
+    assert b.q == before and b.grip == 1500 and b.stream_hz == 0 and b.timeout_ms == 500
+
+
+def test_the_line_split_attack_of_issue_13_runs_nothing():
+    """A byte damaged into LF splits a sealed MOVE; neither half may run (protocol 1 ran the front half)."""
+    b = booted()
+    before = list(b.q)
+    line = seal("#5 MOVE 4500 9000 3000 ")
+    for k in range(1, len(line)):
+        for eol in (b"\n", b"\r"):
+            b.receive(line[:k].encode() + eol + line[k + 1:].encode() + b"\n")
+            out = [strip(x) for x in b.take_output().decode().split("\r\n") if x]
+            assert not any(o.startswith("OK") for o in out), (k, out)
+    assert b.q == before
 
 
 def test_lines_without_reply_and_malformed_lines():
     b = booted()
     assert talk(b, "   ") == []
-    assert strip(talk(b, "#1 MOVE 1 2")[0]).startswith("ERR #1 2 SYNTAX")
+    assert cmd(b, "MOVE 1 2")[0].startswith("ERR 2 SYNTAX")
     assert strip(talk(b, "#99999 PING")[0]).startswith("ERR 2 SYNTAX")
-    assert strip(talk(b, "#1 MOVE 1 2 x")[0]).startswith("ERR #1 2 SYNTAX")
-    assert strip(talk(b, "#1 PING*4")[0]) == "ERR 1 BADCHK"
+    assert cmd(b, "MOVE 1 2 x")[0].startswith("ERR 2 SYNTAX")
+    assert cmd(b, "MOVE -2147483648 0 0")[0].startswith("ERR 2 SYNTAX")  # int32 without its minimum
+    assert strip(talk(b, "#1 PING*4")[0]) == "ERR 1 BADCHK malformed"
     b.receive(b"PI\xffNG\n")
     assert strip(b.take_output().decode().strip()).startswith("ERR 2 SYNTAX")
     assert strip(talk(b, "PING " + "1" * 200)[0]).startswith("ERR 4 TOOLONG")
     assert " flags=11 " in talk(b, "STATUS")[0]  # EEPROM defaults + a line too long
+    assert strip(talk(b, "$")[0]) == "ERR 2 SYNTAX command"
+    assert strip(talk(b, "*0000")[0]) == "ERR 1 BADCHK mismatch"
 
 
 def test_every_request_gets_exactly_one_reply_in_order():
@@ -76,7 +122,7 @@ def test_every_request_gets_exactly_one_reply_in_order():
 
 def test_move_updates_commanded_position_and_physics_follows():
     b = booted(zero_offsets=(0, 0, 0), feedback_noise=0.0)
-    talk(b, "#1 MOVE 4500 9000 3000")
+    cmd(b, "MOVE 4500 9000 3000")
     st = strip(talk(b, "STATUS")[0])
     assert "q=4500,9000,3000" in st and "state=IDLE" in st
     b.advance(2.0)
@@ -89,10 +135,10 @@ def test_move_updates_commanded_position_and_physics_follows():
 
 def test_segments_run_queue_and_done_event():
     b = booted()
-    talk(b, "TIMEOUT 0")
-    talk(b, "MOVE 4500 9000 3000")
-    assert talk(b, "#10 SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0")[0] == "OK #10 SEG 5*62"
-    assert talk(b, "#11 SEG 1000 3 9000 0 -13500 9000 9000 0 0 0 3000 0 0 0")[0] == "OK #11 SEG 4*62"
+    cmd(b, "TIMEOUT 0")
+    cmd(b, "MOVE 4500 9000 3000")
+    assert cmd(b, "SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0")[0] == "OK SEG 5"
+    assert cmd(b, "SEG 1000 3 9000 0 -13500 9000 9000 0 0 0 3000 0 0 0")[0] == "OK SEG 4"
     b.advance(0.5)
     st = strip(talk(b, "PING")[0])  # keep the host-silence timer alive
     q = int(strip(talk(b, "STATUS")[0]).split()[3].split("=")[1].split(",")[0])
@@ -106,63 +152,63 @@ def test_segments_run_queue_and_done_event():
 
 def test_segment_checks():
     b = booted()
-    talk(b, "MOVE 4500 9000 3000")
-    assert "ERR 5 RANGE" in talk(b, "SEG 0 3 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "ERR 5 RANGE" in talk(b, "SEG 100 4 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "ERR 2 SYNTAX" in talk(b, "SEG 100 3 4500 0 0 0 9000 0 0 0 3000 0 0")[0]
-    assert "ERR 6 LIMIT" in talk(b, "SEG 100 3 4500 0 -10000 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "ERR 9 DISCONT" in talk(b, "SEG 100 3 4600 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "OK SEG 5" in talk(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "ERR 8 BUSY" in talk(b, "MOVE 0 0 0")[0]
+    cmd(b, "MOVE 4500 9000 3000")
+    assert "ERR 5 RANGE" in cmd(b, "SEG 0 3 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
+    assert "ERR 5 RANGE" in cmd(b, "SEG 100 4 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
+    assert "ERR 2 SYNTAX" in cmd(b, "SEG 100 3 4500 0 0 0 9000 0 0 0 3000 0 0")[0]
+    assert "ERR 6 LIMIT" in cmd(b, "SEG 100 3 4500 0 -10000 0 9000 0 0 0 3000 0 0 0")[0]
+    assert "ERR 9 DISCONT" in cmd(b, "SEG 100 3 4600 0 0 0 9000 0 0 0 3000 0 0 0")[0]
+    assert "OK SEG 5" in cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
+    assert "ERR 8 BUSY" in cmd(b, "MOVE 0 0 0")[0]
     for k in range(5):
-        assert talk(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0].startswith(f"OK SEG {4 - k}")
-    assert "ERR 7 QFULL" in talk(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    stop = strip(talk(b, "STOP")[0])
+        assert cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0].startswith(f"OK SEG {4 - k}")
+    assert "ERR 7 QFULL" in cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
+    stop = (cmd(b, "STOP")[0])
     assert stop == "OK STOP 4500 9000 3000"  # last sample: no servo frame ran yet
     assert "queue=0" in talk(b, "STATUS")[0]
 
 
 def test_host_silence_timeout_holds():
     b = booted()
-    talk(b, "TIMEOUT 100")
-    talk(b, "SEG 2000 3 9000 0 1000 0 9000 0 0 0 9000 0 0 0")
+    cmd(b, "TIMEOUT 100")
+    cmd(b, "SEG 2000 3 9000 0 1000 0 9000 0 0 0 9000 0 0 0")
     b.advance(0.3)
     out = [strip(x) for x in b.take_output().decode().split("\r\n") if x]
     assert out[0].startswith("EV HOLD ")
     st = strip(talk(b, "STATUS")[0])
     assert "state=HOLD" in st and "flags=03" in st
-    assert talk(b, "MOVE 9000 9000 9000")[0].startswith("OK MOVE")
+    assert cmd(b, "MOVE 9000 9000 9000")[0].startswith("OK MOVE")
     assert "state=IDLE" in talk(b, "STATUS")[0]
-    assert "ERR 5 RANGE" in talk(b, "TIMEOUT 20")[0]
+    assert "ERR 5 RANGE" in cmd(b, "TIMEOUT 20")[0]
 
 
 def test_stream_frames_counter_and_clock():
     b = booted()
-    assert strip(talk(b, "STREAM 100")[0]) == "OK STREAM 100"
+    assert (cmd(b, "STREAM 100")[0]) == "OK STREAM 100"
     b.advance(0.1)
     frames = [strip(x).split() for x in b.take_output().decode().split("\r\n") if x]
     assert [int(f[1]) for f in frames] == list(range(len(frames)))
     t = [int(f[2]) for f in frames]
     assert np.all(np.diff(t) == 10) and len(frames) in (10, 11)
     assert all(len(f) == 3 + 3 + 1 for f in frames)
-    assert strip(talk(b, "STREAM 0")[0]) == "OK STREAM 0"
+    assert (cmd(b, "STREAM 0")[0]) == "OK STREAM 0"
     b.advance(0.1)
     assert b.take_output() == b""
-    assert "ERR 5 RANGE" in talk(b, "STREAM 201")[0]
+    assert "ERR 5 RANGE" in cmd(b, "STREAM 201")[0]
 
 
 def test_calibration_save_survives_reset():
     b = booted()
-    assert talk(b, "CAL 2 600 2400 18000 -1 0 17000") == ["OK CAL 2 600 2400 18000 -1 0 17000*6B"]
-    assert talk(b, "SAVE") == ["OK SAVE 52*02"]
+    assert cmd(b, "CAL 2 600 2400 18000 -1 0 17000") == ["OK CAL 2 600 2400 18000 -1 0 17000"]
+    assert cmd(b, "SAVE") == ["OK SAVE 76"]  # EEPROM image version 2 (with the speed limits)
     b.reset()
     b.advance(0.2)
     assert b"reset=EXTERNAL eeprom=OK" in b.take_output()
-    assert strip(talk(b, "CAL 2")[0]) == "OK CAL 2 600 2400 18000 -1 0 17000"
+    assert (cmd(b, "CAL 2")[0]) == "OK CAL 2 600 2400 18000 -1 0 17000"
     assert "flags=00" in talk(b, "STATUS")[0]
-    assert "ERR 5 RANGE" in talk(b, "CAL 9")[0]
-    assert "ERR 6 LIMIT" in talk(b, "CAL 0 500 2500 0 1 0 1000")[0]  # joint 0 sits at 9000
-    assert talk(b, "DEFAULTS")[0].startswith("OK DEFAULTS")
+    assert "ERR 5 RANGE" in cmd(b, "CAL 9")[0]
+    assert "ERR 6 LIMIT" in cmd(b, "CAL 0 500 2500 0 1 0 1000")[0]  # joint 0 sits at 9000
+    assert cmd(b, "DEFAULTS")[0].startswith("OK DEFAULTS")
     b.eeprom[10] ^= 0xFF  # corrupt the image: CRC fails at the next boot
     b.reset()
     b.advance(0.2)
@@ -171,8 +217,8 @@ def test_calibration_save_survives_reset():
 
 def test_gripper_range():
     b = booted()
-    assert strip(talk(b, "GRIP 1200")[0]) == "OK GRIP 1200"
-    assert "ERR 5 RANGE" in talk(b, "GRIP 3000")[0]
+    assert (cmd(b, "GRIP 1200")[0]) == "OK GRIP 1200"
+    assert "ERR 5 RANGE" in cmd(b, "GRIP 3000")[0]
     assert "grip=1200" in talk(b, "STATUS")[0]
 
 
@@ -181,7 +227,7 @@ def test_url_handler_options_and_errors():
                                  timeout=0.5)
     assert port.board.model.zero_offsets[0] == 0.01
     assert port.board.config.deadband == 0.0
-    assert port.readline().startswith(b"EV BOOT")
+    assert port.readline().startswith(b"READY labkit-arm 2 ")
     port.write(b"PING\n")
     assert port.readline().startswith(b"OK PING")
     port.sleep(1.0)
@@ -198,7 +244,7 @@ def test_url_handler_options_and_errors():
 def test_realtime_clock_runs_scaled():
     port = serial.serial_for_url("sim://?time_scale=20", timeout=0.2)
     t0 = time.monotonic()
-    assert port.readline().startswith(b"EV BOOT")
+    assert port.readline().startswith(b"READY")
     assert time.monotonic() - t0 < 0.1  # 0.1 s of board time is 5 ms of wall time
     time.sleep(0.05)
     port.write(b"PING\n")

@@ -6,7 +6,6 @@ The measurement functions (``measure_*``) are also used by ``benchmarks/bench_fi
 
 from __future__ import annotations
 
-import functools
 import re
 import subprocess
 import threading
@@ -18,6 +17,7 @@ import serial
 
 from labkit import arm
 from labkit.arm import FIRMWARE_DIR, FirmwareSim
+from labkit.arm._protocol import READ_ONLY, echo, seal, unseal
 from labkit.exceptions import DeviceError
 
 pytestmark = [pytest.mark.firmware, pytest.mark.xdist_group("firmware")]
@@ -33,34 +33,49 @@ def build_log():
 
 
 # ------------------------------------------------------------------------------ helpers
-def xor(data: bytes) -> int:
-    return functools.reduce(lambda a, b: a ^ b, data, 0)
-
-
 def line_ok(raw: bytes) -> bool:
-    """A board line with CR LF and a correct *HH checksum."""
+    """A board line with CR LF and a correct *HHHH CRC-16."""
     if not raw.endswith(b"\r\n"):
         return False
-    body, star, cs = raw[:-2].rpartition(b"*")
-    return bool(star) and re.fullmatch(rb"[0-9A-F]{2}", cs) is not None and int(cs, 16) == xor(body)
+    return unseal(raw[:-2]) is not None
 
 
 class Client:
-    """Stop-and-wait client on a raw port; keeps events (EV) apart from replies."""
+    """Stop-and-wait client on a raw port; keeps events (EV) apart from replies.
+
+    State-changing commands are sent sealed (``#seq`` and CRC-16, as protocol 2 requires); their
+    replies are returned without the ``#seq`` and the (checked) ``p=`` echo, e.g. ``"OK MOVE"``.
+    """
 
     def __init__(self, port):
         self.port = port
         self.events = []
+        self.seq = 0
+        self.sent = ""
 
     def cmd(self, line: str) -> str:
+        words = line.split()
+        plain = line.startswith(("#", "$")) or "*" in line or words[0].upper() in READ_ONLY
+        if not plain:
+            self.seq += 1
+            line = seal(f"#{self.seq} {line} ")
+        self.sent = line
         self.port.write(line.encode() + b"\n")
         while True:
             raw = self.port.readline()
             assert line_ok(raw), f"bad or missing board line {raw!r} after {line!r}"
             text = raw[:-2].rpartition(b"*")[0].decode()
             if text.startswith(("OK", "ERR")):
-                return text
+                self.reply_bytes = len(raw)
+                break
             self.events.append(text)
+        if not plain:
+            text = text.replace(f" #{self.seq}", "", 1)
+            if text.startswith("OK"):
+                want = echo(words[0], [int(w) for w in words[1:]])
+                assert text.split()[2:3] == [want], f"wrong echo in {text!r} for {line!r}"
+                text = text.replace(f" {want}", "", 1)
+        return text
 
 
 def start(pace=0.0, **kw):
@@ -68,7 +83,7 @@ def start(pace=0.0, **kw):
     port = serial.Serial(sim.port, BAUD, timeout=20)
     sim.run()
     boot = port.readline()
-    assert line_ok(boot) and boot.startswith(b"EV BOOT"), boot
+    assert line_ok(boot) and boot.startswith(b"READY labkit-arm 2 "), boot
     return sim, port
 
 
@@ -97,12 +112,12 @@ def measure_feedback_stream(rate_hz=100, sim_seconds=60.0):
                     frames.append(raw[:-2].rpartition(b"*")[0].split())
 
     port.timeout = 0.2
-    port.write(f"STREAM {rate_hz}\n".encode())
+    port.write(seal(f"#1 STREAM {rate_hz} ").encode() + b"\n")
     thread = threading.Thread(target=reader, daemon=True)
     thread.start()
     wall = time.perf_counter()
     sim.sleep(sim_seconds)
-    port.write(b"STREAM 0\n")
+    port.write(seal("#2 STREAM 0 ").encode() + b"\n")
     sim.sleep(0.05)
     wall = time.perf_counter() - wall
     stop.set()
@@ -159,7 +174,7 @@ def measure_round_trip(n=40, percentile=50, clock="wall"):
             t0 = now()
             reply = client.cmd(line)
             times.append(now() - t0)
-            wire.append((len(line) + 1 + len(reply) + 5) * BITS_PER_BYTE / BAUD)
+            wire.append((len(client.sent) + 1 + client.reply_bytes) * BITS_PER_BYTE / BAUD)
             assert reply.startswith("OK"), reply
             if name == "SEG":
                 client.cmd("STOP")
@@ -248,6 +263,25 @@ def test_firmware_fits_in_half_of_the_uno(build_log):
     assert sec[".data"] + sec[".bss"] + sec.get(".noinit", 0) == sram
 
 
+ARDUINO_BUILDER = [
+    "arduino-builder", "-compile", "-hardware", "/usr/share/arduino-builder", "-hardware", "/usr/share/arduino/hardware",
+    "-tools", "/usr/bin", "-fqbn", "arduino:avr:uno", "-prefs", "compiler.cpp.extra_flags=-DDECIMAL_DIG=17",
+]
+
+
+def test_arduino_builder_builds_the_sketch_within_half_of_the_uno(tmp_path):
+    """The Arduino IDE's own build engine (Debian arduino-builder, arduino:avr:uno) builds the sketch as is."""
+    proc = subprocess.run([*ARDUINO_BUILDER, "-build-path", str(tmp_path), str(FIRMWARE_DIR / "labkit_arm" / "labkit_arm.ino")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    flash = int(re.search(r"Sketch uses (\d+) bytes", proc.stdout).group(1))
+    sram = int(re.search(r"Global variables use (\d+) bytes", proc.stdout).group(1))
+    print(f"arduino-builder (arduino:avr:uno): flash {flash} B ({100 * flash / 32768:.1f}% of 32768), "
+          f"SRAM {sram} B ({100 * sram / 2048:.1f}% of 2048)")
+    assert (tmp_path / "labkit_arm.ino.hex").exists()
+    assert flash <= 32768 // 2 and sram <= 2048 // 2, (flash, sram)
+
+
 def test_sketch_is_an_arduino_ide_sketch_with_a_portable_core(build_log):
     sketch = FIRMWARE_DIR / "labkit_arm"
     assert (sketch / "labkit_arm.ino").exists()  # folder name == sketch name
@@ -319,7 +353,7 @@ def test_simavr_url_handler_opens_a_booted_board(build_log):
     labkit.arm.urlhandler.register()
     port = serial.serial_for_url("simavr://?pace=0", baudrate=BAUD, timeout=20)
     try:
-        assert port.readline().startswith(b"EV BOOT labkit-arm")
+        assert port.readline().startswith(b"READY labkit-arm 2 ")
         port.write(b"#1 HELLO\n")
         assert port.readline().startswith(b"OK #1 HELLO labkit-arm")
         assert port.sim.pulses()[3] == pytest.approx(1500, abs=0.5)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import serial
 
-from labkit.exceptions import DeviceError, JointLimitError, ProtocolError
+from labkit.exceptions import DeviceError, JointLimitError, OptionError, ProtocolError, TrajectoryError
 from labkit.arm import FaultConfig, FaultyPort, PortWrapper
 from labkit.arm import Arm, CommandRejected, find_ports, segments_from_trajectory
 from labkit.arm import checksum
@@ -35,9 +35,10 @@ def arm():
 
 
 def test_handshake_reads_board_info(arm):
-    assert arm.info.protocol == 1 and arm.info.joints == 3 and arm.info.queue == 6
+    assert arm.info.protocol == 2 and arm.info.joints == 3 and arm.info.queue == 6
     assert arm.status().state == "IDLE"
-    assert arm.ping() >= 0.1  # EV BOOT came 0.1 s after power-up
+    assert arm.ping() >= 0.1  # READY came 0.1 s after power-up
+    assert arm.events[0][0] == "READY" and arm.events[0][1][:2] == ["labkit-arm", "2"]
 
 
 def test_requests_carry_sequence_and_checksum():
@@ -47,8 +48,8 @@ def test_requests_carry_sequence_and_checksum():
     seqs = []
     for line in rec.lines:
         text = line.decode()
-        body, _, hh = text.rpartition("*")
-        assert int(hh, 16) == checksum(body)
+        body, _, hhhh = text.rpartition("*")
+        assert len(hhhh) == 4 and int(hhhh, 16) == checksum(body)
         assert text.startswith("#")
         seqs.append(int(text.split()[0][1:]))
     assert seqs == sorted(set(seqs))
@@ -248,13 +249,73 @@ def test_wrong_protocol_version_is_refused():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     board = raw.board
     orig = board._cmd_hello
-    board._cmd_hello = lambda args: orig(args).replace("proto=1", "proto=2")
-    with pytest.raises(DeviceError, match="protocol 2"):
+    board._cmd_hello = lambda args: orig(args).replace("proto=2", "proto=3")
+    with pytest.raises(DeviceError, match="protocol 3"):
         Arm(raw, timeout=0.02)
     raw2 = serial.serial_for_url(SIM, timeout=0.05)
     raw2.board._cmd_hello = lambda args: "other-board v9"
     with pytest.raises(ProtocolError, match="not a labkit arm"):
         Arm(raw2, timeout=0.02)
+
+
+def v1_board():
+    """A virtual board that talks like the protocol-1 firmware (EV BOOT, XOR checksums)."""
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    board = raw.board
+
+    def emit(text):
+        if text.startswith("READY"):
+            text = "EV BOOT labkit-arm fw=1.0.0 proto=1 reset=POWER eeprom=DEFAULTS"
+        x = 0
+        for ch in text.encode():
+            x ^= ch
+        board._out += f"{text}*{x:02X}\r\n".encode()
+
+    board._emit = emit
+    return raw
+
+
+def test_an_older_board_is_refused_with_what_to_do():
+    with pytest.raises(DeviceError, match=r"older labkit firmware \(protocol 1.*flash firmware/labkit_arm"):
+        Arm(v1_board(), timeout=0.02)
+
+
+def test_no_ready_and_no_answer_says_what_to_check():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    raw.board._emit = lambda text: None  # a silent device (wrong sketch, wrong baud rate)
+    with pytest.raises(DeviceError, match=r"no READY from the board within 0.5 s .*firmware flashed"):
+        Arm(raw, timeout=0.02, boot_wait=0.5)
+
+
+def test_a_board_without_auto_reset_is_still_found():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    raw.board.advance(0.5)
+    raw.board.take_output()  # its READY went out before the host opened the port
+    with Arm(raw, timeout=0.02, boot_wait=0.2) as arm:
+        assert arm.info.protocol == 2
+
+
+def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
+    board = arm.port.board
+    orig = board._cmd_move
+
+    def misread(args):  # the board's parser reads something else than what was sent
+        args[2] += 100
+        return orig(args)
+
+    board._cmd_move = misread
+    with pytest.raises(DeviceError, match=r"MOVE 2000 3000 4000 .*echo.*the arm is stopped"):
+        arm.move_joints(np.radians([20.0, 30.0, 40.0]))
+    assert arm.stats.wrong_echoes == 1
+
+
+def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
+    board = arm.port.board
+    board.receive(b"#999 MOVE 1000 2000 3000 *" + f"{checksum('#999 MOVE 1000 2000 3000 '):04X}".encode() + b"\n")
+    board.take_output()
+    with pytest.raises(DeviceError, match=r"request #999.*unrequested motion.*stopped"):
+        arm.status()
+    assert board.state == "IDLE"
 
 
 def test_no_port_found(monkeypatch):
@@ -280,16 +341,16 @@ def test_stream_reanchors_after_a_genuine_jump(arm):
     assert (df["adc0"] == 819).sum() >= 28  # floor(4.0 * 1024 / 5)
 
 
-def test_frame_damaged_invisibly_to_the_checksum_is_rejected(arm):
-    """Dropping two equal bytes keeps the XOR checksum: the plausibility checks must catch it."""
+def test_frame_damaged_before_sealing_is_rejected_by_plausibility(arm):
+    """A frame whose field is wrong but whose CRC matches (a board bug): the plausibility checks catch it."""
     board = arm.port.board
     orig = board._emit
 
     def damaged(text):
         if text.startswith("FB 10 "):
             fields = text.split()
-            fields[3] = fields[3][:-1]  # joint 0 loses its last digit ("512" -> "51") ...
-            text = " ".join(fields)  # ... and the checksum still matches (as for two dropped equal bytes)
+            fields[3] = fields[3][:-1]  # joint 0 loses its last digit ("512" -> "51") before the CRC
+            text = " ".join(fields)
         orig(text)
 
     board._emit = damaged
@@ -315,3 +376,38 @@ def test_long_segments_keep_the_host_silence_timer_alive(arm):
     report = arm.run_trajectory(segs)
     assert report.queue_full_waits > 0 and report.segments == 10
     assert arm.status().flags & 0x02 == 0 and arm.port.board.done == 10
+
+
+def test_speed_limits_are_sent_and_checked_before_sending(arm):
+    board = arm.port.board
+    assert board.vmax == [30000] * 3 and board.amax == [150000] * 3  # 300 deg/s, 1500 deg/s^2 (robot file)
+    q = [round(math.degrees(v) * 100) for v in arm.commanded_joints()]
+    fast = [(5, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])]  # 10 deg in 5 ms
+    sent = arm.stats.sent
+    with pytest.raises(TrajectoryError, match=r"segment 0 \(5 ms\): joint 1 \(base_yaw\) exceeds.*nothing was sent"):
+        arm.run_trajectory(fast)
+    assert arm.stats.sent == sent and board.segments == [] and board.done == 0
+    # the board refuses the same segment on its own (a host that skips the check)
+    with pytest.raises(CommandRejected, match="11 SPEED joint 0") as exc:
+        arm._transact("SEG", *fast[0][:2], *fast[0][2])
+    assert exc.value.code == 11 and board.done == 0 and board.segments == []
+    report = arm.run_trajectory([(1000, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])])
+    assert report.segments == 1 and board.done == 1
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda arm: arm.grip(float("nan")), "expected us as a finite number, got nan"),
+    (lambda arm: arm.grip("open"), "expected us as a number"),
+    (lambda arm: arm.set_host_timeout(float("nan")), "expected seconds as a finite number, got nan"),
+    (lambda arm: arm.set_host_timeout(0.01), r"expected seconds 0 \(off\) or 0.05..60 s, got 0.01"),
+    (lambda arm: arm.set_host_timeout(-1), r"expected seconds in 0..60 s, got -1"),
+    (lambda arm: arm.stream(-1), "expected a recording time duration > 0 s, got -1"),
+    (lambda arm: arm.stream(float("inf")), "expected duration as a finite number"),
+    (lambda arm: arm.stream(1.0, hz=float("nan")), "expected hz as a finite number"),
+    (lambda arm: arm.stream(1.0, hz=50.5), "expected hz as a whole number"),
+])
+def test_bad_arguments_are_refused_before_anything_is_sent(arm, call, match):
+    sent = arm.stats.sent
+    with pytest.raises(OptionError, match=match):
+        call(arm)
+    assert arm.stats.sent == sent

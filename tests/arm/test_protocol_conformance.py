@@ -7,26 +7,27 @@ never move anything, and the board must keep answering after any input.
 
 from __future__ import annotations
 
-import functools
 import re
 
 import numpy as np
 import pytest
 
 from boards import BOARDS
+from labkit.arm._protocol import READ_ONLY, echo, seal, unseal
 
 pytestmark = [pytest.mark.firmware, pytest.mark.xdist_group("firmware")]
 
 US_PER_CDEG = 2000 / 18000  # default calibration: 500..2500 us over 0..180 deg
 
 
-def xor(data: bytes) -> int:
-    return functools.reduce(lambda a, b: a ^ b, data, 0)
-
-
 def checked(line: str) -> str:
-    """Append the NMEA-style checksum to a request line."""
-    return f"{line}*{xor(line.encode()):02X}"
+    """Append the CRC-16 to a request line."""
+    return seal(line)
+
+
+def sealed(line: str, seq: int) -> str:
+    """A state-changing request as protocol 2 requires it: ``#seq``, the line, a space, ``*CRC``."""
+    return seal(f"#{seq} {line} ")
 
 
 def pulse_of(q_cdeg, pmin=500, pmax=2500):
@@ -41,13 +42,13 @@ class Host:
         self.events: list[str] = []
         self.frames: list[str] = []
         self.replies: list[str] = []
+        self.seq = 0
 
     def readline(self) -> str:
         raw = self.port.readline()
         assert raw.endswith(b"\r\n"), f"board line not terminated by CR LF (timeout?): {raw!r}"
-        body, star, cs = raw[:-2].rpartition(b"*")
-        assert star and re.fullmatch(rb"[0-9A-F]{2}", cs), f"no checksum on board line {raw!r}"
-        assert int(cs, 16) == xor(body), f"bad checksum on board line {raw!r}"
+        body = unseal(raw[:-2])
+        assert body is not None, f"no or bad CRC on board line {raw!r}"
         assert len(raw) - 2 <= 160
         return body.decode("ascii")
 
@@ -67,8 +68,20 @@ class Host:
         self.port.write(data)
 
     def cmd(self, line: str) -> str:
-        self.port.write(line.encode("latin-1") + b"\n")
-        return self.read_reply()
+        """Send ``line``; a state-changing command typed plainly (``"MOVE 1 2 3"``) is sealed with the
+        next ``#seq`` and its reply returned without that seq and its (checked) ``p=`` echo."""
+        words = line.split()
+        if line.startswith(("#", "$")) or "*" in line or not words or words[0].upper() in READ_ONLY:
+            self.port.write(line.encode("latin-1") + b"\n")
+            return self.read_reply()
+        self.seq += 1
+        self.port.write(sealed(line, self.seq).encode() + b"\n")
+        reply = self.read_reply().replace(f" #{self.seq}", "", 1)
+        if reply.startswith("OK"):
+            want = echo(words[0], [int(w) for w in words[1:]])
+            assert reply.split()[2:3] == [want], f"{line!r}: wrong echo in {reply!r}, expected {want}"
+            reply = reply.replace(f" {want}", "", 1)
+        return reply
 
     def ok(self, line: str) -> list[str]:
         reply = self.cmd(line)
@@ -107,8 +120,8 @@ def board(request):
 @pytest.fixture
 def host(board):
     h = Host(board.open())
-    boot = h.wait_event("EV BOOT")
-    assert "proto=1" in boot
+    ready = h.wait_event("READY")
+    assert ready.startswith("READY labkit-arm 2 fw=")
     return h
 
 
@@ -123,7 +136,7 @@ def test_boot_line_and_hello(board, host):
     fields = host.ok("HELLO")
     assert fields[:2] == ["HELLO", "labkit-arm"]
     kv = dict(f.split("=") for f in fields[2:])
-    assert kv["proto"] == "1" and re.fullmatch(r"\d+\.\d+\.\d+", kv["fw"])
+    assert kv["proto"] == "2" and re.fullmatch(r"\d+\.\d+\.\d+", kv["fw"])
     assert kv["joints"] == "3" and kv["channels"] == "4"
     assert int(kv["queue"]) >= 2 and kv["maxline"] == "160"
     # boot position: middle of the limits, gripper in the middle of its pulse range
@@ -143,7 +156,7 @@ def test_sequence_id_and_checksum_are_echoed(host):
 
 # ------------------------------------------------------------------------------ moves and limits
 def test_move_sets_servo_pulses(board, host):
-    assert host.ok("#1 MOVE 4500 9000 3000") == ["#1", "MOVE"]
+    assert host.ok("MOVE 4500 9000 3000") == ["MOVE"]
     board.advance(0.05)
     assert_pulses(board, {0: pulse_of(4500), 1: 1500, 2: pulse_of(3000), 3: 1500})
     assert host.status()["q"] == "4500,9000,3000"
@@ -192,25 +205,30 @@ def test_gripper_and_calibration_mapping(board, host):
 
 # ------------------------------------------------------------------------------ bad input
 BAD_LINES = [
-    (b"#3 PING*00\n", 1),            # wrong checksum
-    (b"PING*1\n", 1),                # malformed checksum
-    (b"PING*XY\n", 1),
-    (b"MOVE 0 0 0*ZZ\n", 1),
+    (b"#3 PING*0000\n", 1),          # wrong checksum
+    (b"#3 PING*00\n", 1),            # malformed checksum (protocol 1's two digits)
+    (b"PING*1\n", 1),
+    (b"PING*XYZW\n", 1),
+    (b"MOVE 0 0 0*ZZZZ\n", 1),
+    (b"MOVE 4500 9000 3000\n", 1),    # state-changing without #seq and CRC
+    (b"#4 MOVE 4500 9000 3000\n", 1),  # ... without CRC
     (b"FLY\n", 3),
     (b"#12 FLY 1 2\n", 3),
     (b"#123456 PING\n", 2),          # seq out of range
     (b"#x PING\n", 2),
     (b"#5\n", 2),                    # seq without command
+    (b"$\n", 2),
     (b"PING 1\n", 2),
     (b"PI\x00NG\n", 2),              # binary garbage
     (b"\xff\xfe\xfd\n", 2),
     (b"MOVE " + b"1 " * 100 + b"\n", 4),  # 205 bytes: too long
     (b"X" * 1000 + b"\n", 4),
-    (b"SEG 1000 3 " + b"0 " * 40 + b"\n", 2),  # too many arguments
-    (b"STREAM 500\n", 5),
-    (b"TIMEOUT 10\n", 5),
-    (b"SEG 0 3 0 0 0 0 0 0 0 0 0 0 0 0\n", 5),
-    (b"SEG 1000 4 0 0 0 0 0\n", 5),
+    ("SEG 1000 3 " + "0 " * 40, 2),  # too many arguments (sealed)
+    ("STREAM 500", 5),
+    ("TIMEOUT 10", 5),
+    ("SEG 0 3 0 0 0 0 0 0 0 0 0 0 0 0", 5),
+    ("SEG 1000 4 0 0 0 0 0", 5),
+    ("MOVE -2147483648 0 0", 2),  # int32 without its minimum
 ]
 
 
@@ -219,7 +237,7 @@ def test_bad_input_of_every_kind(board, host):
     board.advance(0.05)
     before = board.pulses()
     for data, code in BAD_LINES:
-        host.err(data, code)
+        host.err(data.strip() if isinstance(data, str) else data, code)
     # empty and blank lines get no reply at all: the next reply belongs to HELLO
     host.send_raw(b"\n\r\n   \n\t\r")
     assert host.cmd("#9 HELLO").startswith("OK #9 HELLO")
@@ -415,7 +433,7 @@ def test_calibration_persists_across_reset_only_when_saved(board, host):
     assert host.ok("SAVE")[0] == "SAVE"
     host.ok("CAL 2 500 2500 0 1 0 18000")  # changed again but not saved
     board.reset()
-    boot = host.wait_event("EV BOOT")
+    boot = host.wait_event("READY")
     assert "eeprom=OK" in boot
     assert host.ok("CAL 2")[1:] == ["2", "600", "2400", "18000", "-1", "0", "17000"]
     assert host.ok("TIMEOUT") == ["TIMEOUT", "1500"]
@@ -427,5 +445,30 @@ def test_calibration_persists_across_reset_only_when_saved(board, host):
     host.ok("DEFAULTS")
     host.ok("SAVE")
     board.reset()
-    host.wait_event("EV BOOT")
+    host.wait_event("READY")
     assert host.ok("CAL 2")[1:] == ["2", "500", "2500", "0", "1", "0", "18000"]
+
+
+# ------------------------------------------------------------------------------ speed limits
+def test_out_of_speed_segments_are_rejected_without_motion(board, host):
+    """Issue 13: a 500 ms segment whose duration lost "00" ran 100x too fast; now both boards refuse it."""
+    host.ok("TIMEOUT 0")
+    host.ok("MOVE 4500 9000 3000")
+    assert host.ok("LIMITS 0") == ["LIMITS", "0", "60000", "0"]  # factory: 600 deg/s, acceleration unchecked
+    assert host.ok("LIMITS 0 30000 150000") == ["LIMITS", "0", "30000", "150000"]
+    board.advance(0.05)
+    before = board.pulses()
+    still = [9000, 0, 0, 0], [3000, 0, 0, 0]
+    up = cubic_coeffs(4500, 9000)
+    assert host.err(seg_line(5, [up, *still]), 11).split()[-2:] == ["joint", "0"]  # 6750 deg/s
+    host.err(seg_line(250, [up, *still]), 11)  # 270 deg/s but 4320 deg/s^2
+    host.err("LIMITS 0 -1 0", 5)
+    host.err("LIMITS 3", 5)
+    board.advance(0.1)
+    assert_pulses(board, before, tol=1.0)
+    status = host.status()
+    assert status["q"] == "4500,9000,3000" and status["state"] == "IDLE" and status["queue"] == "0"
+    host.ok(seg_line(1000, [up, *still]))  # 67.5 deg/s, 270 deg/s^2: runs
+    board.advance(1.1)
+    assert host.wait_event("EV DONE")
+    assert host.status()["q"] == "9000,9000,3000"

@@ -382,3 +382,22 @@ def test_header_only_file_gives_typed_empty_frame(tmp_path):
     (tmp_path / "nothing.csv").write_bytes(b"")
     with pytest.raises(MeasurementError, match="no header line"):
         load_measurements(tmp_path / "nothing.csv")
+
+
+def test_a_full_disk_is_a_clear_labkit_error(tmp_path, monkeypatch):
+    """Issue 13: a full disk surfaced as a bare OSError while logging."""
+    import labkit.measure._log as m
+    from labkit.exceptions import LabkitError, StorageError
+
+    path = tmp_path / "log.csv"
+    with MeasurementLog(path, session="s") as log:
+        log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
+
+        def full(fd, data):
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(m.os, "write", full)
+        with pytest.raises(StorageError, match=r"cannot write the measurement log .*log.csv: No space left on device; "
+                                               r"the disk is full: free some space") as info:
+            log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001)
+    assert isinstance(info.value, LabkitError) and isinstance(info.value, OSError)

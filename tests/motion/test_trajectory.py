@@ -189,3 +189,15 @@ def test_other_laws_and_errors(planar003):
         joint_trajectory([0.0, 0.0], [1.0, 1.0], 1.0, robot=planar003)
     with pytest.raises(ShapeError, match=r"qf with shape \(..., 2\)"):
         joint_trajectory([0.0, 0.0], [1.0, 1.0, 1.0], 1.0)
+
+
+@pytest.mark.parametrize("duration", [1e-9, 0.0, -1.0, float("nan"), float("inf"), "2"])
+def test_a_duration_shorter_than_one_step_is_refused(duration):
+    """Issue 13: joint_trajectory(q0, qf, 1e-9) returned one sample at q0 (the move never happened)."""
+    from labkit.exceptions import TrajectoryError
+    from labkit.motion import joint_trajectory
+
+    with pytest.raises(TrajectoryError, match="at least one step dt = 0.01 s"):
+        joint_trajectory([0.0, 0.0], [1.0, 1.0], duration)
+    traj = joint_trajectory([0.0, 0.0], [1.0, 1.0], 0.01)
+    np.testing.assert_allclose(traj.q[-1], [1.0, 1.0])

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from conftest import require
+
+REPO = Path(__file__).resolve().parents[2]
 from labkit.exceptions import LabkitError
 
 REMOTE = re.compile(
@@ -68,6 +70,27 @@ def test_unknown_parameter_is_rejected_with_the_valid_names(tmp_path):
     nb = make_notebook(tmp_path / "lab" / "p.ipynb", ["y = 1"])
     with pytest.raises(LabkitError, match="its parameters are: output_dir, port"):
         execute_notebook(nb, tmp_path / "out.ipynb", {"prot": "/dev/ttyACM0"})
+    assert not (tmp_path / "out.ipynb").exists()
+
+
+def test_parameter_overrides_must_fit_the_default_type(tmp_path, capsys):
+    """Issue 13: ``labkit run -p beta_deg nan`` failed deep inside a cell; now it is refused up front."""
+    from labkit.cli import main
+    from labkit.exceptions import OptionError
+    from labkit.reports import check_parameter_types, parse_parameter
+
+    declared = {"beta_deg": "45.0", "n": "3", "port": '"sim://"', "show": "True", "q0": "[0, 0]",
+                "opt": "None", "q": "np.radians([1, 2])"}
+    ok = {"beta_deg": 30, "n": 4, "port": "/dev/ttyACM0", "show": False, "q0": (1, 2), "opt": "x", "q": "anything"}
+    check_parameter_types("nb.ipynb", declared, ok)
+    for key, text, kind in [("beta_deg", "nan", "a finite number like its default 45.0, got 'nan' \\(str\\)"),
+                            ("beta_deg", "True", "a finite number"), ("n", "3.5", "an? int like its default 3"),
+                            ("port", "5", "a str like its default"), ("show", "1", "a bool"), ("q0", "7", "a list")]:
+        with pytest.raises(OptionError, match=f"nb.ipynb: parameter {key} expects {kind}"):
+            check_parameter_types("nb.ipynb", declared, {key: parse_parameter(text)})
+    nb = REPO / "notebooks" / "seed002_advanced_robotics" / "01_rotations.ipynb"
+    assert main(["run", str(nb), "-p", "beta_deg", "nan", "-o", str(tmp_path / "out.ipynb")]) == 2
+    assert "parameter beta_deg expects a finite number like its default 45.0, got 'nan'" in capsys.readouterr().err
     assert not (tmp_path / "out.ipynb").exists()
 
 

@@ -114,6 +114,16 @@ def _write(tmp_path, text, name="bad.toml"):
         ("a = 100", "a = 100\nmax_acceleration = -5", r"joint\[1\].max_acceleration", "positive number, got -5"),
         ("d = 10", 'd = 10\nname = "q1"', "joint.name", "distinct joint names, got 'q1' twice"),
         ("[[joint]]\na = 100", '[[joint]]\nname = "q2"\na = 100', "joint.name", "got 'q2' twice"),
+        # issue 13: wrong types gave tracebacks or were accepted silently
+        ('length = "mm"', "length = [1]", "units.length", r"\['cm', 'm', 'mm'\], got \[1\]"),
+        ('angle = "deg"', "angle = {x = 1}", "units.angle", r"got \{'x': 1\}"),
+        ('convention = "standard"', "convention = [1]", "convention", r"got \[1\]"),
+        ('name = "mini"', 'name = "mini"\ntitle = ["a"]', "title", r"expected a string, got \['a'\]"),
+        ("a = 100", "a = 100\nname = 5", r"joint\[1\].name", "expected a string, got 5"),
+        ('type = "prismatic"', "type = 1", r"joint\[2\].type", "got 1"),
+        ("pulse_us = [500, 2500]", "pulse_us = [-1e5, 1e9]", r"joint\[1\].servo.pulse_us",
+         r"within 400..2600 us \(RC servo pulses\), got \[-100000.0, 1000000000.0\]"),
+        ("zero = 90,", "zero = 90, feedback_adc = [0, 5000],", r"joint\[1\].servo.feedback_adc", "within 0..1023"),
     ],
 )
 def test_malformed_file_names_file_and_field(tmp_path, old, new, field, message):
@@ -300,3 +310,11 @@ def test_flip_key_loads_and_is_written_back(tmp_path):
     assert np.abs(r.fk(q) - unflipped.fk(q * [-1, 1])).max() < 1e-12
     with pytest.raises(RobotFileError, match=r"field 'joint\[1\].flip': expected true or false, got 'yes'"):
         Robot.load(_write(tmp_path, MINIMAL.replace("a = 100", 'a = 100\nflip = "yes"'), "b.toml"))
+
+
+def test_gripper_pulses_are_checked(tmp_path):
+    text = MINIMAL + "\n[gripper]\nchannel = 3\nopen_us = -5\nclosed_us = 1900\n"
+    with pytest.raises(RobotFileError, match=r"field 'gripper.open_us': expected values within 400..2600 us.*got -5"):
+        Robot.load(_write(tmp_path, text))
+    ok = Robot.load(_write(tmp_path, text.replace("open_us = -5", "open_us = 1000")))
+    assert ok.gripper.open_us == 1000 and ok.gripper.closed_us == 1900

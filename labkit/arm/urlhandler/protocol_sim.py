@@ -20,8 +20,8 @@ Examples
 >>> from labkit.arm.urlhandler import register
 >>> register()
 >>> port = serial.serial_for_url("sim://?clock=lockstep&seed=1", timeout=0.5)
->>> port.readline()[:7]
-b'EV BOOT'
+>>> port.readline()[:19]
+b'READY labkit-arm 2 '
 >>> port.close()
 """
 

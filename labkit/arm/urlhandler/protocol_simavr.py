@@ -1,7 +1,7 @@
 """pyserial URL handler ``simavr://[path/to/firmware.elf][?options]``: the real firmware in simavr.
 
 Opening the URL builds the firmware and harness if needed, starts the simulator with the CPU
-held, opens the harness's pty and only then lets the CPU run, so the ``EV BOOT`` line is not
+held, opens the harness's pty and only then lets the CPU run, so the ``READY`` line is not
 lost to pyserial's input flush on open. Closing the port stops the simulator.
 
 Options (query string):
@@ -30,7 +30,7 @@ Example
 >>> labkit.arm.urlhandler.register()
 >>> port = serial.serial_for_url("simavr://?pace=1", baudrate=115200, timeout=1)  # doctest: +SKIP
 >>> port.readline()                                                               # doctest: +SKIP
-b'EV BOOT labkit-arm fw=1.0.0 proto=1 reset=POWER eeprom=DEFAULTS*1A\\r\\n'
+b'READY labkit-arm 2 fw=2.0.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*6FFC\\r\\n'
 """
 
 from __future__ import annotations

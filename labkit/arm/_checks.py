@@ -1,0 +1,91 @@
+"""Checks of the host link's arguments (private; used by :class:`labkit.arm.Arm`).
+
+Bad input never reaches the board: a joint vector outside the limits or a servo's range,
+a NaN pulse width or timeout, a negative recording time are refused with an error that
+says what was expected and what was received.
+
+Examples
+--------
+>>> finite("seconds", 0.5, lo=0.0)
+0.5
+>>> finite("us", float("nan"))
+Traceback (most recent call last):
+...
+labkit.exceptions.OptionError: expected us as a finite number, got nan
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from labkit.exceptions import JointLimitError, OptionError
+from labkit.validation import as_vector
+
+__all__ = []
+
+
+def finite(name, value, *, lo=None, hi=None, unit=""):
+    """``value`` as a float if it is a finite real number within ``lo..hi``.
+
+    Parameters
+    ----------
+    name : str
+        Argument name for the message.
+    value : object
+        What the caller passed.
+    lo, hi : float, optional
+        Inclusive bounds.
+    unit : str
+        Unit shown in the message (``"s"``, ``"us"``).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    OptionError
+        Not a real number, not finite, or out of bounds (a ``ValueError``).
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise OptionError(f"expected {name} as a number{' [' + unit + ']' if unit else ''}, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise OptionError(f"expected {name} as a finite number, got {v}")
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        shown = f"{'' if lo is None else f'{lo:g}'}..{'' if hi is None else f'{hi:g}'}"
+        raise OptionError(f"expected {name} in {shown}{' ' + unit if unit else ''}, got {v:g}")
+    return v
+
+
+def joint_vector(robot, q):
+    """One configuration ``q`` checked against the robot's joint limits and every servo's range.
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        Joint limits and servo calibrations.
+    q : array_like, shape (n,)
+        Joint values [rad, m].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+
+    Raises
+    ------
+    JointLimitError
+        Wrong shape, a joint outside its limits, or outside its servo's range.
+    """
+    q = as_vector(q, robot.n, "q")
+    if q.ndim != 1:
+        raise JointLimitError(f"expected one configuration q with shape ({robot.n},), got {q.shape}")
+    robot.check_limits(q)
+    for j, lk in enumerate(robot.links):
+        if lk.servo is not None:
+            try:
+                lk.servo.pulse_us(q[j])
+            except JointLimitError as exc:
+                raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
+    return q

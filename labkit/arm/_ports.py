@@ -1,0 +1,186 @@
+"""Real-board start-up (private; the public names are re-exported by :mod:`labkit.arm`).
+
+Which serial ports exist and which look like an Arduino (pyserial's
+:func:`serial.tools.list_ports.comports`, USB vendor/product ids); opening
+one with errors that say what to do: a port held by another program (the
+Arduino IDE's serial monitor) or one the user may not open (Linux: the
+``dialout`` group); and the handshake: wait for the board's ``READY`` (an Uno
+resets when its port opens), refuse a protocol-1 board, ``HELLO``.
+
+Examples
+--------
+>>> [p.device for p in list_ports() if p.arduino] == find_ports()
+True
+"""
+
+from __future__ import annotations
+
+import errno
+import sys
+from dataclasses import dataclass
+
+from labkit.exceptions import DeviceError, ProtocolError
+from labkit.arm._protocol import PROTOCOL_VERSION
+from labkit.arm._replies import BoardInfo, parse_hello
+
+__all__ = ["PortInfo", "list_ports", "find_ports"]
+
+#: USB vendor ids of Arduino boards and the USB-serial chips of common clones
+ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
+                0x10C4: "CP210x", 0x239A: "Adafruit"}
+
+
+@dataclass(frozen=True)
+class PortInfo:
+    """One serial port: device name, USB ids, description, and whether it looks like an Arduino.
+
+    Attributes
+    ----------
+    device : str
+        ``/dev/ttyACM0``, ``COM3`` ...
+    vid, pid : int or None
+        USB vendor and product id (``None`` for a port that is not USB).
+    description : str
+        What the operating system calls it.
+    arduino : bool
+        The vendor id or the description says Arduino (or a common clone chip).
+    """
+
+    device: str
+    vid: int | None
+    pid: int | None
+    description: str
+    arduino: bool
+
+    @property
+    def usb_id(self):
+        """``"VID:PID"`` in hex (``"2341:0043"``), or ``"-"`` for a port that is not USB.
+
+        Returns
+        -------
+        str
+        """
+        return "-" if self.vid is None else f"{self.vid:04X}:{(self.pid or 0):04X}"
+
+
+def list_ports():
+    """Every serial port pyserial sees, likely Arduinos first.
+
+    Returns
+    -------
+    list of PortInfo
+        Sorted: Arduino-like before others, ``ACM`` devices (native USB) before ``USB`` ones.
+    """
+    from serial.tools import list_ports as lp
+
+    found = []
+    for p in lp.comports():
+        text = f"{p.description} {p.manufacturer or ''}".lower()
+        arduino = p.vid in ARDUINO_VIDS or "arduino" in text or "ch340" in text
+        found.append(PortInfo(p.device, p.vid, p.pid, p.description or "", bool(arduino)))
+    return sorted(found, key=lambda p: (not p.arduino, "ACM" not in p.device, p.device))
+
+
+def find_ports():
+    """Serial ports that look like an Arduino (USB VID or description), best first.
+
+    Returns
+    -------
+    list of str
+        Device names (``/dev/ttyACM0``, ``COM3`` ...).
+    """
+    return [p.device for p in list_ports() if p.arduino]
+
+
+def open_port(port, baudrate):
+    """Open ``port`` (device name or pyserial URL) with an error that says what to do.
+
+    Parameters
+    ----------
+    port : str
+        Device name or URL (``sim://``, ``simavr://``...).
+    baudrate : int
+        Baud rate [bit/s].
+
+    Returns
+    -------
+    serial.SerialBase
+        The open port (read timeout 0.05 s).
+
+    Raises
+    ------
+    DeviceError
+        The port does not exist, is held by another program, or may not be opened by this user.
+    """
+    import serial
+
+    try:
+        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        code = getattr(exc, "errno", None)
+        text = str(exc)
+        if code == errno.EBUSY or "busy" in text.lower() or (sys.platform == "win32" and "denied" in text.lower()):
+            hint = ("the port is in use by another program: close the Arduino IDE's serial monitor "
+                    "(or screen, minicom, another labkit session) and try again")
+        elif code in (errno.EACCES, errno.EPERM) or "permission denied" in text.lower():
+            hint = ("permission denied: on Linux add yourself to the 'dialout' group "
+                    "(sudo usermod -aG dialout $USER), then log out and in again")
+        elif code == errno.ENOENT or "no such file" in text.lower():
+            hint = "no such port: is the board plugged in? 'labkit ports' lists the serial ports"
+        else:
+            hint = "'labkit ports' lists the serial ports"
+        raise DeviceError(f"cannot open {port!r}: {text}; {hint}") from None
+
+
+def handshake(arm, boot_wait):
+    """Wait for ``READY``, refuse an older board, ``HELLO``, check the joints, read ``STATUS last=``.
+
+    Parameters
+    ----------
+    arm : labkit.arm.Arm
+        The connection being opened (its wire object and robot).
+    boot_wait : float
+        Longest wait for ``READY`` [s]; without it ``HELLO`` is still tried.
+
+    Raises
+    ------
+    DeviceError
+        No ``READY`` and no answer, a protocol-1 board, another protocol version or joint count.
+    ProtocolError
+        The device answers ``HELLO`` but is not a labkit arm.
+    """
+    wire = arm._wire
+    ready = wire.wait_ready(boot_wait)
+    _refuse_v1(arm)
+    if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
+        raise DeviceError(f"{arm.name}: the board announced {' '.join(ready)!r}, labkit expects "
+                          f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
+    try:
+        info = wire.transact("HELLO", parse=parse_hello)
+    except DeviceError as exc:
+        _refuse_v1(arm)
+        if ready is None:
+            raise DeviceError(
+                f"{arm.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
+                f"no answer to HELLO ({exc}); is the labkit firmware flashed (README: 'Flash the "
+                f"firmware'), the baud rate 115200 and the right port chosen (labkit ports)?") from None
+        raise DeviceError(f"{arm.name}: no handshake with the board ({exc})") from None
+    if not isinstance(info, BoardInfo):
+        raise ProtocolError(f"{arm.name}: not a labkit arm: HELLO answered {info!r}")
+    wire.info = info
+    if info.protocol != PROTOCOL_VERSION:
+        raise DeviceError(f"{arm.name}: board speaks protocol {info.protocol}, "
+                          f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+    if info.joints != arm.robot.n:
+        raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
+                          f"{arm.robot.name} has {arm.robot.n}")
+    # what ran before this connection is not ours to judge
+    wire.last_seq = arm._verify_status()[0].last
+
+
+def _refuse_v1(arm):
+    old = arm._wire.v1_seen
+    if old is not None:
+        raise DeviceError(f"{arm.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
+                          f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
+                          f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
