@@ -90,6 +90,29 @@ def read_eeprom(eeprom, channels):
     return cal, struct.unpack_from("<H", e, off)[0], True
 
 
+def eeprom_image(cal, timeout_ms):
+    """The EEPROM bytes ``SAVE`` writes: magic, version, channel count, calibration, timeout, CRC.
+
+    Parameters
+    ----------
+    cal : sequence of sequence of int
+        Per channel ``[pmin, pmax, zero, direction, lo, hi]`` (pulses [us], angles [cdeg]).
+    timeout_ms : int
+        Host-silence timeout [ms].
+
+    Returns
+    -------
+    bytearray
+        The image, read back by :func:`read_eeprom`.
+    """
+    img = bytearray(b"LK") + bytes([1, len(cal)])
+    for c in cal:
+        img += struct.pack("<hhhbhh", *c)
+    img += struct.pack("<H", int(timeout_ms))
+    img += struct.pack("<H", crc16(img))
+    return img
+
+
 class BoardCommands:
     """Request-line handling and command handlers of :class:`labkit.arm.VirtualBoard` (a mixin).
 
@@ -287,10 +310,6 @@ class BoardCommands:
         self._nargs(args, 0)
         if self.state == "RUN":
             raise _Reject(8, "trajectory running")
-        img = bytearray(b"LK") + bytes([1, self.channels])
-        for c in self.cal:
-            img += struct.pack("<hhhbhh", *c)
-        img += struct.pack("<H", self.timeout_ms)
-        img += struct.pack("<H", crc16(img))
+        img = eeprom_image(self.cal, self.timeout_ms)
         self.eeprom[: len(img)] = img
         return str(len(img))

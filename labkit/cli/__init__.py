@@ -2,7 +2,7 @@
 
 Every subcommand's argparse lives in this package, one module per concept
 (``_kinematics``: robots, fk, ik; ``_arm``: sim; ``_measure``: errors, audit,
-calibrate; ``_reports``: run, render), each a thin call into the library. The
+calibrate; ``_reports``: run, render; ``_labs``: lab, new), each a thin call into the library. The
 library modules hold no command-line code.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from labkit.cli import _arm, _kinematics, _measure, _reports
+from labkit.cli import _arm, _kinematics, _labs, _measure, _reports
 from labkit.exceptions import LabkitError
 
 
@@ -25,7 +25,7 @@ def build_parser():
     """
     p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
     sub = p.add_subparsers(dest="command", required=True)
-    for module in (_kinematics, _arm, _reports, _measure):
+    for module in (_kinematics, _arm, _reports, _labs, _measure):
         module.add_commands(sub)
     return p
 

@@ -14,6 +14,7 @@ from labkit.reports._execute import (
 )
 from labkit.reports._render import RenderResult, export_html, print_pdf, render, render_one, write_index
 from labkit.reports._nbtools import CheckRow, Checks, check, show_latex, matrix_latex, show_table
+from labkit.reports._lab import lab_command, serve_lab
 
 __all__ = [
     "CELL_TIMEOUT",
@@ -36,4 +37,6 @@ __all__ = [
     "show_latex",
     "matrix_latex",
     "show_table",
+    "lab_command",
+    "serve_lab",
 ]
