@@ -73,12 +73,12 @@ def calibration_rows(robot):
             continue
         lo_a, hi_a = cal.angle_range
         p0, p1 = cal.pulse_range
-        pmin = round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0))
-        pmax = round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0))
-        rows[j] = [pmin, pmax, cdeg(cal.zero), cal.direction, *(cdeg(v) for v in lk.limits)]
+        pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        rows[j] = [pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)]
     g = robot.gripper
     if g is not None:
-        rows[robot.n] = [min(g.open_us, g.closed_us), max(g.open_us, g.closed_us), 0, 1, 0, 18000]
+        rows[robot.n] = [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))), 0, 1, 0, 18000]
     return rows
 
 
