@@ -177,31 +177,32 @@ def test_a_widget_slider_changes_the_output(lab_server, browser, tmp_path):
     widget = page.locator(".jupyter-widgets.widget-interact, .widget-interact").first
     widget.wait_for(timeout=60_000)
     widget.scroll_into_view_if_needed()
-    output = widget.locator(".jp-OutputArea-output, .widget-output").last
+    output = widget.locator(".widget-output").last  # the interact's Output widget (its children are replaced)
+    text_js = "document.querySelector('.widget-interact .widget-output')?.innerText.trim() ?? ''"
 
     def forces():
         return output.inner_text().strip()
 
-    page.wait_for_function("el => el.innerText.includes('tau1')", arg=output.element_handle(), timeout=60_000)
+    page.wait_for_function(f"() => ({text_js}).includes('tau1')", timeout=60_000)
     before = forces()
     page.screenshot(path=str(tmp_path / "lab_widget_before.png"))
-    handle = widget.locator(".noUi-handle, .ui-slider-handle").first
-    handle.focus()
-    for _ in range(30):  # theta1 += 30 deg, one step (1 deg) per key press
-        page.keyboard.press("ArrowRight")
-    page.wait_for_function("([el, old]) => el.innerText.trim() !== old && el.innerText.includes('tau1')",
-                           arg=[output.element_handle(), before], timeout=60_000)
-    after = forces()
-    page.screenshot(path=str(tmp_path / "lab_widget_after.png"))
-    readout = widget.locator(".widget-readout").first.inner_text().strip()
-    assert float(readout) == pytest.approx(30.0), f"theta1 slider readout {readout!r}"
-    assert before != after, "moving the slider must change the printed joint forces"
-    assert before.startswith("tau1 = ") and after.startswith("tau1 = ")
     # independent of the page: tau = J^T F of the seed's RPP arm at theta1 = 30 deg, d2 = d3 = 1 m
     import numpy as np
     from labkit.kinematics import jacobian, joint_torques
     from labkit.robot import Robot
 
     tau = joint_torques(jacobian(Robot.load("rpp_seed002"), [np.radians(30.0), 1.0, 1.0]), [1, 2, 3, 0, 0, 0])
-    assert after == f"tau1 = {tau[0]:.4f} N m   f_d2 = {tau[1]:.4f} N   f_d3 = {tau[2]:.4f} N"
+    expected = f"tau1 = {tau[0]:.4f} N m   f_d2 = {tau[1]:.4f} N   f_d3 = {tau[2]:.4f} N"
+    assert before != expected
+    handle = widget.locator(".noUi-handle, .ui-slider-handle").first
+    handle.focus()
+    for _ in range(30):  # theta1 += 30 deg, one step (1 deg) per key press
+        page.keyboard.press("ArrowRight")
+    # the kernel answers every intermediate value; wait for the one of the final slider position
+    page.wait_for_function(f"text => ({text_js}) === text", arg=expected, timeout=60_000)
+    after = forces()
+    page.screenshot(path=str(tmp_path / "lab_widget_after.png"))
+    readout = widget.locator(".widget-readout").first.inner_text().strip()
+    assert float(readout) == pytest.approx(30.0), f"theta1 slider readout {readout!r}"
+    assert before.startswith("tau1 = ") and after == expected, "moving the slider must change the printed joint forces"
     print(f"before: {before}\nafter:  {after}\nscreenshots in {tmp_path}")
