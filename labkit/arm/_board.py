@@ -35,12 +35,52 @@ from labkit.robot import Robot
 from labkit.arm._protocol import MAX_LINE, PROTOCOL_VERSION, seal
 from labkit.arm._physics import PhysicsConfig
 from labkit.arm._model import ArmModel
-from labkit.arm._commands import FW_VERSION, BoardCommands, read_eeprom
+from labkit.arm._commands import FACTORY, FW_VERSION, BoardCommands, eeprom_image, read_eeprom
+from labkit.arm._segments import wire_speed_limits
 
 __all__ = ["VirtualBoard"]
 
 FRAME_S = 0.020  # servo frame period [s]
 BOOT_S = 0.1  # reset to READY [s]
+
+
+def calibration_rows(robot):
+    """The board calibration ``[pmin, pmax, zero, direction, lo, hi]`` of every channel of ``robot``.
+
+    The rows :meth:`labkit.arm.Arm.sync_calibration` sends with ``CAL``: the pulse widths at
+    servo angles 0 and 180 deg [us], the servo angle at ``q = 0`` and the joint limits [cdeg]
+    (prismatic joints in metres read as radians, as on the wire). Joints without a servo and the
+    gripper channel keep the factory row (the gripper: its pulse range).
+
+    Parameters
+    ----------
+    robot : Robot or str
+        The robot (file).
+
+    Returns
+    -------
+    list of list of int
+        ``robot.n + 1`` rows (joints, then the gripper channel).
+    """
+    robot = Robot.load(robot)
+
+    def cdeg(v):
+        return int(round(math.degrees(v) * 100))
+
+    rows = [list(FACTORY) for _ in range(robot.n + 1)]
+    for j, lk in enumerate(robot.links):
+        cal = lk.servo
+        if cal is None:
+            continue
+        lo_a, hi_a = cal.angle_range
+        p0, p1 = cal.pulse_range
+        pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        rows[j] = [pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)]
+    g = robot.gripper
+    if g is not None:
+        rows[robot.n] = [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))), 0, 1, 0, 18000]
+    return rows
 
 
 class VirtualBoard(BoardCommands):
@@ -68,7 +108,8 @@ class VirtualBoard(BoardCommands):
         (ground truth for fault tests; keeps the last 100,000).
     """
 
-    def __init__(self, robot="arduino_arm_3dof", config=PhysicsConfig(), *, queue=6, user_pot=512):
+    def __init__(self, robot="arduino_arm_3dof", config=PhysicsConfig(), *, queue=6, user_pot=512,
+                 saved_calibration=False):
         self.robot = Robot.load(robot)
         self.joints = self.robot.n
         self.channels = self.joints + 1
@@ -76,6 +117,9 @@ class VirtualBoard(BoardCommands):
         self.user_pot = int(user_pot)
         self.config = config
         self.eeprom = bytearray(b"\xff" * 1024)
+        if saved_calibration:  # a board whose EEPROM already holds the robot file's calibration (CAL + SAVE)
+            img = eeprom_image(calibration_rows(self.robot), *wire_speed_limits(self.robot), 500)
+            self.eeprom[: len(img)] = img
         self.sent_frames = {}
         #: analog pins forced to a voltage (``set_analog``), overriding the physics
         self.analog_override = {}

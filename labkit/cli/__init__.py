@@ -2,8 +2,9 @@
 
 Every subcommand's argparse lives in this package, one module per concept
 (``_kinematics``: robots, fk, ik; ``_arm``: sim, ports; ``_measure``: errors,
-audit, calibrate; ``_reports``: run, render; ``_course``: assign, grade), each a
-thin call into the library. The library modules hold no command-line code.
+audit, calibrate; ``_reports``: run, render; ``_labs``: lab, new; ``_course``:
+assign, grade), each a thin call into the library. The library modules hold no
+command-line code.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from labkit.cli import _arm, _course, _kinematics, _measure, _reports
+from labkit.cli import _arm, _course, _kinematics, _labs, _measure, _reports
 from labkit.cli._lazy import LazyParser
 from labkit.exceptions import LabkitError
 
@@ -27,7 +28,7 @@ def build_parser():
     p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
     # subcommands add their arguments on first use: `labkit --help` imports no numerical library
     sub = p.add_subparsers(dest="command", required=True, parser_class=LazyParser)
-    for module in (_kinematics, _arm, _reports, _measure, _course):
+    for module in (_kinematics, _arm, _reports, _labs, _measure, _course):
         module.add_commands(sub)
     return p
 

@@ -41,6 +41,16 @@ from labkit.reports._batch import (
     unpack_dir,
     write_gradebook,
 )
+from labkit.reports._lab import lab_command, serve_lab
+from labkit.reports._labunits import (
+    joints_from_display,
+    joints_to_display,
+    target_from_display,
+    target_error,
+    servo_window,
+    robot_reach,
+)
+from labkit.reports._scaffold import LabDefaults, NewLab, lab_defaults, new_lab
 
 __all__ = [
     "CELL_TIMEOUT",
@@ -88,4 +98,16 @@ __all__ = [
     "run_tasks",
     "unpack_dir",
     "write_gradebook",
+    "lab_command",
+    "serve_lab",
+    "LabDefaults",
+    "NewLab",
+    "lab_defaults",
+    "servo_window",
+    "joints_from_display",
+    "joints_to_display",
+    "target_from_display",
+    "target_error",
+    "robot_reach",
+    "new_lab",
 ]

@@ -91,7 +91,7 @@ def notebooks_root() -> Path:
     candidates = []
     if os.environ.get(ROOT_ENV):
         candidates.append(Path(os.environ[ROOT_ENV]))
-    candidates += [Path.cwd() / "notebooks", Path(__file__).resolve().parents[1] / "notebooks"]
+    candidates += [Path.cwd() / "notebooks", Path(__file__).resolve().parents[2] / "notebooks"]
     for c in candidates:
         if c.is_dir():
             return c.resolve()
@@ -123,7 +123,10 @@ def find_notebooks(selection=None, root=None) -> list[Path]:
     LabkitError
         If an entry of ``selection`` matches nothing (the message lists the labs).
     """
-    root = Path(root) if root is not None else notebooks_root()
+    if selection and all(Path(item).exists() for item in selection):
+        root = Path(root) if root is not None else Path.cwd()  # only paths: no labs folder needed
+    else:
+        root = Path(root) if root is not None else notebooks_root()
     every = sorted(p.resolve() for p in root.glob("*/*.ipynb") if _is_notebook(p))
     if not selection:
         return every

@@ -267,3 +267,31 @@ def test_labkit_sim_serves_a_pty():
     finally:
         proc.terminate()
         proc.wait(5)
+
+
+def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_deg(tmp_path):
+    """Factory EEPROM: every servo at 90 deg, so CAL of a joint limited to [-225, 45] deg is refused;
+    a board that saved the robot file's calibration boots inside the limits and CAL is accepted."""
+    import math
+
+    from labkit.arm import Arm
+    from labkit.arm._board import VirtualBoard, calibration_rows
+    from labkit.exceptions import LabkitError
+    from labkit.robot import Robot, ServoCalibration
+
+    robot = Robot.load("puma560")
+    for i, lk in enumerate(robot.links):
+        lo, hi = lk.limits
+        robot = robot.with_link(i, servo=ServoCalibration(channel=i, zero=math.pi / 2 - (lo + hi) / 2))
+    path = tmp_path / "puma560_servos.toml"
+    robot.to_toml(path)
+    rows = calibration_rows(robot)
+    board = VirtualBoard(str(path), saved_calibration=True)
+    assert board.cal == rows and not board.flags & 0x01
+    assert all(r[4] <= q <= r[5] for q, r in zip(board.q, rows))
+    with pytest.raises(LabkitError, match="invalid under the new calibration"):
+        Arm(f"sim://{path}?clock=lockstep", robot=str(path))
+    with Arm(f"sim://{path}?clock=lockstep&calibrated=1", robot=str(path)) as arm:
+        q = np.radians([10, 60, -120, 20, 30, 40])
+        arm.move_joints(q, wait=True)
+        assert np.abs(arm.read_joints() - q).max() < np.radians(1.5)

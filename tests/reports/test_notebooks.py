@@ -1,4 +1,4 @@
-"""Every lab notebook under notebooks/ is clean in git and executes headless against the simulated arm.
+"""Every lab notebook under notebooks/ follows the lab conventions and executes headless against the simulated arm.
 
 The execution test is parametrised by glob, so a notebook added to any lab folder is
 picked up automatically. Each runs in a fresh kernel (papermill/nbclient) with its

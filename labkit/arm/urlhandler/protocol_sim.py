@@ -11,6 +11,10 @@ URL form::
   by the read timeout, or in :meth:`Serial.sleep`; deterministic and as fast
   as the host can go, for tests);
 * ``time_scale``: board seconds per wall-clock second (realtime clock);
+* ``calibrated``: ``1`` boots a board whose EEPROM already holds the robot file's servo
+  calibration (saved with ``CAL`` + ``SAVE``), so the joints start at the middle of their
+  limits; default ``0``, the factory calibration (every servo centred at 90 deg), under which
+  a robot whose limits exclude 90 deg cannot be calibrated;
 * ``queue``: segment queue depth; any field of
   :class:`labkit.arm.PhysicsConfig` (``deadband=0``, ``zero_offsets=0.01,0,0``...).
 
@@ -62,7 +66,7 @@ def parse_url(url):
     physics : dict
         :class:`labkit.arm.PhysicsConfig` fields given in the URL.
     options : dict
-        ``clock`` (str), ``time_scale`` (float), ``queue`` (int).
+        ``clock`` (str), ``time_scale`` (float), ``queue`` (int), ``calibrated`` (bool).
 
     Raises
     ------
@@ -76,7 +80,7 @@ def parse_url(url):
         raise SerialException(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
     robot = urllib.parse.unquote(parts.netloc + parts.path) or "arduino_arm_3dof"
     fields = {f.name: f for f in dataclasses.fields(PhysicsConfig)}
-    physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6}
+    physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6, "calibrated": False}
     for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
         value = values[-1]
         try:
@@ -92,8 +96,12 @@ def parse_url(url):
                     raise SerialException(f"{url}: expected time_scale > 0, got {value}")
             elif key == "queue":
                 options["queue"] = int(value)
+            elif key == "calibrated":
+                if value not in ("0", "1"):
+                    raise SerialException(f"{url}: expected calibrated=0 or 1, got {value!r}")
+                options["calibrated"] = value == "1"
             else:
-                valid = ", ".join(["clock", "time_scale", "queue", *fields])
+                valid = ", ".join(["clock", "time_scale", "queue", "calibrated", *fields])
                 raise SerialException(f"{url}: unknown option {key!r}; valid options: {valid}")
         except ValueError as exc:  # a malformed number
             raise SerialException(f"{url}: option {key!r}: {exc}") from None
@@ -123,7 +131,7 @@ class Serial(SerialBase):
         robot, physics, options = parse_url(self.port)
         try:
             config = PhysicsConfig(**physics)
-            self.board = VirtualBoard(robot, config, queue=options["queue"])
+            self.board = VirtualBoard(robot, config, queue=options["queue"], saved_calibration=options["calibrated"])
         except (ValueError, OSError) as exc:
             raise SerialException(f"{self.port}: {exc}") from None
         self._clock = options["clock"]

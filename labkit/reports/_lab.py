@@ -1,0 +1,177 @@
+"""JupyterLab on the labs: ``labkit lab``.
+
+:func:`lab_command` builds the ``jupyter lab`` command line and environment that
+serve a folder of labs (default: :func:`labkit.reports.notebooks_root`) with a
+kernel that imports *this* labkit: a kernel spec named ``python3`` (the name the
+lab notebooks ask for) is written to a private data folder that is put first on
+``JUPYTER_PATH``; it starts the interpreter running labkit, with labkit's source
+folder on ``PYTHONPATH`` when labkit is not installed into site-packages (an
+editable install or a git worktree). :func:`serve_lab` runs it in the foreground.
+
+Example
+-------
+>>> import tempfile
+>>> from labkit.reports._lab import lab_command
+>>> folder = tempfile.mkdtemp()
+>>> argv, env = lab_command(folder, port=8899, no_browser=True, data_dir=tempfile.mkdtemp())
+>>> argv[1:4], "--no-browser" in argv, "--ServerApp.port=8899" in argv
+(['-m', 'jupyter', 'lab'], True, True)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from labkit.exceptions import LabkitError, OptionError
+from labkit.reports._execute import notebooks_root
+
+__all__ = ["KERNEL_NAME", "lab_command", "write_kernel_spec", "serve_lab"]
+
+#: the kernel name lab notebooks declare (``metadata.kernelspec.name``)
+KERNEL_NAME = "python3"
+#: its display name; the same as the notebooks' so that saving a notebook does not change it
+KERNEL_DISPLAY_NAME = "Python 3"
+
+
+def _prepend(path, value):
+    """``path`` first on the search-path string ``value``, without duplicates."""
+    parts = [p for p in (value or "").split(os.pathsep) if p and p != str(path)]
+    return os.pathsep.join([str(path)] + parts)
+
+
+def _labkit_source_dir() -> Path | None:
+    """The folder holding the ``labkit`` package when it is not in site-packages, else None."""
+    root = Path(__file__).resolve().parents[2]
+    return None if root.name in ("site-packages", "dist-packages") else root
+
+
+def write_kernel_spec(data_dir) -> Path:
+    """Write the ``python3`` kernel spec of this interpreter (with labkit importable) into ``data_dir``.
+
+    Parameters
+    ----------
+    data_dir : str or os.PathLike
+        A Jupyter data folder; the spec goes to ``<data_dir>/kernels/python3/kernel.json``.
+
+    Returns
+    -------
+    pathlib.Path
+        The kernel spec folder.
+    """
+    spec_dir = Path(data_dir) / "kernels" / KERNEL_NAME
+    spec_dir.mkdir(parents=True, exist_ok=True)
+    spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+            "display_name": KERNEL_DISPLAY_NAME, "language": "python", "metadata": {"debugger": True}}
+    source = _labkit_source_dir()
+    if source is not None:
+        spec["env"] = {"PYTHONPATH": _prepend(source, os.environ.get("PYTHONPATH"))}
+    (spec_dir / "kernel.json").write_text(json.dumps(spec, indent=1), encoding="utf-8")
+    return spec_dir
+
+
+def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_args=()):
+    """The ``jupyter lab`` command line and environment serving ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike, optional
+        Folder (or one notebook) to open; default the labs folder
+        (:func:`labkit.reports.notebooks_root`).
+    port : int, optional
+        TCP port (default: JupyterLab's, 8888 or the next free one).
+    no_browser : bool
+        Do not open a browser (print the URL with its token instead).
+    data_dir : str or os.PathLike, optional
+        Where the kernel spec is written (default: a new temporary folder).
+    extra_args : sequence of str
+        Further ``jupyter lab`` options.
+
+    Returns
+    -------
+    argv : list of str
+        The command line (this interpreter, ``-m jupyter lab ...``).
+    env : dict of str to str
+        The environment: this process's, with ``JUPYTER_PATH`` starting at ``data_dir``
+        and labkit's source folder on ``PYTHONPATH`` when needed.
+
+    Raises
+    ------
+    LabkitError
+        ``path`` does not exist.
+    OptionError
+        ``port`` is not in 1..65535.
+    """
+    target = Path(path).expanduser() if path is not None else notebooks_root()
+    if not target.exists():
+        raise LabkitError(f"expected a folder or notebook to open, got {str(target)!r} (it does not exist)")
+    target = target.resolve()
+    root, start = (target.parent, target.name) if target.is_file() else (target, None)
+    if port is not None and not 1 <= int(port) <= 65535:
+        raise OptionError(f"expected a port in 1..65535, got {port}")
+    data_dir = Path(data_dir) if data_dir is not None else Path(tempfile.mkdtemp(prefix="labkit-lab-"))
+    write_kernel_spec(data_dir)
+    env = dict(os.environ)
+    env["JUPYTER_PATH"] = _prepend(data_dir, env.get("JUPYTER_PATH"))
+    source = _labkit_source_dir()
+    if source is not None:
+        env["PYTHONPATH"] = _prepend(source, env.get("PYTHONPATH"))
+    argv = [sys.executable, "-m", "jupyter", "lab", f"--ServerApp.root_dir={root}",
+            f"--MultiKernelManager.default_kernel_name={KERNEL_NAME}"]
+    if port is not None:
+        argv.append(f"--ServerApp.port={int(port)}")
+    if no_browser:
+        argv.append("--no-browser")
+    if hasattr(os, "geteuid") and os.geteuid() == 0:  # containers and CI run as root; Jupyter refuses without it
+        argv.append("--allow-root")
+    argv += list(extra_args)
+    if start:
+        argv.append(start)
+    return argv, env
+
+
+def serve_lab(path=None, *, port=None, no_browser=False, extra_args=()) -> int:
+    """Run JupyterLab on ``path`` in the foreground until it is stopped (Ctrl+C).
+
+    Parameters
+    ----------
+    path : str or os.PathLike, optional
+        Folder or notebook (default the labs folder).
+    port : int, optional
+        TCP port.
+    no_browser : bool
+        Do not open a browser.
+    extra_args : sequence of str
+        Further ``jupyter lab`` options.
+
+    Returns
+    -------
+    int
+        JupyterLab's exit status (0 after a normal shutdown or Ctrl+C).
+
+    Raises
+    ------
+    LabkitError
+        ``path`` does not exist, or JupyterLab is not installed.
+    """
+    try:
+        import jupyterlab  # noqa: F401
+    except ImportError as exc:
+        raise LabkitError("JupyterLab is not installed: pip install 'jupyterlab>=4.2,<5' "
+                          "(it is a labkit dependency: pip install -e .)") from exc
+    with tempfile.TemporaryDirectory(prefix="labkit-lab-") as data_dir:
+        argv, env = lab_command(path, port=port, no_browser=no_browser, data_dir=data_dir, extra_args=extra_args)
+        proc = subprocess.Popen(argv, env=env)
+        try:
+            return proc.wait()
+        except KeyboardInterrupt:  # JupyterLab got the SIGINT too and shuts down
+            try:
+                proc.wait(timeout=15)
+                return 0
+            except subprocess.TimeoutExpired:
+                proc.terminate()
+                return proc.wait()

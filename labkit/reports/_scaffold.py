@@ -1,0 +1,383 @@
+"""A lab for any arm: ``labkit new LAB_DIR --robot ROBOT_FILE``.
+
+:func:`new_lab` copies the generic template notebooks shipped in
+``labkit/reports/lab_template/`` into a lab folder, with the robot file next to them and
+each notebook's ``parameters`` cell rewritten with defaults picked from the robot by
+:func:`lab_defaults`: the joint window the servos can reach, a home pose, a measurement
+plan, IK targets that the robot's solver reaches inside the limits, a joint move, and a
+Cartesian line and arc that stay inside the window. The lab renders like the seed labs
+(``labkit render LAB_DIR``) against the virtual arm (``sim://``).
+
+Parameters are in the units people read (degrees, millimetres; see
+``labkit/reports/_labunits.py``).
+
+Example
+-------
+>>> from labkit.reports import lab_defaults
+>>> d = lab_defaults("planar3r_seed003")
+>>> d.kind, d.target, round(d.reach, 3)
+('planar 3-DOF', 'planar', 0.335)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from labkit.exceptions import LabkitError
+from labkit.kinematics import fk, ik_all, jacobian, target_kind
+from labkit.reports._labunits import (
+    _target_to_display,
+    joints_from_display,
+    joints_to_display,
+    robot_reach,
+    servo_window,
+    target_error,
+)
+from labkit.robot import Robot, ServoCalibration
+
+__all__ = ["TEMPLATE_DIR", "LabDefaults", "NewLab", "lab_defaults", "with_servos", "template_values", "new_lab"]
+
+#: the generic lab notebooks shipped with the package
+TEMPLATE_DIR = Path(__file__).resolve().parent / "lab_template"
+#: the robot file's name inside a lab folder
+ROBOT_FILE = "robot.toml"
+_PARAM_DOC = {
+    "robot": "robot file (or bundled robot name)",
+    "port": "the virtual arm; a real board: \"/dev/ttyACM0\" (COM3 on Windows)",
+    "home": "joint values [deg | mm]",
+    "poses": "measurement plan / FK poses, one row per pose [deg | mm]",
+    "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 6-DOF: + roll, pitch, yaw [deg])",
+    "move": "joint move: start and end rows [deg | mm]",
+    "line_mm": "Cartesian line: start and end points [mm]",
+    "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z",
+    "duration": "duration of each move [s]",
+    "readings": "readings per pose and quantity",
+    "measurements": "measurement log (CSV) to use; \"\" = measure on `port` now (into output_dir)",
+    "output_dir": "where the notebook writes files",
+}
+
+
+@dataclass(frozen=True)
+class LabDefaults:
+    """Defaults of a lab, picked from a robot (display units: deg, mm).
+
+    Attributes
+    ----------
+    kind : str
+        ``"spatial 3-DOF"``, ``"planar 3-DOF"``, ``"4-DOF"``, ``"6-DOF pose"``, ... with
+        ``", prismatic"`` when a joint slides.
+    target : str
+        IK target kind: ``"position"``, ``"planar"`` or ``"pose"``.
+    reach : float
+        Sum of the link lengths and offsets [m].
+    parameters : dict
+        Parameter name -> value (lists of numbers in deg / mm) for the templates.
+    """
+
+    kind: str
+    target: str
+    reach: float
+    parameters: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class NewLab:
+    """A lab folder made by :func:`new_lab`: ``folder``, ``robot_file``, ``notebooks`` (paths), ``kind``."""
+
+    folder: Path
+    robot_file: Path
+    notebooks: tuple
+    kind: str
+
+
+def with_servos(robot):
+    """``robot`` with a servo calibration on every joint that has none (channel = joint index).
+
+    A revolute joint's 180-deg servo travel is centred on the middle of its limits (the whole
+    limits when they span at most 180 deg); a prismatic joint reads its length as the servo
+    "angle" from 0 (the wire format of ``labkit.arm``).
+
+    Parameters
+    ----------
+    robot : Robot or str
+        Robot or robot file.
+
+    Returns
+    -------
+    Robot
+        A copy with a :class:`labkit.robot.ServoCalibration` on every joint.
+    """
+    robot = Robot.load(robot)
+    for j, lk in enumerate(robot.links):
+        if lk.servo is not None:
+            continue
+        lo, hi = lk.limits
+        if robot.is_revolute[j]:
+            zero = -lo if hi - lo <= math.pi else math.pi / 2 - (lo + hi) / 2
+        else:
+            zero = max(0.0, -lo)
+        robot = robot.with_link(j, servo=ServoCalibration(channel=j, zero=float(zero)))
+    return robot
+
+
+def _kind(robot, target):
+    n = robot.n
+    label = {"planar": f"planar {n}-DOF", "pose": f"{n}-DOF pose"}.get(target)
+    if label is None:
+        label = "spatial 3-DOF" if n == 3 else f"{n}-DOF"
+    if not all(robot.is_revolute):
+        label += ", prismatic"
+    return label
+
+
+def _round(robot, q):
+    """Joint values rounded to 1 deg / 1 mm (display units), returned in SI."""
+    return joints_from_display(robot, np.round(joints_to_display(robot, q)))
+
+
+def _reachable(robot, q, kind, window):
+    """True when IK of FK(q) returns a solution inside the window that reproduces the target."""
+    T = fk(robot, q)
+    target = T[:3, 3] if kind == "position" else (
+        np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])]) if kind == "planar" else T)
+    try:
+        sols = ik_all(robot, target)
+    except LabkitError:
+        return False
+    for qs, ok in zip(np.atleast_2d(sols.q), np.atleast_1d(sols.valid)):
+        if ok and np.all(qs >= window[:, 0] - 1e-9) and np.all(qs <= window[:, 1] + 1e-9):
+            if target_error(robot, qs, target) < 1e-6:
+                return True
+    return False
+
+
+def _well_conditioned(robot, q, kind):
+    J = jacobian(robot, q)
+    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
+    s = np.linalg.svd(J[rows], compute_uv=False)
+    reach = max(robot_reach(robot), 1e-3)
+    return s[min(len(rows), robot.n) - 1] > 0.05 * reach
+
+
+def _cartesian_ok(robot, path, q_start, window, duration):
+    from labkit.motion import cartesian_trajectory
+
+    try:
+        traj = cartesian_trajectory(robot, path, duration, dt=0.05, q_start=q_start)
+    except LabkitError:
+        return False
+    return bool(np.all(traj.q >= window[:, 0] - 1e-9) and np.all(traj.q <= window[:, 1] + 1e-9))
+
+
+def lab_defaults(robot) -> LabDefaults:
+    """Pick lab defaults from a robot: poses, targets, moves, a line and an arc inside its servo window.
+
+    Poses are fractions of the joint window (the reachable part of the limits, see
+    :func:`servo_window`), rounded to whole degrees / millimetres; IK targets are the FK of
+    well-conditioned poses whose targets the robot's IK solves inside the window; the line
+    and the arc start at the home pose and are planned (IK at every sample) before they are
+    accepted.
+
+    Parameters
+    ----------
+    robot : Robot or str
+        The robot (its servo calibrations bound the window; see :func:`with_servos`).
+
+    Returns
+    -------
+    LabDefaults
+
+    Raises
+    ------
+    LabkitError
+        No well-conditioned pose, reachable target or feasible path was found.
+    """
+    from labkit.motion import arc, line
+
+    robot = Robot.load(robot)
+    kind = target_kind(robot)
+    window = servo_window(robot)
+    lo, hi = window[:, 0], window[:, 1]
+    reach = robot_reach(robot)
+    n = robot.n
+
+    def at(f):
+        return _round(robot, lo + np.asarray(f, float) * (hi - lo))
+
+    patterns = [np.array([0.5 + s * (0.12 + 0.05 * (j % 3)) * (-1) ** j for j in range(n)]) for s in (1, -1, 1.6, -1.6, 0.5)]
+    home = next((at(f) for f in patterns if _well_conditioned(robot, at(f), kind)), at(np.full(n, 0.5)))
+    poses = [home]
+    for j in range(n):
+        for f in (0.3, 0.7):
+            q = home.copy()
+            q[j] = at(np.full(n, f))[j]
+            poses.append(q)
+    rng = np.random.default_rng(0)
+    targets_q = []
+    for _ in range(200):
+        q = at(rng.uniform(0.25, 0.75, n))
+        if _well_conditioned(robot, q, kind) and _reachable(robot, q, kind, window):
+            targets_q.append(q)
+            if len(targets_q) == 3:
+                break
+    if len(targets_q) < 3:
+        raise LabkitError(f"{robot.name}: found no 3 well-conditioned IK targets inside the joint window")
+    move = [home, targets_q[0]]
+    p0 = fk(robot, home)[:3, 3]
+    directions = [np.array(v, float) for v in ([1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1])]
+    if kind == "planar":
+        directions = directions[:4]
+    line_pts = arc_spec = None
+    for length in (0.15, 0.1, 0.05):
+        for u in directions:
+            end = p0 + length * reach * u
+            if _cartesian_ok(robot, line(p0, end), home, window, 2.0):
+                line_pts = np.round(np.array([p0, end]) * 1000.0, 1)
+                break
+        if line_pts is not None:
+            break
+    for radius in (0.1, 0.06, 0.03):
+        r = radius * reach
+        for start in (0.0, 90.0, 180.0, 270.0):
+            center = p0 - r * np.array([math.cos(math.radians(start)), math.sin(math.radians(start)), 0.0])
+            for sweep in (90.0, -90.0):
+                path = arc(center, r, math.radians(start), math.radians(sweep))
+                if _cartesian_ok(robot, path, home, window, 2.0):
+                    arc_spec = {"center_mm": [round(float(v), 1) for v in center * 1000.0],
+                                "radius_mm": round(r * 1000.0, 1), "start_deg": start, "sweep_deg": sweep}
+                    break
+            if arc_spec:
+                break
+        if arc_spec:
+            break
+    if line_pts is None or arc_spec is None:
+        raise LabkitError(f"{robot.name}: found no Cartesian line/arc from the home pose inside the joint window")
+
+    def disp(q):
+        return [round(float(v), 1) for v in joints_to_display(robot, q)]
+
+    params = {
+        "home": disp(home),
+        "poses": [disp(q) for q in poses],
+        "targets": [[round(float(v), 1) for v in _target_to_display(robot, fk(robot, q), kind)] for q in targets_q],
+        "move": [disp(q) for q in move],
+        "line_mm": line_pts.tolist(),
+        "arc": arc_spec,
+        "duration": 2.0,
+        "readings": 2,
+    }
+    return LabDefaults(_kind(robot, kind), kind, reach, params)
+
+
+def _parameters_source(values, names):
+    lines = []
+    for name in names:
+        text = json.dumps(values[name]) if not isinstance(values[name], str) else repr(values[name]).replace("'", '"')
+        lines.append(f"{name} = {text}  # {_PARAM_DOC.get(name, '')}".rstrip(" #"))
+    return "\n".join(lines)
+
+
+def _render_template(nb, values, title, robot_title):
+    """Fill a template notebook: parameters cell, title placeholders."""
+    import ast
+
+    for cell in nb.cells:
+        if cell.cell_type == "markdown":
+            cell.source = cell.source.replace("{{LAB_TITLE}}", title).replace("{{ROBOT_TITLE}}", robot_title)
+        if "parameters" in cell.metadata.get("tags", []):
+            names = []
+            for node in ast.parse(cell.source).body:
+                if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name):
+                    names.append(node.targets[0].id)
+            cell.source = _parameters_source(values, names)
+    nb.metadata["title"] = title
+    return nb
+
+
+def template_values(robot, robot_ref, stem, defaults=None):
+    """Parameter values of one lab notebook: the robot's defaults plus robot, port, files.
+
+    Parameters
+    ----------
+    robot : Robot
+    robot_ref : str
+        How the notebook names the robot (file name inside the lab, or a bundled name).
+    stem : str
+        Notebook name without ``.ipynb`` (for ``output_dir``).
+    defaults : LabDefaults, optional
+
+    Returns
+    -------
+    dict
+    """
+    defaults = defaults or lab_defaults(robot)
+    return {**defaults.parameters, "robot": robot_ref,
+            "port": f"sim://{robot_ref}?clock=lockstep&seed=0&calibrated=1",
+            "measurements": "", "output_dir": f"{stem}_files"}
+
+
+def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
+    """Create a lab folder for ``robot`` from the generic template notebooks.
+
+    Writes ``robot.toml`` (the robot file, with a servo calibration added to joints that have
+    none, so the virtual arm and a servo board can drive it) and the notebooks
+    ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``, ``05_calibration``
+    with their parameters picked by :func:`lab_defaults`, plus a ``README.md``.
+
+    Parameters
+    ----------
+    lab_dir : str or os.PathLike
+        The folder to create.
+    robot : str or os.PathLike
+        Robot file or bundled robot name.
+    title : str, optional
+        Lab title (default ``"<robot title> lab"``).
+    force : bool
+        Write into an existing non-empty folder (files of the same names are replaced).
+
+    Returns
+    -------
+    NewLab
+
+    Raises
+    ------
+    LabkitError
+        The folder exists and is not empty (without ``force``), the robot cannot be loaded,
+        or no defaults fit it.
+    """
+    import nbformat
+
+    folder = Path(lab_dir)
+    if folder.exists() and any(folder.iterdir()) and not force:
+        raise LabkitError(f"expected a new or empty lab folder, got {str(folder)!r} (not empty; use --force)")
+    model = with_servos(Robot.load(robot))
+    defaults = lab_defaults(model)
+    templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
+    if not templates:
+        raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
+    folder.mkdir(parents=True, exist_ok=True)
+    robot_file = folder / ROBOT_FILE
+    model.to_toml(robot_file)
+    title = title or f"{model.title or model.name} lab"
+    written = []
+    for tpl in templates:
+        nb = nbformat.read(str(tpl), as_version=4)
+        values = template_values(model, ROBOT_FILE, tpl.stem, defaults)
+        nb = _render_template(nb, values, title, model.title or model.name)
+        out = folder / tpl.name
+        nbformat.write(nb, str(out))
+        written.append(out)
+    (folder / "README.md").write_text(
+        f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.kind}, target kind "
+        f"`{defaults.target}`), made with `labkit new`.\n\n"
+        + "".join(f"* `{p.name}`\n" for p in written)
+        + "\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
+          "virtual arm, `sim://`). On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`.\n",
+        encoding="utf-8")
+    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind)
+

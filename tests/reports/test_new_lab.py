@@ -1,0 +1,178 @@
+"""``labkit new``: a lab for any arm from the generic templates, rendered like the seed labs.
+
+Six robots of different kinds: four bundled (spatial 3-DOF servo arm, planar 3R, 6-DOF PUMA with
+poses as targets, RPP with two prismatic joints) and two written only here (a 4-DOF
+yaw-pitch-pitch-pitch arm and a SCARA with a prismatic quill). Every lab is scaffolded and all
+30 notebooks execute on the virtual arm (``sim://``) in one ``render`` batch (2 workers, no PDF);
+every notebook ends with ``Checks.assert_all()``, so a rendered notebook that is ok passed all
+its checks.
+"""
+
+import ast
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import require
+from labkit.exceptions import LabkitError
+
+TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration"]
+
+YPP4 = """format = "labkit-robot/1"
+name = "ypp4_test"
+title = "4-DOF yaw-pitch-pitch-pitch arm (test only)"
+convention = "standard"
+units = { length = "mm", angle = "deg" }
+
+[[joint]]
+name = "yaw"
+d = 80
+alpha = 90
+limits = [-150, 150]
+
+[[joint]]
+name = "shoulder"
+a = 120
+limits = [-10, 170]
+
+[[joint]]
+name = "elbow"
+a = 100
+limits = [-150, 150]
+
+[[joint]]
+name = "wrist"
+a = 60
+limits = [-120, 120]
+"""
+
+SCARA = """format = "labkit-robot/1"
+name = "scara_test"
+title = "SCARA RRP with a prismatic quill (test only)"
+convention = "standard"
+units = { length = "mm", angle = "deg" }
+
+[[joint]]
+name = "shoulder"
+d = 200
+a = 150
+limits = [-120, 120]
+
+[[joint]]
+name = "elbow"
+a = 120
+alpha = 180
+limits = [-140, 140]
+
+[[joint]]
+name = "quill"
+type = "prismatic"
+limits = [20, 120]
+"""
+
+KINDS = {"arduino_arm_3dof": "spatial 3-DOF", "planar3r_seed003": "planar 3-DOF", "puma560": "6-DOF pose",
+         "rpp_seed002": "spatial 3-DOF, prismatic", "ypp4": "4-DOF", "scara": "spatial 3-DOF, prismatic"}
+
+
+@pytest.fixture
+def robot_files(tmp_path):
+    files = {}
+    for name, text in (("ypp4", YPP4), ("scara", SCARA)):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text)
+        files[name] = str(path)
+    return {"arduino_arm_3dof": "arduino_arm_3dof", "planar3r_seed003": "planar3r_seed003", "puma560": "puma560",
+            "rpp_seed002": "rpp_seed002", **files}
+
+
+def test_templates_carry_parameters_and_assignment_tags():
+    nbformat = require("nbformat")
+    from labkit.reports._scaffold import TEMPLATE_DIR
+
+    assert sorted(p.stem for p in TEMPLATE_DIR.glob("*.ipynb")) == TEMPLATES
+    for stem in TEMPLATES:
+        nb = nbformat.read(str(TEMPLATE_DIR / f"{stem}.ipynb"), as_version=4)
+        tags = [t for c in nb.cells for t in c.metadata.get("tags", [])]
+        assert tags.count("parameters") == 1 and {"solution", "tests", "hidden-tests"} <= set(tags), (stem, tags)
+        text = "\n".join(c.source for c in nb.cells)
+        assert "seed" not in nb.cells[0].source.lower(), "templates are generic, not copies of the seed labs"
+        assert "{{LAB_TITLE}}" in nb.cells[0].source and "assert_all()" in nb.cells[-1].source
+        assert "from labkit." in text and "._" not in text.replace("._files", ""), "public labkit names only"
+
+
+def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
+    from labkit.kinematics import ik_all
+    from labkit.reports import joints_from_display, lab_defaults, servo_window, target_error, target_from_display
+    from labkit.reports._scaffold import with_servos
+    from labkit.robot import Robot
+
+    for key, ref in robot_files.items():
+        robot = with_servos(Robot.load(ref))
+        d = lab_defaults(robot)
+        assert d.kind == KINDS[key], key
+        window = servo_window(robot)
+        for q in joints_from_display(robot, d.parameters["poses"]):
+            assert np.all(q >= window[:, 0] - 1e-9) and np.all(q <= window[:, 1] + 1e-9), key
+        for row in d.parameters["targets"]:
+            goal = target_from_display(robot, row)
+            sols = ik_all(robot, goal)
+            errors = [target_error(robot, q, goal) for q, ok in zip(np.atleast_2d(sols.q), np.atleast_1d(sols.valid)) if ok]
+            # targets are printed to 0.1 mm / 0.1 deg: the IK of the printed target reaches it exactly
+            assert errors and min(errors) < 1e-6, (key, row)
+
+
+def test_new_lab_refuses_a_non_empty_folder_and_rejects_a_missing_robot(tmp_path):
+    from labkit.reports import new_lab
+
+    (tmp_path / "lab").mkdir()
+    (tmp_path / "lab" / "notes.txt").write_text("mine")
+    with pytest.raises(LabkitError, match="not empty"):
+        new_lab(tmp_path / "lab", "arduino_arm_3dof")
+    with pytest.raises(LabkitError):
+        new_lab(tmp_path / "other", tmp_path / "no_such_robot.toml")
+
+
+def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
+    from labkit.cli import main
+    from labkit.reports import notebook_parameters
+    from labkit.robot import Robot
+
+    assert main(["new", str(tmp_path / "scara_lab"), "--robot", robot_files["scara"], "--title", "SCARA lab"]) == 0
+    out = capsys.readouterr().out
+    assert "spatial 3-DOF, prismatic" in out and "labkit render" in out
+    lab = tmp_path / "scara_lab"
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
+    robot = Robot.load(lab / "robot.toml")
+    assert all(lk.servo is not None for lk in robot.links), "servo calibrations added so the arm can be driven"
+    params = notebook_parameters(lab / "02_fk_check.ipynb")
+    assert ast.literal_eval(params["robot"]) == "robot.toml"
+    assert ast.literal_eval(params["port"]).startswith("sim://robot.toml?")
+    assert len(ast.literal_eval(params["poses"])) == 1 + 2 * robot.n
+    nb = json.loads((lab / "01_robot_dh.ipynb").read_text())
+    assert nb["cells"][0]["source"][0].startswith("# SCARA lab: 1.")
+    assert main(["new", str(lab), "--robot", robot_files["scara"]]) == 2  # not empty
+
+
+@pytest.mark.slow
+@pytest.mark.notebooks
+def test_six_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_files, capsys):
+    require("papermill")
+    from labkit.reports import new_lab, render
+
+    labs = [new_lab(tmp_path / "labs" / key, ref) for key, ref in robot_files.items()]
+    assert [lab.kind for lab in labs] == [KINDS[k] for k in robot_files]
+    t0 = time.perf_counter()
+    results, wall = render([str(lab.folder) for lab in labs], tmp_path / "reports", jobs=2, pdf=False, progress=None,
+                           timeout=300)
+    failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
+    assert not failed, "\n".join(failed)
+    assert len(results) == 6 * len(TEMPLATES)
+    for r in results:
+        assert r.html.is_file() and r.notebook.is_file()
+        assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"
+    with capsys.disabled():
+        print(f"\n6 labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
+              f"({time.perf_counter() - t0:.1f} s with the index)")
