@@ -54,7 +54,7 @@ _PARAM_DOC = {
     "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 6-DOF: + roll, pitch, yaw [deg])",
     "move": "joint move: start and end rows [deg | mm]",
     "line_mm": "Cartesian line: start and end points [mm]",
-    "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z",
+    "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z (or about \"normal\", a 4-DOF arm's vertical plane)",
     "duration": "duration of each move [s]",
     "readings": "readings per pose and quantity",
     "measurements": "measurement log (CSV) to use; \"\" = measure on `port` now (into output_dir)",
@@ -127,7 +127,7 @@ def with_servos(robot):
 
 def _kind(robot, target):
     n = robot.n
-    label = {"planar": f"planar {n}-DOF", "pose": f"{n}-DOF pose"}.get(target)
+    label = {"planar": f"planar {n}-DOF", "pose": f"{n}-DOF pose" if n >= 6 else None}.get(target)
     if label is None:
         label = "spatial 3-DOF" if n == 3 else f"{n}-DOF"
     if not all(robot.is_revolute):
@@ -159,6 +159,8 @@ def _reachable(robot, q, kind, window):
 def _well_conditioned(robot, q, kind):
     J = jacobian(robot, q)
     rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
+    if kind == "pose" and robot.n < 6:  # a 4-DOF arm's pose targets: the position part must stay well-conditioned
+        rows = [0, 1, 2]
     s = np.linalg.svd(J[rows], compute_uv=False)
     reach = max(robot_reach(robot), 1e-3)
     return s[min(len(rows), robot.n) - 1] > 0.05 * reach
@@ -232,24 +234,42 @@ def lab_defaults(robot) -> LabDefaults:
     directions = [np.array(v, float) for v in ([1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1])]
     if kind == "planar":
         directions = directions[:4]
+    arc_normals = [None]  # arcs in the x-y plane about +z
+    if kind == "pose" and n < 6:
+        # a 4-DOF (yaw-pitch-pitch-pitch) arm holds its orientation only where the yaw stays put:
+        # lines and arcs in the vertical plane through the base axis and the tool
+        radial = np.array([p0[0], p0[1], 0.0])
+        radial = radial / np.linalg.norm(radial) if np.linalg.norm(radial) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        directions = [radial, -radial, directions[4], directions[5]]
+        arc_normals = [np.cross(radial, [0.0, 0.0, 1.0])]
+    # display precision [mm, deg]: 0.1, except for a 4-DOF arm's pose targets, whose orientation and
+    # position must agree to 1e-6 rad (a rounded point no longer lies in the tool's vertical plane)
+    digits = 6 if kind == "pose" and n < 6 else 1
     line_pts = arc_spec = None
     for length in (0.15, 0.1, 0.05):
         for u in directions:
             end = p0 + length * reach * u
             if _cartesian_ok(robot, line(p0, end), home, window, 2.0):
-                line_pts = np.round(np.array([p0, end]) * 1000.0, 1)
+                line_pts = np.round(np.array([p0, end]) * 1000.0, digits)
                 break
         if line_pts is not None:
             break
     for radius in (0.1, 0.06, 0.03):
         r = radius * reach
-        for start in (0.0, 90.0, 180.0, 270.0):
-            center = p0 - r * np.array([math.cos(math.radians(start)), math.sin(math.radians(start)), 0.0])
-            for sweep in (90.0, -90.0):
-                path = arc(center, r, math.radians(start), math.radians(sweep))
-                if _cartesian_ok(robot, path, home, window, 2.0):
-                    arc_spec = {"center_mm": [round(float(v), 1) for v in center * 1000.0],
-                                "radius_mm": round(r * 1000.0, 1), "start_deg": start, "sweep_deg": sweep}
+        for normal in arc_normals:
+            u, v = arc(p0, r, 0.0, 1.0, normal=normal).axes  # the plane's in-plane axes
+            for start in (0.0, 90.0, 180.0, 270.0):
+                th = math.radians(start)
+                center = p0 - r * (math.cos(th) * u + math.sin(th) * v)
+                for sweep in (90.0, -90.0):
+                    path = arc(center, r, th, math.radians(sweep), normal=normal)
+                    if _cartesian_ok(robot, path, home, window, 2.0):
+                        arc_spec = {"center_mm": [round(float(c), digits) for c in center * 1000.0],
+                                    "radius_mm": round(r * 1000.0, digits), "start_deg": start, "sweep_deg": sweep}
+                        if normal is not None:
+                            arc_spec["normal"] = [round(float(c), 12) for c in normal]
+                        break
+                if arc_spec:
                     break
             if arc_spec:
                 break
@@ -264,7 +284,8 @@ def lab_defaults(robot) -> LabDefaults:
     params = {
         "home": disp(home),
         "poses": [disp(q) for q in poses],
-        "targets": [[round(float(v), 1) for v in _target_to_display(robot, fk(robot, q), kind)] for q in targets_q],
+        "targets": [[round(float(v), digits) for v in _target_to_display(robot, fk(robot, q), kind)]
+                    for q in targets_q],
         "move": [disp(q) for q in move],
         "line_mm": line_pts.tolist(),
         "arc": arc_spec,

@@ -289,7 +289,7 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
     board = VirtualBoard(str(path), saved_calibration=True)
     assert board.cal == rows and not board.flags & 0x01
     assert all(r[4] <= q <= r[5] for q, r in zip(board.q, rows))
-    with pytest.raises(LabkitError, match="invalid under the new calibration"):
+    with pytest.raises(LabkitError, match="CAL rejected: 6 LIMIT"):
         Arm(f"sim://{path}?clock=lockstep", robot=str(path))
     with Arm(f"sim://{path}?clock=lockstep&calibrated=1", robot=str(path)) as arm:
         q = np.radians([10, 60, -120, 20, 30, 40])
