@@ -432,7 +432,7 @@ class SphericalWrist:
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
         RR0t = R @ self.R0.T
         V = np.concatenate([(RR0t @ self.a6).T, (RR0t @ self.x6).T], axis=1)  # (3, 2N)
-        a4, a5, a6, p = self.a4, self.a5, self.a6, self.a6
+        a4, a5, p = self.a4, self.a5, self.a6
         K1, K2, K4, K5 = self._K
         k12, cr, a5p, c5, c6 = self._k12, self._cr, self._a5p, self._c5, self._c6
         den = k12 * k12 - 1.0

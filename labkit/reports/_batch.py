@@ -28,8 +28,8 @@ from pathlib import Path, PurePosixPath
 
 from labkit.exceptions import LabkitError
 from labkit.reports._execute import find_notebooks, lab_of
-from labkit.reports._grade import SubmissionResult, grade_submission
-from labkit.reports._render import RenderResult, find_chromium, render_one, write_index
+from labkit.reports._grade import grade_submission
+from labkit.reports._render import find_chromium, render_one, write_index
 from labkit.reports._sandbox import Limits
 
 __all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]

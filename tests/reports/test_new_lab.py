@@ -11,7 +11,6 @@ its checks.
 import ast
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest

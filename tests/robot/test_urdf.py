@@ -9,7 +9,6 @@ from conftest import require
 
 from labkit.exceptions import RobotError
 from labkit.robot import Convention, JointType, Robot
-from labkit.rotations import matrix_from_rpy, rpy_from_matrix
 
 
 def _urdf_fk(path, robot, q):
