@@ -18,7 +18,6 @@ from labkit.kinematics._ik import (
 from labkit.kinematics._ik_detect import pose_from_position_pitch
 from labkit.kinematics._statics import (
     joint_torques,
-    skew,
     wrench_transform_matrix,
     transform_wrench,
     singular_values,
@@ -46,7 +45,6 @@ __all__ = [
     "ik_numeric",
     "pose_from_position_pitch",
     "joint_torques",
-    "skew",
     "wrench_transform_matrix",
     "transform_wrench",
     "singular_values",

@@ -26,12 +26,12 @@ from typing import Literal
 
 import numpy as np
 
+from labkit.rotations import skew
 from labkit.validation import as_batch
 from labkit.exceptions import OptionError, ShapeError
 
 __all__ = [
     "joint_torques",
-    "skew",
     "wrench_transform_matrix",
     "transform_wrench",
     "singular_values",
@@ -90,30 +90,6 @@ def joint_torques(J, wrench):
     J = _jac(J)
     F = as_batch(wrench, (6,), "wrench")
     return np.einsum("...in,...i->...n", J, F)
-
-
-def skew(p):
-    """Cross-product matrix ``[p]x`` with ``[p]x @ v == cross(p, v)``.
-
-    Parameters
-    ----------
-    p : array_like, shape (..., 3)
-
-    Returns
-    -------
-    S : ndarray, shape (..., 3, 3)
-
-    Examples
-    --------
-    >>> skew([1.0, 2.0, 3.0]) @ [0.0, 0.0, 1.0]
-    array([ 2., -1.,  0.])
-    """
-    p = as_batch(p, (3,), "p")
-    S = np.zeros(p.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -p[..., 2], p[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = p[..., 2], -p[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -p[..., 1], p[..., 0]
-    return S
 
 
 def wrench_transform_matrix(p, R=None):

@@ -6,6 +6,7 @@ import pytest
 from labkit.robot import Link, Robot
 from labkit.exceptions import ShapeError
 from labkit.kinematics import fk, jacobian
+from labkit.rotations import skew
 from labkit.kinematics import (
     condition_number,
     damping_factor,
@@ -14,7 +15,6 @@ from labkit.kinematics import (
     joint_torques,
     manipulability,
     singular_values,
-    skew,
     transform_wrench,
     wrench_transform_matrix,
 )
