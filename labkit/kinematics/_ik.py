@@ -33,7 +33,7 @@ import numpy as np
 
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric, _ik_small
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -344,6 +344,10 @@ def ik_all(robot, target, *, solver="auto"):
     """
     kind = target_kind(robot)
     impl = _analytic(robot, solver)
+    small, lead = _ik_small.solve_small(robot, impl, target)
+    if small is not None:  # a few targets of a 3R family: plain Python, same results
+        q, reach, valid, dist = _ik_small.arrays(small, lead, len(impl.branches), robot.n)
+        return IKSolutions(q, reach, valid, tuple(impl.branches), dist, impl.name)
     flat, lead = _targets(robot, target, kind)
     return _solve_all(robot, impl, kind, flat, lead)
 
@@ -448,6 +452,10 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             raise OptionError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
         return _ik_one_numeric(robot, kind, target, q_near)
     idx = None if branch is None else _branch_index(impl.branches, impl.aliases, branch)
+    small, lead = _ik_small.solve_small(robot, impl, target)
+    out = None if small is None else _ik_small.pick(robot, small, idx, q_near)
+    if out is not None:  # else the batched path below raises or broadcasts q_near
+        return np.array(out).reshape(lead + (robot.n,))
     flat, lead = _targets(robot, target, kind)
     sols = _solve_all(robot, impl, kind, flat, lead)
     n = robot.n
