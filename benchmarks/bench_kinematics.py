@@ -41,7 +41,7 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics import _ik_small, fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
@@ -195,6 +195,13 @@ def single_calls(args):
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
+            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            try:
+                r["ik 1 br. batched"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
+                                         seconds(lm, None) if ets else None, None)
+                r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
+            finally:
+                _ik_small.SMALL_TARGETS = small
         else:
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
                                   seconds(lm, None) if ets else None, None)
@@ -216,7 +223,8 @@ def single_calls(args):
                   f"{(f'{rt:.1f}' if rt else 'n/a'):>8}{(f'{lk / rt:.2f}' if rt else ''):>7}"
                   f"{(f'{ev:.1f}' if ev else ''):>10}{(f'{pn:.1f}' if pn else ''):>8}{(f'{lk / pn:.2f}' if pn else ''):>7}")
     print("rtb C: ETS.fkine / jacob0 / ik_LM (C++, tol 1e-10; for the 3-DOF arm masked to the position);"
-          " rtb eval: ETS.eval (no SE3 wrapper); pin: pinocchio frame placement / frame Jacobian")
+          " rtb eval: ETS.eval (no SE3 wrapper); pin: pinocchio frame placement / frame Jacobian;"
+          " 'batched': the same call forced through the batched IK path (before the small-target path)")
 
 
 def floor_rate(shape_tail, N, args):
