@@ -122,6 +122,25 @@ def normalize_angles(q, limits, revolute):
     return q
 
 
+def wrist_branches(shoulder):
+    """Branch names and their three-letter aliases of an 8-solution 6R arm.
+
+    Parameters
+    ----------
+    shoulder : tuple of str
+        The two shoulder names, in the solver's order (e.g. ``("right", "left")``).
+
+    Returns
+    -------
+    branches : tuple of str
+        ``"<shoulder>_<up|down>_<noflip|flip>"``, shoulder slowest.
+    aliases : dict
+        ``{"run": "right_up_noflip", ...}``.
+    """
+    names = [(s, e, w) for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")]
+    return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
+
+
 # --------------------------------------------------------------------------
 # Planar 3R
 # --------------------------------------------------------------------------
@@ -400,14 +419,7 @@ class SphericalWrist:
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
-        shoulder = ("right", "left")
-        self.branches = tuple(
-            f"{s}_{e}_{w}" for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")
-        )
-        self.aliases = {
-            f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}"
-            for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")
-        }
+        self.branches, self.aliases = wrist_branches(("right", "left"))
 
     def solve(self, T):
         """The eight branches (arm x elbow x wrist) of pose targets.

@@ -42,6 +42,7 @@ from labkit.kinematics._ik_analytic import (
     _rot_batch,
     _scale,
     _unit,
+    wrist_branches,
 )
 
 
@@ -116,13 +117,7 @@ class ThreeParallel:
         if self.L1 < _TOL * scale or self.L2 < _TOL * scale:
             raise _NotThisStructure("axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
-        self.branches = tuple(
-            f"{s}_{e}_{w}" for s in ("left", "right") for e in ("up", "down") for w in ("noflip", "flip")
-        )
-        self.aliases = {
-            f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}"
-            for s in ("left", "right") for e in ("up", "down") for w in ("noflip", "flip")
-        }
+        self.branches, self.aliases = wrist_branches(("left", "right"))
 
     def solve(self, T):
         """The eight branches (shoulder x elbow x wrist) of pose targets.
