@@ -489,7 +489,7 @@ static uint8_t hull_inside(const lk_t *lk, uint8_t j, const float *c, uint8_t or
     return lk_hull_inside(c, order, (float)lo, (float)hi);
 }
 
-static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
+static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
     const int32_t *a = c->a;
     uint8_t order, j, k, slot;
     uint16_t i;
@@ -512,7 +512,8 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
         float start = seg->c[j][0];
         float prev = lk->q_count ? lk->tail_q[j] : (float)lk->q[j];
         float d = start - prev;
-        if (!hull_inside(lk, j, seg->c[j], order)) {
+        /* a MOVE's end points were checked and its cubic is monotone between them: no hull test */
+        if (!move && !hull_inside(lk, j, seg->c[j], order)) {
             /* hull test inconclusive: sample at s = k/32 (runtime clamping covers the rest) */
             for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
                 int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
@@ -529,7 +530,7 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c) {
     for (j = 0; j < LK_JOINTS; j++) lk->tail_q[j] = lk_poly(seg->c[j], order, 1.0f);
     lk->q_count++;
     if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
-    ok_begin(c->seq, LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();
+    ok_begin(c->seq, move ? LK_P("MOVE") : LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();
     return 1;
 }
 
@@ -587,7 +588,7 @@ static int8_t command_index(const char *tok, const char **name_p) {
 
 /* argument counts each command accepts (bit n: n arguments), in command_names order; SEG checks its own */
 static const uint8_t command_argc[] LK_FLASH = {
-    1, 1, 1, 1u << LK_JOINTS, 2, 0xFF, 1, 3, 1, 2, (1u << 1) | (1u << 7), 1, 1, (1u << 1) | (1u << 3)};
+    1, 1, 1, 1u << (LK_JOINTS + 1), 2, 0xFF, 1, 3, 1, 2, (1u << 1) | (1u << 7), 1, 1, (1u << 1) | (1u << 3)};
 
 static uint8_t dispatch(lk_t *lk, int8_t idx, const call_t *c) {
     const int32_t *a = c->a;
@@ -606,17 +607,24 @@ static uint8_t dispatch(lk_t *lk, int8_t idx, const call_t *c) {
     } else if (idx == 3 /* MOVE */) {
         NOTBUSY();
         if (!check_joints(lk, c, a, lk->cal)) return 0;
-        for (j = 0; j < LK_JOINTS; j++) lk->q[j] = a[j];
-        lk->state = LK_IDLE;
-        update_pulses(lk);
-        ok_begin(c->seq, LK_P("MOVE")); out_end();
+        {   /* MOVE q... dur = one rest-to-rest cubic segment from the commanded position */
+            int32_t s[2 + 4 * LK_JOINTS], *p = s + 2;
+            call_t m;
+            m.seq = c->seq; m.argc = 2 + 4 * LK_JOINTS; m.a = s;
+            s[0] = a[LK_JOINTS]; s[1] = 3;
+            for (j = 0; j < LK_JOINTS; j++, p += 4) {
+                int32_t d = a[j] - lk->q[j];
+                p[0] = lk->q[j]; p[1] = 0; p[2] = 3 * d; p[3] = -2 * d;
+            }
+            return cmd_seg(lk, &m, 1);
+        }
     } else if (idx == 4 /* GRIP */) {
         if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) { err_msg(c->seq, LK_E_RANGE, s_gripper); return 0; }
         lk->grip_us = (uint16_t)a[0];
         update_pulses(lk);
         ok_begin(c->seq, LK_P("GRIP")); out_sp_i(lk->grip_us); out_end();
     } else if (idx == 5 /* SEG */) {
-        return cmd_seg(lk, c);
+        return cmd_seg(lk, c, 0);
     } else if (idx == 6 /* STOP */) {
         halt(lk);
         ok_begin(c->seq, LK_P("STOP")); out_q(lk); out_end();

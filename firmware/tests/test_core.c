@@ -93,6 +93,21 @@ static void run_frames(uint32_t from, uint32_t to) {
     }
 }
 
+/* a MOVE (q..., dur) runs as a rest-to-rest cubic; run it to its end and rewind the frame clock to boot */
+static void finish_move(void) {
+    run_frames(0, 20);
+    CHECK(lk.state == LK_IDLE && strstr(stub_out, "EV DONE ") != NULL, "a MOVE did not end in 400 ms: %s", stub_out);
+    now_ms = 0;
+    lk_poll(&lk, 0, 0);
+    lk_frame(&lk, 0);
+}
+
+static void move_done(const char *line) {
+    send(line);
+    CHECK(starts(stub_out, "OK MOVE 5*") && lk.state == LK_RUN, "%s", stub_out);
+    finish_move();
+}
+
 static void test_helpers(void) {
     CHECK(lk_crc16((const uint8_t *)"123456789", 9) == 0x29B1, "crc %04X", lk_crc16((const uint8_t *)"123456789", 9));
     float c[4] = {4500, 0, 13500, -9000};
@@ -131,15 +146,15 @@ static void test_handshake_and_framing(void) {
     /* state-changing commands must be sealed; read-only ones may be typed */
     uint16_t before[4];
     memcpy(before, stub_pulses, sizeof before);
-    const char *unsealed[] = {"MOVE 4500 9000 3000", "#5 MOVE 4500 9000 3000", "GRIP 1200", "STOP", "TIMEOUT 0",
-                              "STREAM 10", "CAL 0", "SAVE", "DEFAULTS", "$MOVE 4500 9000 3000"};
+    const char *unsealed[] = {"MOVE 4500 9000 3000 250", "#5 MOVE 4500 9000 3000 250", "GRIP 1200", "STOP", "TIMEOUT 0",
+                              "STREAM 10", "CAL 0", "SAVE", "DEFAULTS", "$MOVE 4500 9000 3000 250"};
     for (size_t i = 0; i < sizeof unsealed / sizeof *unsealed; i++) {
         send_raw(unsealed[i]);
         CHECK(starts(stub_out, "ERR 1 BADCHK unsealed*"), "%s -> %s", unsealed[i], stub_out);
     }
     /* sealed without #seq */
     {
-        const char *body = "MOVE 4500 9000 3000 ";
+        const char *body = "MOVE 4500 9000 3000 250 ";
         char line[64];
         snprintf(line, sizeof line, "%s*%04X", body, lk_crc16((const uint8_t *)body, (uint16_t)strlen(body)));
         send_raw(line);
@@ -147,7 +162,7 @@ static void test_handshake_and_framing(void) {
     }
     CHECK(memcmp(before, stub_pulses, sizeof before) == 0 && lk.timeout_ms == 500 && lk.stream_hz == 0, "unsealed ran");
     /* the line-split attack of issue 13: a byte turned into CR/LF runs neither half */
-    sealed(buf, sizeof buf, 5, "MOVE 4500 9000 3000");
+    sealed(buf, sizeof buf, 5, "MOVE 4500 9000 3000 250");
     for (size_t k = 1; k < strlen(buf); k++) {
         char split[256];
         memcpy(split, buf, strlen(buf) + 1);
@@ -157,11 +172,12 @@ static void test_handshake_and_framing(void) {
     }
     CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "a split line moved something");
     /* the echo: CRC of what was parsed */
-    send_raw(sealed(buf, sizeof buf, 9, "MOVE +4500 09000 3000"));
-    CHECK(starts(stub_out, "OK #9 MOVE p=BE59*"), "echo of the canonical MOVE 4500 9000 3000: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 9, "MOVE +4500 09000 3000 0250"));
+    CHECK(starts(stub_out, "OK #9 MOVE p=C36C 5*"), "echo of the canonical MOVE 4500 9000 3000 250: %s", stub_out);
     send("STATUS");
     CHECK(strstr(stub_out, " last=9*") != NULL, "%s", stub_out);
-    send_raw(sealed(buf, sizeof buf, 10, "MOVE 4500 90000 3000"));
+    finish_move();
+    send_raw(sealed(buf, sizeof buf, 10, "MOVE 4500 90000 3000 250"));
     CHECK(starts(stub_out, "ERR #10 6 LIMIT"), "%s", stub_out);
     send("STATUS");
     CHECK(strstr(stub_out, " last=9*") != NULL, "a rejected request is not last: %s", stub_out);
@@ -202,22 +218,40 @@ static void test_handshake_and_framing(void) {
 static void test_moves_and_limits(void) {
     boot();
     CHECK(stub_pulses[0] == 3000 && stub_pulses[3] == 3000, "boot pulses %u %u", stub_pulses[0], stub_pulses[3]);
-    send("MOVE 4500 9000 3000");
-    CHECK(starts(stub_out, "OK MOVE*"), "%s", stub_out);
+    send("MOVE 4500 9000 3000 250");
+    CHECK(starts(stub_out, "OK MOVE 5*") && lk.state == LK_RUN && lk.q[0] == 9000, "starts as a trajectory: %s", stub_out);
+    run_frames(0, 7); /* t = 140 ms: 120 ms into the 250 ms cubic */
+    CHECK(lk.q[0] > 6750 && lk.q[0] < 9000 - 1, "half way down: %d", (int)lk.q[0]);
+    run_frames(7, 20);
+    CHECK(lk.state == LK_IDLE && lk.done == 1, "state %d done %u", lk.state, (unsigned)lk.done);
     CHECK(stub_pulses[0] == 2000 && stub_pulses[1] == 3000 && stub_pulses[2] == 1667, "pulses %u %u %u",
           stub_pulses[0], stub_pulses[1], stub_pulses[2]);
     uint16_t before[4];
     memcpy(before, stub_pulses, sizeof before);
-    const char *bad[] = {"MOVE 4500 19000 3000", "MOVE -1 0 0", "MOVE 1 2", "MOVE 1 2 3 4", "MOVE 1.5 2 3",
-                         "MOVE 2147483648 0 0", "MOVE -2147483649 0 0", "MOVE + 0 0", "MOVE 0x10 0 0",
+    const char *bad[] = {"MOVE 4500 19000 3000 250", "MOVE -1 0 0 250", "MOVE 1 2 3", "MOVE 1 2 3 4 5", "MOVE 1.5 2 3 250",
+                         "MOVE 2147483648 0 0 250", "MOVE -2147483649 0 0 250", "MOVE + 0 0 250", "MOVE 0x10 0 0 250",
+                         "MOVE 4500 9000 3000 0", "MOVE 4500 9000 3000 60001", "MOVE 9000 9000 3000 5", "MOVE 4500 9000 3000",
                          "GRIP 2501", "GRIP 499", "CAL 4", "CAL 0 500 500 0 1 0 18000", "CAL 0 500 2500 0 1 10000 18000"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         send(bad[i]);
         CHECK(starts(stub_out, "ERR "), "%s -> %s", bad[i], stub_out);
         CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "%s moved something", bad[i]);
     }
-    send("MOVE 4500 19000 3000");
+    send("MOVE 4500 19000 3000 250");
     CHECK(starts(stub_out, "ERR 6 LIMIT joint 1*"), "%s", stub_out);
+    send("MOVE 4500 9000 3000 0");
+    CHECK(starts(stub_out, "ERR 5 RANGE duration*"), "%s", stub_out);
+    /* issue 13: a MOVE faster than the speed limit (45 deg in 50 ms: 1350 deg/s > 600) is refused, nothing moves */
+    send("MOVE 9000 9000 3000 50");
+    CHECK(starts(stub_out, "ERR 11 SPEED joint 0*") && lk.state == LK_IDLE && lk.q_count == 0 && lk.q[0] == 4500,
+          "%s", stub_out);
+    CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "an out-of-speed MOVE moved something");
+    send("MOVE 9000 9000 3000 113"); /* 1.5 * 4500 / 0.113 = 59735 cdeg/s <= 60000 */
+    CHECK(starts(stub_out, "OK MOVE"), "%s", stub_out);
+    send("MOVE 9000 9000 3000 113");
+    CHECK(starts(stub_out, "ERR 8 BUSY"), "%s", stub_out);
+    send("STOP");
+    CHECK(starts(stub_out, "OK STOP 4500 9000 3000*"), "%s", stub_out);
     send("GRIP 1900");
     CHECK(starts(stub_out, "OK GRIP 1900") && stub_pulses[3] == 3800, "%s", stub_out);
     send("STATUS");
@@ -227,7 +261,7 @@ static void test_moves_and_limits(void) {
 static void test_segments(void) {
     boot();
     send("TIMEOUT 0");
-    send("MOVE 4500 9000 3000");
+    move_done("MOVE 4500 9000 3000 250");
     run_frames(0, 5);
     /* frame clock: the next frame to program is #6, starting at 120 ms */
     send("SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0");
@@ -244,7 +278,7 @@ static void test_segments(void) {
     stub_clear();
     lk_frame(&lk, 56); /* t = 1120 ms: segment over */
     CHECK(lk.q[0] == 9000 && lk.state == LK_IDLE, "end q %d state %d", lk.q[0], lk.state);
-    CHECK(starts(stub_out, "EV DONE 1*"), "%s", stub_out);
+    CHECK(starts(stub_out, "EV DONE 2*"), "the MOVE and the segment: %s", stub_out);
 
     /* queue overflow, continuity, busy, stop */
     char line[200];
@@ -257,7 +291,7 @@ static void test_segments(void) {
     }
     send(line);
     CHECK(starts(stub_out, "ERR 7 QFULL"), "%s", stub_out);
-    send("MOVE 9000 9000 3000");
+    send("MOVE 9000 9000 3000 250");
     CHECK(starts(stub_out, "ERR 8 BUSY"), "%s", stub_out);
     send("STOP");
     CHECK(starts(stub_out, "OK STOP 9000 9000 3000*") && lk.q_count == 0 && lk.state == LK_IDLE, "%s", stub_out);
@@ -275,7 +309,7 @@ static void test_segments(void) {
 static void test_speed_limits(void) {
     boot();
     send("TIMEOUT 0");
-    send("MOVE 4500 9000 3000");
+    move_done("MOVE 4500 9000 3000 250");
     send("LIMITS 0");
     CHECK(starts(stub_out, "OK LIMITS 0 60000 0*"), "factory limits: %s", stub_out);
     send("LIMITS 0 30000 150000");

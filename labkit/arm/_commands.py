@@ -231,12 +231,15 @@ class BoardCommands:
                 raise _Reject(6, f"joint {j}")
 
     def _cmd_move(self, args):
-        self._nargs(args, self.joints)
+        # MOVE q0 .. q(J-1) dur_ms: one rest-to-rest cubic from the commanded position
+        # (c = q, 0, 3 dq, -2 dq), checked and run exactly like that SEG (docs/protocol.md 4.2)
+        self._nargs(args, self.joints + 1)
         self._not_busy()
-        self._check_joints(args)
-        self.q = [float(v) for v in args]
-        self.state = "IDLE"
-        return ""
+        self._check_joints(args[:self.joints])
+        seg = [args[self.joints], 3]
+        for q0, q1 in zip(self._q_int(), args[:self.joints]):
+            seg += [q0, 0, 3 * (q1 - q0), -2 * (q1 - q0)]
+        return self._cmd_seg(seg)
 
     def _cmd_grip(self, args):
         self._nargs(args, 1)

@@ -38,7 +38,8 @@ from labkit.exceptions import DeviceError, OptionError
 from labkit.arm._protocol import cdeg
 from labkit.arm._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm._wire import Wire
-from labkit.arm._segments import check_segment_speeds, feed_segments, segments_from_trajectory, wire_speed_limits
+from labkit.arm._segments import (check_segment_speeds, feed_segments, move_duration_ms, move_segment,
+                                  segments_from_trajectory, wire_speed_limits)
 from labkit.arm._feedback import record_stream
 from labkit.arm._ports import find_ports, handshake, open_port
 from labkit.arm._checks import finite, joint_vector
@@ -344,14 +345,18 @@ class Arm:
     def _check_q(self, q):
         return joint_vector(self.robot, q)
 
-    def move_joints(self, q, *, wait=False, tol=math.radians(1.0), max_wait=10.0):
-        """Command all joints at once (``MOVE``).
+    def move_joints(self, q, *, duration=None, wait=False, tol=math.radians(1.0), max_wait=10.0):
+        """Move all joints at once (``MOVE``: a rest-to-rest cubic the board runs); returns when it ends.
 
         Parameters
         ----------
         q : array_like, shape (n,)
             Joint values [rad]; checked against the joint limits and servo
             ranges before anything is sent.
+        duration : float, optional
+            Duration of the move [s]; by default the shortest one the robot
+            file's speed and acceleration limits allow. Checked against them
+            before sending, as the board checks it.
         wait : bool
             Wait until the sensed joints are within ``tol`` [rad] of ``q``
             (at most ``max_wait`` s).
@@ -364,16 +369,27 @@ class Arm:
         ------
         JointLimitError
             A joint outside its limits or servo range (nothing is sent).
+        TrajectoryError
+            ``duration`` too short for a joint's speed or acceleration limit (nothing is sent).
         DeviceError
             The board rejected or did not acknowledge the move, or (``wait``) the
             joints did not settle in time.
         """
         q = self._check_q(q)
         target = [cdeg(v) for v in q]
-
-        self._transact("MOVE", *target, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        now = [cdeg(v) for v in self._verify_status()[0].q]
+        if duration is None:
+            dur = move_duration_ms(now, target, *self.speed_limits())
+        else:
+            dur = int(round(finite("duration", duration, lo=0.001, hi=60.0, unit="s") * 1000))
+            check_segment_speeds(self.robot, [move_segment(now, target, dur)], *self.speed_limits())
+        self._transact("MOVE", *target, dur, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        while (st := self._verify_status()[0]).state == "RUN":  # STATUS also feeds the host-silence timer
+            self.sleep(min(0.05, dur / 1000.0))
+        if st.state == "HOLD":
+            raise DeviceError(f"{self.name}: the board halted MOVE {' '.join(map(str, target))} (host-silence timeout)")
         if self.check_moves:
-            got = [cdeg(v) for v in self._verify_status()[0].q]
+            got = [cdeg(v) for v in st.q]
             if got != target:
                 self._wire.hold(f"after MOVE {' '.join(map(str, target))} the board is commanded to "
                                 f"{' '.join(map(str, got))} cdeg")

@@ -142,6 +142,78 @@ def check_segment_speeds(robot, segs, vmax, amax):
                     f"nothing was sent - slow the trajectory down")
 
 
+def move_segment(q0, q1, dur_ms):
+    """Per-joint coefficients [cdeg] of the rest-to-rest cubic a ``MOVE`` runs (``docs/protocol.md`` 4.2).
+
+    Parameters
+    ----------
+    q0, q1 : sequence of int, shape (n,)
+        Commanded position before the move and its target [cdeg].
+    dur_ms : int
+        Duration of the move [ms].
+
+    Returns
+    -------
+    tuple
+        ``(dur_ms, 3, coefficients)`` as :func:`check_segment_speeds` takes it,
+        coefficients ``q0, 0, 3 dq, -2 dq`` joint by joint (shape (4 n,)) [cdeg].
+
+    Examples
+    --------
+    >>> move_segment([4500], [9000], 500)
+    (500, 3, [4500, 0, 13500, -9000])
+    """
+    coef = []
+    for a, b in zip(q0, q1):
+        coef += [int(a), 0, 3 * (int(b) - int(a)), -2 * (int(b) - int(a))]
+    return int(dur_ms), 3, coef
+
+
+def move_duration_ms(q0, q1, vmax, amax):
+    """Shortest ``MOVE`` duration [ms] that keeps every joint within its speed and acceleration limits.
+
+    The rest-to-rest cubic peaks at ``1.5 |dq| / T`` [cdeg/s] and ``6 |dq| / T^2``
+    [cdeg/s^2]; the result is then confirmed with the board's own sampled check.
+
+    Parameters
+    ----------
+    q0, q1 : sequence of int, shape (n,)
+        Commanded position before the move and its target [cdeg].
+    vmax, amax : sequence of int, shape (n,)
+        Per-joint limits [cdeg/s], [cdeg/s^2] (0: unchecked), as sent with ``LIMITS``.
+
+    Returns
+    -------
+    int
+        Duration [ms], 1..60000.
+
+    Raises
+    ------
+    TrajectoryError
+        The move would need longer than 60 s (the longest ``MOVE``).
+
+    Examples
+    --------
+    >>> move_duration_ms([4500], [9000], [30000], [0])  # 45 deg at 300 deg/s: 1.5 * 45 / 300 s
+    225
+    """
+    t = 0.0
+    for a, b, v, acc in zip(q0, q1, vmax, amax):
+        d = abs(int(b) - int(a))
+        if v:
+            t = max(t, 1.5 * d / v)
+        if acc:
+            t = max(t, math.sqrt(6.0 * d / acc))
+    dur = max(1, math.ceil(t * 1000 - 1e-9))
+    while dur <= 60000:
+        _, _, coef = move_segment(q0, q1, dur)
+        if all(segment_speed_ok(coef[4 * j:4 * j + 4], dur, vmax[j], amax[j]) for j in range(len(vmax))):
+            return dur
+        dur += 1
+    raise TrajectoryError(f"expected a move that the speed limits allow within 60 s, got {list(q0)} -> "
+                          f"{list(q1)} cdeg with vmax {list(vmax)} cdeg/s, amax {list(amax)} cdeg/s^2")
+
+
 def feed_segments(arm, segs, *, progress=None, wait=True):
     """Stream ``segs`` to the board's segment queue through ``arm``, keeping the queue fed.
 

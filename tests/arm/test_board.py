@@ -54,6 +54,14 @@ def cmd(board, line):
     return out
 
 
+def move(board, q, dur_ms=250):
+    """``MOVE q dur_ms`` (a rest-to-rest cubic) run to its end."""
+    assert cmd(board, f"MOVE {q} {dur_ms}") == ["OK MOVE 5"]
+    board.advance(dur_ms / 1000 + 0.05)
+    assert [strip(x) for x in board.take_output().decode().split("\r\n") if x][-1].startswith("EV DONE ")
+    assert "state=IDLE" in talk(board, "STATUS")[0]
+
+
 def test_ready_line_and_hello_match_the_protocol_examples():
     b = VirtualBoard()
     b.advance_to(0.05)
@@ -65,8 +73,9 @@ def test_ready_line_and_hello_match_the_protocol_examples():
 
 def test_example_session_lines_and_checksums():
     b = booted()
-    assert talk(b, "#1 MOVE 4500 9000 3000 *73E0") == ["OK #1 MOVE p=BE59*2FA3"]
-    assert talk(b, "#2 MOVE 4500 19000 3000 *ACB5") == ["ERR #2 6 LIMIT joint 1*ADC7"]
+    assert talk(b, "#1 MOVE 4500 19000 3000 1000 *EF63") == ["ERR #1 6 LIMIT joint 1*9CE1"]
+    assert talk(b, "#2 MOVE 4500 9000 3000 50 *5094") == ["ERR #2 11 SPEED joint 0*519C"]
+    assert talk(b, "#3 MOVE 4500 9000 3000 1000 *3376") == ["OK #3 MOVE p=C350 5*B5AA"]
     assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed*5F65"]
     assert talk(b, "FLY") == ["ERR 3 UNKNOWN*B3FC"]
     assert talk(b, "#4 ping")[0].startswith("OK #4 PING ")
@@ -78,7 +87,7 @@ def test_example_session_lines_and_checksums():
 def test_state_changing_lines_need_seq_and_crc():
     b = booted()
     before = list(b.q)
-    for line in ["MOVE 4500 9000 3000", "#5 MOVE 4500 9000 3000", seal("MOVE 4500 9000 3000 "),
+    for line in ["MOVE 4500 9000 3000 250", "#5 MOVE 4500 9000 3000 250", seal("MOVE 4500 9000 3000 250 "),
                  "GRIP 1200", "TIMEOUT 0", "STREAM 10", "SAVE", "DEFAULTS", "STOP", "CAL 0"]:
         assert talk(b, line) == [seal("ERR 1 BADCHK unsealed")], line
     assert b.q == before and b.grip == 1500 and b.stream_hz == 0 and b.timeout_ms == 500
@@ -88,7 +97,7 @@ def test_the_line_split_attack_of_issue_13_runs_nothing():
     """A byte damaged into LF splits a sealed MOVE; neither half may run (protocol 1 ran the front half)."""
     b = booted()
     before = list(b.q)
-    line = seal("#5 MOVE 4500 9000 3000 ")
+    line = seal("#5 MOVE 4500 9000 3000 250 ")
     for k in range(1, len(line)):
         for eol in (b"\n", b"\r"):
             b.receive(line[:k].encode() + eol + line[k + 1:].encode() + b"\n")
@@ -100,10 +109,10 @@ def test_the_line_split_attack_of_issue_13_runs_nothing():
 def test_lines_without_reply_and_malformed_lines():
     b = booted()
     assert talk(b, "   ") == []
-    assert cmd(b, "MOVE 1 2")[0].startswith("ERR 2 SYNTAX")
+    assert cmd(b, "MOVE 1 2 3")[0].startswith("ERR 2 SYNTAX")  # the duration is required
     assert strip(talk(b, "#99999 PING")[0]).startswith("ERR 2 SYNTAX")
-    assert cmd(b, "MOVE 1 2 x")[0].startswith("ERR 2 SYNTAX")
-    assert cmd(b, "MOVE -2147483648 0 0")[0].startswith("ERR 2 SYNTAX")  # int32 without its minimum
+    assert cmd(b, "MOVE 1 2 3 x")[0].startswith("ERR 2 SYNTAX")
+    assert cmd(b, "MOVE -2147483648 0 0 250")[0].startswith("ERR 2 SYNTAX")  # int32 without its minimum
     assert strip(talk(b, "#1 PING*4")[0]) == "ERR 1 BADCHK malformed"
     b.receive(b"PI\xffNG\n")
     assert strip(b.take_output().decode().strip()).startswith("ERR 2 SYNTAX")
@@ -122,7 +131,15 @@ def test_every_request_gets_exactly_one_reply_in_order():
 
 def test_move_updates_commanded_position_and_physics_follows():
     b = booted(zero_offsets=(0, 0, 0), feedback_noise=0.0)
-    cmd(b, "MOVE 4500 9000 3000")
+    assert cmd(b, "MOVE 4500 9000 3000 250") == ["OK MOVE 5"]
+    st = strip(talk(b, "STATUS")[0])
+    assert "q=9000,9000,9000" in st and "state=RUN" in st  # a rest-to-rest cubic from the boot position
+    b.advance(0.14)
+    q0 = int(strip(talk(b, "STATUS")[0]).split()[3].split("=")[1].split(",")[0])
+    assert 4500 < q0 < 6750  # past half way (s = 0.56)
+    b.advance(0.16)
+    out = [strip(x) for x in b.take_output().decode().split("\r\n") if x]
+    assert out == ["EV DONE 1"]
     st = strip(talk(b, "STATUS")[0])
     assert "q=4500,9000,3000" in st and "state=IDLE" in st
     b.advance(2.0)
@@ -136,7 +153,7 @@ def test_move_updates_commanded_position_and_physics_follows():
 def test_segments_run_queue_and_done_event():
     b = booted()
     cmd(b, "TIMEOUT 0")
-    cmd(b, "MOVE 4500 9000 3000")
+    move(b, "4500 9000 3000")
     assert cmd(b, "SEG 1000 3 4500 0 13500 -9000 9000 0 0 0 3000 0 0 0")[0] == "OK SEG 5"
     assert cmd(b, "SEG 1000 3 9000 0 -13500 9000 9000 0 0 0 3000 0 0 0")[0] == "OK SEG 4"
     b.advance(0.5)
@@ -145,21 +162,21 @@ def test_segments_run_queue_and_done_event():
     assert 6000 < q < 7500  # half way up the first cubic
     b.advance(1.6)
     out = [strip(x) for x in b.take_output().decode().split("\r\n") if x]
-    assert out == ["EV DONE 2"]
+    assert out == ["EV DONE 3"]  # the MOVE counts as one segment
     assert "q=4500,9000,3000" in strip(talk(b, "STATUS")[0])
     assert st.startswith("OK PING")
 
 
 def test_segment_checks():
     b = booted()
-    cmd(b, "MOVE 4500 9000 3000")
+    move(b, "4500 9000 3000")
     assert "ERR 5 RANGE" in cmd(b, "SEG 0 3 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
     assert "ERR 5 RANGE" in cmd(b, "SEG 100 4 4500 0 0 0 9000 0 0 0 3000 0 0 0")[0]
     assert "ERR 2 SYNTAX" in cmd(b, "SEG 100 3 4500 0 0 0 9000 0 0 0 3000 0 0")[0]
     assert "ERR 6 LIMIT" in cmd(b, "SEG 100 3 4500 0 -10000 0 9000 0 0 0 3000 0 0 0")[0]
     assert "ERR 9 DISCONT" in cmd(b, "SEG 100 3 4600 0 0 0 9000 0 0 0 3000 0 0 0")[0]
     assert "OK SEG 5" in cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
-    assert "ERR 8 BUSY" in cmd(b, "MOVE 0 0 0")[0]
+    assert "ERR 8 BUSY" in cmd(b, "MOVE 0 0 0 1000")[0]
     for k in range(5):
         assert cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0].startswith(f"OK SEG {4 - k}")
     assert "ERR 7 QFULL" in cmd(b, "SEG 100 3 4549 0 0 0 9000 0 0 0 3000 0 0 0")[0]
@@ -177,7 +194,10 @@ def test_host_silence_timeout_holds():
     assert out[0].startswith("EV HOLD ")
     st = strip(talk(b, "STATUS")[0])
     assert "state=HOLD" in st and "flags=03" in st
-    assert cmd(b, "MOVE 9000 9000 9000")[0].startswith("OK MOVE")
+    assert cmd(b, "MOVE 9000 9000 9000 20")[0].startswith("OK MOVE")
+    assert "state=RUN" in talk(b, "STATUS")[0]
+    b.advance(0.1)
+    assert [strip(x) for x in b.take_output().decode().split("\r\n") if x] == ["EV DONE 1"]
     assert "state=IDLE" in talk(b, "STATUS")[0]
     assert "ERR 5 RANGE" in cmd(b, "TIMEOUT 20")[0]
 

@@ -147,8 +147,8 @@ def measure_feedback_stream(rate_hz=100, sim_seconds=60.0):
 ROUND_TRIP_COMMANDS = {
     "PING": "PING",
     "STATUS": "STATUS",
-    "MOVE": "MOVE 4500 9000 3000",
-    "SEG": "SEG 1000 3 4500 0 0 0 9000 0 0 0 3000 0 0 0",
+    "MOVE": "MOVE 4500 9000 3000 60000",
+    "SEG": "SEG 1000 3 9000 0 0 0 9000 0 0 0 9000 0 0 0",  # the boot position (the MOVEs are STOPped at once)
 }
 
 
@@ -176,7 +176,7 @@ def measure_round_trip(n=40, percentile=50, clock="wall"):
             times.append(now() - t0)
             wire.append((len(client.sent) + 1 + client.reply_bytes) * BITS_PER_BYTE / BAUD)
             assert reply.startswith("OK"), reply
-            if name == "SEG":
+            if name in ("SEG", "MOVE"):  # both start a trajectory: STOP so that the next one is accepted
                 client.cmd("STOP")
         rt = float(np.percentile(times, percentile))
         result[name] = {
@@ -202,7 +202,10 @@ def measure_segment_stream(n_segments=10_000, dur_ms=30, pace=0.0, lockstep=True
         sim.set_lockstep(True)
     client = Client(port)
     client.cmd("TIMEOUT 0")
-    client.cmd("MOVE 9000 9000 3000")
+    assert client.cmd("MOVE 9000 9000 3000 250") == "OK MOVE 5"
+    sim.sleep(0.3)
+    client.cmd("PING")
+    client.events.clear()  # the MOVE's EV DONE
     q = 9000
     qfull = 0
     mem = []
@@ -238,7 +241,8 @@ def measure_segment_stream(n_segments=10_000, dur_ms=30, pace=0.0, lockstep=True
         "pace": pace,
         "lockstep": lockstep,
         "done_events": len(done),
-        "underruns": max(0, len(done) - 1) + (0 if done and done[-1] == f"EV DONE {n_segments}" else 1),
+        # the MOVE before the stream counts as one segment of the board's done counter
+        "underruns": max(0, len(done) - 1) + (0 if done and done[-1] == f"EV DONE {n_segments + 1}" else 1),
         "completed": int(re.search(r"done=(\d+)", status).group(1)),
         "final_q": re.search(r"q=([\d,-]+)", status).group(1),
         "qfull_retries": qfull,
@@ -319,8 +323,8 @@ def test_on_tick_hook_closes_the_loop_with_a_python_model(build_log):
 
     sim, port = start(pace=0.0, on_tick=servo_pots, tick_period=0.002)
     client = Client(port)
-    assert client.cmd("MOVE 4500 9000 13500") == "OK MOVE"
-    sim.sleep(0.1)
+    assert client.cmd("MOVE 4500 9000 13500 250") == "OK MOVE 5"
+    sim.sleep(0.35)
     counts = [int(c) for c in client.cmd("READ").split()[2:]]
     sim.close()
     port.close()
@@ -333,7 +337,8 @@ def test_on_tick_hook_closes_the_loop_with_a_python_model(build_log):
 def test_pulse_widths_are_exact_within_half_a_microsecond(build_log):
     sim, port = start(pace=0.0)
     client = Client(port)
-    client.cmd("MOVE 0 9000 18000")
+    assert client.cmd("MOVE 0 9000 18000 250") == "OK MOVE 5"
+    sim.sleep(0.3)
     client.cmd("GRIP 1234")
     t0 = sim.time()
     sim.sleep(1.0)
@@ -382,7 +387,7 @@ def test_round_trip_within_1_5x_wire_time_in_board_time(build_log):
 def test_10000_segments_stream_without_underrun_or_memory_growth(build_log):
     r = measure_segment_stream(10_000, 30)
     assert r["underruns"] == 0 and r["done_events"] == 1, r
-    assert r["completed"] == 10_000, r
+    assert r["completed"] == 1 + 10_000, r  # the MOVE to the start, then the segments
     # static allocation only: the stack low-water mark (canary) stays far from the heap start
     first, *_, last = r["mem_free_bytes"]
     assert last > 500 and first - last < 64, r

@@ -134,7 +134,7 @@ def test_run_trajectory_streams_segments_and_tracks(arm):
     assert report.underruns == 0 and report.retries == 0
     assert report.duration == pytest.approx(3.0, abs=0.15)
     np.testing.assert_allclose(arm.commanded_joints(), np.radians([120.0, 80.0, 20.0]), atol=1e-4)
-    assert arm.port.board.done == 60
+    assert arm.port.board.done == 1 + 60  # the MOVE ran as one segment, then the trajectory
 
 
 def test_segments_are_continuous_and_exact_at_the_ends():
@@ -201,7 +201,7 @@ def test_lost_motion_reply_is_verified_not_repeated():
         board._emit = lambda text: None if text.startswith("OK #") and " MOVE" in text else orig_emit(text)
         arm.move_joints(np.radians([20.0, 30.0, 40.0]))
         board._emit = orig_emit
-        assert moves == [[2000, 3000, 4000]]
+        assert len(moves) == 1 and moves[0][:3] == [2000, 3000, 4000]  # then the duration [ms]
         assert arm.stats.verified == 1
 
 
@@ -311,7 +311,7 @@ def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
 
 def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
     board = arm.port.board
-    board.receive(b"#999 MOVE 1000 2000 3000 *" + f"{checksum('#999 MOVE 1000 2000 3000 '):04X}".encode() + b"\n")
+    board.receive(b"#999 MOVE 1000 2000 3000 1000 *" + f"{checksum('#999 MOVE 1000 2000 3000 1000 '):04X}".encode() + b"\n")
     board.take_output()
     with pytest.raises(DeviceError, match=r"request #999.*unrequested motion.*stopped"):
         arm.status()

@@ -109,6 +109,12 @@ class Host:
         fields = self.ok("STATUS")[1:]
         return dict(f.split("=", 1) for f in fields)
 
+    def move(self, board, q: str, dur_ms: int = 250):
+        """``MOVE q dur_ms`` (a rest-to-rest cubic, docs/protocol.md 4.2) run to its end."""
+        assert self.ok(f"MOVE {q} {dur_ms}") == ["MOVE", "5"]
+        board.advance(dur_ms / 1000 + 0.05)
+        self.wait_event("EV DONE")
+
 
 @pytest.fixture(params=sorted(BOARDS))
 def board(request):
@@ -156,34 +162,44 @@ def test_sequence_id_and_checksum_are_echoed(host):
 
 # ------------------------------------------------------------------------------ moves and limits
 def test_move_sets_servo_pulses(board, host):
-    assert host.ok("MOVE 4500 9000 3000") == ["MOVE"]
-    board.advance(0.05)
+    assert host.ok("MOVE 4500 9000 3000 400") == ["MOVE", "5"]  # free segment slots, as SEG
+    assert host.status()["state"] == "RUN"
+    board.advance(0.2)
+    q0 = int(host.status()["q"].split(",")[0])
+    assert 5500 < q0 < 8000  # a rest-to-rest cubic, about half way (s ~ 0.5: 6750)
+    board.advance(0.25)
+    assert host.wait_event("EV DONE").split()[2] == "1"  # a MOVE counts as one segment
     assert_pulses(board, {0: pulse_of(4500), 1: 1500, 2: pulse_of(3000), 3: 1500})
-    assert host.status()["q"] == "4500,9000,3000"
+    status = host.status()
+    assert status["q"] == "4500,9000,3000" and status["state"] == "IDLE"
 
 
 @pytest.mark.parametrize(
     "line, code",
     [
-        ("MOVE 4500 19000 3000", 6),
-        ("MOVE -1 9000 3000", 6),
-        ("MOVE 4500 9000 18001", 6),
-        ("MOVE 4500 9000", 2),
-        ("MOVE 4500 9000 3000 3000", 2),
-        ("MOVE 4500 9000 3000.5", 2),
-        ("MOVE 4500,9000,3000", 2),
-        ("MOVE 45deg 9000 3000", 2),
-        ("MOVE 99999999999 9000 3000", 2),
+        ("MOVE 4500 19000 3000 250", 6),
+        ("MOVE -1 9000 3000 250", 6),
+        ("MOVE 4500 9000 18001 250", 6),
+        ("MOVE 4500 9000 3000", 2),  # the duration is required
+        ("MOVE 4500 9000 3000 250 3000", 2),
+        ("MOVE 4500 9000 3000.5 250", 2),
+        ("MOVE 4500,9000,3000,250", 2),
+        ("MOVE 45deg 9000 3000 250", 2),
+        ("MOVE 99999999999 9000 3000 250", 2),
+        ("MOVE 4500 9000 3000 0", 5),
+        ("MOVE 4500 9000 3000 60001", 5),
+        ("MOVE 13500 9000 3000 50", 11),  # issue 13: 90 deg in 50 ms = 2700 deg/s > 600 deg/s
+        ("MOVE 4500 9000 9000 100", 11),  # joint 2: 60 deg in 0.1 s = 900 deg/s
         ("GRIP 3000", 5),
         ("GRIP", 2),
     ],
 )
 def test_rejected_commands_move_nothing(board, host, line, code):
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     board.advance(0.05)
     before = board.pulses()
     reply = host.err(line, code)
-    assert reply.split()[2] == {2: "SYNTAX", 5: "RANGE", 6: "LIMIT"}[code]
+    assert reply.split()[2] == {2: "SYNTAX", 5: "RANGE", 6: "LIMIT", 11: "SPEED"}[code]
     board.advance(0.06)
     assert_pulses(board, before, tol=1.0)
     assert host.status()["q"] == "4500,9000,3000"
@@ -193,7 +209,7 @@ def test_gripper_and_calibration_mapping(board, host):
     assert host.ok("GRIP 1900") == ["GRIP", "1900"]
     # joint 0 reversed: servo angle = 18000 - q; pulses 600..2400
     assert host.ok("CAL 0 600 2400 18000 -1 0 18000") == ["CAL", "0", "600", "2400", "18000", "-1", "0", "18000"]
-    host.ok("MOVE 4500 9000 9000")
+    host.move(board, "4500 9000 9000")
     board.advance(0.05)
     assert_pulses(board, {0: 600 + 13500 * 1800 / 18000, 3: 1900})
     # new limits must keep the current position valid, else nothing changes
@@ -228,12 +244,12 @@ BAD_LINES = [
     ("TIMEOUT 10", 5),
     ("SEG 0 3 0 0 0 0 0 0 0 0 0 0 0 0", 5),
     ("SEG 1000 4 0 0 0 0 0", 5),
-    ("MOVE -2147483648 0 0", 2),  # int32 without its minimum
+    ("MOVE -2147483648 0 0 250", 2),  # int32 without its minimum
 ]
 
 
 def test_bad_input_of_every_kind(board, host):
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     board.advance(0.05)
     before = board.pulses()
     for data, code in BAD_LINES:
@@ -249,7 +265,7 @@ def test_bad_input_of_every_kind(board, host):
 
 
 def test_random_garbage_never_moves_or_crashes(board, host, rng):
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     board.advance(0.05)
     before = board.pulses()
     alphabet = np.frombuffer(b" \t*#$-+0123456789ABCDEFMOVESEGTIMabc\x00\x7f\xff", dtype=np.uint8)
@@ -300,7 +316,7 @@ def fit_trajectory(history, channel, t_from, dur, q_of_s, search=0.3):
 @pytest.mark.parametrize("order", [3, 5])
 def test_timed_segment_pulses_follow_the_polynomial(board, host, order):
     host.ok("TIMEOUT 0")
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     board.advance(0.05)
     make = cubic_coeffs if order == 3 else quintic_coeffs
     c0 = make(4500, 13500)
@@ -308,18 +324,18 @@ def test_timed_segment_pulses_follow_the_polynomial(board, host, order):
     free = int(host.ok(seg_line(800, [c0, make(9000, 9000), make(3000, 3000)]))[1])
     assert free >= 1
     board.advance(0.85)
-    assert host.wait_event("EV DONE").split()[2] == "1"
+    assert host.wait_event("EV DONE").split()[2] == "2"  # the MOVE, then the segment
     board.advance(0.05)
     assert_pulses(board, {0: pulse_of(13500), 1: 1500, 2: pulse_of(3000)})
     err, _ = fit_trajectory(board.pulse_history(t_send), 0, t_send, 0.8, lambda s: np.polyval(c0[::-1], s))
     assert err < 2.0, f"measured pulses deviate {err:.2f} us from the {order}-order polynomial"
     status = host.status()
-    assert status["state"] == "IDLE" and status["q"] == "13500,9000,3000" and status["done"] == "1"
+    assert status["state"] == "IDLE" and status["q"] == "13500,9000,3000" and status["done"] == "2"
 
 
 def test_segment_limits_and_continuity_rejected_without_motion(board, host):
     host.ok("TIMEOUT 0")
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     board.advance(0.05)
     before = board.pulses()
     still = [9000, 0, 0, 0], [3000, 0, 0, 0]
@@ -337,7 +353,7 @@ def test_segment_limits_and_continuity_rejected_without_motion(board, host):
 def test_queue_overflow_is_rejected_and_recovers(board, host):
     depth = int(dict(f.split("=") for f in host.ok("HELLO")[2:])["queue"])
     host.ok("TIMEOUT 0")
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     hold = seg_line(400, [[4500, 0, 0, 0], [9000, 0, 0, 0], [3000, 0, 0, 0]])
     frees = [int(host.ok(hold)[1]) for _ in range(depth)]
     assert frees == list(range(depth - 1, -1, -1))
@@ -345,16 +361,16 @@ def test_queue_overflow_is_rejected_and_recovers(board, host):
     host.err(hold, 7)
     status = host.status()
     assert status["queue"] == str(depth) and status["free"] == "0" and status["state"] == "RUN"
-    host.err("MOVE 4500 9000 3000", 8)  # busy while running
+    host.err("MOVE 4500 9000 3000 250", 8)  # busy while running
     board.advance(0.5)
     assert int(host.ok(hold)[1]) == 0  # one slot freed and refilled
     board.advance(0.4 * depth)
-    assert host.wait_event("EV DONE").split()[2] == str(depth + 1)
+    assert host.wait_event("EV DONE").split()[2] == str(1 + depth + 1)  # the MOVE and depth + 1 segments
 
 
 def test_stop_halts_at_once_and_clears_queue(board, host):
     host.ok("TIMEOUT 0")
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     host.ok(seg_line(2000, [cubic_coeffs(4500, 13500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
     host.ok(seg_line(2000, [cubic_coeffs(13500, 4500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
     board.advance(0.6)
@@ -371,8 +387,8 @@ def test_stop_halts_at_once_and_clears_queue(board, host):
 
 
 def test_host_silence_holds_position(board, host):
+    host.move(board, "4500 9000 3000")
     assert host.ok("TIMEOUT 200") == ["TIMEOUT", "200"]
-    host.ok("MOVE 4500 9000 3000")
     host.ok(seg_line(3000, [cubic_coeffs(4500, 13500), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
     board.advance(1.0)  # host silent for 1 s > 200 ms
     ev = host.wait_event("EV HOLD").split()
@@ -384,13 +400,16 @@ def test_host_silence_holds_position(board, host):
     status = host.status()
     assert status["state"] == "HOLD" and int(status["flags"], 16) & 0x02 and status["queue"] == "0"
     # MOVE (or a new SEG/STOP) leaves HOLD
-    host.ok(f"MOVE {held} 9000 3000")
+    assert host.ok(f"MOVE {held} 9000 3000 100") == ["MOVE", "5"]
+    assert host.status()["state"] == "RUN"
+    board.advance(0.12)
+    host.wait_event("EV DONE")
     assert host.status()["state"] == "IDLE"
 
 
 def test_keepalive_prevents_the_hold(board, host):
+    host.move(board, "4500 9000 3000")
     host.ok("TIMEOUT 200")
-    host.ok("MOVE 4500 9000 3000")
     host.ok(seg_line(1000, [cubic_coeffs(4500, 9000), [9000, 0, 0, 0], [3000, 0, 0, 0]]))
     for _ in range(14):
         board.advance(0.08)
@@ -453,7 +472,7 @@ def test_calibration_persists_across_reset_only_when_saved(board, host):
 def test_out_of_speed_segments_are_rejected_without_motion(board, host):
     """Issue 13: a 500 ms segment whose duration lost "00" ran 100x too fast; now both boards refuse it."""
     host.ok("TIMEOUT 0")
-    host.ok("MOVE 4500 9000 3000")
+    host.move(board, "4500 9000 3000")
     assert host.ok("LIMITS 0") == ["LIMITS", "0", "60000", "0"]  # factory: 600 deg/s, acceleration unchecked
     assert host.ok("LIMITS 0 30000 150000") == ["LIMITS", "0", "30000", "150000"]
     board.advance(0.05)
