@@ -411,3 +411,54 @@ def test_bad_arguments_are_refused_before_anything_is_sent(arm, call, match):
     with pytest.raises(OptionError, match=match):
         call(arm)
     assert arm.stats.sent == sent
+
+
+def test_move_joints_runs_the_shortest_move_the_speed_limits_allow(arm):
+    """Issue 13: MOVE carries a duration; the host picks the shortest one the robot file's limits allow."""
+    from labkit.arm._segments import move_duration_ms, move_segment
+    from labkit.arm._protocol import segment_speed_ok
+
+    board = arm.port.board
+    sent = []
+    orig = board._cmd_move
+    board._cmd_move = lambda args: (sent.append(list(args)), orig(args))[1]
+    start = [int(round(v)) for v in board.q]
+    arm.move_joints(np.radians([20.0, 30.0, 40.0]))
+    (*target, dur), = sent
+    assert target == [2000, 3000, 4000]
+    vmax, amax = arm.speed_limits()
+    # independent figure: the cubic's peak speed 1.5 |dq| / T and acceleration 6 |dq| / T^2
+    t_min = max(max(1.5 * abs(b - a) / v if v else 0.0, math.sqrt(6 * abs(b - a) / ac) if ac else 0.0)
+                for a, b, v, ac in zip(start, target, vmax, amax))
+    assert dur == move_duration_ms(start, target, vmax, amax) and t_min * 1000 <= dur <= t_min * 1000 + 2
+    _, _, coef = move_segment(start, target, dur - 1)
+    assert not all(segment_speed_ok(coef[4 * j:4 * j + 4], dur - 1, vmax[j], amax[j]) for j in range(3))
+    # the call returned after the move: the board is idle at the target
+    st = arm.status()
+    assert st.state == "IDLE" and [round(math.degrees(v) * 100) for v in st.q] == target
+
+
+def test_move_joints_with_a_too_short_duration_sends_nothing(arm):
+    arm.move_joints(np.radians([20.0, 30.0, 40.0]))
+    last = arm.status().last
+    with pytest.raises(TrajectoryError, match=r"joint 1 \(base_yaw\) exceeds"):
+        arm.move_joints(np.radians([120.0, 30.0, 40.0]), duration=0.05)
+    assert arm.status().last == last
+    with pytest.raises(OptionError, match="duration"):
+        arm.move_joints(np.radians([120.0, 30.0, 40.0]), duration=float("nan"))
+    arm.move_joints(np.radians([120.0, 30.0, 40.0]), duration=2.0)
+    st = arm.status()
+    assert st.state == "IDLE" and st.last > last
+    np.testing.assert_allclose(st.q, np.radians([120.0, 30.0, 40.0]), atol=1e-4)
+
+
+def test_a_raw_out_of_speed_move_is_refused_and_nothing_moves(arm):
+    """The board's own check, bypassing the host's: ERR 11 SPEED and the position unchanged."""
+    board = arm.port.board
+    before = list(board.q)
+    line = "#900 MOVE 17000 9000 9000 20 "
+    board.receive(f"{line}*{checksum(line):04X}\n".encode())
+    out = board.take_output().decode()
+    assert out.startswith("ERR #900 11 SPEED joint 0*"), out
+    board.advance(0.1)
+    assert board.q == before and board.state == "IDLE" and not board.segments
