@@ -105,9 +105,10 @@ def test_short_trajectory_under_faults_in_both_directions():
         board._cmd_move = spy_move
         for k in range(10):
             arm.move_joints(np.radians([20.0 + k, 30.0, 40.0]))
-    assert accepted == [[d, o, *c] for d, o, c in segs]
-    assert report.segments == 60 and board.done == 60
-    assert moves == [[2000 + 100 * k, 3000, 4000] for k in range(10)]  # each move ran once
+    # a MOVE runs as one cubic segment (docs/protocol.md 4.2): the spy also sees those 10
+    assert accepted[:60] == [[d, o, *c] for d, o, c in segs] and len(accepted) == 60 + 10
+    assert report.segments == 60 and board.done == 60 + 10
+    assert [m[:3] for m in moves] == [[2000 + 100 * k, 3000, 4000] for k in range(10)]  # each move ran once
 
 
 def test_delays_are_survived():
