@@ -13,7 +13,7 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "2.0.0"
+#define LK_FW_VERSION "2.1.0"
 #define LK_PROTO_VERSION 2
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */

@@ -37,7 +37,7 @@ from labkit.arm._protocol import (
 __all__ = ["FW_VERSION"]
 
 #: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
-FW_VERSION = "2.0.0"
+FW_VERSION = "2.1.0"
 #: factory calibration of every channel: pmin, pmax [us], zero [cdeg], direction, lo, hi [cdeg]
 FACTORY = (500, 2500, 0, 1, 0, 18000)
 #: EEPROM image version (2: with the speed limits)

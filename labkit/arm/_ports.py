@@ -26,6 +26,9 @@ from labkit.arm._replies import BoardInfo, parse_hello
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
+#: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits
+MIN_FIRMWARE = (2, 1, 0)
+
 ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
                 0x10C4: "CP210x", 0x239A: "Adafruit"}
 
@@ -171,11 +174,23 @@ def handshake(arm, boot_wait):
     if info.protocol != PROTOCOL_VERSION:
         raise DeviceError(f"{arm.name}: board speaks protocol {info.protocol}, "
                           f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+    if _version(info.firmware) < MIN_FIRMWARE:
+        raise DeviceError(f"{arm.name}: the board runs labkit firmware {info.firmware}; labkit needs "
+                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (MOVE carries a duration since 2.1.0): "
+                          f"flash firmware/labkit_arm (make -C firmware, then avrdude or the Arduino IDE, see README)")
     if info.joints != arm.robot.n:
         raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
                           f"{arm.robot.name} has {arm.robot.n}")
     # what ran before this connection is not ours to judge
     wire.last_seq = arm._verify_status()[0].last
+
+
+def _version(text):
+    """``"2.1.0"`` -> ``(2, 1, 0)``; an unreadable version sorts first."""
+    try:
+        return tuple(int(part) for part in text.split("."))
+    except ValueError:
+        return (-1,)
 
 
 def _refuse_v1(arm):

@@ -280,6 +280,19 @@ def test_an_older_board_is_refused_with_what_to_do():
         Arm(v1_board(), timeout=0.02)
 
 
+def test_a_protocol_2_board_older_than_the_timed_move_is_refused():
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    orig = raw.board._cmd_hello
+    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.1.0", "fw=2.0.0")
+    with pytest.raises(DeviceError, match=r"firmware 2\.0\.0; labkit needs 2\.1\.0 or newer .*flash firmware/labkit_arm"):
+        Arm(raw, timeout=0.02)
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    newer = raw.board._cmd_hello
+    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.1.0", "fw=2.10.0")
+    with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
+        assert arm.info.firmware == "2.10.0"
+
+
 def test_no_ready_and_no_answer_says_what_to_check():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     raw.board._emit = lambda text: None  # a silent device (wrong sketch, wrong baud rate)

@@ -30,7 +30,7 @@ Example
 >>> labkit.arm.urlhandler.register()
 >>> port = serial.serial_for_url("simavr://?pace=1", baudrate=115200, timeout=1)  # doctest: +SKIP
 >>> port.readline()                                                               # doctest: +SKIP
-b'READY labkit-arm 2 fw=2.0.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*6FFC\\r\\n'
+b'READY labkit-arm 2 fw=2.1.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*851D\\r\\n'
 """
 
 from __future__ import annotations
