@@ -206,6 +206,12 @@ def single_calls(args):
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
+            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            try:
+                r["ik batched"] = (seconds(lambda: ik(robot, tgt), None), seconds(lm, None) if ets else None, None)
+                r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
+            finally:
+                _ik_small.SMALL_TARGETS = small
         rows.append((name, r))
     targets = {("3-DOF arm", "fk"): 25, ("3-DOF arm", "jacobian"): 40, ("3-DOF arm", "ik one branch"): 40,
                ("3-DOF arm", "ik_all"): 60, ("PUMA 560", "fk"): 40}

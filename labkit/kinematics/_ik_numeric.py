@@ -26,7 +26,7 @@ import weakref
 
 import numpy as np
 
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean, _ik_small
 from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
 from labkit.rotations import wrap_angle
@@ -196,7 +196,10 @@ def analytic_seeds(robot, kind, target, rng):
     if found is None or found.kind != kind:
         return None
     limits = robot.joint_limits
-    q, reach, _ = found.solve(target)
+    if target.shape[0] <= _ik_small.SMALL_TARGETS and _ik_small.supports(found):
+        q, reach, _ = _ik_small.solve_raw(found, target)  # plain Python: same values, no array overhead
+    else:
+        q, reach, _ = found.solve(target)
     flipped = np.flatnonzero(ideal.flip)
     if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
         q[..., flipped] *= -1.0
