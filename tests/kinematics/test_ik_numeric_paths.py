@@ -146,3 +146,22 @@ def test_lean_path_reports_failure_like_the_batched_one():
     res = ik_numeric(rpp, [10.0, 0.0, 0.5], restarts=2)
     assert not res.success and np.isfinite(res.q).all() and res.residual > 1.0 and rpp.within_limits(res.q)
     assert np.isclose(res.residual, np.linalg.norm(fk_position(rpp, res.q) - [10.0, 0.0, 0.5]))
+
+
+def test_seeds_of_a_few_targets_take_the_small_path_with_the_same_values(bent, monkeypatch):
+    from labkit.kinematics import _ik_small
+
+    rng = np.random.default_rng(4)
+    lim = bent.joint_limits
+    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
+    calls = []
+    real = _ik_small.solve_raw
+    monkeypatch.setattr(_ik_small, "solve_raw", lambda *a: calls.append(1) or real(*a))
+    small = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
+    assert calls == [1]
+    monkeypatch.setattr(_ik_small, "SMALL_TARGETS", 0)
+    batched = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
+    assert calls == [1]
+    assert np.array_equal(np.isnan(small), np.isnan(batched))
+    d = np.nan_to_num(small - batched)
+    np.testing.assert_allclose(np.angle(np.exp(1j * d)), 0.0, atol=1e-12)
