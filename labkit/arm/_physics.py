@@ -24,9 +24,13 @@ Model, per joint ``j`` (see ``docs/virtual-arm.md``):
 Everything random is drawn from generators seeded by :attr:`PhysicsConfig.seed`
 (independent streams for offsets, feedback noise and the ruler).
 
-Coordinates: the base frame of the robot file. The seed 000 arm's base z axis
-points **down** (its IK negates the user's Z; its shoulder sweeps over the top
-through q2 = 90 deg at z = -0.274 m), so gravity is ``+z`` by default.
+Coordinates: the base frame of the robot file. Gravity points along ``-up``
+(the robot file's ``up``, :attr:`labkit.robot.Robot.up`) unless
+:attr:`PhysicsConfig.gravity` sets it: ``+z`` for the seed 000 arm, whose base z
+axis points **down** (``up = -z0``: its IK negates the user's Z; its shoulder
+sweeps over the top through q2 = 90 deg at z = -0.274 m), ``-z`` for a PUMA
+standing on its base. Calibration (:func:`labkit.measure.calibrate`) fits the
+sag along the same ``-up``.
 """
 
 from __future__ import annotations
@@ -76,8 +80,9 @@ class PhysicsConfig:
         (``None``: 0.05 kg each).
     tool_mass : float
         Mass at the tool point (gripper with its servo) [kg].
-    gravity : tuple of float
-        Gravity in the robot's base frame [m/s^2] (default ``+z``, see module notes).
+    gravity : tuple of float or None
+        Gravity in the robot's base frame [m/s^2]; ``None`` (default): 9.81 along
+        the robot's ``-up`` (see module notes).
     feedback_noise : float
         Standard deviation of the feedback ADC noise [counts].
     ruler_resolution : float
@@ -103,7 +108,7 @@ class PhysicsConfig:
     joint_compliance: float | tuple = 0.04
     link_masses: tuple | None = None
     tool_mass: float = 0.08
-    gravity: tuple = (0.0, 0.0, 9.81)
+    gravity: tuple | None = None
     feedback_noise: float = 1.0
     ruler_resolution: float = 0.5e-3
     ruler_noise: float = 0.3e-3
@@ -119,8 +124,8 @@ class PhysicsConfig:
                 raise OptionError(f"expected {name} >= 0, got {v!r}")
         if self.rate_limit is not None and not self.rate_limit > 0:
             raise OptionError(f"expected rate_limit > 0 or None, got {self.rate_limit!r}")
-        if len(self.gravity) != 3:
-            raise ShapeError(f"expected gravity with 3 components, got {self.gravity!r}")
+        if self.gravity is not None and (len(self.gravity) != 3 or not np.all(np.isfinite(self.gravity))):
+            raise ShapeError(f"expected gravity with 3 finite components or None, got {self.gravity!r}")
 
     def streams(self):
         """Independent generators ``(offsets, feedback, ruler)`` for this seed.
@@ -177,7 +182,7 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     zs = T[..., :3, 2]
     masses = _per_joint(0.05 if config.link_masses is None else config.link_masses, n, "link_masses")
     compliance = _per_joint(config.joint_compliance, n, "joint_compliance")
-    g = np.asarray(config.gravity, dtype=float)
+    g = -9.81 * np.asarray(robot.up, dtype=float) if config.gravity is None else np.asarray(config.gravity, dtype=float)
     # joint j's axis: frame j (modified DH) or frame j-1 (standard DH)
     shift = 1 if robot.convention is Convention.MODIFIED else 0
     # link k (1..n) spans frame k -> frame k+1 (frame n+1 = tool)

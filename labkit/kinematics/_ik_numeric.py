@@ -12,13 +12,21 @@ inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
 the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
+
+Without a caller's ``q0``, targets start from closed-form branches: the
+robot's own family, or that of its idealised copy (:func:`near_family`, for
+an arm a little off a family, e.g. after calibration), which also feed the
+first restarts (:func:`analytic_seeds`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import weakref
+
 import numpy as np
 
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean
+from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean, _ik_small
 from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
 from labkit.rotations import wrap_angle
@@ -71,13 +79,97 @@ def _random_q(rng, limits, size):
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 
+#: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
+SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
+#: largest twist-angle error snapped to a multiple of pi/2 [rad] (3 deg)
+SNAP_ALPHA = np.radians(3.0)
+
+#: per robot object: (nearest closed-form robot, its solver) or (None, None); entries die with the robot
+_NEAR = weakref.WeakKeyDictionary()
+
+
+def snapped(robot, fraction):
+    """Copy of ``robot`` with small DH lengths set to 0 and near-right twists made exact.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    fraction : float
+        Lengths ``a``, ``d`` with ``|value| <= fraction * L`` become 0, where
+        ``L`` is the sum of all ``|a| + |d|`` [m]; twists ``alpha`` within
+        :data:`SNAP_ALPHA` of a multiple of pi/2 become that multiple.
+
+    Returns
+    -------
+    Robot or None
+        The idealised copy, or None when nothing changed.
+    """
+    scale = sum(abs(link.a) + abs(link.d) for link in robot.links)
+    links, changed = [], False
+    for link in robot.links:
+        a = 0.0 if abs(link.a) <= fraction * scale else link.a
+        d = 0.0 if abs(link.d) <= fraction * scale else link.d
+        right = round(link.alpha / (0.5 * np.pi)) * 0.5 * np.pi
+        alpha = right if abs(link.alpha - right) <= SNAP_ALPHA else link.alpha
+        if (a, d, alpha) != (link.a, link.d, link.alpha):
+            changed = True
+            link = dataclasses.replace(link, a=a, d=d, alpha=alpha)
+        links.append(link)
+    return robot.replace(links=tuple(links)) if changed else None
+
+
+def near_family(robot):
+    """The closed-form solver of the nearest idealised copy of ``robot`` (cached), or ``(None, None)``.
+
+    A calibrated arm (small link offsets, twists a fraction of a degree off 90)
+    has no closed form, but its idealised copy (:func:`snapped`, the smallest
+    threshold of :data:`SNAP_FRACTIONS` that works) often has; its solutions
+    land millimetres from the target, which Levenberg-Marquardt then polishes
+    on the real arm in a few iterations.
+
+    Parameters
+    ----------
+    robot : Robot
+        An arm without a closed-form family of its own.
+
+    Returns
+    -------
+    ideal : Robot or None
+        The idealised copy.
+    solver : object or None
+        Its analytic solver.
+    """
+    cached = _NEAR.get(robot)
+    if cached is not None:
+        return cached
+    result = (None, None)
+    for fraction in SNAP_FRACTIONS:
+        ideal = snapped(robot, fraction)
+        if ideal is None:
+            continue
+        found, _ = _ik_detect.detect(ideal)
+        if found is not None:
+            result = (ideal, found)
+            break
+    _NEAR[robot] = result
+    return result
+
+
 def analytic_seeds(robot, kind, target, rng):
-    """Starting configurations from a closed-form family that fits the whole chain, or None.
+    """Ranked starting configurations from a closed-form family of the robot or of its idealised copy, or None.
 
     When :func:`labkit.kinematics._ik_detect.detect` finds a solver for
-    ``robot`` whose targets are of ``kind``, each target starts from its first
-    branch that is reachable and inside the joint limits (so LM only polishes
-    it); targets without such a branch start from a random configuration.
+    ``robot`` whose targets are of ``kind``, its branches that are reachable
+    and inside the joint limits are the starts (so LM only polishes them).
+    Otherwise the same is done with the solver of the nearest idealised copy
+    of the robot (:func:`near_family`: small offsets removed), whose solutions
+    are millimetres from the real ones; there every branch is a start, ranked:
+    reachable and inside the limits first, then by how far it leaves the limits
+    (clipped into them), then the copy's closest approaches to targets just out
+    of its reach (the real arm may reach them). An attempt that stalls moves on
+    to the next start (:func:`solve`); a target without any starts from a
+    random configuration.
 
     Parameters
     ----------
@@ -92,22 +184,37 @@ def analytic_seeds(robot, kind, target, rng):
 
     Returns
     -------
-    ndarray, shape (N, n), or None
-        Starting configurations [rad, m]; None when no closed form applies.
+    ndarray, shape (N, m, n), or None
+        Starting configurations [rad, m], best first; rows of NaN after a
+        target's last usable start (all NaN: no start, :func:`solve` draws a
+        random one). None when no closed form applies.
     """
     found, _ = _ik_detect.detect(robot)
+    ideal = robot
+    if found is None:
+        ideal, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
     limits = robot.joint_limits
-    q, reach, _ = found.solve(target)
-    flipped = np.flatnonzero(robot.flip)
+    if target.shape[0] <= _ik_small.SMALL_TARGETS and _ik_small.supports(found):
+        q, reach, _ = _ik_small.solve_raw(found, target)  # plain Python: same values, no array overhead
+    else:
+        q, reach, _ = found.solve(target)
+    flipped = np.flatnonzero(ideal.flip)
     if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
         q[..., flipped] *= -1.0
     q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
-    valid = reach & robot.within_limits(q) & np.isfinite(q).all(axis=-1)
-    seeds = _random_q(rng, limits, target.shape[0])
-    has = valid.any(axis=1)
-    seeds[has] = q[has, np.argmax(valid[has], axis=1)]
+    lo, hi = limits[:, 0], limits[:, 1]
+    rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
+    if ideal is robot:
+        rank[(rank > 0) | ~reach] = np.inf
+    else:
+        rank[~reach] += 1e3
+    rank[~np.isfinite(q).all(axis=-1)] = np.inf
+    order = np.argsort(rank, axis=1, kind="stable")
+    rows = np.arange(q.shape[0])[:, None]
+    seeds = np.clip(q[rows, order], lo, hi)
+    seeds[~np.isfinite(rank[rows, order])] = np.nan
     return seeds
 
 
@@ -153,10 +260,15 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     residual : ndarray, shape (N,)
         Final task-space error norm [m, rad].
     """
+    starts = None
     if q0 is None:
-        q0 = analytic_seeds(robot, kind, target, rng)
+        starts = analytic_seeds(robot, kind, target, rng)
+        if starts is not None:
+            q0 = starts[:, 0].copy()
+            none = np.isnan(q0[:, 0])
+            q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
     q, success, iterations, residual = _attempts(
-        robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng
+        robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng, starts=starts
     )
     n = robot.n
     for _ in range(restarts if multistart > 1 else 0):
@@ -184,7 +296,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     return q, success, iterations, residual
 
 
-def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8, group=1):
+def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, lam0=1e-2, check_every=8, group=1,
+              starts=None, lam_near=1e-6):
     """Run batched LM; target (N, ...) flattened, q0 (N, n) or None.
 
     An attempt ends for a target when it converges, after ``max_iter``
@@ -216,6 +329,9 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         Draws the random starts (seeded by the caller).
     group : int
         Size of the groups of copies of one target (1: every row its own).
+    starts : ndarray, shape (N, m, n), optional
+        Ranked starts (:func:`analytic_seeds`); attempt ``k < m`` restarts a
+        target from ``starts[:, k]`` where that is not NaN, else randomly.
 
     Returns
     -------
@@ -232,6 +348,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     limits = robot.joint_limits
     lo, hi = limits[:, 0], limits[:, 1]
     q = _random_q(rng, limits, N) if q0 is None else np.clip(np.array(q0, dtype=float), lo, hi)
+    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts[:, 0, 0])  # started from a closed form
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
@@ -273,15 +390,24 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             break
         if attempt > 0:
             q[act] = _random_q(rng, limits, act.size)
+            near[act] = False
+            if starts is not None and attempt < 2 * starts.shape[1]:
+                # the next closed-form start, jittered by a few degrees (two starts of an idealised copy can
+                # coincide, and one on the far side of a stretched elbow crawls): no luck twice round, random
+                nxt = starts[act, (attempt - 1) // 2 if attempt % 2 else attempt // 2]
+                ok = ~np.isnan(nxt[:, 0])
+                jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
+                q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
+                near[act[ok]] = True
         if act.size == 1 and group == 1:  # one target: the lean path, no batch bookkeeping
-            lean(act[0], q[act[0]], lam0, 1, None)
+            lean(act[0], q[act[0]], lam_near if near[act[0]] else lam0, 1, None)
             continue
         qa = q[act]
         tg = target[act]
         T, J = fk_jacobian(robot, qa)
         J = J[:, rows]
         e, res = _error(kind, T, tg, rows)
-        lam = np.full(act.size, lam0)
+        lam = np.where(near[act], lam_near, lam0)
         E = 0.5 * (e * e).sum(axis=1)
         E_check = E.copy()
         for it in range(1, max_iter + 1):

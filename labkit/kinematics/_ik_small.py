@@ -6,7 +6,8 @@ array bookkeeping of the batched solvers in
 normalisation, limit checks) costs far more than the arithmetic. This module
 runs the same formulas, in the same order, on Python floats for the families
 students meet most: ``yaw_pitch_pitch`` (the 3-DOF arm of seed 000) and
-``planar_3r`` (seeds 003 and 004). Both paths agree to a few units in the last
+``planar_3r`` (seeds 003 and 004), and ``spherical_wrist`` (PUMA-type 6R arms,
+:mod:`labkit.kinematics._ik_small_wrist`). Both paths agree to a few units in the last
 place; :mod:`labkit.kinematics._ik` uses this one automatically for batches of
 at most :data:`SMALL_TARGETS` targets and falls back to the batched path for
 everything else (other families, bigger batches, any target that fails, so
@@ -19,7 +20,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_analytic import _REACH_TOL, Planar3R, YawPitchPitch
+from labkit.kinematics._ik_analytic import _REACH_TOL, Planar3R, SphericalWrist, YawPitchPitch
+from labkit.kinematics._ik_small_wrist import flat_poses, solve_pose
 
 #: largest number of targets that takes the plain-Python path
 SMALL_TARGETS = 8
@@ -225,7 +227,7 @@ def supports(impl):
     -------
     bool
     """
-    return isinstance(impl, (YawPitchPitch, Planar3R))
+    return isinstance(impl, (YawPitchPitch, Planar3R, SphericalWrist))
 
 
 def solve_all(robot, impl, rows):
@@ -235,10 +237,11 @@ def solve_all(robot, impl, rows):
     ----------
     robot : Robot
         The arm.
-    impl : YawPitchPitch or Planar3R
+    impl : YawPitchPitch, Planar3R or SphericalWrist
         Its analytic solver (:func:`supports` is True).
-    rows : list of list of float
-        Targets from :func:`flat_targets`.
+    rows : list
+        Targets from :func:`flat_targets` (or 4 x 4 nested lists from
+        :func:`labkit.kinematics._ik_small_wrist.flat_poses` for a spherical wrist).
 
     Returns
     -------
@@ -252,7 +255,7 @@ def solve_all(robot, impl, rows):
         How far out of reach each target lies [m] (0 if any branch reaches it).
     """
     joints = _joints(robot)
-    solve, consts = (_ypp, impl.arm) if isinstance(impl, YawPitchPitch) else (_planar3r, impl)
+    solve, consts = _solver(impl)
     Q, R, V, D = [], [], [], []
     for t in rows:
         q, reach, dist = solve(consts, t)
@@ -264,6 +267,37 @@ def solve_all(robot, impl, rows):
     return Q, R, V, D
 
 
+def _solver(impl):
+    """The per-target function and its constants for ``impl``."""
+    if isinstance(impl, SphericalWrist):
+        return (lambda k, t: solve_pose(k, t, _ypp)), impl
+    return (_ypp, impl.arm) if isinstance(impl, YawPitchPitch) else (_planar3r, impl)
+
+
+def solve_raw(impl, target):
+    """``impl.solve(target)`` for a few validated targets, on floats (no normalisation).
+
+    Parameters
+    ----------
+    impl : YawPitchPitch, Planar3R or SphericalWrist
+        The analytic solver (:func:`supports` is True).
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Validated targets [m, rad] (a few: this path is for N <= :data:`SMALL_TARGETS`).
+
+    Returns
+    -------
+    q : ndarray, shape (N, m, n)
+        Joint angles per branch in the chain's sense [rad].
+    reachable : ndarray of bool, shape (N, m)
+    distance : ndarray, shape (N,)
+        As the batched ``solve``.
+    """
+    solve, consts = _solver(impl)
+    out = [solve(consts, t) for t in target.tolist()]
+    return (np.array([o[0] for o in out], dtype=float), np.array([o[1] for o in out], dtype=bool),
+            np.array([o[2] for o in out], dtype=float))
+
+
 def solve_small(robot, impl, target):
     """:func:`solve_all` of ``target`` if the small-batch path applies.
 
@@ -273,7 +307,7 @@ def solve_small(robot, impl, target):
         The arm.
     impl : object
         Its analytic solver instance (or None for the numeric solver).
-    target : array_like, shape (..., 3)
+    target : array_like, shape (..., 3) or (..., 4, 4)
         The targets as the user passed them [m, rad].
 
     Returns
@@ -281,13 +315,16 @@ def solve_small(robot, impl, target):
     sols : tuple or None
         ``(q, reach, valid, distance)`` from :func:`solve_all`; None when the
         solver has no small path or the targets are not a small finite
-        ``(..., 3)`` batch.
+        ``(..., 3)`` batch (rigid ``(..., 4, 4)`` poses for a spherical wrist).
     lead : tuple of int
         The batch shape.
     """
     if not supports(impl):
         return None, ()
-    rows, lead = flat_targets(target)
+    if isinstance(impl, SphericalWrist):
+        rows, lead = flat_poses(target, SMALL_TARGETS)
+    else:
+        rows, lead = flat_targets(target)
     if rows is None:
         return None, ()
     return solve_all(robot, impl, rows), lead

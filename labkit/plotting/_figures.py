@@ -449,7 +449,8 @@ def plot_trajectory(traj, axes=None, *, space="joint", degrees=True, units="mm",
     degrees, units
         As :func:`plot_time_series`.
     title : str, optional
-        Figure title.
+        Figure title when the figure is made here; with ``axes`` given, the
+        title of the top axes (so that side-by-side columns keep their own).
 
     Returns
     -------
@@ -464,7 +465,8 @@ def plot_trajectory(traj, axes=None, *, space="joint", degrees=True, units="mm",
     """
     if space not in ("joint", "cartesian"):
         raise OptionError(f"expected space in {{'joint', 'cartesian'}}, got {space!r}")
-    if axes is None:
+    own = axes is None
+    if own:
         import matplotlib.pyplot as plt
 
         fig, axes = plt.subplots(3, 1, sharex=True, figsize=(6.4, 7.2), layout="constrained")
@@ -479,8 +481,10 @@ def plot_trajectory(traj, axes=None, *, space="joint", degrees=True, units="mm",
         plot_time_series(traj, qn, a, degrees=degrees, units=units)
         if a is not axes[-1]:
             a.set_xlabel("")
-    if title:
+    if title and own:
         axes[0].figure.suptitle(title)
+    elif title:
+        axes[0].set_title(title)
     return axes
 
 

@@ -78,7 +78,8 @@ def test_sag_lowers_the_gripper_along_gravity():
     cfg = PhysicsConfig()
     dq = gravity_sag(ARM, q, cfg)
     drop = fk_position(ARM, q + dq) - fk_position(ARM, q)
-    g = np.array(cfg.gravity) / np.linalg.norm(cfg.gravity)
+    g = -np.asarray(ARM.up)  # the default gravity: along -up (+z0 for this arm)
+    np.testing.assert_array_equal(g, [0, 0, 1])
     along = drop @ g
     assert np.all(along[:3] > 1e-3) and np.all(along[:3] < 10e-3)  # a few mm, downwards
     assert abs(along[3]) < 1e-6  # arm hanging along gravity: no torque
@@ -92,6 +93,21 @@ def test_sag_scales_with_compliance_and_flips_with_gravity():
     c = gravity_sag(ARM, q, PhysicsConfig(joint_compliance=0.04, gravity=(0, 0, -9.81)))
     np.testing.assert_allclose(b, 2 * a)
     np.testing.assert_allclose(c, -b)
+
+
+def test_gravity_follows_the_robot_files_up():
+    q = np.radians([0, 20, 10])
+    assert PhysicsConfig().gravity is None
+    np.testing.assert_array_equal(gravity_sag(ARM, q), gravity_sag(ARM, q, PhysicsConfig(gravity=(0, 0, 9.81))))
+    puma = Robot.load("puma560")  # stands on its base: up = +z0, so gravity is -z
+    np.testing.assert_allclose(puma.up, [0, 0, 1])
+    qp = np.radians([0, 0, -90, 0, 0, 0])  # rtb's "ready" pose rotated down: upper arm horizontal
+    dq = gravity_sag(puma, qp)
+    np.testing.assert_array_equal(dq, gravity_sag(puma, qp, PhysicsConfig(gravity=(0, 0, -9.81))))
+    drop = fk_position(puma, qp + dq) - fk_position(puma, qp)
+    assert drop[2] < -1e-3  # the tool sags down, towards the floor
+    with pytest.raises(ValueError, match="3 finite components or None"):
+        PhysicsConfig(gravity=(0, 9.81))
 
 
 def test_offsets_are_seeded():

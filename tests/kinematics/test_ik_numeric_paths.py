@@ -44,7 +44,7 @@ def test_analytic_seeds_make_the_iteration_a_polish():
     assert res0.success.all() and (res0.iterations >= 1).all()
 
 
-def test_plain_lm_keeps_full_success_without_a_closed_form(bent):
+def test_lm_keeps_full_success_without_a_closed_form(bent):
     rng = np.random.default_rng(8)
     lim = bent.joint_limits
     T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(150, 6)))
@@ -54,6 +54,52 @@ def test_plain_lm_keeps_full_success_without_a_closed_form(bent):
     for k in range(3):  # one target at a time: the lean path
         one = ik_numeric(bent, T[k])
         assert one.success and one.residual < 1e-10 and np.abs(fk(bent, one.q) - T[k]).max() < 1e-9
+
+
+def calibrated_puma():
+    """A PUMA 560 as a calibration would report it: twists and lengths a little off (no closed form)."""
+    puma = Robot.load("puma560")
+    r = puma.with_link(0, alpha=puma.links[0].alpha + np.radians(0.4)).with_link(2, d=puma.links[2].d + 0.001)
+    return r.with_link(4, a=0.0015).with_link(3, alpha=puma.links[3].alpha - np.radians(0.3))
+
+
+@pytest.mark.parametrize("make", [lambda: Robot.load("puma560").with_link(4, a=0.002), calibrated_puma])
+def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
+    from labkit.kinematics import solver_for
+
+    robot = make()
+    assert solver_for(robot).value == "numeric"
+    ideal, solver = _ik_numeric.near_family(robot)
+    assert solver is not None and solver.name == "spherical_wrist"
+    assert ideal.links[4].a == 0.0 and ideal.links[2].a == robot.links[2].a  # a3 = 20 mm is not "small"
+    assert all(abs(link.alpha / (np.pi / 2) - round(link.alpha / (np.pi / 2))) < 1e-12 for link in ideal.links)
+    assert _ik_numeric.near_family(robot)[1] is solver  # cached per robot
+    rng = np.random.default_rng(31)
+    lim = robot.joint_limits
+    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
+    starts = _ik_numeric.analytic_seeds(robot, "pose", T, rng)
+    assert starts.shape == (300, 8, 6)
+    assert (~np.isnan(starts[:, 0, 0])).mean() > 0.9  # nearly every target has a start
+    off = np.abs(fk(robot, np.nan_to_num(starts[:, 0]))[:, :3, 3] - T[:, :3, 3]).max(axis=1)
+    assert np.median(off) < 0.005  # millimetres from the target before any iteration
+    seeded = ik_numeric(robot, T)
+    assert seeded.success.all() and seeded.residual.max() < 1e-10
+    assert robot.within_limits(seeded.q).all() and np.abs(fk(robot, seeded.q) - T).max() < 1e-9
+    plain = ik_numeric(robot, T, q0=_ik_numeric._random_q(np.random.default_rng(2), lim, 300))
+    assert plain.success.all()
+    assert np.median(seeded.iterations) <= 6 < np.median(plain.iterations)
+    assert seeded.iterations.mean() < 0.5 * plain.iterations.mean()
+
+
+def test_no_idealised_copy_for_an_arm_far_from_every_family():
+    far = Robot.load("puma560").with_link(4, a=0.1)  # 10 % of the arm's length: not a calibration error
+    assert _ik_numeric.near_family(far) == (None, None)
+    assert _ik_numeric.analytic_seeds(far, "pose", fk(far, np.zeros((2, 6))), np.random.default_rng(0)) is None
+    rng = np.random.default_rng(9)
+    lim = far.joint_limits
+    T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
+    res = ik_numeric(far, T)  # plain LM from random starts
+    assert res.success.all() and res.residual.max() < 1e-10 and far.within_limits(res.q).all()
 
 
 @pytest.mark.parametrize("kind,mask", [("pose", None), ("pose", [1, 1, 1, 0, 0, 1]), ("position", None)])
@@ -100,3 +146,22 @@ def test_lean_path_reports_failure_like_the_batched_one():
     res = ik_numeric(rpp, [10.0, 0.0, 0.5], restarts=2)
     assert not res.success and np.isfinite(res.q).all() and res.residual > 1.0 and rpp.within_limits(res.q)
     assert np.isclose(res.residual, np.linalg.norm(fk_position(rpp, res.q) - [10.0, 0.0, 0.5]))
+
+
+def test_seeds_of_a_few_targets_take_the_small_path_with_the_same_values(bent, monkeypatch):
+    from labkit.kinematics import _ik_small
+
+    rng = np.random.default_rng(4)
+    lim = bent.joint_limits
+    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
+    calls = []
+    real = _ik_small.solve_raw
+    monkeypatch.setattr(_ik_small, "solve_raw", lambda *a: calls.append(1) or real(*a))
+    small = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
+    assert calls == [1]
+    monkeypatch.setattr(_ik_small, "SMALL_TARGETS", 0)
+    batched = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
+    assert calls == [1]
+    assert np.array_equal(np.isnan(small), np.isnan(batched))
+    d = np.nan_to_num(small - batched)
+    np.testing.assert_allclose(np.angle(np.exp(1j * d)), 0.0, atol=1e-12)

@@ -1,7 +1,7 @@
 """The plain-Python small-batch IK path agrees with the batched solvers.
 
-A handful of targets (``N <= SMALL_TARGETS``) of a ``yaw_pitch_pitch`` or
-``planar_3r`` arm runs through ``labkit.kinematics._ik_small``; setting
+A handful of targets (``N <= SMALL_TARGETS``) of a ``yaw_pitch_pitch``,
+``planar_3r`` or ``spherical_wrist`` arm runs through ``labkit.kinematics._ik_small``; setting
 ``SMALL_TARGETS`` to 0 forces the batched path. Random arms (flipped joints,
 shoulder and lateral offsets, moved base and tool, limits wider than one turn)
 and random targets (reachable, unreachable, out of limits, on the base axis):
@@ -102,13 +102,20 @@ def _same(a, b):
         return
     assert not isinstance(a, Exception), a
     assert a.shape == b.shape and a.dtype == b.dtype
-    np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+    _same_angles(a, b)
+
+
+def _same_angles(a, b):
+    """Equal to 1e-12 as angles: an angle at +-pi may come out as pi on one path and -pi on the other."""
+    d = np.asarray(a) - np.asarray(b)
+    np.testing.assert_allclose(np.angle(np.exp(1j * d)), 0.0, rtol=0, atol=1e-12)
+    assert np.all((np.abs(d) < 1e-9) | (np.abs(np.abs(d) - 2 * np.pi) < 1e-9))
 
 
 def _same_solutions(a, b):
     assert a.branches == b.branches and a.solver == b.solver
     assert a.q.shape == b.q.shape and a.distance.shape == b.distance.shape
-    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
+    _same_angles(a.q, b.q)
     assert np.array_equal(a.reachable, b.reachable) and a.reachable.dtype == bool
     assert np.array_equal(a.valid, b.valid) and a.valid.dtype == bool
     np.testing.assert_allclose(a.distance, b.distance, rtol=0, atol=1e-12)
@@ -145,7 +152,7 @@ def test_small_path_equals_batched_solvers(name, monkeypatch):
     assert calls  # the small path did run
 
 
-def test_small_path_is_used_only_for_small_batches_and_3r_families(monkeypatch):
+def test_small_path_is_used_only_for_small_batches_and_its_families(monkeypatch):
     calls = []
     real = _ik_small.solve_all
     monkeypatch.setattr(_ik_small, "solve_all", lambda *a: calls.append(len(a[2])) or real(*a))
@@ -157,7 +164,85 @@ def test_small_path_is_used_only_for_small_batches_and_3r_families(monkeypatch):
     ik_all(arm, t)  # one target too many: the batched path
     puma = Robot.load("puma560")
     ik_all(puma, fk(puma, np.full(6, 0.3)))
-    assert calls == [1, _ik_small.SMALL_TARGETS]
+    ik_all(puma, fk(puma, np.full((_ik_small.SMALL_TARGETS + 1, 6), 0.3)))  # batched
+    ur5 = Robot.load("ur5")  # three_parallel: no small path
+    ik_all(ur5, fk(ur5, np.full(6, 0.3)))
+    assert calls == [1, _ik_small.SMALL_TARGETS, 1]
+
+
+def _wrists():
+    puma = Robot.load("puma560")
+    base = np.eye(4)
+    base[:3, :3] = rotation_z(0.4)
+    base[:3, 3] = [0.05, -0.1, 0.3]
+    tool = np.eye(4)
+    tool[:3, 3] = [0.0, 0.01, 0.08]
+    return {
+        "puma560": puma,
+        "puma600_seed002": Robot.load("puma600_seed002"),
+        "irb140": Robot.load("irb140"),
+        "kr5": Robot.load("kr5"),
+        "puma_flipped_2_4_6": _flipped(puma, [False, True, False, True, False, True]),
+        "puma_moved_base_tool": puma.replace(base=base, tool=tool),
+        "puma_oblique_wrist": puma.with_link(3, alpha=puma.links[3].alpha * 2 / 3),  # axes 4, 5 at 60 deg
+        "puma_wide_limits": _limits(puma, [(-2 * np.pi, 2 * np.pi)] * 6),
+    }
+
+
+WRISTS = _wrists()
+
+
+@pytest.mark.parametrize("name", sorted(WRISTS))
+def test_small_path_equals_the_batched_spherical_wrist(name, monkeypatch):
+    robot = WRISTS[name]
+    assert solver_for(robot) is Solver.SPHERICAL_WRIST
+    calls = []
+    real = _ik_small.solve_all
+    monkeypatch.setattr(_ik_small, "solve_all", lambda *a: calls.append(1) or real(*a))
+    rng = np.random.default_rng(sorted(WRISTS).index(name) + 100)
+    T = fk(robot, rng.uniform(-np.pi, np.pi, size=(30, 6)))
+    T[:8, :3, 3] *= rng.uniform(0.3, 2.5, size=(8, 1))  # many out of reach
+    T[8:10, :3, 3] = [[0.0, 0.0, 0.4], [0.0, 0.0, -0.2]]  # wrist centre near the base axis
+    T[10] = fk(robot, np.zeros(6))  # wrist singularity (q5 = 0 on a PUMA)
+    branches = ik_all(robot, T[0]).branches
+    kinds = {"fail": 0, "ok": 0}
+    for t in T:
+        _same_solutions(ik_all(robot, t), _batched(monkeypatch, ik_all, robot, t))
+        q_near = rng.uniform(-np.pi, np.pi, 6)
+        for branch in (None,) + branches[::3]:
+            for near in (None, q_near):
+                small = _outcome(ik, robot, t, branch=branch, q_near=near)
+                _same(small, _batched(monkeypatch, ik, robot, t, branch=branch, q_near=near))
+                kinds["fail" if isinstance(small, Exception) else "ok"] += 1
+    assert kinds["fail"] > 0 and kinds["ok"] > 0
+    for shape in ((_ik_small.SMALL_TARGETS,), (2, 2)):
+        t = T[rng.choice(len(T), int(np.prod(shape)), replace=False)].reshape(shape + (4, 4))
+        _same_solutions(ik_all(robot, t.tolist()), _batched(monkeypatch, ik_all, robot, t))
+    assert calls
+
+
+def test_bad_poses_raise_as_before(monkeypatch):
+    puma = Robot.load("puma560")
+    T = fk(puma, np.full(6, 0.3))
+    skew = T.copy()
+    skew[:3, :3] *= 1.001
+    mirror = T.copy()
+    mirror[:3, 0] *= -1
+    row = T.copy()
+    row[3, 0] = 1e-9
+    nan = T.copy()
+    nan[0, 3] = np.nan
+    far = T.copy()
+    far[:3, 3] *= 5
+    for target in (skew, mirror, row, nan, T[:3], np.stack([T, skew]), far, "abc"):
+        for func in (ik, ik_all):
+            small = _outcome(func, puma, target)
+            batched = _batched(monkeypatch, func, puma, target)
+            if func is ik_all and not isinstance(batched, Exception):
+                _same_solutions(small, batched)
+                continue
+            assert isinstance(small, Exception) and type(small) is type(batched)
+            assert str(small) == str(batched)
 
 
 def test_bad_input_raises_as_before(monkeypatch):

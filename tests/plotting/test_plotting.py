@@ -122,6 +122,15 @@ def test_time_series_joint_units():
     assert rad.get_ylabel() == "joint acceleration [rad/s²]"
     axes = plot_trajectory(traj, title="seed 003 task 2")
     assert len(axes) == 3 and [len(a.lines) for a in axes] == [3, 3, 3]
+    assert axes[0].figure.get_suptitle() == "seed 003 task 2"
+    # side by side in the caller's figure: each column keeps its own title (not one shared suptitle)
+    import matplotlib.pyplot as plt
+
+    fig, grid = plt.subplots(3, 2)
+    plot_trajectory(traj, grid[:, 0], title="cubic")
+    plot_trajectory(traj, grid[:, 1], title="quintic")
+    assert [grid[0, 0].get_title(), grid[0, 1].get_title(), fig.get_suptitle()] == ["cubic", "quintic", ""]
+    plt.close(fig)
     assert [a.get_ylabel() for a in traj.plot()] == [a.get_ylabel() for a in axes]  # the delegate
     with pytest.raises(ValueError, match="expected quantity"):
         plot_time_series(traj, "jerk")
