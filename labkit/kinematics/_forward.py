@@ -14,6 +14,14 @@ straight into the output array (written once, or into the caller's ``out``).
 A handful of configurations (``N <= SMALL_BATCH``) takes the pure-Python path
 of :mod:`labkit.kinematics._forward_small` instead, which skips the array
 bookkeeping (same results to ~1e-16).
+
+The Jacobian (with or without the pose) of a bigger batch runs a program
+compiled once per robot by :mod:`labkit.kinematics._program`: the same
+recursion with the robot's constant zeros, ones and signs folded away, as
+ufunc calls on ``(m,)`` rows (written straight into the output for one chunk,
+through cache-sized contiguous rows for several); it gives the walk's results
+bit for bit. Below ``PROGRAM_BATCH_PER_CALL`` configurations per program call
+the walk, with fewer calls on ``(3, m)`` blocks, is used instead.
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _forward_small as _small
+from labkit.kinematics import _program
 from labkit.kinematics._chain import check_out, half_angle_trig, prepare
 from labkit.validation import as_vector
 
@@ -29,10 +38,18 @@ __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
 #: configurations per chunk of the batched kernels (blocks stay in the L2 cache)
 _CHUNK = 8192
-#: the Jacobian's per-chunk scratch grows with n: chunks of _JCHUNK_ENTRIES // n configurations
-_JCHUNK_ENTRIES = 12288
+#: the generic walk's Jacobian scratch grows with n: chunks of _WALK_CHUNK_ENTRIES // n configurations
+_WALK_CHUNK_ENTRIES = 12288
+#: chunks of the compiled Jacobian programs: _PROGRAM_CHUNK_ENTRIES // n configurations
+_PROGRAM_CHUNK_ENTRIES = 49152
+#: a program with k calls runs for batches of at least PROGRAM_BATCH_PER_CALL * k configurations
+#: (below that the generic walk, with fewer calls on (3, m) blocks, is faster)
+PROGRAM_BATCH_PER_CALL = 2
+#: up to this many configurations a program writes straight into the output (one chunk)
 #: at most this many configurations go through the pure-Python path
 SMALL_BATCH = 4
+#: up to this many configurations, the program writes straight into the output (one chunk)
+_DIRECT_BATCH = 2048
 _E = np.eye(3)[:, :, None]  # the unit columns as (3, 1) blocks
 _ZERO = np.zeros((3, 1))
 
@@ -330,6 +347,71 @@ def _jacobian_chunk(c, qc, pt, frame, W, WJ, axes):
         _write_pose(W, (t0, t1, t2, pe))
 
 
+def _program_inputs(c, qc, inputs):
+    """Fill a program's input rows for a chunk ``qc`` (m, n): cosines, sines, prismatic values."""
+    r = c.revolute.size
+    h, w = inputs[r:2 * r], inputs[:r]
+    np.multiply((qc if c.all_revolute else qc[:, c.revolute]).T, 0.5, out=h)
+    if c.half_theta is not None:
+        h += c.half_theta
+    np.tan(h, out=h)
+    np.multiply(h, h, out=w)  # half_angle_trig, into the input rows
+    w += 1.0
+    np.divide(2.0, w, out=w)
+    h *= w
+    w -= 1.0
+    if not c.all_revolute:
+        inputs[2 * r:] = qc[:, [i for i, step in enumerate(c.steps) if not step[0]]].T
+
+
+def _run(bound):
+    for f, a, b, o in bound:
+        f(a, b, o)
+
+
+def _jacobian_walk(c, q2, pt, frame, fJ, fT):
+    """The generic walk's Jacobian (and pose): (3, m) blocks in chunks, copied out transposed."""
+    n, N = c.n, q2.shape[0]
+    chunk = max(256, _WALK_CHUNK_ENTRIES // n)
+    m = min(N, chunk)
+    W = _pose_buffer(m) if fT is not None else None
+    WJ = np.empty((6 * n, m))
+    axes = np.empty((3, n, m)), np.empty((3, n, m))
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
+        k = qc.shape[0]
+        _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
+        np.copyto(fJ[s:s + k], WJ[:, :k].T)
+        if fT is not None:
+            np.copyto(fT[s:s + k], W[:, :k].T)
+
+
+def _jacobian_program(c, prog, q2, fJ, fT):
+    """Run a compiled program (:mod:`labkit.kinematics._program`) over ``q2`` into ``fJ`` (and ``fT``)."""
+    n, N = c.n, q2.shape[0]
+    if N <= _DIRECT_BATCH:  # one chunk: the calls write straight into the outputs' (strided) rows
+        inputs, scratch = np.empty((prog.n_inputs, N)), np.empty((prog.n_scratch, N))
+        _program_inputs(c, q2, inputs)
+        _run(prog.bind(inputs, list(fJ.T) + (list(fT.T) if fT is not None else []), scratch))
+        return
+    # chunks: contiguous output rows (the calls stay in the cache), copied out transposed
+    chunk = max(256, _PROGRAM_CHUNK_ENTRIES // n)
+    m = min(N, chunk)
+    inputs, rows, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_rows, m)), np.empty((prog.n_scratch, m))
+    bound = prog.bind(inputs, list(rows), scratch)
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
+        k = qc.shape[0]
+        if k < m:  # the last, shorter chunk
+            inputs, rows, scratch = inputs[:, :k], rows[:, :k], scratch[:, :k]
+            bound = prog.bind(inputs, list(rows), scratch)
+        _program_inputs(c, qc, inputs)
+        _run(bound)
+        np.copyto(fJ[s:s + k], rows[:6 * n].T)
+        if fT is not None:
+            np.copyto(fT[s:s + k], rows[6 * n:].T)
+
+
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     if frame not in ("base", "tool"):
         raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
@@ -347,20 +429,13 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     T = _output(out_T, lead + (4, 4)) if want_T else None
     fJ = J.reshape(N, 6 * n)
     fT = T.reshape(N, 16) if want_T else None
-    chunk = max(256, _JCHUNK_ENTRIES // n)
-    m = min(N, chunk)
-    W = _pose_buffer(m) if want_T else None
-    WJ = np.empty((6 * n, m))
-    axes = np.empty((3, n, m)), np.empty((3, n, m))
-    for s in range(0, N, chunk):
-        qc = q2[s:s + chunk]
-        k = qc.shape[0]
-        _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
-        np.copyto(fJ[s:s + k], WJ[:, :k].T)
-        if want_T:
-            np.copyto(fT[s:s + k], W[:, :k].T)
-    if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
-        J[..., c.flipped] *= -1.0
+    prog = _program.program(c, off, frame == "tool", want_T)
+    if N < PROGRAM_BATCH_PER_CALL * len(prog.ops):  # few configurations: the walk's fewer, bigger calls win
+        _jacobian_walk(c, q2, pt, frame, fJ, fT)
+        if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
+            J[..., c.flipped] *= -1.0
+    else:
+        _jacobian_program(c, prog, q2, fJ, fT)  # flipped joints included
     return T, J
 
 
