@@ -45,11 +45,14 @@ _PROGRAM_CHUNK_ENTRIES = 49152
 #: a program with k calls runs for batches of at least PROGRAM_BATCH_PER_CALL * k configurations
 #: (below that the generic walk, with fewer calls on (3, m) blocks, is faster)
 PROGRAM_BATCH_PER_CALL = 2
-#: up to this many configurations a program writes straight into the output (one chunk)
 #: at most this many configurations go through the pure-Python path
 SMALL_BATCH = 4
-#: up to this many configurations, the program writes straight into the output (one chunk)
-_DIRECT_BATCH = 2048
+#: a program with at most _DIRECT_ROWS output rows writes straight into the output, in chunks of
+#: _DIRECT_BATCH configurations; so does one whose whole output has at most _DIRECT_ENTRIES entries
+#: (one chunk); bigger outputs go through contiguous rows copied out transposed
+_DIRECT_ROWS = 8
+_DIRECT_BATCH = 16384
+_DIRECT_ENTRIES = 2**18
 _E = np.eye(3)[:, :, None]  # the unit columns as (3, 1) blocks
 _ZERO = np.zeros((3, 1))
 
@@ -270,6 +273,10 @@ def fk_position(robot, q, point=None, *, out=None):
         return np.array(_small.position(c, q2.tolist(), off)).reshape(shape)
     res = _output(out, shape)
     flat = res.reshape(N, 3)
+    prog = _program.program(c, off, None, None, position_only=True)
+    if N >= PROGRAM_BATCH_PER_CALL * len(prog.ops):
+        _run_program(c, prog, q2, (flat,))
+        return res
     for s in range(0, N, _CHUNK):
         (c0, c1, c2, p), _ = _walk(c, q2[s:s + _CHUNK])
         if off is not None:
@@ -386,16 +393,28 @@ def _jacobian_walk(c, q2, pt, frame, fJ, fT):
             np.copyto(fT[s:s + k], W[:, :k].T)
 
 
-def _jacobian_program(c, prog, q2, fJ, fT):
-    """Run a compiled program (:mod:`labkit.kinematics._program`) over ``q2`` into ``fJ`` (and ``fT``)."""
-    n, N = c.n, q2.shape[0]
-    if N <= _DIRECT_BATCH:  # one chunk: the calls write straight into the outputs' (strided) rows
-        inputs, scratch = np.empty((prog.n_inputs, N)), np.empty((prog.n_scratch, N))
-        _program_inputs(c, q2, inputs)
-        _run(prog.bind(inputs, list(fJ.T) + (list(fT.T) if fT is not None else []), scratch))
+def _run_program(c, prog, q2, outs):
+    """Run a compiled program (:mod:`labkit.kinematics._program`) over ``q2`` (N, n).
+
+    ``outs`` are (N, k) C-contiguous arrays whose columns, side by side, are
+    the program's output rows.
+    """
+    N = q2.shape[0]
+    if prog.n_rows <= _DIRECT_ROWS or N * prog.n_rows <= _DIRECT_ENTRIES:
+        # the calls write straight into the outputs' (strided) rows: a few rows per configuration
+        # in chunks, or one chunk whose output stays in the cache
+        m = min(N, _DIRECT_BATCH)
+        inputs, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_scratch, m))
+        for s in range(0, N, m):
+            qc = q2[s:s + m]
+            k = qc.shape[0]
+            if k < m:
+                inputs, scratch = inputs[:, :k], scratch[:, :k]
+            _program_inputs(c, qc, inputs)
+            _run(prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch))
         return
     # chunks: contiguous output rows (the calls stay in the cache), copied out transposed
-    chunk = max(256, _PROGRAM_CHUNK_ENTRIES // n)
+    chunk = max(256, _PROGRAM_CHUNK_ENTRIES // c.n)
     m = min(N, chunk)
     inputs, rows, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_rows, m)), np.empty((prog.n_scratch, m))
     bound = prog.bind(inputs, list(rows), scratch)
@@ -407,9 +426,10 @@ def _jacobian_program(c, prog, q2, fJ, fT):
             bound = prog.bind(inputs, list(rows), scratch)
         _program_inputs(c, qc, inputs)
         _run(bound)
-        np.copyto(fJ[s:s + k], rows[:6 * n].T)
-        if fT is not None:
-            np.copyto(fT[s:s + k], rows[6 * n:].T)
+        first = 0
+        for o in outs:
+            np.copyto(o[s:s + k], rows[first:first + o.shape[1]].T)
+            first += o.shape[1]
 
 
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
@@ -435,7 +455,7 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
         if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
             J[..., c.flipped] *= -1.0
     else:
-        _jacobian_program(c, prog, q2, fJ, fT)  # flipped joints included
+        _run_program(c, prog, q2, (fJ,) if fT is None else (fJ, fT))  # flipped joints included
     return T, J
 
 

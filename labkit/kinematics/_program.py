@@ -161,7 +161,8 @@ class Program:
     ----------
     n_rows : int
         Output rows: ``6 n`` Jacobian entries (row-major ``(6, n)``), then 16
-        pose entries (row-major ``(4, 4)``) if the pose is wanted.
+        pose entries (row-major ``(4, 4)``) if the pose is wanted; or the 3
+        coordinates of a position program.
     n_scratch : int
         Scratch rows needed.
     """
@@ -193,9 +194,16 @@ class Program:
         Parameters
         ----------
         inputs : ndarray, shape (n_inputs, m)
-        out_rows : ndarray, shape (n_rows, m)
-            Constant rows are filled here.
+            Filled per chunk (``_forward._program_inputs``).
+        out_rows : sequence of ndarray, n_rows rows of shape (m,)
+            Where the outputs go (contiguous rows, or strided columns of the
+            result); the constant rows are filled here.
         scratch : ndarray, shape (n_scratch, m)
+
+        Returns
+        -------
+        list of tuple
+            The calls in order; run each as ``ufunc(a, b, out)``.
         """
         rows = list(inputs) + list(out_rows) + list(scratch) + self.constant_args
         for row, value in self.constants:
@@ -299,8 +307,8 @@ def _compile(b, outputs, n_rows):
     return Program(program, constants, n_rows, n_scratch, b.n_inputs)
 
 
-def program(c, point_offset, tool_frame, want_T):
-    """The compiled Jacobian (and pose) program of chain ``c`` (cached).
+def program(c, point_offset, tool_frame, want_T, position_only=False):
+    """The compiled Jacobian (and pose) program of chain ``c``, or its position program (cached).
 
     Parameters
     ----------
@@ -313,6 +321,9 @@ def program(c, point_offset, tool_frame, want_T):
         Express the velocities in the tool frame (``R^T J``).
     want_T : bool
         Also write the pose.
+    position_only : bool
+        Only the position of the point (``tool_frame`` and ``want_T`` are
+        then ignored): 3 output rows.
 
     Returns
     -------
@@ -322,6 +333,8 @@ def program(c, point_offset, tool_frame, want_T):
         joint order. Outputs: as :class:`Program` (flipped joints' columns
         already negated).
     """
+    if position_only:
+        tool_frame = want_T = None
     key = (None if point_offset is None else tuple(float(v) for v in point_offset), tool_frame, want_T)
     per_chain = _PROGRAMS.get(c)
     if per_chain is None:
@@ -372,6 +385,8 @@ def _build(c, off, tool_frame, want_T):
     cols = (c0, c1, c2)
     if off is not None:
         p = b.lincomb(p, cols, off)
+    if tool_frame is None:  # position only
+        return _compile(b, list(enumerate(p)), 3)
     if c.tool is not None and not np.array_equal(c.tool[:3, :3], np.eye(3)):
         cols = tuple(b.lincomb(None, cols, c.tool[:3, k]) for k in range(3))
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)

@@ -1,13 +1,13 @@
 """The compiled Jacobian programs (labkit.kinematics._program) agree with the generic walk.
 
-From ``PROGRAM_BATCH_PER_CALL`` configurations per program call on, ``jacobian``
-and ``fk_jacobian`` run a straight-line program specialised to the robot
+From ``PROGRAM_BATCH_PER_CALL`` configurations per program call on, ``jacobian``,
+``fk_jacobian`` and ``fk_position`` run a straight-line program specialised to the robot
 (constants folded, signs carried, dead calls dropped); below that, the generic
 walk on ``(3, m)`` blocks. Both paths are forced here on random robots of both
 DH conventions with prismatic and flipped joints, theta offsets, base and tool
-transforms, a tool point and both frames, in the one-chunk (written straight
-into the output) and the chunked mode; they must agree to 1e-12, and with
-roboticstoolbox-independent finite differences of ``fk``.
+transforms, a tool point and both frames, with outputs written straight into
+the result (one chunk or several) and through contiguous rows; they must agree
+to 1e-12, and with finite differences of ``fk``.
 """
 
 import dataclasses
@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from labkit.kinematics import _forward, _program, fk, fk_jacobian, jacobian
+from labkit.kinematics import _forward, _program, fk, fk_jacobian, fk_position, jacobian
 from labkit.kinematics._chain import chain
 from labkit.robot import Convention, Robot
 from tests.kinematics.test_fk_paths import _robot
@@ -32,9 +32,14 @@ CASES = [(conv, n, moved) for conv in Convention for n in (1, 2, 3, 6, 7) for mo
 @pytest.mark.parametrize("convention,n,moved", CASES)
 def test_program_equals_generic_walk(convention, n, moved, monkeypatch):
     rng = np.random.default_rng(100 + CASES.index((convention, n, moved)))
+    # small chunks, so that small batches exercise every mode: outputs written directly in one
+    # chunk (100 configurations) or in several (700, position), through contiguous rows (700, J)
+    monkeypatch.setattr(_forward, "_DIRECT_BATCH", 256)
+    monkeypatch.setattr(_forward, "_DIRECT_ENTRIES", 100 * 6 * 7 + 16 * 100)
+    monkeypatch.setattr(_forward, "_PROGRAM_CHUNK_ENTRIES", 0)  # chunks of 256
     for _ in range(3):
         robot = _flipped(_robot(rng, convention, n, moved), rng)
-        for N in (300, _forward._DIRECT_BATCH + 1000):  # one chunk (direct), several chunks (staged)
+        for N in (100, 700):
             q = rng.uniform(-4.0, 4.0, size=(N, n))
             point = rng.uniform(-0.2, 0.2, 3)
             results = {}
@@ -43,6 +48,8 @@ def test_program_equals_generic_walk(convention, n, moved, monkeypatch):
                 results[per_call] = [fk_jacobian(robot, q, point=pt, frame=fr)
                                      for pt in (None, point) for fr in ("base", "tool")]
                 results[per_call].append((None, jacobian(robot, q)))
+                results[per_call] += [(fk_position(robot, q, pt), fk_position(robot, q[::-1], pt))
+                                      for pt in (None, point)]
             for (Tp, Jp), (Tw, Jw) in zip(results[0], results[float("inf")]):
                 np.testing.assert_allclose(Jp, Jw, rtol=0, atol=1e-12)
                 if Tw is not None:
