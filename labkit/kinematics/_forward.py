@@ -15,12 +15,13 @@ A handful of configurations (``N <= SMALL_BATCH``) takes the pure-Python path
 of :mod:`labkit.kinematics._forward_small` instead, which skips the array
 bookkeeping (same results to ~1e-16).
 
-The Jacobian (with or without the pose) of a bigger batch runs a program
-compiled once per robot by :mod:`labkit.kinematics._program`: the same
-recursion with the robot's constant zeros, ones and signs folded away, as
-ufunc calls on ``(m,)`` rows (written straight into the output for one chunk,
-through cache-sized contiguous rows for several); it gives the walk's results
-bit for bit. Below ``PROGRAM_BATCH_PER_CALL`` configurations per program call
+The Jacobian (with or without the pose) and the position of a bigger batch
+run a program compiled once per robot by :mod:`labkit.kinematics._program`:
+the same recursion with the robot's constant zeros, ones and signs folded
+away, as ufunc calls on ``(m,)`` rows, written straight into the output
+(few rows per configuration, or a small output) or through cache-sized
+contiguous rows copied out transposed; it gives the walk's results bit for
+bit. Below ``PROGRAM_BATCH_PER_CALL`` configurations per program call
 the walk, with fewer calls on ``(3, m)`` blocks, is used instead.
 """
 
@@ -362,11 +363,7 @@ def _program_inputs(c, qc, inputs):
     if c.half_theta is not None:
         h += c.half_theta
     np.tan(h, out=h)
-    np.multiply(h, h, out=w)  # half_angle_trig, into the input rows
-    w += 1.0
-    np.divide(2.0, w, out=w)
-    h *= w
-    w -= 1.0
+    half_angle_trig(h, cos_out=w)
     if not c.all_revolute:
         inputs[2 * r:] = qc[:, [i for i, step in enumerate(c.steps) if not step[0]]].T
 
