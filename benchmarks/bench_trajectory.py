@@ -9,7 +9,9 @@ asserted) and ratios to peers measured in the same run:
   branch, joint rates and accelerations through the Jacobian, limit check),
   and its parts; peer: roboticstoolbox-python's ``ctraj`` + ``ik_LM`` (C++,
   masked to the position) + ``jacob0`` solve per sample, timed on 200 samples
-  and scaled to 10,000 (it is a per-sample loop). Target 8 ms.
+  and scaled to 10,000 (it is a per-sample loop). Target 8 ms. Before/after:
+  the same line timed in fresh interpreters with labkit at ``--before REV``
+  (exported with ``git archive``) and with this tree.
 * via points: a 6-point PUMA 560 joint trajectory sampled 10,000 times
   (:func:`labkit.motion.via_trajectory`); peer: roboticstoolbox's ``mstraj``.
 * 1,000,000-sample workspace of the arm (:func:`labkit.kinematics.workspace_points`);
@@ -47,6 +49,57 @@ def seconds(fn, repeat=7):
     return best
 
 
+#: the Cartesian line, timed in a fresh interpreter by ``line_in_subprocess`` (best of ``rep`` CPU times)
+LINE_CODE = """
+import time, numpy as np
+from labkit.robot import Robot
+from labkit.motion import cartesian_trajectory, line
+arm = Robot.load("arduino_arm_3dof")
+path = line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2])
+t = np.linspace(0.0, 5.0, 10_000)
+run = lambda: cartesian_trajectory(arm, path, 5.0, t=t, branch="elbow_up")
+run()
+best = float("inf")
+for _ in range({rep}):
+    t0 = time.process_time()
+    run()
+    best = min(best, time.process_time() - t0)
+print(best)
+"""
+
+
+def line_in_subprocess(rev, rep):
+    """Seconds of the Cartesian line with labkit at git revision ``rev`` (None: this tree), or an error string.
+
+    ``rev`` is exported with ``git archive`` into a temporary directory and
+    imported from there by a fresh interpreter; this tree is timed the same
+    way, so both numbers come from the same kind of process in the same run.
+    """
+    import io
+    import subprocess
+    import sys
+    import tarfile
+    import tempfile
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    with tempfile.TemporaryDirectory() as tmp:
+        where = str(root)
+        if rev is not None:
+            got = subprocess.run(["git", "-C", str(root), "archive", rev, "labkit"], capture_output=True)
+            if got.returncode:
+                return got.stderr.decode(errors="replace").strip() or "git archive failed"
+            with tarfile.open(fileobj=io.BytesIO(got.stdout)) as tar:
+                tar.extractall(tmp, filter="data")
+            where = tmp
+        env = {**os.environ, "PYTHONPATH": where}
+        done = subprocess.run([sys.executable, "-c", LINE_CODE.format(rep=rep)], env=env, capture_output=True,
+                              text=True, cwd=tmp)
+        if done.returncode:
+            return done.stderr.strip().splitlines()[-1] if done.stderr.strip() else "failed"
+        return float(done.stdout)
+
+
 def row(name, t, target=None, peer=None, peer_name=""):
     tg = "" if target is None else f"target {target * 1e3:7.1f} ms {'ok' if t <= target else 'MISS':<4}"
     pr = "" if peer is None else f"{peer_name} {peer * 1e3:9.1f} ms  labkit/peer {t / peer:6.3f}"
@@ -56,6 +109,10 @@ def row(name, t, target=None, peer=None, peer_name=""):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats")
+    ap.add_argument("--before", default="7998dd6", metavar="REV",
+                    help="git revision timed as 'before' for the Cartesian line (default 7998dd6, the tree "
+                         "before the compiled Jacobian programs, the one-branch IK path and the lean joint "
+                         "rates of issue 15); '' to skip")
     args = ap.parse_args(argv)
     rep = 3 if args.quick else 7
     import labkit
@@ -97,6 +154,14 @@ def main(argv=None):
     row("cartesian_trajectory: time law, path, IK, qd, qdd", full, 0.008, peer, "rtb")
     row("  of which IK (one branch) on the 10,000 points", seconds(lambda: ik(arm, traj.x, branch="elbow_up"), rep))
     row("  of which Jacobians on the 10,000 configurations", seconds(lambda: jacobian(arm, traj.q), rep))
+    if args.before:
+        before, after = line_in_subprocess(args.before, rep), line_in_subprocess(None, rep)
+        if isinstance(before, float) and isinstance(after, float):
+            print(f"  before/after, fresh interpreters in this run: labkit at {args.before} {before * 1e3:.2f} ms, "
+                  f"this tree {after * 1e3:.2f} ms ({before / after:.2f}x faster); "
+                  f"target 8.0 ms: {'ok' if after <= 0.008 else 'MISS'}")
+        else:
+            print(f"  before/after: n/a ({before if not isinstance(before, float) else after})")
 
     # -- via points ------------------------------------------------------------------------
     puma = Robot.load("puma560")

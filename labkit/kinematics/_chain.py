@@ -162,20 +162,22 @@ def prepare(robot, q):
     return c, arr, lead
 
 
-def half_angle_trig(t):
+def half_angle_trig(t, cos_out=None):
     """Cosine and sine from half-angle tangents, in place of a ``sin`` and a ``cos``.
 
     Parameters
     ----------
     t : ndarray
         ``tan(theta / 2)``; overwritten with ``sin theta``.
+    cos_out : ndarray, optional
+        Array of ``t``'s shape to write the cosine into (default: a new one).
 
     Returns
     -------
     cos, sin : ndarray
         Same shape as ``t``; ``sin`` is ``t`` itself.
     """
-    w = np.multiply(t, t)
+    w = np.multiply(t, t, out=cos_out)
     w += 1.0
     np.divide(2.0, w, out=w)
     t *= w

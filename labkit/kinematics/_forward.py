@@ -14,6 +14,15 @@ straight into the output array (written once, or into the caller's ``out``).
 A handful of configurations (``N <= SMALL_BATCH``) takes the pure-Python path
 of :mod:`labkit.kinematics._forward_small` instead, which skips the array
 bookkeeping (same results to ~1e-16).
+
+The Jacobian (with or without the pose) and the position of a bigger batch
+run a program compiled once per robot by :mod:`labkit.kinematics._program`:
+the same recursion with the robot's constant zeros, ones and signs folded
+away, as ufunc calls on ``(m,)`` rows, written straight into the output
+(few rows per configuration, or a small output) or through cache-sized
+contiguous rows copied out transposed; it gives the walk's results bit for
+bit. Below ``PROGRAM_BATCH_PER_CALL`` configurations per program call
+the walk, with fewer calls on ``(3, m)`` blocks, is used instead.
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _forward_small as _small
+from labkit.kinematics import _program
 from labkit.kinematics._chain import check_out, half_angle_trig, prepare
 from labkit.validation import as_vector
 
@@ -29,10 +39,21 @@ __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
 #: configurations per chunk of the batched kernels (blocks stay in the L2 cache)
 _CHUNK = 8192
-#: the Jacobian's per-chunk scratch grows with n: chunks of _JCHUNK_ENTRIES // n configurations
-_JCHUNK_ENTRIES = 12288
+#: the generic walk's Jacobian scratch grows with n: chunks of _WALK_CHUNK_ENTRIES // n configurations
+_WALK_CHUNK_ENTRIES = 12288
+#: chunks of the compiled Jacobian programs: _PROGRAM_CHUNK_ENTRIES // n configurations
+_PROGRAM_CHUNK_ENTRIES = 49152
+#: a program with k calls runs for batches of at least PROGRAM_BATCH_PER_CALL * k configurations
+#: (below that the generic walk, with fewer calls on (3, m) blocks, is faster)
+PROGRAM_BATCH_PER_CALL = 2
 #: at most this many configurations go through the pure-Python path
 SMALL_BATCH = 4
+#: a program with at most _DIRECT_ROWS output rows writes straight into the output, in chunks of
+#: _DIRECT_BATCH configurations; so does one whose whole output has at most _DIRECT_ENTRIES entries
+#: (one chunk); bigger outputs go through contiguous rows copied out transposed
+_DIRECT_ROWS = 8
+_DIRECT_BATCH = 16384
+_DIRECT_ENTRIES = 2**18
 _E = np.eye(3)[:, :, None]  # the unit columns as (3, 1) blocks
 _ZERO = np.zeros((3, 1))
 
@@ -253,6 +274,10 @@ def fk_position(robot, q, point=None, *, out=None):
         return np.array(_small.position(c, q2.tolist(), off)).reshape(shape)
     res = _output(out, shape)
     flat = res.reshape(N, 3)
+    prog = _program.program(c, off, None, None, position_only=True)
+    if N >= PROGRAM_BATCH_PER_CALL * len(prog.ops):
+        _run_program(c, prog, q2, (flat,))
+        return res
     for s in range(0, N, _CHUNK):
         (c0, c1, c2, p), _ = _walk(c, q2[s:s + _CHUNK])
         if off is not None:
@@ -330,6 +355,80 @@ def _jacobian_chunk(c, qc, pt, frame, W, WJ, axes):
         _write_pose(W, (t0, t1, t2, pe))
 
 
+def _program_inputs(c, qc, inputs):
+    """Fill a program's input rows for a chunk ``qc`` (m, n): cosines, sines, prismatic values."""
+    r = c.revolute.size
+    h, w = inputs[r:2 * r], inputs[:r]
+    np.multiply((qc if c.all_revolute else qc[:, c.revolute]).T, 0.5, out=h)
+    if c.half_theta is not None:
+        h += c.half_theta
+    np.tan(h, out=h)
+    half_angle_trig(h, cos_out=w)
+    if not c.all_revolute:
+        inputs[2 * r:] = qc[:, [i for i, step in enumerate(c.steps) if not step[0]]].T
+
+
+def _run(bound):
+    for f, a, b, o in bound:
+        f(a, b, o)
+
+
+def _jacobian_walk(c, q2, pt, frame, fJ, fT):
+    """The generic walk's Jacobian (and pose): (3, m) blocks in chunks, copied out transposed."""
+    n, N = c.n, q2.shape[0]
+    chunk = max(256, _WALK_CHUNK_ENTRIES // n)
+    m = min(N, chunk)
+    W = _pose_buffer(m) if fT is not None else None
+    WJ = np.empty((6 * n, m))
+    axes = np.empty((3, n, m)), np.empty((3, n, m))
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
+        k = qc.shape[0]
+        _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
+        np.copyto(fJ[s:s + k], WJ[:, :k].T)
+        if fT is not None:
+            np.copyto(fT[s:s + k], W[:, :k].T)
+
+
+def _run_program(c, prog, q2, outs):
+    """Run a compiled program (:mod:`labkit.kinematics._program`) over ``q2`` (N, n).
+
+    ``outs`` are (N, k) C-contiguous arrays whose columns, side by side, are
+    the program's output rows.
+    """
+    N = q2.shape[0]
+    if prog.n_rows <= _DIRECT_ROWS or N * prog.n_rows <= _DIRECT_ENTRIES:
+        # the calls write straight into the outputs' (strided) rows: a few rows per configuration
+        # in chunks, or one chunk whose output stays in the cache
+        m = min(N, _DIRECT_BATCH)
+        inputs, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_scratch, m))
+        for s in range(0, N, m):
+            qc = q2[s:s + m]
+            k = qc.shape[0]
+            if k < m:
+                inputs, scratch = inputs[:, :k], scratch[:, :k]
+            _program_inputs(c, qc, inputs)
+            _run(prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch))
+        return
+    # chunks: contiguous output rows (the calls stay in the cache), copied out transposed
+    chunk = max(256, _PROGRAM_CHUNK_ENTRIES // c.n)
+    m = min(N, chunk)
+    inputs, rows, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_rows, m)), np.empty((prog.n_scratch, m))
+    bound = prog.bind(inputs, list(rows), scratch)
+    for s in range(0, N, chunk):
+        qc = q2[s:s + chunk]
+        k = qc.shape[0]
+        if k < m:  # the last, shorter chunk
+            inputs, rows, scratch = inputs[:, :k], rows[:, :k], scratch[:, :k]
+            bound = prog.bind(inputs, list(rows), scratch)
+        _program_inputs(c, qc, inputs)
+        _run(bound)
+        first = 0
+        for o in outs:
+            np.copyto(o[s:s + k], rows[first:first + o.shape[1]].T)
+            first += o.shape[1]
+
+
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     if frame not in ("base", "tool"):
         raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
@@ -347,20 +446,13 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     T = _output(out_T, lead + (4, 4)) if want_T else None
     fJ = J.reshape(N, 6 * n)
     fT = T.reshape(N, 16) if want_T else None
-    chunk = max(256, _JCHUNK_ENTRIES // n)
-    m = min(N, chunk)
-    W = _pose_buffer(m) if want_T else None
-    WJ = np.empty((6 * n, m))
-    axes = np.empty((3, n, m)), np.empty((3, n, m))
-    for s in range(0, N, chunk):
-        qc = q2[s:s + chunk]
-        k = qc.shape[0]
-        _jacobian_chunk(c, qc, pt, frame, None if W is None else W[:, :k], WJ[:, :k], axes)
-        np.copyto(fJ[s:s + k], WJ[:, :k].T)
-        if want_T:
-            np.copyto(fT[s:s + k], W[:, :k].T)
-    if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
-        J[..., c.flipped] *= -1.0
+    prog = _program.program(c, off, frame == "tool", want_T)
+    if N < PROGRAM_BATCH_PER_CALL * len(prog.ops):  # few configurations: the walk's fewer, bigger calls win
+        _jacobian_walk(c, q2, pt, frame, fJ, fT)
+        if c.flipped.size:  # d/dq_i = -d/dtheta_i for a flipped joint
+            J[..., c.flipped] *= -1.0
+    else:
+        _run_program(c, prog, q2, (fJ,) if fT is None else (fJ, fT))  # flipped joints included
     return T, J
 
 

@@ -457,6 +457,9 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     if out is not None:  # else the batched path below raises or broadcasts q_near
         return np.array(out).reshape(lead + (robot.n,))
     flat, lead = _targets(robot, target, kind)
+    q = None if idx is None else _ik_analytic.solve_one_branch(robot, impl, flat, idx, _CHUNK)
+    if q is not None:  # every target valid on the named branch; else the full path below raises
+        return q.reshape(lead + (robot.n,))
     sols = _solve_all(robot, impl, kind, flat, lead)
     n = robot.n
     m = len(sols.branches)

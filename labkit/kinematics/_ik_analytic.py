@@ -122,6 +122,45 @@ def normalize_angles(q, limits, revolute):
     return q
 
 
+def solve_one_branch(robot, impl, flat, idx, chunk):
+    """One branch of validated, flattened targets, if every target is valid on it.
+
+    Parameters
+    ----------
+    robot : Robot
+    impl : analytic solver
+        Without a ``solve_branch(target, k)`` method the answer is None.
+    flat : ndarray, shape (N, ...)
+        Targets.
+    idx : int
+        Branch index.
+    chunk : int
+        Targets per call of the solver.
+
+    Returns
+    -------
+    ndarray, shape (N, n) or None
+        ``q`` [rad, m] as ``ik_all`` gives it for that branch; None if a target
+        is unreachable or outside the limits on it (the caller then takes the
+        full path, which diagnoses every branch).
+    """
+    if not hasattr(impl, "solve_branch"):
+        return None
+    rev = robot.is_revolute
+    flipped = np.flatnonzero(robot.flip)
+    q = np.empty((flat.shape[0], robot.n))
+    for s in range(0, flat.shape[0], chunk):
+        qc, rc = impl.solve_branch(flat[s:s + chunk], idx)
+        if not np.all(rc):
+            return None
+        if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
+            qc[..., flipped] *= -1.0
+        q[s:s + chunk] = normalize_angles(qc, robot.joint_limits, rev)
+    if not np.isfinite(q.sum()) or not np.all(robot.within_limits(q)):
+        return None
+    return q
+
+
 def wrist_branches(shoulder):
     """Branch names and their three-letter aliases of an 8-solution 6R arm.
 
@@ -255,10 +294,12 @@ class _Arm:
         self.up = -1.0 if v_mid < -0.2 * self.L1 else 1.0
         self.a = (a1, a2, a3)
 
-    def solve(self, W):
+    def solve(self, W, only=None):
         """W (3, N) -> list of 4 (q1, q2, q3) tuples, reachable (N, 4), distance (N,).
 
         Order: front elbow up, front elbow down, back elbow up, back elbow down.
+        With ``only`` (0-3) just that branch is computed (the same operations):
+        a list of one tuple, reachable (N, 1) and distance None.
         """
         d = W - self.S[:, None]
         hr = self.er @ d
@@ -269,17 +310,19 @@ class _Arm:
         u0 = np.sqrt(np.maximum(rho2 - off * off, 0.0))
         shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - _REACH_TOL
         L1, L2 = self.L1, self.L2
-        lateral = np.maximum(abs(off) - np.sqrt(rho2), 0.0)
+        lateral = np.maximum(abs(off) - np.sqrt(rho2), 0.0) if only is None else None
         az = np.arctan2(hn, hr)
         out, ok, distance = [], [], None
-        for side in (self.front, -self.front):
+        sides = (self.front, -self.front)
+        for side in sides if only is None else sides[only // 2:only // 2 + 1]:
             u = side * u0
             ur = u - self.Sr  # radial coordinate of W seen from the shoulder
-            D = np.sqrt(ur * ur + w * w)
             cb = (ur * ur + w * w - L1 * L1 - L2 * L2) / (2 * L1 * L2)
             side_ok = shoulder_ok & (np.abs(cb) <= 1.0 + _REACH_TOL)
-            dist = np.maximum(np.maximum(np.maximum(D - (L1 + L2), abs(L1 - L2) - D), 0.0), lateral)
-            distance = dist if distance is None else np.minimum(distance, dist)
+            if only is None:
+                D = np.sqrt(ur * ur + w * w)
+                dist = np.maximum(np.maximum(np.maximum(D - (L1 + L2), abs(L1 - L2) - D), 0.0), lateral)
+                distance = dist if distance is None else np.minimum(distance, dist)
             cb = np.clip(cb, -1.0, 1.0)
             sb = np.sqrt(1.0 - cb * cb)
             tb_abs = np.arctan2(sb, cb)
@@ -288,7 +331,7 @@ class _Arm:
             aw = np.arctan2(w, ur)
             # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
             forward = np.where(np.abs(ur) > 1e-12, ur > 0, side > 0)
-            for elbow_up in (True, False):
+            for elbow_up in (True, False) if only is None else (only % 2 == 0,):
                 # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +ev
                 neg = forward == (self.up > 0)
                 if not elbow_up:
@@ -369,6 +412,27 @@ class YawPitchPitch:
         for k, (q1, q2, q3) in enumerate(sols):
             q[:, k, 0], q[:, k, 1], q[:, k, 2] = q1, q2, q3
         return q, ok, distance
+
+    def solve_branch(self, target, k):
+        """Branch ``k`` of :meth:`solve` alone (same operations, a quarter of the work).
+
+        Parameters
+        ----------
+        target : ndarray, shape (N, 3)
+            Tool-point positions [m].
+        k : int
+            Index into ``branches``.
+
+        Returns
+        -------
+        q : ndarray, shape (N, 3)
+            Joint angles [rad].
+        reachable : ndarray of bool, shape (N,)
+        """
+        sols, ok, _ = self.arm.solve(target.T, only=k)
+        q = np.empty((target.shape[0], 3))
+        q[:, 0], q[:, 1], q[:, 2] = sols[0]
+        return q, ok[:, 0]
 
 
 # --------------------------------------------------------------------------

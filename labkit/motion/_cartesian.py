@@ -37,6 +37,7 @@ from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import make_law, time_grid
 from labkit.motion._trajectory import Trajectory
 from labkit.motion._checks import check_joint_limits, check_speed
+from labkit.motion._rates import joint_rates
 from labkit import kinematics
 
 __all__ = ["path_law", "cartesian_trajectory", "cartesian_via_trajectory"]
@@ -207,73 +208,6 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         ) from exc
 
 
-def _solver3(J):
-    """``b -> J^-1 b`` for a batch of 3x3 matrices J (N, 3, 3), factored once (adjugate).
-
-    Rows whose determinant is below 1e-12 of the product of the column norms
-    (a singular arm) get the least-squares, minimum-norm solution instead.
-    """
-    A = np.ascontiguousarray(J.transpose(1, 2, 0))  # A[i, j] = J[:, i, j], each (N,) contiguous
-    # rows of the adjugate: cross products of the columns (c_k . column_k = det)
-    cof = np.empty_like(A)
-    for k in range(3):
-        j1, j2 = (k + 1) % 3, (k + 2) % 3
-        for i in range(3):
-            i1, i2 = (i + 1) % 3, (i + 2) % 3
-            np.multiply(A[i1, j1], A[i2, j2], out=cof[k, i])
-            cof[k, i] -= A[i2, j1] * A[i1, j2]
-    det = cof[0, 0] * A[0, 0] + cof[0, 1] * A[1, 0] + cof[0, 2] * A[2, 0]
-    norms = np.sqrt((A * A).sum(axis=0))  # (3, N) column norms
-    ok = np.abs(det) > 1e-12 * (norms[0] * norms[1] * norms[2] + 1e-300)
-    inv_det = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-    pinv = np.linalg.pinv(J[~ok]) if not np.all(ok) else None
-
-    def solve(b):
-        bt = b.T
-        x = np.empty_like(b)
-        for k in range(3):
-            x[:, k] = (cof[k, 0] * bt[0] + cof[k, 1] * bt[1] + cof[k, 2] * bt[2]) * inv_det
-        if pinv is not None:  # singular samples: least squares (finite, the minimum-norm rate)
-            x[~ok] = np.einsum("nij,nj->ni", pinv, b[~ok])
-        return x
-
-    return solve
-
-
-def _joint_rates(robot, kind, q, xd, xdd):
-    """qd = J^-1 xd and qdd = J^-1 (xdd - Jdot qd), Jdot qd by finite differences."""
-
-    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
-    T, J = kinematics.fk_jacobian(robot, q)
-    J = J[:, rows, :]
-    if J.shape[-1] == 3 == J.shape[-2]:
-        solve = _solver3(J)
-    else:
-        Jinv = np.linalg.pinv(J)
-
-        def solve(b):
-            return np.einsum("nij,nj->ni", Jinv, b)
-
-    qd = solve(xd)
-    if kind == "pose":
-        h = 1e-6
-        Jp = kinematics.jacobian(robot, q + h * qd)[:, rows, :]
-        Jm = kinematics.jacobian(robot, q - h * qd)[:, rows, :]
-        jdot_qd = np.einsum("nij,nj->ni", (Jp - Jm) / (2 * h), qd)
-    else:
-        # Jdot qd of the position rows = qd^T (d2p/dq2) qd: a central second
-        # difference of the tool position along qd (cheaper than two Jacobians);
-        # the planar phi row is linear in q, so its Jdot qd is 0.
-        speed = np.linalg.norm(qd, axis=1)
-        h = 1e-4 / np.maximum(speed, 1e-12)
-        step = h[:, None] * qd
-        second = kinematics.fk_position(robot, q + step) + kinematics.fk_position(robot, q - step) - 2 * T[:, :3, 3]
-        jdot_qd = second / (h * h)[:, None]
-        jdot_qd = jdot_qd if kind == "position" else np.column_stack([jdot_qd[:, :2], np.zeros(len(q))])
-    qdd = solve(xdd - jdot_qd)
-    return qd, qdd
-
-
 def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=None,
                          orientation=None, branch=None, q_start=None, check_limits=True,
                          check_speed_limits=False, max_joint_step=math.pi / 2, **law_options):
@@ -375,8 +309,11 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     q = np.asarray(_solve(robot, kind, targets, t, branch, path, q_start), dtype=float)
     rev = robot.is_revolute
     if q.shape[0] > 1:
-        q[:, rev] = np.unwrap(q[:, rev], axis=0)
-        step = np.abs(np.diff(q, axis=0))
+        step = np.diff(q, axis=0)
+        np.abs(step, out=step)
+        if not (step if rev.all() else step[:, rev]).max(initial=0.0) < math.pi:  # else unwrap changes nothing
+            q[:, rev] = np.unwrap(q[:, rev], axis=0)
+            step = np.abs(np.diff(q, axis=0))
         if np.any(step > max_joint_step):
             i, j = np.argwhere(step > max_joint_step)[0]
             raise TrajectoryError(
@@ -384,7 +321,7 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
                 f"{math.degrees(step[i, j]):.1f} deg between t = {t[i]:.4g} s and {t[i + 1]:.4g} s "
                 f"(IK branch {branch!r} flips near a singularity); try another branch or path"
             )
-    qd, qdd = _joint_rates(robot, kind, q, xd, xdd)
+    qd, qdd = joint_rates(robot, kind, q, xd, xdd)
     resampler = functools.partial(_resample, robot, path, s_law, orientation, branch, q_start)
     traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
                       axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)

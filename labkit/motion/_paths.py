@@ -102,6 +102,12 @@ class Path:
             ddp = -self.radius * self.sweep**2 * radial
             return p, dp, ddp
         P = self.points
+        if P.shape[0] == 2:  # a line: segment 0 everywhere (the same values without the gathers)
+            d = np.empty((s.size, 3))
+            d[...] = P[1] - P[0]
+            p = np.multiply(s[:, None], d)
+            p += P[0]
+            return p, d, np.zeros_like(d)
         seg = np.clip(np.floor(s).astype(int), 0, P.shape[0] - 2)
         frac = (s - seg)[:, None]
         d = P[seg + 1] - P[seg]

@@ -254,14 +254,14 @@ def test_cartesian_via_points_seed003_task5():
 
 
 def test_batched_3x3_solver_matches_numpy_and_falls_back_at_singular_samples():
-    from labkit.motion._cartesian import _solver3
+    from labkit.motion._rates import solver3
 
     rng = np.random.default_rng(11)
     J = rng.normal(size=(500, 3, 3))
     J[7, :, 2] = J[7, :, 0] + J[7, :, 1]  # singular: dependent columns
     J[9] = 0.0  # singular: all zero
     b = rng.normal(size=(500, 3))
-    x = _solver3(J)(b)
+    x = solver3(J)(b)
     ok = np.ones(500, dtype=bool)
     ok[[7, 9]] = False
     np.testing.assert_allclose(x[ok], np.linalg.solve(J[ok], b[ok][..., None])[..., 0], rtol=1e-9, atol=1e-9)
