@@ -10,7 +10,7 @@ this arm, whose frame 0 has z pointing down).
 import numpy as np
 import pytest
 
-from labkit.arm import Arm, PhysicsConfig, segments_from_trajectory
+from labkit.arm import Arm, PhysicsConfig, gravity_sag, segments_from_trajectory
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import fk_position
 from labkit.motion import approach_point, cartesian_trajectory, height_above, line, pick_and_place_legs
@@ -24,8 +24,10 @@ HOME, PICK, PLACE = np.array([0.0, 0.18, -0.094]), np.array([0.20, 0.10, -0.10])
 
 def test_up_of_the_seed000_arm_is_minus_z0_and_matches_the_virtual_gravity():
     assert np.array_equal(ARM.up, [0.0, 0.0, -1.0])
-    g = np.asarray(PhysicsConfig().gravity, dtype=float)
-    assert np.allclose(g / np.linalg.norm(g), -ARM.up)  # the simulated physics pulls the other way
+    # the simulated physics pulls the other way: its default gravity is -9.81 up, +z0 on this arm
+    assert PhysicsConfig().gravity is None
+    q = np.radians([0, 20, 10])
+    np.testing.assert_array_equal(gravity_sag(ARM, q), gravity_sag(ARM, q, PhysicsConfig(gravity=(0, 0, 9.81))))
     # the arm's highest point (q2 = 90 deg, link straight up) has the largest height
     q = np.radians([[0, 90, 0], [0, 60, 0], [0, 5, 0]])
     h = height_above(ARM, fk_position(ARM, q))
