@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError, TrajectoryError
-from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected, segment_speed_ok
+from labkit.arm._motion import segment_speed_ok
+from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -173,7 +174,8 @@ def move_duration_ms(q0, q1, vmax, amax):
     """Shortest ``MOVE`` duration [ms] that keeps every joint within its speed and acceleration limits.
 
     The rest-to-rest cubic peaks at ``1.5 |dq| / T`` [cdeg/s] and ``6 |dq| / T^2``
-    [cdeg/s^2]; the result is then confirmed with the board's own sampled check.
+    [cdeg/s^2]; the result is then confirmed with the board's own check (``docs/protocol.md`` 4.3),
+    one millisecond longer while that cannot prove it.
 
     Parameters
     ----------
