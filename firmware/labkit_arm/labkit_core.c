@@ -40,12 +40,10 @@ static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-chang
 static uint16_t g_echo;
 
 static LK_NOINLINE uint16_t crc_step(uint16_t crc, uint8_t b) { /* CRC-16/CCITT-FALSE, one byte, no table */
-    crc = (uint16_t)((crc >> 8) | (crc << 8));
-    crc ^= b;
-    crc ^= (uint8_t)(crc & 0xFF) >> 4;
-    crc ^= (uint16_t)(crc << 12);
-    crc ^= (uint16_t)((crc & 0xFF) << 5);
-    return crc;
+    uint8_t x = (uint8_t)(crc >> 8) ^ b, lo;
+    x ^= x >> 4;
+    lo = (uint8_t)(x << 5);                       /* crc = (crc << 8) ^ (x << 12) ^ (x << 5) ^ x, byte by byte */
+    return (uint16_t)(((uint16_t)((uint8_t)crc ^ (uint8_t)(x << 4) ^ (x >> 3)) << 8) | (uint8_t)(lo ^ x));
 }
 
 static void out_n(const char *s, uint8_t n) {
