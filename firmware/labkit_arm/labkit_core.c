@@ -448,7 +448,7 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
    and falls short by less than e = 1 + level m: a piece passes when -lim <= c and c + e <= lim for all its
    coefficients c; a piece still undecided at the deepest level fails the check (conservative). */
 #define LK_SUB_DEPTH 6
-/* K / C(n, i) for n = 3 (K = 3) and n = 5 (K = 10): the Bernstein coefficients times K are then prefix sums */
+/* K / C(n, i) for n = 3 (K = 3) and n = 5 (K = 10) */
 static const uint8_t bern_w[] LK_FLASH = {3, 1, 1, 3, 10, 2, 1, 1, 2, 10};
 
 /* halve p (m + 1 coefficients, |p| < 2^29) until |p| <= lim is proven (1) or refuted (0); st: pending halves */
@@ -481,14 +481,8 @@ static LK_NOINLINE uint8_t subdivide(int32_t *p, uint8_t m, int32_t lim, int8_t 
     }
 }
 
-/* a b > c d (64-bit products) */
-static LK_NOINLINE uint8_t prod_gt(uint32_t a, uint32_t b, uint32_t c, uint32_t d) {
-    return (uint64_t)a * b > (uint64_t)c * d;
-}
-
-/* floor(a b 2^sh / q), sh = -2..29 */
-static LK_NOINLINE int32_t mul_div(uint32_t a, uint32_t b, int8_t sh, uint32_t q) {
-    uint64_t n = (uint64_t)a * b;
+/* floor(n 2^sh / q), sh = -2..29 */
+static LK_NOINLINE int32_t scaled_div(uint64_t n, int8_t sh, uint32_t q) {
     while (sh > 0) { n <<= 1; sh--; }
     while (sh < 0) { n >>= 1; sh++; }
     return (int32_t)(n / q);
@@ -502,16 +496,23 @@ static LK_NOINLINE uint32_t max_abs(const int32_t *p, uint8_t m, uint8_t ends) {
     return big;
 }
 
-uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x, uint32_t y, int32_t *scratch) {
+/* K_n times the Bernstein coefficients of q: K b_k = sum_i C(k, i) (K / C(n, i)) c_i, scaled then n passes of
+   running sums */
+static LK_NOINLINE void bern(const int32_t *c, uint8_t order, int32_t *b) {
     const uint8_t *w = bern_w + (order == 3 ? 0 : 4);
-    int32_t b[LK_MAX_ORDER + 1];
+    uint8_t k, i;
+    for (k = 0; k <= order; k++) b[k] = (int32_t)pgm_byte(w + k) * c[k];
+    for (i = 0; i < order; i++)
+        for (k = order; k > i; k--) b[k] += b[k - 1];
+}
+
+/* lk_check on the coefficients bern() gave (b is overwritten) */
+static LK_NOINLINE uint8_t check_bern(int32_t *b, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x,
+                                      uint32_t y, int32_t *scratch) {
     uint32_t big, q = 1;
-    uint8_t kk = (uint8_t)pgm_byte(w), k, i, m = order;
+    uint64_t n;
+    uint8_t kk = order == 3 ? 3 : 10, k, i, m = order;
     int8_t sh = 0;
-    /* K b_k = sum_i C(k, i) (K / C(n, i)) c_i: scale, then n passes of running sums */
-    for (k = 0; k <= m; k++) b[k] = (int32_t)pgm_byte(w + k) * c[k];
-    for (i = 0; i < m; i++)
-        for (k = m; k > i; k--) b[k] += b[k - 1];
     if (!kind) { /* lo <= q <= hi  <=>  |2 b - K (lo + hi)| <= K (hi - lo) */
         for (k = 0; k <= m; k++) b[k] = 2 * b[k] - (int32_t)kk * (lo + hi);
         x = (uint32_t)(hi - lo); y = 1;
@@ -520,14 +521,20 @@ uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int3
             for (k = 0; k < m; k++) b[k] = b[k + 1] - b[k];
         q = kind == 1 ? 1000UL * order : 1000000UL * order * (order - 1);
     }
-    x *= kk; /* |b| q <= x y */
+    n = (uint64_t)(x * kk) * y;                          /* |b| q <= n */
     big = max_abs(b, m, 0);
-    if (!prod_gt(big, q, x, y)) return 1;                /* the hull is inside */
-    if (prod_gt(max_abs(b, m, 1), q, x, y)) return 0;    /* an end value is outside */
-    while (big >= (1UL << 29)) { big >>= 1; sh--; }      /* scale to 29 bits (x y / q < big) */
+    if ((uint64_t)big * q <= n) return 1;                /* the hull is inside */
+    if ((uint64_t)max_abs(b, m, 1) * q > n) return 0;    /* an end value is outside */
+    while (big >= (1UL << 29)) { big >>= 1; sh--; }      /* scale to 29 bits (n / q < big) */
     while (big < (1UL << 28)) { big <<= 1; sh++; }
     for (k = 0; k <= m; k++) b[k] = sh >= 0 ? (int32_t)((uint32_t)b[k] << sh) : b[k] >> -sh;
-    return subdivide(b, m, mul_div(x, y, sh, q), sh, scratch);
+    return subdivide(b, m, scaled_div(n, sh, q), sh, scratch);
+}
+
+uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x, uint32_t y, int32_t *scratch) {
+    int32_t b[LK_MAX_ORDER + 1];
+    bern(c, order, b);
+    return check_bern(b, order, kind, lo, hi, x, y, scratch);
 }
 
 static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
@@ -557,12 +564,15 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
             return err_joint(c->seq, LK_E_LIMIT, j);
         if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c->seq, LK_E_DISCONT, j);
     }
-    for (j = 0; j < LK_JOINTS; j++)
+    for (j = 0; j < LK_JOINTS; j++) {
+        int32_t b0[LK_MAX_ORDER + 1], b[LK_MAX_ORDER + 1];
+        bern(a + 2 + j * (order + 1), order, b0);
         for (k = 1; k <= 2; k++) { /* speed (vmax dur / 1000), acceleration (amax dur^2 / 10^6); 0: unchecked */
             uint32_t x = k == 1 ? lk->vmax[j] : lk->amax[j], y = k == 1 ? (uint32_t)a[0] : (uint32_t)a[0] * a[0];
-            if (x && !lk_check(a + 2 + j * (order + 1), order, k, 0, 0, x, y, lk->scratch))
-                return err_joint(c->seq, LK_E_SPEED, j);
+            memcpy(b, b0, sizeof b);
+            if (x && !check_bern(b, order, k, 0, 0, x, y, lk->scratch)) return err_joint(c->seq, LK_E_SPEED, j);
         }
+    }
     for (j = 0; j < LK_JOINTS; j++) {
         const int32_t *cj = a + 2 + j * (order + 1);
         int32_t end = 0;
