@@ -448,6 +448,7 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
    and falls short by less than e = 1 + level m: a piece passes when -lim <= c and c + e <= lim for all its
    coefficients c; a piece still undecided at the deepest level fails the check (conservative). */
 #define LK_SUB_DEPTH 6
+typedef char lk_scratch_fits[LK_SCRATCH >= LK_SUB_DEPTH * (LK_MAX_ORDER + 1) ? 1 : -1]; /* pending halves */
 /* K / C(n, i) for n = 3 (K = 3) and n = 5 (K = 10) */
 static const uint8_t bern_w[] LK_FLASH = {3, 1, 1, 3, 10, 2, 1, 1, 2, 10};
 

@@ -109,11 +109,11 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback s
 /* helpers exposed for unit tests */
 uint16_t lk_crc16(const uint8_t *data, uint16_t n);
 /* q(s) [cdeg] at s = s24 / 2^24 (0 <= s24 <= 2^24), rounded to the nearest cdeg (integer Horner: before rounding
-   within 1/8 cdeg of the exact value for |c_i| <= 10^5; exact at s = 0 and 1) */
+   within 1/4 cdeg of the exact value for |c_i| <= 10^5; exact at s = 0 and 1) */
 int32_t lk_poly(const int32_t *c, uint8_t order, int32_t s24);
 /* one joint's motion check on 0 <= s <= 1 (docs/protocol.md 4.3), exact or conservative: kind 0 lo <= q(s) <= hi,
    1 |dq/ds| <= x y / 1000, 2 |d2q/ds2| <= x y / 10^6 [cdeg, normalised time]; 1 if proven, 0 if not.
-   scratch: LK_SCRATCH words (the pending halves of the subdivision) */
+   |c_i| <= 10^7, x <= 4 10^8 (LIMITS: vmax <= 10^6, amax <= 10^8), y < 2^32; scratch: LK_SCRATCH words */
 uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x, uint32_t y, int32_t *scratch);
 uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
 uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */
