@@ -10,9 +10,11 @@ import subprocess
 import numpy as np
 import pytest
 
-from labkit.arm import FIRMWARE_DIR
+from labkit.arm import FIRMWARE_DIR, VirtualBoard
 from labkit.arm._motion import check, segment_position_ok, segment_speed_ok
-from labkit.arm._segments import move_duration_ms, move_segment
+from labkit.arm._segments import check_segment_positions, feasible_ranges, move_duration_ms, move_segment
+from labkit.exceptions import JointLimitError
+from labkit.robot import Robot
 
 
 def dense_extremes(coef, kind, n=20001):
@@ -98,6 +100,22 @@ def test_a_quintic_acceleration_peak_inside_the_segment():
     assert not segment_speed_ok(c, 180, 30000, 150000)  # 4860 allowed
     assert segment_speed_ok(c, 250, 30000, 150000)  # 9375 allowed
     assert segment_speed_ok(c, 180, 30000, 0)  # acceleration unchecked
+
+
+def test_the_host_refuses_a_segment_leaving_the_range_between_samples_like_the_board():
+    robot = Robot.load("arduino_arm_3dof")
+    board = VirtualBoard(robot)
+    ranges = feasible_ranges(robot)
+    assert ranges == [board._feasible(j) for j in range(robot.n)]  # the board booted with the robot file's calibration
+    lo, hi = ranges[0]
+    mid = [[(a + b) // 2, 0, 0, 0] for a, b in ranges[1:]]
+    touches = [hi - 100, 400, -400, 0]  # ends at hi - 100, peaks at hi (s = 1/2)
+    overshoots = [hi - 100, 420, -420, 0]  # peaks 5 cdeg beyond hi
+    check_segment_positions(robot, [(500, 3, [c for row in [touches, *mid] for c in row])])
+    with pytest.raises(JointLimitError, match=r"segment 1 \(500 ms\): joint 1 \(.*\) leaves its range") as info:
+        check_segment_positions(robot, [(500, 3, [c for row in [touches, *mid] for c in row]),
+                                        (500, 3, [c for row in [overshoots, *mid] for c in row])])
+    assert info.value.joint == 0
 
 
 @pytest.fixture(scope="module")
