@@ -9,11 +9,11 @@
 #define LK_P(s) PSTR(s)
 #define LK_RD(p) ((char)pgm_read_byte(p))
 #define LK_FLASH PROGMEM
-#define LK_RDF(p) pgm_read_float(p)
 #define pgm_byte(p) pgm_read_byte(p)
+#define LK_RD32(p) pgm_read_dword(p)
 #else
-#define LK_RDF(p) (*(p))
 #define pgm_byte(p) (*(p))
+#define LK_RD32(p) (*(p))
 #define LK_P(s) (s)
 #define LK_RD(p) (*(const char *)(p))
 #define LK_FLASH
@@ -28,13 +28,11 @@
 #define LK_MAXARGS (2 + LK_JOINTS * (LK_MAX_ORDER + 1))
 #define LK_COEF_MAX 10000000L
 #define LK_DISCONT_CDEG 50
-#define LK_LIMIT_SAMPLES 32
 #define LK_EE_VERSION 2
 #define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 2)
 #define LK_VMAX_DEFAULT 60000UL
 #define LK_VMAX_MAX 1000000UL   /* 10000 deg/s */
 #define LK_AMAX_MAX 100000000UL /* 10^6 deg/s^2 */ /* factory speed limit [cdeg/s]: 600 deg/s, above any hobby servo */
-#define LK_SPEED_SAMPLES 16
 
 /* ------------------------------------------------------------------ output */
 static uint16_t g_cs;   /* running CRC-16 of the board line being written */
@@ -42,12 +40,10 @@ static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-chang
 static uint16_t g_echo;
 
 static LK_NOINLINE uint16_t crc_step(uint16_t crc, uint8_t b) { /* CRC-16/CCITT-FALSE, one byte, no table */
-    crc = (uint16_t)((crc >> 8) | (crc << 8));
-    crc ^= b;
-    crc ^= (uint8_t)(crc & 0xFF) >> 4;
-    crc ^= (uint16_t)(crc << 12);
-    crc ^= (uint16_t)((crc & 0xFF) << 5);
-    return crc;
+    uint8_t x = (uint8_t)(crc >> 8) ^ b, lo;
+    x ^= x >> 4;
+    lo = (uint8_t)(x << 5);                       /* crc = (crc << 8) ^ (x << 12) ^ (x << 5) ^ x, byte by byte */
+    return (uint16_t)(((uint16_t)((uint8_t)crc ^ (uint8_t)(x << 4) ^ (x >> 3)) << 8) | (uint8_t)(lo ^ x));
 }
 
 static void out_n(const char *s, uint8_t n) {
@@ -60,11 +56,18 @@ static void out_p(const char *p) { /* string in program memory */
     char c;
     while ((c = LK_RD(p++)) != 0) out_c(c);
 }
-static void out_u(uint32_t v) {
+static const uint32_t pow10[] LK_FLASH = {1000000000UL, 100000000UL, 10000000UL, 1000000UL, 100000UL, 10000UL, 1000UL, 100UL, 10UL};
+static void out_u(uint32_t v) { /* by subtracting powers of ten: a 32-bit division costs ~40 us on the AVR */
     char b[10];
-    uint8_t n = 0;
-    do { b[9 - n++] = (char)('0' + v % 10); v /= 10; } while (v);
-    out_n(b + 10 - n, n);
+    uint8_t n = 0, i;
+    for (i = 0; i < 9; i++) {
+        uint32_t p = LK_RD32(&pow10[i]);
+        char d = '0';
+        while (v >= p) { v -= p; d++; }
+        if (d > '0' || n) b[n++] = d;
+    }
+    b[n++] = (char)('0' + v);
+    out_n(b, n);
 }
 static void out_i(int32_t v) {
     if (v < 0) { out_c('-'); out_u((uint32_t)(-(v + 1)) + 1u); }
@@ -119,16 +122,10 @@ uint16_t lk_crc16(const uint8_t *d, uint16_t n) { /* CRC-16/CCITT-FALSE */
     return crc;
 }
 
-float lk_poly(const float *c, uint8_t order, float s) {
-    float v = c[order];
-    while (order--) v = v * s + c[order];
-    return v;
-}
-
-int32_t lk_round(float x) {
-    if (x >= 2147483000.0f) return 2147483000L;
-    if (x <= -2147483000.0f) return -2147483000L;
-    return (int32_t)(x >= 0 ? x + 0.5f : x - 0.5f);
+int32_t lk_poly(const int32_t *c, uint8_t order, int32_t s) {
+    int32_t v = c[order] * 16; /* Horner in 1/16 cdeg: |v| <= 16 sum |c_i| < 2^30 */
+    while (order--) v = (int32_t)(((int64_t)v * s + (1L << 23)) >> 24) + c[order] * 16;
+    return (v + 8) >> 4;
 }
 
 static int32_t div_round(int32_t num, int32_t den) { /* den > 0 */
@@ -293,8 +290,8 @@ static void out_q(const lk_t *lk) {
 
 static void halt(lk_t *lk) { lk->q_count = 0; lk->state = LK_IDLE; }
 
-static void clamp_set(lk_t *lk, uint8_t j, float qf) {
-    int32_t lo, hi, q = lk_round(qf);
+static void clamp_set(lk_t *lk, uint8_t j, int32_t q) {
+    int32_t lo, hi;
     feasible(&lk->cal[j], &lo, &hi);
     if (q < lo) { q = lo; lk->flags |= LK_F_CLAMPED; }
     if (q > hi) { q = hi; lk->flags |= LK_F_CLAMPED; }
@@ -310,13 +307,13 @@ void lk_frame(lk_t *lk, uint32_t frame_index) {
         lk_seg_t *seg = &lk->queue[lk->q_head];
         uint32_t el = t - lk->seg_start_ms;
         if (el < seg->dur_ms) {
-            float s = (float)el / (float)seg->dur_ms;
+            int32_t s = (int32_t)(((uint64_t)el << 24) / seg->dur_ms);
             for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, s));
             break;
         }
         lk->done++;
         if (lk->q_count == 1) {
-            for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, 1.0f));
+            for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, 1L << 24));
             halt(lk);
             out_begin(); out_p(LK_P("EV DONE ")); out_u(lk->done); out_end();
             break;
@@ -442,51 +439,103 @@ static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const l
     return 1;
 }
 
-/* Bernstein-hull test: on [0,1] a polynomial lies within the convex hull of its Bernstein
-   coefficients b_k = sum_{i<=k} C(k,i)/C(n,i) c_i (orders 3 and 5), so if every b_k is inside the feasible joint
-   range the whole segment is. Cheap (no sampling) and exact for rest-to-rest segments. */
-/* w[k][i] = C(k,i)/C(n,i) for n = 3 and n = 5 */
-/* stored times 3 (n = 3) and times 10 (n = 5) as bytes */
-static const uint8_t bern3[4][4] LK_FLASH = {{3}, {3, 1}, {3, 2, 1}, {3, 3, 3, 3}};
-static const uint8_t bern5[6][6] LK_FLASH = {{10}, {10, 2}, {10, 4, 1}, {10, 6, 3, 1}, {10, 8, 6, 4, 2}, {10, 10, 10, 10, 10, 10}};
+/* Motion checks (docs/protocol.md 4.3): exact or conservative, in integers, so that the virtual board and the
+   host (labkit/arm/_motion.py, the same steps on Python integers) refuse exactly what this board refuses.
+   On 0 <= s <= 1 a polynomial lies in the hull of its Bernstein coefficients, the first and last being its end
+   values; those of q' and q'' are differences of those of q. A hull inside the limit proves the check, an end value
+   outside refutes it; otherwise the polynomial is halved (de Casteljau) at most LK_SUB_DEPTH times, in int32
+   scaled to 29 bits with every average rounded down, so that a stored coefficient never exceeds the true one
+   and falls short by less than e = 1 + level m: a piece passes when -lim <= c and c + e <= lim for all its
+   coefficients c; a piece still undecided at the deepest level fails the check (conservative). */
+#define LK_SUB_DEPTH 6
+typedef char lk_scratch_fits[LK_SCRATCH >= LK_SUB_DEPTH * (LK_MAX_ORDER + 1) ? 1 : -1]; /* pending halves */
+/* K / C(n, i) for n = 3 (K = 3) and n = 5 (K = 10) */
+static const uint8_t bern_w[] LK_FLASH = {3, 1, 1, 3, 10, 2, 1, 1, 2, 10};
 
-uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi) {
+/* halve p (m + 1 coefficients, |p| < 2^29) until |p| <= lim is proven (1) or refuted (0); st: pending halves */
+static LK_NOINLINE uint8_t subdivide(int32_t *p, uint8_t m, int32_t lim, int8_t sh, int32_t *st) {
+    uint8_t lv[LK_SUB_DEPTH], n = 0, level = 0, k, i, in;
+    int32_t *r;
+    for (;;) {
+        int32_t e = sh < 0 || level * m > sh ? 1 + (int32_t)level * m : 0; /* bound on the rounding shortfall */
+        for (in = 1, k = 0; k <= m; k++) {
+            int32_t v = p[k];
+            if (v < -lim || v + e > lim) {
+                if ((k == 0 || k == m) && (v > lim || v + e < -lim)) return 0; /* an end value outside */
+                in = 0;
+            }
+        }
+        if (in) {
+            if (!n) return 1;
+            level = lv[--n];
+            memcpy(p, st + n * (m + 1), (m + 1) * sizeof *p);
+            continue;
+        }
+        if (level == LK_SUB_DEPTH) return 0; /* still undecided: refuse */
+        r = st + n * (m + 1);
+        memcpy(r, p, (m + 1) * sizeof *p);
+        for (i = 1; i <= m; i++) {
+            for (k = 0; k <= m - i; k++) r[k] = (r[k] + r[k + 1]) >> 1; /* floor of the average */
+            p[i] = r[0];
+        }
+        lv[n++] = ++level;
+    }
+}
+
+/* floor(n 2^sh / q), sh = -2..29 */
+static LK_NOINLINE int32_t scaled_div(uint64_t n, int8_t sh, uint32_t q) {
+    while (sh > 0) { n <<= 1; sh--; }
+    while (sh < 0) { n >>= 1; sh++; }
+    return (int32_t)(n / q);
+}
+
+/* max |p_k| over k = 0..m, or over the end values k = 0 and m only */
+static LK_NOINLINE uint32_t max_abs(const int32_t *p, uint8_t m, uint8_t ends) {
+    uint32_t big = 0, u;
+    uint8_t k;
+    for (k = 0; k <= m; k += ends && k < m ? m : 1) { u = (uint32_t)(p[k] < 0 ? -p[k] : p[k]); if (u > big) big = u; }
+    return big;
+}
+
+/* K_n times the Bernstein coefficients of q: K b_k = sum_i C(k, i) (K / C(n, i)) c_i, scaled then n passes of
+   running sums */
+static LK_NOINLINE void bern(const int32_t *c, uint8_t order, int32_t *b) {
+    const uint8_t *w = bern_w + (order == 3 ? 0 : 4);
     uint8_t k, i;
-    for (k = 0; k <= order; k++) {
-        float b = 0;
-        for (i = 0; i <= k; i++) b += c[i] * (float)pgm_byte(order == 3 ? &bern3[k][i] : &bern5[k][i]);
-        b *= order == 3 ? (1.0f / 3.0f) : 0.1f;
-        if (b < lo || b > hi) return 0;
-    }
-    return 1;
+    for (k = 0; k <= order; k++) b[k] = (int32_t)pgm_byte(w + k) * c[k];
+    for (i = 0; i < order; i++)
+        for (k = order; k > i; k--) b[k] += b[k - 1];
 }
 
-/* |dq/ds| <= vlim and |d2q/ds2| <= alim (normalised time, cdeg) at s = k/16, k = 0..16; a limit < 0 is unchecked */
-LK_NOINLINE uint8_t lk_speed_ok(const float *c, uint8_t order, float vlim, float alim) {
-    float s = 0.0f, vb = 0.0f, ab = 0.0f, w, fi;
-    uint8_t i, k;
-    /* fast accept: |q'(s)| <= sum |i c_i| and |q''(s)| <= sum |i (i-1) c_i| on [0, 1] (then every sample passes) */
-    for (i = 1, fi = 1.0f; i <= order; i++, fi += 1.0f) {
-        w = c[i] < 0 ? -c[i] : c[i];
-        vb += w * fi;
-        ab += w * fi * (fi - 1.0f);
+/* lk_check on the coefficients bern() gave (b is overwritten) */
+static LK_NOINLINE uint8_t check_bern(int32_t *b, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x,
+                                      uint32_t y, int32_t *scratch) {
+    uint32_t big, q = 1;
+    uint64_t n;
+    uint8_t kk = order == 3 ? 3 : 10, k, i, m = order;
+    int8_t sh = 0;
+    if (!kind) { /* lo <= q <= hi  <=>  |2 b - K (lo + hi)| <= K (hi - lo) */
+        for (k = 0; k <= m; k++) b[k] = 2 * b[k] - (int32_t)kk * (lo + hi);
+        x = (uint32_t)(hi - lo); y = 1;
+    } else { /* |q'| <= x y / 1000 <=> |differences| n 1000 <= K x y; q'': second differences, 10^6 n (n - 1) */
+        for (i = 0; i < kind; i++, m--)
+            for (k = 0; k < m; k++) b[k] = b[k + 1] - b[k];
+        q = kind == 1 ? 1000UL * order : 1000000UL * order * (order - 1);
     }
-    if ((vlim < 0 || vb <= vlim) && (alim < 0 || ab <= alim)) return 1;
-    for (k = 0; k <= LK_SPEED_SAMPLES; k++, s += 1.0f / LK_SPEED_SAMPLES) {
-        /* Horner for the value, first and half the second derivative at once */
-        float p = c[order], d = 0.0f, h = 0.0f;
-        for (i = order; i-- > 0;) { h = h * s + d; d = d * s + p; p = p * s + c[i]; }
-        h += h;
-        if (vlim >= 0 && (d > vlim || d < -vlim)) return 0;
-        if (alim >= 0 && (h > alim || h < -alim)) return 0;
-    }
-    return 1;
+    n = (uint64_t)(x * kk) * y;                          /* |b| q <= n */
+    big = max_abs(b, m, 0);
+    if ((uint64_t)big * q <= n) return 1;                /* the hull is inside */
+    if ((uint64_t)max_abs(b, m, 1) * q > n) return 0;    /* an end value is outside */
+    while (big >= (1UL << 29)) { big >>= 1; sh--; }      /* scale to 29 bits (n / q < big) */
+    while (big < (1UL << 28)) { big <<= 1; sh++; }
+    for (k = 0; k <= m; k++) b[k] = sh >= 0 ? (int32_t)((uint32_t)b[k] << sh) : b[k] >> -sh;
+    return subdivide(b, m, scaled_div(n, sh, q), sh, scratch);
 }
 
-static uint8_t hull_inside(const lk_t *lk, uint8_t j, const float *c, uint8_t order) {
-    int32_t lo, hi;
-    if (!feasible(&lk->cal[j], &lo, &hi)) return 0;
-    return lk_hull_inside(c, order, (float)lo, (float)hi);
+uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x, uint32_t y, int32_t *scratch) {
+    int32_t b[LK_MAX_ORDER + 1];
+    bern(c, order, b);
+    return check_bern(b, order, kind, lo, hi, x, y, scratch);
 }
 
 static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
@@ -507,27 +556,30 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
     seg->dur_ms = (uint16_t)a[0];
     seg->order = order;
     for (j = 0; j < LK_JOINTS; j++)
-        for (k = 0; k <= order; k++) seg->c[j][k] = (float)a[2 + j * (order + 1) + k];
+        for (k = 0; k <= order; k++) seg->c[j][k] = a[2 + j * (order + 1) + k];
     for (j = 0; j < LK_JOINTS; j++) {
-        float start = seg->c[j][0];
-        float prev = lk->q_count ? lk->tail_q[j] : (float)lk->q[j];
-        float d = start - prev;
-        /* a MOVE's end points were checked and its cubic is monotone between them: no hull test */
-        if (!move && !hull_inside(lk, j, seg->c[j], order)) {
-            /* hull test inconclusive: sample at s = k/32 (runtime clamping covers the rest) */
-            for (k = 0; k <= LK_LIMIT_SAMPLES; k++) {
-                int32_t q = lk_round(lk_poly(seg->c[j], order, (float)k / LK_LIMIT_SAMPLES));
-                if (!joint_ok(&lk->cal[j], q)) return err_joint(c->seq, LK_E_LIMIT, j);
-            }
-        }
+        const int32_t *cj = a + 2 + j * (order + 1);
+        int32_t lo, hi, d = cj[0] - (lk->q_count ? lk->tail_q[j] : lk->q[j]);
+        /* a MOVE's end points were checked and its cubic is monotone between them: no position check */
+        if (!move && (!feasible(&lk->cal[j], &lo, &hi) || !lk_check(cj, order, 0, lo, hi, 0, 0, lk->scratch)))
+            return err_joint(c->seq, LK_E_LIMIT, j);
         if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c->seq, LK_E_DISCONT, j);
     }
     for (j = 0; j < LK_JOINTS; j++) {
-        float T = (float)seg->dur_ms * 0.001f;
-        float vl = lk->vmax[j] ? (float)lk->vmax[j] * T : -1.0f, al = lk->amax[j] ? (float)lk->amax[j] * T * T : -1.0f;
-        if (!lk_speed_ok(seg->c[j], order, vl, al)) return err_joint(c->seq, LK_E_SPEED, j);
+        int32_t b0[LK_MAX_ORDER + 1], b[LK_MAX_ORDER + 1];
+        bern(a + 2 + j * (order + 1), order, b0);
+        for (k = 1; k <= 2; k++) { /* speed (vmax dur / 1000), acceleration (amax dur^2 / 10^6); 0: unchecked */
+            uint32_t x = k == 1 ? lk->vmax[j] : lk->amax[j], y = k == 1 ? (uint32_t)a[0] : (uint32_t)a[0] * a[0];
+            memcpy(b, b0, sizeof b);
+            if (x && !check_bern(b, order, k, 0, 0, x, y, lk->scratch)) return err_joint(c->seq, LK_E_SPEED, j);
+        }
     }
-    for (j = 0; j < LK_JOINTS; j++) lk->tail_q[j] = lk_poly(seg->c[j], order, 1.0f);
+    for (j = 0; j < LK_JOINTS; j++) {
+        const int32_t *cj = a + 2 + j * (order + 1);
+        int32_t end = 0;
+        for (k = 0; k <= order; k++) end += cj[k];
+        lk->tail_q[j] = end;
+    }
     lk->q_count++;
     if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
     ok_begin(c->seq, move ? LK_P("MOVE") : LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();

@@ -27,6 +27,7 @@ extern "C" {
 #define LK_USER_POT_PIN 5
 #define LK_SERVO_FULL 18000 /* servo travel, centidegrees */
 #define LK_MAX_ORDER 5
+#define LK_SCRATCH ((LK_MAXLINE + 1) / 4) /* int32 words: 6 pending halves of a quintic */
 
 #if LK_JOINTS < 1 || LK_JOINTS > 5
 #error "LK_JOINTS must be 1..5"
@@ -51,7 +52,7 @@ typedef struct {
 } lk_cal_t;
 
 typedef struct {
-    float c[LK_JOINTS][LK_MAX_ORDER + 1]; /* cdeg, over normalised time s = t/T */
+    int32_t c[LK_JOINTS][LK_MAX_ORDER + 1]; /* cdeg, over normalised time s = t/T */
     uint16_t dur_ms;
     uint8_t order;
 } lk_seg_t;
@@ -69,7 +70,7 @@ typedef struct {
     /* trajectory */
     lk_seg_t queue[LK_QUEUE];
     uint8_t q_head, q_count;
-    float tail_q[LK_JOINTS];     /* end point of the last queued segment */
+    int32_t tail_q[LK_JOINTS];   /* end point of the last queued segment [cdeg] */
     uint32_t seg_start_ms;       /* frame clock: start of the active segment */
     uint32_t next_frame_ms;      /* frame clock: start of the next frame to be programmed */
     uint32_t done;
@@ -80,8 +81,11 @@ typedef struct {
     uint8_t stream_hz, stream_arm;
     uint16_t frame_counter;
     uint32_t stream_next_us, stream_period_us;
-    /* line input */
-    char line[LK_MAXLINE + 1];
+    /* line input; once a request is parsed the line is scratch for the motion checks */
+    union {
+        char line[LK_MAXLINE + 1];
+        int32_t scratch[LK_SCRATCH];
+    };
     uint8_t len;
     uint8_t overflow, badchar;
     uint32_t now_ms;
@@ -104,10 +108,13 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback s
 
 /* helpers exposed for unit tests */
 uint16_t lk_crc16(const uint8_t *data, uint16_t n);
-float lk_poly(const float *c, uint8_t order, float s);
-uint8_t lk_hull_inside(const float *c, uint8_t order, float lo, float hi); /* Bernstein bound */
-uint8_t lk_speed_ok(const float *c, uint8_t order, float vlim, float alim); /* |dq/ds|, |d2q/ds2| sampled */
-int32_t lk_round(float x);
+/* q(s) [cdeg] at s = s24 / 2^24 (0 <= s24 <= 2^24), rounded to the nearest cdeg (integer Horner: before rounding
+   within 1/4 cdeg of the exact value for |c_i| <= 10^5; exact at s = 0 and 1) */
+int32_t lk_poly(const int32_t *c, uint8_t order, int32_t s24);
+/* one joint's motion check on 0 <= s <= 1 (docs/protocol.md 4.3), exact or conservative: kind 0 lo <= q(s) <= hi,
+   1 |dq/ds| <= x y / 1000, 2 |d2q/ds2| <= x y / 10^6 [cdeg, normalised time]; 1 if proven, 0 if not.
+   |c_i| <= 10^7, x <= 4 10^8 (LIMITS: vmax <= 10^6, amax <= 10^8), y < 2^32; scratch: LK_SCRATCH words */
+uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int32_t hi, uint32_t x, uint32_t y, int32_t *scratch);
 uint8_t lk_pulse_for(const lk_cal_t *cal, int32_t q, uint16_t *hus); /* 1 ok, 0 outside servo range */
 uint16_t lk_ee_save(const lk_t *lk);  /* bytes written */
 uint8_t lk_ee_load(lk_t *lk);         /* 1 if a valid image was loaded */

@@ -110,10 +110,21 @@ static void move_done(const char *line) {
 
 static void test_helpers(void) {
     CHECK(lk_crc16((const uint8_t *)"123456789", 9) == 0x29B1, "crc %04X", lk_crc16((const uint8_t *)"123456789", 9));
-    float c[4] = {4500, 0, 13500, -9000};
-    CHECK(fabsf(lk_poly(c, 3, 0.5f) - 6750.0f) < 1e-3f, "poly(0.5) = %f", lk_poly(c, 3, 0.5f));
-    CHECK(fabsf(lk_poly(c, 3, 1.0f) - 9000.0f) < 1e-3f, "poly(1)");
-    CHECK(lk_round(2.5f) == 3 && lk_round(-2.5f) == -3 && lk_round(1e12f) == 2147483000L, "round");
+    int32_t c[4] = {4500, 0, 13500, -9000};
+    CHECK(lk_poly(c, 3, 1L << 23) == 6750, "poly(0.5) = %d", (int)lk_poly(c, 3, 1L << 23));
+    CHECK(lk_poly(c, 3, 1L << 24) == 9000 && lk_poly(c, 3, 0) == 4500, "poly(1), poly(0)");
+    int32_t big[6] = {-10000000, 10000000, -10000000, 10000000, -10000000, 10000001};
+    CHECK(lk_poly(big, 5, 1L << 24) == 1 && lk_poly(big, 5, 0) == -10000000, "exact ends of a large quintic");
+    /* integer Horner against double precision at every millisecond of a 1 s quintic: within half a cdeg + rounding */
+    int32_t q5[6] = {9000, 2500, 1563, 4375, -7188, 2750};
+    int worst = 0;
+    for (uint16_t el = 0; el <= 1000; el++) {
+        double s = el / 1000.0, x = 0;
+        for (int i = 5; i >= 0; i--) x = x * s + q5[i];
+        double d = fabs(lk_poly(q5, 5, (int32_t)(((uint64_t)el << 24) / 1000)) - x); /* 1/2 rounding, < 1/4 Horner */
+        if (d > 0.75) worst++;
+    }
+    CHECK(worst == 0, "%d quintic samples further than 3/4 cdeg from the exact value", worst);
     lk_cal_t k = {500, 2500, 0, 1, 0, 18000};
     uint16_t h = 0;
     CHECK(lk_pulse_for(&k, 9000, &h) && h == 3000, "9000 cdeg -> %u half-us", h);
@@ -269,8 +280,8 @@ static void test_segments(void) {
     int32_t max_err = 0;
     for (uint32_t f = 5; f < 5 + 50; f++) {
         lk_frame(&lk, f + 1);
-        float s = (float)((f + 1) * 20 - 120) / 1000.0f;
-        int32_t want = lk_round(4500 + 13500 * s * s - 9000 * s * s * s);
+        double s = ((f + 1) * 20 - 120) / 1000.0;
+        int32_t want = (int32_t)floor(4500 + 13500 * s * s - 9000 * s * s * s + 0.5);
         int32_t e = labs(lk.q[0] - want);
         if (e > max_err) max_err = e;
     }
@@ -341,9 +352,23 @@ static void test_speed_limits(void) {
     CHECK(starts(stub_out, "OK LIMITS 0 30000 150000*"), "limits survive a reset: %s", stub_out);
     send("LIMITS 1");
     CHECK(starts(stub_out, "OK LIMITS 1 0 0*"), "%s", stub_out);
-    float c[4] = {0, 0, 3000, -2000}; /* 10 deg rest-to-rest: |dq/ds| peaks at 1500 (s = 1/2), |d2q/ds2| at 6000 */
-    CHECK(lk_speed_ok(c, 3, 1500.0f, 6000.0f) && !lk_speed_ok(c, 3, 1499.0f, -1.0f) && !lk_speed_ok(c, 3, -1.0f, 5999.0f),
-          "speed samples");
+    int32_t c[4] = {0, 0, 3000, -2000}; /* 10 deg rest-to-rest: |dq/ds| peaks at 1500 (s = 1/2), |d2q/ds2| at 6000 */
+    int32_t scratch[LK_SCRATCH];
+    /* over 1 s: |dq/ds| <= vmax, |d2q/ds2| <= amax exactly at the peaks */
+    CHECK(lk_check(c, 3, 1, 0, 0, 1500, 1000, scratch) && !lk_check(c, 3, 1, 0, 0, 1499, 1000, scratch) &&
+          lk_check(c, 3, 2, 0, 0, 6000, 1000000, scratch) && !lk_check(c, 3, 2, 0, 0, 5999, 1000000, scratch), "speed peaks");
+    /* issue 13: a peak between the samples s = k/16 of the old check (2.1.0): the samples reach 5400, the peak
+       at s = 17/32 5418.75 cdeg (90 ms at 600 deg/s allow 5400): refused now, and so on the wire */
+    int32_t between[4] = {9000, 0, 10200, -6400};
+    CHECK(!lk_check(between, 3, 1, 0, 0, 60000, 90, scratch) && lk_check(between, 3, 1, 0, 0, 60210, 90, scratch),
+          "a speed peak between the old samples");
+    send("STOP");
+    send("LIMITS 1 60000 0");
+    memcpy(before, stub_pulses, sizeof before);
+    send("SEG 90 3 9000 0 0 0 9000 0 10200 -6400 9000 0 0 0");
+    CHECK(starts(stub_out, "ERR 11 SPEED joint 1*") && lk.q_count == 0 && lk.state == LK_IDLE && lk.q[1] == 9000,
+          "between the samples: %s", stub_out);
+    CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "a refused SEG moved something");
     memset(stub_eeprom, 0xFF, sizeof stub_eeprom);
 }
 
@@ -408,12 +433,81 @@ static void test_eeprom(void) {
     stub_ee_fail = 0;
 }
 
+/* ---- the motion checks against dense sampling of many random polynomials (docs/protocol.md 4.3) ---- */
+static uint32_t rng_state = 12345u;
+static uint32_t rnd(void) { rng_state = rng_state * 1664525u + 1013904223u; return rng_state >> 8; } /* 24 bits */
+static int32_t rnd_in(int32_t lo, int32_t hi) { return lo + (int32_t)(((uint64_t)rnd() * (uint64_t)(hi - lo + 1)) >> 24); }
+
+/* extremes of q^(kind) on 0 <= s <= 1 from 20001 samples (and the ends) */
+static void dense(const int32_t *c, uint8_t order, uint8_t kind, double *lo, double *hi) {
+    *lo = 1e300; *hi = -1e300;
+    for (int k = 0; k <= 20000; k++) {
+        double s = k / 20000.0, v = 0;
+        for (int i = order; i >= kind; i--) {
+            double f = 1;
+            for (int t = 0; t < kind; t++) f *= i - t;
+            v = v * s + f * c[i];
+        }
+        if (v < *lo) *lo = v;
+        if (v > *hi) *hi = v;
+    }
+}
+
+static void test_motion_checks_against_dense_sampling(void) {
+    int32_t scratch[LK_SCRATCH], c[6];
+    int unsafe = 0, strict = 0, accepted = 0, refused = 0, undecided_near = 0, n = 0;
+    for (int trial = 0; trial < 40000; trial++) {
+        uint8_t order = (rnd() & 1) ? 3 : 5, kind = (uint8_t)(rnd() % 3);
+        int32_t mag = (int32_t[]){100, 3000, 30000, 1000000, 10000000}[rnd() % 5];
+        for (int i = 0; i <= order; i++) c[i] = rnd_in(-mag, mag);
+        if (rnd() % 4 == 0) { /* rest-to-rest or through-the-middle shapes, like real trajectories */
+            int32_t d = rnd_in(-9000, 9000);
+            c[0] = rnd_in(0, 18000); c[1] = 0;
+            if (order == 3) { c[2] = 3 * d; c[3] = -2 * d; }
+            else { c[2] = 0; c[3] = 10 * d; c[4] = -15 * d; c[5] = 6 * d; }
+            if (rnd() & 1) c[1] = rnd_in(-mag, mag);
+        }
+        double lo, hi, f = 0.9 + 0.2 * (rnd() / 16777216.0); /* the limit: 0.9 .. 1.1 of the extreme */
+        dense(c, order, kind, &lo, &hi);
+        uint8_t ok;
+        double margin; /* how far inside (> 0) or outside (< 0) the limit the dense extremes are, relative */
+        if (kind == 0) {
+            double mid = (lo + hi) / 2, half = (hi - lo) / 2 * f + 1;
+            int32_t a = (int32_t)floor(mid - half), b = (int32_t)ceil(mid + half);
+            if (a < -32000000 || b > 32000000) continue;
+            ok = lk_check(c, order, 0, a, b, 0, 0, scratch);
+            margin = fmin(lo - a, b - hi) / (b - a + 1e-9);
+            if (ok && (lo < a || hi > b)) unsafe++;
+        } else {
+            double peak = fmax(fabs(lo), fabs(hi));
+            uint32_t dur = (uint32_t)rnd_in(1, 60000), y = kind == 1 ? dur : dur * dur;
+            double scale = kind == 1 ? 1000.0 : 1000000.0, want = peak * f * scale / y;
+            if (want < 1 || want > (kind == 1 ? 1e6 : 1e8)) continue; /* LIMITS accepts up to 10^6 and 10^8 */
+            uint32_t x = (uint32_t)want;
+            double limit = (double)x * y / scale;
+            ok = lk_check(c, order, kind, 0, 0, x, y, scratch);
+            margin = (limit - peak) / (limit + 1e-9);
+            if (ok && peak > limit * (1 + 1e-12)) unsafe++;
+        }
+        n++;
+        ok ? accepted++ : refused++;
+        if (!ok && margin > 1e-3) strict++;           /* clearly inside but refused */
+        if (!ok && margin > 0) undecided_near++;
+    }
+    CHECK(unsafe == 0, "%d of %d accepted segments exceed the limit between samples", unsafe, n);
+    CHECK(strict == 0, "%d of %d segments more than 0.1%% inside their limit refused", strict, n);
+    CHECK(n > 20000 && accepted > n / 4 && refused > n / 4, "cases %d, accepted %d, refused %d", n, accepted, refused);
+    printf("motion checks: %d random polynomials, %d accepted, %d refused (%d of them within 0.1%% inside)\n", n,
+           accepted, refused, undecided_near);
+}
+
 int main(void) {
     test_helpers();
     test_handshake_and_framing();
     test_moves_and_limits();
     test_segments();
     test_speed_limits();
+    test_motion_checks_against_dense_sampling();
     test_timeout_and_stream();
     test_eeprom();
     printf("core tests: %d checks, %d failed\n", checks, failed);

@@ -31,8 +31,8 @@ from labkit.arm._protocol import (
     checksum,
     crc16,
     echo,
-    segment_speed_ok,
 )
+from labkit.arm._motion import segment_position_ok, segment_speed_ok
 
 __all__ = ["FW_VERSION"]
 
@@ -53,11 +53,12 @@ class _Reject(CommandRejected):
 
 
 class _Segment:
-    __slots__ = ("dur", "coef", "start")
+    __slots__ = ("dur", "coef", "rows", "start")
 
     def __init__(self, dur, coef):
         self.dur = dur  # [s]
         self.coef = coef  # (J, order + 1) [cdeg], normalised time
+        self.rows = coef.astype(int).tolist()  # the same, as the integers received
         self.start = None
 
     def at(self, s):
@@ -249,6 +250,12 @@ class BoardCommands:
         self.grip = args[0]
         return str(args[0])
 
+    def _feasible(self, j):
+        """Joint ``j``'s feasible range ``lo, hi`` [cdeg]: its limits within its servo's range."""
+        zero, direction, lo, hi = self.cal[j][2:6]
+        a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
+        return max(a, lo), min(b, hi)
+
     def _cmd_seg(self, args):
         if len(args) < 2:
             raise _Reject(2, "arguments")
@@ -263,17 +270,19 @@ class BoardCommands:
             raise _Reject(5, "coefficient")
         if len(self.segments) >= self.queue_depth:
             raise _Reject(7)
-        coef = np.array(args[2:], dtype=float).reshape(self.joints, order + 1)
-        seg = _Segment(dur / 1000.0, coef)
-        samples = np.round(np.polynomial.polynomial.polyval(np.arange(33) / 32.0, coef.T))  # (J, 33)
-        prev = self.segments[-1].at(1.0) if self.segments else np.array(self.q)
+        rows = [args[2 + j * (order + 1):2 + (j + 1) * (order + 1)] for j in range(self.joints)]
+        seg = _Segment(dur / 1000.0, np.array(rows, dtype=float))
+        prev = [sum(r) for r in self.segments[-1].rows] if self.segments else self._q_int()
         for j in range(self.joints):
-            if not all(self._valid(j, v) for v in samples[j]):
+            # (a MOVE's cubic stays between its checked end points: its Bernstein hull passes at once; the
+            # firmware skips the check)
+            lo, hi = self._feasible(j)
+            if lo > hi or not segment_position_ok(rows[j], lo, hi):
                 raise _Reject(6, f"joint {j}")
-            if abs(coef[j, 0] - prev[j]) > 50:
+            if abs(rows[j][0] - prev[j]) > 50:
                 raise _Reject(9, f"joint {j}")
         for j in range(self.joints):
-            if not segment_speed_ok(coef[j], dur, self.vmax[j], self.amax[j]):
+            if not segment_speed_ok(rows[j], dur, self.vmax[j], self.amax[j]):
                 raise _Reject(11, f"joint {j}")
         if not self.segments:
             seg.start = self.time

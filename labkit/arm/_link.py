@@ -38,8 +38,8 @@ from labkit.exceptions import DeviceError, OptionError
 from labkit.arm._protocol import cdeg
 from labkit.arm._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm._wire import Wire
-from labkit.arm._segments import (check_segment_speeds, feed_segments, move_duration_ms, move_segment,
-                                  segments_from_trajectory, wire_speed_limits)
+from labkit.arm._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
+                                  move_segment, segments_from_trajectory, wire_speed_limits)
 from labkit.arm._feedback import record_stream
 from labkit.arm._ports import find_ports, handshake, open_port
 from labkit.arm._checks import finite, joint_vector
@@ -535,7 +535,8 @@ class Arm:
         Raises
         ------
         JointLimitError
-            A sample outside the joint limits or servo ranges (nothing is sent).
+            A sample outside the joint limits or servo ranges, or a segment leaving them between samples
+            (the board's check; nothing is sent).
         TrajectoryError
             A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
         DeviceError
@@ -548,6 +549,7 @@ class Arm:
             for row in np.asarray(traj.q):
                 self._check_q(row)
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+        check_segment_positions(self.robot, segs)
         check_segment_speeds(self.robot, segs, *self.speed_limits())
         return feed_segments(self, segs, progress=progress, wait=wait)
 

@@ -45,8 +45,6 @@ VMAX_FACTORY = 60000
 #: largest speed [cdeg/s] and acceleration [cdeg/s^2] limits ``LIMITS`` accepts
 VMAX_MAX = 1_000_000
 AMAX_MAX = 100_000_000
-#: samples of the speed check of a segment: s = k / SPEED_SAMPLES, k = 0..SPEED_SAMPLES
-SPEED_SAMPLES = 16
 #: commands a person may type without ``#seq`` and ``*CRC`` (they change nothing); all others must be sealed
 READ_ONLY = frozenset({"HELLO", "PING", "STATUS", "READ"})
 #: codes of a request that never ran (damaged on the way: checksum, syntax, unknown, too long)
@@ -219,56 +217,6 @@ def crc16(data):
     '0x29b1'
     """
     return binascii.crc_hqx(bytes(data), 0xFFFF)
-
-
-def segment_speed_ok(coef, dur_ms, vmax, amax):
-    """Whether one joint's ``SEG`` polynomial keeps to the speed and acceleration limits (the board's check).
-
-    Samples ``dq/dt`` and ``d2q/dt2`` at ``s = k/16``, ``k = 0..16`` in single precision
-    exactly as the firmware does, so host, virtual board and firmware agree.
-
-    Parameters
-    ----------
-    coef : sequence of float, shape (order + 1,)
-        Coefficients [cdeg] over normalised time ``s = t / T``.
-    dur_ms : int
-        Segment duration ``T`` [ms].
-    vmax : int
-        Speed limit [cdeg/s]; 0 leaves the speed unchecked.
-    amax : int
-        Acceleration limit [cdeg/s^2]; 0 leaves the acceleration unchecked.
-
-    Returns
-    -------
-    bool
-
-    Examples
-    --------
-    >>> segment_speed_ok([4500, 0, 13500, -9000], 1000, 30000, 150000)  # 45 -> 90 deg in 1 s
-    True
-    >>> segment_speed_ok([4500, 0, 13500, -9000], 10, 30000, 0)  # ... in 10 ms: 6750 deg/s
-    False
-    """
-    import numpy as np
-
-    f = np.float32
-    c = [f(v) for v in coef]
-    T = f(dur_ms) * f(0.001)
-    vl = f(vmax) * T if vmax else None
-    al = f(amax) * T * T if amax else None
-    step = f(1.0) / f(SPEED_SAMPLES)
-    s = f(0.0)
-    for _ in range(SPEED_SAMPLES + 1):
-        p, d, h = c[-1], f(0.0), f(0.0)
-        for ci in reversed(c[:-1]):
-            h = h * s + d
-            d = d * s + p
-            p = p * s + ci
-        h = h + h
-        if (vl is not None and abs(d) > vl) or (al is not None and abs(h) > al):
-            return False
-        s = s + step
-    return True
 
 
 class CommandRejected(DeviceError):

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.exceptions import DeviceError, OptionError, TrajectoryError
-from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected, segment_speed_ok
+from labkit.exceptions import DeviceError, JointLimitError, OptionError, TrajectoryError
+from labkit.arm._motion import segment_position_ok, segment_speed_ok
+from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected, cdeg
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -142,6 +143,56 @@ def check_segment_speeds(robot, segs, vmax, amax):
                     f"nothing was sent - slow the trajectory down")
 
 
+def feasible_ranges(robot):
+    """Each joint's range on the board [cdeg]: its limits within its servo's range (what ``SEG`` checks).
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        Joint limits [rad] and servo calibrations (``zero`` [rad], ``direction``), as
+        :meth:`labkit.arm.Arm.sync_calibration` sends them; a joint without a servo keeps the
+        board's factory calibration (servo angle = ``q``).
+
+    Returns
+    -------
+    list of tuple of int
+        ``(lo, hi)`` per joint [cdeg].
+    """
+    ranges = []
+    for lk in robot.links:
+        lo, hi = (cdeg(v) for v in lk.limits) if lk.servo is not None else (0, 18000)
+        zero, direction = (cdeg(lk.servo.zero), int(lk.servo.direction)) if lk.servo is not None else (0, 1)
+        a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
+        ranges.append((max(a, lo), min(b, hi)))
+    return ranges
+
+
+def check_segment_positions(robot, segs):
+    """Raise if a segment leaves a joint's range anywhere (also between trajectory samples), as the board checks it.
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        Joint limits, servo calibrations and joint names.
+    segs : list of tuple
+        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [cdeg]).
+
+    Raises
+    ------
+    JointLimitError
+        Names the segment and joint; nothing has been sent.
+    """
+    ranges = feasible_ranges(robot)
+    for k, (dur, order, coef) in enumerate(segs):
+        for j, (lo, hi) in enumerate(ranges):
+            row = coef[j * (order + 1):(j + 1) * (order + 1)]
+            if lo > hi or not segment_position_ok(row, lo, hi):
+                raise JointLimitError(
+                    f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) leaves its range {lo / 100:g}.."
+                    f"{hi / 100:g} deg between the trajectory's samples (the board would refuse it); nothing was "
+                    f"sent - keep the trajectory further inside the limits", joint=j)
+
+
 def move_segment(q0, q1, dur_ms):
     """Per-joint coefficients [cdeg] of the rest-to-rest cubic a ``MOVE`` runs (``docs/protocol.md`` 4.2).
 
@@ -173,7 +224,8 @@ def move_duration_ms(q0, q1, vmax, amax):
     """Shortest ``MOVE`` duration [ms] that keeps every joint within its speed and acceleration limits.
 
     The rest-to-rest cubic peaks at ``1.5 |dq| / T`` [cdeg/s] and ``6 |dq| / T^2``
-    [cdeg/s^2]; the result is then confirmed with the board's own sampled check.
+    [cdeg/s^2]; the result is then confirmed with the board's own check (``docs/protocol.md`` 4.3),
+    one millisecond longer while that cannot prove it.
 
     Parameters
     ----------

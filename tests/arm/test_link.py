@@ -429,7 +429,7 @@ def test_bad_arguments_are_refused_before_anything_is_sent(arm, call, match):
 def test_move_joints_runs_the_shortest_move_the_speed_limits_allow(arm):
     """Issue 13: MOVE carries a duration; the host picks the shortest one the robot file's limits allow."""
     from labkit.arm._segments import move_duration_ms, move_segment
-    from labkit.arm._protocol import segment_speed_ok
+    from labkit.arm._motion import segment_speed_ok
 
     board = arm.port.board
     sent = []

@@ -491,3 +491,25 @@ def test_out_of_speed_segments_are_rejected_without_motion(board, host):
     board.advance(1.1)
     assert host.wait_event("EV DONE")
     assert host.status()["q"] == "9000,9000,3000"
+
+
+def test_limits_broken_between_the_old_samples_are_refused_without_motion(board, host):
+    """Issue 13: firmware 2.1.0 sampled dq/ds at s = k/16 and q at s = k/32, so a peak between samples passed;
+    now both boards prove every limit on the whole segment (docs/protocol.md 4.3)."""
+    host.ok("TIMEOUT 0")
+    board.advance(0.05)
+    before = board.pulses()
+    still = [9000, 0, 0, 0]
+    peak_between = [9000, 0, 10200, -6400]  # |dq/ds|: 5400 at s = 8/16 and 9/16, 5418.75 at s = 17/32
+    # 90 ms at the factory 600 deg/s allow 5400
+    assert host.err(seg_line(90, [still, peak_between, still]), 11).split()[-2:] == ["joint", "1"]
+    # q: 17994 at s = 16/32 and 17/32, 18002 at s = 0.5156, beyond the servo's 18000
+    assert host.err(seg_line(1000, [still, still, [9000, 34917, -33859, 0]]), 6).split()[-2:] == ["joint", "2"]
+    board.advance(0.1)
+    assert_pulses(board, before, tol=1.0)
+    status = host.status()
+    assert status["q"] == "9000,9000,9000" and status["state"] == "IDLE" and status["queue"] == "0"
+    host.ok(seg_line(91, [still, peak_between, still]))  # 5460 allowed: runs
+    board.advance(0.2)
+    assert host.wait_event("EV DONE")
+    assert host.status()["q"] == "9000,12800,9000"
