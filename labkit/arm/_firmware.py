@@ -163,10 +163,13 @@ class FirmwareSim:
     >>> import serial
     >>> with FirmwareSim() as sim:                       # doctest: +SKIP
     ...     port = serial.Serial(sim.port, 115200, timeout=1)
-    ...     sim.run()
+    ...     sim.run()                                     # free running: the host waits on the wall clock
     ...     port.readline()                               # b'READY labkit-arm 2 ...'
     ...     port.write(b"#1 MOVE 4500 9000 9000 *354E\\n"); port.readline()
     ...     sim.sleep(0.1); sim.pulses()[0]               # 1000.0 us
+    >>> with FirmwareSim() as sim:                       # doctest: +SKIP
+    ...     port = sim.open_port(timeout=1)               # stepped: reads wait in simulated time
+    ...     port.readline(), port.board_time              # (b'READY labkit-arm 2 ...', 0.0088)
     """
 
     def __init__(self, elf=None, *, pace=0.0, on_tick: TickHook | None = None, tick_period=0.005,
@@ -324,6 +327,8 @@ class FirmwareSim:
 
         Simulated time then excludes the host's own reaction time (an ideal host); wire time and
         firmware time are still simulated exactly. Useful to measure the firmware, not the PC.
+        Between a host's bytes and the next reply the CPU runs free; :meth:`set_stepped` (the
+        ``clock=lockstep`` of ``simavr://``) instead runs it only while the host waits.
 
         Parameters
         ----------
