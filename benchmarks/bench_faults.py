@@ -1,8 +1,10 @@
 """Fault runs at the size issue 13 asks for: >= 10,000 commands through FaultyPort (1 % corrupted bytes,
 0.5 % lost bytes, random disconnects) on ``sim://`` and on the firmware in simavr.
 
-Prints, per board, the commands issued, damaged requests executed, wrong replies accepted, unrequested
-motions left unreported (all must be 0), and the faults injected. The CI test
+Prints, per board, one JSON line: the commands issued, damaged requests executed, wrong replies accepted,
+unrequested motions left unreported (all must be 0), the faults injected and the wall time (``seconds``).
+Both boards run in lockstep: reply timeouts are board time, so the simulator pays 50 ms of *simulated*
+time for a lost reply, not 50 ms of wall time. The CI test
 (``tests/arm/test_fault_runs.py``) runs the same function at a few hundred commands.
 
     python benchmarks/bench_faults.py [--commands N] [--boards sim,simavr] [--max-seconds S]
@@ -21,7 +23,7 @@ from test_fault_runs import fault_run  # noqa: E402
 
 BOARDS = {
     "sim": dict(url="sim://?clock=lockstep", timeout=0.01, disconnect_every=10000),
-    "simavr": dict(url="simavr://?pace=0", timeout=0.05, disconnect_every=30000),
+    "simavr": dict(url="simavr://?clock=lockstep", timeout=0.05, disconnect_every=30000),
 }
 
 

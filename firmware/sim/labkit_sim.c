@@ -25,7 +25,19 @@
  *   time | pulses                    query
  *   lockstep 0|1                     1: after each OK/ERR reply line and each WOKE, hold the CPU
  *                                    until the host sends bytes or a `sleep` (zero reaction time)
- * Times are simulated microseconds since power-on (cycles / 16). The harness does not use
+ *   stepped 0|1                      1: the CPU runs only inside `advance` grants (board-time host)
+ *   advance <us> <bytes> <line 0|1>  (stepped) wait until <bytes> host bytes in total have been
+ *                                    read from the pty, run for <us> simulated microseconds or, with
+ *                                    line=1, until the board completed a line (whichever is first),
+ *                                    write the board's bytes to the pty, then print
+ *                                    HELD <t_us> <board bytes written to the pty in total>
+ * Times are simulated microseconds since power-on (cycles / 16).
+ *
+ * Stepped mode makes the simulation a function of what the host sends and how long it waits in
+ * board time only: a slow or descheduled host freezes simulated time instead of missing it (the
+ * host's clock is the simulated one; see labkit/arm/_simavr_port.py). Bytes written by the host
+ * reach the harness through the pty asynchronously, hence the byte count in `advance`; the count in
+ * HELD tells the host how many board bytes are on their way through the pty. The harness does not use
  * simavr's uart_pty part (two threads, no locking); it bridges the UART to a pty itself.
  */
 #define _GNU_SOURCE
@@ -67,6 +79,10 @@ static unsigned long tx_dropped;
 /* lockstep: after the board finishes a reply line (OK/ERR ...\n) hold the CPU until the host
    sends bytes or asks for simulated time (`sleep`): an immediately responding host */
 static int lockstep, lock_wait, line_start = 1, line_is_reply;
+/* stepped: simulated time advances only inside a grant (`advance`) */
+static int stepped, granted, grant_lines, line_done;
+static uint64_t grant_end_cycle;
+static unsigned long long rx_total, tx_total; /* bytes read from / written to the pty master */
 static FILE *ctl; /* control output (the real stdout) */
 static int running;
 static double pace; /* 0 = free */
@@ -130,13 +146,14 @@ static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param) {
     if (line_start) line_is_reply = (value == 'O' || value == 'E') ? 2 : 0; /* OK / ERR (not EV) */
     else if (line_is_reply == 2) line_is_reply = (value == 'K' || value == 'R');
     line_start = (value == '\n');
+    if (line_start) line_done = 1;
     if (line_start && line_is_reply && lockstep) lock_wait = 1;
 }
 /* move bytes between the pty and the buffers (non-blocking) */
 static void pty_pump(void) {
     if (tx_len) {
         ssize_t w = write(pty_master, tx_buf, tx_len);
-        if (w > 0) { memmove(tx_buf, tx_buf + w, tx_len - (size_t)w); tx_len -= (size_t)w; }
+        if (w > 0) { memmove(tx_buf, tx_buf + w, tx_len - (size_t)w); tx_len -= (size_t)w; tx_total += (unsigned long long)w; }
     }
     while (rx_len < sizeof rx_buf) {
         uint8_t tmp[512];
@@ -144,6 +161,7 @@ static void pty_pump(void) {
         ssize_t r = read(pty_master, tmp, want);
         if (r <= 0) break;
         lock_wait = 0;
+        rx_total += (unsigned long long)r;
         for (ssize_t i = 0; i < r; i++) rx_buf[(rx_head + rx_len + (size_t)i) % sizeof rx_buf] = tmp[i];
         rx_len += (size_t)r;
     }
@@ -220,6 +238,42 @@ static void do_reset(void) {
     anchor_pace();
 }
 
+/* stepped mode: a cycle timer ends the grant at its exact cycle even while the firmware sleeps */
+static avr_cycle_count_t grant_timer(avr_t *a, avr_cycle_count_t when, void *param) {
+    (void)a; (void)when; (void)param;
+    return 0;
+}
+
+static void end_grant(void) {
+    granted = 0;
+    pty_pump(); /* hand the board's bytes to the pty before telling the host how many there are */
+    say("HELD %.2f %llu", sim_us(), tx_total);
+}
+
+static void start_grant(double us, unsigned long long host_bytes, int lines) {
+    /* the host's bytes cross the pty asynchronously: wait until all of them are here (bounded) */
+    double give_up = now_wall() + 5.0;
+    pty_pump();
+    while (rx_total < host_bytes && rx_len < sizeof rx_buf) {
+        struct pollfd pfd = {pty_master, POLLIN, 0};
+        if (now_wall() > give_up) {
+            say("ERR advance: %llu of %llu host bytes arrived", rx_total, host_bytes);
+            return;
+        }
+        poll(&pfd, 1, 10);
+        pty_pump();
+    }
+    double cycles = us * avr->frequency / 1e6;
+    uint64_t whole = (uint64_t)cycles;
+    if ((double)whole < cycles - 1e-6) whole++; /* at least `us`: a grant never ends before it began */
+    grant_end_cycle = avr->cycle + whole;
+    grant_lines = lines;
+    line_done = 0;
+    if (grant_end_cycle <= avr->cycle || (lines && tx_len)) { end_grant(); return; }
+    avr_cycle_timer_register(avr, grant_end_cycle - avr->cycle, grant_timer, NULL);
+    granted = 1;
+}
+
 /* returns 1 on `go` (continue after a tick) */
 static int handle(char *line) {
     char cmd[16];
@@ -248,6 +302,16 @@ static int handle(char *line) {
         int on = 0;
         if (sscanf(line + n, "%d", &on) != 1) say("ERR lockstep 0|1");
         else { lockstep = on; lock_wait = 0; say("OK lockstep %d", on); }
+    } else if (!strcmp(cmd, "stepped")) {
+        int on = 0;
+        if (sscanf(line + n, "%d", &on) != 1) say("ERR stepped 0|1");
+        else { stepped = on; granted = 0; lockstep = lock_wait = 0; anchor_pace(); say("OK stepped %d", on); }
+    } else if (!strcmp(cmd, "advance")) {
+        unsigned long long host_bytes = 0;
+        int lines = 0;
+        if (sscanf(line + n, "%lf %llu %d", &x, &host_bytes, &lines) != 3 || x < 0) say("ERR advance <us> <host bytes> <line 0|1>");
+        else if (!stepped || !running || granted) say("ERR advance needs stepped 1, run and no grant running");
+        else start_grant(x, host_bytes, lines); /* HELD once the grant is over */
     } else if (!strcmp(cmd, "go")) { return 1; }
     else if (!strcmp(cmd, "sleep")) {
         if (sscanf(line + n, "%lf", &x) != 1 || x < 0) say("ERR sleep <us>");
@@ -317,7 +381,7 @@ int main(int argc, char **argv) {
     anchor_pace();
     uint64_t next_service = 0;
     for (;;) {
-        if (!running) { poll_control(20); pty_pump(); continue; }
+        if (!running || (stepped && !granted)) { poll_control(20); if (!stepped) pty_pump(); continue; }
         if (lock_wait && !waking) {
             struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLIN, 0}};
             pty_pump(); /* deliver the reply, then wait for the host */
@@ -329,6 +393,7 @@ int main(int argc, char **argv) {
         if (state == cpu_Done || state == cpu_Crashed) {
             say("CRASH %d %.2f", state, sim_us());
             running = 0;
+            if (granted) { granted = 0; say("ERR advance: the CPU stopped (state %d)", state); }
             continue;
         }
         if (tick_period_cycles && avr->cycle >= next_tick_cycle) {
@@ -342,6 +407,10 @@ int main(int argc, char **argv) {
             if (lockstep) lock_wait = 1; /* the host reacts in zero simulated time */
             say("WOKE %.2f", sim_us());
         }
+        if (granted && (avr->cycle >= grant_end_cycle || (grant_lines && line_done))) {
+            end_grant();
+            continue;
+        }
         if (avr->cycle >= next_service) {
             /* every ~100 us of wall time (paced: 100 us x pace of simulated time; free: 1 ms):
                move UART bytes, read control lines, and when paced wait for the wall clock (or
@@ -349,7 +418,7 @@ int main(int argc, char **argv) {
             next_service = avr->cycle + (pace > 0 ? (uint64_t)(1600 * (pace > 1 ? pace : 1)) : 16000);
             pty_pump();
             poll_control(0);
-            if (tx_len > sizeof tx_buf / 4) {
+            if (tx_len > sizeof tx_buf / 4 && !stepped) {
                 /* back-pressure: a real wire delivers every byte, so a slow (descheduled) host
                    must not cost board output; simulated time stops until the pty drains */
                 while (tx_len > sizeof tx_buf / 8) {
@@ -361,7 +430,7 @@ int main(int argc, char **argv) {
                 }
                 anchor_pace();
             }
-            if (pace > 0) {
+            if (pace > 0 && !stepped) {
                 double ahead = (sim_us() - sim_ref_us) / 1e6 / pace - (now_wall() - wall_ref);
                 if (ahead > 0.0003) { /* sleep in chunks: each wake-up costs tens of us */
                     struct pollfd fds[2] = {{0, POLLIN, 0}, {pty_master, POLLIN, 0}};

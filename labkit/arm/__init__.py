@@ -15,6 +15,7 @@ from labkit.arm._commands import FW_VERSION
 from labkit.arm._board import VirtualBoard
 from labkit.arm._pty import make_board, serve_pty
 from labkit.arm._firmware import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path
+from labkit.arm._simavr_port import SimavrPort
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "serve_pty",
     "FIRMWARE_DIR",
     "FirmwareSim",
+    "SimavrPort",
     "PulseEvent",
     "build",
     "default_elf",

@@ -7,8 +7,19 @@ stands for the Uno's USB serial port, the servo pulse widths the firmware really
 simulated time to the wall clock, and a per-tick hook that closes the loop with a Python model
 of the arm (``labkit.arm``).
 
+Simulated time runs in one of three ways:
+
+* free (``pace=0``, the default of :class:`FirmwareSim`): as fast as the simulator goes, about
+  10x real time, whatever the host does;
+* paced (``pace=f > 0``): ``f`` x wall-clock time, like a real board when ``f = 1``;
+* stepped (:meth:`FirmwareSim.set_stepped`, what :meth:`FirmwareSim.open_port` and ``simavr://``
+  use by default): the CPU runs only while the host waits (:meth:`FirmwareSim.advance`,
+  :meth:`FirmwareSim.sleep`, a read of the port), so the host lives in board time and a loaded
+  machine never changes what happens in it.
+
 The protocol spoken over the pty is ``docs/protocol.md``; ``serial.serial_for_url("simavr://")``
-(see :mod:`labkit.arm.urlhandler.protocol_simavr`) gives a ready pyserial port.
+(see :mod:`labkit.arm.urlhandler.protocol_simavr`) or :meth:`FirmwareSim.open_port` gives a ready
+pyserial port whose waits run in board time.
 """
 
 from __future__ import annotations
@@ -133,6 +144,7 @@ class FirmwareSim:
         Firmware ELF; default: the one built from ``firmware/`` (built if needed).
     pace : float
         0 runs free (about 10x real time); ``f > 0`` keeps simulated time at ``f`` x wall time.
+        Ignored while stepped (:meth:`set_stepped`).
     on_tick : callable, optional
         ``on_tick(sim_time_s, pulses_us) -> {analog_pin: volts} | None``, called every
         ``tick_period`` [s] of simulated time while the CPU is paused; the returned voltages
@@ -151,10 +163,13 @@ class FirmwareSim:
     >>> import serial
     >>> with FirmwareSim() as sim:                       # doctest: +SKIP
     ...     port = serial.Serial(sim.port, 115200, timeout=1)
-    ...     sim.run()
+    ...     sim.run()                                     # free running: the host waits on the wall clock
     ...     port.readline()                               # b'READY labkit-arm 2 ...'
     ...     port.write(b"#1 MOVE 4500 9000 9000 *354E\\n"); port.readline()
     ...     sim.sleep(0.1); sim.pulses()[0]               # 1000.0 us
+    >>> with FirmwareSim() as sim:                       # doctest: +SKIP
+    ...     port = sim.open_port(timeout=1)               # stepped: reads wait in simulated time
+    ...     port.readline(), port.board_time              # (b'READY labkit-arm 2 ...', 0.0088)
     """
 
     def __init__(self, elf=None, *, pace=0.0, on_tick: TickHook | None = None, tick_period=0.005,
@@ -180,6 +195,17 @@ class FirmwareSim:
         self.hook_error: Exception | None = None
         """First exception raised by ``on_tick`` (re-raised by the next command)."""
         self.running = False
+        self.pace = float(pace)
+        """Ratio of simulated to wall-clock time [-] (0: free running; unused while stepped)."""
+        self.stepped = False
+        """Whether the CPU runs only inside :meth:`advance` (see :meth:`set_stepped`)."""
+        self.board_time = 0.0
+        """Simulated time [s] at the last :meth:`advance`, :meth:`sleep`, :meth:`time` or :meth:`hold`
+        (exact while stepped and running only in :meth:`advance`)."""
+        self.host_bytes = 0
+        """Bytes the host has written into :attr:`port` (counted by the port of :meth:`open_port`)."""
+        self.board_bytes = 0
+        """Bytes the harness had written into :attr:`port` at the end of the last :meth:`advance`."""
         self._proc = subprocess.Popen(
             [str(harness_path()), str(self.elf), "--pace", str(float(pace))],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
@@ -287,7 +313,8 @@ class FirmwareSim:
         """
         reply = self._command("hold", "OK hold")
         self.running = False
-        return float(reply.split()[2]) * 1e-6
+        self.board_time = float(reply.split()[2]) * 1e-6
+        return self.board_time
 
     def reset(self):
         """Reset the MCU (like the Uno's auto-reset when a port opens); EEPROM is kept."""
@@ -300,6 +327,8 @@ class FirmwareSim:
 
         Simulated time then excludes the host's own reaction time (an ideal host); wire time and
         firmware time are still simulated exactly. Useful to measure the firmware, not the PC.
+        Between a host's bytes and the next reply the CPU runs free; :meth:`set_stepped` (the
+        ``clock=lockstep`` of ``simavr://``) instead runs it only while the host waits.
 
         Parameters
         ----------
@@ -307,6 +336,95 @@ class FirmwareSim:
             Switch lockstep on (True) or off (False).
         """
         self._command(f"lockstep {int(bool(on))}", "OK lockstep")
+
+    def set_stepped(self, on=True):
+        """Run the CPU only inside :meth:`advance` (and :meth:`sleep`): simulated time follows the host.
+
+        With stepping on, simulated time stands still while the host computes, is descheduled or
+        sleeps on the wall clock; it advances only by the amounts the host asks for. The firmware
+        then sees the same request bytes at the same simulated times on an idle and on a loaded
+        machine, so its timers (the host-silence timeout, stream rates) are deterministic. Pacing
+        and :meth:`set_lockstep` do not apply while stepped.
+
+        Parameters
+        ----------
+        on : bool
+            Switch stepping on (True) or back to free/paced running (False).
+        """
+        self._command(f"stepped {int(bool(on))}", "OK stepped")
+        self.stepped = bool(on)
+
+    def advance(self, seconds, *, until_line=False, timeout=None):
+        """Let the CPU run for ``seconds`` of simulated time (stepped mode), then hold it.
+
+        The host's bytes written so far (:attr:`host_bytes`) reach the UART first; the board's
+        output is written to :attr:`port` before this returns (:attr:`board_bytes` counts it).
+
+        Parameters
+        ----------
+        seconds : float
+            Longest simulated time to run [s], ``>= 0``.
+        until_line : bool
+            Stop as soon as the board completed an output line (its ``LF``), even earlier.
+        timeout : float, optional
+            Wall-clock limit [s]; default ``30 + 20 * seconds``.
+
+        Returns
+        -------
+        float
+            Simulated time [s] when the CPU was held again.
+
+        Raises
+        ------
+        DeviceError
+            Not stepped or not running, the host's bytes did not reach the simulator, or the
+            simulated CPU stopped.
+        OptionError
+            ``seconds`` negative or not finite.
+        """
+        seconds = float(seconds)
+        if not 0.0 <= seconds < float("inf"):
+            raise OptionError(f"expected seconds >= 0 of simulated time, got {seconds}")
+        if not (self.stepped and self.running):
+            raise DeviceError("advance() needs a stepped, running simulator: call set_stepped() and run()")
+        limit = timeout if timeout is not None else 30.0 + 20.0 * seconds
+        reply = self._command(f"advance {seconds * 1e6:.3f} {self.host_bytes} {int(bool(until_line))}", "HELD",
+                              timeout=limit)
+        _, t_us, sent = reply.split()
+        self.board_time = float(t_us) * 1e-6
+        self.board_bytes = int(sent)
+        return self.board_time
+
+    def open_port(self, *, clock="lockstep", **serial_options):
+        """Open :attr:`port` as a pyserial port whose reads wait in board time, then run the CPU.
+
+        Parameters
+        ----------
+        clock : {"lockstep", "realtime"}
+            ``"lockstep"`` steps the simulator (:meth:`set_stepped`): simulated time runs only
+            while the host waits on the port; ``"realtime"`` leaves it free or paced.
+        **serial_options
+            ``baudrate``, ``timeout`` [s of board time] ... of :class:`serial.Serial`.
+
+        Returns
+        -------
+        labkit.arm.SimavrPort
+            The open port (``port.sim`` is this simulator).
+
+        Raises
+        ------
+        DeviceError
+            The CPU already runs (open the port before :meth:`run`: pyserial flushes input on open).
+        OptionError
+            An unknown ``clock``.
+        """
+        from labkit.arm._simavr_port import SimavrPort
+
+        if self.running:
+            raise DeviceError("open the simulator's port before run(): the CPU already runs")
+        port = SimavrPort(self, clock=clock, **serial_options)
+        self.run()
+        return port
 
     def set_pace(self, factor):
         """0: free running; ``factor > 0``: simulated time runs ``factor`` x wall time.
@@ -324,6 +442,7 @@ class FirmwareSim:
         if factor < 0:
             raise OptionError(f"expected pace >= 0, got {factor}")
         self._command(f"pace {float(factor)}", "OK pace")
+        self.pace = float(factor)
 
     def set_analog(self, pin, volts):
         """Set the voltage [V] (0..5.5) on analog input ``pin`` (0..5; A5 = user pot).
@@ -350,7 +469,8 @@ class FirmwareSim:
         float
             Simulated time [s].
         """
-        return float(self._command("time", "TIME").split()[1]) * 1e-6
+        self.board_time = float(self._command("time", "TIME").split()[1]) * 1e-6
+        return self.board_time
 
     def pulses(self, sync=True):
         """Latest pulse width [us] per servo channel that has produced pulses.
@@ -389,6 +509,8 @@ class FirmwareSim:
     def sleep(self, seconds, timeout=None):
         """Block until ``seconds`` of simulated time have passed (the CPU must be running).
 
+        Stepped (:meth:`set_stepped`), this is :meth:`advance` for ``seconds``.
+
         Parameters
         ----------
         seconds : float
@@ -409,6 +531,8 @@ class FirmwareSim:
         """
         if not self.running:
             raise DeviceError("the simulated CPU is held: call run() before sleep()")
+        if self.stepped:
+            return self.advance(seconds, timeout=timeout)
         while not self._events.empty():
             self._events.get_nowait()
         self._command(f"sleep {seconds * 1e6:.3f}", "OK sleep")
@@ -420,7 +544,8 @@ class FirmwareSim:
             except queue.Empty:
                 raise DeviceError(f"simulated time did not advance by {seconds} s within {limit} s") from None
             if ev.startswith("WOKE"):
-                return float(ev.split()[1]) * 1e-6
+                self.board_time = float(ev.split()[1]) * 1e-6
+                return self.board_time
             if ev.startswith(("CRASH", "EXIT")):
                 raise DeviceError(f"simulated CPU stopped: {ev}")
 

@@ -72,7 +72,8 @@ class Arm:
         The robot file whose servo calibrations and limits the host enforces.
     baudrate : int
     timeout : float
-        Reply timeout of one request attempt [s].
+        Reply timeout of one request attempt [s of the link's clock: board time on ``sim://`` and
+        ``simavr://``, see :meth:`sleep`].
     retries : int
         Extra attempts of a request whose reply was lost or garbled.
     boot_wait : float
@@ -199,7 +200,9 @@ class Arm:
         Parameters
         ----------
         seconds : float
-            Time to wait [s] (board clock: simulated time on a virtual arm).
+            Time to wait [s] (board clock: simulated time on ``sim://`` and ``simavr://``, whose
+            ports offer ``port.board_time``; in lockstep the simulated board runs only while the
+            host waits, so a slow host machine cannot stretch it).
         """
         end = self._clock() + seconds
         while (left := end - self._clock()) > 0:

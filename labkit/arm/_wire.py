@@ -116,25 +116,30 @@ class Wire:
 
     # -- time --------------------------------------------------------------------------
     def clock(self):
-        """Board time [s] for a simulated board (``sim://``), else the wall clock.
+        """Board time [s] for a simulated board (``sim://``, ``simavr://``), else the wall clock.
 
-        All waits and timeouts of the link are in these seconds, so a virtual arm
-        running faster than real time keeps its timing.
+        A port that knows its board's time offers it as ``port.board_time`` (also
+        through port wrappers such as :class:`FaultyPort`). All waits and timeouts of
+        the link are in these seconds, so a simulated board running faster or slower
+        than real time, or stepped by the host's waits (``clock=lockstep``), keeps
+        its timing whatever the host machine does.
 
         Returns
         -------
         float
             Seconds (board time since power-up, or ``time.monotonic()``).
         """
-        board = getattr(self.port, "board", None)
-        if board is None:
-            return time.monotonic()
-        if getattr(self.port, "clock", "") == "realtime":
-            self.io(lambda: self.port.in_waiting)  # brings the board up to date
-        return board.time
+        port = self.port
+        board_time = None if port is None else self.io(getattr, port, "board_time", None)
+        return time.monotonic() if board_time is None else board_time
 
     def _port_seconds(self, seconds):
-        """Read timeout for the port that lets ``seconds`` of :meth:`clock` pass."""
+        """Read timeout for the port that lets ``seconds`` of :meth:`clock` pass.
+
+        A ``realtime`` simulated port waits on the wall clock while board time runs
+        ``port.time_scale`` times faster; any other port (a real board, or a
+        ``lockstep`` one whose reads wait in board time) takes board seconds.
+        """
         if getattr(self.port, "clock", "") == "realtime":
             return seconds / self.port.time_scale
         return seconds

@@ -201,22 +201,28 @@ def test_config_validation_messages():
 @pytest.mark.slow
 @pytest.mark.xdist_group("firmware")
 def test_same_physics_drives_the_firmware_in_simavr():
-    """Firmware-in-the-loop: real firmware pulses -> FirmwareAdapter -> feedback volts -> READ."""
-    import serial
+    """Firmware-in-the-loop: real firmware pulses -> FirmwareAdapter -> feedback volts -> READ.
 
-    from labkit.arm import FirmwareSim
+    The port is stepped (``clock="lockstep"``): simulated time runs only while the host waits, so
+    the host's STATUS polls during the timed MOVE reach the firmware at the same simulated times on
+    a loaded machine as on an idle one (its 500 ms host-silence timer never sees a slow host).
+    """
+    from labkit.arm import FirmwareSim, SimavrPort
     from labkit.arm import Arm
 
     adapter = FirmwareAdapter(ARM, PhysicsConfig(seed=0))
     with FirmwareSim(on_tick=adapter.on_tick, tick_period=0.005) as sim:
-        port = serial.Serial(sim.port, 115200, timeout=0.05)
-        sim.run()
+        port = sim.open_port(baudrate=115200, timeout=0.05)
+        assert isinstance(port, SimavrPort) and port.clock == "lockstep" and sim.stepped
         with Arm(port, timeout=0.5) as arm:
             np.testing.assert_allclose(arm.read_joints(), np.radians([90, 90, 90]), atol=math.radians(1.5))
             arm.move_joints(np.radians([30.0, 60.0, 120.0]))
+            t_moved = sim.time()
             sim.sleep(1.5)
             sensed = arm.read_joints()
+            assert not any(name == "HOLD" for name, _ in arm.events), arm.events
         t_sim = sim.time()
+    assert t_sim - t_moved >= 1.5  # the host's waits were simulated time
     # within the deadband (0.45 deg) plus ADC noise (a few counts of 0.22 deg)
     np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
     np.testing.assert_allclose(adapter.model.shaft_q, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
@@ -236,11 +242,14 @@ def test_simavr_url_with_physics_closes_the_loop_like_sim():
     register()
     port = serial.serial_for_url("simavr://?physics=arduino_arm_3dof&seed=1", baudrate=115200, timeout=0.05)
     assert isinstance(port.physics, FirmwareAdapter)
+    assert port.clock == "lockstep"  # the default with pace=0: the link waits in simulated time
     with Arm(port, timeout=0.5) as arm:
         arm.move_joints(np.radians([30.0, 60.0, 120.0]))
+        assert abs(arm.ping() - port.board_time) < 0.005  # the link's clock is the board's (ms + the reply)
         port.sim.sleep(1.5)
         sensed = arm.read_joints()
         shaft = port.physics.model.shaft_q.copy()
+        assert not any(name == "HOLD" for name, _ in arm.events), arm.events
     np.testing.assert_allclose(sensed, np.radians([30.0, 60.0, 120.0]), atol=math.radians(1.5))
     np.testing.assert_allclose(shaft, np.radians([30.0, 60.0, 120.0]), atol=math.radians(0.5))
 
@@ -251,8 +260,14 @@ def test_simavr_url_options_are_checked():
     from labkit.arm.urlhandler.protocol_simavr import parse_url
 
     assert parse_url("simavr://?physics=1&seed=4") == (
-        None, {"pace": 0.0, "tick": 0.005, "physics": "arduino_arm_3dof", "seed": 4})
+        None, {"pace": 0.0, "tick": 0.005, "physics": "arduino_arm_3dof", "seed": 4, "clock": "lockstep"})
     assert parse_url("simavr://fw.elf?physics=0")[1]["physics"] == ""
+    assert parse_url("simavr://?pace=1")[1]["clock"] == "realtime"  # paced: the wall clock leads
+    assert parse_url("simavr://?clock=realtime")[1] == {**parse_url("simavr://")[1], "clock": "realtime"}
+    with pytest.raises(SerialException, match=r"clock=lockstep.*cannot also be paced"):
+        parse_url("simavr://?pace=1&clock=lockstep")
+    with pytest.raises(SerialException, match=r"option 'clock'.*one of lockstep, realtime, got 'wall'"):
+        parse_url("simavr://?clock=wall")
     with pytest.raises(SerialException, match=r"option 'seed'.*must be an integer, got '1.5'"):
         parse_url("simavr://?seed=1.5")
     with pytest.raises(SerialException, match=r"unknown option 'robot'.*valid options"):

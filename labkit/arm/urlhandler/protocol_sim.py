@@ -183,6 +183,18 @@ class Serial(SerialBase):
         """Board seconds per wall-clock second (realtime clock)."""
         return self._scale
 
+    @property
+    def board_time(self):
+        """Board time since power-up [s]: the link's clock for this port (brought up to date first).
+
+        Returns
+        -------
+        float
+        """
+        if self.is_open:
+            self._sync()
+        return self.board.time
+
     def _sync(self):
         if self._clock == "realtime":
             self.board.advance_to((time.monotonic() - self._t0) * self._scale)

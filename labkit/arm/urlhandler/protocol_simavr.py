@@ -4,10 +4,23 @@ Opening the URL builds the firmware and harness if needed, starts the simulator 
 held, opens the harness's pty and only then lets the CPU run, so the ``READY`` line is not
 lost to pyserial's input flush on open. Closing the port stops the simulator.
 
+The port is a :class:`labkit.arm.SimavrPort`: :class:`labkit.arm.Arm` keeps its clock, waits and
+reply timeouts in *simulated* time (``port.board_time``), as on ``sim://``.
+
 Options (query string):
 
+``clock=lockstep|realtime``
+    ``lockstep`` (the default with ``pace=0``): the simulated CPU runs only while the host waits
+    on the port (a read runs it until the board completes a line or the read timeout's seconds of
+    simulated time have passed; ``port.sleep(s)`` and ``port.sim.sleep(s)`` run ``s``). Simulated
+    time stands still while the host computes or is descheduled, so a run is deterministic and
+    a loaded machine cannot trip the firmware's host-silence timer; a 50 ms reply timeout costs
+    50 ms of simulated time, a few ms of wall time. ``realtime`` (the default with ``pace > 0``):
+    the simulator runs on its own, free (``pace=0``, about 10x real time) or paced, and reads wait
+    on the wall clock. ``clock=lockstep`` with ``pace > 0`` is refused (the two contradict).
 ``pace=<factor>``
-    0 (default) runs free (about 10x real time), 1 paces simulated time to the wall clock.
+    0 (default) runs as fast as the simulator goes; ``f > 0`` (``realtime`` clock) paces
+    simulated time to ``f`` x the wall clock (1: like a real board).
 ``tick=<seconds>``
     period of the ``on_tick`` hook (default 0.005 s of simulated time).
 ``physics=<robot>``
@@ -28,24 +41,26 @@ Example
 -------
 >>> import serial, labkit.arm.urlhandler
 >>> labkit.arm.urlhandler.register()
->>> port = serial.serial_for_url("simavr://?pace=1", baudrate=115200, timeout=1)  # doctest: +SKIP
->>> port.readline()                                                               # doctest: +SKIP
-b'READY labkit-arm 2 fw=2.1.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*851D\\r\\n'
+>>> port = serial.serial_for_url("simavr://", baudrate=115200, timeout=1)   # doctest: +SKIP
+>>> port.clock, port.readline()                                           # doctest: +SKIP
+('lockstep', b'READY labkit-arm 2 fw=2.1.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*851D\\r\\n')
+>>> port.sim.sleep(1.5); round(port.board_time, 3)                        # doctest: +SKIP
+1.502
 """
 
 from __future__ import annotations
 
 import urllib.parse
 
-from serial import serialposix
 from serial.serialutil import SerialException
 
 from labkit.arm._firmware import FirmwareSim
+from labkit.arm._simavr_port import CLOCKS, SimavrPort
 
 SCHEME = "simavr://"
 
 
-_DEFAULTS = {"pace": 0.0, "tick": 0.005, "physics": "", "seed": 0}
+_DEFAULTS = {"pace": 0.0, "tick": 0.005, "physics": "", "seed": 0, "clock": ""}
 
 
 def parse_url(url):
@@ -54,7 +69,7 @@ def parse_url(url):
     Parameters
     ----------
     url : str
-        ``simavr://[path/to/firmware.elf][?pace=..&tick=..&physics=..&seed=..]``.
+        ``simavr://[path/to/firmware.elf][?clock=..&pace=..&tick=..&physics=..&seed=..]``.
 
     Returns
     -------
@@ -62,7 +77,8 @@ def parse_url(url):
         Firmware ELF to load (None: the one built from ``firmware/``).
     options : dict
         ``pace`` (float), ``tick`` [s] (float), ``physics`` (robot name/path, "" for off),
-        ``seed`` (int).
+        ``seed`` (int), ``clock`` (``"lockstep"`` or ``"realtime"``; by default lockstep
+        when ``pace`` is 0).
 
     Raises
     ------
@@ -81,18 +97,29 @@ def parse_url(url):
         if key == "physics":
             options[key] = {"0": "", "1": "arduino_arm_3dof"}.get(value, value)
             continue
+        if key == "clock":
+            if value not in CLOCKS:
+                raise SerialException(f"option 'clock' in {url!r} must be one of {', '.join(CLOCKS)}, got {value!r}")
+            options[key] = value
+            continue
         try:
             options[key] = int(value) if key == "seed" else float(value)
         except ValueError:
             kind = "an integer" if key == "seed" else "a number"
             raise SerialException(f"option {key!r} in {url!r} must be {kind}, got {value!r}") from None
+    if options["pace"] < 0:
+        raise SerialException(f"option 'pace' in {url!r} must be >= 0, got {options['pace']:g}")
+    if not options["clock"]:
+        options["clock"] = "lockstep" if options["pace"] == 0 else "realtime"
+    elif options["clock"] == "lockstep" and options["pace"] > 0:
+        raise SerialException(f"{url!r}: clock=lockstep runs the simulator only while the host waits, "
+                              f"it cannot also be paced (pace={options['pace']:g}); use pace=0 or clock=realtime")
     return (urllib.parse.unquote(path) or None), options
 
 
-class Serial(serialposix.Serial):
+class Serial(SimavrPort):
     """A pyserial port on the simulated Uno's UART0 (see module docstring)."""
 
-    sim: FirmwareSim | None = None
     physics = None
 
     def open(self):
@@ -113,6 +140,7 @@ class Serial(serialposix.Serial):
             self.sim = FirmwareSim(elf, pace=options["pace"], tick_period=options["tick"], on_tick=on_tick)
         except Exception as exc:
             raise SerialException(f"could not start the firmware simulator for {url!r}: {exc}") from exc
+        self._clock = options["clock"]
         self._port = self.portstr = self.sim.port
         try:
             super().open()
