@@ -10,7 +10,9 @@ It is started as ``prlimit --cpu --as -- bwrap ... -- python -m ipykernel_launch
   which the kernel is killed;
 * **files**: the whole file system read-only, with ``/tmp``, ``$HOME`` and every
   path in ``hide`` (the submissions folder, the instructor's lab, the output folder)
-  replaced by empty tmpfs; only the submission's own working directory is writable;
+  replaced by empty tmpfs (the Python installation, the import path and the labkit
+  package are shown again, read-only, where they lie under ``/tmp`` or ``$HOME``;
+  ``hide`` still wins); only the submission's own working directory is writable;
 * **processes and network**: new PID, IPC, UTS and network namespaces (no network
   at all, not even loopback to the host: the kernel talks to the client over Unix
   sockets in a private folder), no capabilities, a new session, killed with its parent.
@@ -82,14 +84,19 @@ def _bwrap_args(work: Path, private: Path, hide) -> list[str]:
         raise LabkitError("the grading sandbox needs bubblewrap (Debian package 'bubblewrap', command 'bwrap'); "
                           "install it or grade with sandbox=False (--no-sandbox)")
     args = [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc", "--tmpfs", "/tmp"]
+    emptied = [Path("/tmp").resolve()]
     home = Path(os.path.expanduser("~")).resolve()
     if home != Path("/") and home not in work.parents and home not in private.parents:
         args += ["--tmpfs", str(home)]
-        # the Python installation and its import path may live in $HOME (pyenv, venvs): show those again
-        needed = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, *sys.path) if p}
-        for path in sorted(needed):
-            if home in path.parents and path.exists() and not any(q in path.parents for q in needed):
-                args += ["--ro-bind", str(path), str(path)]
+        emptied.append(home)
+    # the Python installation, its import path and labkit itself may live in $HOME (pyenv, venvs) or in
+    # /tmp (an editable install of a checkout there): show those again, read-only
+    needed = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, *sys.path) if p}
+    needed.add(Path(__file__).resolve().parents[1])  # the labkit package (an editable install's finder maps to it)
+    for path in sorted(needed):
+        if (any(root in path.parents for root in emptied) and path.exists()
+                and not any(q in path.parents for q in needed)):
+            args += ["--ro-bind", str(path), str(path)]
     for path in hide:
         path = Path(path).resolve()
         if path.is_dir() and path != Path("/") and path not in work.parents and path not in private.parents:

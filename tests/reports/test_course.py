@@ -287,3 +287,38 @@ def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
         from labkit.reports import Limits
 
         Limits(cpu_seconds=0)
+
+
+def test_sandbox_shows_import_paths_under_tmp_again_read_only(tmp_path, monkeypatch):
+    """A checkout in /tmp (editable install) or a PYTHONPATH entry there stays importable in the sandbox.
+
+    The sandbox empties /tmp; CI may run from a clean checkout under /tmp, where the kernel then could not
+    import labkit at all. Import roots under /tmp are bound again, read-only; hidden folders stay hidden.
+    """
+    nbformat = require("nbformat")
+    from labkit.reports import Limits, run_untrusted
+    from labkit.reports._sandbox import _bwrap_args
+
+    pkg_root = tmp_path / "site"
+    (pkg_root / "probe_pkg").mkdir(parents=True)
+    (pkg_root / "probe_pkg" / "__init__.py").write_text("VALUE = 42\n")
+    secret = pkg_root / "instructor"
+    secret.mkdir()
+    (secret / "solutions.txt").write_text("x = 1\n")
+    monkeypatch.syspath_prepend(str(pkg_root))
+    monkeypatch.setenv("PYTHONPATH", str(pkg_root))
+    work = tmp_path / "work"
+    work.mkdir()
+    args = _bwrap_args(work, tmp_path / "private", hide=[secret])
+    bind = args.index(str(pkg_root.resolve()))
+    assert args[bind - 1] == "--ro-bind" and args.index("/tmp") < bind < args.index(str(secret.resolve()))
+    nb = nbformat.v4.new_notebook(cells=[
+        nbformat.v4.new_code_cell("import probe_pkg, labkit, os\nprint(probe_pkg.VALUE, labkit.__name__)"),
+        nbformat.v4.new_code_cell(f"print(os.listdir({str(secret)!r}))"),
+        nbformat.v4.new_code_cell(f"open({str(pkg_root / 'probe_pkg' / 'x.py')!r}, 'w')"),
+    ])
+    status, detail = run_untrusted(nb, work, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=60),
+                                   hide=[secret])
+    assert nb.cells[0].outputs[0]["text"].strip() == "42 labkit", nb.cells[0].outputs
+    assert nb.cells[1].outputs[0]["text"].strip() == "[]"  # the hidden folder is empty inside
+    assert status == "error" and "Read-only file system" in detail + str(nb.cells[2].outputs), detail
