@@ -106,17 +106,12 @@ class _Constants:
         self.s3 = float(impl.arm.s3)
 
 
-_CONSTANTS = {}
-
-
 def _constants(impl):
-    c = _CONSTANTS.get(id(impl))
-    if c is None or c[0] is not impl:
-        c = (impl, _Constants(impl))
-        if len(_CONSTANTS) > 64:
-            _CONSTANTS.clear()
-        _CONSTANTS[id(impl)] = c
-    return c[1]
+    """The solver's :class:`_Constants`, built on first use and kept on the solver."""
+    k = getattr(impl, "_small_constants", None)
+    if k is None:
+        k = impl._small_constants = _Constants(impl)
+    return k
 
 
 def solve_pose(impl, T, arm_branches):
