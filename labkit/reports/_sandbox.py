@@ -33,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import os
 import shutil
+import site
 import subprocess
 import sys
 import tempfile
@@ -89,9 +90,13 @@ def _bwrap_args(work: Path, private: Path, hide) -> list[str]:
     if home != Path("/") and home not in work.parents and home not in private.parents:
         args += ["--tmpfs", str(home)]
         emptied.append(home)
-    # the Python installation, its import path and labkit itself may live in $HOME (pyenv, venvs) or in
-    # /tmp (an editable install of a checkout there): show those again, read-only
-    needed = {Path(p).resolve() for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, *sys.path) if p}
+    # what the kernel imports from may live in $HOME (pyenv, venvs, the user site) or in /tmp (an editable
+    # install of a checkout there): show the Python installation, the PYTHONPATH the kernel gets and the
+    # labkit package again, read-only (not the grading process's whole sys.path: its working directory
+    # may be a checkout full of notebooks)
+    roots = [sys.prefix, sys.base_prefix, sys.exec_prefix, site.getusersitepackages(),
+             *os.environ.get("PYTHONPATH", "").split(os.pathsep)]
+    needed = {Path(p).resolve() for p in roots if p}
     needed.add(Path(__file__).resolve().parents[1])  # the labkit package (an editable install's finder maps to it)
     for path in sorted(needed):
         if (any(root in path.parents for root in emptied) and path.exists()

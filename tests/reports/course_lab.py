@@ -56,6 +56,7 @@ def write_submission(student_version: Path, folder: Path, code: str) -> Path:
 def snooper_code(submissions: Path, lab: Path) -> str:
     """Student code that tries to read other submissions and the hidden tests, then answers correctly."""
     return f"""import glob, os
+import labkit
 found = []
 for pattern in [{str(submissions)!r} + "/*/*", {str(lab)!r} + "/*", "/tmp/**/*.ipynb", os.path.expanduser("~") + "/*",
                 "../*/*.ipynb", "../../*/*/*.ipynb"]:
@@ -64,8 +65,8 @@ for pattern in [{str(submissions)!r} + "/*/*", {str(lab)!r} + "/*", "/tmp/**/*.i
             text = open(f, errors="replace").read()
         except OSError:
             continue
-        if os.path.abspath(f).startswith(os.getcwd()):
-            continue
+        if os.path.abspath(f).startswith((os.getcwd(), os.path.dirname(labkit.__file__))):
+            continue  # its own copy, and the installed labkit's files (public: lab templates)
         found.append(f)
         if "SECRET-HIDDEN-MARKER" in text or "x = float" in text:
             found.append("LEAK:" + f)

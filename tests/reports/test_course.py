@@ -305,7 +305,6 @@ def test_sandbox_shows_import_paths_under_tmp_again_read_only(tmp_path, monkeypa
     secret = pkg_root / "instructor"
     secret.mkdir()
     (secret / "solutions.txt").write_text("x = 1\n")
-    monkeypatch.syspath_prepend(str(pkg_root))
     monkeypatch.setenv("PYTHONPATH", str(pkg_root))
     work = tmp_path / "work"
     work.mkdir()
