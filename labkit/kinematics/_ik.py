@@ -25,7 +25,6 @@ or folded towards the target): a fill, not a solution.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from enum import Enum
 
@@ -34,6 +33,7 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric, _ik_small
+from labkit.kinematics._ik_targets import batch_index, describe_target, validate_targets
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -263,47 +263,6 @@ def _analytic(robot, solver):
     return impl
 
 
-def _targets(robot, target, kind):
-    """Validate targets; returns flat (N, ...) array and the leading shape."""
-    if kind == "pose":
-        T = as_batch(target, (4, 4), "target pose")
-        lead = T.shape[:-2]
-        T = T.reshape(-1, 4, 4)
-        c0, c1, c2 = T[:, :3, 0], T[:, :3, 1], T[:, :3, 2]
-        err = np.abs(np.stack([
-            (c0 * c0).sum(axis=1) - 1.0, (c1 * c1).sum(axis=1) - 1.0, (c2 * c2).sum(axis=1) - 1.0,
-            (c0 * c1).sum(axis=1), (c0 * c2).sum(axis=1), (c1 * c2).sum(axis=1),
-        ])).max(axis=0, initial=0.0)
-        det = (np.cross(c0, c1) * c2).sum(axis=1)
-        bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
-            which = "the target" if not lead else f"target {_index(i, lead)}"
-            raise ShapeError(
-                f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
-                f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err[i]:.2g}, det {det[i]:.3g}, "
-                f"last row {T[i, 3].tolist()})"
-            )
-        return T, lead
-    name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
-    p = as_batch(target, (3,), name)
-    return p.reshape(-1, 3), p.shape[:-1]
-
-
-def _index(i, lead):
-    if not lead:
-        return None
-    return tuple(int(k) for k in np.unravel_index(i, lead))
-
-
-def _describe(kind, t):
-    if kind == "pose":
-        return "pose at ({:.4g}, {:.4g}, {:.4g}) m".format(*t[:3, 3])
-    if kind == "planar":
-        return "(x, y, phi) = ({:.4g} m, {:.4g} m, {:.4g} deg)".format(t[0], t[1], math.degrees(t[2]))
-    return "({:.4g}, {:.4g}, {:.4g}) m".format(*t)
-
-
 def ik_all(robot, target, *, solver="auto"):
     """Every IK solution of each target, with branch names, reachability and limit checks.
 
@@ -348,7 +307,7 @@ def ik_all(robot, target, *, solver="auto"):
     if small is not None:  # a few targets of a 3R family: plain Python, same results
         q, reach, valid, dist = _ik_small.arrays(small, lead, len(impl.branches), robot.n)
         return IKSolutions(q, reach, valid, tuple(impl.branches), dist, impl.name)
-    flat, lead = _targets(robot, target, kind)
+    flat, lead = validate_targets(target, kind)
     return _solve_all(robot, impl, kind, flat, lead)
 
 
@@ -456,7 +415,7 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     out = None if small is None else _ik_small.pick(robot, small, idx, q_near)
     if out is not None:  # else the batched path below raises or broadcasts q_near
         return np.array(out).reshape(lead + (robot.n,))
-    flat, lead = _targets(robot, target, kind)
+    flat, lead = validate_targets(target, kind)
     q = None if idx is None else _ik_analytic.solve_one_branch(robot, impl, flat, idx, _CHUNK)
     if q is not None:  # every target valid on the named branch; else the full path below raises
         return q.reshape(lead + (robot.n,))
@@ -473,17 +432,17 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
         reach_t, valid_t = reach.any(axis=1), valid.any(axis=1)
     if not np.all(reach_t):
         i = int(np.flatnonzero(~reach_t)[0])
-        where = "" if not lead else f" (target {_index(i, lead)})"
+        where = "" if not lead else f" (target {batch_index(i, lead)})"
         if idx is not None and reach[i].any():
             raise UnreachableError(
-                f"{robot.name}: branch {sols.branches[idx]!r} cannot reach {_describe(kind, flat[i])}{where}; "
+                f"{robot.name}: branch {sols.branches[idx]!r} cannot reach {describe_target(kind, flat[i])}{where}; "
                 f"reachable branches: {', '.join(b for b, r in zip(sols.branches, reach[i]) if r)}",
-                distance=0.0, index=_index(i, lead),
+                distance=0.0, index=batch_index(i, lead),
             )
         raise UnreachableError(
-            f"{robot.name}: target {_describe(kind, flat[i])}{where} is out of reach by "
+            f"{robot.name}: target {describe_target(kind, flat[i])}{where} is out of reach by "
             f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
-            distance=dist[i], index=_index(i, lead),
+            distance=dist[i], index=batch_index(i, lead),
         )
     if not np.all(valid_t):
         i = int(np.flatnonzero(~valid_t)[0])
@@ -495,11 +454,11 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             except JointLimitError as exc:
                 joint = exc.joint if joint is None else joint
                 reasons.append(f"{sols.branches[k]}: {str(exc).split(': ', 1)[-1]}")
-        where = "" if not lead else f" (target {_index(i, lead)})"
+        where = "" if not lead else f" (target {batch_index(i, lead)})"
         raise JointLimitError(
-            f"{robot.name}: target {_describe(kind, flat[i])}{where} is reachable only outside the "
+            f"{robot.name}: target {describe_target(kind, flat[i])}{where} is reachable only outside the "
             f"joint limits: " + "; ".join(reasons),
-            joint=joint, index=_index(i, lead),
+            joint=joint, index=batch_index(i, lead),
         )
     if idx is not None:
         out = q[:, idx]
@@ -514,19 +473,19 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
 
 
 def _ik_one_numeric(robot, kind, target, q_near):
-    flat, lead = _targets(robot, target, kind)
+    flat, lead = validate_targets(target, kind)
     q0 = None
     if q_near is not None:
         q0 = np.broadcast_to(as_batch(q_near, (robot.n,), "q_near"), lead + (robot.n,)).reshape(-1, robot.n)
     q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
     if not np.all(ok):
         i = int(np.flatnonzero(~ok)[0])
-        where = "" if not lead else f" (target {_index(i, lead)})"
+        where = "" if not lead else f" (target {batch_index(i, lead)})"
         raise UnreachableError(
             f"{robot.name}: numeric IK found no solution inside the joint limits for "
-            f"{_describe(kind, flat[i])}{where}; the closest configuration found misses it by "
+            f"{describe_target(kind, flat[i])}{where}; the closest configuration found misses it by "
             f"{res[i]:.4g} (m and rad combined)",
-            distance=res[i], index=_index(i, lead),
+            distance=res[i], index=batch_index(i, lead),
         )
     return q.reshape(lead + (robot.n,))
 
@@ -592,7 +551,7 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         kind = target_kind(robot)
     elif kind not in _ik_numeric.ROWS:
         raise OptionError(f"unknown target kind {kind!r}; expected one of {', '.join(map(repr, _ik_numeric.ROWS))}")
-    flat, lead = _targets(robot, target, kind)
+    flat, lead = validate_targets(target, kind)
     n = robot.n
     if q0 is not None:
         q0 = np.broadcast_to(as_batch(q0, (n,), "q0"), lead + (n,)).reshape(-1, n)
