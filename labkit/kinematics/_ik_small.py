@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_analytic import _REACH_TOL, Planar3R, SphericalWrist, YawPitchPitch
-from labkit.kinematics._ik_small_wrist import flat_poses, solve_pose
+from labkit.kinematics._ik_small_wrist import flat_poses, float_rows, solve_pose
 
 #: largest number of targets that takes the plain-Python path
 SMALL_TARGETS = 8
@@ -49,19 +49,14 @@ def flat_targets(target):
     lead : tuple of int
         The batch shape (``()`` for one target).
     """
-    try:
-        arr = np.asarray(target, dtype=float)
-    except (TypeError, ValueError):
+    rows, lead = float_rows(target, (3,), SMALL_TARGETS)
+    if rows is None:
         return None, ()
-    shape = arr.shape
-    if not shape or shape[-1] != 3 or arr.size > 3 * SMALL_TARGETS:
-        return None, ()
-    rows = arr.reshape(-1, 3).tolist()
     isfinite = math.isfinite
     for r in rows:
         if not (isfinite(r[0]) and isfinite(r[1]) and isfinite(r[2])):
             return None, ()
-    return rows, shape[:-1]
+    return rows, lead
 
 
 def _ypp(arm, t):

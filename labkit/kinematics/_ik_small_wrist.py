@@ -15,7 +15,37 @@ import math
 
 import numpy as np
 
-__all__ = ["flat_poses", "solve_pose"]
+__all__ = ["flat_poses", "float_rows", "solve_pose"]
+
+
+def float_rows(target, tail, most):
+    """A small batch of arrays of shape ``tail`` as nested Python lists of floats (no value checks).
+
+    Parameters
+    ----------
+    target : array_like, shape (..., *tail)
+        The batch.
+    tail : tuple of int
+        Shape of one item, e.g. ``(3,)`` or ``(4, 4)``.
+    most : int
+        Largest number of items taken.
+
+    Returns
+    -------
+    rows : list or None
+        One nested list per item (C order); None when ``target`` is not a float
+        array of shape ``(..., *tail)`` with at most ``most`` items.
+    lead : tuple of int
+        The batch shape (``()`` for one item).
+    """
+    try:
+        arr = np.asarray(target, dtype=float)
+    except (TypeError, ValueError):
+        return None, ()
+    shape, k = arr.shape, len(tail)
+    if len(shape) < k or shape[len(shape) - k:] != tuple(tail) or arr.size > math.prod(tail) * most:
+        return None, ()
+    return arr.reshape((-1,) + tuple(tail)).tolist(), shape[:len(shape) - k]
 
 
 def flat_poses(target, most):
@@ -39,14 +69,9 @@ def flat_poses(target, most):
     lead : tuple of int
         The batch shape (``()`` for one pose).
     """
-    try:
-        arr = np.asarray(target, dtype=float)
-    except (TypeError, ValueError):
+    rows, lead = float_rows(target, (4, 4), most)
+    if rows is None:
         return None, ()
-    shape = arr.shape
-    if len(shape) < 2 or shape[-2:] != (4, 4) or arr.size > 16 * most:
-        return None, ()
-    rows = arr.reshape(-1, 4, 4).tolist()
     isfinite = math.isfinite
     for T in rows:
         r0, r1, r2, r3 = T
@@ -62,7 +87,7 @@ def flat_poses(target, most):
         det = _dot(_cross(c0, c1), c2)
         if not err <= 1e-6 or det < 0:
             return None, ()
-    return rows, shape[:-2]
+    return rows, lead
 
 
 def _dot(a, b):
