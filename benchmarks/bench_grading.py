@@ -26,7 +26,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from labkit.reports import Limits, assign, grade  # noqa: E402
+from labkit.course import Limits, assign, grade  # noqa: E402
 from tests.reports import course_lab as cl  # noqa: E402
 
 

@@ -1,10 +1,12 @@
 """The package layout keeps its rules (docs/architecture.md), read from the source with ``ast``.
 
 - no import cycles among labkit modules, counting imports inside functions too;
-- no ``_private`` module or name imported from outside its own subpackage;
+- no ``_private`` module or name imported from outside the (sub)package that holds it;
 - modules of a subpackage import their siblings, never their own ``__init__``;
-- the layers: nothing imports a higher layer at module level, and a lazy import
-  of a higher layer only where docs/architecture.md lists it (convenience methods);
+- the layers of docs/architecture.md's table: nothing imports a higher layer or another unit of its
+  own layer at module level, a lazy import of a higher layer only where the doc lists it
+  (convenience methods), and the table's "imports" column is the real graph;
+- one of each helper the doc names (one definition; no second angle wrap);
 - every error labkit raises is a ``LabkitError`` (no bare builtin ``raise``);
 - no module over 600 lines.
 """
@@ -20,27 +22,41 @@ import labkit
 
 ROOT = Path(labkit.__file__).resolve().parent
 
-#: layer of each top-level unit of labkit (docs/architecture.md); lower layers never import higher ones
-LAYERS = {
-    "exceptions": 0, "validation": 1, "data": 1,
-    "rotations": 2,
-    "robot": 3,
-    "kinematics": 4,
-    "motion": 5,
-    "arm": 6,
-    "measure": 7,
-    "plotting": 8,
-    "reports": 9,
-    "cli": 10,
-    "": 11, "__main__": 11,  # labkit/__init__.py and python -m labkit
-}
+#: layer of each top-level unit of labkit, read from the table in docs/architecture.md (below):
+#: lower layers never import higher ones, and units of one layer never import each other
+ARCHITECTURE = ROOT.parent / "docs" / "architecture.md"
+
+
+def _architecture_table():
+    """{unit: (layer, set of units it imports)} from the "## Layers" table of docs/architecture.md."""
+    table, inside = {}, False
+    for line in ARCHITECTURE.read_text(encoding="utf-8").splitlines():
+        if line.startswith("## "):
+            inside = line.strip() == "## Layers"
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if not inside or len(cells) < 4 or not cells[0].isdigit():
+            continue
+        imports = {c.strip("` ") for c in cells[3].split(",") if c.strip("` ") not in ("", "nothing")}
+        for unit in cells[1].split(","):
+            name = unit.strip("` ").removeprefix("labkit.").removeprefix("labkit")
+            table[name] = (int(cells[0]), imports)
+    return table
+
+
+TABLE = _architecture_table()
+LAYERS = {unit: layer for unit, (layer, _) in TABLE.items()}
+LAYERS["__main__"] = LAYERS[""]
 
 #: lazy (inside a function) imports of a higher layer that docs/architecture.md allows:
 #: convenience methods delegating to the pure functions of the layer above
 LAZY_UPWARD = {
     ("labkit.robot._model", "labkit.kinematics"),  # Robot.fk / .jacobian / .ik
-    ("labkit.motion._trajectory", "labkit.plotting"),  # Trajectory.plot
 }
+
+#: the helpers docs/architecture.md says exist once: defined in exactly one place in labkit
+ONE_OF_EACH = {"wrap_angle", "joint_rates", "within_limits", "check_limits", "checksum", "segment_speed_ok",
+               "segment_position_ok", "wire_speed_limits", "wire_calibrations"}
 
 BUILTIN_ERRORS = {
     "Exception", "ValueError", "TypeError", "RuntimeError", "KeyError", "IndexError", "OSError",
@@ -177,14 +193,29 @@ def test_no_import_cycles_even_through_lazy_imports():
     assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
 
 
+def _owner(target, name):
+    """The package that owns a private module or name: it may be imported only from inside that package."""
+    parts = target.split(".")
+    for i, part in enumerate(parts[1:], start=1):
+        if part.startswith("_"):
+            return ".".join(parts[:i])
+    if name is not None and name.startswith("_"):
+        return target if _is_package(target) else ".".join(parts[:-1])
+    return None
+
+
 def test_no_private_module_or_name_crosses_a_subpackage_boundary():
+    """A private module or name is used only inside the (sub)package that holds it.
+
+    ``labkit.arm._protocol`` serves all of ``labkit.arm``; ``labkit.arm.board._physics``
+    only ``labkit.arm.board``: the link and the URL handlers use the board's public names.
+    """
     bad = []
     for m, edges in GRAPH.items():
         for target, name, _, line in edges:
-            private_module = any(part.startswith("_") for part in target.split(".")[1:])
-            private_name = name is not None and name.startswith("_")
-            if (private_module or private_name) and _unit(target) != _unit(m):
-                bad.append(f"{_where(m, line)} imports {target}{'.' + name if name else ''}")
+            owner = _owner(target, name)
+            if owner is not None and not (m == owner or m.startswith(owner + ".")):
+                bad.append(f"{_where(m, line)} imports {target}{'.' + name if name else ''} (private to {owner})")
     assert not bad, "\n".join(bad)
 
 
@@ -205,12 +236,13 @@ def test_layers_only_import_downwards():
     bad = []
     for m, edges in GRAPH.items():
         for target, name, lazy, line in edges:
-            if LAYERS[_unit(target)] <= LAYERS[_unit(m)]:
+            a, b = _unit(m), _unit(target)
+            if a == b or LAYERS[b] < LAYERS[a]:
                 continue
-            if lazy and (m, f"labkit.{_unit(target)}") in LAZY_UPWARD:
+            if lazy and (m, f"labkit.{b}") in LAZY_UPWARD:
                 continue
-            bad.append(f"{_where(m, line)} ({_unit(m) or 'labkit'}) imports {target} "
-                       f"({_unit(target)}, a higher layer){' lazily' if lazy else ''}")
+            side = "a unit of the same layer" if LAYERS[b] == LAYERS[a] else "a higher layer"
+            bad.append(f"{_where(m, line)} ({a or 'labkit'}) imports {target} ({b}, {side}){' lazily' if lazy else ''}")
     assert not bad, "\n".join(bad)
 
 
@@ -218,6 +250,52 @@ def test_lazy_upward_allowlist_is_still_needed():
     used = {(m, f"labkit.{_unit(t)}") for m, edges in GRAPH.items() for t, _, lazy, _ in edges
             if lazy and LAYERS[_unit(t)] > LAYERS[_unit(m)]}
     assert LAZY_UPWARD <= used, f"stale entries: {LAZY_UPWARD - used}"
+
+
+def test_architecture_table_is_the_real_import_graph():
+    """docs/architecture.md lists, per unit, exactly the units it imports (module level or lazily)."""
+    real = {}
+    for m, edges in GRAPH.items():
+        unit = "" if _unit(m) == "__main__" else _unit(m)
+        for target, _, _, _ in edges:
+            if _unit(target) != _unit(m):
+                real.setdefault(unit, set()).add(_unit(target) or "labkit")
+    wrong = []
+    for unit, (_, documented) in sorted(TABLE.items()):
+        documented = {d.removeprefix("labkit.") for d in documented}
+        actual = real.get(unit, set()) - {unit}
+        if documented != actual:
+            wrong.append(f"{unit or 'labkit'}: documented {sorted(documented)}, imports {sorted(actual)}")
+    assert not wrong, "docs/architecture.md, ## Layers:\n" + "\n".join(wrong)
+
+
+def test_one_of_each_helper_the_architecture_names():
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    defined = {}
+    for m in MODULES:
+        for node in ast.walk(ast.parse(MODULES[m].read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.name in ONE_OF_EACH:
+                defined.setdefault(node.name, []).append(_where(m, node.lineno))
+    assert all(f"`{name}" in text or f".{name}`" in text for name in ONE_OF_EACH), "name each helper in the doc"
+    twice = {name: where for name, where in defined.items() if len(where) != 1}
+    assert not twice and set(defined) == ONE_OF_EACH, twice or ONE_OF_EACH - set(defined)
+
+
+def test_no_second_angle_wrap():
+    """An angle wrap is ``labkit.rotations.wrap_angle``: no other module rounds to whole turns of 2 pi."""
+    bad = []
+    for m in MODULES:
+        if m == "labkit.rotations._elementary":
+            continue
+        for node in ast.walk(ast.parse(MODULES[m].read_text(encoding="utf-8"))):
+            text = ast.unparse(node) if isinstance(node, (ast.Call, ast.BinOp)) else ""
+            turn = any(t in text for t in ("2 * np.pi", "2 * math.pi", "2.0 * np.pi", "2.0 * math.pi", "tau", "TWO_PI"))
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) in (
+                    "ceil", "floor", "round", "remainder", "fmod", "mod") and turn:
+                bad.append(f"{_where(m, node.lineno)}: {text}")
+            if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mod) and "pi" in ast.unparse(node.right):
+                bad.append(f"{_where(m, node.lineno)}: {text}")
+    assert not bad, "use labkit.rotations.wrap_angle:\n" + "\n".join(bad)
 
 
 def test_every_top_level_unit_has_a_layer():

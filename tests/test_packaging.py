@@ -27,7 +27,7 @@ def test_wheel_carries_data_and_runs_outside_the_checkout(tmp_path):
         "assert len(load_measurements(d.measurement_file('seed000_ik_table4.csv'))) > 0\n"
         "assert (r.TEMPLATES / 'labkit_report' / 'index.html.j2').is_file()\n"
         "assert (r.STATIC / 'mathjax-tex-svg-full.js.gz').is_file()\n"
-        "from labkit.reports import new_lab\n"
+        "from labkit.labs import new_lab\n"
         "lab = new_lab('lab', 'planar3r_seed003')\n"  # the lab templates ship in the wheel
         "assert len(lab.notebooks) == 5, lab\n"
         "print('ok')\n"

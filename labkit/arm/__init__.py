@@ -1,21 +1,18 @@
-"""The arm: the serial protocol shared by host and virtual board, the host link
-(:class:`Arm`), the virtual board and its physics, the firmware in simavr, fault
-injection and the ``sim://`` / ``simavr://`` URL handlers.
+"""The arm, in three parts around one protocol module:
+
+- :mod:`labkit.arm.link`: the host link (:class:`Arm`), what a notebook uses;
+- :mod:`labkit.arm.board`: the virtual board and its physics (``sim://``);
+- :mod:`labkit.arm.simavr`: the real firmware in the AVR simulator (``simavr://``);
+
+plus the protocol shared by host and boards (framing, checksums, codes), the integer
+segment check the firmware, the virtual board and the host all run, fault injection
+for tests, and the pyserial URL handlers (:mod:`labkit.arm.urlhandler`).
 """
 
 from labkit.arm._protocol import checksum, CommandRejected, PROTOCOL_VERSION, MAX_LINE, ERRORS
-from labkit.arm._replies import BoardInfo, Status
-from labkit.arm._wire import LinkStats
-from labkit.arm._segments import TrajectoryReport, segments_from_trajectory
-from labkit.arm._ports import PortInfo, list_ports, find_ports
-from labkit.arm._link import Arm
-from labkit.arm._physics import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX
-from labkit.arm._model import ArmModel, FirmwareAdapter
-from labkit.arm._commands import FW_VERSION
-from labkit.arm._board import VirtualBoard
-from labkit.arm._pty import make_board, serve_pty
-from labkit.arm._firmware import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path
-from labkit.arm._simavr_port import SimavrPort
+from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, PortInfo, list_ports, find_ports, Arm
+from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, VirtualBoard, make_board, serve_pty
+from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
 
 __all__ = [
@@ -29,10 +26,10 @@ __all__ = [
     "LinkStats",
     "TrajectoryReport",
     "segments_from_trajectory",
-    "Arm",
-    "find_ports",
-    "list_ports",
     "PortInfo",
+    "list_ports",
+    "find_ports",
+    "Arm",
     "PhysicsConfig",
     "ServoBank",
     "gravity_sag",
@@ -46,11 +43,11 @@ __all__ = [
     "serve_pty",
     "FIRMWARE_DIR",
     "FirmwareSim",
-    "SimavrPort",
     "PulseEvent",
     "build",
     "default_elf",
     "harness_path",
+    "SimavrPort",
     "PortWrapper",
     "FaultConfig",
     "FaultyPort",

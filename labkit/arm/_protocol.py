@@ -234,3 +234,57 @@ class CommandRejected(DeviceError):
         self.code = code
         self.name = name
         super().__init__(message)
+
+def wire_speed_limits(robot):
+    """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``inf``: none).
+
+    Returns
+    -------
+    vmax, amax : list of int
+        [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
+    """
+    def wire(value, largest):
+        return 0 if not math.isfinite(value) else min(int(math.floor(math.degrees(value) * 100)), largest)
+
+    return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
+            [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])
+
+
+def wire_calibrations(robot):
+    """The robot file's servo calibrations in the board's units (the rows ``CAL`` sends).
+
+    A row is ``[pmin, pmax, zero, direction, lo, hi]``: the pulse widths at servo angles 0 and
+    180 deg [us], the servo angle at ``q = 0`` and the joint limits [cdeg] (prismatic joints in
+    metres read as radians, as on the wire).
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+
+    Returns
+    -------
+    joints : list of (list of int or None)
+        One row per joint; None for a joint without a servo calibration.
+    gripper : list of int or None
+        The gripper channel's row (its pulse range), None without a gripper.
+    """
+    joints = []
+    for lk in robot.links:
+        cal = lk.servo
+        if cal is None:
+            joints.append(None)
+            continue
+        lo_a, hi_a = cal.angle_range
+        p0, p1 = cal.pulse_range
+        pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
+        joints.append([pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)])
+    g = robot.gripper
+    gripper = None if g is None else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
+                                      0, 1, 0, 18000]
+    return joints, gripper

@@ -53,7 +53,7 @@ def add_engine_options(sp):
 
 
 def _cmd_assign(args):
-    from labkit.reports import assign
+    from labkit.course import assign
 
     result = assign(args.lab_dir, args.out_dir)
     hidden = sum(c.hidden for c in result.checks)
@@ -64,7 +64,7 @@ def _cmd_assign(args):
 
 
 def _cmd_grade(args):
-    from labkit.reports import Limits, grade, gradebook_frame, write_gradebook
+    from labkit.course import Limits, grade, gradebook_frame, write_gradebook
 
     out = Path(args.output)
     feedback = Path(args.feedback) if args.feedback else out.with_name(out.stem + "_feedback")

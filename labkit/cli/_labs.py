@@ -27,13 +27,13 @@ def add_commands(sub):
 
 
 def _cmd_lab(args):
-    from labkit.reports import serve_lab
+    from labkit.labs import serve_lab
 
     return serve_lab(args.path, port=args.port, no_browser=args.no_browser)
 
 
 def _cmd_new(args):
-    from labkit.reports import new_lab
+    from labkit.labs import new_lab
 
     lab = new_lab(args.lab_dir, args.robot, title=args.title, force=args.force)
     print(f"lab created: {lab.folder} ({lab.kind}; {len(lab.notebooks)} notebooks, robot file {lab.robot_file.name})")

@@ -72,7 +72,8 @@ def _cmd_run(args):
 
 
 def _cmd_render(args):
-    from labkit.reports import render, render_batch
+    from labkit.reports import render
+    from labkit.course import render_batch
 
     if args.scheduler:  # portable tasks: notebooks shipped to the workers, reports written here
         results, wall = render_batch(args.notebooks, args.output, scheduler=args.scheduler, no_input=args.no_input,

@@ -27,6 +27,7 @@ from labkit.kinematics._statics import (
     damping_factor,
     joint_rates,
 )
+from labkit.kinematics._display import target_from_display, target_to_display, target_error
 from labkit.kinematics._workspace import Workspace, workspace_points, PlanarRegion, planar_region
 
 __all__ = [
@@ -53,6 +54,9 @@ __all__ = [
     "is_singular",
     "damping_factor",
     "joint_rates",
+    "target_from_display",
+    "target_to_display",
+    "target_error",
     "Workspace",
     "workspace_points",
     "PlanarRegion",

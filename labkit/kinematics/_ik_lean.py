@@ -17,13 +17,9 @@ import math
 import numpy as np
 
 from labkit.kinematics._forward import fk_jacobian
+from labkit.rotations import wrap_angle
 
-_TWO_PI = 2.0 * math.pi
 
-
-def _wrap(a):
-    """``labkit.rotations.wrap_angle`` on one float (same formula)."""
-    return a - _TWO_PI * math.ceil((a - math.pi) * (1.0 / _TWO_PI))
 
 
 def error(kind, T, target, rows):
@@ -52,7 +48,7 @@ def error(kind, T, target, rows):
         e = [full[r] for r in rows]
         return e, math.sqrt(sum(v * v for v in e))
     if kind == "planar":
-        full = {0: target[0] - T[3], 1: target[1] - T[7], 5: _wrap(target[2] - math.atan2(T[4], T[0]))}
+        full = {0: target[0] - T[3], 1: target[1] - T[7], 5: wrap_angle(target[2] - math.atan2(T[4], T[0]))}
         e = [full[r] for r in rows]
         return e, math.sqrt(sum(v * v for v in e))
     G = target

@@ -22,13 +22,13 @@ import numpy as np
 
 from labkit.kinematics._ik_analytic import _REACH_TOL, Planar3R, SphericalWrist, YawPitchPitch
 from labkit.kinematics._ik_small_wrist import flat_poses, float_rows, solve_pose
+from labkit.rotations import wrap_angle
 
 #: largest number of targets that takes the plain-Python path
 SMALL_TARGETS = 8
 
 _PI = math.pi
 _TWO_PI = 2 * math.pi
-_INV_TWO_PI = 1.0 / (2 * math.pi)
 
 
 def flat_targets(target):
@@ -162,10 +162,6 @@ def _planar3r(impl, t):
     return q, [ok, ok], distance
 
 
-def _wrap(a):
-    """``labkit.rotations.wrap_angle`` on one float [rad] (same formula)."""
-    return a - _TWO_PI * math.ceil((a - _PI) * _INV_TWO_PI)
-
 
 def _joints(robot):
     """Per joint: (revolute, flip, lower, upper) [rad, m]."""
@@ -193,7 +189,7 @@ def _normalize(row, joints):
         if flip:
             v = -v
         if rev:
-            v = _wrap(v)
+            v = wrap_angle(v)
             if hi > _PI:
                 up = v + _TWO_PI
                 if v < lo - 1e-9 and up <= hi + 1e-9:
@@ -399,7 +395,7 @@ def pick(robot, sols, idx, q_near):
                 continue
             dd = 0.0
             for x, y, r in zip(row, qn, rev):
-                e = _wrap(x - y) if r else x - y
+                e = wrap_angle(x - y) if r else x - y
                 dd += e * e
             if best is None or dd < best_d:
                 best, best_d = row, dd

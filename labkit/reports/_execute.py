@@ -25,7 +25,7 @@ from pathlib import Path
 
 from labkit.exceptions import LabkitError, OptionError
 
-__all__ = ["CELL_TIMEOUT", 
+__all__ = ["CELL_TIMEOUT", "kernel_manager_class",
     "ExecutionResult",
     "notebooks_root",
     "find_notebooks",
@@ -276,13 +276,18 @@ def check_parameter_types(name, declared, parameters):
 _KERNEL_MANAGER = None
 
 
-def _kernel_manager_class():
+def kernel_manager_class():
     """An AsyncKernelManager whose client polls its sockets in short slices.
 
     Works around a missed wake-up in ``jupyter_client``'s asyncio ``get_msg`` seen with
     ipywidgets (nbclient issue #312, open): a cell's ``execute_reply`` sits in the socket
     while the client waits for the whole cell timeout (600 s) before reading it. Polling in
     0.2 s slices re-checks the socket, so a missed wake-up costs at most 0.2 s.
+
+    Returns
+    -------
+    type
+        A subclass of ``jupyter_client.manager.AsyncKernelManager`` (built once, then cached).
     """
     global _KERNEL_MANAGER
     if _KERNEL_MANAGER is not None:
@@ -376,7 +381,7 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
             str(notebook), str(output), parameters=parameters, kernel_name=kernel_name,
             cwd=str(cwd or notebook.parent), progress_bar=False, log_output=False,
             request_save_on_cell_execute=False, execution_timeout=timeout,
-            kernel_manager_class=_kernel_manager_class(),
+            kernel_manager_class=kernel_manager_class(),
         )
     except PapermillExecutionError:
         pass  # the executed notebook (with the traceback) was written; described below

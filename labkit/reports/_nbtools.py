@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from labkit.exceptions import CheckFailed, ShapeError
 
-__all__ = ["CheckRow", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
+__all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
 
 
 def _display(obj):
@@ -139,7 +139,7 @@ def show_table(df, caption=None, floatfmt="{:.4g}"):
 
 
 @dataclass(frozen=True)
-class CheckRow:
+class Comparison:
     """One reproduced-vs-published comparison.
 
     ``kind`` is ``"check"`` (must agree within ``tol``) or ``"typo"`` (published value is
@@ -180,7 +180,7 @@ class Checks:
     display: bool = True
     rows: list = field(default_factory=list)
 
-    def check(self, name, value, published, tol, note="", *, relative=False) -> CheckRow:
+    def check(self, name, value, published, tol, note="", *, relative=False) -> Comparison:
         """Compare ``value`` with ``published`` element-wise: ``max |value - published| <= tol``.
 
         The row is recorded (and printed when ``display``) whether it passes or not.
@@ -201,7 +201,7 @@ class Checks:
 
         Returns
         -------
-        CheckRow
+        Comparison
             The recorded row (``passed`` says the outcome).
 
         Raises
@@ -217,14 +217,14 @@ class Checks:
         if relative:
             diff = diff / np.maximum(np.abs(published), np.finfo(float).tiny)
         err = float(np.max(diff)) if diff.size else 0.0
-        row = CheckRow(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note)
+        row = Comparison(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note)
         self.rows.append(row)
         if self.display:
             print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {_fmt(value)}, published {_fmt(published)},"
                   f" max |diff| {err:.3g} <= {tol:g}? {note}")
         return row
 
-    def typo(self, name, published, correct, note) -> CheckRow:
+    def typo(self, name, published, correct, note) -> Comparison:
         """Record a published number that is wrong, with the corrected value and an explanation.
 
         Parameters
@@ -240,14 +240,14 @@ class Checks:
 
         Returns
         -------
-        CheckRow
+        Comparison
             The recorded row (``kind="typo"``, never failing; ``error`` is NaN if the
             shapes differ).
         """
         published = np.asarray(published, dtype=float)
         correct = np.asarray(correct, dtype=float)
         err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
-        row = CheckRow(name, correct, published, 0.0, err, True, note, kind="typo")
+        row = Comparison(name, correct, published, 0.0, err, True, note, kind="typo")
         self.rows.append(row)
         if self.display:
             print(f"TYPO  {name}: published {_fmt(published)}, correct {_fmt(correct)}. {note}")
@@ -287,7 +287,7 @@ class Checks:
                 f"{r.name} (max |diff| {r.error:.3g} > tol {r.tol:g})" for r in self.failures))
 
 
-def check(name, value, published, tol, note="", *, relative=False) -> CheckRow:
+def check(name, value, published, tol, note="", *, relative=False) -> Comparison:
     """One immediate check: print a pass/fail row and raise ``AssertionError`` on failure.
 
     Parameters
@@ -305,7 +305,7 @@ def check(name, value, published, tol, note="", *, relative=False) -> CheckRow:
 
     Returns
     -------
-    CheckRow
+    Comparison
         The passing row.
 
     Raises
@@ -319,7 +319,7 @@ def check(name, value, published, tol, note="", *, relative=False) -> CheckRow:
     --------
     >>> check("pi", 3.14159, 3.1416, tol=5e-5, note="4 decimals")  # doctest: +ELLIPSIS
     PASS  pi: ...
-    CheckRow(...)
+    Comparison(...)
     """
     c = Checks()
     row = c.check(name, value, published, tol, note, relative=relative)

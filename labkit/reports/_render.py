@@ -49,7 +49,7 @@ from labkit.reports._execute import (
     notebook_parameters,
 )
 
-__all__ = ["RenderResult", "export_html", "print_pdf", "render", "render_one", "write_index"]
+__all__ = ["RenderResult", "find_chromium", "export_html", "print_pdf", "render", "render_one", "write_index"]
 
 _HERE = Path(__file__).resolve().parent
 TEMPLATES = _HERE / "templates"

@@ -2,12 +2,14 @@
 
 :mod:`labkit.robot.types` holds the leaf types (Convention, JointType, Link,
 ServoCalibration, Gripper) that the kinematics layer uses; the :class:`Robot`
-model and the robot-file reader/writer build on them.
+model and the robot-file reader/writer build on them; joint values in display
+units (deg, mm), the servos' joint window and a bound of the reach are helpers for labs.
 """
 
 from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, Link
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
+from labkit.robot._display import joints_from_display, joints_to_display, servo_window, robot_reach
 
 __all__ = [
     "Convention",
@@ -18,4 +20,8 @@ __all__ = [
     "Robot",
     "bundled_robots",
     "robot_search_path",
+    "joints_from_display",
+    "joints_to_display",
+    "servo_window",
+    "robot_reach",
 ]

@@ -21,6 +21,8 @@ Euler and roll-pitch-yaw angle sets are in ``_euler.py``, matrix checks in
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from labkit.validation import as_batch
@@ -225,6 +227,10 @@ def compose_fixed_frame(sequence, angles):
     return R
 
 
+_TWO_PI = 2 * math.pi
+_INV_TWO_PI = 1.0 / (2 * math.pi)
+
+
 def wrap_angle(angle):
     """Wrap angles to ``(-pi, pi]``.
 
@@ -235,15 +241,21 @@ def wrap_angle(angle):
 
     Returns
     -------
-    wrapped : ndarray, shape (...)
+    wrapped : ndarray, shape (...), or float
+        A float for a float ``angle``.
 
     Examples
     --------
     >>> float(wrap_angle(-np.pi)) == float(np.pi)
     True
     """
-    a = np.asarray(angle, dtype=float)
-    turns = np.ceil((a - np.pi) * (1.0 / (2 * np.pi)))  # whole turns above (-pi, pi]
-    return a - (2 * np.pi) * turns
+    if isinstance(angle, float):  # one angle: the same formula on a float (no array round trip)
+        return _wrap(angle, math.ceil)
+    return _wrap(np.asarray(angle, dtype=float), np.ceil)
+
+
+def _wrap(a, ceil):
+    """``a`` less its whole turns above (-pi, pi] (``ceil``: math.ceil for a float, np.ceil for arrays)."""
+    return a - _TWO_PI * ceil((a - math.pi) * _INV_TWO_PI)
 
 

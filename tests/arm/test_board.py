@@ -295,7 +295,7 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
     import math
 
     from labkit.arm import Arm
-    from labkit.arm._board import VirtualBoard, calibration_rows
+    from labkit.arm.board._board import VirtualBoard, calibration_rows
     from labkit.exceptions import LabkitError
     from labkit.robot import Robot, ServoCalibration
 

@@ -18,7 +18,8 @@ import serial
 from labkit import arm
 from labkit.arm import FIRMWARE_DIR, FirmwareSim
 from labkit.arm._protocol import READ_ONLY, echo, seal, unseal
-from labkit.arm._segments import move_duration_ms, wire_speed_limits
+from labkit.arm._protocol import wire_speed_limits
+from labkit.arm.link._segments import move_duration_ms
 from labkit.exceptions import DeviceError
 from labkit.robot import Robot
 

@@ -332,7 +332,7 @@ def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
 
 
 def test_no_port_found(monkeypatch):
-    import labkit.arm._link as link
+    import labkit.arm.link._arm as link
 
     monkeypatch.setattr(link, "find_ports", lambda: [])
     with pytest.raises(DeviceError, match="sim://"):
@@ -428,8 +428,8 @@ def test_bad_arguments_are_refused_before_anything_is_sent(arm, call, match):
 
 def test_move_joints_runs_the_shortest_move_the_speed_limits_allow(arm):
     """Issue 13: MOVE carries a duration; the host picks the shortest one the robot file's limits allow."""
-    from labkit.arm._segments import move_duration_ms, move_segment
-    from labkit.arm._motion import segment_speed_ok
+    from labkit.arm.link._segments import move_duration_ms, move_segment
+    from labkit.arm._segment_check import segment_speed_ok
 
     board = arm.port.board
     sent = []

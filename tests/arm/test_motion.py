@@ -1,4 +1,4 @@
-"""The board's motion checks (labkit/arm/_motion.py, docs/protocol.md 4.3): never lenient, rarely strict,
+"""The board's motion checks (labkit/arm/_segment_check.py, docs/protocol.md 4.3): never lenient, rarely strict,
 and decided exactly like the firmware's lk_check (compiled for the host and called through ctypes)."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from labkit.arm import FIRMWARE_DIR, VirtualBoard
-from labkit.arm._motion import check, segment_position_ok, segment_speed_ok
-from labkit.arm._segments import check_segment_positions, feasible_ranges, move_duration_ms, move_segment
+from labkit.arm._segment_check import check, segment_position_ok, segment_speed_ok
+from labkit.arm.link._segments import check_segment_positions, feasible_ranges, move_duration_ms, move_segment
 from labkit.exceptions import JointLimitError
 from labkit.robot import Robot
 

@@ -1,7 +1,7 @@
 """Notebooks are the source: committed without outputs, with stable cell ids, through nbstripout.
 
 Covers every notebook under ``notebooks/`` and the lab templates shipped in
-``labkit/reports/lab_template/``. The git round trip below stages a notebook the way a
+``labkit/labs/templates/``. The git round trip below stages a notebook the way a
 teaching assistant saves it from JupyterLab after a run (outputs, execution counts,
 widget state, timing and language metadata) in a scratch repository with this
 repository's ``.gitattributes`` and ``tools/enable-nbstripout.sh``, and checks that git
@@ -22,7 +22,7 @@ from conftest import require
 
 REPO = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted(p for p in (REPO / "notebooks").rglob("*.ipynb") if ".ipynb_checkpoints" not in p.parts)
-TEMPLATES = sorted((REPO / "labkit" / "reports" / "lab_template").glob("*.ipynb"))
+TEMPLATES = sorted((REPO / "labkit" / "labs" / "templates").glob("*.ipynb"))
 ALL = NOTEBOOKS + TEMPLATES
 IDS = [str(p.relative_to(REPO)) for p in ALL]
 CELL_ID = re.compile(r"^[a-zA-Z0-9-_]{1,64}$")  # nbformat 4.5

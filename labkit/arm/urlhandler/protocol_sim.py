@@ -73,7 +73,7 @@ def parse_url(url):
     serial.SerialException
         For another scheme or an unknown option (the message lists the valid ones).
     """
-    from labkit.arm._physics import PhysicsConfig
+    from labkit.arm.board import PhysicsConfig
 
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "sim":
@@ -121,8 +121,7 @@ class Serial(SerialBase):
     # -- pyserial plumbing ---------------------------------------------------------
     def open(self):
         """Create the virtual board the URL describes (pyserial calls this on construction)."""
-        from labkit.arm._physics import PhysicsConfig
-        from labkit.arm._board import VirtualBoard
+        from labkit.arm.board import PhysicsConfig, VirtualBoard
 
         if self.is_open:
             raise SerialException("Port is already open.")

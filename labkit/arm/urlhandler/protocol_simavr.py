@@ -54,8 +54,7 @@ import urllib.parse
 
 from serial.serialutil import SerialException
 
-from labkit.arm._firmware import FirmwareSim
-from labkit.arm._simavr_port import CLOCKS, SimavrPort
+from labkit.arm.simavr import CLOCKS, FirmwareSim, SimavrPort
 
 SCHEME = "simavr://"
 
@@ -128,8 +127,7 @@ class Serial(SimavrPort):
         elf, options = parse_url(url)
         on_tick = None
         if options["physics"]:
-            from labkit.arm._model import FirmwareAdapter
-            from labkit.arm._physics import PhysicsConfig
+            from labkit.arm.board import FirmwareAdapter, PhysicsConfig
 
             try:
                 self.physics = FirmwareAdapter(options["physics"], PhysicsConfig(seed=options["seed"]))

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import DeviceError, JointLimitError, OptionError, TrajectoryError
-from labkit.arm._motion import segment_position_ok, segment_speed_ok
-from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, CommandRejected, cdeg
+from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
+from labkit.arm._protocol import CommandRejected, cdeg
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -96,24 +96,6 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
     return segs
 
 
-def wire_speed_limits(robot):
-    """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).
-
-    Parameters
-    ----------
-    robot : labkit.Robot
-        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``inf``: none).
-
-    Returns
-    -------
-    vmax, amax : list of int
-        [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
-    """
-    def wire(value, largest):
-        return 0 if not math.isfinite(value) else min(int(math.floor(math.degrees(value) * 100)), largest)
-
-    return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
-            [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])
 
 
 def check_segment_speeds(robot, segs, vmax, amax):

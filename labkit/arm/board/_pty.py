@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from labkit.arm._physics import PhysicsConfig
-from labkit.arm._board import VirtualBoard
+from labkit.arm.board._physics import PhysicsConfig
+from labkit.arm.board._board import VirtualBoard
 
 __all__ = ["make_board", "serve_pty"]
 

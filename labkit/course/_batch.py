@@ -11,7 +11,7 @@ counted twice). One progress bar (tqdm) counts the whole batch.
 Example
 -------
 >>> import tempfile, pathlib
->>> from labkit.reports._batch import pack_dir, unpack_dir
+>>> from labkit.course import pack_dir, unpack_dir
 >>> with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
 ...     _ = (pathlib.Path(a) / "x" ).mkdir()
 ...     _ = (pathlib.Path(a) / "x" / "f.txt").write_text("hi")
@@ -27,10 +27,9 @@ import time
 from pathlib import Path, PurePosixPath
 
 from labkit.exceptions import LabkitError
-from labkit.reports._execute import find_notebooks, lab_of
-from labkit.reports._grade import grade_submission
-from labkit.reports._render import find_chromium, render_one, write_index
-from labkit.reports._sandbox import Limits
+from labkit.course._grade import grade_submission
+from labkit.course._sandbox import Limits
+from labkit.reports import find_chromium, find_notebooks, lab_of, render_one, write_index
 
 __all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]
 

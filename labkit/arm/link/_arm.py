@@ -35,14 +35,14 @@ import numpy as np
 
 from labkit.robot import Robot
 from labkit.exceptions import DeviceError, OptionError
-from labkit.arm._protocol import cdeg
-from labkit.arm._replies import parse_ping, parse_read, parse_status, parse_stop
-from labkit.arm._wire import Wire
-from labkit.arm._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
-                                  move_segment, segments_from_trajectory, wire_speed_limits)
-from labkit.arm._feedback import record_stream
-from labkit.arm._ports import find_ports, handshake, open_port
-from labkit.arm._checks import finite, joint_vector
+from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
+from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
+from labkit.arm.link._wire import Wire
+from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
+                                  move_segment, segments_from_trajectory)
+from labkit.arm.link._feedback import record_stream
+from labkit.arm.link._ports import find_ports, handshake, open_port
+from labkit.arm.link._inputs import finite, joint_vector
 
 __all__ = ["Arm"]
 
@@ -311,19 +311,12 @@ class Arm:
         vmax, amax = self.speed_limits()
         for j in range(self.robot.n):
             self._transact("LIMITS", j, vmax[j], amax[j])
-        for j, lk in enumerate(self.robot.links):
-            cal = lk.servo
-            if cal is None:
-                continue
-            lo_a, hi_a = cal.angle_range
-            p0, p1 = cal.pulse_range
-            pmin = round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0))
-            pmax = round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0))
-            lo, hi = (cdeg(v) for v in lk.limits)
-            self._transact("CAL", cal.channel, pmin, pmax, cdeg(cal.zero), cal.direction, lo, hi)
-        g = self.robot.gripper
-        if g is not None:
-            self._transact("CAL", g.channel, min(g.open_us, g.closed_us), max(g.open_us, g.closed_us), 0, 1, 0, 18000)
+        joints, gripper = wire_calibrations(self.robot)
+        for lk, row in zip(self.robot.links, joints):
+            if row is not None:
+                self._transact("CAL", lk.servo.channel, *row)
+        if gripper is not None:
+            self._transact("CAL", self.robot.gripper.channel, *gripper)
 
     def set_host_timeout(self, seconds):
         """Host-silence timeout of the board [s] (0 disables it).

@@ -23,7 +23,7 @@ disk of the working directory (see ``docs/course.md``).
 
 Example
 -------
->>> from labkit.reports._sandbox import Limits
+>>> from labkit.course import Limits
 >>> Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=120).memory_bytes
 2147483648
 """
@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.reports._execute import _kernel_manager_class
+from labkit.reports import kernel_manager_class
 
 __all__ = ["Limits", "RunStatus", "run_untrusted"]
 
@@ -119,7 +119,7 @@ def _bwrap_args(work: Path, private: Path, hide) -> list[str]:
 
 
 def _sandboxed_kernel_manager(work: Path, private: Path, limits: Limits, hide):
-    base = _kernel_manager_class()
+    base = kernel_manager_class()
     cpu = int(max(1, round(limits.cpu_seconds)))
     prefix = ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={int(limits.memory_bytes)}", "--"]
     if limits.sandbox:

@@ -11,7 +11,7 @@ editable install or a git worktree). :func:`serve_lab` runs it in the foreground
 Example
 -------
 >>> import tempfile
->>> from labkit.reports._lab import lab_command
+>>> from labkit.labs import lab_command
 >>> folder = tempfile.mkdtemp()
 >>> argv, env = lab_command(folder, port=8899, no_browser=True, data_dir=tempfile.mkdtemp())
 >>> argv[1:4], "--no-browser" in argv, "--ServerApp.port=8899" in argv
@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 from labkit.exceptions import LabkitError, OptionError
-from labkit.reports._execute import notebooks_root
+from labkit.reports import notebooks_root
 
 __all__ = ["KERNEL_NAME", "lab_command", "write_kernel_spec", "serve_lab"]
 

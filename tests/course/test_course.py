@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.reports import course_lab as cl
+from tests.course import course_lab as cl
 from conftest import require
 from labkit.exceptions import LabkitError
 
@@ -57,7 +57,7 @@ def test_assign_writes_the_student_version(course):
 
 def test_assign_rejects_bad_tags(tmp_path):
     nbformat = require("nbformat")
-    from labkit.reports import assign
+    from labkit.course import assign
 
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("x = 1", metadata={"tags": ["solution", "tests"]})])
     (tmp_path / "lab").mkdir()
@@ -71,7 +71,7 @@ def test_assign_rejects_bad_tags(tmp_path):
 
 def test_graded_notebook_restores_deleted_and_edited_checks(course):
     nbformat = require("nbformat")
-    from labkit.reports import graded_notebook
+    from labkit.course import graded_notebook
 
     lab, student = course
     source, nb = (nbformat.read(str(p / cl.NOTEBOOK), as_version=4) for p in (lab, student))
@@ -97,7 +97,7 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     pd = require("pandas")
     nbformat = require("nbformat")
     from labkit.cli import main
-    from labkit.reports import Limits
+    from labkit.course import Limits
 
     lab, student = course
     subs = tmp_path / "submissions"
@@ -199,7 +199,7 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     """Grading on a real scheduler + 2 TCP workers; one worker is killed mid-batch: its task reruns elsewhere."""
     from distributed import Client
 
-    from labkit.reports import Limits, grade
+    from labkit.course import Limits, grade
 
     lab, student = course
     address, procs = dask_cluster
@@ -236,7 +236,7 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
 
 
 def test_run_tasks_local_pool_keeps_input_order():
-    from labkit.reports import run_tasks
+    from labkit.course import run_tasks
 
     assert run_tasks(json.dumps, [([i],) for i in range(5)], jobs=2, progress=False) == [f"[{i}]" for i in range(5)]
     with pytest.raises(LabkitError, match="jobs >= 1"):
@@ -246,7 +246,7 @@ def test_run_tasks_local_pool_keeps_input_order():
 def test_seed004_is_a_worked_assignment(tmp_path):
     """The worked example: seed 004's lab tagged; its student version keeps hints and checks, not answers."""
     nbformat = require("nbformat")
-    from labkit.reports import assign, lab_checks
+    from labkit.course import assign, graded_cells
 
     lab = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
     result = assign(lab, tmp_path / "student")
@@ -258,7 +258,7 @@ def test_seed004_is_a_worked_assignment(tmp_path):
     assert "# Hint: step 1 joint 3" in text and "raise NotImplementedError()" in text
     original = nbformat.read(str(lab / "01_ik_elbow_minus.ipynb"), as_version=4)
     assert "np.linalg.solve(M, [x3, y3])" in "\n".join(c.source for c in original.cells)
-    assert lab_checks(original)[1].name == "A.2 steps"
+    assert graded_cells(original)[1].name == "A.2 steps"
     assert [c.id for c in student.cells] == [c.id for c in original.cells if "hidden-tests" not in tags(c)]
 
 
@@ -266,7 +266,7 @@ def test_seed004_is_a_worked_assignment(tmp_path):
 def test_run_untrusted_wall_clock_limit(tmp_path, sandbox):
     """A kernel that sleeps (no CPU used) is stopped at the wall-clock limit; without the sandbox too."""
     nbformat = require("nbformat")
-    from labkit.reports import Limits, run_untrusted
+    from labkit.course import Limits, run_untrusted
 
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import os\nprint(os.getcwd())"),
                                          nbformat.v4.new_code_cell("import time\ntime.sleep(120)")])
@@ -284,7 +284,7 @@ def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
     assert main(["grade", str(tmp_path / "nope"), "--lab", str(tmp_path / "lab"), "-o", str(tmp_path / "g.csv")]) == 2
     assert "expected one folder per student" in capsys.readouterr().err
     with pytest.raises(LabkitError, match="expected cpu_seconds > 0"):
-        from labkit.reports import Limits
+        from labkit.course import Limits
 
         Limits(cpu_seconds=0)
 
@@ -296,8 +296,8 @@ def test_sandbox_shows_import_paths_under_tmp_again_read_only(tmp_path, monkeypa
     import labkit at all. Import roots under /tmp are bound again, read-only; hidden folders stay hidden.
     """
     nbformat = require("nbformat")
-    from labkit.reports import Limits, run_untrusted
-    from labkit.reports._sandbox import _bwrap_args
+    from labkit.course import Limits, run_untrusted
+    from labkit.course._sandbox import _bwrap_args
 
     pkg_root = tmp_path / "site"
     (pkg_root / "probe_pkg").mkdir(parents=True)

@@ -32,7 +32,7 @@ from labkit.arm._protocol import (
     crc16,
     echo,
 )
-from labkit.arm._motion import segment_position_ok, segment_speed_ok
+from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
 
 __all__ = ["FW_VERSION"]
 

@@ -13,7 +13,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def test_lab_command_serves_the_folder_with_a_labkit_kernel(tmp_path):
-    from labkit.reports import lab_command
+    from labkit.labs import lab_command
 
     argv, env = lab_command(tmp_path, port=8765, no_browser=True, data_dir=tmp_path / "data")
     assert argv[:4] == [sys.executable, "-m", "jupyter", "lab"]
@@ -29,7 +29,8 @@ def test_lab_command_serves_the_folder_with_a_labkit_kernel(tmp_path):
 
 
 def test_lab_command_defaults_to_the_labs_folder_and_opens_a_notebook(tmp_path, monkeypatch):
-    from labkit.reports import lab_command, notebooks_root
+    from labkit.labs import lab_command
+    from labkit.reports import notebooks_root
 
     argv, _ = lab_command(data_dir=tmp_path)
     assert f"--ServerApp.root_dir={notebooks_root()}" in argv
@@ -39,7 +40,7 @@ def test_lab_command_defaults_to_the_labs_folder_and_opens_a_notebook(tmp_path, 
 
 
 def test_lab_command_rejects_bad_input(tmp_path):
-    from labkit.reports import lab_command
+    from labkit.labs import lab_command
 
     with pytest.raises(LabkitError, match="does not exist"):
         lab_command(tmp_path / "nope", data_dir=tmp_path)

@@ -39,7 +39,7 @@ from labkit.exceptions import DeviceError, OptionError
 
 __all__ = ["FIRMWARE_DIR", "FirmwareSim", "PulseEvent", "build", "default_elf", "harness_path"]
 
-FIRMWARE_DIR = Path(os.environ.get("LABKIT_FIRMWARE_DIR", Path(__file__).resolve().parents[2] / "firmware"))
+FIRMWARE_DIR = Path(os.environ.get("LABKIT_FIRMWARE_DIR", Path(__file__).resolve().parents[3] / "firmware"))
 """Folder of the firmware sources and its Makefile (override with ``LABKIT_FIRMWARE_DIR``)."""
 
 VOLTS_MAX = 5.5
@@ -418,7 +418,7 @@ class FirmwareSim:
         OptionError
             An unknown ``clock``.
         """
-        from labkit.arm._simavr_port import SimavrPort
+        from labkit.arm.simavr._simavr_port import SimavrPort
 
         if self.running:
             raise DeviceError("open the simulator's port before run(): the CPU already runs")

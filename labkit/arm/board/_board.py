@@ -32,11 +32,10 @@ import math
 import numpy as np
 
 from labkit.robot import Robot
-from labkit.arm._protocol import MAX_LINE, PROTOCOL_VERSION, seal
-from labkit.arm._physics import PhysicsConfig
-from labkit.arm._model import ArmModel
-from labkit.arm._commands import FACTORY, FW_VERSION, BoardCommands, eeprom_image, read_eeprom
-from labkit.arm._segments import wire_speed_limits
+from labkit.arm._protocol import MAX_LINE, PROTOCOL_VERSION, seal, wire_calibrations, wire_speed_limits
+from labkit.arm.board._physics import PhysicsConfig
+from labkit.arm.board._model import ArmModel
+from labkit.arm.board._commands import FACTORY, FW_VERSION, BoardCommands, eeprom_image, read_eeprom
 
 __all__ = ["VirtualBoard"]
 
@@ -63,23 +62,8 @@ def calibration_rows(robot):
         ``robot.n + 1`` rows (joints, then the gripper channel).
     """
     robot = Robot.load(robot)
-
-    def cdeg(v):
-        return int(round(math.degrees(v) * 100))
-
-    rows = [list(FACTORY) for _ in range(robot.n + 1)]
-    for j, lk in enumerate(robot.links):
-        cal = lk.servo
-        if cal is None:
-            continue
-        lo_a, hi_a = cal.angle_range
-        p0, p1 = cal.pulse_range
-        pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
-        pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
-        rows[j] = [pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)]
-    g = robot.gripper
-    if g is not None:
-        rows[robot.n] = [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))), 0, 1, 0, 18000]
+    joints, gripper = wire_calibrations(robot)
+    rows = [list(FACTORY) if row is None else row for row in joints] + [list(FACTORY) if gripper is None else gripper]
     return rows
 
 

@@ -5,14 +5,14 @@ A submission is a folder holding the student's copies of the lab's notebooks
 :func:`grade_submission` copies only that folder into a fresh temporary working
 directory, rebuilds each notebook from the student's cells and the instructor's
 checks (see :func:`graded_notebook`), runs it against ``sim://`` in the sandbox of
-:func:`labkit.reports._sandbox.run_untrusted`, scores every check, and writes the
+:func:`labkit.course.run_untrusted`, scores every check, and writes the
 executed notebook and an offline HTML feedback report (the template of
 ``labkit render``) into ``output_dir/<student>/``.
 
 Example
 -------
 >>> import nbformat
->>> from labkit.reports._grade import graded_notebook
+>>> from labkit.course import graded_notebook
 >>> cell = nbformat.v4.new_code_cell
 >>> source = nbformat.v4.new_notebook(cells=[cell("x = 1", id="work", metadata={"tags": ["solution"]}),
 ...                                          cell("assert x == 1", id="t1", metadata={"tags": ["tests"]}),
@@ -33,18 +33,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.reports._assign import HIDDEN_TESTS_TAG, TESTS_TAG, cell_role, lab_checks
-from labkit.reports._execute import notebook_parameters
-from labkit.reports._sandbox import Limits, run_untrusted
+from labkit.course._assign import HIDDEN_TESTS_TAG, TESTS_TAG, cell_role, graded_cells
+from labkit.course._sandbox import Limits, run_untrusted
+from labkit.reports import notebook_parameters
 
-__all__ = ["CheckScore", "SubmissionResult", "graded_notebook", "grade_submission"]
+__all__ = ["CellScore", "SubmissionResult", "graded_notebook", "grade_submission"]
 
 #: the port every graded notebook runs against (the virtual arm)
 GRADING_PORT = "sim://"
 
 
 @dataclass(frozen=True)
-class CheckScore:
+class CellScore:
     """The score of one check of one submission.
 
     Attributes
@@ -80,7 +80,7 @@ class SubmissionResult:
         still ran), ``"timeout"``, ``"cpu-time"``, ``"memory"``, ``"crash"``, ``"missing"``.
     detail : str
         What happened, per notebook that did not end ``"ok"``.
-    scores : tuple of CheckScore
+    scores : tuple of CellScore
         Every check of the lab, in order.
     seconds : float
         Wall time of the grading [s].
@@ -216,7 +216,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
         If ``submission`` or ``lab_dir`` is not a folder, or the sandbox cannot start.
     """
     import nbformat
-    from labkit.reports._render import export_html
+    from labkit.reports import export_html
 
     t0 = time.perf_counter()
     submission, lab, out = Path(submission).resolve(), Path(lab_dir).resolve(), Path(output_dir).resolve()
@@ -243,14 +243,14 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
                 shutil.copy2(p, work / rel)
         for source_path in notebooks:
             source = nbformat.read(str(source_path), as_version=4)
-            checks = lab_checks(source, source_path.name)
+            checks = graded_cells(source, source_path.name)
             mine = work / source_path.name
             try:
                 theirs = nbformat.read(str(mine), as_version=4)
             except Exception as exc:  # missing or not a notebook: every check fails
                 statuses.append("missing")
                 details.append(f"{source_path.name}: cannot read the submission ({type(exc).__name__})")
-                scores += [CheckScore(c.notebook, c.name, 0.0, c.points, c.hidden, False) for c in checks]
+                scores += [CellScore(c.notebook, c.name, 0.0, c.points, c.hidden, False) for c in checks]
                 continue
             nb = graded_notebook(source, theirs)
             declared = notebook_parameters(source_path)
@@ -269,7 +269,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
             if status != "ok":
                 details.append(f"{source_path.name}: {status}: {detail}")
             by_id = {str(c.get("id")): c for c in nb.cells}
-            nb_scores = [CheckScore(c.notebook, c.name, c.points if _passed(by_id[c.cell_id]) else 0.0, c.points,
+            nb_scores = [CellScore(c.notebook, c.name, c.points if _passed(by_id[c.cell_id]) else 0.0, c.points,
                                     c.hidden, _passed(by_id[c.cell_id])) for c in checks]
             scores += nb_scores
             nb.cells.insert(0, _score_cell(nb_scores, source_path.name, status))

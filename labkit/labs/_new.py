@@ -1,7 +1,7 @@
 """A lab for any arm: ``labkit new LAB_DIR --robot ROBOT_FILE``.
 
 :func:`new_lab` copies the generic template notebooks shipped in
-``labkit/reports/lab_template/`` into a lab folder, with the robot file next to them and
+``labkit/labs/templates/`` into a lab folder, with the robot file next to them and
 each notebook's ``parameters`` cell rewritten with defaults picked from the robot by
 :func:`lab_defaults`: the joint window the servos can reach, a home pose, a measurement
 plan, IK targets that the robot's solver reaches inside the limits, a joint move, and a
@@ -9,11 +9,11 @@ Cartesian line and arc that stay inside the window. The lab renders like the see
 (``labkit render LAB_DIR``) against the virtual arm (``sim://``).
 
 Parameters are in the units people read (degrees, millimetres; see
-``labkit/reports/_labunits.py``).
+:func:`labkit.robot.joints_from_display` and :func:`labkit.kinematics.target_from_display`).
 
 Example
 -------
->>> from labkit.reports import lab_defaults
+>>> from labkit.labs import lab_defaults
 >>> d = lab_defaults("planar3r_seed003")
 >>> d.kind, d.target, round(d.reach, 3)
 ('planar 3-DOF', 'planar', 0.335)
@@ -29,21 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import LabkitError
-from labkit.kinematics import fk, ik_all, jacobian, target_kind
-from labkit.reports._labunits import (
-    _target_to_display,
-    joints_from_display,
-    joints_to_display,
-    robot_reach,
-    servo_window,
-    target_error,
-)
-from labkit.robot import Robot, ServoCalibration
+from labkit.kinematics import fk, ik_all, jacobian, target_error, target_kind, target_to_display
+from labkit.robot import Robot, ServoCalibration, joints_from_display, joints_to_display, robot_reach, servo_window
 
 __all__ = ["TEMPLATE_DIR", "LabDefaults", "NewLab", "lab_defaults", "with_servos", "template_values", "new_lab"]
 
 #: the generic lab notebooks shipped with the package
-TEMPLATE_DIR = Path(__file__).resolve().parent / "lab_template"
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 #: the robot file's name inside a lab folder
 ROBOT_FILE = "robot.toml"
 _PARAM_DOC = {
@@ -284,7 +276,7 @@ def lab_defaults(robot) -> LabDefaults:
     params = {
         "home": disp(home),
         "poses": [disp(q) for q in poses],
-        "targets": [[round(float(v), digits) for v in _target_to_display(robot, fk(robot, q), kind)]
+        "targets": [[round(float(v), digits) for v in target_to_display(robot, fk(robot, q))]
                     for q in targets_q],
         "move": [disp(q) for q in move],
         "line_mm": line_pts.tolist(),

@@ -19,7 +19,7 @@ import numpy as np
 
 from labkit.exceptions import ProtocolError
 from labkit.arm._protocol import board_int
-from labkit.arm._replies import parse_ping
+from labkit.arm.link._replies import parse_ping
 
 __all__ = []
 

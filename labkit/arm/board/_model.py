@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.robot import Robot
-from labkit.arm._physics import ADC_MAX, ADC_VREF, PhysicsConfig, ServoBank, _per_joint, gravity_sag
+from labkit.arm.board._physics import ADC_MAX, ADC_VREF, PhysicsConfig, ServoBank, _per_joint, gravity_sag
 
 __all__ = ["ArmModel", "FirmwareAdapter"]
 

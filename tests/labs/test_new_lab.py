@@ -89,7 +89,7 @@ def robot_files(tmp_path):
 
 def test_templates_carry_parameters_and_assignment_tags():
     nbformat = require("nbformat")
-    from labkit.reports._scaffold import TEMPLATE_DIR
+    from labkit.labs._new import TEMPLATE_DIR
 
     assert sorted(p.stem for p in TEMPLATE_DIR.glob("*.ipynb")) == TEMPLATES
     for stem in TEMPLATES:
@@ -104,8 +104,10 @@ def test_templates_carry_parameters_and_assignment_tags():
 
 def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
     from labkit.kinematics import ik_all
-    from labkit.reports import joints_from_display, lab_defaults, servo_window, target_error, target_from_display
-    from labkit.reports._scaffold import with_servos
+    from labkit.robot import joints_from_display, servo_window
+    from labkit.labs import lab_defaults
+    from labkit.kinematics import target_error, target_from_display
+    from labkit.labs._new import with_servos
     from labkit.robot import Robot
 
     for key, ref in robot_files.items():
@@ -124,7 +126,7 @@ def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
 
 
 def test_new_lab_refuses_a_non_empty_folder_and_rejects_a_missing_robot(tmp_path):
-    from labkit.reports import new_lab
+    from labkit.labs import new_lab
 
     (tmp_path / "lab").mkdir()
     (tmp_path / "lab" / "notes.txt").write_text("mine")
@@ -159,7 +161,8 @@ def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
 @pytest.mark.notebooks
 def test_six_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_files, capsys):
     require("papermill")
-    from labkit.reports import new_lab, render
+    from labkit.labs import new_lab
+    from labkit.reports import render
 
     labs = [new_lab(tmp_path / "labs" / key, ref) for key, ref in robot_files.items()]
     assert [lab.kind for lab in labs] == [KINDS[k] for k in robot_files]

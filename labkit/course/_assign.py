@@ -28,7 +28,7 @@ instructor's at grading time.
 Example
 -------
 >>> import nbformat
->>> from labkit.reports._assign import student_notebook
+>>> from labkit.course import student_notebook
 >>> nb = nbformat.v4.new_notebook(cells=[
 ...     nbformat.v4.new_code_cell("# Hint: the cosine law\\nc2 = 0.5", metadata={"tags": ["solution"]}),
 ...     nbformat.v4.new_code_cell("assert c2 == 0.5", metadata={"tags": ["hidden-tests"]})])
@@ -47,7 +47,7 @@ from pathlib import Path
 from labkit.exceptions import LabkitError
 
 __all__ = ["SOLUTION_TAG", "TESTS_TAG", "HIDDEN_TESTS_TAG", "PARAMETERS_TAG", "CODE_STUB",
-           "Check", "AssignResult", "cell_role", "lab_checks", "student_notebook", "assign"]
+           "GradedCell", "AssignResult", "cell_role", "graded_cells", "student_notebook", "assign"]
 
 SOLUTION_TAG = "solution"
 TESTS_TAG = "tests"
@@ -61,7 +61,7 @@ _BEGIN_HIDDEN = "### BEGIN HIDDEN TESTS"
 
 
 @dataclass(frozen=True)
-class Check:
+class GradedCell:
     """One graded check: a ``tests`` or ``hidden-tests`` cell.
 
     Attributes
@@ -95,7 +95,7 @@ class AssignResult:
         The student notebooks.
     other_files : tuple of Path
         Non-notebook files copied with them (data, images).
-    checks : tuple of Check
+    checks : tuple of GradedCell
         Every check of the lab (public and hidden).
     """
 
@@ -134,16 +134,16 @@ def cell_role(cell) -> str | None:
     return roles[0]
 
 
-def _check_of(notebook_name, cell, role) -> Check:
+def _check_of(notebook_name, cell, role) -> GradedCell:
     meta = cell.get("metadata", {}).get("labkit", {})
     points = meta.get("points", 1)
     if not isinstance(points, (int, float)) or isinstance(points, bool) or points < 0:
         raise LabkitError(f"{notebook_name} cell {cell.get('id')!r}: expected labkit.points >= 0, got {points!r}")
-    return Check(notebook_name, str(cell.get("id")), str(meta.get("check", cell.get("id"))), float(points),
+    return GradedCell(notebook_name, str(cell.get("id")), str(meta.get("check", cell.get("id"))), float(points),
                  role == HIDDEN_TESTS_TAG)
 
 
-def lab_checks(notebook, name=None) -> list[Check]:
+def graded_cells(notebook, name=None) -> list[GradedCell]:
     """The checks (``tests`` and ``hidden-tests`` cells) of an instructor notebook, in cell order.
 
     Parameters
@@ -155,7 +155,7 @@ def lab_checks(notebook, name=None) -> list[Check]:
 
     Returns
     -------
-    list of Check
+    list of GradedCell
     """
     nb, name = _read(notebook, name)
     return [_check_of(name, c, role) for c in nb.cells if (role := cell_role(c)) in (TESTS_TAG, HIDDEN_TESTS_TAG)]
@@ -262,7 +262,7 @@ def assign(lab_dir, out_dir) -> AssignResult:
     if out == lab or lab in out.parents:
         raise LabkitError(f"expected an output folder outside the lab folder {lab}, got {out}")
     students = {p.name: student_notebook(nbformat.read(str(p), as_version=4)) for p in notebooks}
-    checks = tuple(c for p in notebooks for c in lab_checks(p))
+    checks = tuple(c for p in notebooks for c in graded_cells(p))
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for name, nb in students.items():

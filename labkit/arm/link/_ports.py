@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from labkit.exceptions import DeviceError, ProtocolError
 from labkit.arm._protocol import PROTOCOL_VERSION
-from labkit.arm._replies import BoardInfo, parse_hello
+from labkit.arm.link._replies import BoardInfo, parse_hello
 
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 

@@ -1,0 +1,25 @@
+"""The virtual board: the firmware's commands in Python (:class:`VirtualBoard`, the
+same checks and replies as the firmware), the arm it drives (:class:`ArmModel`: servo
+lag, speed limits, gravity sag, zero offsets, sensor noise) and a pseudo-terminal that
+serves it to any serial program.
+"""
+
+from labkit.arm.board._physics import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX
+from labkit.arm.board._model import ArmModel, FirmwareAdapter
+from labkit.arm.board._commands import FW_VERSION
+from labkit.arm.board._board import VirtualBoard
+from labkit.arm.board._pty import make_board, serve_pty
+
+__all__ = [
+    "PhysicsConfig",
+    "ServoBank",
+    "gravity_sag",
+    "ADC_VREF",
+    "ADC_MAX",
+    "ArmModel",
+    "FirmwareAdapter",
+    "FW_VERSION",
+    "VirtualBoard",
+    "make_board",
+    "serve_pty",
+]

@@ -1,0 +1,23 @@
+"""The host side of the link: :class:`Arm` (motion commands checked against the robot
+file before anything is sent, read-back, streaming), the wire (framing, sequence ids,
+retries, board time), board replies, serial ports, and trajectories cut into the board's
+segments.
+"""
+
+from labkit.arm.link._replies import BoardInfo, Status
+from labkit.arm.link._wire import LinkStats
+from labkit.arm.link._segments import TrajectoryReport, segments_from_trajectory
+from labkit.arm.link._ports import PortInfo, list_ports, find_ports
+from labkit.arm.link._arm import Arm
+
+__all__ = [
+    "BoardInfo",
+    "Status",
+    "LinkStats",
+    "TrajectoryReport",
+    "segments_from_trajectory",
+    "PortInfo",
+    "list_ports",
+    "find_ports",
+    "Arm",
+]

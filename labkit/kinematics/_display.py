@@ -1,0 +1,117 @@
+"""IK targets in display units (mm, deg) and how far FK is from a target, for lab notebooks.
+
+A target row reads ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg]
+(planar), or ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY);
+:func:`target_from_display` turns it into the target :func:`labkit.kinematics.ik_all`
+takes, :func:`target_to_display` goes back.
+
+Example
+-------
+>>> from labkit.kinematics import target_from_display
+>>> from labkit.robot import Robot
+>>> target_from_display(Robot.load("planar3r_seed003"), [100, 50, 90]).round(4).tolist()
+[0.1, 0.05, 1.5708]
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.exceptions import LabkitError
+from labkit.kinematics._forward import fk
+from labkit.kinematics._ik import target_kind
+
+__all__ = ["target_from_display", "target_to_display", "target_error"]
+
+
+def target_from_display(robot, row):
+    """One IK target in display units -> the target :func:`labkit.kinematics.ik_all` takes for ``robot``.
+
+    Parameters
+    ----------
+    robot : Robot
+    row : array_like
+        ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg] (planar), or
+        ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY).
+
+    Returns
+    -------
+    ndarray
+        Shape (3,) [m] position, (3,) [m, m, rad] planar, or (4, 4) pose [m].
+    """
+    from labkit.rotations import matrix_from_rpy
+
+    kind = target_kind(robot)
+    row = np.asarray(row, dtype=float)
+    sizes = {"position": 3, "planar": 3, "pose": 6}
+    if row.shape != (sizes[kind],):
+        raise LabkitError(f"expected a {kind} target of {sizes[kind]} numbers for {robot.name}, got shape {row.shape}")
+    if kind == "position":
+        return row / 1000.0
+    if kind == "planar":
+        return np.array([row[0] / 1000.0, row[1] / 1000.0, math.radians(row[2])])
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_rpy(np.radians(row[3:]))
+    T[:3, 3] = row[:3] / 1000.0
+    return T
+
+
+def target_to_display(robot, T):
+    """A pose -> the IK target row of ``robot`` in display units (inverse of :func:`target_from_display`).
+
+    Parameters
+    ----------
+    robot : Robot
+    T : array_like, shape (4, 4)
+        Tool pose [m].
+
+    Returns
+    -------
+    ndarray
+        ``x, y, z`` [mm] (position), ``x, y`` [mm] and ``phi`` [deg] (planar), or
+        ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (pose).
+    """
+    from labkit.rotations import rpy_from_matrix
+
+    kind = target_kind(robot)
+    T = np.asarray(T, dtype=float)
+    p = T[:3, 3] * 1000.0
+    if kind == "position":
+        return p
+    if kind == "planar":
+        return np.array([p[0], p[1], math.degrees(math.atan2(T[1, 0], T[0, 0]))])
+    rpy = np.degrees(np.asarray(rpy_from_matrix(T[:3, :3]), dtype=float))
+    return np.concatenate([p, rpy])
+
+
+def target_error(robot, q, target):
+    """How far FK(q) is from an IK target, in the target's own terms.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (n,)
+        Joint values [rad | m].
+    target : array_like
+        Position (3,) [m], planar (x, y, phi) [m, m, rad], or pose (4, 4) [m].
+
+    Returns
+    -------
+    float
+        Largest absolute difference: position [m], planar x, y [m] and phi [rad] (wrapped),
+        or any entry of the 4x4 pose.
+    """
+    from labkit.rotations import wrap_angle
+
+    T = fk(robot, q)
+    target = np.asarray(target, dtype=float)
+    if target.shape == (4, 4):
+        return float(np.abs(T - target).max())
+    if target_kind(robot) == "planar":
+        d = np.array([T[0, 3] - target[0], T[1, 3] - target[1],
+                      wrap_angle(math.atan2(T[1, 0], T[0, 0]) - target[2])])
+        return float(np.abs(d).max())
+    return float(np.abs(T[:3, 3] - target).max())
+
