@@ -4,29 +4,38 @@ Angle sets (:class:`EulerConvention`)
 -------------------------------------
 Every sequence of three axes with no axis repeated twice in a row (12:
 six Tait-Bryan ``xyz, xzy, yxz, yzx, zxy, zyx`` and six proper Euler
-``xyx, xzx, yxy, yzy, zxz, zyz``), read two ways:
+``xyx, xzx, yxy, yzy, zxz, zyz``), read two ways. The names are exactly
+those of ``scipy.spatial.transform.Rotation.from_euler`` / ``as_euler``:
+**upper case = intrinsic (moving axes), lower case = extrinsic (fixed axes)**.
 
-* **intrinsic** (moving axes), scipy's upper-case names ``"XYZ"``...:
-  angles ``(alpha, beta, gamma)`` about the moving axes, ``R = R_1(alpha)
-  R_2(beta) R_3(gamma)`` (:func:`~labkit.rotations.compose_moving_frame`);
-* **extrinsic** (fixed axes), scipy's lower-case names ``"xyz"``... or
-  ``"xyz_fixed"``: angles ``(gamma, beta, alpha)`` about the fixed axes in
-  the order applied, ``R = R_3(alpha) R_2(beta) R_1(gamma)``
+* **intrinsic** (moving axes): ``"XYZ"``... or ``"xyz_moving"``...: angles
+  ``(alpha, beta, gamma)`` about the moving axes, ``R = R_1(alpha) R_2(beta)
+  R_3(gamma)`` (:func:`~labkit.rotations.compose_moving_frame`);
+* **extrinsic** (fixed axes): ``"xyz"``... or ``"xyz_fixed"``...: angles
+  ``(gamma, beta, alpha)`` about the fixed axes in the order applied,
+  ``R = R_3(alpha) R_2(beta) R_1(gamma)``
   (:func:`~labkit.rotations.compose_fixed_frame`). Extrinsic ``abc`` is intrinsic
   ``CBA`` with the angles reversed.
 
-labkit's historical names keep their meaning: ``"rpy"`` = ``"xyz_fixed"`` =
-``"xyz"`` (roll, pitch, yaw), and ``"zyx"``, ``"zyz"`` are the *intrinsic* ZYX and
-ZYZ Euler angles (unlike scipy, where lower case means extrinsic); write
-``"zyx_fixed"``, ``"zyz_fixed"`` for the extrinsic ones. ``"<axes>_moving"`` is
-accepted for every intrinsic set.
+So ``"zyx"`` is the *extrinsic* (fixed-axis) set, as in scipy; the intrinsic
+ZYX (yaw-pitch-roll about moving axes) is ``"ZYX"`` = ``"zyx_moving"``, and the
+intrinsic ZYZ Euler angles are ``"ZYZ"`` = ``"zyz_moving"``. The one other name
+is ``"rpy"`` = ``"xyz"`` = ``"xyz_fixed"`` (roll, pitch, yaw about the fixed x,
+y, z axes). Any other name raises :class:`~labkit.exceptions.OptionError`
+listing the valid ones.
 
 :func:`euler_from_matrix` returns *both* angle triples of a matrix and flags
 gimbal lock (where infinitely many triples exist), from one algorithm for all
 conventions: the middle angle and the first one come from column ``k`` (Tait-Bryan)
 or ``i`` (proper) of ``R``, the third from the residual rotation
 ``(R_1(alpha) R_2(beta))^T R``, which keeps the reconstruction accurate to
-rounding even next to gimbal lock.
+rounding even next to gimbal lock. The first solution is scipy's ``as_euler``
+(same ranges; at gimbal lock the same representative, third angle of the
+triple = 0). The two differ only just next to gimbal lock: scipy declares lock
+when the middle angle is within 1e-7 rad of it and then returns a triple that
+rebuilds ``R`` only to about that distance, while labkit declares it where
+``|cos(beta)|`` (Tait-Bryan) or ``|sin(beta)|`` (proper) is below ``tol``
+(1e-9) and returns the exact pair in between.
 """
 
 from __future__ import annotations
@@ -62,12 +71,21 @@ _SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx", "xyx", "xzx", "yxy", "yz
 class EulerConvention(str, Enum):
     """The 24 angle sets of :func:`matrix_from_euler` / :func:`euler_from_matrix`.
 
-    Member ``ABC`` (value ``"ABC"``) is the intrinsic set about moving axes a, b', c'':
-    angles ``(alpha, beta, gamma)``, ``R = R_a(alpha) R_b(beta) R_c(gamma)``.
-    Member ``ABC_FIXED`` (value ``"abc_fixed"``) is the extrinsic set about fixed axes
-    a, b, c: angles ``(gamma, beta, alpha)`` in the order applied,
+    Member ``ABC`` (value ``"ABC"``, alias ``ABC_MOVING``) is the intrinsic set about
+    moving axes a, b', c'': angles ``(alpha, beta, gamma)``, ``R = R_a(alpha) R_b(beta)
+    R_c(gamma)``. Member ``ABC_FIXED`` (value ``"abc_fixed"``) is the extrinsic set about
+    fixed axes a, b, c: angles ``(gamma, beta, alpha)`` in the order applied,
     ``R = R_c(alpha) R_b(beta) R_a(gamma)``. ``XYZ_FIXED`` is roll-pitch-yaw.
     :attr:`scipy_name` gives the name ``scipy.spatial.transform.Rotation`` uses.
+
+    Every accepted name looks up its member, following scipy (upper case =
+    intrinsic, lower case = extrinsic)::
+
+        EulerConvention("ZYX") is EulerConvention("zyx_moving") is EulerConvention.ZYX
+        EulerConvention("zyx") is EulerConvention("zyx_fixed") is EulerConvention.ZYX_FIXED
+        EulerConvention("rpy") is EulerConvention.XYZ_FIXED
+
+    Any other name raises :class:`~labkit.exceptions.OptionError` listing the valid ones.
     """
 
     XYZ = "XYZ"
@@ -94,6 +112,19 @@ class EulerConvention(str, Enum):
     YZY_FIXED = "yzy_fixed"
     ZXZ_FIXED = "zxz_fixed"
     ZYZ_FIXED = "zyz_fixed"
+    # aliases: the explicit intrinsic spelling
+    XYZ_MOVING = "XYZ"
+    XZY_MOVING = "XZY"
+    YXZ_MOVING = "YXZ"
+    YZX_MOVING = "YZX"
+    ZXY_MOVING = "ZXY"
+    ZYX_MOVING = "ZYX"
+    XYX_MOVING = "XYX"
+    XZX_MOVING = "XZX"
+    YXY_MOVING = "YXY"
+    YZY_MOVING = "YZY"
+    ZXZ_MOVING = "ZXZ"
+    ZYZ_MOVING = "ZYZ"
 
     @property
     def extrinsic(self):
@@ -110,28 +141,31 @@ class EulerConvention(str, Enum):
         """The sequence name of ``scipy.spatial.transform.Rotation`` (``"XYZ"`` / ``"xyz"``) [str]."""
         return self.axes if self.extrinsic else self.axes.upper()
 
+    @classmethod
+    def _missing_(cls, value):
+        # scipy's lower-case names, "<axes>_moving" and "rpy" (the values are "ABC" and "abc_fixed")
+        key = value if isinstance(value, str) else None
+        if key == "rpy":
+            return cls.XYZ_FIXED
+        if key is not None and key[:3] in _SEQUENCES and key[3:] in ("", "_fixed", "_moving"):
+            return cls(key[:3].upper()) if key[3:] == "_moving" else cls(key[:3] + "_fixed")
+        raise OptionError(_valid_names_message(value))
 
-#: labkit's historical names (``zyx`` and ``zyz`` are intrinsic, unlike scipy's lower case)
-_ALIASES = {"rpy": EulerConvention.XYZ_FIXED, "zyx": EulerConvention.ZYX, "zyz": EulerConvention.ZYZ}
+
+def _valid_names_message(got):
+    intrinsic = ", ".join(repr(q.upper()) for q in _SEQUENCES)
+    extrinsic = ", ".join(repr(q) for q in _SEQUENCES)
+    return (
+        "expected an Euler convention by scipy's names: intrinsic (moving axes, upper case) "
+        + intrinsic + "; extrinsic (fixed axes, lower case) " + extrinsic
+        + "; or '<axes>_moving' (= upper case) / '<axes>_fixed' (= lower case) for the same 12 lower-case "
+        "axes, e.g. 'zyx_moving' = 'ZYX', 'zyx_fixed' = 'zyx'; or 'rpy' (= 'xyz', roll-pitch-yaw about "
+        "fixed axes); got " + repr(got)
+    )
 
 
 def _convention(convention):
-    if isinstance(convention, EulerConvention):
-        return convention
-    key = str(convention)
-    if key in _ALIASES:
-        return _ALIASES[key]
-    low = key.lower()
-    if low[:3] in _SEQUENCES:
-        if low[3:] == "_fixed" or (key == low and len(key) == 3):
-            return EulerConvention(low[:3] + "_fixed")
-        if low[3:] == "_moving" or (key == low.upper() and len(key) == 3):
-            return EulerConvention(low[:3].upper())
-    raise OptionError(
-        "expected an Euler convention: scipy's 'XYZ' (intrinsic, moving axes) or 'xyz' (extrinsic, fixed "
-        "axes) for any of " + ", ".join(_SEQUENCES) + "; '<axes>_fixed' or '<axes>_moving'; or the aliases "
-        "'xyz_fixed', 'zyx', 'zyz', 'rpy' ('zyx' and 'zyz' are intrinsic); got " + repr(convention)
-    )
+    return EulerConvention(convention)
 
 
 def _intrinsic(conv):
@@ -150,13 +184,15 @@ def _names(conv):
 
 def _family(conv):
     i, j, k = _intrinsic(conv)
+    # the representative zeroes the third angle of the triple, as scipy's as_euler does
+    zero = "alpha = 0" if conv.extrinsic else "gamma = 0"
     if i == k:
         return ("gimbal lock at beta = 0 or pi: R depends only on alpha + gamma (beta = 0) or "
-                "alpha - gamma (beta = pi); the representative has alpha = 0")
+                f"alpha - gamma (beta = pi); the representative has {zero} (the third angle, as scipy)")
     s = "+" if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else "-"
     t = "-" if s == "+" else "+"
     return (f"gimbal lock at beta = +-pi/2: R depends only on alpha {s} gamma (beta = +pi/2) or "
-            f"alpha {t} gamma (beta = -pi/2); the representative has alpha = 0")
+            f"alpha {t} gamma (beta = -pi/2); the representative has {zero} (the third angle, as scipy)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +210,9 @@ class EulerAngles:
     gimbal_lock : ndarray of bool, shape (...)
         True where the matrix is at a singularity of the angle set. There
         infinitely many triples give the matrix (see :attr:`family`); both rows
-        then hold the same representative (``alpha = 0``).
+        then hold the same representative, the one scipy's ``as_euler`` returns:
+        the third angle of the triple is 0 (``gamma`` for intrinsic sets,
+        ``alpha`` for extrinsic ones such as ``"xyz"``).
     convention : EulerConvention
     """
 
@@ -239,8 +277,8 @@ def matrix_from_euler(angles, convention):
     angles : array_like, shape (..., 3)
         Angles [rad] in the order of the convention (see :class:`EulerConvention`).
     convention : str or EulerConvention
-        ``"XYZ"`` ... (intrinsic), ``"xyz"`` ... or ``"xyz_fixed"`` ... (extrinsic),
-        or an alias (``"rpy"``; ``"zyx"``, ``"zyz"`` are intrinsic).
+        scipy's names: ``"XYZ"`` ... = ``"xyz_moving"`` ... (intrinsic, moving axes),
+        ``"xyz"`` ... = ``"xyz_fixed"`` ... (extrinsic, fixed axes), or ``"rpy"`` (= ``"xyz"``).
 
     Returns
     -------
@@ -273,7 +311,7 @@ def matrix_from_euler(angles, convention):
 _ROT = (rotation_x, rotation_y, rotation_z)
 
 
-def _solve_intrinsic(R, i, j, k, tol):
+def _solve_intrinsic(R, i, j, k, tol, zero_gamma):
     """(alpha, beta, gamma) pairs of ``R = R_i(alpha) R_j(beta) R_k(gamma)`` and the lock flag.
 
     Tait-Bryan (i, j, k distinct; s = +1 for a cyclic sequence, else -1):
@@ -281,7 +319,9 @@ def _solve_intrinsic(R, i, j, k, tol):
     Proper Euler (k = i, l the third axis, s the parity of (i, j, l)):
     column i is ``R e_i = cos(b) e_i + sin(b) sin(a) e_j - s sin(b) cos(a) e_l``.
     The second solution is ``(a + pi, pi - b, c + pi)`` (Tait-Bryan) or
-    ``(a + pi, -b, c + pi)`` (proper).
+    ``(a + pi, -b, c + pi)`` (proper). At gimbal lock the representative has
+    ``gamma = 0`` (``zero_gamma``; alpha then from ``R R_j(beta)^T = R_i(alpha)``)
+    or ``alpha = 0`` (gamma from the residual).
     """
     proper = i == k
     third = 3 - i - j
@@ -291,19 +331,27 @@ def _solve_intrinsic(R, i, j, k, tol):
         sb = np.hypot(rji, rli)
         lock = sb < tol
         beta = np.where(lock, np.where(rii > 0, 0.0, np.pi), np.arctan2(sb, rii))
-        alpha = np.where(lock, 0.0, np.arctan2(rji, -s * rli))
+        alpha = np.arctan2(rji, -s * rli)
         second_beta = -beta
     else:
         rik, rjk, rkk = R[..., i, k], R[..., j, k], R[..., k, k]
         cb = np.hypot(rjk, rkk)
         lock = cb < tol
         beta = np.where(lock, np.where(s * rik > 0, np.pi / 2, -np.pi / 2), np.arctan2(s * rik, cb))
-        alpha = np.where(lock, 0.0, np.arctan2(-s * rjk, rkk))  # representative alpha = 0 at gimbal lock
+        alpha = np.arctan2(-s * rjk, rkk)
         second_beta = np.pi - beta
-    Q = _ROT[i](alpha) @ _ROT[j](beta)
-    M = np.swapaxes(Q, -1, -2) @ R  # = R_k(gamma) up to rounding
+    Rj = _ROT[j](beta)
+    if zero_gamma:
+        N = R @ np.swapaxes(Rj, -1, -2)  # = R_i(alpha) at gimbal lock with gamma = 0
+        p, r = (i + 1) % 3, (i + 2) % 3
+        alpha = np.where(lock, np.arctan2(N[..., r, p], N[..., p, p]), alpha)
+    else:
+        alpha = np.where(lock, 0.0, alpha)
+    M = np.swapaxes(_ROT[i](alpha) @ Rj, -1, -2) @ R  # = R_k(gamma) up to rounding
     p, r = (k + 1) % 3, (k + 2) % 3
     gamma = np.arctan2(M[..., r, p], M[..., p, p])
+    if zero_gamma:
+        gamma = np.where(lock, 0.0, gamma)
     first = np.stack([alpha, beta, gamma], axis=-1)
     second = np.stack([alpha + np.pi, second_beta, gamma + np.pi], axis=-1)
     second = np.where(lock[..., None], first, second)
@@ -319,8 +367,8 @@ def euler_from_matrix(R, convention, *, tol=1e-9):
         Rotation matrices (not checked; see :func:`check_rotation` and
         :func:`nearest_rotation` for measured or rounded matrices).
     convention : str or EulerConvention
-        ``"XYZ"`` ... (intrinsic), ``"xyz"`` ... or ``"xyz_fixed"`` ... (extrinsic),
-        or an alias (``"rpy"``; ``"zyx"``, ``"zyz"`` are intrinsic).
+        scipy's names: ``"XYZ"`` ... = ``"xyz_moving"`` ... (intrinsic, moving axes),
+        ``"xyz"`` ... = ``"xyz_fixed"`` ... (extrinsic, fixed axes), or ``"rpy"`` (= ``"xyz"``).
     tol : float
         Gimbal lock is declared where ``|cos(beta)|`` (Tait-Bryan) or
         ``|sin(beta)|`` (proper Euler) is below ``tol``.
@@ -351,7 +399,8 @@ def euler_from_matrix(R, convention, *, tol=1e-9):
     """
     conv = _convention(convention)
     R = as_batch(R, (3, 3), "R")
-    sol, lock = _solve_intrinsic(R, *_intrinsic(conv), tol)
+    # the representative at gimbal lock zeroes the third angle of the triple (as scipy)
+    sol, lock = _solve_intrinsic(R, *_intrinsic(conv), tol, zero_gamma=not conv.extrinsic)
     if conv.extrinsic:
         sol = sol[..., ::-1]
     return EulerAngles(solutions=sol, gimbal_lock=lock, convention=conv)
