@@ -1,6 +1,6 @@
 """Benchmark of a class's grading: submissions per minute on the local pool and on dask.distributed.
 
-Assigns the tiny tagged lab of ``tests/reports/course_lab.py`` (one notebook, one
+Assigns the tiny tagged lab of ``tests/course/course_lab.py`` (one notebook, one
 solution cell, one public and two hidden checks), writes N simulated submissions
 (half correct, half partly wrong), and grades them twice in the same run:
 
@@ -27,7 +27,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from labkit.course import Limits, assign, grade  # noqa: E402
-from tests.reports import course_lab as cl  # noqa: E402
+from tests.course import course_lab as cl  # noqa: E402
 
 
 def run(engine, subs, lab, out, n, html, scheduler=None):

@@ -1,5 +1,5 @@
 """``labkit lab``: the JupyterLab command line, its kernel spec, and bad input (no server started here;
-tests/reports/test_lab_browser.py serves and drives a real JupyterLab)."""
+tests/labs/test_lab_browser.py serves and drives a real JupyterLab)."""
 
 import json
 import sys
