@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from labkit.kinematics import fk, jacobian
-from labkit.motion import arc, cartesian_trajectory, line
+from labkit.motion import arc_path, cartesian_trajectory, line_path
 from labkit.motion._rates import ROWS, solver3
 from labkit.robot import Robot
 
@@ -27,14 +27,14 @@ def _cases():
     q0 = np.array([0.1, 0.5, -0.3, 0.2, 0.4, 0.1])
     T0 = fk(puma, q0)
     return {
-        "arm": (arm, "position", dict(path=line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]), duration=5.0,
+        "arm": (arm, "position", dict(path=line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]), duration=5.0,
                                       branch="elbow_up")),
-        "arm_flipped": (flipped, "position", dict(path=line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]),
+        "arm_flipped": (flipped, "position", dict(path=line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]),
                                                   duration=5.0, branch="elbow_up")),
         "planar": (Robot.load("planar3r_seed004"), "planar",
-                   dict(path=arc([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2), duration=2.0,
+                   dict(path=arc_path([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2), duration=2.0,
                         orientation=[-np.pi / 2, 0.0], branch="elbow_minus")),
-        "puma": (puma, "pose", dict(path=line(T0[:3, 3], T0[:3, 3] + [0.05, -0.05, 0.05]), duration=2.0,
+        "puma": (puma, "pose", dict(path=line_path(T0[:3, 3], T0[:3, 3] + [0.05, -0.05, 0.05]), duration=2.0,
                                     q_start=q0)),
     }
 
