@@ -26,7 +26,7 @@ from labkit.motion._checks import _checked, _robot_bounds
 from labkit.motion._trajectory import Trajectory, _robot_info, law_trajectory
 from labkit.motion._paths import waypoint_path
 from labkit.motion._cartesian import _choose_branch, _solve
-from labkit.motion._rates import joint_rates
+from labkit.motion._rates import joint_rates_and_accelerations
 from labkit.motion._laws import time_grid
 from labkit import kinematics
 
@@ -270,7 +270,7 @@ def cartesian_blended_trajectory(robot, points, *, durations=None, v_max=None, a
     q = np.asarray(_solve(robot, kind, x, ts, branch, where, q_start), dtype=float)
     rev = robot.is_revolute
     q[:, rev] = np.unwrap(q[:, rev], axis=0)
-    qd, qdd = joint_rates(robot, kind, q, xd, xdd)
+    qd, qdd = joint_rates_and_accelerations(robot, kind, q, xd, xdd)
     axes = ("x", "y", "z") if kind == "position" else ("x", "y", "phi")
     traj = Trajectory(ts, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names, axis_names=axes,
                       revolute=tuple(bool(r) for r in rev))

@@ -37,7 +37,7 @@ from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import make_law, time_grid
 from labkit.motion._trajectory import Trajectory
 from labkit.motion._checks import check_joint_limits, check_speed
-from labkit.motion._rates import joint_rates
+from labkit.motion._rates import joint_rates_and_accelerations
 from labkit import kinematics
 
 __all__ = ["path_law", "cartesian_trajectory", "cartesian_via_trajectory"]
@@ -321,7 +321,7 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
                 f"{math.degrees(step[i, j]):.1f} deg between t = {t[i]:.4g} s and {t[i + 1]:.4g} s "
                 f"(IK branch {branch!r} flips near a singularity); try another branch or path"
             )
-    qd, qdd = joint_rates(robot, kind, q, xd, xdd)
+    qd, qdd = joint_rates_and_accelerations(robot, kind, q, xd, xdd)
     resampler = functools.partial(_resample, robot, path, s_law, orientation, branch, q_start)
     traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
                       axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)
