@@ -33,7 +33,7 @@ import warnings  # noqa: E402
 import numpy as np  # noqa: E402
 
 from labkit.kinematics import fk, ik, jacobian, workspace_points  # noqa: E402
-from labkit.motion import cartesian_trajectory, line, via_trajectory  # noqa: E402
+from labkit.motion import cartesian_trajectory, line_path, via_trajectory  # noqa: E402
 from labkit.robot import Robot  # noqa: E402
 from bench_kinematics import rtb_models  # noqa: E402
 
@@ -53,9 +53,11 @@ def seconds(fn, repeat=7):
 LINE_CODE = """
 import time, numpy as np
 from labkit.robot import Robot
-from labkit.motion import cartesian_trajectory, line
+from labkit import motion
+from labkit.motion import cartesian_trajectory
+line_path = getattr(motion, "line_path", None) or motion.line  # a --before revision may predate the *_path names
 arm = Robot.load("arduino_arm_3dof")
-path = line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2])
+path = line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2])
 t = np.linspace(0.0, 5.0, 10_000)
 run = lambda: cartesian_trajectory(arm, path, 5.0, t=t, branch="elbow_up")
 run()
@@ -123,7 +125,7 @@ def main(argv=None):
     peers = rtb_models(arm)
 
     # -- Cartesian line -----------------------------------------------------------------
-    path = line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2])
+    path = line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2])
     t = np.linspace(0.0, 5.0, 10_000)
     traj = cartesian_trajectory(arm, path, 5.0, t=t, branch="elbow_up")
     assert traj.q.shape == (10_000, 3)

@@ -131,20 +131,21 @@ class MeasurementError(LabkitError, ValueError):
     path : str or os.PathLike, optional
         The file the record came from.
     line : int, optional
-        Its row (1-based line number of the file).
+        The file line of the record (1-based; the header is line 1), stored
+        as :attr:`line`; the message calls it a row.
     column : str, optional
         The offending column.
 
     Attributes
     ----------
     path : str or None
-    row : int or None
+    line : int or None
     column : str or None
     """
 
     def __init__(self, message, *, path=None, line=None, column=None):
         self.path = None if path is None else str(path)
-        self.row = line
+        self.line = line
         self.column = column
         where = [w for w in (self.path, None if line is None else f"row {line}",
                              None if column is None else f"column '{column}'") if w is not None]

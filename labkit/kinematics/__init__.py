@@ -16,6 +16,7 @@ from labkit.kinematics._ik import (
     ik_numeric,
 )
 from labkit.kinematics._ik_detect import pose_from_position_pitch
+from labkit.kinematics._ik_targets import task_rows
 from labkit.kinematics._statics import (
     joint_torques,
     wrench_transform_matrix,
@@ -45,6 +46,7 @@ __all__ = [
     "ik_all",
     "ik_numeric",
     "pose_from_position_pitch",
+    "task_rows",
     "joint_torques",
     "wrench_transform_matrix",
     "transform_wrench",

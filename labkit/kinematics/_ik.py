@@ -33,7 +33,7 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric, _ik_small
-from labkit.kinematics._ik_targets import batch_index, describe_target, validate_targets
+from labkit.kinematics._ik_targets import batch_index, describe_target, task_rows, validate_targets
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -491,7 +491,7 @@ def _ik_one_numeric(robot, kind, target, q_near):
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
-    rows = _ik_numeric.ROWS[kind]
+    rows = task_rows(kind)
     if mask is not None:
         mask = np.asarray(mask, dtype=bool).reshape(-1)
         if mask.shape != (len(rows),):
@@ -549,8 +549,8 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
     """
     if kind is None:
         kind = target_kind(robot)
-    elif kind not in _ik_numeric.ROWS:
-        raise OptionError(f"unknown target kind {kind!r}; expected one of {', '.join(map(repr, _ik_numeric.ROWS))}")
+    else:
+        task_rows(kind)  # an unknown kind raises OptionError
     flat, lead = validate_targets(target, kind)
     n = robot.n
     if q0 is not None:

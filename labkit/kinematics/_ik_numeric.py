@@ -29,10 +29,8 @@ import numpy as np
 from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean, _ik_small
 from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
+from labkit.kinematics._ik_targets import task_rows
 from labkit.rotations import wrap_angle
-
-# rows of the spatial velocity [vx, vy, vz, wx, wy, wz] used per target kind
-ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
 
 
 def _error(kind, T, target, rows):
@@ -46,7 +44,7 @@ def _error(kind, T, target, rows):
         e[:, 0] = target[:, 0] - T[:, 0, 3]
         e[:, 1] = target[:, 1] - T[:, 1, 3]
         e[:, 2] = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
-        e = e[:, [ROWS["planar"].index(r) for r in rows]]
+        e = e[:, [task_rows("planar").index(r) for r in rows]]
         return e, np.sqrt((e * e).sum(axis=1))
     # pose: position error and rotation-vector error of R_target R^T
     R = T[:, :3, :3]

@@ -1,4 +1,6 @@
-"""IK targets: validation, batch indices and descriptions for error messages (private).
+"""IK targets: the task rows of each target kind, validation, batch indices and
+descriptions for error messages (private; :func:`task_rows` is public from
+:mod:`labkit.kinematics`).
 
 Used by :mod:`labkit.kinematics._ik`; the plain-Python small-target paths accept
 exactly what :func:`validate_targets` accepts (and hand anything else to it).
@@ -10,10 +12,47 @@ import math
 
 import numpy as np
 
-from labkit.exceptions import ShapeError
+from labkit.exceptions import OptionError, ShapeError
 from labkit.validation import as_batch
 
-__all__ = ["batch_index", "describe_target", "validate_targets"]
+__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets"]
+
+#: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind
+_TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
+
+
+def task_rows(kind):
+    """Rows of the geometric Jacobian (and of a twist) that a target kind fixes.
+
+    Numeric IK iterates on these rows and the Cartesian trajectories of
+    :mod:`labkit.motion` solve their joint rates on them.
+
+    Parameters
+    ----------
+    kind : {"position", "planar", "pose"}
+        What a target fixes (:func:`labkit.kinematics.target_kind`): the tool
+        point ``(x, y, z)``, a planar arm's ``(x, y, phi)`` or the whole pose.
+
+    Returns
+    -------
+    tuple of int
+        Indices into ``[vx, vy, vz, wx, wy, wz]``.
+
+    Raises
+    ------
+    OptionError
+        An unknown kind.
+
+    Examples
+    --------
+    >>> task_rows("planar")  # x, y and the rotation rate about z
+    (0, 1, 5)
+    """
+    try:
+        return _TASK_ROWS[kind]
+    except (KeyError, TypeError):
+        raise OptionError(f"unknown target kind {kind!r}; expected one of "
+                          f"{', '.join(map(repr, _TASK_ROWS))}") from None
 
 
 def validate_targets(target, kind):

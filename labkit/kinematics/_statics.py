@@ -297,7 +297,10 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     Solves ``J qd = twist`` in the least-squares sense (minimum norm when
     redundant) with the damped pseudo-inverse described in the module
     docstring: exact away from singularities (``s_min >= epsilon``), damped
-    inside the singular region so that the rates stay finite.
+    inside the singular region so that the rates stay finite. This is the
+    one rule for rates from a twist: the Cartesian trajectories of
+    :mod:`labkit.motion` solve their ``qd`` and ``qdd`` with it, on the rows
+    :func:`labkit.kinematics.task_rows` gives.
 
     Parameters
     ----------

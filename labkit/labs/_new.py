@@ -191,7 +191,7 @@ def lab_defaults(robot) -> LabDefaults:
     LabkitError
         No well-conditioned pose, reachable target or feasible path was found.
     """
-    from labkit.motion import arc, line
+    from labkit.motion import arc_path, line_path
 
     robot = Robot.load(robot)
     kind = target_kind(robot)
@@ -241,7 +241,7 @@ def lab_defaults(robot) -> LabDefaults:
     for length in (0.15, 0.1, 0.05):
         for u in directions:
             end = p0 + length * reach * u
-            if _cartesian_ok(robot, line(p0, end), home, window, 2.0):
+            if _cartesian_ok(robot, line_path(p0, end), home, window, 2.0):
                 line_pts = np.round(np.array([p0, end]) * 1000.0, digits)
                 break
         if line_pts is not None:
@@ -249,12 +249,12 @@ def lab_defaults(robot) -> LabDefaults:
     for radius in (0.1, 0.06, 0.03):
         r = radius * reach
         for normal in arc_normals:
-            u, v = arc(p0, r, 0.0, 1.0, normal=normal).axes  # the plane's in-plane axes
+            u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).axes  # the plane's in-plane axes
             for start in (0.0, 90.0, 180.0, 270.0):
                 th = math.radians(start)
                 center = p0 - r * (math.cos(th) * u + math.sin(th) * v)
                 for sweep in (90.0, -90.0):
-                    path = arc(center, r, th, math.radians(sweep), normal=normal)
+                    path = arc_path(center, r, th, math.radians(sweep), normal=normal)
                     if _cartesian_ok(robot, path, home, window, 2.0):
                         arc_spec = {"center_mm": [round(float(c), digits) for c in center * 1000.0],
                                     "radius_mm": round(r * 1000.0, digits), "start_deg": start, "sweep_deg": sweep}

@@ -23,10 +23,10 @@ from scipy.interpolate import PPoly
 from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion._timelaw import LawKind, TimeLaw
 from labkit.motion._checks import _checked, _robot_bounds
-from labkit.motion._trajectory import Trajectory, _robot_info, from_law
-from labkit.motion._paths import waypoints
+from labkit.motion._trajectory import Trajectory, _robot_info, law_trajectory
+from labkit.motion._paths import waypoint_path
 from labkit.motion._cartesian import _choose_branch, _solve
-from labkit.motion._rates import joint_rates
+from labkit.motion._rates import joint_rates_and_accelerations
 from labkit.motion._laws import time_grid
 from labkit import kinematics
 
@@ -203,7 +203,7 @@ def blended_trajectory(points, *, durations=None, v_max=None, a_max=None, blend_
     """
     law = blended_law(points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time, robot=robot)
     names, rev = _robot_info(robot, law.shape[0])
-    traj = from_law(law, t, dt=dt, joint_names=names, revolute=rev)
+    traj = law_trajectory(law, t, dt=dt, joint_names=names, revolute=rev)
     return _checked(traj, robot, check_limits, check_speed_limits)
 
 
@@ -264,13 +264,13 @@ def cartesian_blended_trajectory(robot, points, *, durations=None, v_max=None, a
     xd = np.asarray(law.velocity(ts))
     xdd = np.asarray(law.evaluate(ts, 2))
     P = _points(points)
-    where = waypoints(P if kind == "position" else np.column_stack([P[:, :2], np.zeros(len(P))]))
+    where = waypoint_path(P if kind == "position" else np.column_stack([P[:, :2], np.zeros(len(P))]))
     if branch is None and kinematics.solver_for(robot).value != "numeric":
         branch = _choose_branch(robot, x[0], q_start)
     q = np.asarray(_solve(robot, kind, x, ts, branch, where, q_start), dtype=float)
     rev = robot.is_revolute
     q[:, rev] = np.unwrap(q[:, rev], axis=0)
-    qd, qdd = joint_rates(robot, kind, q, xd, xdd)
+    qd, qdd = joint_rates_and_accelerations(robot, kind, q, xd, xdd)
     axes = ("x", "y", "z") if kind == "position" else ("x", "y", "phi")
     traj = Trajectory(ts, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names, axis_names=axes,
                       revolute=tuple(bool(r) for r in rev))

@@ -1,6 +1,6 @@
 """Cartesian paths: lines, arcs, circles and waypoints, timed and solved by IK.
 
-A :class:`Path` is geometry only: a point ``p(s)`` for a path parameter
+A :class:`CartesianPath` is geometry only: a point ``p(s)`` for a path parameter
 ``s`` in ``[0, s_max]`` (1 for a line, arc or circle; the number of segments
 for waypoints). A time law ``s(t)`` (cubic by default, any of
 :mod:`labkit.motion`) gives the timing, so
@@ -16,9 +16,9 @@ keys); 6-DOF arms take rotation matrices (held, or slerped with
 :class:`scipy.spatial.transform.Slerp`); position-only arms (the 3-DOF
 Arduino arm) ignore orientation.
 
-The path geometry (:class:`Path`, :func:`line`, :func:`arc`, :func:`circle`,
-:func:`waypoints`) is defined in the private ``labkit.motion`` and re-exported
-here by name.
+The path geometry (:class:`CartesianPath`, :func:`line_path`,
+:func:`arc_path`, :func:`circle_path`, :func:`waypoint_path`) is defined in
+the private ``labkit.motion._paths``; import it from :mod:`labkit.motion`.
 """
 
 from __future__ import annotations
@@ -30,14 +30,14 @@ import numpy as np
 from scipy.interpolate import PPoly
 from scipy.spatial.transform import Rotation, Slerp
 
-from labkit.motion._paths import waypoints
+from labkit.motion._paths import waypoint_path
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError, UnreachableError
 from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import make_law, time_grid
 from labkit.motion._trajectory import Trajectory
 from labkit.motion._checks import check_joint_limits, check_speed
-from labkit.motion._rates import joint_rates
+from labkit.motion._rates import joint_rates_and_accelerations
 from labkit import kinematics
 
 __all__ = ["path_law", "cartesian_trajectory", "cartesian_via_trajectory"]
@@ -52,7 +52,7 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
 
     Parameters
     ----------
-    path : Path
+    path : CartesianPath
     duration : float or array_like, shape (m - 1,)
         [s].
     law : {"cubic", "quintic", "lspb", "linear"} or TimeLaw
@@ -70,8 +70,8 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
 
     Examples
     --------
-    >>> from labkit.motion import line
-    >>> path_law(line([0, 0, 0], [1, 0, 0]), 2.0).coefficients[0]
+    >>> from labkit.motion import line_path
+    >>> path_law(line_path([0, 0, 0], [1, 0, 0]), 2.0).coefficients[0]
     array([ 0.  ,  0.  ,  0.75, -0.25])
     """
     if isinstance(law, TimeLaw):
@@ -218,8 +218,8 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     robot : Robot
         Any robot :func:`labkit.kinematics.ik` solves: position targets (3-DOF arm),
         planar (x, y, phi) targets (planar 3R) or poses (6R).
-    path : Path
-        From :func:`line`, :func:`arc`, :func:`circle` or :func:`waypoints`.
+    path : CartesianPath
+        From :func:`line_path`, :func:`arc_path`, :func:`circle_path` or :func:`waypoint_path`.
     duration : float or array_like
         [s] (per segment for waypoints); ignored when ``law`` is a TimeLaw.
     law : {"cubic", "quintic", "lspb", "linear"} or TimeLaw
@@ -265,9 +265,9 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     Examples
     --------
     >>> from labkit.robot import Robot
-    >>> from labkit.motion import line
+    >>> from labkit.motion import line_path
     >>> arm = Robot.load("arduino_arm_3dof")
-    >>> traj = cartesian_trajectory(arm, line([0, 0.18, -0.094], [0.1, 0.15, -0.2]), 5.0,
+    >>> traj = cartesian_trajectory(arm, line_path([0, 0.18, -0.094], [0.1, 0.15, -0.2]), 5.0,
     ...                             dt=0.1, branch="elbow_up")
     >>> traj.q.shape, round(float(np.linalg.norm(traj.xd, axis=1).max()), 4)
     ((51, 3), 0.0446)
@@ -321,7 +321,7 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
                 f"{math.degrees(step[i, j]):.1f} deg between t = {t[i]:.4g} s and {t[i + 1]:.4g} s "
                 f"(IK branch {branch!r} flips near a singularity); try another branch or path"
             )
-    qd, qdd = joint_rates(robot, kind, q, xd, xdd)
+    qd, qdd = joint_rates_and_accelerations(robot, kind, q, xd, xdd)
     resampler = functools.partial(_resample, robot, path, s_law, orientation, branch, q_start)
     traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
                       axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)
@@ -339,7 +339,7 @@ def _resample(robot, path, s_law, orientation, branch, q_start, t):
 
 def _cartesian_view(robot, kind, traj):
     """The trajectory with x, xd from FK and the Jacobian (joint-space via points)."""
-    from labkit.motion._trajectory import from_law
+    from labkit.motion._trajectory import law_trajectory
 
     T, J = kinematics.fk_jacobian(robot, traj.q)
     w = np.einsum("nij,nj->ni", J, traj.qd)
@@ -353,7 +353,7 @@ def _cartesian_view(robot, kind, traj):
         x, xd, axes = np.column_stack([T[:, :3, 3], rpy]), w, ("x", "y", "z", "roll", "pitch", "yaw")
 
     def resampler(t):
-        return _cartesian_view(robot, kind, from_law(traj.law, t, joint_names=traj.joint_names,
+        return _cartesian_view(robot, kind, law_trajectory(traj.law, t, joint_names=traj.joint_names,
                                                      revolute=traj.revolute))
 
     return Trajectory(traj.t, traj.q, traj.qd, traj.qdd, x, xd, joint_names=traj.joint_names,
@@ -404,7 +404,7 @@ def cartesian_via_trajectory(robot, points, times=None, *, durations=None, metho
     m = targets.shape[0] if targets.ndim else 0
     if m < 2:
         raise ShapeError(f"expected at least 2 via points, got shape {targets.shape}")
-    where = waypoints(targets[:, :3, 3] if kind == "pose" else
+    where = waypoint_path(targets[:, :3, 3] if kind == "pose" else
                       (np.column_stack([targets[:, :2], np.zeros(m)]) if kind == "planar" else targets))
     if times is not None:
         tv = np.asarray(times, dtype=float)

@@ -10,7 +10,7 @@ from scipy.interpolate import BPoly, CubicHermiteSpline, PPoly
 from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion._timelaw import LawKind, TimeLaw, _ALIASES, _POINT_LAWS
 
-__all__ = ["cubic", "quintic", "lspb", "linear", "make_law", "minimum_duration", "time_grid"]
+__all__ = ["cubic_law", "quintic_law", "lspb_law", "linear_law", "make_law", "minimum_duration", "time_grid"]
 
 
 
@@ -40,7 +40,7 @@ def _values(*arrays, names):
         raise ShapeError(f"expected boundary values of one shape, got {shapes}") from None
 
 
-def cubic(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
+def cubic_law(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
     """Cubic polynomial between two values with given boundary velocities.
 
     ``u(t) = a0 + a1 t + a2 t^2 + a3 t^3`` (``t`` from ``t0``) with
@@ -64,7 +64,7 @@ def cubic(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
 
     Examples
     --------
-    >>> law = cubic([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0)  # seed 003, task 2
+    >>> law = cubic_law([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0)  # seed 003, task 2
     >>> law.coefficients[0, 2]  # a2 per joint
     array([-0.096 ,  0.096 , -0.0924])
     """
@@ -74,7 +74,7 @@ def cubic(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
     return TimeLaw(PPoly(spl.c, spl.x), LawKind.CUBIC)
 
 
-def quintic(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
+def quintic_law(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
     """Quintic polynomial with boundary positions, velocities and accelerations.
 
     Parameters
@@ -95,7 +95,7 @@ def quintic(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
 
     Examples
     --------
-    >>> law = quintic(0.0, 1.0, 1.0)
+    >>> law = quintic_law(0.0, 1.0, 1.0)
     >>> law.coefficients[0].round(6)
     array([  0.,   0.,   0.,  10., -15.,   6.])
     """
@@ -115,7 +115,7 @@ def quintic(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
     return TimeLaw(PPoly(c, [t0, t0 + T]), LawKind.QUINTIC)
 
 
-def linear(q0, qf, duration, *, t0=0.0):
+def linear_law(q0, qf, duration, *, t0=0.0):
     """Constant-velocity move (velocity jumps at the ends; for comparison).
 
     Parameters
@@ -141,7 +141,7 @@ def linear(q0, qf, duration, *, t0=0.0):
 
     Examples
     --------
-    >>> float(linear(0.0, 2.0, 4.0).velocity(1.0))
+    >>> float(linear_law(0.0, 2.0, 4.0).velocity(1.0))
     0.5
     """
     T = _check_duration(duration, t0)
@@ -195,7 +195,7 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
     return T / 3  # default: cruise at 1.5 x the mean speed
 
 
-def lspb(q0, qf, duration, *, v_max=None, a_max=None, blend_time=None, t0=0.0):
+def lspb_law(q0, qf, duration, *, v_max=None, a_max=None, blend_time=None, t0=0.0):
     """Linear segment with parabolic blends (trapezoidal velocity), rest to rest.
 
     All values move in sync: ``u(t) = q0 + (qf - q0) s(t)`` with one scalar
@@ -230,7 +230,7 @@ def lspb(q0, qf, duration, *, v_max=None, a_max=None, blend_time=None, t0=0.0):
 
     Examples
     --------
-    >>> law = lspb(0.0, 1.0, 3.0)
+    >>> law = lspb_law(0.0, 1.0, 3.0)
     >>> law.breaks
     array([0., 1., 2., 3.])
     >>> float(law.velocity(1.5))
@@ -268,7 +268,7 @@ def make_law(kind, q0, qf, duration, **options):
     kind : {"cubic", "quintic", "lspb", "linear"} or LawKind
         ``"trapezoid"`` is accepted for ``"lspb"``.
     q0, qf, duration, **options
-        As for :func:`cubic`, :func:`quintic`, :func:`lspb`, :func:`linear`.
+        As for :func:`cubic_law`, :func:`quintic_law`, :func:`lspb_law`, :func:`linear_law`.
 
     Returns
     -------
@@ -282,7 +282,7 @@ def make_law(kind, q0, qf, duration, **options):
     if isinstance(kind, str):
         kind = _ALIASES.get(kind, kind)
     kind = LawKind.parse(kind, _POINT_LAWS)
-    fn = {LawKind.CUBIC: cubic, LawKind.QUINTIC: quintic, LawKind.LSPB: lspb, LawKind.LINEAR: linear}
+    fn = {LawKind.CUBIC: cubic_law, LawKind.QUINTIC: quintic_law, LawKind.LSPB: lspb_law, LawKind.LINEAR: linear_law}
     return fn[kind](q0, qf, duration, **options)
 
 

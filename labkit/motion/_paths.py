@@ -3,11 +3,11 @@
 Private module: the names are re-exported by :mod:`labkit.motion`, import
 them from there.
 
-A :class:`Path` is geometry only: a point ``p(s)`` for a path parameter
+A :class:`CartesianPath` is geometry only: a point ``p(s)`` for a path parameter
 ``s`` in ``[0, s_max]`` (1 for a line, arc or circle; the number of segments
 for waypoints), with its derivatives ``dp/ds``, ``d2p/ds2``
-(:meth:`Path.evaluate`) and the distance of points from it
-(:meth:`Path.distance_from`). The timing ``s(t)`` and the inverse kinematics
+(:meth:`CartesianPath.evaluate`) and the distance of points from it
+(:meth:`CartesianPath.distance_from`). The timing ``s(t)`` and the inverse kinematics
 along the path are in :mod:`labkit.motion`.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import ShapeError
 
-__all__ = ["Path", "line", "arc", "circle", "waypoints"]
+__all__ = ["CartesianPath", "line_path", "arc_path", "circle_path", "waypoint_path"]
 
 
 def _point3(p, name):
@@ -32,7 +32,7 @@ def _point3(p, name):
 
 
 @dataclass(frozen=True, eq=False)
-class Path:
+class CartesianPath:
     """Geometry of a Cartesian path, parameterised by ``s`` in ``[0, s_max]``.
 
     Attributes
@@ -157,7 +157,7 @@ class Path:
         return best
 
 
-def line(start, end):
+def line_path(start, end):
     """Straight line from ``start`` to ``end``.
 
     Parameters
@@ -167,14 +167,14 @@ def line(start, end):
 
     Returns
     -------
-    Path
+    CartesianPath
 
     Examples
     --------
-    >>> round(line([0, 0.18, -0.094], [0.1, 0.15, -0.2]).length, 4)
+    >>> round(line_path([0, 0.18, -0.094], [0.1, 0.15, -0.2]).length, 4)
     0.1488
     """
-    return Path("line", np.stack([_point3(start, "start"), _point3(end, "end")]))
+    return CartesianPath("line", np.stack([_point3(start, "start"), _point3(end, "end")]))
 
 
 def _plane_axes(normal, axes):
@@ -202,7 +202,7 @@ def _plane_axes(normal, axes):
     return np.stack([u, np.cross(n, u)])
 
 
-def arc(center, radius, start_angle, sweep, *, normal=None, axes=None):
+def arc_path(center, radius, start_angle, sweep, *, normal=None, axes=None):
     """Circular arc.
 
     ``p(s) = center + radius (cos(theta) u + sin(theta) v)`` with
@@ -225,11 +225,11 @@ def arc(center, radius, start_angle, sweep, *, normal=None, axes=None):
 
     Returns
     -------
-    Path
+    CartesianPath
 
     Examples
     --------
-    >>> a = arc([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2)  # seed 004, part D
+    >>> a = arc_path([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2)  # seed 004, part D
     >>> a.point([0.0, 1.0]).round(3)
     array([[0.1 , 0.  , 0.  ],
            [0.35, 0.25, 0.  ]])
@@ -244,10 +244,10 @@ def arc(center, radius, start_angle, sweep, *, normal=None, axes=None):
     A = _plane_axes(normal, axes)
     kind = "circle" if abs(abs(sw) - 2 * math.pi) < 1e-12 else "arc"
     ends = c + r * np.stack([math.cos(t) * A[0] + math.sin(t) * A[1] for t in (th0, th0 + sw)])
-    return Path(kind, ends, c, r, A, th0, sw)
+    return CartesianPath(kind, ends, c, r, A, th0, sw)
 
 
-def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise=False):
+def circle_path(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise=False):
     """Full circle (an arc sweeping 2 pi) starting at ``start_angle``.
 
     Parameters
@@ -259,15 +259,15 @@ def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise
     start_angle : float
         Angle of the start point in the plane [rad], measured from ``u``.
     normal : array_like, shape (3,), optional
-        Plane normal (default +z), as for :func:`arc`.
+        Plane normal (default +z), as for :func:`arc_path`.
     axes : array_like, shape (2, 3), optional
-        In-plane axes ``u, v`` instead of a normal, as for :func:`arc`.
+        In-plane axes ``u, v`` instead of a normal, as for :func:`arc_path`.
     clockwise : bool
         Sweep ``-2 pi`` (clockwise about the normal) instead of ``+2 pi``.
 
     Returns
     -------
-    Path
+    CartesianPath
 
     Raises
     ------
@@ -276,14 +276,14 @@ def circle(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise
 
     Examples
     --------
-    >>> round(circle([0, 0, 0.5], 0.1).length, 6)
+    >>> round(circle_path([0, 0, 0.5], 0.1).length, 6)
     0.628319
     """
-    return arc(center, radius, start_angle, -2 * math.pi if clockwise else 2 * math.pi,
+    return arc_path(center, radius, start_angle, -2 * math.pi if clockwise else 2 * math.pi,
                normal=normal, axes=axes)
 
 
-def waypoints(points):
+def waypoint_path(points):
     """Straight segments through a sequence of points (stopping at each).
 
     Parameters
@@ -293,12 +293,12 @@ def waypoints(points):
 
     Returns
     -------
-    Path
+    CartesianPath
         ``s`` runs from 0 to ``m - 1``; waypoint ``k`` is at ``s = k``.
 
     Examples
     --------
-    >>> waypoints([[0, 0.2, 0.1], [0.1, 0.2, 0.1], [0.1, 0.2, 0.0]]).s_max
+    >>> waypoint_path([[0, 0.2, 0.1], [0.1, 0.2, 0.1], [0.1, 0.2, 0.0]]).s_max
     2.0
     """
     P = np.asarray(points, dtype=float)
@@ -307,4 +307,4 @@ def waypoints(points):
     P = as_batch(P, (3,), "points")
     if P.ndim != 2 or P.shape[0] < 2:
         raise ShapeError(f"expected waypoints with shape (m, 3), m >= 2, got {np.shape(points)}")
-    return Path("waypoints", P)
+    return CartesianPath("waypoints", P)

@@ -1,13 +1,25 @@
 """Joint rates and accelerations along a Cartesian path (private to :mod:`labkit.motion`).
 
-``qd = J^-1 xd`` and ``qdd = J^-1 (xdd - Jdot qd)`` at every sample of an IK
-solution. For 3x3 Jacobians (the 3-DOF arm's position rows, a planar 3R's
-``x, y, phi`` rows) the inverse is the adjugate over the determinant, built
+At every sample of an IK solution ``qd`` solves ``J qd = xd`` and ``qdd``
+solves ``J qdd = xdd - Jdot qd``, ``J`` being the rows of the geometric
+Jacobian that the target kind fixes (:func:`labkit.kinematics.task_rows`).
+Both solves follow the one rule for rates from a twist,
+:func:`labkit.kinematics.joint_rates`: the exact (minimum-norm) solution while
+the smallest singular value ``s_min >= epsilon``, damped least squares inside
+the singular region.
+
+For 3x3 blocks (the 3-DOF arm's position rows, a planar 3R's ``x, y, phi``
+rows) that rule is evaluated without an SVD wherever the determinant
+certifies that the sample is outside the singular region: since
+``s1 s2 = |adj J|_2 <= |adj J|_F``, ``|det J| >= epsilon |adj J|_F`` implies
+``s_min = |det J| / (s1 s2) >= epsilon``, where the damping is zero and the
+rule is ``J^-1``, the adjugate over the determinant. The adjugate is built
 once per trajectory on structure-of-arrays rows (each ``J[:, i, j]`` one
 contiguous ``(N,)`` row) and applied twice; every product goes into a reused
-scratch row (``out=``), so the only arrays of the trajectory's size that are
-allocated are the ones returned. ``Jdot qd`` of the position rows is a
-central second difference of the tool position along ``qd``.
+scratch row (``out=``). The samples without the certificate (near a
+singularity) are solved by :func:`labkit.kinematics.joint_rates` itself.
+``Jdot qd`` of the position rows is a central second difference of the tool
+position along ``qd``.
 """
 
 from __future__ import annotations
@@ -16,16 +28,18 @@ import numpy as np
 
 from labkit import kinematics
 
-#: Jacobian rows that match each target kind's velocity
-ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
+
+def _epsilon():
+    """``epsilon`` of :func:`labkit.kinematics.joint_rates` (its default: the rule's singular region)."""
+    return kinematics.joint_rates.__kwdefaults__["epsilon"]
 
 
-def _solver3_rows(A, J_bad):
-    """``b -> J^-1 b`` for 3x3 matrices given as rows ``A[i, j] = J[:, i, j]`` (3, 3, N).
+def _solver3_rows(A, J_uncertified):
+    """``b -> joint_rates(J, b)`` for 3x3 matrices given as rows ``A[i, j] = J[:, i, j]`` (3, 3, N).
 
-    ``J_bad(ok)`` returns the (k, 3, 3) matrices of the samples where ``ok``
-    is False (a singular arm); they get the least-squares, minimum-norm
-    solution.
+    ``J_uncertified(ok)`` returns the (k, 3, 3) matrices of the samples where
+    ``ok`` is False (no certificate that ``s_min >= epsilon``); they are solved
+    by :func:`labkit.kinematics.joint_rates`, the others by the adjugate.
     """
     N = A.shape[-1]
     tmp = np.empty(N)
@@ -41,20 +55,18 @@ def _solver3_rows(A, J_bad):
     for i in (1, 2):
         np.multiply(cof[0, i], A[i, 0], out=tmp)
         det += tmp
-    scale = None  # product of the column norms
-    for j in range(3):
-        col = np.multiply(A[0, j], A[0, j])
-        for i in (1, 2):
-            np.multiply(A[i, j], A[i, j], out=tmp)
-            col += tmp
-        np.sqrt(col, out=col)
-        scale = col if scale is None else np.multiply(scale, col, out=scale)
-    scale += 1e-300
-    scale *= 1e-12
-    ok = np.abs(det, out=tmp) > scale
+    bound = np.zeros(N)  # epsilon |adj J|_F
+    for k in range(3):
+        for i in range(3):
+            np.multiply(cof[k, i], cof[k, i], out=tmp)
+            bound += tmp
+    np.sqrt(bound, out=bound)
+    bound *= _epsilon()
+    ok = np.abs(det, out=tmp) >= bound
+    ok &= bound > 0  # an all-zero J has no certificate
     inv_det = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-    pinv = np.linalg.pinv(J_bad(ok)) if not np.all(ok) else None
-    acc = scale  # scratch from here on
+    J_bad = J_uncertified(ok) if not np.all(ok) else None
+    acc = bound  # scratch from here on
 
     def solve(b):
         bt = b.T
@@ -65,18 +77,18 @@ def _solver3_rows(A, J_bad):
                 np.multiply(cof[k, i], bt[i], out=tmp)
                 np.add(acc, tmp, out=acc)
             np.multiply(acc, inv_det, out=x[:, k])
-        if pinv is not None:  # singular samples: least squares (finite, the minimum-norm rate)
-            x[~ok] = np.einsum("nij,nj->ni", pinv, b[~ok])
+        if J_bad is not None:  # near a singularity: the damped rule
+            x[~ok] = kinematics.joint_rates(J_bad, b[~ok])
         return x
 
     return solve
 
 
 def solver3(J):
-    """``b -> J^-1 b`` for a batch of 3x3 matrices J (N, 3, 3), factored once (adjugate).
+    """``b -> joint_rates(J, b)`` for a batch of 3x3 matrices J (N, 3, 3), factored once.
 
-    Rows whose determinant is below 1e-12 of the product of the column norms
-    (a singular arm) get the least-squares, minimum-norm solution instead.
+    The adjugate where the determinant certifies ``s_min >= epsilon``,
+    :func:`labkit.kinematics.joint_rates` elsewhere (the same values).
 
     Parameters
     ----------
@@ -91,14 +103,17 @@ def solver3(J):
     return _solver3_rows(A, lambda ok: J[~ok])
 
 
-def joint_rates(robot, kind, q, xd, xdd):
-    """``qd = J^-1 xd`` and ``qdd = J^-1 (xdd - Jdot qd)``, ``Jdot qd`` by finite differences.
+def joint_rates_and_accelerations(robot, kind, q, xd, xdd):
+    """Joint rates and accelerations along a Cartesian path, by the rule of :func:`labkit.kinematics.joint_rates`.
+
+    ``qd = joint_rates(J, xd)`` and ``qdd = joint_rates(J, xdd - Jdot qd)``,
+    ``Jdot qd`` by finite differences.
 
     Parameters
     ----------
     robot : Robot
     kind : {"position", "planar", "pose"}
-        Target kind: selects the Jacobian rows (:data:`ROWS`).
+        Target kind: selects the Jacobian rows (:func:`labkit.kinematics.task_rows`).
     q : ndarray, shape (N, n)
         Joint values along the path [rad, m].
     xd, xdd : ndarray, shape (N, k)
@@ -107,9 +122,10 @@ def joint_rates(robot, kind, q, xd, xdd):
     Returns
     -------
     qd, qdd : ndarray, shape (N, n)
-        Joint rates [rad/s, m/s] and accelerations [rad/s^2, m/s^2].
+        Joint rates [rad/s, m/s] and accelerations [rad/s^2, m/s^2]; damped
+        (finite) near singularities.
     """
-    rows = ROWS[kind]
+    rows = kinematics.task_rows(kind)
     J = kinematics.jacobian(robot, q)
     if len(rows) == 3 == J.shape[-1]:
         A = np.empty((3, 3, q.shape[0]))  # A[i, j] = J[:, rows[i], j]: contiguous rows for the adjugate
@@ -118,10 +134,10 @@ def joint_rates(robot, kind, q, xd, xdd):
         del J
         solve = _solver3_rows(A, lambda ok: np.ascontiguousarray(A[:, :, ~ok].transpose(2, 0, 1)))
     else:
-        Jinv = np.linalg.pinv(J[:, list(rows), :])
+        Jr = J[:, list(rows), :]
 
         def solve(b):
-            return np.einsum("nij,nj->ni", Jinv, b)
+            return kinematics.joint_rates(Jr, b)
 
     qd = solve(xd)
     if kind == "pose":

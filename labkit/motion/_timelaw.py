@@ -92,8 +92,8 @@ class TimeLaw:
 
     Examples
     --------
-    >>> from labkit.motion import cubic
-    >>> law = cubic(0.0, 1.0, 2.0)
+    >>> from labkit.motion import cubic_law
+    >>> law = cubic_law(0.0, 1.0, 2.0)
     >>> law.coefficients[0]  # a0, a1, a2, a3 of the only segment
     array([ 0.  ,  0.  ,  0.75, -0.25])
     >>> float(law.velocity(1.0))

@@ -32,7 +32,7 @@ from labkit.motion._timelaw import LawKind, TimeLaw
 from labkit.motion._laws import make_law, minimum_duration, time_grid
 from labkit.motion._checks import _checked, _robot_bounds
 
-__all__ = ["Trajectory", "joint_trajectory", "from_law"]
+__all__ = ["Trajectory", "joint_trajectory", "law_trajectory"]
 
 _ANGLE_AXES = {"phi", "roll", "pitch", "yaw", "rx", "ry", "rz"}
 
@@ -212,7 +212,7 @@ class Trajectory:
         if self.resampler is not None:
             return self.resampler(t)
         if self.law is not None:
-            return from_law(self.law, t, joint_names=self.joint_names, revolute=self.revolute)
+            return law_trajectory(self.law, t, joint_names=self.joint_names, revolute=self.revolute)
         if self.t.size < 2:
             raise TrajectoryError("cannot resample a trajectory with a single sample")
         tc = np.clip(t, self.t[0], self.t[-1])
@@ -258,7 +258,7 @@ class Trajectory:
         )
 
 
-def from_law(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
+def law_trajectory(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
     """Sample a joint-space :class:`TimeLaw` into a :class:`Trajectory`.
 
     Parameters
@@ -375,7 +375,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
             )
         duration = _round_up(T, dt) if T > 0 else dt
     tl = make_law(law, q0, qf, duration, **law_options)
-    traj = from_law(tl, t, dt=dt, joint_names=names, revolute=rev)
+    traj = law_trajectory(tl, t, dt=dt, joint_names=names, revolute=rev)
     return _checked(traj, robot, check_limits, check_speed_limits)
 
 

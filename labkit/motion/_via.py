@@ -12,7 +12,7 @@ from labkit.exceptions import OptionError, ShapeError, TrajectoryError
 from labkit.motion._timelaw import LawKind, TimeLaw
 from labkit.motion._laws import minimum_duration
 from labkit.motion._checks import _checked, _robot_bounds
-from labkit.motion._trajectory import _robot_info, from_law
+from labkit.motion._trajectory import _robot_info, law_trajectory
 
 __all__ = ["SplineEnds", "via_law", "via_trajectory", "heuristic_velocities"]
 
@@ -216,7 +216,7 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
     law = via_law(points, times, durations=durations, method=method, velocities=velocities,
                   ends=ends, v0=v0, vf=vf, robot=robot)
     names, rev = _robot_info(robot, law.shape[0])
-    traj = from_law(law, t, dt=dt, joint_names=names, revolute=rev)
+    traj = law_trajectory(law, t, dt=dt, joint_names=names, revolute=rev)
     return _checked(traj, robot, check_limits, check_speed_limits)
 
 

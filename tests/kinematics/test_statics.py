@@ -167,3 +167,19 @@ def test_joint_rates_redundant_minimum_norm(rng):
     assert np.allclose(qd, np.linalg.pinv(J) @ v)
     with pytest.raises(ShapeError, match=r"twist with shape \(\.\.\., 2\)"):
         joint_rates(J, [1.0, 2.0, 3.0])
+
+
+def test_task_rows_name_the_jacobian_rows_of_each_target_kind():
+    from labkit.exceptions import OptionError
+    from labkit.kinematics import target_kind, task_rows
+
+    assert task_rows("position") == (0, 1, 2)
+    assert task_rows("planar") == (0, 1, 5)  # x, y and the rotation rate about z (phi)
+    assert task_rows("pose") == (0, 1, 2, 3, 4, 5)
+    for name in ("arduino_arm_3dof", "planar3r_seed004", "puma560"):  # the task block of each is square
+        robot = Robot.load(name)
+        assert jacobian(robot, [0.1] * robot.n)[list(task_rows(target_kind(robot)))].shape == (robot.n, robot.n)
+    with pytest.raises(OptionError, match="unknown target kind 'orientation'; expected one of 'position', 'planar', 'pose'"):
+        task_rows("orientation")
+    with pytest.raises(OptionError, match="unknown target kind"):
+        task_rows(["position"])

@@ -171,7 +171,15 @@ def test_loader_names_row_and_column(tmp_path, old, new, row, column):
     path.write_text(HAND_MADE.replace(old, new, 1))
     with pytest.raises(MeasurementError, match=f"row {row}, column '{column}'") as info:
         load_measurements(path)
-    assert (info.value.row, info.value.column) == (row, column)
+    assert (info.value.line, info.value.column) == (row, column)
+    assert not hasattr(info.value, "row")
+
+
+def test_measurement_error_stores_its_fields_as_passed():
+    exc = MeasurementError("expected a number", path="hand.csv", line=3, column="reading")
+    assert (exc.path, exc.line, exc.column) == ("hand.csv", 3, "reading")
+    assert not hasattr(exc, "row")
+    assert str(exc) == "hand.csv, row 3, column 'reading': expected a number"
 
 
 def test_loader_unknown_pose(tmp_path):

@@ -13,7 +13,7 @@ import pytest
 from labkit.arm import Arm, PhysicsConfig, gravity_sag, segments_from_trajectory
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import fk_position
-from labkit.motion import approach_point, cartesian_trajectory, height_above, line, pick_and_place_legs
+from labkit.motion import approach_point, cartesian_trajectory, height_above, line_path, pick_and_place_legs
 from labkit.robot import Robot
 
 SIM = "sim://?clock=lockstep&seed=0"
@@ -78,7 +78,7 @@ def test_pick_and_place_on_the_virtual_arm_approaches_from_above():
     legs = pick_and_place_legs(ARM, HOME, PICK, PLACE, 0.05)
     # 1 s for the short final legs, 2 s for the others: at 1 s the pick-to-place leg needs 4,200 deg/s^2
     # at the shoulder, over the robot file's 1,500, and the link refuses to send it
-    plans = [cartesian_trajectory(ARM, line(leg.start, leg.end), 1.0 if leg.gripper else 2.0, dt=0.1,
+    plans = [cartesian_trajectory(ARM, line_path(leg.start, leg.end), 1.0 if leg.gripper else 2.0, dt=0.1,
                                   branch="elbow_up") for leg in legs]
     stops, descents = [], {}
     with Arm(SIM, robot=ARM) as arm:

@@ -1,12 +1,16 @@
 """Joint rates and accelerations of Cartesian trajectories against independent computations.
 
-``cartesian_trajectory`` gives ``qd = J^-1 xd`` and ``qdd = J^-1 (xdd - Jdot qd)``
-(adjugate for 3x3 Jacobians, ``Jdot qd`` from a second difference of the tool
-position). Checked here against what does not share that code: the
-pseudo-inverse of the Jacobian (``numpy.linalg.pinv``), ``Jdot qd`` from central
+``cartesian_trajectory`` gives ``qd = joint_rates(J, xd)`` and
+``qdd = joint_rates(J, xdd - Jdot qd)`` with the one rule of
+:func:`labkit.kinematics.joint_rates` (exact away from singularities, damped
+least squares near them; evaluated by the adjugate for certified 3x3 samples,
+``Jdot qd`` from a second difference of the tool position). Checked here
+against what does not share that code: the pseudo-inverse of the Jacobian
+(``numpy.linalg.pinv``) away from singularities, ``Jdot qd`` from central
 differences of the Jacobian along ``qd``, and finite differences of the IK path
 in time; for the 3-DOF arm (position rows), a planar 3R (``x, y, phi`` rows),
-an arm with a flipped joint and the PUMA 560 (all six rows).
+an arm with a flipped joint and the PUMA 560 (all six rows). Near a
+singularity the rates are the damped ones of ``kinematics.joint_rates``.
 """
 
 from dataclasses import replace
@@ -14,9 +18,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from labkit.kinematics import fk, jacobian
-from labkit.motion import arc, cartesian_trajectory, line
-from labkit.motion._rates import ROWS, solver3
+from labkit.kinematics import damping_factor, fk, fk_position, jacobian, joint_rates, task_rows
+from labkit.motion import arc_path, cartesian_trajectory, line_path
+from labkit.motion._rates import solver3
 from labkit.robot import Robot
 
 
@@ -27,14 +31,14 @@ def _cases():
     q0 = np.array([0.1, 0.5, -0.3, 0.2, 0.4, 0.1])
     T0 = fk(puma, q0)
     return {
-        "arm": (arm, "position", dict(path=line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]), duration=5.0,
+        "arm": (arm, "position", dict(path=line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]), duration=5.0,
                                       branch="elbow_up")),
-        "arm_flipped": (flipped, "position", dict(path=line([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]),
+        "arm_flipped": (flipped, "position", dict(path=line_path([0.0, 0.18, -0.094], [0.1, 0.15, -0.2]),
                                                   duration=5.0, branch="elbow_up")),
         "planar": (Robot.load("planar3r_seed004"), "planar",
-                   dict(path=arc([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2), duration=2.0,
+                   dict(path=arc_path([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2), duration=2.0,
                         orientation=[-np.pi / 2, 0.0], branch="elbow_minus")),
-        "puma": (puma, "pose", dict(path=line(T0[:3, 3], T0[:3, 3] + [0.05, -0.05, 0.05]), duration=2.0,
+        "puma": (puma, "pose", dict(path=line_path(T0[:3, 3], T0[:3, 3] + [0.05, -0.05, 0.05]), duration=2.0,
                                     q_start=q0)),
     }
 
@@ -47,7 +51,7 @@ def test_rates_match_pseudo_inverse_and_jacobian_differences(name):
     robot, kind, kw = CASES[name]
     kw = dict(kw)
     traj = cartesian_trajectory(robot, kw.pop("path"), kw.pop("duration"), dt=0.002, **kw)
-    rows = list(ROWS[kind])
+    rows = list(task_rows(kind))
     J = jacobian(robot, traj.q)[:, rows, :]
     qd = np.einsum("nij,nj->ni", np.linalg.pinv(J), traj.xd)  # for a pose, xd holds (v, omega)
     np.testing.assert_allclose(traj.qd, qd, rtol=1e-10, atol=1e-12)
@@ -74,13 +78,41 @@ def test_10k_sample_line_rates_are_the_pseudo_inverse_rates():
     np.testing.assert_allclose(np.einsum("nij,nj->ni", J, traj.qd), traj.xd, rtol=0, atol=1e-13)
 
 
-def test_adjugate_solver_from_rows_equals_the_batch_solver():
+def test_adjugate_solver_is_the_kinematics_rule():
+    """Certified samples by the adjugate, the rest by joint_rates: the values of joint_rates everywhere."""
     rng = np.random.default_rng(4)
-    J = rng.normal(size=(300, 3, 3))
+    J = 0.1 * rng.normal(size=(300, 3, 3))  # arm-sized columns [m/rad]: some samples have s_min < epsilon
     J[5, :, 1] = 2.0 * J[5, :, 0]  # singular
+    J[6] = 0.0
     b = rng.normal(size=(300, 3))
     x = solver3(J)(b)
-    ok = np.ones(300, dtype=bool)
-    ok[5] = False
-    np.testing.assert_allclose(x[ok], np.linalg.solve(J[ok], b[ok][..., None])[..., 0], rtol=1e-9, atol=1e-10)
-    np.testing.assert_allclose(x[5], np.linalg.pinv(J[5]) @ b[5], atol=1e-12)
+    s_min = np.linalg.svd(J, compute_uv=False)[:, -1]
+    assert np.sum(damping_factor(s_min, 1e-2, 5e-2) > 0) >= 5  # the damped branch is exercised
+    np.testing.assert_allclose(x, joint_rates(J, b), rtol=1e-9, atol=1e-9)
+    assert np.all(np.isfinite(x))
+
+
+def test_rates_near_a_singularity_are_the_damped_kinematics_rates():
+    """The 3-DOF arm stretching out towards full reach (q3 -> 0): one rule for the rates, damped there.
+
+    ``qd`` equals ``kinematics.joint_rates(J, xd)`` at every sample, damped ones
+    included, and ``qdd`` equals ``joint_rates(J, xdd - Jdot qd)`` with ``Jdot qd``
+    from central differences of the Jacobian.
+    """
+    arm = Robot.load("arduino_arm_3dof")
+    q_near = np.array([0.3, 0.4, 0.02])  # s_min of the position rows below epsilon = 0.01
+    q_far = np.array([0.3, 0.4, 0.8])
+    path = line_path(fk_position(arm, q_far), fk_position(arm, q_near))
+    traj = cartesian_trajectory(arm, path, 2.0, dt=0.01, q_start=q_far, max_joint_step=0.5)
+    J = jacobian(arm, traj.q)[:, :3, :]
+    lam = damping_factor(np.linalg.svd(J, compute_uv=False)[:, -1], 1e-2, 5e-2)
+    assert lam[-10:].min() > 0 and lam[:20].max() == 0  # damped at the end, exact at the start
+    np.testing.assert_allclose(traj.qd, joint_rates(J, traj.xd), rtol=1e-9, atol=1e-12)
+    exact = np.einsum("nij,nj->ni", np.linalg.pinv(J), traj.xd)
+    damped = lam > 0
+    np.testing.assert_allclose(traj.qd[~damped], exact[~damped], rtol=1e-10, atol=1e-12)
+    h = 1e-6
+    Jdot_qd = np.einsum("nij,nj->ni", (jacobian(arm, traj.q + h * traj.qd)[:, :3, :]
+                                       - jacobian(arm, traj.q - h * traj.qd)[:, :3, :]) / (2 * h), traj.qd)
+    qdd = joint_rates(J, np.asarray(traj.xdd) - Jdot_qd)
+    np.testing.assert_allclose(traj.qdd, qdd, rtol=0, atol=1e-6 * max(1.0, np.abs(qdd).max()))

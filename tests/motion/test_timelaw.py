@@ -9,12 +9,12 @@ from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion import (
     LawKind,
     TimeLaw,
-    cubic,
-    linear,
-    lspb,
+    cubic_law,
+    linear_law,
+    lspb_law,
     make_law,
     minimum_duration,
-    quintic,
+    quintic_law,
     time_grid,
 )
 
@@ -24,7 +24,7 @@ UF = np.array([0.1, 0.15, -0.2])
 
 
 def test_seed000_cubic_coefficients_per_axis():
-    law = cubic(U0, UF, 5.0)
+    law = cubic_law(U0, UF, 5.0)
     a = law.coefficients[0]  # (4, 3): a0..a3 per axis
     D = UF - U0
     np.testing.assert_allclose(a[0], U0, atol=1e-15)
@@ -37,7 +37,7 @@ def test_seed000_cubic_coefficients_per_axis():
 
 def test_seed000_peak_speed_0_0446_is_the_published_0_045_at_two_figures():
     """The seed reports 0.045 m/s at t = 2.5 s: the true peak 1.5 |uf - u0| / tf = 0.0446 m/s rounds to it."""
-    law = cubic(U0, UF, 5.0)
+    law = cubic_law(U0, UF, 5.0)
     t = time_grid(0.0, 5.0, 0.1)
     assert t.size == 51
     speed = np.linalg.norm(law.velocity(t), axis=-1)
@@ -54,7 +54,7 @@ def test_seed000_peak_speed_0_0446_is_the_published_0_045_at_two_figures():
 
 
 def test_seed003_joint_cubic_coefficients():
-    law = cubic([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0)
+    law = cubic_law([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0)
     a = law.coefficients[0]
     np.testing.assert_allclose(a[0], [0.0, 0.0, 1.57])
     np.testing.assert_allclose(a[1], 0.0, atol=1e-15)
@@ -71,10 +71,10 @@ def test_boundary_conditions(builder, rng):
     v0, vf = rng.normal(size=4), rng.normal(size=4)
     T, t0 = 2.5, 1.0
     if builder == "cubic":
-        law = cubic(q0, qf, T, v0=v0, vf=vf, t0=t0)
+        law = cubic_law(q0, qf, T, v0=v0, vf=vf, t0=t0)
     else:
         a0, af = rng.normal(size=4), rng.normal(size=4)
-        law = quintic(q0, qf, T, v0=v0, vf=vf, a0=a0, af=af, t0=t0)
+        law = quintic_law(q0, qf, T, v0=v0, vf=vf, a0=a0, af=af, t0=t0)
         np.testing.assert_allclose(law.ppoly(t0, 2), a0, atol=1e-10)
         np.testing.assert_allclose(law.ppoly(t0 + T, 2), af, atol=1e-10)
     np.testing.assert_allclose(law.position(t0), q0, atol=1e-12)
@@ -85,7 +85,7 @@ def test_boundary_conditions(builder, rng):
 
 
 def test_coefficients_reproduce_the_law(rng):
-    law = quintic(rng.normal(size=3), rng.normal(size=3), 3.0, v0=0.2, af=-0.1, t0=0.5)
+    law = quintic_law(rng.normal(size=3), rng.normal(size=3), 3.0, v0=0.2, af=-0.1, t0=0.5)
     a = law.coefficients[0]  # (6, 3)
     t = np.linspace(0.5, 3.5, 17)
     tau = (t - 0.5)[:, None]
@@ -94,31 +94,31 @@ def test_coefficients_reproduce_the_law(rng):
 
 
 def test_quintic_rest_to_rest_is_10_15_6():
-    law = quintic(0.0, 1.0, 1.0)
+    law = quintic_law(0.0, 1.0, 1.0)
     np.testing.assert_allclose(law.coefficients[0], [0, 0, 0, 10, -15, 6], atol=1e-12)
     assert float(law.acceleration(0.0)) == pytest.approx(0.0, abs=1e-12)
     assert float(law.velocity(0.5)) == pytest.approx(15 / 8)
 
 
 def test_shapes_scalar_vector_batched():
-    s = cubic(0.0, 1.0, 1.0)
+    s = cubic_law(0.0, 1.0, 1.0)
     assert s.shape == () and np.ndim(s.position(0.3)) == 0
     assert s.position(np.linspace(0, 1, 7)).shape == (7,)
-    b = cubic(np.zeros((2, 3)), np.ones((2, 3)), 1.0)
+    b = cubic_law(np.zeros((2, 3)), np.ones((2, 3)), 1.0)
     assert b.shape == (2, 3)
     assert b.velocity(np.zeros(5)).shape == (5, 2, 3)
-    assert quintic(np.zeros((2, 3)), np.ones(3), 1.0).shape == (2, 3)  # broadcast
+    assert quintic_law(np.zeros((2, 3)), np.ones(3), 1.0).shape == (2, 3)  # broadcast
 
 
 def test_holds_end_values_outside_the_interval():
-    law = cubic([0.0, 1.0], [2.0, -1.0], 2.0, v0=[1.0, 0.0])
+    law = cubic_law([0.0, 1.0], [2.0, -1.0], 2.0, v0=[1.0, 0.0])
     np.testing.assert_allclose(law.position([-1.0, 5.0]), [[0.0, 1.0], [2.0, -1.0]])
     np.testing.assert_allclose(law.velocity([-1.0, 5.0]), 0.0)
     np.testing.assert_allclose(law.acceleration(5.0), 0.0)
 
 
 def test_lspb_default_blend_is_a_third():
-    law = lspb([0.0, 1.0], [3.0, -2.0], 3.0)
+    law = lspb_law([0.0, 1.0], [3.0, -2.0], 3.0)
     assert law.kind is LawKind.LSPB
     np.testing.assert_allclose(law.breaks, [0.0, 1.0, 2.0, 3.0])
     np.testing.assert_allclose(law.velocity(1.5), [1.5, -1.5])  # 1.5 x the mean speed
@@ -132,20 +132,20 @@ def test_lspb_default_blend_is_a_third():
 
 
 def test_lspb_bounds_and_errors():
-    law = lspb(0.0, 1.0, 2.0, v_max=0.8)
+    law = lspb_law(0.0, 1.0, 2.0, v_max=0.8)
     assert law.peak(1) == pytest.approx(0.8)
-    law = lspb(0.0, 1.0, 2.0, a_max=4.0)
+    law = lspb_law(0.0, 1.0, 2.0, a_max=4.0)
     assert law.peak(2) == pytest.approx(4.0)
-    tri = lspb(0.0, 1.0, 2.0, v_max=5.0)  # cannot cruise that fast: triangular profile
+    tri = lspb_law(0.0, 1.0, 2.0, v_max=5.0)  # cannot cruise that fast: triangular profile
     assert tri.n_segments == 2 and tri.peak(1) == pytest.approx(1.0)
     with pytest.raises(TrajectoryError, match="v_max too low.*minimum duration"):
-        lspb(0.0, 1.0, 2.0, v_max=0.4)
+        lspb_law(0.0, 1.0, 2.0, v_max=0.4)
     with pytest.raises(TrajectoryError, match="a_max too low"):
-        lspb(0.0, 1.0, 2.0, a_max=0.5)
+        lspb_law(0.0, 1.0, 2.0, a_max=0.5)
     with pytest.raises(TrajectoryError, match="at most one"):
-        lspb(0.0, 1.0, 2.0, v_max=1.0, a_max=3.0)
+        lspb_law(0.0, 1.0, 2.0, v_max=1.0, a_max=3.0)
     with pytest.raises(TrajectoryError, match="blend_time"):
-        lspb(0.0, 1.0, 2.0, blend_time=1.5)
+        lspb_law(0.0, 1.0, 2.0, blend_time=1.5)
 
 
 def test_make_law_names_and_errors():
@@ -155,20 +155,20 @@ def test_make_law_names_and_errors():
     with pytest.raises(ValueError, match="'cubic', 'quintic', 'lspb', 'linear'"):
         make_law("septic", 0.0, 1.0, 1.0)
     with pytest.raises(TrajectoryError, match="positive finite duration"):
-        cubic(0.0, 1.0, 0.0)
+        cubic_law(0.0, 1.0, 0.0)
     with pytest.raises(ShapeError, match="one shape"):
-        cubic([0.0, 1.0], [0.0, 1.0, 2.0], 1.0)
+        cubic_law([0.0, 1.0], [0.0, 1.0, 2.0], 1.0)
     with pytest.raises(ShapeError, match="finite"):
-        cubic(np.nan, 1.0, 1.0)
+        cubic_law(np.nan, 1.0, 1.0)
 
 
 def test_minimum_duration_matches_peaks():
     D, v, a = 0.8, 0.5, 2.0
     T = minimum_duration(D, v_max=v, a_max=a, kind="cubic")
-    law = cubic(0.0, D, T)
+    law = cubic_law(0.0, D, T)
     assert max(law.peak(1) / v, law.peak(2) / a) == pytest.approx(1.0, rel=1e-6)
     T = minimum_duration(D, v_max=v, a_max=a, kind="quintic")
-    law = quintic(0.0, D, T)
+    law = quintic_law(0.0, D, T)
     assert max(law.peak(1) / v, law.peak(2) / a) == pytest.approx(1.0, rel=1e-5)
     T = minimum_duration(D, v_max=v, a_max=a, kind="lspb")
     assert T == pytest.approx(D / v + v / a)
@@ -178,7 +178,7 @@ def test_minimum_duration_matches_peaks():
 
 
 def test_linear_and_repr():
-    law = linear([0.0, 1.0], [1.0, 3.0], 2.0)
+    law = linear_law([0.0, 1.0], [1.0, 3.0], 2.0)
     assert isinstance(law, TimeLaw) and law.degree == 1
     np.testing.assert_allclose(law.velocity(1.0), [0.5, 1.0])
     assert "linear" in repr(law)

@@ -7,7 +7,7 @@ import pytest
 from matplotlib.colors import to_rgba
 
 from conftest import require
-from labkit.motion import arc, cartesian_trajectory, line
+from labkit.motion import arc_path, cartesian_trajectory, line_path
 from labkit.robot import Robot
 from labkit.exceptions import LabkitError
 from labkit.plotting import (
@@ -139,7 +139,7 @@ def test_time_series_joint_units():
 
 
 def test_cartesian_plots_seed000(arduino):
-    traj = cartesian_trajectory(arduino, line([0, 0.18, -0.094], [0.1, 0.15, -0.2]), 5.0, dt=0.1, branch="elbow_up")
+    traj = cartesian_trajectory(arduino, line_path([0, 0.18, -0.094], [0.1, 0.15, -0.2]), 5.0, dt=0.1, branch="elbow_up")
     ax = plot_time_series(traj, "speed")
     assert ax.get_ylabel() == "end-effector speed [mm/s]"
     assert ax.lines[0].get_ydata().max() == pytest.approx(44.63, abs=0.01)  # not the seed's 45
@@ -160,7 +160,7 @@ def test_no_global_state_changes(planar003):
 
 def test_animation_jshtml_gif_mp4(tmp_path):
     planar004 = Robot.load("planar3r_seed004")
-    path = arc([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2)  # seed 004 part D
+    path = arc_path([0.1, 0.25], 0.25, -np.pi / 2, np.pi / 2)  # seed 004 part D
     traj = cartesian_trajectory(planar004, path, 2.0, dt=0.1, orientation=[-np.pi / 2, 0.0], branch="elbow_minus")
     anim = animate_arm(planar004, traj, max_frames=4)
     assert anim._labkit_frames == 4
