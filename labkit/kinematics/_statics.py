@@ -11,13 +11,15 @@ arm) or the angular rows.
 Damped least squares
 --------------------
 :func:`joint_rates` solves ``J qd = v`` through the SVD ``J = U S V^T`` as
-``qd = V diag(s_i / (s_i^2 + lambda^2)) U^T v``. The damping is switched on
-only near a singularity (Nakamura & Hanafusa; Chiaverini):
-``lambda^2 = 0`` while the smallest singular value ``s_min >= epsilon`` and
-``lambda^2 = (1 - (s_min / epsilon)^2) * max_damping^2`` below it. Away from
+``qd = V diag(s_i / (s_i^2 + lambda_i^2)) U^T v``. The damping is switched on
+only near a singularity, and only in the directions that are singular
+(selective damping, after Nakamura & Hanafusa; Chiaverini):
+``lambda_i^2 = 0`` while the singular value ``s_i >= epsilon`` and
+``lambda_i^2 = (1 - (s_i / epsilon)^2) * max_damping^2`` below it. Away from
 singularities this is the exact (pseudo-)inverse; near them the joint rates
-stay bounded (``|qd| <= |v| / (2 lambda)`` in the damped direction) at the
-price of a small tracking error.
+stay bounded (``|qd| <= |v| / (2 lambda_i)`` in a damped direction) at the
+price of a tracking error in that direction only: the well-conditioned
+directions of ``v`` are still met exactly.
 """
 
 from __future__ import annotations
@@ -297,7 +299,8 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     Solves ``J qd = twist`` in the least-squares sense (minimum norm when
     redundant) with the damped pseudo-inverse described in the module
     docstring: exact away from singularities (``s_min >= epsilon``), damped
-    inside the singular region so that the rates stay finite. This is the
+    in the singular directions (``s_i < epsilon``) so that the rates stay
+    finite while the other directions are met exactly. This is the
     one rule for rates from a twist: the Cartesian trajectories of
     :mod:`labkit.motion` solve their ``qd`` and ``qdd`` with it, on the rows
     :func:`labkit.kinematics.task_rows` gives.
@@ -336,8 +339,8 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     J = as_batch(J, J.shape[-2:], "J")
     v = as_batch(twist, (J.shape[-2],), "twist")
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
-    lam = damping_factor(s[..., -1], epsilon, max_damping)
-    denom = s**2 + lam[..., None] ** 2
+    lam = damping_factor(s, epsilon, max_damping)  # per singular direction: zero where s_i >= epsilon
+    denom = s**2 + lam**2
     with np.errstate(divide="ignore", invalid="ignore"):
         gain = np.where(denom > 0, s / denom, 0.0)
     Utv = np.einsum("...im,...i->...m", U, v)

@@ -14,7 +14,7 @@ from labkit.motion import (
 )
 from labkit.robot import Robot
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError, UnreachableError
-from labkit.kinematics import fk, fk_position
+from labkit.kinematics import fk, fk_position, jacobian
 from labkit.motion import cubic_law
 
 U0 = [0.0, 0.18, -0.094]
@@ -231,6 +231,11 @@ def test_numeric_ik_robot_follows_path_continuously():
     np.testing.assert_allclose(traj.q[0], q0, atol=1e-6)
     assert np.abs(np.diff(traj.q, axis=0)).max() < 0.1  # no jumps between neighbouring samples
     assert np.all(np.isfinite(traj.qd)) and np.all(np.isfinite(traj.qdd))
+    # the tool-point Jacobian has rank 2 everywhere: damping only the lost direction still meets xd
+    J = jacobian(wrist, traj.q)[:, :3, :]
+    assert np.linalg.svd(J, compute_uv=False)[:, -1].max() < 1e-12
+    miss = np.linalg.norm(np.einsum("nij,nj->ni", J, traj.qd) - traj.xd, axis=1)
+    assert miss.max() < 1e-9 * np.linalg.norm(traj.xd, axis=1).max()
 
 
 def test_cartesian_via_points_seed003_task5():
