@@ -74,6 +74,7 @@ static void out_i(int32_t v) {
     else out_u((uint32_t)v);
 }
 static void out_sp_i(int32_t v) { out_c(' '); out_i(v); }
+static LK_NOINLINE void out_kv(const char *key_p, uint32_t v) { out_p(key_p); out_u(v); } /* " key=v" */
 static char hexdigit(uint8_t v) { return (char)(v < 10 ? '0' + v : 'A' + v - 10); }
 static void out_begin(void) { g_cs = 0xFFFF; }
 static void hex4(char *b, uint16_t v) {
@@ -105,8 +106,24 @@ static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
     if (msg_p) { out_c(' '); out_p(msg_p); }
     out_end();
 }
-static uint8_t err_joint(int32_t seq, uint8_t code, uint8_t j) { /* "ERR ... joint <j>"; returns 0 */
-    err_begin(seq, code); out_p(LK_P(" joint ")); out_u(j); out_end();
+/* one request being handled: its #seq (-1: none), integer arguments and command */
+typedef struct {
+    int32_t seq;
+    uint8_t argc;
+    int32_t *a;
+    const char *name; /* the command's name in its table entry (program memory): the OK reply's first word */
+} call_t;
+static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHH]" */
+static LK_NOINLINE uint8_t ok_int(const call_t *c, int32_t v) { /* "OK ... NAME v"; returns 1 */
+    ok_head(c); out_sp_i(v); out_end();
+    return 1;
+}
+static LK_NOINLINE uint8_t reject(const call_t *c, uint8_t code, const char *msg_p) { /* returns 0 */
+    err_msg(c->seq, code, msg_p);
+    return 0;
+}
+static uint8_t err_joint(const call_t *c, uint8_t code, uint8_t j) { /* "ERR ... joint <j>"; returns 0 */
+    err_begin(c->seq, code); out_p(LK_P(" joint ")); out_u(j); out_end();
     return 0;
 }
 static const char s_arguments[] LK_FLASH = "arguments";
@@ -154,7 +171,7 @@ static uint8_t joint_ok(const lk_cal_t *cal, int32_t q) {
     return q >= cal->lo && q <= cal->hi && lk_pulse_for(cal, q, &h);
 }
 
-static uint8_t grip_ok(const lk_cal_t *cal, int32_t us) {
+static LK_NOINLINE uint8_t grip_ok(const lk_cal_t *cal, int32_t us) {
     int32_t a = cal->pmin < cal->pmax ? cal->pmin : cal->pmax;
     int32_t b = cal->pmin < cal->pmax ? cal->pmax : cal->pmin;
     return us >= a && us <= b;
@@ -396,12 +413,6 @@ static uint8_t name_is(const char *tok, const char *name_p) {
 }
 
 /* ------------------------------------------------------------------ commands */
-typedef struct {
-    int32_t seq;
-    uint8_t argc;
-    int32_t *a;
-} call_t;
-
 static const char s_busy[] LK_FLASH = "STOP first";
 static uint8_t busy(lk_t *lk, const call_t *c) {
     if (lk->state != LK_RUN) return 0;
@@ -409,30 +420,31 @@ static uint8_t busy(lk_t *lk, const call_t *c) {
     return 1;
 }
 
-static void cmd_status(lk_t *lk, const call_t *c) {
+static uint8_t cmd_status(lk_t *lk, call_t *c) {
     uint8_t j;
-    ok_begin(c->seq, LK_P("STATUS state="));
+    ok_head(c); out_p(LK_P(" state="));
     out_p(lk->state == LK_RUN ? LK_P("RUN") : lk->state == LK_HOLD ? LK_P("HOLD") : LK_P("IDLE"));
     out_p(LK_P(" q="));
     for (j = 0; j < LK_JOINTS; j++) { if (j) out_c(','); out_i(lk->q[j]); }
-    out_p(LK_P(" grip=")); out_u(lk->grip_us);
-    out_p(LK_P(" queue=")); out_u(lk->q_count);
-    out_p(LK_P(" free=")); out_u(LK_QUEUE - lk->q_count);
-    out_p(LK_P(" done=")); out_u(lk->done);
-    out_p(LK_P(" timeout=")); out_u(lk->timeout_ms);
-    out_p(LK_P(" stream=")); out_u(lk->stream_hz);
+    out_kv(LK_P(" grip="), lk->grip_us);
+    out_kv(LK_P(" queue="), lk->q_count);
+    out_kv(LK_P(" free="), LK_QUEUE - lk->q_count);
+    out_kv(LK_P(" done="), lk->done);
+    out_kv(LK_P(" timeout="), lk->timeout_ms);
+    out_kv(LK_P(" stream="), lk->stream_hz);
     out_p(LK_P(" flags=")); out_c(hexdigit(lk->flags >> 4)); out_c(hexdigit(lk->flags & 15));
-    out_p(LK_P(" mem=")); out_u(lk_hw_mem_free());
-    out_p(LK_P(" t=")); out_u(lk->now_ms);
-    out_p(LK_P(" last=")); out_u(lk->last_seq);
+    out_kv(LK_P(" mem="), lk_hw_mem_free());
+    out_kv(LK_P(" t="), lk->now_ms);
+    out_kv(LK_P(" last="), lk->last_seq);
     out_end();
+    return 1;
 }
 
 static uint8_t check_joints(lk_t *lk, const call_t *c, const int32_t *q, const lk_cal_t *cal) {
     uint8_t j;
     for (j = 0; j < LK_JOINTS; j++) {
         if (!joint_ok(&cal[j], q[j])) {
-            return err_joint(c->seq, LK_E_LIMIT, j);
+            return err_joint(c, LK_E_LIMIT, j);
         }
     }
     (void)lk;
@@ -538,19 +550,20 @@ uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int3
     return check_bern(b, order, kind, lo, hi, x, y, scratch);
 }
 
-static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
+/* SEG, and MOVE's cubic (move = 1: its end points were checked) */
+static uint8_t queue_seg(lk_t *lk, const call_t *c, uint8_t move) {
     const int32_t *a = c->a;
     uint8_t order, j, k, slot;
     uint16_t i;
     lk_seg_t *seg;
-    if (c->argc < 2) { err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0; }
-    if (a[0] < 1 || a[0] > 60000) { err_msg(c->seq, LK_E_RANGE, LK_P("duration")); return 0; }
-    if (a[1] != 3 && a[1] != 5) { err_msg(c->seq, LK_E_RANGE, LK_P("order")); return 0; }
+    if (c->argc < 2) return reject(c, LK_E_SYNTAX, s_arguments);
+    if (a[0] < 1 || a[0] > 60000) return reject(c, LK_E_RANGE, LK_P("duration"));
+    if (a[1] != 3 && a[1] != 5) return reject(c, LK_E_RANGE, LK_P("order"));
     order = (uint8_t)a[1];
-    if (c->argc != 2 + LK_JOINTS * (order + 1)) { err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0; }
+    if (c->argc != 2 + LK_JOINTS * (order + 1)) return reject(c, LK_E_SYNTAX, s_arguments);
     for (i = 2; i < c->argc; i++)
-        if (a[i] > LK_COEF_MAX || a[i] < -LK_COEF_MAX) { err_msg(c->seq, LK_E_RANGE, LK_P("coefficient")); return 0; }
-    if (lk->q_count >= LK_QUEUE) { err_msg(c->seq, LK_E_QFULL, 0); return 0; }
+        if (a[i] > LK_COEF_MAX || a[i] < -LK_COEF_MAX) return reject(c, LK_E_RANGE, LK_P("coefficient"));
+    if (lk->q_count >= LK_QUEUE) return reject(c, LK_E_QFULL, 0);
     slot = (uint8_t)((lk->q_head + lk->q_count) % LK_QUEUE);
     seg = &lk->queue[slot];
     seg->dur_ms = (uint16_t)a[0];
@@ -562,8 +575,8 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
         int32_t lo, hi, d = cj[0] - (lk->q_count ? lk->tail_q[j] : lk->q[j]);
         /* a MOVE's end points were checked and its cubic is monotone between them: no position check */
         if (!move && (!feasible(&lk->cal[j], &lo, &hi) || !lk_check(cj, order, 0, lo, hi, 0, 0, lk->scratch)))
-            return err_joint(c->seq, LK_E_LIMIT, j);
-        if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c->seq, LK_E_DISCONT, j);
+            return err_joint(c, LK_E_LIMIT, j);
+        if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c, LK_E_DISCONT, j);
     }
     for (j = 0; j < LK_JOINTS; j++) {
         int32_t b0[LK_MAX_ORDER + 1], b[LK_MAX_ORDER + 1];
@@ -571,7 +584,7 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
         for (k = 1; k <= 2; k++) { /* speed (vmax dur / 1000), acceleration (amax dur^2 / 10^6); 0: unchecked */
             uint32_t x = k == 1 ? lk->vmax[j] : lk->amax[j], y = k == 1 ? (uint32_t)a[0] : (uint32_t)a[0] * a[0];
             memcpy(b, b0, sizeof b);
-            if (x && !check_bern(b, order, k, 0, 0, x, y, lk->scratch)) return err_joint(c->seq, LK_E_SPEED, j);
+            if (x && !check_bern(b, order, k, 0, 0, x, y, lk->scratch)) return err_joint(c, LK_E_SPEED, j);
         }
     }
     for (j = 0; j < LK_JOINTS; j++) {
@@ -582,8 +595,7 @@ static uint8_t cmd_seg(lk_t *lk, const call_t *c, uint8_t move) {
     }
     lk->q_count++;
     if (lk->state != LK_RUN) { lk->state = LK_RUN; lk->seg_start_ms = lk->next_frame_ms; }
-    ok_begin(c->seq, move ? LK_P("MOVE") : LK_P("SEG")); out_sp_i(LK_QUEUE - lk->q_count); out_end();
-    return 1;
+    return ok_int(c, LK_QUEUE - lk->q_count);
 }
 
 static void out_cal(const lk_cal_t *k) {
@@ -593,142 +605,193 @@ static void out_cal(const lk_cal_t *k) {
 /* check that every current position is valid under calibration `cal` */
 static uint8_t positions_valid(lk_t *lk, const call_t *c, const lk_cal_t *cal) {
     if (!check_joints(lk, c, lk->q, cal)) return 0;
-    if (!grip_ok(&cal[LK_JOINTS], lk->grip_us)) {
-        err_msg(c->seq, LK_E_LIMIT, s_gripper); return 0;
-    }
+    if (!grip_ok(&cal[LK_JOINTS], lk->grip_us)) return reject(c, LK_E_LIMIT, s_gripper);
     return 1;
 }
 
-static uint8_t cmd_cal(lk_t *lk, const call_t *c) {
+static uint8_t cmd_cal(lk_t *lk, call_t *c) {
     const int32_t *a = c->a;
     lk_cal_t cal[LK_CHANNELS];
-    uint8_t ch;
-    if (a[0] < 0 || a[0] >= LK_CHANNELS) { err_msg(c->seq, LK_E_RANGE, LK_P("channel")); return 0; }
+    uint8_t ch, i, fits = 1;
+    if (a[0] < 0 || a[0] >= LK_CHANNELS) return reject(c, LK_E_RANGE, LK_P("channel"));
     ch = (uint8_t)a[0];
     if (c->argc == 7) {
         lk_cal_t *k = &cal[ch];
         if (busy(lk, c)) return 0;
-        if (a[1] < 400 || a[1] > 2600 || a[2] < 400 || a[2] > 2600 || a[1] == a[2] || a[3] < -32000 ||
-            a[3] > 32000 || (a[4] != 1 && a[4] != -1) || a[5] < -32000 || a[6] > 32000 || a[5] > a[6]) {
-            err_msg(c->seq, LK_E_RANGE, LK_P("calibration field"));
-            return 0;
-        }
+        /* the EEPROM's rule (cal_valid) on the fields as received: every valid field is within +-32000 */
+        for (i = 1; i <= 6; i++) if (a[i] < -32000 || a[i] > 32000) fits = 0;
         memcpy(cal, lk->cal, sizeof cal);
         k->pmin = (int16_t)a[1]; k->pmax = (int16_t)a[2]; k->zero = (int16_t)a[3];
         k->dir = (int8_t)a[4]; k->lo = (int16_t)a[5]; k->hi = (int16_t)a[6];
+        if (!fits || k->dir != a[4] || !cal_valid(k)) return reject(c, LK_E_RANGE, LK_P("calibration field"));
         if (!positions_valid(lk, c, cal)) return 0;
         memcpy(lk->cal, cal, sizeof cal);
         update_pulses(lk);
     }
-    ok_begin(c->seq, LK_P("CAL")); out_sp_i(ch); out_cal(&lk->cal[ch]); out_end();
+    ok_head(c); out_sp_i(ch); out_cal(&lk->cal[ch]); out_end();
     return 1;
 }
 
-static const char command_names[] LK_FLASH = "HELLO\0PING\0STATUS\0MOVE\0GRIP\0SEG\0STOP\0TIMEOUT\0READ\0STREAM\0CAL\0DEFAULTS\0SAVE\0LIMITS\0";
-
-/* index of the command in command_names, or -1 */
-static int8_t command_index(const char *tok, const char **name_p) {
-    const char *n = command_names;
-    int8_t i;
-    for (i = 0; LK_RD(n); i++) {
-        if (name_is(tok, n)) { *name_p = n; return i; }
-        while (LK_RD(n)) n++;
-        n++;
-    }
-    return -1;
+static uint8_t cmd_hello(lk_t *lk, call_t *c) {
+    (void)lk;
+    ok_head(c); out_p(LK_P(" labkit-arm ")); out_p(s_ident); out_kv(LK_P(" channels="), LK_CHANNELS);
+    out_kv(LK_P(" queue="), LK_QUEUE); out_kv(LK_P(" maxline="), LK_MAXLINE); out_end();
+    return 1;
 }
 
-/* argument counts each command accepts (bit n: n arguments), in command_names order; SEG checks its own */
-static const uint8_t command_argc[] LK_FLASH = {
-    1, 1, 1, 1u << (LK_JOINTS + 1), 2, 0xFF, 1, 3, 1, 2, (1u << 1) | (1u << 7), 1, 1, (1u << 1) | (1u << 3)};
+static uint8_t cmd_ping(lk_t *lk, call_t *c) {
+    ok_head(c); out_c(' '); out_u(lk->now_ms); out_end();
+    return 1;
+}
 
-static uint8_t dispatch(lk_t *lk, int8_t idx, const call_t *c) {
+/* MOVE q... dur = one rest-to-rest cubic segment from the commanded position (c = q, 0, 3 dq, -2 dq), queued as
+   that SEG: its arguments are rewritten in place into the SEG's (the array holds LK_MAXARGS >= 2 + 4 LK_JOINTS),
+   last joint first so that no target is overwritten before it is read */
+static uint8_t cmd_move(lk_t *lk, call_t *c) {
+    int32_t *a = c->a, dur = a[LK_JOINTS];
+    int8_t j;
+    if (busy(lk, c) || !check_joints(lk, c, a, lk->cal)) return 0;
+    for (j = LK_JOINTS - 1; j >= 0; j--) {
+        int32_t *p = a + 2 + 4 * j, q0 = lk->q[j], d = a[j] - q0;
+        p[0] = q0; p[1] = 0; p[2] = 3 * d; p[3] = -2 * d;
+    }
+    a[0] = dur; a[1] = 3; c->argc = 2 + 4 * LK_JOINTS;
+    return queue_seg(lk, c, 1);
+}
+
+static uint8_t cmd_grip(lk_t *lk, call_t *c) {
+    if (!grip_ok(&lk->cal[LK_JOINTS], c->a[0])) return reject(c, LK_E_RANGE, s_gripper);
+    lk->grip_us = (uint16_t)c->a[0];
+    update_pulses(lk);
+    return ok_int(c, lk->grip_us);
+}
+
+static uint8_t cmd_seg(lk_t *lk, call_t *c) { return queue_seg(lk, c, 0); }
+
+static uint8_t cmd_stop(lk_t *lk, call_t *c) {
+    halt(lk);
+    ok_head(c); out_q(lk); out_end();
+    return 1;
+}
+
+static uint8_t cmd_timeout(lk_t *lk, call_t *c) {
+    if (c->argc == 1) {
+        if (!timeout_valid(c->a[0])) return reject(c, LK_E_RANGE, LK_P("timeout"));
+        lk->timeout_ms = (uint16_t)c->a[0];
+    }
+    return ok_int(c, lk->timeout_ms);
+}
+
+static uint8_t cmd_read(lk_t *lk, call_t *c) {
+    uint8_t j;
+    (void)lk;
+    ok_head(c);
+    for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
+    out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
+    out_end();
+    return 1;
+}
+
+static uint8_t cmd_stream(lk_t *lk, call_t *c) {
+    uint8_t hz;
+    if (c->a[0] < 0 || c->a[0] > 200) return reject(c, LK_E_RANGE, LK_P("rate"));
+    lk->stream_hz = hz = (uint8_t)c->a[0];
+    lk->frame_counter = 0;
+    if (hz) { lk->stream_period_us = 1000000UL / hz; lk->stream_arm = 1; }
+    return ok_int(c, hz);
+}
+
+static uint8_t cmd_defaults(lk_t *lk, call_t *c) {
+    lk_cal_t cal[LK_CHANNELS];
+    uint16_t timeout_ms;
+    if (busy(lk, c)) return 0;
+    default_cal(cal, &timeout_ms);
+    if (!positions_valid(lk, c, cal)) return 0;
+    memcpy(lk->cal, cal, sizeof cal);
+    lk->timeout_ms = timeout_ms;
+    update_pulses(lk);
+    ok_head(c); out_end();
+    return 1;
+}
+
+static uint8_t cmd_save(lk_t *lk, call_t *c) {
+    uint16_t n;
+    if (busy(lk, c)) return 0;
+    n = lk_ee_save(lk);
+    if (!n) return reject(c, LK_E_EEPROM, LK_P("read-back"));
+    return ok_int(c, n);
+}
+
+/* LIMITS j [vmax amax] */
+static uint8_t cmd_limits(lk_t *lk, call_t *c) {
     const int32_t *a = c->a;
-    uint8_t j, allowed = (uint8_t)pgm_byte(&command_argc[idx]);
-    if (c->argc == 0xFF || (allowed != 0xFF && (c->argc > 7 || !((allowed >> c->argc) & 1)))) {
-        err_msg(c->seq, LK_E_SYNTAX, s_arguments); return 0;
+    uint8_t j;
+    if (a[0] < 0 || a[0] >= LK_JOINTS) return reject(c, LK_E_RANGE, LK_P("joint"));
+    j = (uint8_t)a[0];
+    if (c->argc == 3) {
+        if (a[1] < 0 || (uint32_t)a[1] > LK_VMAX_MAX || a[2] < 0 || (uint32_t)a[2] > LK_AMAX_MAX)
+            return reject(c, LK_E_RANGE, LK_P("limits"));
+        if (busy(lk, c)) return 0;
+        lk->vmax[j] = (uint32_t)a[1]; lk->amax[j] = (uint32_t)a[2];
     }
-#define NOTBUSY() if (busy(lk, c)) return 0;
-    if (idx == 0 /* HELLO */) {
-        ok_begin(c->seq, LK_P("HELLO labkit-arm ")); out_p(s_ident); out_p(LK_P(" channels=")); out_u(LK_CHANNELS); out_p(LK_P(" queue="));
-        out_u(LK_QUEUE); out_p(LK_P(" maxline=")); out_u(LK_MAXLINE); out_end();
-    } else if (idx == 1 /* PING */) {
-        ok_begin(c->seq, LK_P("PING ")); out_u(lk->now_ms); out_end();
-    } else if (idx == 2 /* STATUS */) {
-        cmd_status(lk, c);
-    } else if (idx == 3 /* MOVE */) {
-        NOTBUSY();
-        if (!check_joints(lk, c, a, lk->cal)) return 0;
-        {   /* MOVE q... dur = one rest-to-rest cubic segment from the commanded position */
-            int32_t s[2 + 4 * LK_JOINTS], *p = s + 2;
-            call_t m;
-            m.seq = c->seq; m.argc = 2 + 4 * LK_JOINTS; m.a = s;
-            s[0] = a[LK_JOINTS]; s[1] = 3;
-            for (j = 0; j < LK_JOINTS; j++, p += 4) {
-                int32_t d = a[j] - lk->q[j];
-                p[0] = lk->q[j]; p[1] = 0; p[2] = 3 * d; p[3] = -2 * d;
-            }
-            return cmd_seg(lk, &m, 1);
-        }
-    } else if (idx == 4 /* GRIP */) {
-        if (!grip_ok(&lk->cal[LK_JOINTS], a[0])) { err_msg(c->seq, LK_E_RANGE, s_gripper); return 0; }
-        lk->grip_us = (uint16_t)a[0];
-        update_pulses(lk);
-        ok_begin(c->seq, LK_P("GRIP")); out_sp_i(lk->grip_us); out_end();
-    } else if (idx == 5 /* SEG */) {
-        return cmd_seg(lk, c, 0);
-    } else if (idx == 6 /* STOP */) {
-        halt(lk);
-        ok_begin(c->seq, LK_P("STOP")); out_q(lk); out_end();
-    } else if (idx == 7 /* TIMEOUT */) {
-        if (c->argc == 1) {
-            if (!timeout_valid(a[0])) { err_msg(c->seq, LK_E_RANGE, LK_P("timeout")); return 0; }
-            lk->timeout_ms = (uint16_t)a[0];
-        }
-        ok_begin(c->seq, LK_P("TIMEOUT")); out_sp_i(lk->timeout_ms); out_end();
-    } else if (idx == 8 /* READ */) {
-        ok_begin(c->seq, LK_P("READ"));
-        for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
-        out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
-        out_end();
-    } else if (idx == 9 /* STREAM */) {
-        if (a[0] < 0 || a[0] > 200) { err_msg(c->seq, LK_E_RANGE, LK_P("rate")); return 0; }
-        lk->stream_hz = (uint8_t)a[0];
-        lk->frame_counter = 0;
-        if (lk->stream_hz) { lk->stream_period_us = 1000000UL / lk->stream_hz; lk->stream_arm = 1; }
-        ok_begin(c->seq, LK_P("STREAM")); out_sp_i(lk->stream_hz); out_end();
-    } else if (idx == 10 /* CAL */) {
-        return cmd_cal(lk, c);
-    } else if (idx == 11 /* DEFAULTS */) {
-        lk_cal_t cal[LK_CHANNELS];
-        uint16_t timeout_ms;
-        NOTBUSY();
-        default_cal(cal, &timeout_ms);
-        if (!positions_valid(lk, c, cal)) return 0;
-        memcpy(lk->cal, cal, sizeof cal);
-        lk->timeout_ms = timeout_ms;
-        update_pulses(lk);
-        ok_begin(c->seq, LK_P("DEFAULTS")); out_end();
-    } else if (idx == 12 /* SAVE */) {
-        uint16_t n;
-        NOTBUSY();
-        n = lk_ee_save(lk);
-        if (!n) { err_msg(c->seq, LK_E_EEPROM, LK_P("read-back")); return 0; }
-        ok_begin(c->seq, LK_P("SAVE")); out_sp_i(n); out_end();
-    } else { /* 13: LIMITS j [vmax amax] */
-        if (a[0] < 0 || a[0] >= LK_JOINTS) { err_msg(c->seq, LK_E_RANGE, LK_P("joint")); return 0; }
-        j = (uint8_t)a[0];
-        if (c->argc == 3) {
-            if (a[1] < 0 || (uint32_t)a[1] > LK_VMAX_MAX || a[2] < 0 || (uint32_t)a[2] > LK_AMAX_MAX) {
-                err_msg(c->seq, LK_E_RANGE, LK_P("limits")); return 0;
-            }
-            NOTBUSY();
-            lk->vmax[j] = (uint32_t)a[1]; lk->amax[j] = (uint32_t)a[2];
-        }
-        ok_begin(c->seq, LK_P("LIMITS")); out_sp_i(j); out_sp_i((int32_t)lk->vmax[j]); out_sp_i((int32_t)lk->amax[j]); out_end();
-    }
+    ok_head(c); out_sp_i(j); out_sp_i((int32_t)lk->vmax[j]); out_sp_i((int32_t)lk->amax[j]); out_end();
     return 1;
-#undef NOTBUSY
+}
+
+/* The command table (docs/protocol.md section 4), in program memory: one entry per command, found by its name.
+   args: the argument counts it accepts, bit n for n arguments (LK_ARGS_OWN: the handler checks them);
+   read_only: may be sent without #seq and CRC (every other command must be sealed, and its OK carries p=);
+   run: answers OK (returns 1: accepted) or ERR (returns 0); called only with an accepted argument count. */
+typedef uint8_t (*lk_handler_t)(lk_t *lk, call_t *c);
+typedef struct {
+    char name[9]; /* upper case, NUL-terminated */
+    uint8_t args;
+    uint8_t read_only;
+    lk_handler_t run;
+} lk_command_t;
+#define LK_ARGS(n) (1u << (n))
+#define LK_ARGS_OWN 0xFF
+typedef char lk_args_fit[LK_JOINTS + 1 <= 7 ? 1 : -1]; /* MOVE's argument count fits the 8-bit mask */
+
+static const lk_command_t commands[] LK_FLASH = {
+    {"HELLO", LK_ARGS(0), 1, cmd_hello},
+    {"PING", LK_ARGS(0), 1, cmd_ping},
+    {"STATUS", LK_ARGS(0), 1, cmd_status},
+    {"MOVE", LK_ARGS(LK_JOINTS + 1), 0, cmd_move},
+    {"GRIP", LK_ARGS(1), 0, cmd_grip},
+    {"SEG", LK_ARGS_OWN, 0, cmd_seg},
+    {"STOP", LK_ARGS(0), 0, cmd_stop},
+    {"TIMEOUT", LK_ARGS(0) | LK_ARGS(1), 0, cmd_timeout},
+    {"READ", LK_ARGS(0), 1, cmd_read},
+    {"STREAM", LK_ARGS(1), 0, cmd_stream},
+    {"CAL", LK_ARGS(1) | LK_ARGS(7), 0, cmd_cal},
+    {"DEFAULTS", LK_ARGS(0), 0, cmd_defaults},
+    {"SAVE", LK_ARGS(0), 0, cmd_save},
+    {"LIMITS", LK_ARGS(1) | LK_ARGS(3), 0, cmd_limits},
+};
+#define LK_COMMANDS (sizeof commands / sizeof commands[0])
+
+#ifdef __AVR__
+#define LK_RD_HANDLER(p) ((lk_handler_t)pgm_read_word(p)) /* a function pointer is one word on the ATmega328P */
+#else
+#define LK_RD_HANDLER(p) (*(p))
+#endif
+
+/* the table entry named tok (any case), or 0 */
+static const lk_command_t *find_command(const char *tok) {
+    const lk_command_t *e;
+    for (e = commands; e < commands + LK_COMMANDS; e++)
+        if (name_is(tok, e->name)) return e;
+    return 0;
+}
+
+/* run the command of entry e on request c: ERR 2 SYNTAX arguments for a count it does not accept (or a malformed
+   number, argc 0xFF), else its handler; 1 if accepted */
+static uint8_t dispatch(lk_t *lk, const lk_command_t *e, call_t *c) {
+    uint8_t allowed = (uint8_t)pgm_byte(&e->args);
+    if (c->argc == 0xFF || (allowed != LK_ARGS_OWN && (c->argc > 7 || !((allowed >> c->argc) & 1))))
+        return reject(c, LK_E_SYNTAX, s_arguments);
+    return LK_RD_HANDLER(&e->run)(lk, c);
 }
 
 /* CRC of a valid integer token as the board would write it (no '+', no leading zeros, no "-0") */
@@ -741,16 +804,13 @@ static uint16_t crc_canonical(uint16_t crc, const char *t) {
     return crc;
 }
 
-/* HELLO, PING, STATUS and READ (bit set) may be sent without #seq and CRC; every other command must be sealed */
-#define LK_READ_ONLY ((1u << 0) | (1u << 1) | (1u << 2) | (1u << 8))
-
 void lk_exec(lk_t *lk, char *line, uint8_t len) {
     char *p = line, *end = line + len, *star = 0, *r, *cmd, *tok;
     const char *name;
+    const lk_command_t *e;
     int32_t args[LK_MAXARGS];
     call_t c;
-    int8_t idx;
-    uint8_t sealed = 0, i;
+    uint8_t sealed = 0, read_only, i;
     uint16_t echo = 0xFFFF;
     char ch;
     line[len] = 0;
@@ -791,11 +851,13 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         cmd = next_token(&p);
     }
     if (!cmd) { err_msg(c.seq, LK_E_SYNTAX, LK_P("command")); return; }
-    idx = command_index(cmd, &name);
-    if (idx < 0) { err_msg(c.seq, LK_E_UNKNOWN, 0); return; }
-    if (!((LK_READ_ONLY >> idx) & 1) && (!sealed || c.seq < 0)) {
+    e = find_command(cmd);
+    if (!e) { err_msg(c.seq, LK_E_UNKNOWN, 0); return; }
+    read_only = (uint8_t)pgm_byte(&e->read_only);
+    if (!read_only && (!sealed || c.seq < 0)) {
         err_msg(-1, LK_E_BADCHK, LK_P("unsealed")); return;
     }
+    c.name = name = e->name;
     /* echo: CRC of what was parsed, "NAME a0 a1 ..." with the integers written canonically */
     while ((ch = LK_RD(name++)) != 0) echo = crc_step(echo, (uint8_t)ch);
     while ((tok = next_token(&p)) != 0) {
@@ -804,8 +866,8 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         c.argc++;
         echo = crc_canonical(crc_step(echo, ' '), tok);
     }
-    if (!((LK_READ_ONLY >> idx) & 1)) { g_echo = echo; g_echo_on = 1; }
-    if (dispatch(lk, idx, &c)) {
+    if (!read_only) { g_echo = echo; g_echo_on = 1; }
+    if (dispatch(lk, e, &c)) {
         lk->last_accept_ms = lk->now_ms;
         if (g_echo_on) lk->last_seq = (uint16_t)c.seq;
     }

@@ -24,8 +24,8 @@ from __future__ import annotations
 import time
 
 from serial import serialposix
-from serial.serialutil import SerialException
 
+from labkit.arm._port_errors import PortError
 from labkit.exceptions import OptionError
 
 __all__ = ["CLOCKS", "SimavrPort"]
@@ -156,7 +156,7 @@ class SimavrPort(serialposix.Serial):
         finally:
             self._timeout = timeout
         if len(data) < size:
-            raise SerialException(f"{self.portstr}: {size - len(data)} of the simulator's bytes did not "
+            raise PortError(f"{self.portstr}: {size - len(data)} of the simulator's bytes did not "
                                   f"arrive through the pty within {_TRANSIT_S:g} s")
         self._bytes_read += len(data)
         return data
@@ -206,7 +206,7 @@ class SimavrPort(serialposix.Serial):
         try:
             self.sim.advance(seconds, until_line=True)
         except Exception as exc:  # DeviceError of a failed simulator: a failing port to pyserial users
-            raise SerialException(f"{self.portstr}: {exc}") from exc
+            raise PortError(f"{self.portstr}: {exc}") from exc
 
     def write(self, data):
         """Write ``data`` to the pty (lockstep: counted, so the next wait first delivers it).

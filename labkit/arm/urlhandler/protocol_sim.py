@@ -36,7 +36,9 @@ import math
 import time
 import urllib.parse
 
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
+from serial.serialutil import SerialBase, to_bytes
+
+from labkit.arm._port_errors import PortClosedError, PortError, PortURLError
 
 CLOCKS = ("realtime", "lockstep")
 
@@ -70,14 +72,15 @@ def parse_url(url):
 
     Raises
     ------
-    serial.SerialException
-        For another scheme or an unknown option (the message lists the valid ones).
+    PortURLError
+        For another scheme, an unknown option (the message lists the valid ones) or a malformed value;
+        also a ``serial.SerialException``.
     """
     from labkit.arm.board import PhysicsConfig
 
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "sim":
-        raise SerialException(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
+        raise PortURLError(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
     robot = urllib.parse.unquote(parts.netloc + parts.path) or "arduino_arm_3dof"
     fields = {f.name: f for f in dataclasses.fields(PhysicsConfig)}
     physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6, "calibrated": False}
@@ -88,23 +91,26 @@ def parse_url(url):
                 physics[key] = _parse_value(fields[key], value)
             elif key == "clock":
                 if value not in CLOCKS:
-                    raise SerialException(f"{url}: expected clock one of {', '.join(CLOCKS)}, got {value!r}")
+                    raise PortURLError(f"{url}: expected clock one of {', '.join(CLOCKS)}, got {value!r}")
                 options["clock"] = value
             elif key == "time_scale":
                 options["time_scale"] = float(value)
                 if not options["time_scale"] > 0:
-                    raise SerialException(f"{url}: expected time_scale > 0, got {value}")
+                    raise PortURLError(f"{url}: expected time_scale > 0, got {value}")
             elif key == "queue":
                 options["queue"] = int(value)
             elif key == "calibrated":
                 if value not in ("0", "1"):
-                    raise SerialException(f"{url}: expected calibrated=0 or 1, got {value!r}")
+                    raise PortURLError(f"{url}: expected calibrated=0 or 1, got {value!r}")
                 options["calibrated"] = value == "1"
             else:
                 valid = ", ".join(["clock", "time_scale", "queue", "calibrated", *fields])
-                raise SerialException(f"{url}: unknown option {key!r}; valid options: {valid}")
+                raise PortURLError(f"{url}: unknown option {key!r}; valid options: {valid}")
+        except PortURLError:  # an OptionError, hence a ValueError: already says what is wrong
+            raise
         except ValueError as exc:  # a malformed number
-            raise SerialException(f"{url}: option {key!r}: {exc}") from None
+            kind = "an integer" if key in ("seed", "queue") else "numbers" if "," in value else "a number"
+            raise PortURLError(f"{url}: option {key!r}: expected {kind}, got {value!r} ({exc})") from None
     return robot, physics, options
 
 
@@ -124,15 +130,17 @@ class Serial(SerialBase):
         from labkit.arm.board import PhysicsConfig, VirtualBoard
 
         if self.is_open:
-            raise SerialException("Port is already open.")
+            raise PortError(f"{self._port}: expected a closed port to open, got one already open")
         if self._port is None:
-            raise SerialException("Port must be configured before it can be used.")
+            raise PortError("expected a sim:// URL as the port to open, got none (port=None)")
         robot, physics, options = parse_url(self.port)
         try:
             config = PhysicsConfig(**physics)
             self.board = VirtualBoard(robot, config, queue=options["queue"], saved_calibration=options["calibrated"])
-        except (ValueError, OSError) as exc:
-            raise SerialException(f"{self.port}: {exc}") from None
+        except ValueError as exc:  # a robot or physics value the URL gives
+            raise PortURLError(f"{self.port}: {exc}") from None
+        except OSError as exc:  # a robot file that cannot be read
+            raise PortError(f"{self.port}: {exc}") from None
         self._clock = options["clock"]
         self._scale = options["time_scale"]
         self._t0 = time.monotonic()
@@ -215,7 +223,7 @@ class Serial(SerialBase):
 
     def _check_open(self):
         if not self.is_open or self.board is None:
-            raise PortNotOpenError()
+            raise PortClosedError(self.port)
 
     # -- data ----------------------------------------------------------------------------
     @property
@@ -250,7 +258,9 @@ class Serial(SerialBase):
                     break
                 nxt = min(board.next_event_time(), limit)
                 if math.isinf(nxt):
-                    raise SerialException("sim:// lockstep read without timeout would block forever")
+                    raise PortError(f"{self.port}: expected a read timeout with clock=lockstep (board time passes "
+                                    f"only while the host waits), got timeout=None and nothing to read: "
+                                    f"the read would block forever")
                 board.advance_to(nxt)
             return bytes(data)
         deadline = None if timeout is None else time.monotonic() + timeout

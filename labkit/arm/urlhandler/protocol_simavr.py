@@ -52,9 +52,8 @@ from __future__ import annotations
 
 import urllib.parse
 
-from serial.serialutil import SerialException
-
 from labkit.arm.simavr import CLOCKS, FirmwareSim, SimavrPort
+from labkit.arm._port_errors import PortError, PortURLError
 
 SCHEME = "simavr://"
 
@@ -81,37 +80,38 @@ def parse_url(url):
 
     Raises
     ------
-    serial.SerialException
-        For another scheme or unknown/malformed options.
+    labkit.arm.urlhandler.protocol_sim.PortURLError
+        For another scheme or unknown/malformed options (a :class:`labkit.exceptions.OptionError`
+        that is also a ``serial.SerialException``).
     """
     if not url.lower().startswith(SCHEME):
-        raise SerialException(f"expected a URL starting with {SCHEME!r}, got {url!r}")
+        raise PortURLError(f"expected a URL starting with {SCHEME!r}, got {url!r}")
     rest = url[len(SCHEME):]
     path, _, query = rest.partition("?")
     options = dict(_DEFAULTS)
     for key, values in urllib.parse.parse_qs(query, keep_blank_values=True).items():
         if key not in options:
-            raise SerialException(f"unknown option {key!r} in {url!r}; valid options: {sorted(options)}")
+            raise PortURLError(f"unknown option {key!r} in {url!r}; valid options: {sorted(options)}")
         value = values[-1]
         if key == "physics":
             options[key] = {"0": "", "1": "arduino_arm_3dof"}.get(value, value)
             continue
         if key == "clock":
             if value not in CLOCKS:
-                raise SerialException(f"option 'clock' in {url!r} must be one of {', '.join(CLOCKS)}, got {value!r}")
+                raise PortURLError(f"option 'clock' in {url!r} must be one of {', '.join(CLOCKS)}, got {value!r}")
             options[key] = value
             continue
         try:
             options[key] = int(value) if key == "seed" else float(value)
         except ValueError:
             kind = "an integer" if key == "seed" else "a number"
-            raise SerialException(f"option {key!r} in {url!r} must be {kind}, got {value!r}") from None
+            raise PortURLError(f"option {key!r} in {url!r} must be {kind}, got {value!r}") from None
     if options["pace"] < 0:
-        raise SerialException(f"option 'pace' in {url!r} must be >= 0, got {options['pace']:g}")
+        raise PortURLError(f"option 'pace' in {url!r} must be >= 0, got {options['pace']:g}")
     if not options["clock"]:
         options["clock"] = "lockstep" if options["pace"] == 0 else "realtime"
     elif options["clock"] == "lockstep" and options["pace"] > 0:
-        raise SerialException(f"{url!r}: clock=lockstep runs the simulator only while the host waits, "
+        raise PortURLError(f"{url!r}: clock=lockstep runs the simulator only while the host waits, "
                               f"it cannot also be paced (pace={options['pace']:g}); use pace=0 or clock=realtime")
     return (urllib.parse.unquote(path) or None), options
 
@@ -131,13 +131,14 @@ class Serial(SimavrPort):
 
             try:
                 self.physics = FirmwareAdapter(options["physics"], PhysicsConfig(seed=options["seed"]))
-            except Exception as exc:
-                raise SerialException(f"could not set up the arm model for {url!r}: {exc}") from exc
+            except Exception as exc:  # a ValueError: the robot or physics the URL names
+                error = PortURLError if isinstance(exc, ValueError) else PortError
+                raise error(f"could not set up the arm model for {url!r}: {exc}") from exc
             on_tick = self.physics.on_tick
         try:
             self.sim = FirmwareSim(elf, pace=options["pace"], tick_period=options["tick"], on_tick=on_tick)
         except Exception as exc:
-            raise SerialException(f"could not start the firmware simulator for {url!r}: {exc}") from exc
+            raise PortError(f"could not start the firmware simulator for {url!r}: {exc}") from exc
         self._clock = options["clock"]
         self._port = self.portstr = self.sim.port
         try:
