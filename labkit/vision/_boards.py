@@ -97,10 +97,13 @@ class Checkerboard:
         """
         import cv2
 
-        ok, corners = cv2.findChessboardCornersSB(image, (self.columns, self.rows),
-                                                  flags=cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)
+        small = cv2.resize(image, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+        ok, corners = cv2.findChessboardCorners(small, (self.columns, self.rows),
+                                                flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
         if not ok:
             return None, None
+        corners = cv2.cornerSubPix(image, (corners * 2 + 0.5).astype(np.float32), (5, 5), (-1, -1),
+                                   (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-3))
         return self.object_points(), corners.reshape(-1, 2).astype(float)
 
 

@@ -76,7 +76,7 @@ def _fit(obj, img, size, flags):
     return float(rms), K, D, rvecs, tvecs, np.array(per)
 
 
-def calibrate_camera(images, board, *, image_size=None, flags=0, flag_factor=2.5, flag_floor=0.5,
+def calibrate_camera(images, board, *, image_size=None, flags=0, flag_factor=2.5, flag_floor=0.2,
                      drop_flagged=True, name=""):
     """Intrinsics and distortion from images of a calibration board.
 
