@@ -12,7 +12,7 @@ from labkit.vision._errors import (
     CalibrationImageError,
     HandEyeWarning,
 )
-from labkit.vision._camera import Camera
+from labkit.vision._camera import Camera, CameraCalibration, calibrate_camera
 from labkit.vision._families import FAMILIES, MarkerFamily, family_info, marker_texture
 from labkit.vision._markers import MarkerDetection, marker_poses, detect_markers, marker_corners
 from labkit.vision._boards import Checkerboard, CharucoBoard
@@ -20,8 +20,8 @@ from labkit.vision._render import Plane
 from labkit.vision._virtual import VirtualCamera
 from labkit.vision._locate import CameraLocation, locate_camera
 from labkit.vision._rig import CameraRig, look_at, face_marker
-from labkit.vision._calibrate import CameraCalibration, calibrate_camera
 from labkit.vision._handeye import HandEyeResult, hand_eye, rotation_spread
+from labkit.vision._sheets import marker_sheet, board_sheet
 from labkit.vision._session import CameraSession, VideoSource, FolderSource, tool_point_in_base
 
 __all__ = [
@@ -54,6 +54,8 @@ __all__ = [
     "HandEyeResult",
     "hand_eye",
     "rotation_spread",
+    "marker_sheet",
+    "board_sheet",
     "CameraSession",
     "VideoSource",
     "FolderSource",

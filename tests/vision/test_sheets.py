@@ -1,0 +1,25 @@
+"""Printable sheets are PDFs at true size; the CLI writes them."""
+
+import re
+
+from labkit.cli import main
+from labkit.vision import CharucoBoard, board_sheet
+
+
+def _page_size_pt(pdf_bytes):
+    m = re.search(rb"/MediaBox \[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf_bytes)
+    return float(m.group(1)), float(m.group(2))
+
+
+def test_marker_sheet_from_the_cli_is_an_a4_pdf(tmp_path):
+    out = tmp_path / "markers.pdf"
+    assert main(["vision", "marker", "0", "1", "--size", "40", "-o", str(out)]) == 0
+    data = out.read_bytes()
+    assert data.startswith(b"%PDF")
+    w, h = _page_size_pt(data)
+    assert abs(w / 72 * 25.4 - 210) < 0.5 and abs(h / 72 * 25.4 - 297) < 0.5
+
+
+def test_a_board_too_big_for_the_paper_is_refused(tmp_path):
+    assert main(["vision", "board", "--columns", "12", "--square", "30", "-o", str(tmp_path / "b.pdf")]) == 2
+    assert board_sheet(tmp_path / "ok.pdf", CharucoBoard(5, 4, 0.03, 0.022)).exists()
