@@ -39,6 +39,8 @@ DEFAULT_CORNER_SIGMA = 0.1
 #: a pose is ambiguous when the second IPPE solution's reprojection error is below this many times the first's
 AMBIGUITY_RATIO = 3.0
 _ON_AMBIGUOUS = ("raise", "keep")
+_PROFILE_SAMPLES = 25
+_EDGE_FRACTIONS = np.linspace(0.12, 0.88, 24)
 
 
 def marker_corners(size):
@@ -156,7 +158,8 @@ def _detector(family):
     import cv2
 
     params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE  # the edges are refined by _refine_edges
+    params.adaptiveThreshWinSizeMin, params.adaptiveThreshWinSizeMax, params.adaptiveThreshWinSizeStep = 5, 25, 20
     return cv2.aruco.ArucoDetector(dictionary(family), params)
 
 
@@ -171,48 +174,51 @@ def _refine_edges(gray, quad, bits, camera):
     import cv2
 
     quad = np.asarray(quad, dtype=float)
-    side = float(np.mean(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)))
+    ends = np.roll(quad, -1, axis=0)
+    side = float(np.mean(np.linalg.norm(ends - quad, axis=1)))
     half = float(np.clip(0.45 * side / (bits + 2), 1.5, 4.0))
-    steps = np.linspace(-half, half, 25)
-    ts = np.linspace(0.12, 0.88, 24)
-    centre = quad.mean(axis=0)
-    lines = []
+    steps = np.linspace(-half, half, _PROFILE_SAMPLES)
+    d = (ends - quad) / np.linalg.norm(ends - quad, axis=1, keepdims=True)
+    n = np.column_stack([-d[:, 1], d[:, 0]])
+    outward = np.sum(n * (quad - quad.mean(axis=0)), axis=1) < 0
+    n[outward] *= -1  # from the black border to the white quiet zone
+    base = quad[:, None, :] + _EDGE_FRACTIONS[None, :, None] * (ends - quad)[:, None, :]  # (4, m, 2)
+    pts = base[:, :, None, :] + steps[None, None, :, None] * n[:, None, None, :]  # (4, m, s, 2)
+    flat = pts.reshape(-1, _PROFILE_SAMPLES, 2).astype(np.float32)
+    prof = cv2.remap(gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    lo = prof[:, :4].mean(axis=1, keepdims=True)
+    hi = prof[:, -4:].mean(axis=1, keepdims=True)
+    mid = (lo + hi) / 2
+    above = prof >= mid
+    idx = np.argmax(above, axis=1)
+    good = (hi[:, 0] - lo[:, 0] > 10) & (idx > 0)
+    rows = np.arange(len(prof))
+    i = np.maximum(idx, 1)
+    p0, p1 = prof[rows, i - 1], prof[rows, i]
+    frac = (mid[:, 0] - p0) / np.maximum(p1 - p0, 1e-6)
+    off = steps[i - 1] + frac * (steps[1] - steps[0])
+    edge = base.reshape(-1, 2) + off[:, None] * np.repeat(n, len(_EDGE_FRACTIONS), axis=0)
+    good = good.reshape(4, -1)
+    if np.any(good.sum(axis=1) < 6):
+        return quad
+    xy = (edge if camera is None else camera.undistort_points(edge)).reshape(4, -1, 2)
+    lines = np.empty((4, 3))
     for k in range(4):
-        a, b = quad[k], quad[(k + 1) % 4]
-        d = (b - a) / np.linalg.norm(b - a)
-        n = np.array([-d[1], d[0]])
-        if n @ (a - centre) < 0:
-            n = -n  # outward: from the black border to the white quiet zone
-        base = a[None, :] + ts[:, None] * (b - a)[None, :]
-        pts = base[:, None, :] + steps[None, :, None] * n[None, None, :]
-        prof = cv2.remap(gray, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32), cv2.INTER_LINEAR,
-                         borderMode=cv2.BORDER_REPLICATE)
-        lo = prof[:, :4].mean(axis=1, keepdims=True)
-        hi = prof[:, -4:].mean(axis=1, keepdims=True)
-        mid = (lo + hi) / 2
-        above = prof >= mid
-        idx = np.argmax(above, axis=1)
-        good = (hi[:, 0] - lo[:, 0] > 10) & (idx > 0) & above.any(axis=1)
-        if good.sum() < 6:
-            return quad
-        rows = np.nonzero(good)[0]
-        i = idx[rows]
-        p0, p1 = prof[rows, i - 1], prof[rows, i]
-        frac = (mid[rows, 0] - p0) / np.maximum(p1 - p0, 1e-6)
-        off = steps[i - 1] + frac * (steps[1] - steps[0])
-        edge = base[rows] + off[:, None] * n[None, :]
-        xy = edge if camera is None else camera.undistort_points(edge)
-        mean = xy.mean(axis=0)
-        _, _, vt = np.linalg.svd(xy - mean)
-        normal = vt[1]
-        lines.append(np.array([normal[0], normal[1], -normal @ mean]))
-    corners = []
-    for k in range(4):
-        p = np.cross(lines[(k - 1) % 4], lines[k])
-        if abs(p[2]) < 1e-12:
-            return quad
-        corners.append([p[0] / p[2], p[1] / p[2], 1.0])
-    corners = np.array(corners)
+        sel = xy[k][good[k]]
+        mean = sel.mean(axis=0)
+        c = np.cov(sel.T)
+        # normal of the fitted line: the eigenvector of the smaller eigenvalue of the 2x2 scatter
+        lam = 0.5 * (c[0, 0] + c[1, 1]) - np.sqrt(0.25 * (c[0, 0] - c[1, 1]) ** 2 + c[0, 1] ** 2)
+        normal = np.array([c[0, 1], lam - c[0, 0]]) if abs(c[0, 1]) > 1e-300 else (
+            np.array([1.0, 0.0]) if c[0, 0] < c[1, 1] else np.array([0.0, 1.0]))
+        normal /= np.hypot(normal[0], normal[1])
+        lines[k] = normal[0], normal[1], -(normal @ mean)
+    a, b = np.roll(lines, 1, axis=0), lines
+    corners = np.column_stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                               a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]])
+    if np.any(np.abs(corners[:, 2]) < 1e-12):
+        return quad
+    corners = corners / corners[:, 2:]
     return corners[:, :2] if camera is None else camera.project(corners)
 
 

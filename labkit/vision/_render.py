@@ -11,6 +11,7 @@ are applied to the whole frame by :func:`expose`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -168,11 +169,22 @@ def expose(canvas, *, gain=0.85, offset=0.05, gradient=(0.0, 0.0), blur=0.0, noi
 
     h, w = canvas.shape
     gx, gy = gradient
-    light = 1.0 + gx * (np.arange(w, dtype=np.float32)[None, :] / w - 0.5) + gy * (
-        np.arange(h, dtype=np.float32)[:, None] / h - 0.5)
-    img = (offset + gain * light * canvas) * 255.0
-    img = _blurred(img.astype(np.float32), blur)
+    light = _light(h, w, float(gx), float(gy)) * np.float32(gain * 255.0)
+    img = cv2.multiply(np.ascontiguousarray(canvas, dtype=np.float32), light)
+    img += np.float32(offset * 255.0)
+    img = _blurred(img, blur)
     if noise > 0:
         rng = np.random.default_rng() if rng is None else rng
         img += np.float32(noise) * rng.standard_normal(img.shape, dtype=np.float32)
-    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    img += np.float32(0.5)
+    np.clip(img, 0.0, 255.0, out=img)
+    return img.astype(np.uint8)
+
+
+@functools.lru_cache(maxsize=8)
+def _light(h, w, gx, gy):
+    light = 1.0 + gx * (np.arange(w, dtype=np.float32)[None, :] / w - 0.5) + gy * (
+        np.arange(h, dtype=np.float32)[:, None] / h - 0.5)
+    light = np.ascontiguousarray(np.broadcast_to(light, (h, w)), dtype=np.float32)
+    light.flags.writeable = False
+    return light
