@@ -54,7 +54,7 @@ FAMILIES = {f.name: f for f in (
 )}
 
 #: white quiet zone printed around a marker [bits]
-QUIET_ZONE_BITS = 1
+QUIET_ZONE_BITS = 2
 
 
 def family_info(family):

@@ -35,7 +35,7 @@ __all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners"
            "AMBIGUITY_RATIO"]
 
 #: a-priori standard deviation of a refined corner [px] (the floor of the noise model)
-DEFAULT_CORNER_SIGMA = 0.1
+DEFAULT_CORNER_SIGMA = 0.15
 #: a pose is ambiguous when the second IPPE solution's reprojection error is below this many times the first's
 AMBIGUITY_RATIO = 3.0
 _ON_AMBIGUOUS = ("raise", "keep")

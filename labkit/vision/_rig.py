@@ -5,12 +5,13 @@ Examples
 --------
 >>> rig = CameraRig.around("arduino_arm_3dof")
 >>> sorted(rig.tool_markers), sorted(rig.base_markers)
-([1, 2], [10, 11, 12, 13])
+([1, 2, 3, 4, 5], [10, 11, 12, 13])
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -103,13 +104,14 @@ class CameraRig:
     family: str = "tag36h11"
 
     @classmethod
-    def around(cls, robot, *, camera=None, marker_size=0.04, reference_size=0.06, standoff=None,
+    def around(cls, robot, *, camera=None, marker_size=None, reference_size=None, standoff=None,
                distance_factor=1.25, seed=0):
         """A default rig for an arm: the camera above and to the side of the workspace.
 
-        Two markers on the gripper face the tool's -z and -y axes (``standoff`` from the
-        tool point, on a small block); four reference markers lie on a sheet below the
-        workspace, facing up. The camera is placed along the base's +y and up, far enough
+        Five markers on the gripper sit on the faces of a cube around the tool point
+        (ids 1-5 facing the tool's -z, -y, +z, +y and +x axes; ``standoff`` from the tool
+        point), so one faces the camera in most orientations; four reference markers
+        (ids 10-13) lie on a sheet below the workspace, facing up. The camera is placed along the base's +y and up, far enough
         for the sampled workspace to fit its vertical field of view.
 
         Parameters
@@ -117,11 +119,13 @@ class CameraRig:
         robot : Robot or str
         camera : Camera, optional
             Default: a 1280x960 camera with f = 1000 px and a little barrel distortion.
-        marker_size, reference_size : float
-            Sides of the gripper's and the reference markers' black squares [m].
+        marker_size, reference_size : float, optional
+            Sides of the gripper's and the reference markers' black squares [m]; default:
+            a gripper tag that spans at least 80 px at the camera's distance (40 mm or more,
+            in steps of 5 mm), reference tags 1.5 times larger.
         standoff : float, optional
             Distance of the gripper markers from the tool point [m] (default: half the
-            printed side, so the two markers are faces of one cube around the tool point).
+            printed side, so the markers are the faces of one cube around the tool point).
         distance_factor : float
             Margin on the camera distance (1 = the workspace just fits).
         seed : int
@@ -132,8 +136,6 @@ class CameraRig:
         CameraRig
         """
         robot = Robot.load(robot)
-        if standoff is None:
-            standoff = texture_extent("tag36h11", marker_size) / 2
         if camera is None:
             camera = Camera.pinhole(1000.0, (1280, 960), distortion=[-0.08, 0.05, 0.0, 0.0, 0.0], name="virtual webcam")
         lim = robot.joint_limits
@@ -149,6 +151,12 @@ class CameraRig:
         fov_v = camera.field_of_view()[1]
         dist = distance_factor * radius / np.tan(fov_v / 2)
         eye = centre + dist * direction
+        if marker_size is None:
+            marker_size = max(0.04, math.ceil(80.0 * dist / camera.focal[0] / 0.005) * 0.005)
+        if reference_size is None:
+            reference_size = 1.5 * marker_size
+        if standoff is None:
+            standoff = texture_extent("tag36h11", marker_size) / 2
         base_from_camera = look_at(eye, centre, up)
         low = float(np.min(pts @ up)) - 0.02
         sheet = centre - (centre @ up) * up + low * up
@@ -156,12 +164,12 @@ class CameraRig:
         y_axis = np.cross(up, x_axis / np.linalg.norm(x_axis))
         base_markers = {}
         for k, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
-            c = sheet + 0.1 * (sx * x_axis / np.linalg.norm(x_axis) + sy * y_axis)
+            c = sheet + max(0.1, 1.2 * texture_extent("tag36h11", reference_size)) * (sx * x_axis / np.linalg.norm(x_axis) + sy * y_axis)
             base_markers[10 + k] = face_marker(up, x_axis, c)
-        tool_markers = {
-            1: face_marker([0, 0, -1], [1, 0, 0], [0, 0, -standoff]),
-            2: face_marker([0, -1, 0], [1, 0, 0], [0, -standoff, 0]),
-        }
+        # a cube around the tool point, a tag on each face but the one towards the arm (-x)
+        faces = {1: ([0, 0, -1], [1, 0, 0]), 2: ([0, -1, 0], [1, 0, 0]), 3: ([0, 0, 1], [1, 0, 0]),
+                 4: ([0, 1, 0], [1, 0, 0]), 5: ([1, 0, 0], [0, 1, 0])}
+        tool_markers = {k: face_marker(n, a, standoff * np.asarray(n, float)) for k, (n, a) in faces.items()}
         size = {**{k: float(marker_size) for k in tool_markers}, **{k: float(reference_size) for k in base_markers}}
         return cls(camera, base_from_camera, tool_markers, base_markers, size)
 

@@ -168,7 +168,6 @@ def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0,
     WrongMarkerError
         None of the gripper's markers was seen with a clear pose.
     """
-    R = location.base_from_camera[:3, :3]
     estimates = []
     for d in detections:
         if d.id not in tool_markers or d.ambiguous:
@@ -185,7 +184,6 @@ def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0,
     cov_cam = np.linalg.inv(info)
     p_cam = cov_cam @ sum(np.linalg.inv(c) @ p for _, p, c in estimates)
     p_base, cov_base = location.to_base(p_cam, cov_cam)
-    del R
     return p_base, cov_base, [i for i, _, _ in estimates]
 
 

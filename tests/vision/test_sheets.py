@@ -23,3 +23,21 @@ def test_marker_sheet_from_the_cli_is_an_a4_pdf(tmp_path):
 def test_a_board_too_big_for_the_paper_is_refused(tmp_path):
     assert main(["vision", "board", "--columns", "12", "--square", "30", "-o", str(tmp_path / "b.pdf")]) == 2
     assert board_sheet(tmp_path / "ok.pdf", CharucoBoard(5, 4, 0.03, 0.022)).exists()
+
+
+def test_cli_detect_prints_the_pose_of_a_rendered_marker(tmp_path, capsys):
+    import cv2
+    import numpy as np
+
+    from labkit.vision import Camera, VirtualCamera
+
+    cam = Camera.pinhole(900.0, (640, 480))
+    cam.save(tmp_path / "cam.toml")
+    pose = np.eye(4)
+    pose[:3, :3] = [[1, 0, 0], [0, -0.866, -0.5], [0, 0.5, -0.866]]
+    pose[:3, 3] = [0.02, -0.01, 0.45]
+    cv2.imwrite(str(tmp_path / "shot.png"), VirtualCamera(cam, noise=1.0).render_markers({4: pose}, size=0.05))
+    assert main(["vision", "detect", str(tmp_path / "shot.png"), "--camera", str(tmp_path / "cam.toml"),
+                 "--size", "50"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("id 4: position [20.0, -10.0, 450.0] mm")
