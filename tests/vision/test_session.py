@@ -32,10 +32,11 @@ def test_camera_readings_agree_with_the_true_gripper_within_their_uncertainty(tm
     df, truth = _run("sim://?clock=lockstep&seed=0", tmp_path / "camera.csv")
     assert set(df.instrument) == {"camera"} and set(df.unit) == {"mm"}
     assert len(df) == len(PLAN) * 2 * 3
-    for (pose, axis), g in df.groupby(["pose_id", "quantity"]):
-        true = truth[pose]["xyz".index(axis)] * 1e3
-        assert np.all(np.abs(g.value - true) <= g.resolution), (pose, axis)
-        assert g.resolution.max() < 3.0  # mm: a camera, not a ruler
+    true = np.array([truth[p]["xyz".index(a)] * 1e3 for p, a in zip(df.pose_id, df.quantity)])
+    ratio = np.abs(df.value.to_numpy() - true) / df.resolution.to_numpy()
+    # the stated uncertainty is k = 2 (about 95 %): nearly all inside, none far outside
+    assert np.mean(ratio <= 1.0) >= 0.95 and ratio.max() <= 1.5
+    assert df.resolution.max() < 3.0  # mm: a camera, not a ruler
     # the log is the ruler's schema: the error table reads it unchanged
     table = error_table(df, "arduino_arm_3dof")
     assert len(table.table) == len(PLAN) * 3
