@@ -9,7 +9,8 @@ Two set-ups:
   ``tool_from_camera`` and ``base_from_marker``;
   ``base_from_tool[i] @ tool_from_camera @ camera_from_marker[i] = base_from_marker``.
 
-OpenCV's solver (``cv2.calibrateHandEye``, Park's method) gives the start,
+OpenCV's solvers (``cv2.calibrateHandEye``, Park's method by default, or
+``cv2.calibrateRobotWorldHandEye``, Shah's or Li's) give the start,
 a least-squares fit over both unknowns refines it, and every view gets its
 residual and a leave-one-out error (the view's marker position predicted by a
 fit without it). Views are paired **by pose id**, never by position in a list,
@@ -28,9 +29,16 @@ import numpy as np
 from labkit.exceptions import OptionError, ShapeError
 from labkit.vision._errors import HandEyeWarning, VisionError
 
-__all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "MIN_ROTATION_SPREAD"]
+__all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "METHODS", "MIN_ROTATION_SPREAD"]
 
 SETUPS = ("eye_to_hand", "eye_in_hand")
+#: starting solvers: OpenCV's hand-eye methods (``cv2.calibrateHandEye``) and its robot-world/hand-eye
+#: methods (``cv2.calibrateRobotWorldHandEye``, both unknowns at once)
+METHODS = {"park": ("hand_eye", "CALIB_HAND_EYE_PARK"), "tsai": ("hand_eye", "CALIB_HAND_EYE_TSAI"),
+           "horaud": ("hand_eye", "CALIB_HAND_EYE_HORAUD"), "andreff": ("hand_eye", "CALIB_HAND_EYE_ANDREFF"),
+           "daniilidis": ("hand_eye", "CALIB_HAND_EYE_DANIILIDIS"),
+           "shah": ("robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_SHAH"),
+           "li": ("robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_LI")}
 #: the second principal spread of the tool orientations below which hand_eye warns [rad]
 MIN_ROTATION_SPREAD = 0.3
 _ANGLE_SCALE = 0.1  # m per rad: weighs rotation residuals against position residuals
@@ -172,8 +180,40 @@ def _refine(setup, X, Y, A, B):
     return _matrix(sol.x[:6]), _matrix(sol.x[6:])
 
 
-def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", min_spread=MIN_ROTATION_SPREAD,
-             leave_one_out=True):
+def _start(setup, method, A, B):
+    """OpenCV's closed-form start: (X, Y) = (camera pose, marker pose) of the setup."""
+    import cv2
+
+    from scipy.spatial.transform import Rotation
+
+    kind, flag = METHODS[method]
+    tool_from_base = np.linalg.inv(A)
+    if kind == "robot_world":
+        # OpenCV: world2cam @ base2world = gripper2cam @ base2gripper
+        world2cam = np.linalg.inv(B) if setup == "eye_to_hand" else B
+        R_bw, t_bw, R_gc, t_gc = cv2.calibrateRobotWorldHandEye(
+            world2cam[:, :3, :3], world2cam[:, :3, 3], tool_from_base[:, :3, :3], tool_from_base[:, :3, 3],
+            method=getattr(cv2, flag))
+        base2world, gripper2cam = np.eye(4), np.eye(4)
+        base2world[:3, :3], base2world[:3, 3] = R_bw, np.asarray(t_bw).reshape(3)
+        gripper2cam[:3, :3], gripper2cam[:3, 3] = R_gc, np.asarray(t_gc).reshape(3)
+        return np.linalg.inv(base2world if setup == "eye_to_hand" else gripper2cam), \
+            np.linalg.inv(gripper2cam if setup == "eye_to_hand" else base2world)
+    robot_side = tool_from_base if setup == "eye_to_hand" else A
+    R, t = cv2.calibrateHandEye(robot_side[:, :3, :3], robot_side[:, :3, 3], B[:, :3, :3], B[:, :3, 3],
+                                method=getattr(cv2, flag))
+    X = np.eye(4)
+    X[:3, :3], X[:3, 3] = R, np.asarray(t).reshape(3)
+    # the other unknown from every view, averaged
+    Ys = tool_from_base @ X @ B if setup == "eye_to_hand" else A @ X @ B
+    Y = np.eye(4)
+    Y[:3, :3] = Rotation.from_matrix(Ys[:, :3, :3]).mean().as_matrix()
+    Y[:3, 3] = Ys[:, :3, 3].mean(axis=0)
+    return X, Y
+
+
+def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method="park",
+             min_spread=MIN_ROTATION_SPREAD, leave_one_out=True):
     """Camera-to-robot calibration from paired robot poses and marker detections.
 
     Parameters
@@ -185,6 +225,9 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", min_spr
         ``{pose_id: camera_from_marker}``: the marker poses measured at the same pose ids
         (:attr:`MarkerDetection.pose`) [m]. Pose ids missing on either side are dropped.
     setup : {"eye_to_hand", "eye_in_hand"}
+    method : str
+        The starting solver, a key of :data:`METHODS` (``"park"``; ``"shah"`` and ``"li"`` solve
+        both unknowns at once); the least-squares fit that follows is the same for all.
     min_spread : float
         Warn (:class:`HandEyeWarning`) when the second principal spread of the tool
         orientations is below this [rad].
@@ -198,7 +241,7 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", min_spr
     Raises
     ------
     OptionError
-        Unknown setup.
+        Unknown setup or method.
     VisionError
         Fewer than 3 paired views.
 
@@ -207,10 +250,10 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", min_spr
     HandEyeWarning
         The views' orientations are too alike.
     """
-    import cv2
-
     if setup not in SETUPS:
         raise OptionError(f"expected setup one of {SETUPS}, got {setup!r}")
+    if method not in METHODS:
+        raise OptionError(f"expected method one of {sorted(METHODS)}, got {method!r}")
     robot = _as_mapping(base_from_tool, "base_from_tool")
     seen = _as_mapping(camera_from_marker, "camera_from_marker")
     ids = [k for k in robot if k in seen]
@@ -225,21 +268,7 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", min_spr
                       f"{np.degrees(spread[0]):.0f} / {np.degrees(spread[1]):.0f} deg about the two main axes, expected "
                       f"at least {np.degrees(min_spread):.0f} deg about two different axes; tilt the gripper "
                       "more between the views", HandEyeWarning, stacklevel=2)
-    robot_side = np.linalg.inv(A) if setup == "eye_to_hand" else A
-    R, t = cv2.calibrateHandEye(robot_side[:, :3, :3], robot_side[:, :3, 3], B[:, :3, :3], B[:, :3, 3],
-                                method=cv2.CALIB_HAND_EYE_PARK)
-    X = np.eye(4)
-    X[:3, :3], X[:3, 3] = R, t.reshape(3)
-    # the other unknown from every view, averaged
-    if setup == "eye_to_hand":
-        Ys = np.linalg.inv(A) @ X @ B
-    else:
-        Ys = A @ X @ B
-    from scipy.spatial.transform import Rotation
-
-    Y = np.eye(4)
-    Y[:3, :3] = Rotation.from_matrix(Ys[:, :3, :3]).mean().as_matrix()
-    Y[:3, 3] = Ys[:, :3, 3].mean(axis=0)
+    X, Y = _start(setup, method, A, B)
     X, Y = _refine(setup, X, Y, A, B)
     P = _predict(setup, X, Y, A)
     pos = np.linalg.norm(P[:, :3, 3] - B[:, :3, 3], axis=1)

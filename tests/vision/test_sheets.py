@@ -41,3 +41,27 @@ def test_cli_detect_prints_the_pose_of_a_rendered_marker(tmp_path, capsys):
                  "--size", "50"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("id 4: position [20.0, -10.0, 450.0] mm")
+
+
+def test_cli_calibrate_writes_a_camera_file(tmp_path, capsys):
+    import cv2
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from labkit.vision import Camera, VirtualCamera
+
+    truth = Camera.pinhole(800.0, (800, 600), distortion=[-0.05, 0.0, 0.0, 0.0, 0.0])
+    cam = VirtualCamera(truth, noise=1.0, seed=4)
+    rng = np.random.default_rng(8)
+    paths = []
+    for k in range(7):
+        T = np.eye(4)
+        T[:3, :3] = (Rotation.from_rotvec([np.pi, 0, 0]) * Rotation.from_rotvec(rng.uniform(-0.5, 0.5, 2).tolist() + [0])).as_matrix()
+        T[:3, 3] = [rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.03), 0.45]
+        paths.append(str(tmp_path / f"shot{k}.png"))
+        cv2.imwrite(paths[-1], cam.render_board(CharucoBoard(7, 5, 0.03, 0.022), T))
+    out = tmp_path / "webcam.camera.toml"
+    assert main(["vision", "calibrate", *paths, "-o", str(out)]) == 0
+    assert "RMS reprojection error" in capsys.readouterr().out
+    fx = Camera.load(out).focal[0]
+    assert abs(fx / 800.0 - 1) < 0.01
