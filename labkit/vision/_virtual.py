@@ -22,6 +22,10 @@ from labkit.vision._render import Plane, RayMap, draw_planes, expose
 __all__ = ["VirtualCamera"]
 
 
+#: pixel rays of the last few camera models (keyed by their numbers): one per model, not per VirtualCamera
+_RAY_MAPS = {}
+
+
 def _pose(T, name):
     T = np.asarray(T, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
@@ -100,7 +104,13 @@ class VirtualCamera:
     def rays(self):
         """The camera's pixel rays (:class:`RayMap`, computed on first use)."""
         if self._rays is None:
-            self._rays = RayMap(self.camera)
+            c = self.camera
+            key = (c.matrix.tobytes(), c.distortion.tobytes(), c.image_size)
+            if key not in _RAY_MAPS:
+                while len(_RAY_MAPS) >= 4:
+                    _RAY_MAPS.pop(next(iter(_RAY_MAPS)))
+                _RAY_MAPS[key] = RayMap(c)
+            self._rays = _RAY_MAPS[key]
         return self._rays
 
     def render(self, planes):
