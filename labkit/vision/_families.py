@@ -6,8 +6,8 @@ Examples
 --------
 >>> family_info("tag36h11").bits
 6
->>> marker_texture("tag36h11", 0, pixels_per_bit=2).shape
-(20, 20)
+>>> marker_texture("tag36h11", 0, pixels_per_bit=2).shape  # 6 bits, the black border, 2 white bits each side
+(24, 24)
 """
 
 from __future__ import annotations
