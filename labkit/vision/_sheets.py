@@ -32,7 +32,7 @@ def _page(paper):
 
 def _place(fig, image, left, bottom, width, height, page_w, page_h):
     ax = fig.add_axes([left / page_w, bottom / page_h, width / page_w, height / page_h])
-    ax.imshow(image, cmap="gray", vmin=0, vmax=1, interpolation="nearest", aspect="auto")
+    ax.imshow(image, cmap="gray", vmin=0, vmax=1, interpolation="none", aspect="auto")  # embedded as is, not resampled
     ax.set_axis_off()
     return ax
 

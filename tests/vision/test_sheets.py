@@ -65,3 +65,24 @@ def test_cli_calibrate_writes_a_camera_file(tmp_path, capsys):
     assert "RMS reprojection error" in capsys.readouterr().out
     fx = Camera.load(out).focal[0]
     assert abs(fx / 800.0 - 1) < 0.01
+
+
+def test_the_marker_is_drawn_at_true_size_from_the_unresampled_texture(tmp_path):
+    import zlib
+
+    from labkit.vision import marker_sheet, marker_texture
+
+    data = marker_sheet(tmp_path / "m.pdf", [7], 0.04).read_bytes()
+    placed = []
+    for stream in re.findall(rb"stream\r?\n(.*?)\r?\nendstream", data, re.S):
+        try:
+            text = zlib.decompress(stream)
+        except zlib.error:
+            continue
+        placed += re.findall(rb"cm ([\d.]+) 0 0\s+-?([\d.]+) 0 [\d.]+ cm /I\d+ Do", text)
+    assert len(placed) == 1
+    width_mm, height_mm = (float(v) / 72 * 25.4 for v in placed[0])
+    # 40 mm black square + 2 white bits each side of 8 bits: 60 mm
+    assert abs(width_mm - 60.0) < 0.01 and abs(height_mm - 60.0) < 0.01
+    side = marker_texture("tag36h11", 7).shape[1]
+    assert re.search(rb"/Width %d\b" % side, data), "embedded as drawn, not resampled to the figure's dpi"
