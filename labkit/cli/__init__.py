@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from labkit.cli import _arm, _course, _kinematics, _labs, _measure, _reports
+from labkit.cli import _arm, _course, _kinematics, _labs, _measure, _reports, _vision
 from labkit.cli._lazy import LazyParser
 from labkit.exceptions import LabkitError
 
@@ -28,7 +28,7 @@ def build_parser():
     p = argparse.ArgumentParser(prog="labkit", description="Robotics lab workbench.")
     # subcommands add their arguments on first use: `labkit --help` imports no numerical library
     sub = p.add_subparsers(dest="command", required=True, parser_class=LazyParser)
-    for module in (_kinematics, _arm, _reports, _labs, _measure, _course):
+    for module in (_kinematics, _arm, _reports, _labs, _measure, _course, _vision):
         module.add_commands(sub)
     return p
 

@@ -339,7 +339,8 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
 
     Writes ``robot.toml`` (the robot file, with a servo calibration added to joints that have
     none, so the virtual arm and a servo board can drive it) and the notebooks
-    ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``, ``05_calibration``
+    ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``, ``05_calibration``,
+    ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md``.
 
     Parameters

@@ -1,0 +1,307 @@
+"""Measurement sessions with a camera (:class:`CameraSession`) and frame sources.
+
+A session moves the arm through a plan of poses (:class:`labkit.measure.PlannedPose`),
+takes several frames at each pose, finds the camera in the base frame from the
+reference markers, the gripper's markers in the camera frame, and logs the tool
+point in the base frame into the crash-safe :class:`labkit.measure.MeasurementLog`:
+the same schema as ruler readings (quantities x, y, z in mm, ``instrument =
+"camera"``), with each reading's own uncertainty in the ``resolution`` column
+(``coverage`` standard uncertainties, the camera location's included). The
+error tables, the audit and the calibration of :mod:`labkit.measure` read it
+unchanged.
+
+Frame sources have one method, ``frames(pose_id, count) -> list of images``:
+:class:`VirtualCamera` (``sim://``), :class:`VideoSource` (a webcam through
+``cv2.VideoCapture``) and :class:`FolderSource` (images saved earlier, found by
+pose id, so a missing image never shifts the pairing).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from labkit.exceptions import DeviceError, OptionError
+from labkit.measure import MeasurementSession
+from labkit.vision._errors import MarkerNotFoundError, VisionError, WrongMarkerError
+from labkit.vision._locate import locate_camera
+from labkit.vision._markers import marker_poses
+
+__all__ = ["CameraSession", "VideoSource", "FolderSource", "tool_point_in_base"]
+
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+class VideoSource:
+    """Frames from a live camera (``cv2.VideoCapture``).
+
+    Parameters
+    ----------
+    device : int or str
+        Camera index (0: the first webcam) or a video URL/file.
+    width, height : int, optional
+        Requested resolution [px].
+    warmup : int
+        Frames dropped before each capture (auto-exposure settles, old buffered frames go).
+    """
+
+    def __init__(self, device=0, *, width=None, height=None, warmup=3):
+        import cv2
+
+        self.capture = cv2.VideoCapture(device)
+        if not self.capture.isOpened():
+            raise DeviceError(f"expected a camera at {device!r}, could not open it")
+        if width:
+            self.capture.set(cv2.CAP_PROP_FRAME_WIDTH, int(width))
+        if height:
+            self.capture.set(cv2.CAP_PROP_FRAME_HEIGHT, int(height))
+        self.warmup = int(warmup)
+
+    def frames(self, pose_id, count):
+        """``count`` fresh frames (after dropping ``warmup`` ones); ``pose_id`` is a label.
+
+        Parameters
+        ----------
+        pose_id : str
+        count : int
+
+        Returns
+        -------
+        list of ndarray
+            BGR images.
+        """
+        out = []
+        for k in range(self.warmup + int(count)):
+            ok, frame = self.capture.read()
+            if not ok:
+                raise DeviceError(f"the camera returned no frame (pose {pose_id!r})")
+            if k >= self.warmup:
+                out.append(frame)
+        return out
+
+    def close(self):
+        """Release the camera."""
+        self.capture.release()
+
+
+class FolderSource:
+    """Frames saved earlier in a folder, named ``<pose_id>_<k>.png`` (or ``.jpg`` ...).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+    """
+
+    def __init__(self, folder):
+        self.folder = Path(folder)
+        if not self.folder.is_dir():
+            raise VisionError(f"expected a folder of images, got {self.folder}")
+
+    def paths(self, pose_id):
+        """The image files of one pose, in name order.
+
+        Parameters
+        ----------
+        pose_id : str
+
+        Returns
+        -------
+        list of pathlib.Path
+        """
+        return sorted(p for p in self.folder.glob(f"{pose_id}_*") if p.suffix.lower() in _IMAGE_SUFFIXES
+                      and p.stem[len(pose_id) + 1:].isdigit())
+
+    def frames(self, pose_id, count):
+        """Up to ``count`` images of one pose.
+
+        Parameters
+        ----------
+        pose_id : str
+        count : int
+
+        Returns
+        -------
+        list of ndarray
+
+        Raises
+        ------
+        VisionError
+            No image of that pose.
+        """
+        import cv2
+
+        paths = self.paths(pose_id)[: int(count)]
+        if not paths:
+            raise VisionError(f"expected images {pose_id}_<k>.png in {self.folder}, found none")
+        return [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in paths]
+
+
+def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0, 0.0)):
+    """The tool point in the base frame from the gripper's markers in one frame, with its covariance.
+
+    Markers with an ambiguous pose are left out; several markers are combined by
+    inverse-covariance weighting (their errors are taken as independent; the camera
+    location's part, common to all, is added once).
+
+    Parameters
+    ----------
+    detections : sequence of MarkerDetection
+    location : CameraLocation
+    tool_markers : mapping
+        ``{id: tool_from_marker}`` [m].
+    tool_point : array_like, shape (3,)
+        The point to measure, in the tool frame [m].
+
+    Returns
+    -------
+    position : ndarray, shape (3,)
+        [m], base frame.
+    covariance : ndarray, shape (3, 3)
+        [m^2].
+    used : list of int
+        Ids of the markers used.
+
+    Raises
+    ------
+    WrongMarkerError
+        None of the gripper's markers was seen with a clear pose.
+    """
+    estimates = []
+    for d in detections:
+        if d.id not in tool_markers or d.ambiguous:
+            continue
+        marker_from_tool = np.linalg.inv(tool_markers[d.id])
+        point = marker_from_tool[:3, :3] @ np.asarray(tool_point, float) + marker_from_tool[:3, 3]
+        p_cam, cov_cam = d.point_covariance(point)
+        estimates.append((d.id, p_cam, cov_cam))
+    if not estimates:
+        seen = sorted(d.id for d in detections)
+        raise WrongMarkerError(f"expected a clear view of gripper marker(s) {sorted(tool_markers)}, "
+                               f"saw {seen} (ambiguous ones left out)")
+    info = sum(np.linalg.inv(c) for _, _, c in estimates)
+    cov_cam = np.linalg.inv(info)
+    p_cam = cov_cam @ sum(np.linalg.inv(c) @ p for _, p, c in estimates)
+    p_base, cov_base = location.to_base(p_cam, cov_cam)
+    return p_base, cov_base, [i for i, _, _ in estimates]
+
+
+class CameraSession:
+    """Measure a plan of poses with a camera and log the tool point like ruler readings.
+
+    Parameters
+    ----------
+    arm : labkit.arm.Arm
+    log : MeasurementLog or str or os.PathLike
+    source : frame source
+        An object with ``frames(pose_id, count)``: :class:`VirtualCamera`,
+        :class:`VideoSource` or :class:`FolderSource`.
+    rig : CameraRig
+        The markers (gripper and reference), their sizes and family; ``rig.camera`` unless
+        ``camera`` is given.
+    camera : Camera, optional
+        The calibrated camera (default ``rig.camera``).
+    frames : int
+        Frames per pose (each one a reading).
+    coverage : float
+        Coverage factor of the logged uncertainty (2: about 95 %).
+    settle_tol, settle_time : float
+        As for :class:`labkit.measure.MeasurementSession` [rad], [s].
+    operator : str
+    """
+
+    def __init__(self, arm, log, source, rig, *, camera=None, frames=5, coverage=2.0,
+                 settle_tol=math.radians(1.0), settle_time=0.5, operator=""):
+        if int(frames) < 1:
+            raise OptionError(f"expected frames >= 1, got {frames}")
+        self._moves = MeasurementSession(arm, log, source="feedback", readings=1, settle_tol=settle_tol,
+                                         settle_time=settle_time, operator=operator)
+        self.arm = arm
+        self.log = self._moves.log
+        self.source = source
+        self.rig = rig
+        self.camera = rig.camera if camera is None else camera
+        self.frames = int(frames)
+        self.coverage = float(coverage)
+        self.skipped = {}
+
+    def detect(self, images):
+        """Detections of every frame (frames without a marker give an empty list).
+
+        Parameters
+        ----------
+        images : sequence of ndarray
+
+        Returns
+        -------
+        list of list of MarkerDetection
+        """
+        out = []
+        for img in images:
+            try:
+                out.append(marker_poses(img, self.camera, self.rig.size, self.rig.family,
+                                        ids=sorted(self.rig.size), on_ambiguous="keep"))
+            except (MarkerNotFoundError, WrongMarkerError):
+                out.append([])
+        return out
+
+    def measure(self, pose):
+        """Move to a pose, take the frames, log x, y, z [mm] of the tool point per frame.
+
+        Parameters
+        ----------
+        pose : PlannedPose
+
+        Returns
+        -------
+        list of MeasurementRecord
+
+        Raises
+        ------
+        MarkerNotFoundError
+            No reference marker in any frame (the camera cannot be located).
+        WrongMarkerError
+            No frame had a clear view of a gripper marker.
+        """
+        q = np.asarray(pose.q, dtype=float)
+        self._moves.goto(q)
+        frames = self.detect(self.source.frames(pose.pose_id, self.frames))
+        location = locate_camera(frames, self.rig.base_markers, self.camera)
+        records, failures = [], []
+        for k, dets in enumerate(frames):
+            try:
+                p, cov, used = tool_point_in_base(dets, location, self.rig.tool_markers)
+            except WrongMarkerError as exc:
+                failures.append(str(exc))
+                continue
+            u = self.coverage * np.sqrt(np.diag(cov))
+            note = f"camera k={self.coverage:g}; markers {','.join(map(str, used))}; frame {k + 1}/{len(frames)}"
+            for axis, v, uu in zip("xyz", p * 1e3, u * 1e3):
+                records.append(self.log.record(pose.pose_id, axis, float(v), unit="mm", instrument="camera",
+                                               resolution=float(max(uu, 1e-3)), commanded=q, note=note))
+        if failures:
+            self.skipped[pose.pose_id] = len(failures)
+        if not records:
+            raise WrongMarkerError(f"pose {pose.pose_id!r}: no frame gave a gripper position ({failures[0]})")
+        return records
+
+    def run(self, plan, *, progress=None):
+        """Measure every pose of a plan; returns the session's readings.
+
+        Parameters
+        ----------
+        plan : sequence of PlannedPose
+        progress : callable, optional
+            ``progress(done, total, pose_id)`` after each pose.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``log.to_dataframe()``.
+        """
+        for k, pose in enumerate(plan):
+            self.measure(pose)
+            if progress is not None:
+                progress(k + 1, len(plan), pose.pose_id)
+        return self.log.to_dataframe()
