@@ -27,7 +27,8 @@ import time
 from pathlib import Path, PurePosixPath
 
 from labkit.exceptions import LabkitError
-from labkit.course._grade import MAX_SUBMISSION_BYTES, grade_submission
+from labkit.course._grade import grade_submission
+from labkit.course._submission import MAX_SUBMISSION_BYTES
 from labkit.course._sandbox import Limits
 from labkit.reports import find_chromium, find_notebooks, lab_of, render_one, write_index
 

@@ -146,7 +146,18 @@ def _run_job(job) -> dict:
 
 
 def main(argv=None) -> int:
-    """Entry point of the checker process: ``python -m labkit.course._checker JOB RESULT``."""
+    """Entry point of the checker process: ``python -m labkit.course._checker JOB RESULT``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        ``[JOB, RESULT]``: the job file to read and the result file to write (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 (the results, failures included, are in the result file).
+    """
     argv = sys.argv[1:] if argv is None else argv
     job_path, result_path = argv
     os.environ.setdefault("MPLBACKEND", "Agg")

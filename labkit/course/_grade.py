@@ -37,9 +37,7 @@ from __future__ import annotations
 
 import copy
 import os
-import re
 import shutil
-import stat
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -50,6 +48,7 @@ from labkit.course._assign import HIDDEN_TESTS_TAG, SOLUTION_TAG, TESTS_TAG, cel
 from labkit.course._checker import run_checker
 from labkit.course._plan import plan_check, prelude_source
 from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
+from labkit.course._submission import copy_regular_files, error_detail, read_student_notebook
 from labkit.course._wire import MIME, export_source
 from labkit.reports import notebook_parameters
 
@@ -57,10 +56,6 @@ __all__ = ["RowScore", "CellScore", "SubmissionResult", "graded_notebook", "grad
 
 #: the port every graded notebook runs against (the virtual arm)
 GRADING_PORT = "sim://"
-#: largest submission folder accepted [bytes]
-MAX_SUBMISSION_BYTES = 50 * 2**20
-_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
-_CELL_LINE = re.compile(r"Cell In\[(\d+)\], line (\d+)")
 
 
 @dataclass(frozen=True)
@@ -227,59 +222,6 @@ def _inject_parameters(nb, params):
     return nb
 
 
-def _copy_regular_files(src: Path, dest: Path, limit=MAX_SUBMISSION_BYTES) -> None:
-    """Copy the regular files under ``src`` (no symlink followed or copied, nothing special)."""
-    total = 0
-    for dirpath, dirnames, filenames in os.walk(src, followlinks=False):
-        rel = Path(dirpath).relative_to(src)
-        dirnames[:] = [d for d in dirnames if d != ".ipynb_checkpoints" and not os.path.islink(os.path.join(dirpath, d))]
-        for name in filenames:
-            p = Path(dirpath) / name
-            st = os.lstat(p)
-            if not stat.S_ISREG(st.st_mode):
-                continue
-            total += st.st_size
-            if total > limit:
-                raise LabkitError(f"expected at most {limit} bytes in the submission {src.name}, got more")
-            (dest / rel).mkdir(parents=True, exist_ok=True)
-            fd = os.open(p, os.O_RDONLY | os.O_NOFOLLOW)
-            with os.fdopen(fd, "rb") as fin, open(dest / rel / name, "wb") as fout:
-                shutil.copyfileobj(fin, fout)
-
-
-def _read_student_notebook(path: Path):
-    """The student's notebook, validated; raises ValueError with what is wrong."""
-    import nbformat
-
-    st = os.lstat(path)
-    if not stat.S_ISREG(st.st_mode):
-        raise ValueError("not a regular file")
-    nb = nbformat.reads(path.read_text(encoding="utf-8", errors="strict"), as_version=4)
-    nbformat.validate(nb)
-    for cell in nb.cells:
-        if cell.get("cell_type") not in ("code", "markdown", "raw") or not isinstance(cell.get("source"), str):
-            raise ValueError(f"cell {cell.get('id')!r} is malformed")
-    return nb
-
-
-def _error_detail(nb, cell, index) -> str:
-    """'<Type>: <message> in cell <n> (id <id>), line <l>: <text>' for a cell's error output."""
-    err = next(o for o in cell.get("outputs", []) if o.get("output_type") == "error")
-    ename, evalue = str(err.get("ename", "Error")), str(err.get("evalue", "")).strip()
-    text = _ANSI.sub("", "\n".join(str(t) for t in err.get("traceback", [])))
-    line = None
-    for match in _CELL_LINE.finditer(text):
-        line = int(match.group(2))
-    where = f"cell {index + 1} (id {cell.get('id')})"
-    if line is not None:
-        lines = str(cell.source).splitlines()
-        code = lines[line - 1].strip() if 0 < line <= len(lines) else ""
-        where += f", line {line}" + (f": {code}" if code else "")
-        if ename == "NotImplementedError" and "NotImplementedError" in code:
-            evalue = evalue or "the stub of the student version is still there (this step is not done)"
-    return f"{ename}: {evalue or '(no message)'} in {where}"[:400]
-
-
 def _run_one(source, theirs, name, work, limits, hide, private, declared):
     """Run one notebook; (status, detail, plans, data by cell id, run notebook)."""
     checks = {c.cell_id: c for c in graded_cells(source, name)}
@@ -307,7 +249,7 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
     errors = [(i, c) for i, c in enumerate(nb.cells) if c.cell_type == "code" and c.get("metadata", {}).get(
         "labkit", {}).get("export") is None and any(o.get("output_type") == "error" for o in c.get("outputs", []))]
     if status == "error":
-        status, detail = ("error", _error_detail(nb, errors[0][1], errors[0][0])) if errors else ("ok", "")
+        status, detail = ("error", error_detail(errors[0][1], errors[0][0])) if errors else ("ok", "")
     return status, detail, checks, plans, data, nb
 
 
@@ -361,6 +303,9 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     if not notebooks:
         raise LabkitError(f"expected lab notebooks (*.ipynb) in {lab}, found none")
     sources = {p.name: nbformat.read(str(p), as_version=4) for p in notebooks}
+    sources = {name: nb for name, nb in sources.items() if graded_cells(nb, name)}  # nothing to score elsewhere
+    if not sources:
+        raise LabkitError(f"expected a notebook with checks (cells tagged tests or hidden-tests) in {lab}, found none")
     limits = limits or Limits()
     if free is None:
         free = baseline(lab, limits=limits).free
@@ -376,7 +321,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
         work.mkdir()
         private.mkdir()
         try:
-            _copy_regular_files(submission, work)
+            copy_regular_files(submission, work)
         except (LabkitError, OSError) as exc:
             return _invalid(student, all_checks, str(exc), t0)
         for p in lab.rglob("*"):  # the lab's data files the student did not bring
@@ -388,7 +333,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
         runs, job = [], {"notebooks": []}
         for name, source in sources.items():
             try:
-                theirs = _read_student_notebook(work / name)
+                theirs = read_student_notebook(work / name)
             except FileNotFoundError:
                 runs.append((name, "missing", f"{name} is not in the submission", None))
                 continue
@@ -500,6 +445,12 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
     Returns
     -------
     Baseline
+
+    Raises
+    ------
+    LabkitError
+        If the untouched version does not run to its end (a limit, a crash): then it cannot
+        tell which rows are free.
     """
     import nbformat
 
@@ -509,25 +460,33 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
     with tempfile.TemporaryDirectory(prefix="labkit-baseline-") as tmp:
         sub = Path(tmp) / "untouched"
         sub.mkdir()
-        solved = {}
+        solved, sources = {}, {}
         for p in sorted(lab.glob("*.ipynb")):
             if p.name.startswith("_"):
                 continue
-            nb = nbformat.read(str(p), as_version=4)
+            nb = sources[p.name] = nbformat.read(str(p), as_version=4)
             nbformat.write(student_notebook(nb), str(sub / p.name))
             solved[p.name] = {n for c in nb.cells if cell_role(c) == SOLUTION_TAG
                               for n in _assigned(python_source(c.source))}
         result = grade_submission(sub, lab, Path(tmp) / "feedback", limits=limits, html=False, free={})
+    if result.status not in ("ok", "error"):
+        raise LabkitError(f"expected the untouched student version of {lab.name} to run to its end (its checks tell "
+                          f"which rows are free), got status {result.status!r}: {result.detail[:300]}; "
+                          "raise the limits (--cpu, --memory, --wall) or fix the lab")
     free, reasons = {}, []
     for s in result.scores:
-        plan_rows = [r for r in s.rows]
-        for index, r in enumerate(plan_rows):
-            if r.passed:
-                free.setdefault((s.notebook, s.cell_id), set()).add(index)
-                reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes on the untouched student version "
-                               + ("(it reads no value a solution cell assigns)" if not solved.get(s.notebook)
-                                  else "(it does not depend on the values the solution cells assign, or the stub's "
-                                       "values already pass it)"))
+        source = next((c.source for c in sources[s.notebook].cells if str(c.get("id")) == s.cell_id), "")
+        plan = plan_check(source, s.cell_id, s.name)
+        for index, r in enumerate(s.rows):
+            if not r.passed:
+                continue
+            free.setdefault((s.notebook, s.cell_id), set()).add(index)
+            reads = _loaded(python_source(plan.statements[plan.rows[index].statement][0])) if index < len(plan.rows) \
+                else set()
+            mine = sorted(reads & solved.get(s.notebook, set()))
+            why = (f"the stub's values of {', '.join(mine)} already pass it" if mine else
+                   "it reads no value a solution cell assigns" + (f" (only {', '.join(sorted(reads))})" if reads else ""))
+            reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched: {why}")
     return Baseline(free, result, tuple(reasons))
 
 
@@ -539,3 +498,13 @@ def _assigned(text) -> set:
     except SyntaxError:
         return set()
     return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+
+
+def _loaded(text) -> set:
+    import ast
+
+    try:
+        tree = ast.parse(text)
+    except SyntaxError:
+        return set()
+    return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}

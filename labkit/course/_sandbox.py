@@ -109,7 +109,13 @@ def _python_roots() -> list:
 
 
 def labkit_root() -> Path:
-    """The folder holding the ``labkit`` package (site-packages, or a checkout for an editable install)."""
+    """The folder holding the ``labkit`` package.
+
+    Returns
+    -------
+    pathlib.Path
+        site-packages, or a checkout's root for an editable install or a worktree.
+    """
     return Path(__file__).resolve().parents[2]
 
 
@@ -370,7 +376,17 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
         timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
         t0 = time.monotonic()
         try:
-            asyncio.run(go())
+            try:
+                asyncio.run(go())
+            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more
+                if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
+                                                           if c.cell_type == "code"):
+                    raise
+                for dog in dogs:
+                    dog.stop.set()
+                dogs.clear()
+                t0 = time.monotonic()
+                asyncio.run(go())
         except (asyncio.TimeoutError, CellTimeoutError):
             return (reason() or timed_out)
         except DeadKernelError:

@@ -258,12 +258,33 @@ def decode(doc) -> dict:
 
 
 def dumps(doc) -> str:
-    """JSON text of an encoded document."""
+    """JSON text of an encoded document.
+
+    Parameters
+    ----------
+    doc : dict
+        From :func:`encode` (or a wrapper holding it).
+
+    Returns
+    -------
+    str
+    """
     return json.dumps(doc, separators=(",", ":"), allow_nan=False)
 
 
 def loads(text):
-    """Parse an untrusted JSON document (None if it is not JSON or too large)."""
+    """Parse an untrusted JSON document.
+
+    Parameters
+    ----------
+    text : str
+        At most :data:`MAX_EXPORT_BYTES` characters.
+
+    Returns
+    -------
+    object or None
+        The parsed document; None if it is not text, not JSON or too large.
+    """
     if not isinstance(text, str) or len(text) > MAX_EXPORT_BYTES:
         return None
     try:
