@@ -194,27 +194,27 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
             files = pack_dir(out / student) if (out / student).is_dir() else {}
             return replace(result, files=files)
     except Exception as exc:  # noqa: BLE001 - one student's row, never the class's crash
-        return _failed(student, lab_files, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
+        return _failed(student, lab_files, free, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
 
 
-def _failed(student, lab_files, status, why, t0=None):
+def _failed(student, lab_files, free, status, why, t0=None):
     """A row for a student whose submission could not be graded: every check 0."""
     import nbformat
 
     from labkit.course._assign import graded_cells
-    from labkit.course._grade import CellScore, SubmissionResult
+    from labkit.course._grade import SubmissionResult, _unscored
 
-    scores = []
+    sources = {}
     for rel in sorted(lab_files):
         if "/" not in rel and rel.endswith(".ipynb") and not rel.startswith("_"):
             try:
                 nb = nbformat.reads(lab_files[rel].decode("utf-8"), as_version=4)
-                scores += [CellScore(c.notebook, c.name, 0.0, c.points, c.hidden, False, (), c.cell_id)
-                           for c in graded_cells(nb, rel)]
-            except Exception:  # noqa: BLE001
+            except Exception:  # noqa: BLE001 - the instructor's notebook was graded elsewhere
                 continue
+            if graded_cells(nb, rel):
+                sources[rel] = nb
     seconds = 0.0 if t0 is None else time.perf_counter() - t0
-    return SubmissionResult(student, status, str(why)[:500], tuple(scores), seconds)
+    return SubmissionResult(student, status, str(why)[:500], _unscored(sources, free, str(why)[:200]), seconds)
 
 
 def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True,
@@ -275,12 +275,12 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     argsets, early = [], {}
     for p in entries:
         if p.is_symlink() or not p.is_dir():
-            early[p.name] = _failed(p.name, lab_files, "invalid", "not a folder (a file or a symlink)")
+            early[p.name] = _failed(p.name, lab_files, free, "invalid", "not a folder (a file or a symlink)")
             continue
         try:
             files = pack_dir(p, limit=MAX_SUBMISSION_BYTES)
         except (LabkitError, OSError) as exc:
-            early[p.name] = _failed(p.name, lab_files, "invalid", str(exc))
+            early[p.name] = _failed(p.name, lab_files, free, "invalid", str(exc))
             continue
         argsets.append((p.name, files, lab_files, limits, html, free))
 

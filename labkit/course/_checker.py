@@ -74,7 +74,8 @@ def check_cell(plan, values, base) -> list:
         why = plan.error or _NO_DATA
         return [{"passed": False, "error": why, "line": row.line} for row in plan.rows]
     ns = {"__name__": "__main__", "__builtins__": __builtins__}
-    ns.update({k: v for k, v in values.items() if k not in base})
+    wanted = set(plan.free_names)  # only what the check reads (never a builtin's name), never a trusted name
+    ns.update({k: v for k, v in values.items() if k in wanted and k not in base})
     for name, value in base.items():
         if type(value).__name__ == "Checks":  # a fresh, silent one for every cell
             value = type(value)(title=value.title, display=False)

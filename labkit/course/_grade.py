@@ -310,9 +310,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     if free is None:
         free = baseline(lab, limits=limits).free
     student = submission.name
-    all_checks = [c for name, nb in sources.items() for c in graded_cells(nb, name)]
     if submission.is_symlink() or not submission.is_dir():
-        return _invalid(student, all_checks, "the submission is not a folder (a symlink or a file)", t0)
+        return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
     hide = [submission.resolve().parent, lab, out, *hide]
     root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
     statuses, details, scores, pages = [], [], [], []
@@ -323,7 +322,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
         try:
             copy_regular_files(submission, work)
         except (LabkitError, OSError) as exc:
-            return _invalid(student, all_checks, str(exc), t0)
+            return _invalid(student, sources, free, str(exc), t0)
         for p in lab.rglob("*"):  # the lab's data files the student did not bring
             rel = p.relative_to(lab)
             if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts \
@@ -363,7 +362,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
                 status, detail = "crash", f"{detail + '; ' if detail else ''}{verdict['error']}"
             nb_scores = []
             for chk in source_checks:
-                plan = planned[1][chk.cell_id] if planned else plan_check("", chk.cell_id, chk.name)
+                plan = planned[1][chk.cell_id] if planned else plan_check(
+                    next(c.source for c in sources[name].cells if str(c.get("id")) == chk.cell_id), chk.cell_id, chk.name)
                 results = cells.get(chk.cell_id) or [{"passed": False, "error": "not graded", "line": r.line}
                                                      for r in plan.rows]
                 nb_scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
@@ -404,9 +404,34 @@ def _score(chk, plan, results, free_rows) -> CellScore:
                      tuple(rows), chk.cell_id)
 
 
-def _invalid(student, checks, why, t0) -> SubmissionResult:
-    scores = tuple(CellScore(c.notebook, c.name, 0.0, c.points, c.hidden, False, (), c.cell_id) for c in checks)
-    return SubmissionResult(student, "invalid", why[:500], scores, time.perf_counter() - t0)
+def _unscored(sources, free, why="not graded") -> tuple:
+    """Every check of the lab at 0 points (free rows worth 0 of 0), for a submission that could not run.
+
+    Parameters
+    ----------
+    sources : dict of str to nbformat.NotebookNode
+        The instructor's notebooks by file name.
+    free : dict
+        Free rows, as for :func:`grade_submission`.
+    why : str
+        The rows' error.
+
+    Returns
+    -------
+    tuple of CellScore
+    """
+    scores = []
+    for name, nb in sources.items():
+        for chk in graded_cells(nb, name):
+            source = next(c.source for c in nb.cells if str(c.get("id")) == chk.cell_id)
+            plan = plan_check(source, chk.cell_id, chk.name)
+            results = [{"passed": False, "error": why, "line": r.line} for r in plan.rows]
+            scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
+    return tuple(scores)
+
+
+def _invalid(student, sources, free, why, t0, status="invalid") -> SubmissionResult:
+    return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)

@@ -151,7 +151,9 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> 
     limits = limits or Limits()
     home, private = Path(home).resolve(), Path(private).resolve()
     args = [bwrap, "--unshare-all", "--die-with-parent", "--new-session", "--cap-drop", "ALL", "--clearenv"]
-    args += ["--ro-bind", "/usr", "/usr"]
+    # the RAM disks first: a bind below /tmp (a venv, a checkout) must land on top of them, not under
+    args += ["--proc", "/proc", "--dev", "/dev", "--size", str(limits.tmpfs_bytes), "--tmpfs", "/tmp",
+             "--size", str(limits.tmpfs_bytes), "--tmpfs", "/dev/shm", "--ro-bind", "/usr", "/usr"]
     for top in ("bin", "sbin", "lib", "lib32", "lib64", "libx32"):
         p = Path("/") / top
         if p.is_symlink():
@@ -165,8 +167,6 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> 
         if root.exists() and not any(b == root or b in root.parents for b in bound):
             args += ["--ro-bind", str(root), str(root)]
             bound.append(root)
-    args += ["--proc", "/proc", "--dev", "/dev", "--size", str(limits.tmpfs_bytes), "--tmpfs", "/tmp",
-             "--size", str(limits.tmpfs_bytes), "--tmpfs", "/dev/shm"]
     for path in hide:
         path = Path(path).resolve()
         if path.is_dir() and any(b == path or b in path.parents for b in bound):
@@ -317,6 +317,24 @@ def _kernel_manager(work: Path, private: Path, limits: Limits, hide):
     return km, launched, dogs
 
 
+def _stop(launched, dogs):
+    """Stop the watchdogs, kill whatever of the sandbox is left, close the logs."""
+    for dog in dogs:
+        dog.stop.set()
+    procs = [p for p in launched if hasattr(p, "poll")]
+    for proc in procs:
+        if proc.poll() is None:
+            for p in reversed(_tree(proc.pid)):
+                try:
+                    os.kill(p, signal.SIGKILL)
+                except OSError:
+                    pass
+            proc.wait()
+    for item in launched:
+        if hasattr(item, "close"):
+            item.close()
+
+
 def _memory_error(nb) -> bool:
     return any("MemoryError" in str(o.get("ename", "")) for c in nb.cells for o in c.get("outputs", [])
                if o.get("output_type") == "error")
@@ -362,13 +380,19 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
         cache = Path(os.path.expanduser("~/.cache/matplotlib"))
         for font_list in cache.glob("fontlist-*.json"):  # no font-cache rebuild in every sandbox
             shutil.copy2(font_list, private / "mpl" / font_list.name)
-        km, launched, dogs = _kernel_manager(work, private, limits, hide)
         cwd = SANDBOX_HOME if limits.sandbox else str(work)
-        client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
-                                 startup_timeout=60, resources={"metadata": {"path": cwd}})
+        km = client = None
+
+        def prepare():
+            nonlocal km, client, launched, dogs
+            km, launched, dogs = _kernel_manager(work, private, limits, hide)
+            client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
+                                     startup_timeout=60, resources={"metadata": {"path": cwd}})
 
         async def go():
             await asyncio.wait_for(client.async_execute(), limits.wall_seconds)
+
+        prepare()
 
         def reason():
             return dogs[0].reason if dogs and dogs[0].reason else None
@@ -378,13 +402,12 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
         try:
             try:
                 asyncio.run(go())
-            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more
+            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more, afresh
                 if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
                                                            if c.cell_type == "code"):
                     raise
-                for dog in dogs:
-                    dog.stop.set()
-                dogs.clear()
+                _stop(launched, dogs)
+                prepare()
                 t0 = time.monotonic()
                 asyncio.run(go())
         except (asyncio.TimeoutError, CellTimeoutError):
@@ -402,7 +425,11 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
                 return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
             return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code})"
         except RuntimeError as exc:  # kernel failed to start
-            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc}"[:300]
+            try:
+                tail = " ".join((private / "kernel.log").read_text(errors="replace").strip().splitlines()[-2:])
+            except OSError:
+                tail = ""
+            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc} {tail}"[:400]
         if reason():
             return reason()
         if _memory_error(nb):
@@ -413,17 +440,6 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
                     return "error", f"{out.get('ename')}: {out.get('evalue', '')}"[:300]
         return "ok", ""
     finally:
-        for dog in dogs:
-            dog.stop.set()
-        if launched and hasattr(launched[0], "poll") and launched[0].poll() is None:  # whatever the client left running
-            for p in reversed(_tree(launched[0].pid)):
-                try:
-                    os.kill(p, signal.SIGKILL)
-                except OSError:
-                    pass
-            launched[0].wait()
-        for item in launched:
-            if hasattr(item, "close"):
-                item.close()
+        _stop(launched, dogs)
         if own:
             shutil.rmtree(private, ignore_errors=True)

@@ -6,7 +6,8 @@ check reads go out as one JSON document (a display output of a private MIME type
 Only data crosses: ``None``, booleans, numbers, strings, lists, tuples, dicts with
 string keys, numpy arrays and scalars of a numeric or boolean dtype, paths, enums,
 pandas tables, exceptions (type name and data arguments) and frozen dataclasses of
-labkit (class name and data fields). Modules, functions, classes and every other object
+labkit (class name and data fields; a field holding behaviour, such as a resampling
+function, is left to its default). Modules, functions, classes and every other object
 are left out: the checker takes those from the instructor's own imports and
 definitions. :func:`decode` rebuilds the values in the checker with the instructor's
 code: a dataclass or exception class is looked up by name among labkit's (and
@@ -99,7 +100,15 @@ def _enc(value, depth):
             raise _Skip
         if not cls.__module__.startswith("labkit."):
             raise _Skip
-        fields = {f.name: _enc(getattr(value, f.name), depth + 1) for f in dataclasses.fields(value) if f.init}
+        fields = {}
+        for f in dataclasses.fields(value):
+            if not f.init:
+                continue
+            try:
+                fields[f.name] = _enc(getattr(value, f.name), depth + 1)
+            except _Skip:  # behaviour (a callable field): left to its default, if it has one
+                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                    raise
         return {"__dataclass__": _qualified(cls), "fields": fields}
     raise _Skip
 

@@ -5,7 +5,6 @@ the work honestly, so each must score 0 points, and the honest submissions grade
 the same batch must keep their 4 points. ``docs/course.md`` lists them.
 """
 
-from tests.course.course_lab import NOTEBOOK
 
 #: the honest answer, computed only where an attack found the instructor's solution or a victim's work
 _USE_FOUND = """
@@ -26,7 +25,7 @@ import os
 found = []
 for top in ["/"] + {list(map(str, roots))!r}:
     for dirpath, dirnames, filenames in os.walk(top):
-        if dirpath.startswith(("/proc", "/sys")):
+        if dirpath.startswith(("/proc", "/sys", "/usr/lib", "/usr/share", "/usr/include", "/usr/bin")):
             dirnames[:] = []
             continue
         for name in filenames:

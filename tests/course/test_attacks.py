@@ -21,7 +21,7 @@ from tests.course import attacks as at
 from tests.course import course_lab as cl
 
 pytestmark = pytest.mark.slow
-LIMITS = dict(cpu_seconds=10, memory_bytes=int(1.5 * 2**30), wall_seconds=30)
+LIMITS = dict(cpu_seconds=10, memory_bytes=int(1.5 * 2**30), wall_seconds=25)
 HONEST = ("honest_a", "honest_b", "honest_c")
 
 

@@ -100,14 +100,14 @@ def test_graded_notebook_restores_deleted_and_edited_checks(course):
 def make_submissions(student, folder, lab):
     for name, code in cl.SUBMISSIONS.items():
         cl.write_submission(student, folder / name, code)
+    shutil.copytree(student, folder / "untouched")
     (folder / "correct" / "private_notes.txt").write_text("only mine")
 
 
 def test_round_trip_grade_on_the_local_pool(course, tmp_path):
-    """Assign -> six submissions -> grade (CLI, local pool): scores, failure kinds, isolation, gradebook, feedback."""
+    """Assign -> five submissions -> grade (CLI, local pool): scores, failure kinds, gradebook, feedback pages."""
     require("openpyxl")
     pd = require("pandas")
-    nbformat = require("nbformat")
     from labkit.cli import main
     from labkit.course import Limits
 
@@ -121,8 +121,9 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     assert main(argv) == 0
     table = pd.read_csv(gradebook, index_col="student")
     excel = pd.read_excel(gradebook.with_suffix(".xlsx"), index_col="student")
-    assert list(excel.index) == list(table.index) == sorted(cl.EXPECTED)
-    for name, (points, status) in cl.EXPECTED.items():
+    expected = dict(cl.EXPECTED, untouched=(0, "error"))  # its free row ("on sim://") is worth nothing
+    assert list(excel.index) == list(table.index) == sorted(expected)
+    for name, (points, status) in expected.items():
         assert (table.loc[name, "points"], table.loc[name, "status"]) == (points, status), name
         assert excel.loc[name, "points"] == points
     assert table.loc["correct", "max_points"] == 4
@@ -333,16 +334,20 @@ def test_sandbox_shows_only_python_labkit_and_its_own_copy(tmp_path, monkeypatch
 
 
 def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
-    """The worked lab: the untouched student version scores 0 (its free checks are worth nothing), a half-done
-    submission (steps 1-2 right, then the stub) earns the hidden check's step rows, the solution earns everything."""
+    """The worked lab: the rows the untouched student version passes are free (notebook 02's checks test labkit
+    only), a half-done submission (steps 1-2 right, then the stub) earns the hidden check's step rows, the
+    instructor's solution earns everything that is not free (Robot, IKSolutions, Trajectory reach the checker)."""
     nbformat = require("nbformat")
     from labkit.course import Limits, assign, grade
 
-    lab = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
+    seed = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
+    lab = tmp_path / "seed004"  # part A-C (student work) and D-E (checks of labkit only: free); 03 is like 02
+    lab.mkdir()
+    for name in ("00_model_sine_motion.ipynb", "01_ik_elbow_minus.ipynb", "02_arc_trajectory_animation.ipynb"):
+        shutil.copy(seed / name, lab / name)  # 00 has no checks: not run at grading
     student = tmp_path / "student"
     assign(lab, student)
     subs = tmp_path / "subs"
-    shutil.copytree(student, subs / "untouched")
     shutil.copytree(lab, subs / "solved", ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
     shutil.copytree(student, subs / "half_done")
     nb = nbformat.read(str(subs / "half_done" / "01_ik_elbow_minus.ipynb"), as_version=4)
@@ -355,12 +360,36 @@ def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
     nbformat.write(nb, str(subs / "half_done" / "01_ik_elbow_minus.ipynb"))
     limits = Limits(cpu_seconds=60, memory_bytes=3 * 2**30, wall_seconds=180)
     results = {r.student: r for r in grade(subs, lab, tmp_path / "fb", limits=limits, jobs=2, progress=False)}
-    assert results["untouched"].points == 0, results["untouched"]
     solved, half = results["solved"], results["half_done"]
-    assert solved.points == solved.max_points == 5, solved  # 3 public + 2 hidden; notebooks 02/03's checks are free
+    assert solved.points == solved.max_points == 5, solved  # 3 public + 2 hidden; notebook 02's checks are free
     hidden = next(s for s in half.scores if s.name == "A.2 steps")
     assert [r.passed for r in hidden.rows] == [True, True, False]  # steps 1 and 2, not step 3
     assert half.points == pytest.approx(2 * 2 / 3), half
     assert "NotImplementedError" in half.detail and "cell" in half.detail and "line" in half.detail
     free = [s for s in solved.scores if s.free]
-    assert {s.notebook for s in free} == {"02_arc_trajectory_animation.ipynb", "03_straight_line.ipynb"}
+    assert {s.notebook for s in free} == {"02_arc_trajectory_animation.ipynb"}
+    assert all(s.passed for s in solved.scores)  # the data reached the checker (Robot, IKSolutions, Trajectory)
+    assert not any(s.notebook.startswith("00_") for s in solved.scores)
+
+
+@pytest.mark.parametrize("where", ["tmp", "home"])
+def test_sandbox_works_from_a_virtualenv_under_tmp_or_home(tmp_path, where):
+    """The suite holds with the virtualenv under /tmp or $HOME: the sandbox shows that venv (read-only) and labkit."""
+    import uuid
+
+    base = tmp_path if where == "tmp" else Path(os.path.expanduser("~")) / f".labkit-venv-test-{uuid.uuid4().hex[:8]}"
+    venv = base / "venv"
+    try:
+        subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], check=True)
+        script = ("import nbformat\nfrom labkit.course import Limits, run_untrusted\n"
+                  "nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("
+                  "'import sys, labkit, numpy\\nprint(sys.prefix)')])\n"
+                  f"print(run_untrusted(nb, {str(tmp_path)!r}, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, "
+                  "wall_seconds=60)))\nprint(nb.cells[0].outputs[0]['text'].strip())\n")
+        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+        out = subprocess.run([str(venv / "bin" / "python"), "-c", script], capture_output=True, text=True, env=env,
+                             timeout=180)
+        assert out.stdout.splitlines()[-2:] == ["('ok', '')", str(venv)], out.stdout + out.stderr[-2000:]
+    finally:
+        if where == "home":
+            shutil.rmtree(base, ignore_errors=True)
