@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
+from urllib.parse import quote
 
 __all__ = ["MAX_PAGE_BYTES", "write_feedback", "write_class_index"]
 
@@ -138,7 +139,7 @@ def write_class_index(results, folder, *, title="Gradebook") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     rows = []
     for r in results:
-        link = f"<a href=\"{_e(r.student)}/index.html\">{_e(r.student)}</a>" \
+        link = f"<a href=\"{_e(quote(r.student))}/index.html\">{_e(r.student)}</a>" \
             if (folder / r.student / "index.html").is_file() else _e(r.student)
         rows.append(f"<tr><td>{link}</td><td>{_e(r.status)}</td><td>{r.points:g} / {r.max_points:g}</td>"
                     f"<td>{_e(r.detail, 300)}</td></tr>")
