@@ -34,6 +34,7 @@ Example
 from __future__ import annotations
 
 import asyncio
+import atexit
 import os
 import shutil
 import signal
@@ -374,17 +375,19 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
     work = Path(work).resolve()
     own = private is None
     private = Path(tempfile.mkdtemp(prefix="labkit-kernel-")) if own else Path(private)
-    launched, dogs = [], []
+    launched, dogs, client = [], [], None
     try:
         (private / "mpl").mkdir(exist_ok=True)
         cache = Path(os.path.expanduser("~/.cache/matplotlib"))
         for font_list in cache.glob("fontlist-*.json"):  # no font-cache rebuild in every sandbox
             shutil.copy2(font_list, private / "mpl" / font_list.name)
         cwd = SANDBOX_HOME if limits.sandbox else str(work)
-        km = client = None
+        km = None
 
         def prepare():
             nonlocal km, client, launched, dogs
+            if client is not None:
+                atexit.unregister(client._cleanup_kernel)
             km, launched, dogs = _kernel_manager(work, private, limits, hide)
             client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
                                      startup_timeout=60, resources={"metadata": {"path": cwd}})
@@ -441,5 +444,7 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
         return "ok", ""
     finally:
         _stop(launched, dogs)
+        if client is not None:  # nbclient's exit hook for a kernel that is long gone
+            atexit.unregister(client._cleanup_kernel)
         if own:
             shutil.rmtree(private, ignore_errors=True)
