@@ -73,8 +73,13 @@ def live_figures(notebook=None) -> bool:
         True if the widget backend was switched on.
     """
     path = notebook or os.environ.get("JPY_SESSION_NAME")
+    if not path:
+        return False
+    path = Path(path)
+    if not path.is_file():  # a path relative to the server's root: the kernel runs in the notebook's folder
+        path = Path.cwd() / path.name
     try:
-        text = Path(path).read_text(encoding="utf-8") if path else ""
+        text = path.read_text(encoding="utf-8")
     except OSError:
         return False
     if not any(m in text for m in _LIVE_MARKERS):

@@ -156,3 +156,32 @@ def _cmdline(pid):
         return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
     except OSError:
         return ""
+
+
+@pytest.mark.slow
+def test_a_labkit_lab_kernel_gets_live_figures_where_the_notebook_asks(tmp_path, monkeypatch):
+    """The kernel spec of `labkit lab` switches to ipympl for a notebook with mpl_connect, not for another."""
+    require("ipympl")
+    manager = require("jupyter_client.manager")
+    from labkit.labs._serve import write_kernel_spec
+
+    write_kernel_spec(tmp_path / "data")
+    monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "data"))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]))
+    backends = {}
+    for name, source in (("click", "fig.canvas.mpl_connect('button_press_event', on_click)"), ("static", "plt.plot()")):
+        nb = tmp_path / f"{name}.ipynb"
+        nb.write_text(json.dumps({"cells": [{"cell_type": "code", "source": source}]}))
+        monkeypatch.setenv("JPY_SESSION_NAME", str(nb))
+        km, kc = manager.start_new_kernel(kernel_name="python3")
+        try:
+            out = []
+            kc.execute_interactive("import matplotlib; print(matplotlib.get_backend())", timeout=60,
+                                   output_hook=lambda m: out.append(m["content"].get("text", ""))
+                                   if m["msg_type"] == "stream" else None)
+            backends[name] = "".join(out).strip()
+        finally:
+            kc.stop_channels()
+            km.shutdown_kernel(now=True)
+    assert "ipympl" in backends["click"], backends
+    assert "ipympl" not in backends["static"], backends
