@@ -152,7 +152,7 @@ CHECKS_ATTACKS = {
                        "    except OSError:\n        pass",
     "process_flood": "import subprocess\nps = [subprocess.Popen(['sleep', '60']) for _ in range(100)]",
     "orphan_process": "import subprocess\nsubprocess.Popen(['sleep', '987654'], start_new_session=True)",
-    "ram_disks": "import os\nfor d in ('/tmp', '/dev/shm', os.getcwd()):\n    try:\n        with open(d + '/fill', 'wb') as f:\n"
+    "ram_disks": "import os\nfor d in ('/tmp', '/dev/shm'):\n    try:\n        with open(d + '/fill', 'wb') as f:\n"
                  "            for _ in range(3 * 1024):\n                f.write(b'z' * 2**20)\n    except OSError as exc:\n"
                  "        print(d, exc)",
     "forked_memory": "import os, time\nkids = []\nfor _ in range(4):\n    pid = os.fork()\n    if pid == 0:\n"
