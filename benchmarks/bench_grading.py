@@ -8,9 +8,11 @@ solution cell, one public and two hidden checks), writes N simulated submissions
 * a dask.distributed ``LocalCluster``: a real scheduler and two single-threaded
   worker processes talking TCP on 127.0.0.1 (what ``--scheduler tcp://...`` uses).
 
-Every submission runs in its own sandboxed kernel (bubblewrap + prlimit), so the
-figures include kernel start-up, the sandbox and the HTML feedback report. It prints
-submissions/min for both engines and their ratio, and checks every score.
+Every submission runs in its own sandboxed kernel (allow-list bubblewrap + prlimit + the
+memory watchdog), then its checks run in a clean sandboxed checker process, so the figures
+include both start-ups, the sandbox, the feedback page and the batch's one grading of the
+untouched student version (free rows). It prints submissions/min for both engines and their
+ratio, and checks every score.
 
     python benchmarks/bench_grading.py [-n 300] [--no-html]
 """
@@ -46,7 +48,7 @@ def run(engine, subs, lab, out, n, html, scheduler=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-n", type=int, default=300, help="number of submissions (default 300)")
-    ap.add_argument("--no-html", action="store_true", help="skip the HTML feedback reports")
+    ap.add_argument("--no-html", action="store_true", help="skip the feedback pages")
     args = ap.parse_args(argv)
     from distributed import LocalCluster
 

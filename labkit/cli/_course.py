@@ -20,9 +20,11 @@ def add_commands(sub):
     sp = sub.add_parser("assign", help="write the student version of a tagged lab folder (nbgrader)")
     sp.add_argument("lab_dir", metavar="LAB_DIR", help="instructor lab folder (cells tagged solution/tests/hidden-tests)")
     sp.add_argument("out_dir", metavar="OUT_DIR", help="where the student notebooks go")
+    sp.add_argument("--no-baseline", action="store_true",
+                    help="do not grade the untouched student version (which checks pass without student work)")
     sp.set_defaults(func=_cmd_assign)
 
-    sp = sub.add_parser("grade", help="grade every submission in a sandbox; gradebook CSV/Excel + HTML feedback")
+    sp = sub.add_parser("grade", help="grade every submission in a sandbox; gradebook CSV/Excel + HTML feedback pages")
     sp.add_argument("submissions", metavar="SUBMISSIONS_DIR", help="one folder per student with their notebooks")
     sp.add_argument("--lab", required=True, metavar="LAB_DIR", help="the instructor's lab folder (with hidden tests)")
     sp.add_argument("-o", "--output", default="gradebook.csv",
@@ -35,7 +37,9 @@ def add_commands(sub):
                     help="wall-clock time per notebook (default 300)")
     sp.add_argument("--no-sandbox", action="store_true",
                     help="limits only, no bubblewrap (for machines without it; student code then sees every file)")
-    sp.add_argument("--no-html", action="store_true", help="skip the HTML feedback reports")
+    sp.add_argument("--no-html", action="store_true", help="skip the HTML feedback pages")
+    sp.add_argument("--count-free", action="store_true",
+                    help="count the rows the untouched student version already passes (default: worth 0)")
     sp.set_defaults(func=_cmd_grade)
 
 
@@ -60,6 +64,15 @@ def _cmd_assign(args):
     print(f"{len(result.notebooks)} student notebook(s) in {Path(args.out_dir).resolve()} "
           f"({len(result.checks) - hidden} public checks kept, {hidden} hidden checks removed, "
           f"{len(result.other_files)} other file(s) copied)")
+    if not args.no_baseline:
+        from labkit.course import baseline
+
+        base = baseline(args.lab_dir)
+        print(f"the untouched student version passes {len(base.reasons)} check row(s) worth {base.free_points:g} of "
+              f"{base.result.max_points:g} points; at grading these rows are free (worth 0), so it scores 0 "
+              "(labkit grade --count-free counts them)")
+        for line in base.reasons:
+            print(f"  free: {line}")
     return 0
 
 
@@ -71,7 +84,7 @@ def _cmd_grade(args):
     limits = Limits(cpu_seconds=args.cpu, memory_bytes=int(args.memory * 2**30), wall_seconds=args.wall,
                     sandbox=not args.no_sandbox)
     results = grade(args.submissions, args.lab, feedback, limits=limits, scheduler=args.scheduler, jobs=args.jobs,
-                    html=not args.no_html)
+                    html=not args.no_html, count_free=args.count_free)
     frame = gradebook_frame(results)
     written = write_gradebook(frame, out)
     not_ok = frame[frame["status"] != "ok"]

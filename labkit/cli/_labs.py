@@ -16,6 +16,9 @@ def add_commands(sub):
                     help="folder or notebook to open (default: the labs folder, as `labkit render` finds it)")
     sp.add_argument("--port", type=int, default=None, help="TCP port (default 8888 or the next free one)")
     sp.add_argument("--no-browser", action="store_true", help="do not open a browser; print the URL with its token")
+    sp.add_argument("--instructor", action="store_true",
+                    help="keep nbgrader's instructor tools (Formgrader, Create Assignment, Validate); "
+                         "default: a students' JupyterLab without them")
     sp.set_defaults(func=_cmd_lab)
 
     sp = sub.add_parser("new", help="create a lab folder for a robot file from the generic lab templates")
@@ -29,7 +32,7 @@ def add_commands(sub):
 def _cmd_lab(args):
     from labkit.labs import serve_lab
 
-    return serve_lab(args.path, port=args.port, no_browser=args.no_browser)
+    return serve_lab(args.path, port=args.port, no_browser=args.no_browser, instructor=args.instructor)
 
 
 def _cmd_new(args):

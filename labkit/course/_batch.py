@@ -28,14 +28,11 @@ from pathlib import Path, PurePosixPath
 
 from labkit.exceptions import LabkitError
 from labkit.course._grade import grade_submission
+from labkit.course._submission import MAX_SUBMISSION_BYTES
 from labkit.course._sandbox import Limits
 from labkit.reports import find_chromium, find_notebooks, lab_of, render_one, write_index
 
 __all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]
-
-#: largest submission folder accepted [bytes]
-MAX_SUBMISSION_BYTES = 50 * 2**20
-
 
 def pack_dir(path, *, limit=None) -> dict:
     """The regular files under a folder as ``{relative posix path: bytes}`` (symlinks skipped).
@@ -180,29 +177,62 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     return results
 
 
-def _grade_task(student, submission_files, lab_files, limits, html):
-    """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``."""
+def _grade_task(student, submission_files, lab_files, limits, html, free):
+    """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``.
+
+    Whatever goes wrong becomes this student's row (status ``"crash"``), never the batch's failure.
+    """
     from dataclasses import replace
 
-    with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
-        sub = unpack_dir(submission_files, Path(tmp) / "submissions" / student)
-        lab = unpack_dir(lab_files, Path(tmp) / "lab")
-        out = Path(tmp) / "feedback"
-        result = grade_submission(sub, lab, out, limits=limits, html=html)
-        return replace(result, files=pack_dir(out / student))
+    t0 = time.perf_counter()
+    try:
+        with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
+            sub = unpack_dir(submission_files, Path(tmp) / "submissions" / student)
+            lab = unpack_dir(lab_files, Path(tmp) / "lab")
+            out = Path(tmp) / "feedback"
+            result = grade_submission(sub, lab, out, limits=limits, html=html, free=free)
+            files = pack_dir(out / student) if (out / student).is_dir() else {}
+            return replace(result, files=files)
+    except Exception as exc:  # noqa: BLE001 - one student's row, never the class's crash
+        return _failed(student, lab_files, free, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
 
 
-def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True):
-    """Grade every submission folder under ``submissions_dir``; feedback goes to ``output_dir/<student>/``.
+def _failed(student, lab_files, free, status, why, t0=None):
+    """A row for a student whose submission could not be graded: every check 0."""
+    import nbformat
+
+    from labkit.course._assign import graded_cells
+    from labkit.course._grade import SubmissionResult, _unscored
+
+    sources = {}
+    for rel in sorted(lab_files):
+        if "/" not in rel and rel.endswith(".ipynb") and not rel.startswith("_"):
+            try:
+                nb = nbformat.reads(lab_files[rel].decode("utf-8"), as_version=4)
+            except Exception:  # noqa: BLE001 - the instructor's notebook was graded elsewhere
+                continue
+            if graded_cells(nb, rel):
+                sources[rel] = nb
+    seconds = 0.0 if t0 is None else time.perf_counter() - t0
+    return SubmissionResult(student, status, str(why)[:500], _unscored(sources, free, str(why)[:200]), seconds)
+
+
+def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True,
+          count_free=False):
+    """Grade every submission under ``submissions_dir``; feedback goes to ``output_dir/<student>/``.
+
+    First the lab's untouched student version is graded once (:func:`labkit.course.baseline`):
+    the rows it passes are free and worth nothing in every submission.
 
     Parameters
     ----------
     submissions_dir : str or os.PathLike
-        One folder per student holding their notebooks.
+        One folder per student holding their notebooks; every other entry (a file, a
+        symlink) gets an ``"invalid"`` row.
     lab_dir : str or os.PathLike
         The instructor's lab folder.
     output_dir : str or os.PathLike
-        Feedback folder (created).
+        Feedback folder (created): ``<student>/index.html`` and the class's ``index.html``.
     limits : Limits, optional
         Per-notebook limits.
     scheduler : str, optional
@@ -210,44 +240,61 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     jobs : int
         Local pool size.
     html : bool
-        Write HTML feedback reports.
+        Write the feedback pages.
     progress : bool
         Show the progress bar.
+    count_free : bool
+        Count the free rows too (their points as the lab declares them).
 
     Returns
     -------
     list of SubmissionResult
-        Sorted by student (``files`` emptied once written).
+        One per entry of ``submissions_dir``, sorted by name (``files`` emptied once written).
 
     Raises
     ------
     LabkitError
-        If there is no submission folder, or a folder is over the size limit.
+        If there is no entry in ``submissions_dir`` or the lab folder is not one.
     """
+    import shutil
     from dataclasses import replace
+
+    from labkit.course._feedback import write_class_index
+    from labkit.course._grade import baseline
 
     subs, lab = Path(submissions_dir).resolve(), Path(lab_dir).resolve()
     if not lab.is_dir():
         raise LabkitError(f"expected the lab folder, got {lab}")
-    students = sorted(p for p in subs.iterdir() if p.is_dir() and not p.name.startswith(".")) \
-        if subs.is_dir() else []
-    if not students:
+    entries = sorted(p for p in subs.iterdir() if not p.name.startswith(".")) if subs.is_dir() else []
+    if not entries:
         raise LabkitError(f"expected one folder per student in {subs}, found none")
     out = Path(output_dir).resolve()
+    limits = limits or Limits()
     lab_files = pack_dir(lab)
-    argsets = [(p.name, pack_dir(p, limit=MAX_SUBMISSION_BYTES), lab_files, limits or Limits(), html)
-               for p in students]
+    free = {} if count_free else baseline(lab, limits=limits).free
+    argsets, early = [], {}
+    for p in entries:
+        if p.is_symlink() or not p.is_dir():
+            early[p.name] = _failed(p.name, lab_files, free, "invalid", "not a folder (a file or a symlink)")
+            continue
+        try:
+            files = pack_dir(p, limit=MAX_SUBMISSION_BYTES)
+        except (LabkitError, OSError) as exc:
+            early[p.name] = _failed(p.name, lab_files, free, "invalid", str(exc))
+            continue
+        argsets.append((p.name, files, lab_files, limits, html, free))
 
     def write(i, result):
         if (out / result.student).exists():
-            import shutil
-
             shutil.rmtree(out / result.student)
         unpack_dir(result.files, out / result.student)
 
     results = run_tasks(_grade_task, argsets, scheduler=scheduler, jobs=jobs, desc="grading", progress=progress,
-                        on_result=write)
-    return [replace(r, files={}) for r in results]
+                        on_result=write) if argsets else []
+    results = sorted([replace(r, files={}) for r in results] + list(early.values()), key=lambda r: r.student)
+    if html:
+        write_class_index(results, out, title=f"Gradebook: {lab.name}")
+    return results
 
 
 def gradebook_frame(results):

@@ -1,13 +1,23 @@
-"""Grading one submission: hidden tests put back, sandboxed execution, scores, feedback report.
+"""Grading one submission: run it in the sandbox, hand out the checks' data, score in a clean process.
 
-A submission is a folder holding the student's copies of the lab's notebooks
-(same file names as the instructor's lab folder) and any files they need.
-:func:`grade_submission` copies only that folder into a fresh temporary working
-directory, rebuilds each notebook from the student's cells and the instructor's
-checks (see :func:`graded_notebook`), runs it against ``sim://`` in the sandbox of
-:func:`labkit.course.run_untrusted`, scores every check, and writes the
-executed notebook and an offline HTML feedback report (the template of
-``labkit render``) into ``output_dir/<student>/``.
+A submission is a folder holding the student's copies of the lab's notebooks (same file
+names as the instructor's lab folder) and any files they need. :func:`grade_submission`
+
+1. copies the folder's regular files (never a symlink, never a file over the size limit)
+   into a fresh working copy, plus the lab's data files the student did not bring;
+2. rebuilds each notebook from the student's cells and the instructor's checks
+   (:func:`graded_notebook`), then replaces every check by an **export step** that hands
+   out, as plain data, the values the check reads (:mod:`labkit.course._wire`): the
+   instructor's check code never enters the student's kernel;
+3. runs it against ``sim://`` in the sandbox of :func:`labkit.course.run_untrusted`;
+4. runs the instructor's checks on the handed-out data in a separate clean process
+   (:mod:`labkit.course._checker`), one score per row;
+5. scores: a check's points are shared by its rows, except **free** rows (rows that
+   pass on the untouched student version, see :func:`baseline`), which are worth 0;
+6. writes a small feedback page (:mod:`labkit.course._feedback`).
+
+Nothing the student's code patches, hooks or prints reaches the verdict: at most it
+changes the data handed out, which it could change by assigning the variables.
 
 Example
 -------
@@ -26,6 +36,7 @@ Example
 from __future__ import annotations
 
 import copy
+import os
 import shutil
 import tempfile
 import time
@@ -33,30 +44,65 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.course._assign import HIDDEN_TESTS_TAG, TESTS_TAG, cell_role, graded_cells
-from labkit.course._sandbox import Limits, run_untrusted
+from labkit.course._assign import HIDDEN_TESTS_TAG, SOLUTION_TAG, TESTS_TAG, cell_role, graded_cells, student_notebook
+from labkit.course._checker import run_checker
+from labkit.course._plan import plan_check, prelude_source
+from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
+from labkit.course._submission import copy_regular_files, error_detail, read_student_notebook
+from labkit.course._wire import MIME, export_source
 from labkit.reports import notebook_parameters
 
-__all__ = ["CellScore", "SubmissionResult", "graded_notebook", "grade_submission"]
+__all__ = ["RowScore", "CellScore", "SubmissionResult", "graded_notebook", "grade_submission", "baseline"]
 
 #: the port every graded notebook runs against (the virtual arm)
 GRADING_PORT = "sim://"
 
 
 @dataclass(frozen=True)
+class RowScore:
+    """The score of one row of a check.
+
+    Attributes
+    ----------
+    name : str
+        Row name.
+    points, max_points : float
+        Earned and possible [points] (0 / 0 for a free row).
+    passed : bool
+    free : bool
+        The row passes on the untouched student version (worth nothing).
+    error : str
+        What failed (exception type and message, or the failing comparison).
+    line : int
+        Line of the row in the check cell.
+    """
+
+    name: str
+    points: float
+    max_points: float
+    passed: bool
+    free: bool = False
+    error: str = ""
+    line: int = 0
+
+
+@dataclass(frozen=True)
 class CellScore:
-    """The score of one check of one submission.
+    """The score of one check (one ``tests`` or ``hidden-tests`` cell) of one submission.
 
     Attributes
     ----------
     notebook, name : str
         Notebook file name and check name.
     points, max_points : float
-        Points earned and possible [points].
+        Points earned and possible [points]: the check's weight shared by its rows that are
+        not free (a check whose rows are all free is worth 0).
     hidden : bool
         True for a hidden check.
     passed : bool
-        True when the check cell ran without an error.
+        True when every row passed.
+    rows : tuple of RowScore
+    cell_id : str
     """
 
     notebook: str
@@ -65,6 +111,13 @@ class CellScore:
     max_points: float
     hidden: bool
     passed: bool
+    rows: tuple = ()
+    cell_id: str = ""
+
+    @property
+    def free(self) -> bool:
+        """Every row passes without student work (the check is worth 0)."""
+        return bool(self.rows) and all(r.free for r in self.rows)
 
 
 @dataclass(frozen=True)
@@ -76,17 +129,18 @@ class SubmissionResult:
     student : str
         Submission folder name.
     status : str
-        Worst outcome over the notebooks: ``"ok"``, ``"error"`` (a cell raised; the other checks
-        still ran), ``"timeout"``, ``"cpu-time"``, ``"memory"``, ``"crash"``, ``"missing"``.
+        Worst outcome over the notebooks: ``"ok"``, ``"error"`` (a cell raised; the other
+        checks still ran), ``"missing"``, ``"invalid"`` (not a notebook, malformed, or not a
+        folder), ``"memory"``, ``"cpu-time"``, ``"timeout"``, ``"crash"``.
     detail : str
-        What happened, per notebook that did not end ``"ok"``.
+        What happened: per notebook the run's problems (exception type, message, cell, line)
+        and the failing rows.
     scores : tuple of CellScore
         Every check of the lab, in order.
     seconds : float
         Wall time of the grading [s].
     files : dict
-        Relative path -> bytes of the feedback written (executed notebooks, HTML reports);
-        filled only by batch tasks that send the files back to the driver.
+        Relative path -> bytes of the feedback written; filled only by batch tasks.
     """
 
     student: str
@@ -99,15 +153,15 @@ class SubmissionResult:
     @property
     def points(self) -> float:
         """Total points earned [points]."""
-        return sum(s.points for s in self.scores)
+        return round(sum(s.points for s in self.scores), 9)
 
     @property
     def max_points(self) -> float:
         """Total points possible [points]."""
-        return sum(s.max_points for s in self.scores)
+        return round(sum(s.max_points for s in self.scores), 9)
 
 
-_SEVERITY = ("ok", "error", "missing", "memory", "cpu-time", "timeout", "crash")
+_SEVERITY = ("ok", "error", "missing", "invalid", "memory", "cpu-time", "timeout", "crash")
 
 
 def graded_notebook(source, student):
@@ -121,7 +175,7 @@ def graded_notebook(source, student):
     Parameters
     ----------
     source, student : nbformat.NotebookNode
-        The instructor's notebook and the student's submission (not modified).
+        The instructor's notebook and the submission (not modified).
 
     Returns
     -------
@@ -153,8 +207,7 @@ def graded_notebook(source, student):
         if cell.cell_type == "code":
             cell.outputs, cell.execution_count = [], None
     nb.cells = cells
-    nb.metadata.setdefault("kernelspec", source.metadata.get("kernelspec",
-                                                             {"name": "python3", "language": "python"}))
+    nb.metadata["kernelspec"] = source.metadata.get("kernelspec", {"name": "python3", "language": "python"})
     return nb
 
 
@@ -169,24 +222,46 @@ def _inject_parameters(nb, params):
     return nb
 
 
-def _passed(cell) -> bool:
-    return cell.get("execution_count") is not None and not any(
-        o.get("output_type") == "error" for o in cell.get("outputs", []))
+def _run_one(source, theirs, name, work, limits, hide, private, declared):
+    """Run one notebook; (status, detail, plans, data by cell id, run notebook)."""
+    checks = {c.cell_id: c for c in graded_cells(source, name)}
+    plans = {cid: plan_check(next(c.source for c in source.cells if str(c.get("id")) == cid), cid, chk.name)
+             for cid, chk in checks.items()}
+    nb = graded_notebook(source, theirs)
+    for cell in nb.cells:
+        cid = str(cell.get("id"))
+        if cid in plans:
+            cell.source = export_source(plans[cid].free_names, cid)
+            cell.metadata = {"labkit": {"export": cid}}
+    home = SANDBOX_HOME if limits.sandbox else str(work)
+    params = {"port": GRADING_PORT, "output_dir": f"{home}/{Path(name).stem}_files"}
+    params = {k: v for k, v in params.items() if k in declared}
+    if params:
+        nb = _inject_parameters(nb, params)
+    status, detail = run_untrusted(nb, work, limits=limits, hide=hide, private=private)
+    data = {}
+    for cell in nb.cells:
+        cid = cell.get("metadata", {}).get("labkit", {}).get("export")
+        if cid in plans:
+            texts = [o["data"][MIME] for o in cell.get("outputs", [])
+                     if o.get("output_type") == "display_data" and isinstance(o.get("data", {}).get(MIME), str)]
+            data[cid] = texts[-1] if texts else None
+    errors = [(i, c) for i, c in enumerate(nb.cells) if c.cell_type == "code" and c.get("metadata", {}).get(
+        "labkit", {}).get("export") is None and any(o.get("output_type") == "error" for o in c.get("outputs", []))]
+    if status == "error":
+        status, detail = ("error", error_detail(errors[0][1], errors[0][0])) if errors else ("ok", "")
+    return status, detail, checks, plans, data, nb
 
 
-def _score_cell(scores, nb_name, status):
-    """A markdown cell summarising the scores, for the top of the feedback report."""
-    import nbformat
-
-    rows = "\n".join(f"| {s.name} | {'hidden' if s.hidden else 'public'} | {'pass' if s.passed else 'FAIL'} "
-                     f"| {s.points:g} / {s.max_points:g} |" for s in scores)
-    total, most = sum(s.points for s in scores), sum(s.max_points for s in scores)
-    return nbformat.v4.new_markdown_cell(
-        f"## Feedback: {nb_name}\n\nScore **{total:g} / {most:g}**; run status: `{status}`.\n\n"
-        f"| check | kind | result | points |\n|---|---|---|---|\n{rows}\n")
+def _scrub(text, *paths) -> str:
+    for p in paths:
+        if p:
+            text = text.replace(str(p), "~")
+    return text
 
 
-def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True) -> SubmissionResult:
+def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True, free=None) \
+        -> SubmissionResult:
     """Grade one submission folder against the instructor's lab folder.
 
     Parameters
@@ -196,91 +271,265 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     lab_dir : str or os.PathLike
         The instructor's lab folder (tagged notebooks with solutions and hidden tests).
     output_dir : str or os.PathLike
-        Feedback goes to ``output_dir/<student>/<notebook>.ipynb`` and ``.html``.
+        Feedback goes to ``output_dir/<student>/index.html``.
     limits : Limits, optional
         Per-notebook CPU, memory and wall-clock limits.
     hide : sequence of path-like
-        Further folders the student's code must not see (the submission's own parent
-        folder, ``lab_dir`` and ``output_dir`` are always hidden).
+        Further folders the student's code must not see (the sandbox shows nothing of the
+        host's but the Python installation and labkit; these are emptied even there).
     html : bool
-        Write the HTML feedback reports.
+        Write the feedback page.
+    free : dict, optional
+        ``{(notebook, cell id): set of row indices}`` that pass untouched (:func:`baseline`);
+        default: computed now (one more run of the lab's student version).
 
     Returns
     -------
     SubmissionResult
-        Never raises for anything the student's code does.
+        Never raises for anything in the submission (a malformed one is ``"invalid"``).
 
     Raises
     ------
     LabkitError
-        If ``submission`` or ``lab_dir`` is not a folder, or the sandbox cannot start.
+        If ``lab_dir`` holds no notebook, or the sandbox cannot start.
     """
     import nbformat
-    from labkit.reports import export_html
+
+    from labkit.course._feedback import write_feedback
 
     t0 = time.perf_counter()
-    submission, lab, out = Path(submission).resolve(), Path(lab_dir).resolve(), Path(output_dir).resolve()
-    for what, path in (("submission", submission), ("lab", lab)):
-        if not path.is_dir():
-            raise LabkitError(f"expected a {what} folder, got {path}")
+    submission, lab, out = Path(submission), Path(lab_dir).resolve(), Path(output_dir).resolve()
     notebooks = sorted(p for p in lab.glob("*.ipynb") if not p.name.startswith("_"))
     if not notebooks:
         raise LabkitError(f"expected lab notebooks (*.ipynb) in {lab}, found none")
-    student = submission.name
-    feedback = out / student
-    feedback.mkdir(parents=True, exist_ok=True)
-    hide = [submission.parent, lab, out, *hide]
+    sources = {p.name: nbformat.read(str(p), as_version=4) for p in notebooks}
+    sources = {name: nb for name, nb in sources.items() if graded_cells(nb, name)}  # nothing to score elsewhere
+    if not sources:
+        raise LabkitError(f"expected a notebook with checks (cells tagged tests or hidden-tests) in {lab}, found none")
     limits = limits or Limits()
-    scores, statuses, details = [], [], []
+    if free is None:
+        free = baseline(lab, limits=limits).free
+    student = submission.name
+    if submission.is_symlink() or not submission.is_dir():
+        return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
+    hide = [submission.resolve().parent, lab, out, *hide]
     root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
+    statuses, details, scores, pages = [], [], [], []
     try:
-        work = root / "work"
-        shutil.copytree(submission, work, symlinks=True)  # this submission only; links are not followed
+        work, private = root / "home", root / "kernel"
+        work.mkdir()
+        private.mkdir()
+        try:
+            copy_regular_files(submission, work)
+        except (LabkitError, OSError) as exc:
+            return _invalid(student, sources, free, str(exc), t0)
         for p in lab.rglob("*"):  # the lab's data files the student did not bring
             rel = p.relative_to(lab)
-            if p.is_file() and p.suffix != ".ipynb" and not (work / rel).exists():
+            if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts \
+                    and not os.path.lexists(work / rel):
                 (work / rel).parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(p, work / rel)
-        for source_path in notebooks:
-            source = nbformat.read(str(source_path), as_version=4)
-            checks = graded_cells(source, source_path.name)
-            mine = work / source_path.name
+        runs, job = [], {"notebooks": []}
+        for name, source in sources.items():
             try:
-                theirs = nbformat.read(str(mine), as_version=4)
-            except Exception as exc:  # missing or not a notebook: every check fails
-                statuses.append("missing")
-                details.append(f"{source_path.name}: cannot read the submission ({type(exc).__name__})")
-                scores += [CellScore(c.notebook, c.name, 0.0, c.points, c.hidden, False) for c in checks]
+                theirs = read_student_notebook(work / name)
+            except FileNotFoundError:
+                runs.append((name, "missing", f"{name} is not in the submission", None))
                 continue
-            nb = graded_notebook(source, theirs)
-            declared = notebook_parameters(source_path)
-            params = {"port": GRADING_PORT, "output_dir": str(work / f"{source_path.stem}_files")}
-            params = {k: v for k, v in params.items() if k in declared}
-            if params:
-                nb = _inject_parameters(nb, params)
-            status, detail = run_untrusted(nb, work, limits=limits, hide=hide)
-            check_ids = {c.cell_id for c in checks}
-            if status == "error":  # a failing check is a score, not a run error; an error elsewhere is
-                errors = [o for c in nb.cells if str(c.get("id")) not in check_ids
-                          for o in c.get("outputs", []) if o.get("output_type") == "error"]
-                status, detail = ("error", f"{errors[0].get('ename')}: {errors[0].get('evalue', '')}"[:300]) \
-                    if errors else ("ok", "")
-            statuses.append(status)
-            if status != "ok":
-                details.append(f"{source_path.name}: {status}: {detail}")
-            by_id = {str(c.get("id")): c for c in nb.cells}
-            nb_scores = [CellScore(c.notebook, c.name, c.points if _passed(by_id[c.cell_id]) else 0.0, c.points,
-                                    c.hidden, _passed(by_id[c.cell_id])) for c in checks]
+            except Exception as exc:  # noqa: BLE001 - whatever is wrong with the student's file
+                runs.append((name, "invalid", f"{name} is not a valid notebook: {type(exc).__name__}: "
+                                              f"{str(exc).splitlines()[0][:200] if str(exc) else ''}", None))
+                continue
+            status, detail, checks, plans, data, _ = _run_one(source, theirs, name, work, limits, hide, private,
+                                                             notebook_parameters(lab / name))
+            runs.append((name, status, detail, (checks, plans)))
+            roles = [(c.source, cell_role(c) == SOLUTION_TAG) for c in source.cells if c.cell_type == "code"]
+            job["notebooks"].append({"name": name, "prelude": list(prelude_source(roles)), "cells": [
+                {"cell_id": p.cell_id, "name": p.name, "free_names": list(p.free_names),
+                 "statements": [list(s) for s in p.statements], "rows": [list(_row_list(r)) for r in p.rows],
+                 "error": p.error, "data": data.get(cid)} for cid, p in plans.items()]})
+        checker = root / "checker"
+        checker.mkdir()
+        verdict = {"notebooks": []}
+        if job["notebooks"]:
+            args = sandbox_args(work, checker, hide, limits=limits, writable_home=False) if limits.sandbox else None
+            verdict = run_checker(job, checker, limits=limits, sandbox_args=args)
+        by_nb = {n["name"]: n for n in verdict.get("notebooks", [])}
+        for name, status, detail, planned in runs:
+            source_checks = graded_cells(sources[name], name)
+            cells = {c["cell_id"]: c["rows"] for c in by_nb.get(name, {}).get("cells", [])}
+            if planned is not None and "error" in verdict:
+                status, detail = "crash", f"{detail + '; ' if detail else ''}{verdict['error']}"
+            nb_scores = []
+            for chk in source_checks:
+                plan = planned[1][chk.cell_id] if planned else plan_check(
+                    next(c.source for c in sources[name].cells if str(c.get("id")) == chk.cell_id), chk.cell_id, chk.name)
+                results = cells.get(chk.cell_id) or [{"passed": False, "error": "not graded", "line": r.line}
+                                                     for r in plan.rows]
+                nb_scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
             scores += nb_scores
-            nb.cells.insert(0, _score_cell(nb_scores, source_path.name, status))
-            nbformat.write(nb, str(feedback / source_path.name))
-            if html:
-                total = sum(s.points for s in nb_scores)
-                export_html(nb, feedback / f"{source_path.stem}.html", title=f"{student} / {source_path.stem}",
-                            status="passed" if all(s.passed for s in nb_scores) else "failed",
-                            error=f"score {total:g} / {sum(c.points for c in checks):g}; run status {status}"
-                            + (f": {detail}" if detail else ""))
+            statuses.append(status)
+            failing = [f"{r.name if r.name.startswith(s.name) else s.name + ' / ' + r.name}: {r.error} (line {r.line})"
+                       for s in nb_scores for r in s.rows
+                       if not r.passed and not r.free and r.error]
+            if status != "ok" or failing:
+                parts = [f"{status}: {detail}"] if status != "ok" else []
+                details.append(f"{name}: " + "; ".join(parts + failing[:4] + (["..."] if len(failing) > 4 else [])))
+            pages.append((name, status, _scrub(detail, work, root), nb_scores))
     finally:
         shutil.rmtree(root, ignore_errors=True)
     worst = max(statuses, key=_SEVERITY.index) if statuses else "missing"
-    return SubmissionResult(student, worst, "; ".join(details), tuple(scores), time.perf_counter() - t0)
+    result = SubmissionResult(student, worst, " | ".join(details)[:2000], tuple(scores), time.perf_counter() - t0)
+    if html:
+        write_feedback(result, pages, out / student)
+    return result
+
+
+def _row_list(row):
+    """A :class:`~labkit.course._plan.Row` as a list (for the checker's JSON job)."""
+    return [row.index, row.name, row.statement, row.line]
+
+
+def _score(chk, plan, results, free_rows) -> CellScore:
+    counted = [r for r in plan.rows if r.index not in free_rows]
+    share = chk.points / len(counted) if counted else 0.0
+    rows = []
+    for r, res in zip(plan.rows, results):
+        is_free = r.index in free_rows
+        passed = bool(res.get("passed"))
+        rows.append(RowScore(r.name, share if passed and not is_free else 0.0, 0.0 if is_free else share, passed,
+                             is_free, str(res.get("error", ""))[:500], int(res.get("line", r.line))))
+    return CellScore(chk.notebook, chk.name, round(sum(r.points for r in rows), 9),
+                     round(sum(r.max_points for r in rows), 9), chk.hidden, all(r.passed for r in rows),
+                     tuple(rows), chk.cell_id)
+
+
+def _unscored(sources, free, why="not graded") -> tuple:
+    """Every check of the lab at 0 points (free rows worth 0 of 0), for a submission that could not run.
+
+    Parameters
+    ----------
+    sources : dict of str to nbformat.NotebookNode
+        The instructor's notebooks by file name.
+    free : dict
+        Free rows, as for :func:`grade_submission`.
+    why : str
+        The rows' error.
+
+    Returns
+    -------
+    tuple of CellScore
+    """
+    scores = []
+    for name, nb in sources.items():
+        for chk in graded_cells(nb, name):
+            source = next(c.source for c in nb.cells if str(c.get("id")) == chk.cell_id)
+            plan = plan_check(source, chk.cell_id, chk.name)
+            results = [{"passed": False, "error": why, "line": r.line} for r in plan.rows]
+            scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
+    return tuple(scores)
+
+
+def _invalid(student, sources, free, why, t0, status="invalid") -> SubmissionResult:
+    return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """What the untouched student version of a lab scores.
+
+    Attributes
+    ----------
+    free : dict
+        ``{(notebook, cell id): set of row indices}`` that pass without any student work.
+    result : SubmissionResult
+        The untouched version's grading (every row counted).
+    reasons : tuple of str
+        One line per free row: which check, and why it passes untouched.
+    """
+
+    free: dict
+    result: SubmissionResult
+    reasons: tuple
+
+    @property
+    def free_points(self) -> float:
+        """Points the untouched version would earn if free rows counted [points]."""
+        return round(sum(r.points for s in self.result.scores for r in s.rows if r.passed), 9)
+
+
+def baseline(lab_dir, *, limits=None) -> Baseline:
+    """Grade the lab's untouched student version: which rows pass without student work, and why.
+
+    Parameters
+    ----------
+    lab_dir : str or os.PathLike
+        The instructor's lab folder.
+    limits : Limits, optional
+
+    Returns
+    -------
+    Baseline
+
+    Raises
+    ------
+    LabkitError
+        If the untouched version does not run to its end (a limit, a crash): then it cannot
+        tell which rows are free.
+    """
+    import nbformat
+
+    from labkit.course._plan import python_source
+
+    lab = Path(lab_dir).resolve()
+    with tempfile.TemporaryDirectory(prefix="labkit-baseline-") as tmp:
+        sub = Path(tmp) / "untouched"
+        sub.mkdir()
+        solved, sources = {}, {}
+        for p in sorted(lab.glob("*.ipynb")):
+            if p.name.startswith("_"):
+                continue
+            nb = sources[p.name] = nbformat.read(str(p), as_version=4)
+            nbformat.write(student_notebook(nb), str(sub / p.name))
+            solved[p.name] = {n for c in nb.cells if cell_role(c) == SOLUTION_TAG
+                              for n in _assigned(python_source(c.source))}
+        result = grade_submission(sub, lab, Path(tmp) / "feedback", limits=limits, html=False, free={})
+    if result.status not in ("ok", "error"):
+        raise LabkitError(f"expected the untouched student version of {lab.name} to run to its end (its checks tell "
+                          f"which rows are free), got status {result.status!r}: {result.detail[:300]}; "
+                          "raise the limits (--cpu, --memory, --wall) or fix the lab")
+    free, reasons = {}, []
+    for s in result.scores:
+        source = next((c.source for c in sources[s.notebook].cells if str(c.get("id")) == s.cell_id), "")
+        plan = plan_check(source, s.cell_id, s.name)
+        for index, r in enumerate(s.rows):
+            if not r.passed:
+                continue
+            free.setdefault((s.notebook, s.cell_id), set()).add(index)
+            reads = _loaded(python_source(plan.statements[plan.rows[index].statement][0])) if index < len(plan.rows) \
+                else set()
+            mine = sorted(reads & solved.get(s.notebook, set()))
+            why = (f"the stub's values of {', '.join(mine)} already pass it" if mine else
+                   "it reads no value a solution cell assigns" + (f" (only {', '.join(sorted(reads))})" if reads else ""))
+            reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched: {why}")
+    return Baseline(free, result, tuple(reasons))
+
+
+def _assigned(text) -> set:
+    import ast
+
+    try:
+        tree = ast.parse(text)
+    except SyntaxError:
+        return set()
+    return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+
+
+def _loaded(text) -> set:
+    import ast
+
+    try:
+        tree = ast.parse(text)
+    except SyntaxError:
+        return set()
+    return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}

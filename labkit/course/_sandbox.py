@@ -1,25 +1,28 @@
-"""Executing an untrusted notebook: a Jupyter kernel in a bubblewrap sandbox with resource limits.
+"""Executing an untrusted notebook: a Jupyter kernel in an allow-list bubblewrap sandbox with limits.
 
-The notebook client (nbclient) runs in the grading process and holds the notebook,
-hidden tests included; only the kernel, where the student's code runs, is sandboxed.
-It is started as ``prlimit --cpu --as -- bwrap ... -- python -m ipykernel_launcher``:
+The notebook client (nbclient) runs in the grading process; the kernel, where the
+student's code runs, is started as ``prlimit --cpu --as --fsize -- bwrap ... -- python -m
+ipykernel_launcher``. The sandbox shows **only what the kernel needs**:
 
-* **CPU time and memory**: ``RLIMIT_CPU`` (SIGXCPU at the limit, SIGKILL a little
-  later) and ``RLIMIT_AS`` (an allocation over the limit raises ``MemoryError``);
-* **wall clock**: a per-cell timeout and a deadline for the whole notebook, after
-  which the kernel is killed;
-* **files**: the whole file system read-only, with ``/tmp``, ``$HOME`` and every
-  path in ``hide`` (the submissions folder, the instructor's lab, the output folder)
-  replaced by empty tmpfs (the Python installation, the import path and the labkit
-  package are shown again, read-only, where they lie under ``/tmp`` or ``$HOME``;
-  ``hide`` still wins); only the submission's own working directory is writable;
-* **processes and network**: new PID, IPC, UTS and network namespaces (no network
-  at all, not even loopback to the host: the kernel talks to the client over Unix
-  sockets in a private folder), no capabilities, a new session, killed with its parent.
+* read-only: ``/usr`` (and the ``/bin``, ``/lib`` links into it), a few files of ``/etc``
+  (loader cache, time zone, fonts, alternatives, passwd), the Python installation
+  (``sys.prefix``, ``sys.base_prefix``, the site-packages folders) and the labkit package;
+* read-write: its own copy of the submission, at :data:`SANDBOX_HOME` (also ``$HOME`` and
+  the working directory), and a private folder holding the kernel's connection file and
+  its Unix sockets (jupyter_client's ``ipc`` transport: no TCP port at all);
+* RAM disks ``/tmp`` and ``/dev/shm`` of a bounded size, a private ``/proc`` and ``/dev``;
+* nothing else: not the lab folder, other submissions, the feedback folder, ``/tmp``,
+  ``/var``, ``/srv``, ``/opt``, ``/run`` or ``$HOME`` of the host, wherever they are;
+  folders in ``hide`` are emptied even if they lie inside a bound path.
 
-It does not protect against kernel exploits, reading files elsewhere on the
-machine that the grading user can read and that are not hidden, or filling the
-disk of the working directory (see ``docs/course.md``).
+New user, PID, IPC, UTS, cgroup and network namespaces (no network, no abstract Unix
+sockets of the host), no capabilities, a new session, killed with the grader.
+
+**Limits** (:class:`Limits`): ``RLIMIT_CPU`` and ``RLIMIT_AS`` per process, and a
+watchdog in the grader that every 0.1 s adds up the whole sandbox (proportional set
+size of every process in it, plus what its ``/tmp`` and ``/dev/shm`` hold) and its CPU
+time and process count, and kills the sandbox over the limit; a per-cell and
+per-notebook wall clock. See ``docs/course.md`` for what this does not cover.
 
 Example
 -------
@@ -31,12 +34,16 @@ Example
 from __future__ import annotations
 
 import asyncio
+import atexit
 import os
 import shutil
+import signal
 import site
 import subprocess
 import sys
+import sysconfig
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,11 +51,16 @@ from pathlib import Path
 from labkit.exceptions import LabkitError
 from labkit.reports import kernel_manager_class
 
-__all__ = ["Limits", "RunStatus", "run_untrusted"]
+__all__ = ["Limits", "RunStatus", "SANDBOX_HOME", "run_untrusted", "sandbox_args"]
 
 #: outcomes of one execution (RunStatus values)
 RunStatus = ("ok", "error", "timeout", "cpu-time", "memory", "crash")
-_SIGXCPU, _SIGKILL = 24, 9
+#: where the submission's copy appears inside the sandbox (its $HOME and working directory)
+SANDBOX_HOME = "/home/student"
+_ETC = ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "localtime", "fonts", "alternatives", "passwd", "group",
+        "nsswitch.conf", "mime.types")
+#: largest output a cell may send to the grader [bytes]; more is dropped with a note
+MAX_CELL_OUTPUT = 2 * 2**20
 
 
 @dataclass(frozen=True)
@@ -58,73 +70,231 @@ class Limits:
     Attributes
     ----------
     cpu_seconds : float
-        CPU time of the kernel [s] (``RLIMIT_CPU``).
+        CPU time of the whole sandbox [s] (every process; ``RLIMIT_CPU`` per process too).
     memory_bytes : int
-        Address space of the kernel [bytes] (``RLIMIT_AS``).
+        Memory of the whole sandbox [bytes]: its processes' proportional set sizes plus its
+        RAM disks (``RLIMIT_AS`` per process too).
     wall_seconds : float
         Wall time of the whole notebook [s]; also the per-cell timeout.
     sandbox : bool
         Run the kernel in bubblewrap (False: limits only, for machines without it).
+    max_processes : int
+        Processes at once in the sandbox.
     """
 
     cpu_seconds: float = 120.0
     memory_bytes: int = 4 * 2**30
     wall_seconds: float = 300.0
     sandbox: bool = True
+    max_processes: int = 32
 
     def __post_init__(self):
-        for name in ("cpu_seconds", "memory_bytes", "wall_seconds"):
+        for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes"):
             value = getattr(self, name)
             if not value > 0:
                 raise LabkitError(f"expected {name} > 0, got {value!r}")
 
+    @property
+    def tmpfs_bytes(self) -> int:
+        """Size of each RAM disk (``/tmp``, ``/dev/shm``) [bytes]: an eighth of the memory, at most 256 MiB."""
+        return int(min(256 * 2**20, self.memory_bytes // 8))
 
-def _bwrap_args(work: Path, private: Path, hide) -> list[str]:
+
+def _python_roots() -> list:
+    """The folders of the Python installation the kernel runs from (site-packages included)."""
+    roots = [sys.prefix, sys.base_prefix, sys.exec_prefix, os.path.dirname(os.path.realpath(sys.executable))]
+    paths = sysconfig.get_paths()
+    roots += [paths.get(k) for k in ("stdlib", "platstdlib", "purelib", "platlib")]
+    roots += list(site.getsitepackages()) + [site.getusersitepackages()]
+    return [p for p in roots if p]
+
+
+def labkit_root() -> Path:
+    """The folder holding the ``labkit`` package.
+
+    Returns
+    -------
+    pathlib.Path
+        site-packages, or a checkout's root for an editable install or a worktree.
+    """
+    return Path(__file__).resolve().parents[2]
+
+
+def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> list:
+    """The ``bwrap`` command prefix of the allow-list sandbox (ends with ``--``).
+
+    Parameters
+    ----------
+    home : path-like
+        The host folder shown at :data:`SANDBOX_HOME` (the submission's copy).
+    private : path-like
+        A host folder shown at the same path, read-write (connection file, sockets).
+    hide : sequence of path-like
+        Folders to empty even if a bound path holds them.
+    limits : Limits, optional
+        For the size of the RAM disks.
+    writable_home : bool
+        Bind ``home`` read-write (the kernel) or read-only (the checker).
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    LabkitError
+        If bubblewrap is not installed.
+    """
     bwrap = shutil.which("bwrap")
     if bwrap is None:
         raise LabkitError("the grading sandbox needs bubblewrap (Debian package 'bubblewrap', command 'bwrap'); "
                           "install it or grade with sandbox=False (--no-sandbox)")
-    args = [bwrap, "--ro-bind", "/", "/", "--dev", "/dev", "--proc", "/proc", "--tmpfs", "/tmp"]
-    emptied = [Path("/tmp").resolve()]
-    home = Path(os.path.expanduser("~")).resolve()
-    if home != Path("/") and home not in work.parents and home not in private.parents:
-        args += ["--tmpfs", str(home)]
-        emptied.append(home)
-    # what the kernel imports from may live in $HOME (pyenv, venvs, the user site) or in /tmp (an editable
-    # install of a checkout there): show the Python installation, the PYTHONPATH the kernel gets and the
-    # labkit package again, read-only (not the grading process's whole sys.path: its working directory
-    # may be a checkout full of notebooks)
-    roots = [sys.prefix, sys.base_prefix, sys.exec_prefix, site.getusersitepackages(),
-             *os.environ.get("PYTHONPATH", "").split(os.pathsep)]
-    needed = {Path(p).resolve() for p in roots if p}
-    needed.add(Path(__file__).resolve().parents[1])  # the labkit package (an editable install's finder maps to it)
-    for path in sorted(needed):
-        if (any(root in path.parents for root in emptied) and path.exists()
-                and not any(q in path.parents for q in needed)):
-            args += ["--ro-bind", str(path), str(path)]
+    limits = limits or Limits()
+    home, private = Path(home).resolve(), Path(private).resolve()
+    args = [bwrap, "--unshare-all", "--die-with-parent", "--new-session", "--cap-drop", "ALL", "--clearenv"]
+    # the RAM disks first: a bind below /tmp (a venv, a checkout) must land on top of them, not under
+    args += ["--proc", "/proc", "--dev", "/dev", "--size", str(limits.tmpfs_bytes), "--tmpfs", "/tmp",
+             "--size", str(limits.tmpfs_bytes), "--tmpfs", "/dev/shm", "--ro-bind", "/usr", "/usr"]
+    for top in ("bin", "sbin", "lib", "lib32", "lib64", "libx32"):
+        p = Path("/") / top
+        if p.is_symlink():
+            args += ["--symlink", os.readlink(p), str(p)]
+        elif p.is_dir():
+            args += ["--ro-bind", str(p), str(p)]
+    for name in _ETC:
+        args += ["--ro-bind-try", f"/etc/{name}", f"/etc/{name}"]
+    bound = [Path("/usr")]
+    for root in sorted({Path(p).resolve() for p in _python_roots()} | {labkit_root() / "labkit"}):
+        if root.exists() and not any(b == root or b in root.parents for b in bound):
+            args += ["--ro-bind", str(root), str(root)]
+            bound.append(root)
     for path in hide:
         path = Path(path).resolve()
-        if path.is_dir() and path != Path("/") and path not in work.parents and path not in private.parents:
+        if path.is_dir() and any(b == path or b in path.parents for b in bound):
             args += ["--tmpfs", str(path)]
-    args += ["--bind", str(private), str(private), "--bind", str(work), str(work), "--chdir", str(work),
-             "--unshare-all", "--die-with-parent", "--new-session", "--clearenv"]
-    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(work), "LANG": "C.UTF-8",
-           "MPLCONFIGDIR": str(private / "mpl"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "MKL_NUM_THREADS": "1", "PYDEVD_DISABLE_FILE_VALIDATION": "1"}
-    if os.environ.get("PYTHONPATH"):
-        env["PYTHONPATH"] = os.environ["PYTHONPATH"]
+    args += ["--bind" if writable_home else "--ro-bind", str(home), SANDBOX_HOME,
+             "--bind", str(private), str(private), "--chdir", SANDBOX_HOME]
+    env = {"PATH": f"{os.path.dirname(sys.executable)}:/usr/local/bin:/usr/bin:/bin", "HOME": SANDBOX_HOME,
+           "USER": "student", "LOGNAME": "student", "LANG": "C.UTF-8", "MPLCONFIGDIR": str(private / "mpl"),
+           "IPYTHONDIR": str(private / "ipython"), "JUPYTER_RUNTIME_DIR": str(private),
+           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+           "PYDEVD_DISABLE_FILE_VALIDATION": "1", "TMPDIR": "/tmp"}
+    if labkit_root().name not in ("site-packages", "dist-packages"):  # a checkout: its root on the path
+        env["PYTHONPATH"] = str(labkit_root())
     for key, value in env.items():
         args += ["--setenv", key, value]
     return args + ["--"]
 
 
-def _sandboxed_kernel_manager(work: Path, private: Path, limits: Limits, hide):
+def _children_map():
+    kids = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        kids.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    return kids
+
+
+def _tree(pid) -> list:
+    kids, out, todo = _children_map(), [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo += kids.get(p, [])
+    return out
+
+
+def _pss(pid) -> int:
+    try:
+        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+            if line.startswith("Pss:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def _cpu(pid) -> float:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return sum(int(f) for f in fields[11:15]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
+def _ram_disks(pids) -> int:
+    for pid in pids[1:]:  # the first is bwrap outside the sandbox
+        try:
+            return sum((st.f_blocks - st.f_bfree) * st.f_frsize
+                       for st in (os.statvfs(f"/proc/{pid}/root/tmp"), os.statvfs(f"/proc/{pid}/root/dev/shm")))
+        except OSError:
+            continue
+    return 0
+
+
+class _Watchdog(threading.Thread):
+    """Adds up the sandbox's memory, CPU time and processes every ``period`` s; kills it over a limit."""
+
+    def __init__(self, proc, limits, period=0.1, sandboxed=True):
+        super().__init__(daemon=True)
+        self.proc, self.limits, self.period, self.sandboxed = proc, limits, period, sandboxed
+        self.reason, self.peak_memory, self.cpu, self.stop = None, 0, 0.0, threading.Event()
+
+    def run(self):
+        while not self.stop.is_set() and self.proc.poll() is None:
+            pids = _tree(self.proc.pid)
+            memory = sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
+            self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
+            self.peak_memory = max(self.peak_memory, memory)
+            reason = None
+            if memory > self.limits.memory_bytes:
+                reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
+                                    f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
+            elif self.cpu > self.limits.cpu_seconds:
+                reason = "cpu-time", f"killed at the CPU-time limit of {self.limits.cpu_seconds:g} s"
+            elif len(pids) - 1 > self.limits.max_processes:
+                reason = "crash", f"more than {self.limits.max_processes} processes at once"
+            if reason:
+                self.reason = reason
+                for p in reversed(pids):
+                    try:
+                        os.kill(p, signal.SIGKILL)
+                    except OSError:
+                        pass
+                return
+            self.stop.wait(self.period)
+
+
+def _client_class():
+    from nbclient import NotebookClient
+
+    class CappedClient(NotebookClient):
+        """Keeps at most :data:`MAX_CELL_OUTPUT` bytes of output per cell (the rest is dropped, with a note)."""
+
+        def output(self, outs, msg, display_id, cell_index):
+            size = sum(len(str(o)) for o in outs)
+            if size > MAX_CELL_OUTPUT:
+                if not any(o.get("name") == "labkit-truncated" for o in outs):
+                    from nbformat.v4 import new_output
+
+                    outs.append(new_output("stream", name="stderr", text="[labkit grade: further output dropped]\n"))
+                    outs[-1]["name"] = "labkit-truncated"
+                return None
+            return super().output(outs, msg, display_id, cell_index)
+
+    return CappedClient
+
+
+def _kernel_manager(work: Path, private: Path, limits: Limits, hide):
     base = kernel_manager_class()
     cpu = int(max(1, round(limits.cpu_seconds)))
-    prefix = ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={int(limits.memory_bytes)}", "--"]
+    prefix = ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={int(limits.memory_bytes)}",
+              f"--fsize={int(max(limits.memory_bytes, 2**30))}", "--"]
     if limits.sandbox:
-        prefix += _bwrap_args(work, private, hide)
-    launched = []
+        prefix += sandbox_args(work, private, hide, limits=limits)
+    launched, dogs = [], []
 
     class SandboxedKernelManager(base):
         def format_kernel_cmd(self, extra_arguments=None):
@@ -137,32 +307,55 @@ def _sandboxed_kernel_manager(work: Path, private: Path, limits: Limits, hide):
             log = open(private / "kernel.log", "ab")  # noqa: SIM115 - closed by run_untrusted
             launched.append(log)
             kw["stderr"] = log
+            kw["cwd"] = str(work)  # the host side; bwrap changes to SANDBOX_HOME inside
             await super()._async_launch_kernel(kernel_cmd, **kw)
-            launched.insert(0, self.provisioner.process)  # its exit status tells a CPU-limit kill
+            launched.insert(0, self.provisioner.process)
+            dogs.append(_Watchdog(self.provisioner.process, limits, sandboxed=limits.sandbox))
+            dogs[-1].start()
 
     km = SandboxedKernelManager(transport="ipc", ip=str(private / "kernel"),
                                 connection_file=str(private / "kernel.json"))
-    return km, launched
+    return km, launched, dogs
+
+
+def _stop(launched, dogs):
+    """Stop the watchdogs, kill whatever of the sandbox is left, close the logs."""
+    for dog in dogs:
+        dog.stop.set()
+    procs = [p for p in launched if hasattr(p, "poll")]
+    for proc in procs:
+        if proc.poll() is None:
+            for p in reversed(_tree(proc.pid)):
+                try:
+                    os.kill(p, signal.SIGKILL)
+                except OSError:
+                    pass
+            proc.wait()
+    for item in launched:
+        if hasattr(item, "close"):
+            item.close()
 
 
 def _memory_error(nb) -> bool:
-    return any("MemoryError" in o.get("ename", "") for c in nb.cells for o in c.get("outputs", [])
+    return any("MemoryError" in str(o.get("ename", "")) for c in nb.cells for o in c.get("outputs", [])
                if o.get("output_type") == "error")
 
 
-def run_untrusted(nb, work, *, limits=None, hide=()):
-    """Execute ``nb`` (in place) with its kernel sandboxed in ``work``; never raises for student code.
+def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
+    """Execute ``nb`` (in place) with its kernel sandboxed on ``work``; never raises for student code.
 
     Parameters
     ----------
     nb : nbformat.NotebookNode
         The notebook to execute (outputs are written into it).
     work : str or os.PathLike
-        The submission's working directory (the kernel's cwd and only writable folder).
+        The submission's working copy (shown at :data:`SANDBOX_HOME`; the only writable folder).
     limits : Limits, optional
         Resource limits (default :class:`Limits`).
     hide : sequence of path-like
-        Folders the kernel must not see (replaced by empty folders).
+        Folders the kernel must not see even where a bound path holds them.
+    private : str or os.PathLike, optional
+        The kernel's private folder (default: a new temporary folder, removed afterwards).
 
     Returns
     -------
@@ -176,47 +369,72 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
     LabkitError
         If the sandbox cannot be set up (bubblewrap missing).
     """
-    from nbclient import NotebookClient
     from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     limits = limits or Limits()
     work = Path(work).resolve()
-    private = Path(tempfile.mkdtemp(prefix="labkit-kernel-"))
-    launched = []  # the sandbox's Popen, then its log file
+    own = private is None
+    private = Path(tempfile.mkdtemp(prefix="labkit-kernel-")) if own else Path(private)
+    launched, dogs, client = [], [], None
     try:
-        (private / "mpl").mkdir()
+        (private / "mpl").mkdir(exist_ok=True)
         cache = Path(os.path.expanduser("~/.cache/matplotlib"))
         for font_list in cache.glob("fontlist-*.json"):  # no font-cache rebuild in every sandbox
             shutil.copy2(font_list, private / "mpl" / font_list.name)
-        km, launched = _sandboxed_kernel_manager(work, private, limits, hide)
-        client = NotebookClient(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
-                                startup_timeout=60, resources={"metadata": {"path": str(work)}})
+        cwd = SANDBOX_HOME if limits.sandbox else str(work)
+        km = None
+
+        def prepare():
+            nonlocal km, client, launched, dogs
+            if client is not None:
+                atexit.unregister(client._cleanup_kernel)
+            km, launched, dogs = _kernel_manager(work, private, limits, hide)
+            client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
+                                     startup_timeout=60, resources={"metadata": {"path": cwd}})
 
         async def go():
             await asyncio.wait_for(client.async_execute(), limits.wall_seconds)
 
+        prepare()
+
+        def reason():
+            return dogs[0].reason if dogs and dogs[0].reason else None
+
         timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
         t0 = time.monotonic()
         try:
-            asyncio.run(go())
+            try:
+                asyncio.run(go())
+            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more, afresh
+                if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
+                                                           if c.cell_type == "code"):
+                    raise
+                _stop(launched, dogs)
+                prepare()
+                t0 = time.monotonic()
+                asyncio.run(go())
         except (asyncio.TimeoutError, CellTimeoutError):
-            return timed_out
+            return (reason() or timed_out)
         except DeadKernelError:
-            if time.monotonic() - t0 >= limits.wall_seconds:  # killed by the client at the deadline
+            if reason():
+                return reason()
+            if time.monotonic() - t0 >= limits.wall_seconds:
                 return timed_out
             try:
                 code = launched[0].wait(timeout=10) if launched and hasattr(launched[0], "wait") else None
             except subprocess.TimeoutExpired:
                 code = None
-            if code in (128 + _SIGXCPU, 128 + _SIGKILL):
+            if code == 128 + signal.SIGXCPU or (dogs and dogs[0].cpu >= 0.9 * limits.cpu_seconds):
                 return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
+            return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code})"
+        except RuntimeError as exc:  # kernel failed to start
             try:
                 tail = " ".join((private / "kernel.log").read_text(errors="replace").strip().splitlines()[-2:])
             except OSError:
                 tail = ""
-            return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code}) {tail}"[:400]
-        except RuntimeError as exc:  # kernel failed to start
-            return "crash", f"{type(exc).__name__}: {exc}"
+            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc} {tail}"[:400]
+        if reason():
+            return reason()
         if _memory_error(nb):
             return "memory", f"an allocation exceeded the memory limit of {limits.memory_bytes / 2**30:g} GiB"
         for cell in nb.cells:
@@ -225,6 +443,8 @@ def run_untrusted(nb, work, *, limits=None, hide=()):
                     return "error", f"{out.get('ename')}: {out.get('evalue', '')}"[:300]
         return "ok", ""
     finally:
-        for item in launched[1:]:
-            item.close()
-        shutil.rmtree(private, ignore_errors=True)
+        _stop(launched, dogs)
+        if client is not None:  # nbclient's exit hook for a kernel that is long gone
+            atexit.unregister(client._cleanup_kernel)
+        if own:
+            shutil.rmtree(private, ignore_errors=True)

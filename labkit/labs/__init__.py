@@ -3,7 +3,7 @@
 """
 
 from labkit.labs._new import TEMPLATE_DIR, LabDefaults, NewLab, lab_defaults, new_lab, template_values, with_servos
-from labkit.labs._serve import lab_command, serve_lab
+from labkit.labs._serve import lab_command, live_figures, serve_lab
 
 __all__ = [
     "TEMPLATE_DIR",
@@ -14,5 +14,6 @@ __all__ = [
     "template_values",
     "with_servos",
     "lab_command",
+    "live_figures",
     "serve_lab",
 ]

@@ -8,6 +8,15 @@ lab notebooks ask for) is written to a private data folder that is put first on
 folder on ``PYTHONPATH`` when labkit is not installed into site-packages (an
 editable install or a git worktree). :func:`serve_lab` runs it in the foreground.
 
+**Students' JupyterLab by default**: nbgrader's server extensions and its JupyterLab
+extension (the Nbgrader menu, Validate, Create Assignment, Formgrader) are switched off
+through a private Jupyter config folder put first on ``JUPYTER_CONFIG_PATH``;
+``instructor=True`` (``labkit lab --instructor``) keeps them. **Live figures**: a kernel
+started on a notebook that needs them (it connects matplotlib events, ``mpl_connect``, or
+asks for ``%matplotlib widget``) gets the ipympl widget backend without a line of set-up.
+**Stopping** ``labkit lab`` (SIGTERM, SIGINT or Ctrl-C) stops JupyterLab, which shuts its
+kernels down; whatever of it is still running after that is killed.
+
 Example
 -------
 >>> import tempfile
@@ -30,12 +39,71 @@ from pathlib import Path
 from labkit.exceptions import LabkitError, OptionError
 from labkit.reports import notebooks_root
 
-__all__ = ["KERNEL_NAME", "lab_command", "write_kernel_spec", "serve_lab"]
+__all__ = ["KERNEL_NAME", "NBGRADER_SERVER_EXTENSIONS", "lab_command", "write_kernel_spec", "serve_lab",
+           "live_figures"]
 
 #: the kernel name lab notebooks declare (``metadata.kernelspec.name``)
 KERNEL_NAME = "python3"
 #: its display name; the same as the notebooks' so that saving a notebook does not change it
 KERNEL_DISPLAY_NAME = "Python 3"
+#: nbgrader's server extensions (off in a students' JupyterLab)
+NBGRADER_SERVER_EXTENSIONS = ("nbgrader.server_extensions.formgrader", "nbgrader.server_extensions.validate_assignment",
+                              "nbgrader.server_extensions.assignment_list", "nbgrader.server_extensions.course_list")
+#: nbgrader's JupyterLab extension (off in a students' JupyterLab)
+NBGRADER_LAB_EXTENSION = "@jupyter/nbgrader"
+#: what in a notebook's text asks for live (ipympl) figures
+_LIVE_MARKERS = ("mpl_connect", "%matplotlib widget", "%matplotlib ipympl", "button_press_event")
+
+
+def live_figures(notebook=None) -> bool:
+    """In a kernel: switch matplotlib to the ipympl widget backend if the notebook asks for live figures.
+
+    Run by the kernels of ``labkit lab`` at start-up. The notebook is the one Jupyter
+    names in ``JPY_SESSION_NAME``; it needs live figures when its text holds
+    ``mpl_connect``, ``button_press_event`` or ``%matplotlib widget``.
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike, optional
+        The notebook (default: ``$JPY_SESSION_NAME``).
+
+    Returns
+    -------
+    bool
+        True if the widget backend was switched on.
+    """
+    path = notebook or os.environ.get("JPY_SESSION_NAME")
+    if not path:
+        return False
+    path = Path(path)
+    if not path.is_file():  # a path relative to the server's root: the kernel runs in the notebook's folder
+        path = Path.cwd() / path.name
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError:
+        return False
+    if not any(m in text for m in _LIVE_MARKERS):
+        return False
+    try:
+        import ipympl  # noqa: F401
+        from IPython import get_ipython
+
+        shell = get_ipython()
+        if shell is None:
+            return False
+        shell.run_line_magic("matplotlib", "widget")
+        return True
+    except Exception:  # no ipympl, no matplotlib: static figures, as before
+        return False
+
+
+def _write_student_config(config_dir: Path) -> None:
+    """nbgrader's server and lab extensions off, in a Jupyter config folder."""
+    (config_dir / "labconfig").mkdir(parents=True, exist_ok=True)
+    server = {"ServerApp": {"jpserver_extensions": {name: False for name in NBGRADER_SERVER_EXTENSIONS}}}
+    (config_dir / "jupyter_server_config.json").write_text(json.dumps(server, indent=1), encoding="utf-8")
+    page = {"disabledExtensions": {NBGRADER_LAB_EXTENSION: True}}
+    (config_dir / "labconfig" / "page_config.json").write_text(json.dumps(page, indent=1), encoding="utf-8")
 
 
 def _prepend(path, value):
@@ -65,7 +133,9 @@ def write_kernel_spec(data_dir) -> Path:
     """
     spec_dir = Path(data_dir) / "kernels" / KERNEL_NAME
     spec_dir.mkdir(parents=True, exist_ok=True)
-    spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+    start = "__import__('labkit.labs', fromlist=['live_figures']).live_figures()"
+    spec = {"argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}",
+                     f"--IPKernelApp.exec_lines={json.dumps([start])}"],
             "display_name": KERNEL_DISPLAY_NAME, "language": "python", "metadata": {"debugger": True}}
     source = _labkit_source_dir()
     if source is not None:
@@ -74,7 +144,7 @@ def write_kernel_spec(data_dir) -> Path:
     return spec_dir
 
 
-def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_args=()):
+def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_args=(), instructor=False):
     """The ``jupyter lab`` command line and environment serving ``path``.
 
     Parameters
@@ -90,14 +160,17 @@ def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_
         Where the kernel spec is written (default: a new temporary folder).
     extra_args : sequence of str
         Further ``jupyter lab`` options.
+    instructor : bool
+        Keep nbgrader's extensions (default: a students' JupyterLab without them).
 
     Returns
     -------
     argv : list of str
         The command line (this interpreter, ``-m jupyter lab ...``).
     env : dict of str to str
-        The environment: this process's, with ``JUPYTER_PATH`` starting at ``data_dir``
-        and labkit's source folder on ``PYTHONPATH`` when needed.
+        The environment: this process's, with ``JUPYTER_PATH`` starting at ``data_dir``,
+        labkit's source folder on ``PYTHONPATH`` when needed, and (students' mode)
+        ``JUPYTER_CONFIG_PATH`` starting at ``data_dir/config``.
 
     Raises
     ------
@@ -117,6 +190,9 @@ def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_
     write_kernel_spec(data_dir)
     env = dict(os.environ)
     env["JUPYTER_PATH"] = _prepend(data_dir, env.get("JUPYTER_PATH"))
+    if not instructor:
+        _write_student_config(data_dir / "config")
+        env["JUPYTER_CONFIG_PATH"] = _prepend(data_dir / "config", env.get("JUPYTER_CONFIG_PATH"))
     source = _labkit_source_dir()
     if source is not None:
         env["PYTHONPATH"] = _prepend(source, env.get("PYTHONPATH"))
@@ -134,8 +210,24 @@ def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_
     return argv, env
 
 
-def serve_lab(path=None, *, port=None, no_browser=False, extra_args=()) -> int:
-    """Run JupyterLab on ``path`` in the foreground until it is stopped (Ctrl+C).
+def _descendants(pid) -> list:
+    kids = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        kids.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    out, todo = [], list(kids.get(pid, []))
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        todo += kids.get(p, [])
+    return out
+
+
+def serve_lab(path=None, *, port=None, no_browser=False, extra_args=(), instructor=False) -> int:
+    """Run JupyterLab on ``path`` in the foreground until it is stopped (Ctrl+C or SIGTERM).
 
     Parameters
     ----------
@@ -147,6 +239,8 @@ def serve_lab(path=None, *, port=None, no_browser=False, extra_args=()) -> int:
         Do not open a browser.
     extra_args : sequence of str
         Further ``jupyter lab`` options.
+    instructor : bool
+        Keep nbgrader's extensions (default off: a students' JupyterLab).
 
     Returns
     -------
@@ -158,20 +252,52 @@ def serve_lab(path=None, *, port=None, no_browser=False, extra_args=()) -> int:
     LabkitError
         ``path`` does not exist, or JupyterLab is not installed.
     """
+    import signal
+    import threading
+
     try:
         import jupyterlab  # noqa: F401
     except ImportError as exc:
         raise LabkitError("JupyterLab is not installed: pip install 'jupyterlab>=4.2,<5' "
                           "(it is a labkit dependency: pip install -e .)") from exc
     with tempfile.TemporaryDirectory(prefix="labkit-lab-") as data_dir:
-        argv, env = lab_command(path, port=port, no_browser=no_browser, data_dir=data_dir, extra_args=extra_args)
+        argv, env = lab_command(path, port=port, no_browser=no_browser, data_dir=data_dir, extra_args=extra_args,
+                                instructor=instructor)
         proc = subprocess.Popen(argv, env=env)
+        seen = set()
+        done = threading.Event()
+
+        def watch():  # the processes JupyterLab starts (kernels run in sessions of their own)
+            while not done.wait(0.5):
+                seen.update(_descendants(proc.pid))
+
+        threading.Thread(target=watch, daemon=True).start()
+        previous = signal.signal(signal.SIGTERM, lambda *_: proc.send_signal(signal.SIGTERM)) \
+            if threading.current_thread() is threading.main_thread() else None
         try:
-            return proc.wait()
-        except KeyboardInterrupt:  # JupyterLab got the SIGINT too and shuts down
             try:
-                proc.wait(timeout=15)
-                return 0
-            except subprocess.TimeoutExpired:
-                proc.terminate()
                 return proc.wait()
+            except KeyboardInterrupt:  # JupyterLab got the SIGINT too and shuts down
+                proc.send_signal(signal.SIGTERM)
+                try:
+                    proc.wait(timeout=20)
+                    return 0
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    return proc.wait()
+        finally:
+            done.set()
+            if proc.poll() is None:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+            seen.update(_descendants(proc.pid))
+            for pid in seen:  # a kernel JupyterLab did not stop
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except OSError:
+                    pass
+            if previous is not None:
+                signal.signal(signal.SIGTERM, previous)

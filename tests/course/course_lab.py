@@ -1,8 +1,9 @@
 """A tiny tagged lab and simulated submissions for the course tests and the grading benchmark.
 
 The lab (one notebook) asks for the x coordinate of the planar 3R arm's tool at
-q = (0.1, 0.2, 0.3) rad; a public check tests that it is a finite number and that the
-notebook runs on ``sim://``; two hidden checks test the value and the full FK.
+q = (0.1, 0.2, 0.3) rad; a public check tests that it is a finite number (1 point) and that
+the notebook runs on ``sim://`` (a free row: it passes without student work); two hidden
+checks test the value (an ``assert``) and the y coordinate (a ``Checks`` row).
 """
 
 from pathlib import Path
@@ -12,7 +13,8 @@ Q = [0.1, 0.2, 0.3]
 SOLUTION = ("# Hint: labkit.kinematics.fk gives the tool pose; x is T[0, 3]\n"
             "T = fk(arm, q)\nx = float(T[0, 3])")
 HIDDEN_1 = "expected = fk(arm, q)[0, 3]\nassert abs(x - expected) < 1e-9, (x, expected)  # SECRET-HIDDEN-MARKER"
-HIDDEN_2 = "assert abs(T[1, 3] - fk(arm, q)[1, 3]) < 1e-9  # SECRET-HIDDEN-MARKER"
+HIDDEN_2 = ('checks.check("tool y [m]", T[1, 3], fk(arm, q)[1, 3], tol=1e-9, note="SECRET-HIDDEN-MARKER")\n'
+            "checks.assert_all()")
 
 
 def write_lab(folder: Path) -> Path:
@@ -25,8 +27,9 @@ def write_lab(folder: Path) -> Path:
     nb.cells = [
         nbformat.v4.new_markdown_cell("# Forward kinematics of the planar 3R arm (seed none)", id="intro"),
         cell('port = "serial:///dev/ttyACM0"\noutput_dir = "out"', id="params", metadata={"tags": ["parameters"]}),
-        cell(f"import numpy as np\nfrom labkit.kinematics import fk\nfrom labkit.robot import Robot\n"
-             f"arm = Robot.load('planar3r_seed004')\nq = np.array({Q})", id="setup"),
+        cell(f"import numpy as np\nfrom labkit.kinematics import fk\nfrom labkit.reports import Checks\n"
+             f"from labkit.robot import Robot\narm = Robot.load('planar3r_seed004')\nq = np.array({Q})\n"
+             f"checks = Checks('planar 3R FK')", id="setup"),
         cell(SOLUTION, id="work", metadata={"tags": ["solution"]}),
         cell("assert np.isfinite(x)\nassert port == 'sim://'", id="public",
              metadata={"tags": ["tests"], "labkit": {"check": "x is a number, on sim://", "points": 1}}),
@@ -53,33 +56,6 @@ def write_submission(student_version: Path, folder: Path, code: str) -> Path:
     return folder
 
 
-def snooper_code(submissions: Path, lab: Path) -> str:
-    """Student code that tries to read other submissions and the hidden tests, then answers correctly."""
-    return f"""import glob, os
-import labkit
-found = []
-for pattern in [{str(submissions)!r} + "/*/*", {str(lab)!r} + "/*", "/tmp/**/*.ipynb", os.path.expanduser("~") + "/*",
-                "../*/*.ipynb", "../../*/*/*.ipynb"]:
-    for f in glob.glob(pattern, recursive=True):
-        try:
-            text = open(f, errors="replace").read()
-        except OSError:
-            continue
-        if os.path.abspath(f).startswith((os.getcwd(), os.path.dirname(labkit.__file__))):
-            continue  # its own copy, and the installed labkit's files (public: lab templates)
-        found.append(f)
-        if "SECRET-HIDDEN-MARKER" in text or "x = float" in text:
-            found.append("LEAK:" + f)
-try:
-    open({str(submissions)!r} + "/correct/planted.txt", "w").write("x")
-    found.append("WROTE")
-except OSError:
-    pass
-print("SNOOPED", sorted(found))
-T = fk(arm, q)
-x = float(T[0, 3])"""
-
-
 SUBMISSIONS = {
     "correct": SOLUTION,
     "partly_wrong": "T = fk(arm, q)\nx = float(T[0, 3]) + 0.01",
@@ -87,6 +63,6 @@ SUBMISSIONS = {
     "infinite_loop": "T = fk(arm, q)\nwhile True:\n    pass",
     "ten_gigabytes": "T = fk(arm, q)\nballast = bytearray(10 * 2**30)\nx = 1.0",
 }
-#: points expected per student: public (1), hidden x value (2), hidden y (1)
+#: points expected per student: public (1: its "on sim://" row is free), hidden x value (2), hidden y (1)
 EXPECTED = {"correct": (4, "ok"), "partly_wrong": (2, "ok"), "raising": (0, "error"),
-            "infinite_loop": (0, "cpu-time"), "ten_gigabytes": (1, "memory"), "snooper": (4, "ok")}
+            "infinite_loop": (0, "cpu-time"), "ten_gigabytes": (1, "memory")}

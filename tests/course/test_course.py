@@ -3,6 +3,7 @@
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
@@ -33,7 +34,7 @@ def course(tmp_path):
     from labkit.cli import main
 
     lab = cl.write_lab(tmp_path / "lab")
-    assert main(["assign", str(lab), str(tmp_path / "student")]) == 0
+    assert main(["assign", str(lab), str(tmp_path / "student"), "--no-baseline"]) == 0
     return lab, tmp_path / "student"
 
 
@@ -53,6 +54,18 @@ def test_assign_writes_the_student_version(course):
     assert by_id["public"].source == source.cells[4].source
     assert by_id["public"].metadata["editable"] is False and by_id["public"].metadata["deletable"] is False
     assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
+
+
+def test_assign_reports_the_free_rows(tmp_path, capsys):
+    """labkit assign grades the untouched student version and says which rows pass without work, and why."""
+    require("nbgrader")
+    from labkit.cli import main
+
+    lab = cl.write_lab(tmp_path / "lab")
+    assert main(["assign", str(lab), str(tmp_path / "student")]) == 0
+    out = capsys.readouterr().out
+    assert "passes 1 check row(s) worth 0.5 of 4 points" in out, out
+    assert "free: 01_fk.ipynb: x is a number, on sim://" in out and "assertion 2" in out
 
 
 def test_assign_rejects_bad_tags(tmp_path):
@@ -87,15 +100,14 @@ def test_graded_notebook_restores_deleted_and_edited_checks(course):
 def make_submissions(student, folder, lab):
     for name, code in cl.SUBMISSIONS.items():
         cl.write_submission(student, folder / name, code)
-    cl.write_submission(student, folder / "snooper", cl.snooper_code(folder, lab))
+    shutil.copytree(student, folder / "untouched")
     (folder / "correct" / "private_notes.txt").write_text("only mine")
 
 
 def test_round_trip_grade_on_the_local_pool(course, tmp_path):
-    """Assign -> six submissions -> grade (CLI, local pool): scores, failure kinds, isolation, gradebook, feedback."""
+    """Assign -> five submissions -> grade (CLI, local pool): scores, failure kinds, gradebook, feedback pages."""
     require("openpyxl")
     pd = require("pandas")
-    nbformat = require("nbformat")
     from labkit.cli import main
     from labkit.course import Limits
 
@@ -109,8 +121,9 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     assert main(argv) == 0
     table = pd.read_csv(gradebook, index_col="student")
     excel = pd.read_excel(gradebook.with_suffix(".xlsx"), index_col="student")
-    assert list(excel.index) == list(table.index) == sorted(cl.EXPECTED)
-    for name, (points, status) in cl.EXPECTED.items():
+    expected = dict(cl.EXPECTED, untouched=(0, "error"))  # its free row ("on sim://") is worth nothing
+    assert list(excel.index) == list(table.index) == sorted(expected)
+    for name, (points, status) in expected.items():
         assert (table.loc[name, "points"], table.loc[name, "status"]) == (points, status), name
         assert excel.loc[name, "points"] == points
     assert table.loc["correct", "max_points"] == 4
@@ -118,16 +131,17 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     assert table.loc["partly_wrong", "01_fk.ipynb: x is a number, on sim://"] == 1
     assert "CPU-time limit" in table.loc["infinite_loop", "detail"]
 
+    assert "NotImplementedError" not in table.loc["raising", "detail"]
+    assert "ValueError: I gave up in cell 5 (id work), line 1" in table.loc["raising", "detail"]
+
     feedback = tmp_path / "grades" / "gradebook_feedback"
-    snooped = nbformat.read(str(feedback / "snooper" / cl.NOTEBOOK), as_version=4)
-    printed = "".join(o.get("text", "") for c in snooped.cells for o in c.get("outputs", []))
-    assert "SNOOPED []" in printed, printed  # saw no other submission, no lab file, nothing in /tmp or $HOME
-    assert not (subs / "correct" / "planted.txt").exists()
+    assert "correct/index.html" in (feedback / "index.html").read_text()
     for name in cl.EXPECTED:
-        html = (feedback / name / "01_fk.html").read_text()
-        assert REMOTE.search(html) is None and "Score" in html
-    assert "SECRET-HIDDEN-MARKER" in (feedback / "correct" / cl.NOTEBOOK).read_text()  # shown once graded
-    assert not any(p.name == "private_notes.txt" for p in feedback.rglob("*") if "correct" not in p.parts)
+        page = (feedback / name / "index.html").read_text()
+        assert REMOTE.search(page) is None and "Score" in page and len(page.encode()) < 2**20
+        assert "SECRET-HIDDEN-MARKER" not in page and "fk(arm, q)[0, 3]" not in page  # hidden: names and results
+        assert "tool y [m]" in page and "x value" in page
+    assert not any(p.name == "private_notes.txt" for p in feedback.rglob("*"))
 
 
 def free_port():
@@ -231,8 +245,8 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     assert [r.student for r in results] == sorted(codes)  # every submission once, none lost or twice
     for r in results:
         assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
-        assert (tmp_path / "feedback" / r.student / "01_fk.html").is_file()
-    assert sorted(p.name for p in (tmp_path / "feedback").iterdir()) == sorted(codes)
+        assert (tmp_path / "feedback" / r.student / "index.html").is_file()
+    assert sorted(p.name for p in (tmp_path / "feedback").iterdir() if p.is_dir()) == sorted(codes)
 
 
 def test_run_tasks_local_pool_keeps_input_order():
@@ -274,7 +288,9 @@ def test_run_untrusted_wall_clock_limit(tmp_path, sandbox):
     status, detail = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=10, memory_bytes=2 * 2**30,
                                                                wall_seconds=8, sandbox=sandbox))
     assert (status, time.monotonic() - t0 < 60) == ("timeout", True), detail
-    assert nb.cells[0].outputs[0]["text"].strip() == str(tmp_path.resolve())
+    from labkit.course import SANDBOX_HOME
+
+    assert nb.cells[0].outputs[0]["text"].strip() == (SANDBOX_HOME if sandbox else str(tmp_path.resolve()))
 
 
 def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
@@ -289,35 +305,91 @@ def test_grade_cli_rejects_a_missing_folder(tmp_path, capsys):
         Limits(cpu_seconds=0)
 
 
-def test_sandbox_shows_import_paths_under_tmp_again_read_only(tmp_path, monkeypatch):
-    """A checkout in /tmp (editable install) or a PYTHONPATH entry there stays importable in the sandbox.
-
-    The sandbox empties /tmp; CI may run from a clean checkout under /tmp, where the kernel then could not
-    import labkit at all. Import roots under /tmp are bound again, read-only; hidden folders stay hidden.
-    """
+def test_sandbox_shows_only_python_labkit_and_its_own_copy(tmp_path, monkeypatch):
+    """Allow-list: a folder on PYTHONPATH (not labkit's) and any file beside it stay invisible; labkit imports,
+    read-only; the kernel's home is its own copy at /home/student."""
     nbformat = require("nbformat")
-    from labkit.course import Limits, run_untrusted
-    from labkit.course._sandbox import _bwrap_args
+    from labkit.course import SANDBOX_HOME, Limits, run_untrusted
 
     pkg_root = tmp_path / "site"
     (pkg_root / "probe_pkg").mkdir(parents=True)
     (pkg_root / "probe_pkg" / "__init__.py").write_text("VALUE = 42\n")
-    secret = pkg_root / "instructor"
-    secret.mkdir()
-    (secret / "solutions.txt").write_text("x = 1\n")
-    monkeypatch.setenv("PYTHONPATH", str(pkg_root))
+    (pkg_root / "solutions.txt").write_text("x = 1\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(pkg_root), os.environ.get("PYTHONPATH", "")]))
     work = tmp_path / "work"
     work.mkdir()
-    args = _bwrap_args(work, tmp_path / "private", hide=[secret])
-    bind = args.index(str(pkg_root.resolve()))
-    assert args[bind - 1] == "--ro-bind" and args.index("/tmp") < bind < args.index(str(secret.resolve()))
+    (work / "mine.txt").write_text("mine")
     nb = nbformat.v4.new_notebook(cells=[
-        nbformat.v4.new_code_cell("import probe_pkg, labkit, os\nprint(probe_pkg.VALUE, labkit.__name__)"),
-        nbformat.v4.new_code_cell(f"print(os.listdir({str(secret)!r}))"),
-        nbformat.v4.new_code_cell(f"open({str(pkg_root / 'probe_pkg' / 'x.py')!r}, 'w')"),
+        nbformat.v4.new_code_cell("import labkit, os\nprint(labkit.__name__, os.getcwd(), os.listdir('.'))"),
+        nbformat.v4.new_code_cell(f"print(os.path.exists({str(pkg_root)!r}), os.path.exists({str(tmp_path)!r}))"),
+        nbformat.v4.new_code_cell("import probe_pkg"),
+        nbformat.v4.new_code_cell("open(os.path.join(os.path.dirname(labkit.__file__), 'x.py'), 'w')"),
     ])
-    status, detail = run_untrusted(nb, work, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=60),
-                                   hide=[secret])
-    assert nb.cells[0].outputs[0]["text"].strip() == "42 labkit", nb.cells[0].outputs
-    assert nb.cells[1].outputs[0]["text"].strip() == "[]"  # the hidden folder is empty inside
-    assert status == "error" and "Read-only file system" in detail + str(nb.cells[2].outputs), detail
+    status, detail = run_untrusted(nb, work, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=60))
+    assert nb.cells[0].outputs[0]["text"].strip() == f"labkit {SANDBOX_HOME} ['mine.txt']", nb.cells[0].outputs
+    assert nb.cells[1].outputs[0]["text"].strip() == "False False"
+    assert nb.cells[2].outputs[0]["ename"] == "ModuleNotFoundError"
+    assert "Read-only file system" in str(nb.cells[3].outputs), nb.cells[3].outputs
+    assert status == "error", detail
+
+
+def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
+    """The worked lab: the rows the untouched student version passes are free (notebook 02's checks test labkit
+    only), a half-done submission (steps 1-2 right, then the stub) earns the hidden check's step rows, the
+    instructor's solution earns everything that is not free (Robot, IKSolutions, Trajectory reach the checker)."""
+    nbformat = require("nbformat")
+    from labkit.course import Limits, assign, grade
+
+    seed = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
+    lab = tmp_path / "seed004"  # part A-C (student work) and D-E (checks of labkit only: free); 03 is like 02
+    lab.mkdir()
+    for name in ("00_model_sine_motion.ipynb", "01_ik_elbow_minus.ipynb", "02_arc_trajectory_animation.ipynb"):
+        shutil.copy(seed / name, lab / name)  # 00 has no checks: not run at grading
+    student = tmp_path / "student"
+    assign(lab, student)
+    subs = tmp_path / "subs"
+    shutil.copytree(lab, subs / "solved", ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
+    shutil.copytree(student, subs / "half_done")
+    nb = nbformat.read(str(subs / "half_done" / "01_ik_elbow_minus.ipynb"), as_version=4)
+    solution = next(c for c in nbformat.read(str(lab / "01_ik_elbow_minus.ipynb"), as_version=4).cells
+                    if "solution" in tags(c)).source
+    steps = solution.split("M = np.array")[0]  # steps 1 and 2 only
+    for c in nb.cells:
+        if "solution" in tags(c):
+            c.source = steps + "raise NotImplementedError()"
+    nbformat.write(nb, str(subs / "half_done" / "01_ik_elbow_minus.ipynb"))
+    limits = Limits(cpu_seconds=60, memory_bytes=3 * 2**30, wall_seconds=180)
+    results = {r.student: r for r in grade(subs, lab, tmp_path / "fb", limits=limits, jobs=2, progress=False)}
+    solved, half = results["solved"], results["half_done"]
+    assert solved.points == solved.max_points == 5, solved  # 3 public + 2 hidden; notebook 02's checks are free
+    hidden = next(s for s in half.scores if s.name == "A.2 steps")
+    assert [r.passed for r in hidden.rows] == [True, True, False]  # steps 1 and 2, not step 3
+    assert half.points == pytest.approx(2 * 2 / 3), half
+    assert "NotImplementedError" in half.detail and "cell" in half.detail and "line" in half.detail
+    free = [s for s in solved.scores if s.free]
+    assert {s.notebook for s in free} == {"02_arc_trajectory_animation.ipynb"}
+    assert all(s.passed for s in solved.scores)  # the data reached the checker (Robot, IKSolutions, Trajectory)
+    assert not any(s.notebook.startswith("00_") for s in solved.scores)
+
+
+@pytest.mark.parametrize("where", ["tmp", "home"])
+def test_sandbox_works_from_a_virtualenv_under_tmp_or_home(tmp_path, where):
+    """The suite holds with the virtualenv under /tmp or $HOME: the sandbox shows that venv (read-only) and labkit."""
+    import uuid
+
+    base = tmp_path if where == "tmp" else Path(os.path.expanduser("~")) / f".labkit-venv-test-{uuid.uuid4().hex[:8]}"
+    venv = base / "venv"
+    try:
+        subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], check=True)
+        script = ("import nbformat\nfrom labkit.course import Limits, run_untrusted\n"
+                  "nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("
+                  "'import sys, labkit, numpy\\nprint(sys.prefix)')])\n"
+                  f"print(run_untrusted(nb, {str(tmp_path)!r}, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, "
+                  "wall_seconds=60)))\nprint(nb.cells[0].outputs[0]['text'].strip())\n")
+        env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+        out = subprocess.run([str(venv / "bin" / "python"), "-c", script], capture_output=True, text=True, env=env,
+                             timeout=180)
+        assert out.stdout.splitlines()[-2:] == ["('ok', '')", str(venv)], out.stdout + out.stderr[-2000:]
+    finally:
+        if where == "home":
+            shutil.rmtree(base, ignore_errors=True)

@@ -1,0 +1,168 @@
+"""Crafted submissions against the grader (issue 23 and more), for tests/course/test_attacks.py.
+
+Each is the code of the tiny lab's solution cell (tests/course/course_lab.py). None does
+the work honestly, so each must score 0 points, and the honest submissions graded in
+the same batch must keep their 4 points. ``docs/course.md`` lists them.
+"""
+
+
+#: the honest answer, computed only where an attack found the instructor's solution or a victim's work
+_USE_FOUND = """
+def _use(text):
+    import json
+    nb = json.loads(text)
+    for c in nb["cells"]:
+        src = "".join(c["source"]) if isinstance(c["source"], list) else c["source"]
+        if "x = float" in src:
+            exec(src, globals())
+"""
+
+
+def snoop_code(roots) -> str:
+    """Walk the whole file system for the instructor's notebook and other students' files; use them."""
+    return _USE_FOUND + f"""
+import os
+found = []
+for top in ["/"] + {list(map(str, roots))!r}:
+    for dirpath, dirnames, filenames in os.walk(top):
+        if dirpath.startswith(("/proc", "/sys", "/usr/lib", "/usr/share", "/usr/include", "/usr/bin")):
+            dirnames[:] = []
+            continue
+        for name in filenames:
+            path = os.path.join(dirpath, name)
+            if name == "private_notes.txt" and not path.startswith(os.getcwd()):
+                found.append(path)
+            if name.endswith(".ipynb") and not path.startswith(os.getcwd()):
+                try:
+                    text = open(path, errors="replace").read()
+                except OSError:
+                    continue
+                if "SECRET-HIDDEN-MARKER" in text or "x = float(T[0, 3])" in text:
+                    found.append(path)
+                    _use(text)
+print("SNOOPED", found)
+"""
+
+
+def cross_kernel_code() -> str:
+    """Look for other kernels (connection files, TCP ports, /proc) for 5 s and tell them to shut down."""
+    return """
+import glob, json, os, socket, time
+hits = []
+deadline = time.time() + 5
+while time.time() < deadline:
+    files = set()
+    for pattern in ["/tmp/**/*.json", "/var/tmp/**/*.json", "/run/**/*.json", os.path.expanduser("~") + "/**/*.json",
+                    "/root/.local/share/jupyter/runtime/*.json"]:
+        files |= set(glob.glob(pattern, recursive=True))
+    for pid in os.listdir("/proc"):
+        if pid.isdigit() and int(pid) != os.getpid():
+            try:
+                args = open(f"/proc/{pid}/cmdline", "rb").read().split(b"\\0")
+            except OSError:
+                continue
+            files |= {a.decode() for a in args if a.endswith(b".json")}
+    for f in files:
+        try:
+            info = json.load(open(f))
+        except Exception:
+            continue
+        if "shell_port" not in info:
+            continue
+        if os.path.dirname(f) == os.path.dirname(os.environ.get("JPY_PARENT_PID", "")):
+            continue
+        from jupyter_client import BlockingKernelClient
+        kc = BlockingKernelClient()
+        kc.load_connection_info(info)
+        kc.start_channels()
+        kc.shutdown()
+        hits.append(f)
+    for port in range(8000, 8100):
+        s = socket.socket()
+        s.settimeout(0.01)
+        try:
+            s.connect(("127.0.0.1", port))
+            hits.append(port)
+        except OSError:
+            pass
+        finally:
+            s.close()
+    time.sleep(0.2)
+print("KERNELS", hits)
+"""
+
+
+def unix_socket_code(paths) -> str:
+    """Connect to Unix sockets the test listens on outside the sandbox."""
+    return f"""
+import socket
+for path in {list(map(str, paths))!r}:
+    s = socket.socket(socket.AF_UNIX)
+    try:
+        s.connect(path)
+        s.sendall(b"hello from the sandbox")
+    except OSError as exc:
+        print("refused", path, exc)
+"""
+
+
+def symlink_escape_code(victim_notebook) -> str:
+    """Read a symlink the submission brought (pointing at a victim's notebook)."""
+    return _USE_FOUND + """
+import os
+for name in os.listdir("."):
+    if os.path.islink(name) or name == "peek.ipynb":
+        try:
+            _use(open(name).read())
+        except OSError as exc:
+            print("no", exc)
+"""
+
+
+CHECKS_ATTACKS = {
+    # issue 23: the six ways to full marks in the student's own kernel
+    "patch_assert_all": "from labkit.reports import Checks\nChecks.assert_all = lambda self: None\n"
+                        "Checks.check = lambda self, *a, **k: None",
+    "replace_checks": "class Yes:\n    def check(self, *a, **k):\n        pass\n    def assert_all(self):\n        pass\n"
+                      "    def __getattr__(self, name):\n        return lambda *a, **k: None\nchecks = Yes()",
+    "custom_exc": "get_ipython().set_custom_exc((BaseException,), lambda shell, etype, evalue, tb, tb_offset=None: None)",
+    "showtraceback": "sh = get_ipython()\nsh.showtraceback = lambda *a, **k: None\nsh._showtraceback = lambda *a, **k: None",
+    "post_run_clear": "from IPython.display import clear_output\n"
+                      "get_ipython().events.register('post_run_cell', lambda result: clear_output())",
+    "run_cell_hijack": "sh = get_ipython()\nasync def nothing(*a, **k):\n    return None\n"
+                       "sh.run_cell = lambda *a, **k: None\nsh.run_cell_async = nothing\n"
+                       "sh.should_run_async = lambda *a, **k: False",
+    # more of our own
+    "fake_export": "from IPython.display import publish_display_data\nimport labkit.course._wire as w\n"
+                   "fake = w.dumps({'key': 'hidden-x', 'values': {'x': {'__dataclass__': 'builtins:eval'},"
+                   " 'fk': {'__exception__': 'builtins:SystemExit', 'args': [0]}, 'np': 'os', 'abs': 0}})\n"
+                   "w.export = lambda ns, names, key: publish_display_data({w.MIME: fake})",
+    "shadow_builtins": "abs = lambda v: 0\nfloat = lambda v: 0.0\nnp.isfinite = lambda v: True\n"
+                       "fk = lambda *a, **k: np.zeros((4, 4))\nT = np.zeros((4, 4))\nAssertionError = None",
+    "huge_export": "x = 'a' * 40_000_000",
+    "deep_nesting": "x = []\nfor _ in range(100_000):\n    x = [x]",
+    "plant_modules": "for name in ('numpy.py', 'labkit.py', 'sitecustomize.py', 'usercustomize.py', 'json.py'):\n"
+                     "    open(name, 'w').write('raise SystemExit(3)\\n')",
+    "flood_output": "for _ in range(200):\n    print('y' * 100_000)\nfrom IPython.display import HTML, display\n"
+                    "display(HTML('<img src=x onerror=alert(1)>' * 20000))",
+    "html_injection": "from IPython.display import HTML, display\ndisplay(HTML('<script>alert(\"pwned\")</script>'))\n"
+                      "raise ValueError('<script>alert(\"in detail\")</script>')",
+    "self_kill": "import os, signal\nos.kill(os.getpid(), signal.SIGKILL)",
+    "kill_everything": "import os, signal\nfor pid in range(1, 5000):\n    try:\n        os.kill(pid, signal.SIGKILL)\n"
+                       "    except OSError:\n        pass",
+    "process_flood": "import subprocess\nps = [subprocess.Popen(['sleep', '60']) for _ in range(100)]",
+    "orphan_process": "import subprocess\nsubprocess.Popen(['sleep', '987654'], start_new_session=True)",
+    "ram_disks": "import os\nfor d in ('/tmp', '/dev/shm'):\n    try:\n        with open(d + '/fill', 'wb') as f:\n"
+                 "            for _ in range(3 * 1024):\n                f.write(b'z' * 2**20)\n    except OSError as exc:\n"
+                 "        print(d, exc)",
+    "forked_memory": "import os, time\nkids = []\nfor _ in range(4):\n    pid = os.fork()\n    if pid == 0:\n"
+                     "        ballast = bytearray(b'm') * (600 * 2**20)\n        time.sleep(30)\n        os._exit(0)\n"
+                     "    kids.append(pid)\ntime.sleep(30)",
+    "write_outside": "import labkit, os\nfor path in (os.path.dirname(labkit.__file__) + '/x.py', '/usr/x', '/etc/x'):\n"
+                     "    try:\n        open(path, 'w').write('x')\n    except OSError as exc:\n        print(exc)",
+    "baseline_values": "port = 'sim://'\nx = float('nan')",
+}
+
+#: expected status of the attacks whose run does not end "ok"/"error"
+STATUS = {"self_kill": "crash", "kill_everything": "crash", "process_flood": "crash", "forked_memory": "memory",
+          "run_cell_hijack": None}

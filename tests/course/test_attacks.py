@@ -1,0 +1,148 @@
+"""Every attack of issue 23 and more, graded in one batch (``--jobs 2``) with honest submissions.
+
+The instructor's lab lies under ``/var/tmp``, with copies of it (and of an honest student's
+work) under ``/tmp``, ``$HOME`` and ``/srv``: the sandbox must show none of them, wherever
+they are. Each attack must score 0 points, and the honest submissions graded alongside
+keep their full 4 points.
+"""
+
+import os
+import shutil
+import socket
+import subprocess
+import threading
+import uuid
+from pathlib import Path
+
+import pytest
+
+from conftest import require
+from tests.course import attacks as at
+from tests.course import course_lab as cl
+
+pytestmark = pytest.mark.slow
+LIMITS = dict(cpu_seconds=10, memory_bytes=int(1.5 * 2**30), wall_seconds=25)
+HONEST = ("honest_a", "honest_b", "honest_c")
+
+
+def _places(tag):
+    """A fresh folder under each of /tmp, $HOME, /var/tmp and /srv (or a /srv-like stand-in)."""
+    srv = Path("/srv") if os.access("/srv", os.W_OK) else Path(os.path.expanduser("~")) / "srv-like"
+    return {k: Path(v) / f"labkit-{tag}-{uuid.uuid4().hex[:8]}"
+            for k, v in (("tmp", "/tmp"), ("home", os.path.expanduser("~")), ("var_tmp", "/var/tmp"), ("srv", srv))}
+
+
+@pytest.fixture
+def spread_lab():
+    """The real lab under /var/tmp, decoys (the lab and an honest student's folder) everywhere else."""
+    require("nbgrader")
+    from labkit.course import assign
+
+    places = _places("attack")
+    try:
+        for path in places.values():
+            path.mkdir(parents=True)
+            cl.write_lab(path / "lab")
+            (path / "other_student").mkdir()
+            (path / "other_student" / "private_notes.txt").write_text("only mine")
+        lab = places["var_tmp"] / "lab"
+        assign(lab, places["var_tmp"] / "student")
+        yield lab, places["var_tmp"] / "student", places
+    finally:
+        for path in places.values():
+            shutil.rmtree(path, ignore_errors=True)
+
+
+class _SocketServer(threading.Thread):
+    def __init__(self, path):
+        super().__init__(daemon=True)
+        self.path, self.connections = str(path), []
+        self.sock = socket.socket(socket.AF_UNIX)
+        self.sock.bind(self.path)
+        self.sock.listen(5)
+        self.sock.settimeout(0.5)
+        self.stop = False
+
+    def run(self):
+        while not self.stop:
+            try:
+                conn, _ = self.sock.accept()
+                self.connections.append(conn.recv(100))
+                conn.close()
+            except OSError:
+                continue
+
+
+def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path):
+    pd = require("pandas")
+    from labkit.cli import main
+
+    lab, student, places = spread_lab
+    subs = places["tmp"] / "submissions"
+    for name in HONEST:
+        cl.write_submission(student, subs / name, cl.SOLUTION)
+        (subs / name / "private_notes.txt").write_text("only mine")
+    servers = [_SocketServer(places[k] / "grader.sock") for k in ("tmp", "var_tmp")]
+    for s in servers:
+        s.start()
+    codes = dict(at.CHECKS_ATTACKS)
+    codes["snoop_filesystem"] = at.snoop_code([p for p in places.values()])
+    codes["cross_kernel"] = at.cross_kernel_code()
+    codes["unix_socket"] = at.unix_socket_code([s.path for s in servers])
+    codes["symlink_escape"] = at.symlink_escape_code(subs / HONEST[0] / cl.NOTEBOOK)
+    for name, code in codes.items():
+        cl.write_submission(student, subs / name, code)
+    (subs / "symlink_escape" / "peek.ipynb").symlink_to(subs / HONEST[0] / cl.NOTEBOOK)
+    (subs / "symlink_escape" / "lab_link").symlink_to(lab)
+    # a submission whose notebook is a symlink to a victim's, and malformed notebooks
+    (subs / "symlinked_notebook").mkdir()
+    (subs / "symlinked_notebook" / cl.NOTEBOOK).symlink_to(subs / HONEST[1] / cl.NOTEBOOK)
+    for name, mangle in (("no_cell_type", lambda c: c.pop("cell_type")), ("int_source", lambda c: c.update(source=7))):
+        import json
+
+        nb = json.loads((student / cl.NOTEBOOK).read_text())
+        mangle(nb["cells"][3])
+        (subs / name).mkdir()
+        (subs / name / cl.NOTEBOOK).write_text(json.dumps(nb))
+    (subs / "stray_file.ipynb").write_text("{}")  # not a folder: still one row
+    (subs / "linked_folder").symlink_to(subs / HONEST[2])
+
+    gradebook = tmp_path / "grades" / "gradebook.csv"
+    try:
+        assert main(["grade", str(subs), "--lab", str(lab), "-o", str(gradebook), "--jobs", "2",
+                     "--cpu", str(LIMITS["cpu_seconds"]), "--memory", "1.5", "--wall", str(LIMITS["wall_seconds"])]) == 0
+    finally:
+        for s in servers:
+            s.stop = True
+    table = pd.read_csv(gradebook, index_col="student")
+    expected_rows = set(codes) | set(HONEST) | {"symlinked_notebook", "no_cell_type", "int_source", "stray_file.ipynb",
+                                                "linked_folder"}
+    assert set(table.index) == expected_rows  # one row per input, however malformed
+    for name in HONEST:
+        assert (table.loc[name, "points"], table.loc[name, "status"]) == (4, "ok"), (name, table.loc[name, "detail"])
+    cheats = {n: (table.loc[n, "points"], table.loc[n, "status"], table.loc[n, "detail"])
+              for n in expected_rows - set(HONEST) if table.loc[n, "points"] != 0}
+    assert not cheats, cheats
+    assert (table["max_points"] == 4).all(), table["max_points"]
+    for name in ("symlinked_notebook", "no_cell_type", "int_source", "stray_file.ipynb", "linked_folder"):
+        assert table.loc[name, "status"] in ("invalid", "missing"), name
+    for name, status in at.STATUS.items():
+        if status:
+            assert table.loc[name, "status"] == status, (name, table.loc[name, "detail"])
+    assert "cpu-time" not in str(table.loc["self_kill", "detail"])
+    assert not any(s.connections for s in servers), [s.connections for s in servers]
+    leftover = subprocess.run(["pgrep", "-f", "sleep 987654"], capture_output=True, text=True).stdout.split()
+    assert not leftover, "a process outlived its sandbox"
+
+    feedback = gradebook.with_name("gradebook_feedback")
+    index = (feedback / "index.html").read_text()
+    assert all(f"{name}/index.html" in index for name in HONEST)
+    for page in feedback.glob("*/index.html"):
+        text = page.read_text()
+        assert len(text.encode()) <= 2**20, page
+        assert "SECRET-HIDDEN-MARKER" not in text and "fk(arm, q)[0, 3]" not in text, page
+        assert "<script>alert" not in text and "<img src=x" not in text, page
+        assert "labkit-grade-" not in text and "labkit-kernel-" not in text, page
+    assert "&lt;script&gt;alert(&quot;in detail&quot;)" in (feedback / "html_injection" / "index.html").read_text()
+    assert not any((subs / n / "planted.txt").exists() for n in HONEST)
+    assert sorted(p.name for p in (subs / HONEST[0]).iterdir()) == [cl.NOTEBOOK, "private_notes.txt"]
