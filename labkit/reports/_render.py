@@ -49,7 +49,7 @@ from labkit.reports._execute import (
     notebook_parameters,
 )
 
-__all__ = ["RenderResult", "find_chromium", "export_html", "print_pdf", "render", "render_one", "write_index"]
+__all__ = ["RenderResult", "find_chromium", "number_notebook", "export_html", "print_pdf", "render", "render_one", "write_index"]
 
 _HERE = Path(__file__).resolve().parent
 TEMPLATES = _HERE / "templates"
@@ -113,7 +113,85 @@ def _needs_math(nb) -> bool:
     return False
 
 
-def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="") -> Path:
+def _shared_asset(name, asset_dir, html_dir) -> str:
+    """Write asset ``name`` once into ``asset_dir``; its URL relative to ``html_dir``."""
+    asset_dir = Path(asset_dir)
+    target = asset_dir / name
+    if not target.is_file() or target.stat().st_mtime < (STATIC / f"{name}.gz").stat().st_mtime:
+        asset_dir.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(_asset(name), encoding="utf-8")
+        os.replace(tmp, target)  # atomic: parallel workers may write it at the same time
+    return os.path.relpath(target, html_dir).replace(os.sep, "/")
+
+
+def _caption_output(item):
+    from labkit.reports._report import _caption_html
+
+    return {"output_type": "display_data", "metadata": {},
+            "data": {"text/html": f'<div class="lk-caption lk-{item.kind}" id="{item.label}">{_caption_html(item)}</div>'}}
+
+
+def number_notebook(nb):
+    """Number the figures, tables and equations of one notebook and write its captions and references.
+
+    Code cells lose their ``#|`` option lines; a captioned cell gets its caption as an
+    output ("Figure 1: ...", after the figure; "Table 1: ...", before the table);
+    ``@fig-...`` references in markdown become "Figure 1" links.
+
+    Parameters
+    ----------
+    nb : nbformat.NotebookNode
+        An executed notebook (changed in place).
+
+    Returns
+    -------
+    list of str
+        The labels referred to but not defined.
+    """
+    from labkit.reports._numbering import cell_options, number_notebooks, resolve_references
+
+    numbering = number_notebooks([nb], chapters=False)
+    unresolved = []
+    for i, cell in enumerate(nb.cells):
+        if cell.cell_type == "markdown":
+            cell.source = resolve_references(cell.source, numbering["labels"], unresolved=unresolved)
+            continue
+        if cell.cell_type != "code":
+            continue
+        opts, source = cell_options(cell.source)
+        if not opts:
+            continue
+        cell.source = source.lstrip("\n")
+        entry = numbering["cells"].get((0, i), {})
+        figs, tbls = list(entry.get("fig", [])), list(entry.get("tbl", []))
+        def is_image(out):
+            data = out.get("data", {})
+            html = data.get("text/html", "")
+            html = html if isinstance(html, str) else "".join(html)
+            return (any(m in data for m in ("image/png", "image/jpeg", "image/svg+xml"))
+                    or ("<table" not in html and "data:image/png;base64" in html))
+
+        images = [k for k, out in enumerate(cell.get("outputs", [])) if is_image(out)]
+        after = {k: None for k in images}
+        if len(figs) == 1 and images:  # one caption for all the cell's figures, after the last
+            after = {images[-1]: figs[0]}
+        else:
+            after = dict(zip(images, figs))
+        outputs = []
+        for k, out in enumerate(cell.get("outputs", [])):
+            html = out.get("data", {}).get("text/html", "")
+            html = html if isinstance(html, str) else "".join(html)
+            if tbls and "<table" in html:
+                outputs.append(_caption_output(tbls.pop(0)))
+            outputs.append(out)
+            if after.get(k) is not None:
+                outputs.append(_caption_output(after[k]))
+        cell["outputs"] = outputs
+    return unresolved
+
+
+def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="", asset_dir=None) -> Path:
     """Write the offline HTML report of an executed notebook.
 
     Parameters
@@ -129,11 +207,21 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         Banner title (default: the file name).
     status, error : str
         Banner: ``"passed"``/``"failed"`` and the failure summary.
+    asset_dir : str or Path, optional
+        Folder for MathJax and the widget manager, written once and linked relatively
+        (``labkit render`` shares ``<output>/_static`` between all reports); default: inlined
+        into the page.
 
     Returns
     -------
     Path
         ``html_path``.
+
+    Notes
+    -----
+    Figures and tables get their numbered captions (cell options ``#| fig-cap:``,
+    ``#| tbl-cap:``, see :func:`number_notebook`), and absolute paths of this machine
+    are written relative to the report's folder.
     """
     import nbformat
     from nbconvert import HTMLExporter
@@ -157,12 +245,18 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
             if "text/html" in data:
                 text = data["text/html"] if isinstance(data["text/html"], str) else "".join(data["text/html"])
                 data["text/html"] = _REMOTE_LINK.sub("", text)
+    number_notebook(nb)
     has_widgets = "application/vnd.jupyter.widget-state+json" in nb.metadata.get("widgets", {})
+    math, widgets = _needs_math(nb), has_widgets
+    shared = asset_dir is not None
+    html_dir = html_path.resolve().parent
     resources = {
         "metadata": {"name": html_path.stem},
         "labkit": {
-            "mathjax": _asset("mathjax-tex-svg-full.js") if _needs_math(nb) else "",
-            "widgets": _asset("jupyter-widgets-embed.js") if has_widgets else "",
+            "mathjax": _asset("mathjax-tex-svg-full.js") if math and not shared else "",
+            "widgets": _asset("jupyter-widgets-embed.js") if widgets and not shared else "",
+            "mathjax_src": _shared_asset("mathjax-tex-svg-full.js", asset_dir, html_dir) if math and shared else "",
+            "widgets_src": _shared_asset("jupyter-widgets-embed.js", asset_dir, html_dir) if widgets and shared else "",
             "status": status,
             "error": error,
             "title": title or html_path.stem,
@@ -170,6 +264,9 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         },
     }
     body, _ = exporter.from_notebook_node(nb, resources=resources)
+    from labkit.reports._report import _default_roots, scrub_paths
+
+    body = scrub_paths(body, _default_roots(str(html_dir)))
     html_path.parent.mkdir(parents=True, exist_ok=True)
     html_path.write_text(body, encoding="utf-8")
     return html_path
@@ -337,7 +434,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     html_path = pdf_path = None
     try:
         html_path = export_html(result.output, folder / f"{name}.html", no_input=no_input, title=f"{lab} / {name}",
-                                status="passed" if result.ok else "failed", error="" if result.ok else errors[0])
+                                status="passed" if result.ok else "failed", error="" if result.ok else errors[0],
+                                asset_dir=Path(output_dir).resolve() / "_static")
         if pdf:
             pdf_path = print_pdf(html_path, folder / f"{name}.pdf")
     except Exception as exc:  # an export problem must not stop the batch
