@@ -48,6 +48,17 @@ LAB_FILE = "lab.toml"
 FORMATS = ("pdf", "html", "docx")
 _ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
 _H1 = re.compile(r"^#\s+(.+?)\s*$", re.MULTILINE)
+_ANCHOR = re.compile(r'<a class="anchor-link" href="[^"]*">(?:&#182;|¶)</a>')
+_TH = re.compile(r"(<th(?:\s[^>]*)?>)(.*?)(</th>)", re.DOTALL)
+
+
+def _breakable(text):
+    """A header that may wrap after ``_`` and ``/`` (``shoulder_pitch_dot``): text outside tags."""
+    return re.sub(r"(?<=[_/])(?=[^<>\s])(?![^<]*>)", "<wbr>", text)
+
+
+_CHECK_LINE = re.compile(r"^(?:PASS|FAIL|TYPO)  .*(?:\n|$)", re.MULTILINE)
+_HEAD_ID = re.compile(r'(<h[1-6] )id="([^"]*)"')
 _IMAGE_MIMES = ("image/png", "image/jpeg", "image/svg+xml")
 _WIDGET = "application/vnd.jupyter.widget-view+json"
 _JSHTML_FRAME = re.compile(r"data:image/(?:png|jpeg);base64,[A-Za-z0-9+/=\\\n]+")
@@ -292,7 +303,7 @@ def _outputs(cell, entry, show_code_first=None):
         if not pending_images:
             return
         if figs:
-            item = figs.pop(0) if len(figs) > 1 or not any(True for _ in []) else figs.pop(0)
+            item = figs.pop(0)
             parts.append(f'<figure class="lk-figure" id="{item.label}">{"".join(pending_images)}'
                          f"<figcaption>{_caption_html(item)}</figcaption></figure>")
         else:
@@ -306,9 +317,12 @@ def _outputs(cell, entry, show_code_first=None):
     for out in outputs:
         kind = out.get("output_type")
         if kind == "stream":
-            if out.get("name") == "stdout" and _joined(out.get("text", "")).strip():
-                flush_images() if not one_figure else None
-                parts.append(f'<pre class="lk-output">{_html.escape(_ANSI.sub("", _joined(out["text"])))}</pre>')
+            text = _ANSI.sub("", _joined(out.get("text", ""))) if out.get("name") == "stdout" else ""
+            text = _CHECK_LINE.sub("", text)  # the check rows are in the verification table
+            if text.strip():
+                if not one_figure:
+                    flush_images()
+                parts.append(f'<pre class="lk-output">{_html.escape(text)}</pre>')
             continue
         if kind == "error":
             flush_images()
@@ -336,6 +350,7 @@ def _outputs(cell, entry, show_code_first=None):
                 continue
             if "<table" in html:
                 html = re.sub(r"<caption>.*?</caption>", "", html, flags=re.DOTALL) if tbls else html
+                html = _TH.sub(lambda m: m.group(1) + _breakable(m.group(2)) + m.group(3), html)
                 if tbls:
                     item = tbls.pop(0)
                     parts.append(f'<figure class="lk-table" id="{item.label}"><figcaption>{_caption_html(item)}'
@@ -376,7 +391,9 @@ def _chapter(k, nb, name, numbering, *, show_code, unresolved, error=""):
             src = resolve_references(src, labels, unresolved=found)
             unresolved += [f"{name}.ipynb, cell {i + 1}: unresolved reference @{lab}" for lab in found]
             if src.strip():
-                body.append(f'<div class="lk-md">{_md(src)}</div>')
+                html = _ANCHOR.sub("", _md(src))
+                html = _HEAD_ID.sub(lambda m: f'{m.group(1)}id="c{k + 1}-{m.group(2)}"', html)  # unique per chapter
+                body.append(f'<div class="lk-md">{html}</div>')
             continue
         if cell.cell_type != "code":
             continue
@@ -402,7 +419,8 @@ _CSS = """
         @bottom-center { content: counter(page); font: 9pt "DejaVu Sans", sans-serif; color: #555; } }
 @page :first { @bottom-center { content: none; } }
 html { font-family: "DejaVu Serif", Georgia, serif; font-size: 10.5pt; line-height: 1.4; color: #111; }
-body { margin: 0 auto; width: 174mm; max-width: 100%; }
+body { margin: 0 auto; width: 174mm; }
+@media print { body { margin: 0; } }
 h1, h2, h3, h4, .lk-title, .lk-toc, figcaption, table { font-family: "DejaVu Sans", Arial, sans-serif; }
 h1.lk-chapter { font-size: 18pt; margin: 0 0 10pt 0; break-before: page; }
 h1.lk-chapter .lk-chnum { display: inline-block; min-width: 1.6em; }
@@ -431,6 +449,12 @@ figcaption { font-size: 9.5pt; margin: 4pt 0; text-align: center; }
 figure.lk-table figcaption { text-align: left; }
 .lk-num { font-weight: bold; }
 .lk-fit { width: 100%; overflow: hidden; break-inside: avoid; }
+@page landscape { size: A4 landscape; margin: 18mm;
+        @bottom-center { content: counter(page); font: 9pt "DejaVu Sans", sans-serif; color: #555; } }
+.lk-landscape { page: landscape; width: 261mm; break-before: page; break-after: page; }
+table.lk-nowrap td { white-space: nowrap; }
+th { overflow-wrap: normal; word-break: normal; }
+table.lk-breakall th, table.lk-breakall td { white-space: normal; overflow-wrap: anywhere; }
 table { border-collapse: collapse; font-size: 8.5pt; margin: 2pt 0; break-inside: avoid; }
 th, td { border-bottom: 0.5pt solid #bbb; padding: 2pt 5pt; text-align: right; vertical-align: top; }
 th { border-bottom: 1pt solid #555; font-weight: bold; }
@@ -453,18 +477,25 @@ a { color: #1a4f8a; }
 
 # scale every table (and wide display math) down to the text width; runs before printing
 _FIT_JS = """
+function lkFitTable(box) {
+  var t = box.querySelector('table'); if (!t) return;
+  var w = box.getBoundingClientRect().width;
+  t.style.zoom = 1;
+  t.classList.add('lk-nowrap');          /* natural width: cells unwrapped, headers wrapped at spaces */
+  var natural = t.getBoundingClientRect().width;
+  t.classList.remove('lk-nowrap');
+  var fig = box.closest('figure') || box;
+  if (natural * 0.6 > w) {             /* unreadable when shrunk to portrait: turn the page */
+    fig.classList.add('lk-landscape');
+    w = box.getBoundingClientRect().width;
+  }
+  if (natural > w) { t.style.zoom = Math.max(0.5, (w - 4) / natural); }
+  if (t.getBoundingClientRect().width > w + 1) { t.classList.add('lk-breakall'); }  /* last resort */
+}
 function lkFit() {
-  document.querySelectorAll('.lk-fit').forEach(function (box) {
-    var t = box.querySelector('table'); if (!t) return;
-    t.style.zoom = 1;
-    var w = box.clientWidth, tw = t.scrollWidth;
-    if (tw > w) { t.style.zoom = Math.max(0.45, (w - 2) / tw); }
-    if (t.scrollWidth * (parseFloat(t.style.zoom) || 1) > w) {
-      t.querySelectorAll('td, th').forEach(function (c) { c.style.wordBreak = 'break-word'; c.style.whiteSpace = 'normal'; });
-    }
-  });
+  document.querySelectorAll('.lk-fit').forEach(lkFitTable);
   document.querySelectorAll('mjx-container[display="true"]').forEach(function (m) {
-    var w = m.parentElement.clientWidth, mw = m.scrollWidth;
+    var w = m.parentElement.getBoundingClientRect().width, mw = m.getBoundingClientRect().width;
     if (mw > w) { m.style.zoom = Math.max(0.4, (w - 2) / mw); }
   });
   document.body.setAttribute('data-fitted', 'yes');
@@ -627,7 +658,8 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
         Keep the code in the body instead of the appendix.
     executed : str or os.PathLike, optional
         A folder holding the lab's executed notebooks (``<name>.ipynb``, e.g. from
-        ``labkit render``): use them instead of executing again.
+        ``labkit render``): use them instead of executing again. Otherwise the executed
+        notebooks go where ``labkit render`` puts them: ``<output folder>/<lab>/``.
     jobs : int
         Parallel kernels.
     parameters : dict, optional
@@ -678,7 +710,7 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
 
         find_chromium()
     info = lab_info(lab_dir)
-    run_dir = Path(executed).resolve() if executed else base.parent / f"{base.name}_run"
+    run_dir = Path(executed).resolve() if executed else base.parent / lab  # labkit render's layout
     results = {}
     if executed is None:
         run_dir.mkdir(parents=True, exist_ok=True)
