@@ -41,6 +41,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
+from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._execute import (
     CELL_TIMEOUT,
     execute_notebook,
@@ -49,7 +50,7 @@ from labkit.reports._execute import (
     notebook_parameters,
 )
 
-__all__ = ["RenderResult", "find_chromium", "number_notebook", "export_html", "print_pdf", "render", "render_one", "write_index"]
+__all__ = ["RenderResult", "find_chromium", "export_html", "print_pdf", "render", "render_one", "write_index"]
 
 _HERE = Path(__file__).resolve().parent
 TEMPLATES = _HERE / "templates"
@@ -125,72 +126,6 @@ def _shared_asset(name, asset_dir, html_dir) -> str:
     return os.path.relpath(target, html_dir).replace(os.sep, "/")
 
 
-def _caption_output(item):
-    from labkit.reports._report import _caption_html
-
-    return {"output_type": "display_data", "metadata": {},
-            "data": {"text/html": f'<div class="lk-caption lk-{item.kind}" id="{item.label}">{_caption_html(item)}</div>'}}
-
-
-def number_notebook(nb):
-    """Number the figures, tables and equations of one notebook and write its captions and references.
-
-    Code cells lose their ``#|`` option lines; a captioned cell gets its caption as an
-    output ("Figure 1: ...", after the figure; "Table 1: ...", before the table);
-    ``@fig-...`` references in markdown become "Figure 1" links.
-
-    Parameters
-    ----------
-    nb : nbformat.NotebookNode
-        An executed notebook (changed in place).
-
-    Returns
-    -------
-    list of str
-        The labels referred to but not defined.
-    """
-    from labkit.reports._numbering import cell_options, number_notebooks, resolve_references
-
-    numbering = number_notebooks([nb], chapters=False)
-    unresolved = []
-    for i, cell in enumerate(nb.cells):
-        if cell.cell_type == "markdown":
-            cell.source = resolve_references(cell.source, numbering["labels"], unresolved=unresolved)
-            continue
-        if cell.cell_type != "code":
-            continue
-        opts, source = cell_options(cell.source)
-        if not opts:
-            continue
-        cell.source = source.lstrip("\n")
-        entry = numbering["cells"].get((0, i), {})
-        figs, tbls = list(entry.get("fig", [])), list(entry.get("tbl", []))
-        def is_image(out):
-            data = out.get("data", {})
-            html = data.get("text/html", "")
-            html = html if isinstance(html, str) else "".join(html)
-            return (any(m in data for m in ("image/png", "image/jpeg", "image/svg+xml"))
-                    or ("<table" not in html and "data:image/png;base64" in html))
-
-        images = [k for k, out in enumerate(cell.get("outputs", [])) if is_image(out)]
-        after = {k: None for k in images}
-        if len(figs) == 1 and images:  # one caption for all the cell's figures, after the last
-            after = {images[-1]: figs[0]}
-        else:
-            after = dict(zip(images, figs))
-        outputs = []
-        for k, out in enumerate(cell.get("outputs", [])):
-            html = out.get("data", {}).get("text/html", "")
-            html = html if isinstance(html, str) else "".join(html)
-            if tbls and "<table" in html:
-                outputs.append(_caption_output(tbls.pop(0)))
-            outputs.append(out)
-            if after.get(k) is not None:
-                outputs.append(_caption_output(after[k]))
-        cell["outputs"] = outputs
-    return unresolved
-
-
 def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="", asset_dir=None) -> Path:
     """Write the offline HTML report of an executed notebook.
 
@@ -245,7 +180,7 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
             if "text/html" in data:
                 text = data["text/html"] if isinstance(data["text/html"], str) else "".join(data["text/html"])
                 data["text/html"] = _REMOTE_LINK.sub("", text)
-    number_notebook(nb)
+    number_notebook(nb)  # numbered captions, references, round-off as 0
     has_widgets = "application/vnd.jupyter.widget-state+json" in nb.metadata.get("widgets", {})
     math, widgets = _needs_math(nb), has_widgets
     shared = asset_dir is not None
@@ -264,8 +199,6 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         },
     }
     body, _ = exporter.from_notebook_node(nb, resources=resources)
-    from labkit.reports._report import _default_roots, scrub_paths
-
     body = scrub_paths(body, _default_roots(str(html_dir)))
     html_path.parent.mkdir(parents=True, exist_ok=True)
     html_path.write_text(body, encoding="utf-8")

@@ -6,7 +6,6 @@ closing check with round-off and a published typo, and an absolute path printed 
 """
 
 import html as _html
-import json
 import logging
 import re
 import zipfile
@@ -218,7 +217,6 @@ def _assert_report(pdf, html, chapters, tmp_path, title_page):
     pages = _read_back(pdf)
     texts = [t for _, _, t, _, _ in pages]
     whole = "\n".join(texts)
-    flat = re.sub(r"\s+", "", whole)
     # nothing outside the page box (a clipped table or code line would run past the right edge)
     for k, (w, h, _, _, chars) in enumerate(pages):
         out = [c["text"] for c in chars if c["x0"] < -0.5 or c["x1"] > w + 0.5 or c["top"] < -0.5 or c["bottom"] > h + 0.5]
@@ -295,7 +293,10 @@ def test_lab_report_pdf_html_docx_read_back(tmp_path):
             assert any(k in desc for k in ("/FontFile", "/FontFile2", "/FontFile3")), font["/BaseFont"]
     # DOCX: the same numbered captions, no machine path
     with zipfile.ZipFile(docx) as z:
-        doc = re.sub(r"<[^>]+>", "", z.read("word/document.xml").decode("utf-8"))
+        xml = z.read("word/document.xml").decode("utf-8")
+        assert any(n.startswith("word/media/") for n in z.namelist())  # the figure is embedded
+    assert "<m:oMath" in xml  # the equation is a Word equation, not TeX text
+    doc = re.sub(r"<[^>]+>", "", xml)
     assert "Figure 1.1" in doc and "Table 2.1" in doc and "Forward kinematics" in doc
     assert str(tmp_path) not in doc
 
