@@ -56,7 +56,8 @@ def _cmd_report(args):
     res = build_report(lab, args.output, to=args.to.split(","), show_code=args.show_code, executed=args.executed,
                        jobs=args.jobs, parameters=_parse_params(args.parameters), timeout=args.timeout)
     for kind, path in res.files.items():
-        print(f"{kind}: {os.path.relpath(path)}")
+        inside = Path(path).resolve().is_relative_to(Path.cwd().resolve())
+        print(f"{kind}: {os.path.relpath(path) if inside else path}")
     for line in res.errors:
         print(f"error: {line}", file=sys.stderr)
     if not res.ok:

@@ -357,7 +357,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     except LabkitError:
         declared = {}
     if "output_dir" in declared and "output_dir" not in params:
-        params["output_dir"] = str(folder / f"{name}_files")
+        # relative to the kernel's folder (the notebook's): no machine path in the executed notebook
+        params["output_dir"] = os.path.relpath(folder / f"{name}_files", notebook.parent).replace(os.sep, "/")
     params = {k: v for k, v in params.items() if k in declared}
     with _stderr_to(folder / f"{name}.log"):  # kernel start-up chatter goes to the log, not the terminal
         result = execute_notebook(notebook, folder / f"{name}.ipynb", params, check_names=False,

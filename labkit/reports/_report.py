@@ -186,7 +186,7 @@ def _execute_one(notebook, folder, parameters, timeout):
         declared = {}
     params = {k: v for k, v in params.items() if k in declared}
     if "output_dir" in declared and "output_dir" not in params:
-        params["output_dir"] = str(Path(folder) / f"{notebook.stem}_files")
+        params["output_dir"] = os.path.relpath(Path(folder) / f"{notebook.stem}_files", notebook.parent).replace(os.sep, "/")
     out = Path(folder) / notebook.name
     with _stderr_to(Path(folder) / f"{notebook.stem}.log"):
         kwargs = {"timeout": timeout} if timeout else {}
