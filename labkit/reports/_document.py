@@ -104,8 +104,8 @@ def _default_roots(*folders):
     repo = Path(__file__).resolve().parents[2]
     roots += [(str(repo), "."), (str(Path.cwd()), ".")]
     for p in {sys.prefix, sys.base_prefix, *site.getsitepackages(), site.getusersitepackages()}:
-        roots.append((str(p), "<python>"))
-    roots += [(str(Path.home()), "~"), (tempfile.gettempdir().rstrip("/") + "/", "<tmp>/")]
+        roots.append((str(p), "&lt;python&gt;"))  # the texts are HTML
+    roots += [(str(Path.home()), "~"), (tempfile.gettempdir().rstrip("/") + "/", "&lt;tmp&gt;/")]
     return roots
 
 
@@ -464,6 +464,7 @@ def number_notebook(nb):
             html = html if isinstance(html, str) else "".join(html)
             if tbls and "<table" in html:
                 outputs.append(_caption_output(tbls.pop(0)))
+                out["data"]["text/html"] = re.sub(r"<caption>.*?</caption>", "", html, flags=re.DOTALL)
             outputs.append(out)
             if after.get(k) is not None:
                 outputs.append(_caption_output(after[k]))

@@ -114,6 +114,27 @@ def _needs_math(nb) -> bool:
     return False
 
 
+def _lab_css() -> str:
+    """JupyterLab's stylesheet as nbconvert's ``lab`` template inlines it (index + light theme)."""
+    from jupyter_core.paths import jupyter_path
+
+    for root in jupyter_path("nbconvert", "templates", "lab", "static"):
+        if (Path(root) / "index.css").is_file():
+            return "\n".join((Path(root) / f).read_text("utf-8") for f in ("index.css", "theme-light.css"))
+    raise LabkitError("nbconvert's lab template (static/index.css) is missing; reinstall nbconvert")
+
+
+def _shared_css(asset_dir, html_dir) -> str:
+    """Write ``jupyterlab.css`` once into ``asset_dir``; its URL relative to ``html_dir``."""
+    target = Path(asset_dir) / "jupyterlab.css"
+    if not target.is_file():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(_lab_css(), encoding="utf-8")
+        os.replace(tmp, target)
+    return os.path.relpath(target, html_dir).replace(os.sep, "/")
+
+
 def _shared_asset(name, asset_dir, html_dir) -> str:
     """Write asset ``name`` once into ``asset_dir``; its URL relative to ``html_dir``."""
     asset_dir = Path(asset_dir)
@@ -192,6 +213,7 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
             "widgets": _asset("jupyter-widgets-embed.js") if widgets and not shared else "",
             "mathjax_src": _shared_asset("mathjax-tex-svg-full.js", asset_dir, html_dir) if math and shared else "",
             "widgets_src": _shared_asset("jupyter-widgets-embed.js", asset_dir, html_dir) if widgets and shared else "",
+            "css_src": _shared_css(asset_dir, html_dir) if shared else "",
             "status": status,
             "error": error,
             "title": title or html_path.stem,

@@ -318,6 +318,8 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
         files["docx"] = _docx(html_path, base.with_suffix(".docx"), info)
         progress(f"  DOCX {files['docx'].name}")
     if "html" in to:
+        if needs_math:  # typeset once: the hand-in HTML carries SVG math, not 2 MB of MathJax
+            html_path.write_text(_typeset(html_path), encoding="utf-8")
         files["html"] = html_path
     else:
         html_path.unlink()
@@ -327,6 +329,24 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
     errs = tuple(e for e in errors if e)
     return ReportResult(lab, not errs and not warnings, files, tuple(c.title for c in chapters), errs, warnings,
                         time.perf_counter() - t0)
+
+
+def _typeset(html_path) -> str:
+    """The page as Chromium rendered it (MathJax done, tables fitted), without its scripts."""
+    import subprocess
+
+    from labkit.reports._render import chromium_command, find_chromium
+
+    with tempfile.TemporaryDirectory(prefix="labkit-chromium-") as profile:
+        cmd = chromium_command(html_path, None, profile, mode="dom", chromium=find_chromium(), budget_ms=30000)
+        try:
+            dom = subprocess.run(cmd, capture_output=True, text=True, timeout=300).stdout
+        except subprocess.TimeoutExpired as exc:
+            raise LabkitError(f"Chromium did not render {Path(html_path).name} in 300 s") from exc
+    if "<mjx-container" not in dom:
+        raise LabkitError(f"MathJax did not typeset {Path(html_path).name} (Chromium printed no math)")
+    dom = re.sub(r"<script\b.*?</script>", "", dom, flags=re.DOTALL)
+    return "<!DOCTYPE html>\n" + dom
 
 
 def _docx(html_path, docx_path, info) -> Path:
