@@ -179,7 +179,7 @@ def _outputs(cell, entry, show_code_first=None):
             return
         if figs:
             item = figs.pop(0)
-            parts.append(f'<figure class="lk-figure" id="{item.label}">{"".join(pending_images)}'
+            parts.append(f'<figure class="lk-figure" id="{item.anchor}">{"".join(pending_images)}'
                          f"<figcaption>{_caption_html(item)}</figcaption></figure>")
         else:
             parts.append(f'<figure class="lk-figure lk-unnumbered">{"".join(pending_images)}</figure>')
@@ -228,7 +228,7 @@ def _outputs(cell, entry, show_code_first=None):
                 html = tidy_numbers(_TH.sub(lambda m: m.group(1) + _breakable(m.group(2)) + m.group(3), html))
                 if tbls:
                     item = tbls.pop(0)
-                    parts.append(f'<figure class="lk-table" id="{item.label}"><figcaption>{_caption_html(item)}'
+                    parts.append(f'<figure class="lk-table" id="{item.anchor}"><figcaption>{_caption_html(item)}'
                                  f'</figcaption><div class="lk-fit">{html}</div></figure>')
                 else:
                     parts.append(f'<div class="lk-fit lk-unnumbered">{html}</div>')
@@ -255,7 +255,7 @@ def _outputs(cell, entry, show_code_first=None):
 def _chapter(k, nb, name, numbering, *, show_code, unresolved, error=""):
     title, title_cell, match = _split_title(nb, name)
     body, code, checks = [], [], []
-    labels = numbering["labels"]
+    labels = {**numbering["labels"], **numbering["local"][k]}  # the chapter's own labels first
     for i, cell in enumerate(nb.cells):
         tags = cell.get("metadata", {}).get("tags", [])
         if cell.cell_type == "markdown":
@@ -405,7 +405,7 @@ def report_html(chapters, info, *, lab, show_code=False, mathjax="", generated=N
 
 def _caption_output(item):
     return {"output_type": "display_data", "metadata": {},
-            "data": {"text/html": f'<div class="lk-caption lk-{item.kind}" id="{item.label}">{_caption_html(item)}</div>'}}
+            "data": {"text/html": f'<div class="lk-caption lk-{item.kind}" id="{item.anchor}">{_caption_html(item)}</div>'}}
 
 
 def number_notebook(nb):
@@ -431,7 +431,7 @@ def number_notebook(nb):
     unresolved = []
     for i, cell in enumerate(nb.cells):
         if cell.cell_type == "markdown":
-            cell.source = resolve_references(cell.source, numbering["labels"], unresolved=unresolved)
+            cell.source = resolve_references(cell.source, numbering["local"][0], unresolved=unresolved)
             continue
         if cell.cell_type != "code":
             continue

@@ -54,6 +54,9 @@ class Label:
         Index of the notebook (chapter - 1).
     cell : int
         Index of the cell in that notebook.
+    anchor : str
+        HTML id of the item: the label, or ``<label>-<chapter>`` in a many-chapter report
+        (notebooks of one lab may each have a ``tbl-dh``).
     """
 
     label: str
@@ -62,6 +65,7 @@ class Label:
     caption: str = ""
     notebook: int = 0
     cell: int = 0
+    anchor: str = ""
 
     @property
     def text(self) -> str:
@@ -141,35 +145,44 @@ def number_notebooks(notebooks, *, chapters=True) -> dict:
     Returns
     -------
     dict
-        ``{"labels": {label: Label}, "cells": {(notebook, cell): {"fig": [Label...],
-        "tbl": [Label...]}}}``: the captions of each cell in output order (an unlabelled
-        caption gets the label ``fig-<notebook>-<cell>-<k>``).
+        ``{"labels": {label: Label}, "local": [{label: Label}, ...], "cells": {(notebook, cell):
+        {"fig": [Label...], "tbl": [Label...]}}}``: ``labels`` holds the labels defined in one
+        notebook only, ``local`` each notebook's own (a reference resolves there first, so
+        every notebook may have its ``tbl-dh``), ``cells`` the captions of each cell in output
+        order (an unlabelled caption gets the label ``fig-<notebook>-<cell>-<k>``).
 
     Raises
     ------
     LabkitError
-        A label defined twice (naming both places).
+        A label defined twice in one notebook (naming both cells).
     """
-    labels, cells = {}, {}
+    local, cells = [{} for _ in notebooks], {}
+    owners = {}
 
     def add(item, where):
-        if item.label in labels:
-            first = labels[item.label]
-            raise LabkitError(f"label {item.label} is defined twice: notebook {first.notebook + 1} cell "
-                              f"{first.cell + 1} and {where}")
-        labels[item.label] = item
+        own = local[item.notebook]
+        if item.label in own:
+            raise LabkitError(f"label {item.label} is defined twice in notebook {item.notebook + 1}: cell "
+                              f"{own[item.label].cell + 1} and {where}")
+        own[item.label] = item
+        owners.setdefault(item.label, []).append(item)
 
     for k, nb in enumerate(notebooks):
         prefix = f"{k + 1}." if chapters else ""
         count = {"fig": 0, "tbl": 0, "eq": 0}
+
+        def anchor(label, k=k):
+            return f"{label}-{k + 1}" if chapters else label
+
         for i, cell in enumerate(nb.cells):
             where = f"notebook {k + 1} cell {i + 1}"
             if cell.cell_type == "markdown":
                 for m in _HEADING_LABEL.finditer(cell.source):
-                    add(Label(m.group("label"), "sec", str(k + 1), "", k, i), where)
+                    add(Label(m.group("label"), "sec", str(k + 1), "", k, i, anchor(m.group("label"))), where)
                 for m in _EQUATION.finditer(cell.source):
                     count["eq"] += 1
-                    add(Label(m.group("label"), "eq", f"{prefix}{count['eq']}", "", k, i), where)
+                    add(Label(m.group("label"), "eq", f"{prefix}{count['eq']}", "", k, i, anchor(m.group("label"))),
+                        where)
                 continue
             if cell.cell_type != "code":
                 continue
@@ -186,14 +199,15 @@ def number_notebooks(notebooks, *, chapters=True) -> dict:
                 for j, cap in enumerate(caps):
                     count[kind] += 1
                     name = label if (j == 0 and label.startswith(kind + "-")) else f"{kind}-{k + 1}-{i + 1}-{j + 1}"
-                    item = Label(name, kind, f"{prefix}{count[kind]}", cap, k, i)
+                    item = Label(name, kind, f"{prefix}{count[kind]}", cap, k, i, anchor(name))
                     add(item, where)
                     items.append(item)
                 if items:
                     entry[kind] = items
             if entry:
                 cells[(k, i)] = entry
-    return {"labels": labels, "cells": cells}
+    unique = {label: items[0] for label, items in owners.items() if len(items) == 1}
+    return {"labels": unique, "local": local, "cells": cells}
 
 
 def resolve_references(markdown: str, labels: dict, *, link=True, unresolved=None) -> str:
@@ -223,12 +237,12 @@ def resolve_references(markdown: str, labels: dict, *, link=True, unresolved=Non
             if unresolved is not None:
                 unresolved.append(m.group("label"))
             return f"**?@{m.group('label')}**"
-        return f"[{item.text}](#{item.label})" if link else item.text
+        return f"[{item.text}](#{item.anchor or item.label})" if link else item.text
 
     def equation(m):
         item = labels.get(m.group("label"))
         number = item.number if item else "?"
-        anchor = f'<span id="{m.group("label")}"></span>\n\n' if link else ""
+        anchor = f'<span id="{item.anchor if item else m.group("label")}"></span>\n\n' if link else ""
         return f"{anchor}$${m.group('tex').rstrip()} \\tag{{{number}}}$$"
 
     text = _EQUATION.sub(equation, markdown)

@@ -54,8 +54,12 @@ def test_cell_options_and_numbering_per_chapter():
     assert [lab.text for lab in labels.values() if lab.kind == "tbl"] == ["Table 1.1", "Table 1.2", "Table 2.1"]
     assert labels["eq-x"].text == "Equation (2.1)"
     assert number_notebooks([one], chapters=False)["labels"]["fig-b"].text == "Figure 2"
-    with pytest.raises(LabkitError, match="fig-a is defined twice"):
-        number_notebooks([one, one])
+    # every notebook of a lab may have its own fig-a (a reference resolves in its own chapter first)
+    both = number_notebooks([one, one])
+    assert "fig-a" not in both["labels"] and both["local"][1]["fig-a"].text == "Figure 2.1"
+    assert both["local"][1]["fig-a"].anchor == "fig-a-2"
+    with pytest.raises(LabkitError, match="fig-a is defined twice in notebook 1"):
+        number_notebooks([_nb([("code", "#| label: fig-a\n#| fig-cap: A"), ("code", "#| label: fig-a\n#| fig-cap: B")])])
 
 
 def test_references_are_resolved_and_unknown_ones_reported():
@@ -80,7 +84,7 @@ def test_per_notebook_html_numbers_captions_and_references(tmp_path):
     html = export_html(nb, tmp_path / "r.html").read_text()
     text = re.sub(r"<[^>]+>", "", html)
     assert "Figure 1: The arm (the seed's Figure 8.2)" in text and "Table 1: Positions" in text
-    assert 'href="#fig-arm"' in html and 'id="fig-arm"' in html and "#| label" not in html
+    assert 'href="#fig-arm"' in html and 'id="fig-arm"' in html and "#| label" not in html  # one notebook: the label
     assert text.index("Table 1: Positions") < text.index("x [mm]")  # a table's caption is above it
 
 
@@ -330,7 +334,7 @@ def test_every_lab_notebook_has_captions_and_resolved_references(path):
     from labkit.reports._numbering import REFERENCE, number_notebooks
 
     nb = nbformat.read(str(path), as_version=4)
-    labels = number_notebooks([nb])["labels"]
+    labels = number_notebooks([nb])["local"][0]
     assert any(lab.kind == "fig" for lab in labels.values()) or any(lab.kind == "tbl" for lab in labels.values())
     assert all(lab.caption for lab in labels.values() if lab.kind in ("fig", "tbl")), "every figure/table has a caption"
     refs = [m.group("label") for c in nb.cells if c.cell_type == "markdown" for m in REFERENCE.finditer(c.source)]
