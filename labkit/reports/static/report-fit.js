@@ -12,7 +12,10 @@ function lkFitTable(box) {
     fig.classList.add('lk-landscape');
     w = box.getBoundingClientRect().width;
   }
-  if (natural > w) { t.style.zoom = Math.max(0.5, (w - 4) / natural); }
+  if (natural > w) {
+    t.style.zoom = Math.max(0.5, 0.96 * (w - 4) / natural);  /* 4 % slack: text metrics change with zoom */
+    t.style.width = natural + 'px';      /* keep the measured layout: more room must not unwrap headers */
+  }
   if (t.getBoundingClientRect().width > w + 1) { t.classList.add('lk-breakall'); }  /* last resort */
 }
 function lkFit() {
