@@ -4,7 +4,7 @@ function lkFitTable(box) {
   var t = box.querySelector('table'); if (!t) return;
   var w = box.getBoundingClientRect().width;
   t.style.zoom = 1;
-  t.classList.add('lk-nowrap');          /* natural width: cells unwrapped, headers wrapped at spaces */
+  if (!t.classList.contains('lk-verify')) t.classList.add('lk-nowrap');  /* the verification table wraps its lists */          /* natural width: cells unwrapped, headers wrapped at spaces */
   var natural = t.getBoundingClientRect().width;
   t.classList.remove('lk-nowrap');
   var fig = box.closest('figure') || box;
