@@ -215,7 +215,8 @@ def _row_cells(r) -> dict:
         result = "pass" if r.passed else "FAIL"
     else:
         tol, result = "typo", "published typo"
-    return {"quantity": r.name, "reproduced": _fmt(r.value, zero=zero), "published / expected": _fmt(r.published, zero=zero),
+    return {"quantity": r.name, "reproduced": _fmt(r.value, zero=zero),
+            "published / expected": _fmt(r.published, zero=zero),
             "max |diff|": _num(r.error, 3, zero) if np.isfinite(r.error) else "-",
             "tolerance": tol, "result": result, "note": r.note}
 
