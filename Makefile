@@ -10,9 +10,14 @@ install:
 	tools/install-system-deps.sh reports
 	$(PIP) install -q -e .
 
-# every lab notebook executed against the simulated arm (sim://), HTML + PDF + reports/index.html
+# every lab notebook executed against the simulated arm (sim://), HTML + PDF + reports/index.html,
+# then one hand-in report per lab (reports/<lab>.pdf + .html) from the notebooks just executed
 reports: install
 	$(PYTHON) -m labkit render --jobs 2 --output reports
+	for lab in notebooks/*/; do \
+	  name=$$(basename $$lab); \
+	  $(PYTHON) -m labkit report $$lab --executed reports/$$name --output reports/ || exit 1; \
+	done
 
 # the Arduino firmware (hex + ELF) and the simavr harness; prints flash/SRAM use
 firmware:

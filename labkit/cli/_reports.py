@@ -1,4 +1,4 @@
-"""``labkit run`` and ``labkit render``: execute lab notebooks, render reports."""
+"""``labkit run``, ``labkit render`` and ``labkit report``: execute lab notebooks, render reports."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 def add_commands(sub):
-    """Add ``run`` and ``render`` to the ``labkit`` subcommands.
+    """Add ``run``, ``render`` and ``report`` to the ``labkit`` subcommands.
 
     Parameters
     ----------
@@ -27,6 +27,44 @@ def add_commands(sub):
 
     sub.add_parser("render", help="execute notebooks in parallel and write HTML/PDF reports + index",
                    build=_render_arguments)
+    sub.add_parser("report", help="one report per lab: title page, contents, a chapter per notebook (PDF/HTML/DOCX)",
+                   build=_report_arguments)
+
+
+def _report_arguments(sp):
+    sp.add_argument("lab", metavar="LAB_DIR", help="the lab folder (e.g. notebooks/seed000_arduino_arm)")
+    sp.add_argument("-o", "--output", help="report file without suffix, or a folder (default reports/<lab>)")
+    sp.add_argument("--to", default="pdf,html", help="formats, comma-separated: pdf,html,docx (default pdf,html)")
+    sp.add_argument("--show-code", action="store_true", help="keep the code in the chapters (default: appendix A)")
+    sp.add_argument("--executed", metavar="DIR",
+                    help="use the executed notebooks in DIR (e.g. reports/<lab> of labkit render) instead of running")
+    sp.add_argument("-j", "--jobs", type=int, default=2, help="parallel kernels (default 2)")
+    sp.add_argument("-p", "--parameter", dest="parameters", nargs=2, action="append", metavar=("NAME", "VALUE"),
+                    help="override a parameter in every notebook that declares it, e.g. -p port sim://")
+    sp.add_argument("--timeout", type=float, default=None, metavar="SECONDS", help="seconds one cell may run")
+    sp.set_defaults(func=_cmd_report)
+
+
+def _cmd_report(args):
+    from labkit.reports import build_report
+
+    lab = Path(args.lab)
+    if not lab.is_dir():  # a lab name under notebooks/
+        from labkit.reports import notebooks_root
+
+        lab = notebooks_root() / args.lab
+    res = build_report(lab, args.output, to=args.to.split(","), show_code=args.show_code, executed=args.executed,
+                       jobs=args.jobs, parameters=_parse_params(args.parameters), timeout=args.timeout)
+    for kind, path in res.files.items():
+        inside = Path(path).resolve().is_relative_to(Path.cwd().resolve())
+        print(f"{kind}: {os.path.relpath(path) if inside else path}")
+    for line in res.errors:
+        print(f"error: {line}", file=sys.stderr)
+    if not res.ok:
+        print(f"labkit report: {len(res.errors)} notebook(s) failed, {len(res.warnings)} unresolved reference(s)",
+              file=sys.stderr)
+        return 1
+    return 0
 
 
 def _render_arguments(sp):
@@ -66,7 +104,7 @@ def _cmd_run(args):
                            status="passed" if res.ok else "failed", error=res.error)
         print(f"report: {html}")
     if not res.ok:
-        print(f"error in cell {res.cell}: {res.error}", file=sys.stderr)
+        print(f"error: {res.error}", file=sys.stderr)
         return 1
     return 0
 

@@ -341,7 +341,8 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     none, so the virtual arm and a servo board can drive it) and the notebooks
     ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``, ``05_calibration``,
     ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
-    with their parameters picked by :func:`lab_defaults`, plus a ``README.md``.
+    with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
+    page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
 
     Parameters
     ----------
@@ -393,5 +394,8 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
         + "\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
           "virtual arm, `sim://`). On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`.\n",
         encoding="utf-8")
+    from labkit.reports import LabInfo, write_lab_info
+
+    write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
     return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind)
 

@@ -18,7 +18,9 @@ Example
 from __future__ import annotations
 
 import ast
+import logging
 import os
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,7 +58,8 @@ class ExecutionResult:
     seconds : float
         Wall time of the execution [s].
     error : str
-        ``"<ExceptionName>: <message>"`` of the first failure, "" when ok.
+        ``"<notebook>, cell <n>, line <k>: <ExceptionName>: <message>"`` of the first failure
+        (``n`` counts the cells of the source notebook from 1), "" when ok.
     cell : int or None
         Index of the failing cell in the executed notebook, None when ok.
     parameters : dict
@@ -316,18 +319,59 @@ def kernel_manager_class():
     class SlicedPollKernelManager(AsyncKernelManager):
         client_factory = Type(SlicedPollClient, klass=AsyncKernelClient)
 
+        async def _async_interrupt_kernel(self):
+            # jupyter_client interrupts (SIGINT) a kernel before asking it to shut down; an idle
+            # kernel then logs "KeyboardInterrupt caught in kernel". A finished notebook has
+            # nothing to interrupt: only a timed-out cell (not shutting down) is interrupted.
+            if self.shutting_down:
+                return None
+            return await super()._async_interrupt_kernel()
+
     _KERNEL_MANAGER = SlicedPollKernelManager
     return _KERNEL_MANAGER
 
 
-def _first_error(nb):
-    """(cell index, "Name: message") of the first error output in an executed notebook."""
+_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+_CELL_LINE = re.compile(r"Cell In\[\d+\], line (\d+)")
+
+
+def _first_error(nb, name=""):
+    """(cell index, message) of the first error output in an executed notebook.
+
+    The message names the notebook, the cell (1-based, counted in the source notebook:
+    papermill's injected-parameters cell is not counted) and the line inside that cell:
+    ``"02_fk.ipynb, cell 9, line 3: NameError: name 'x' is not defined"``.
+    """
+    number = 0
     for i, cell in enumerate(nb.cells):
+        if "injected-parameters" not in cell.get("metadata", {}).get("tags", []):
+            number += 1
         for out in cell.get("outputs", []):
             if out.get("output_type") == "error":
-                where = f" (in cell In [{cell.get('execution_count')}])" if cell.get("execution_count") else ""
-                return i, f"{out.get('ename', 'Error')}: {out.get('evalue', '')}{where}"
+                trace = _ANSI.sub("", "\n".join(out.get("traceback", [])))
+                line = _CELL_LINE.search(trace)
+                where = f"cell {number}" + (f", line {line.group(1)}" if line else "")
+                prefix = f"{name}, {where}" if name else where
+                return i, f"{prefix}: {out.get('ename', 'Error')}: {out.get('evalue', '')}"
     return None, ""
+
+
+class _PapermillNoise(logging.Filter):
+    """Drop papermill's parameter-inference warnings: labkit parses the parameters cell with
+    :mod:`ast` (:func:`notebook_parameters`) and has already checked the names, while papermill's
+    line parser misreads ``port = "sim://?a=b"  # comment`` (two ``=``) and then calls the
+    parameter unknown although its value is injected."""
+
+    def filter(self, record):
+        text = record.getMessage()
+        return not (text.startswith("Unable to parse line") or text.startswith("Passed unknown parameter"))
+
+
+def _quiet_papermill():
+    for name in ("papermill", "papermill.translators"):
+        log = logging.getLogger(name)
+        if not any(isinstance(f, _PapermillNoise) for f in log.filters):
+            log.addFilter(_PapermillNoise())
 
 
 def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name="python3",
@@ -375,6 +419,7 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
                               f"its parameters are: {', '.join(declared) or '(none)'}")
         check_parameter_types(notebook.name, declared, parameters)
     output.parent.mkdir(parents=True, exist_ok=True)
+    _quiet_papermill()
     t0 = time.perf_counter()
     try:
         papermill.execute_notebook(
@@ -390,7 +435,8 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
         if not output.exists():
             nb = nbformat.read(str(notebook), as_version=4)
             nbformat.write(nb, str(output))
-        return ExecutionResult(notebook, output, False, seconds, f"{type(exc).__name__}: {exc}", None, parameters)
+        return ExecutionResult(notebook, output, False, seconds, f"{notebook.name}: {type(exc).__name__}: {exc}",
+                               None, parameters)
     seconds = time.perf_counter() - t0
-    cell, error = _first_error(nbformat.read(str(output), as_version=4))
+    cell, error = _first_error(nbformat.read(str(output), as_version=4), notebook.name)
     return ExecutionResult(notebook, output, cell is None, seconds, error, cell, parameters)

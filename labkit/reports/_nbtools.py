@@ -44,6 +44,20 @@ def _display(obj):
     return False
 
 
+def _display_raw(bundle):
+    """Display a MIME bundle (dict) in IPython; False outside IPython."""
+    try:
+        from IPython import get_ipython
+        from IPython.display import display
+
+        if get_ipython() is not None:
+            display(bundle, raw=True)
+            return True
+    except ImportError:  # pragma: no cover
+        pass
+    return False
+
+
 def matrix_latex(a, decimals=4) -> str:
     """LaTeX ``bmatrix`` of a numeric array of shape (m, n) or (n,) (a column).
 
@@ -154,14 +168,57 @@ class Comparison:
     passed: bool
     note: str = ""
     kind: str = "check"
+    relative: bool = False
 
 
-def _fmt(a, digits=6):
+def _roundoff(a, tol=None, scale=None):
+    """Threshold below which a number is round-off: min(tol, 1e-9 * scale), scale >= 1."""
+    scale = max(1.0, float(scale) if scale is not None and np.isfinite(scale) else 1.0)
+    return min(float(tol), 1e-9 * scale) if tol is not None and tol > 0 else 1e-12 * scale
+
+
+def _num(v, digits=6, zero=0.0) -> str:
+    """One number with ``digits`` significant digits, ``0`` below ``zero``, exponents short (``1e-9``)."""
+    v = float(v)
+    if not np.isfinite(v):
+        return "-" if np.isnan(v) else ("inf" if v > 0 else "-inf")
+    if abs(v) <= zero:
+        return "0"
+    text = f"{v:.{digits}g}"
+    if "e" in text:
+        mant, exp = text.split("e")
+        text = f"{mant}e{int(exp)}"
+    return text
+
+
+def _fmt(a, digits=6, zero=0.0):
+    """A number or a short list of numbers (at most 8 shown) for a check row."""
     a = np.asarray(a, dtype=float)
     if a.size == 1:
-        return f"{a.item():.{digits}g}"
-    flat = ", ".join(f"{v:.{digits}g}" for v in a.ravel()[:8])
+        return _num(a.item(), digits, zero)
+    flat = ", ".join(_num(v, digits, zero) for v in a.ravel()[:8])
     return f"[{flat}{', ...' if a.size > 8 else ''}]"
+
+
+#: MIME type of the rows a :meth:`Checks.assert_all` table carries for ``labkit report``
+CHECKS_MIME = "application/vnd.labkit.checks+json"
+
+
+def _row_cells(r) -> dict:
+    """The displayed cells of one comparison: significant digits, round-off as 0, "typo"."""
+    published = np.asarray(r.published, dtype=float)
+    scale = float(np.max(np.abs(published))) if published.size and np.all(np.isfinite(published)) else 1.0
+    zero = _roundoff(None, None, scale)
+    if r.kind == "check":
+        zero = _roundoff(None, r.tol, scale)
+        tol = _num(r.tol, 3) + (" (rel.)" if getattr(r, "relative", False) else "")
+        result = "pass" if r.passed else "FAIL"
+    else:
+        tol, result = "typo", "published typo"
+    return {"quantity": r.name, "reproduced": _fmt(r.value, zero=zero),
+            "published / expected": _fmt(r.published, zero=zero),
+            "max |diff|": _num(r.error, 3, zero) if np.isfinite(r.error) else "-",
+            "tolerance": tol, "result": result, "note": r.note}
 
 
 @dataclass
@@ -217,11 +274,13 @@ class Checks:
         if relative:
             diff = diff / np.maximum(np.abs(published), np.finfo(float).tiny)
         err = float(np.max(diff)) if diff.size else 0.0
-        row = Comparison(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note)
+        row = Comparison(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note,
+                         relative=bool(relative))
         self.rows.append(row)
         if self.display:
-            print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {_fmt(value)}, published {_fmt(published)},"
-                  f" max |diff| {err:.3g} <= {tol:g}? {note}")
+            cells = _row_cells(row)
+            print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {cells['reproduced']}, published "
+                  f"{cells['published / expected']}, max |diff| {cells['max |diff|']} <= {cells['tolerance']}? {note}")
         return row
 
     def typo(self, name, published, correct, note) -> Comparison:
@@ -260,16 +319,15 @@ class Checks:
         -------
         pandas.DataFrame
             Columns ``quantity``, ``reproduced``, ``published / expected``,
-            ``max |diff|``, ``tolerance``, ``result`` and ``note``.
+            ``max |diff|``, ``tolerance``, ``result`` and ``note``, as display text: six
+            significant digits, round-off (below the tolerance and 1e-9 of the published
+            magnitude) shown as ``0``, and ``"typo"`` as the tolerance of a published typo.
         """
         import pandas as pd
 
-        return pd.DataFrame(
-            [{"quantity": r.name, "reproduced": _fmt(r.value), "published / expected": _fmt(r.published),
-              "max |diff|": r.error, "tolerance": r.tol if r.kind == "check" else None,
-              "result": ("pass" if r.passed else "FAIL") if r.kind == "check" else "published typo",
-              "note": r.note} for r in self.rows]
-        )
+        return pd.DataFrame([_row_cells(r) for r in self.rows],
+                            columns=["quantity", "reproduced", "published / expected", "max |diff|", "tolerance",
+                                     "result", "note"])
 
     @property
     def failures(self):
@@ -280,7 +338,10 @@ class Checks:
         """Show the table (in a notebook); raise :class:`~labkit.exceptions.CheckFailed` if any check failed."""
         if self.display and self.rows:
             df = self.to_dataframe()
-            if not _display(df.style.set_caption(self.title).hide(axis="index")):
+            html = df.style.set_caption(self.title).hide(axis="index").to_html()
+            bundle = {"text/html": html, "text/plain": df.to_string(index=False),
+                      CHECKS_MIME: {"title": self.title, "rows": df.to_dict(orient="records")}}
+            if not _display_raw(bundle):
                 print(df.to_string(index=False))
         if self.failures:
             raise CheckFailed("reproduced numbers disagree with the published ones: " + "; ".join(
@@ -324,6 +385,7 @@ def check(name, value, published, tol, note="", *, relative=False) -> Comparison
     c = Checks()
     row = c.check(name, value, published, tol, note, relative=relative)
     if not row.passed:
-        raise CheckFailed(f"{name}: reproduced {_fmt(value)} differs from published {_fmt(published)} by "
-                             f"{row.error:.3g} > tolerance {tol:g}")
+        cells = _row_cells(row)
+        raise CheckFailed(f"{name}: reproduced {cells['reproduced']} differs from published "
+                          f"{cells['published / expected']} by {cells['max |diff|']} > tolerance {cells['tolerance']}")
     return row

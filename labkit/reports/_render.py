@@ -41,6 +41,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
+from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._execute import (
     CELL_TIMEOUT,
     execute_notebook,
@@ -113,7 +114,40 @@ def _needs_math(nb) -> bool:
     return False
 
 
-def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="") -> Path:
+def _lab_css() -> str:
+    """JupyterLab's stylesheet as nbconvert's ``lab`` template inlines it (index + light theme)."""
+    from jupyter_core.paths import jupyter_path
+
+    for root in jupyter_path("nbconvert", "templates", "lab", "static"):
+        if (Path(root) / "index.css").is_file():
+            return "\n".join((Path(root) / f).read_text("utf-8") for f in ("index.css", "theme-light.css"))
+    raise LabkitError("nbconvert's lab template (static/index.css) is missing; reinstall nbconvert")
+
+
+def _shared_css(asset_dir, html_dir) -> str:
+    """Write ``jupyterlab.css`` once into ``asset_dir``; its URL relative to ``html_dir``."""
+    target = Path(asset_dir) / "jupyterlab.css"
+    if not target.is_file():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(_lab_css(), encoding="utf-8")
+        os.replace(tmp, target)
+    return os.path.relpath(target, html_dir).replace(os.sep, "/")
+
+
+def _shared_asset(name, asset_dir, html_dir) -> str:
+    """Write asset ``name`` once into ``asset_dir``; its URL relative to ``html_dir``."""
+    asset_dir = Path(asset_dir)
+    target = asset_dir / name
+    if not target.is_file() or target.stat().st_mtime < (STATIC / f"{name}.gz").stat().st_mtime:
+        asset_dir.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(_asset(name), encoding="utf-8")
+        os.replace(tmp, target)  # atomic: parallel workers may write it at the same time
+    return os.path.relpath(target, html_dir).replace(os.sep, "/")
+
+
+def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="", asset_dir=None) -> Path:
     """Write the offline HTML report of an executed notebook.
 
     Parameters
@@ -129,11 +163,21 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         Banner title (default: the file name).
     status, error : str
         Banner: ``"passed"``/``"failed"`` and the failure summary.
+    asset_dir : str or Path, optional
+        Folder for MathJax and the widget manager, written once and linked relatively
+        (``labkit render`` shares ``<output>/_static`` between all reports); default: inlined
+        into the page.
 
     Returns
     -------
     Path
         ``html_path``.
+
+    Notes
+    -----
+    Figures and tables get their numbered captions (cell options ``#| fig-cap:``,
+    ``#| tbl-cap:``, see :func:`number_notebook`), and absolute paths of this machine
+    are written relative to the report's folder.
     """
     import nbformat
     from nbconvert import HTMLExporter
@@ -157,12 +201,19 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
             if "text/html" in data:
                 text = data["text/html"] if isinstance(data["text/html"], str) else "".join(data["text/html"])
                 data["text/html"] = _REMOTE_LINK.sub("", text)
+    number_notebook(nb)  # numbered captions, references, round-off as 0
     has_widgets = "application/vnd.jupyter.widget-state+json" in nb.metadata.get("widgets", {})
+    math, widgets = _needs_math(nb), has_widgets
+    shared = asset_dir is not None
+    html_dir = html_path.resolve().parent
     resources = {
         "metadata": {"name": html_path.stem},
         "labkit": {
-            "mathjax": _asset("mathjax-tex-svg-full.js") if _needs_math(nb) else "",
-            "widgets": _asset("jupyter-widgets-embed.js") if has_widgets else "",
+            "mathjax": _asset("mathjax-tex-svg-full.js") if math and not shared else "",
+            "widgets": _asset("jupyter-widgets-embed.js") if widgets and not shared else "",
+            "mathjax_src": _shared_asset("mathjax-tex-svg-full.js", asset_dir, html_dir) if math and shared else "",
+            "widgets_src": _shared_asset("jupyter-widgets-embed.js", asset_dir, html_dir) if widgets and shared else "",
+            "css_src": _shared_css(asset_dir, html_dir) if shared else "",
             "status": status,
             "error": error,
             "title": title or html_path.stem,
@@ -170,6 +221,7 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         },
     }
     body, _ = exporter.from_notebook_node(nb, resources=resources)
+    body = scrub_paths(body, _default_roots(str(html_dir)))
     html_path.parent.mkdir(parents=True, exist_ok=True)
     html_path.write_text(body, encoding="utf-8")
     return html_path
@@ -327,7 +379,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     except LabkitError:
         declared = {}
     if "output_dir" in declared and "output_dir" not in params:
-        params["output_dir"] = str(folder / f"{name}_files")
+        # relative to the kernel's folder (the notebook's): no machine path in the executed notebook
+        params["output_dir"] = os.path.relpath(folder / f"{name}_files", notebook.parent).replace(os.sep, "/")
     params = {k: v for k, v in params.items() if k in declared}
     with _stderr_to(folder / f"{name}.log"):  # kernel start-up chatter goes to the log, not the terminal
         result = execute_notebook(notebook, folder / f"{name}.ipynb", params, check_names=False,
@@ -337,7 +390,8 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     html_path = pdf_path = None
     try:
         html_path = export_html(result.output, folder / f"{name}.html", no_input=no_input, title=f"{lab} / {name}",
-                                status="passed" if result.ok else "failed", error="" if result.ok else errors[0])
+                                status="passed" if result.ok else "failed", error="" if result.ok else errors[0],
+                                asset_dir=Path(output_dir).resolve() / "_static")
         if pdf:
             pdf_path = print_pdf(html_path, folder / f"{name}.pdf")
     except Exception as exc:  # an export problem must not stop the batch

@@ -224,7 +224,11 @@ def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
         assert pdf_pages(out / "demo" / f"{name}.pdf") >= 1
     good_html = (out / "demo" / "good.html").read_text()
     assert "application/vnd.jupyter.widget-state+json" in good_html and "data:image/png;base64" in good_html
-    assert "_jupyter_widget_embedder" in good_html and "typesetPromise" in good_html  # manager + math re-typeset
+    # the widget manager and MathJax are written once into reports/_static and linked, not inlined per report
+    assert 'src="../_static/jupyter-widgets-embed.js"' in good_html and "typesetPromise" in good_html
+    assert 'src="../_static/mathjax-tex-svg-full.js"' in good_html and len(good_html) < 1_000_000
+    assert "_jupyter_widget_embedder" in (out / "_static" / "jupyter-widgets-embed.js").read_text()
+    assert str(tmp_path) not in good_html  # no machine path (the injected output_dir is written relative)
     bad_html = (out / "demo" / "bad.html").read_text()
     text = re.sub(r"<[^>]+>", "", bad_html)
     assert "servo 2 stalled" in text and "raise RuntimeError(" in text  # the failing cell is shown
