@@ -42,7 +42,8 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from labkit.kinematics import _forward, _ik_small, fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics import _forward, fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics.ik import _targets  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
@@ -196,23 +197,23 @@ def single_calls(args):
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
             try:
                 r["ik 1 br. batched"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                          seconds(lm, None) if ets else None, None)
                 r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
             finally:
-                _ik_small.SMALL_TARGETS = small
+                _targets.SMALL_TARGETS = small
         else:
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
             try:
                 r["ik batched"] = (seconds(lambda: ik(robot, tgt), None), seconds(lm, None) if ets else None, None)
                 r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
             finally:
-                _ik_small.SMALL_TARGETS = small
+                _targets.SMALL_TARGETS = small
         rows.append((name, r))
     targets = {("3-DOF arm", "fk"): 25, ("3-DOF arm", "jacobian"): 40, ("3-DOF arm", "ik one branch"): 40,
                ("3-DOF arm", "ik_all"): 60, ("PUMA 560", "fk"): 40}

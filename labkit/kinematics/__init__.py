@@ -14,9 +14,9 @@ from labkit.kinematics._ik import (
     ik,
     ik_all,
     ik_numeric,
+    pose_from_position_pitch,
 )
-from labkit.kinematics._ik_detect import pose_from_position_pitch
-from labkit.kinematics._ik_targets import task_rows
+from labkit.kinematics.ik import task_rows
 from labkit.kinematics._statics import (
     joint_torques,
     wrench_transform_matrix,

@@ -26,10 +26,12 @@ import weakref
 
 import numpy as np
 
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean, _ik_small
 from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
-from labkit.kinematics._ik_targets import task_rows
+from labkit.kinematics.ik import _lean
+from labkit.kinematics.ik._registry import detect
+from labkit.kinematics.ik._solve import finish_all, solve as solve_family
+from labkit.kinematics.ik._targets import task_rows
 from labkit.rotations import wrap_angle
 
 
@@ -146,7 +148,7 @@ def near_family(robot):
         ideal = snapped(robot, fraction)
         if ideal is None:
             continue
-        found, _ = _ik_detect.detect(ideal)
+        found, _ = detect(ideal)
         if found is not None:
             result = (ideal, found)
             break
@@ -157,7 +159,7 @@ def near_family(robot):
 def analytic_seeds(robot, kind, target, rng):
     """Ranked starting configurations from a closed-form family of the robot or of its idealised copy, or None.
 
-    When :func:`labkit.kinematics._ik_detect.detect` finds a solver for
+    When :func:`labkit.kinematics.ik._registry.detect` finds a solver for
     ``robot`` whose targets are of ``kind``, its branches that are reachable
     and inside the joint limits are the starts (so LM only polishes them).
     Otherwise the same is done with the solver of the nearest idealised copy
@@ -187,21 +189,14 @@ def analytic_seeds(robot, kind, target, rng):
         target's last usable start (all NaN: no start, :func:`solve` draws a
         random one). None when no closed form applies.
     """
-    found, _ = _ik_detect.detect(robot)
+    found, _ = detect(robot)
     ideal = robot
     if found is None:
         ideal, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
     limits = robot.joint_limits
-    if target.shape[0] <= _ik_small.SMALL_TARGETS and _ik_small.supports(found):
-        q, reach, _ = _ik_small.solve_raw(found, target)  # plain Python: same values, no array overhead
-    else:
-        q, reach, _ = found.solve(target)
-    flipped = np.flatnonzero(ideal.flip)
-    if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
-        q[..., flipped] *= -1.0
-    q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
+    q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
     lo, hi = limits[:, 0], limits[:, 1]
     rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
     if ideal is robot:
@@ -362,10 +357,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
 
     def lean(i, qi, lam_i, first, E_check, checked=False):
         """Finish the current attempt of target ``i`` alone (same iteration, same bookkeeping)."""
-        qi, res_i, its, outcome = _ik_lean.attempt(
+        qi, res_i, its, outcome = _lean.attempt(
             robot, c, kind, target[i], qi, rows, lo=alo, hi=ahi, free=free, tol=tol, max_iter=max_iter,
             check_every=check_every, lam0=lam_i, first=first, E_check=E_check, checked=checked,
-            normalize=lambda qq: _ik_analytic.normalize_angles(qq, limits, rev),
+            normalize=lambda qq: finish_all(robot, qq, flipped=False)[0],
         )
         iterations[i] += its
         inside = bool(robot.within_limits(qi))
@@ -412,7 +407,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             done = res < tol
             if free and np.any(done):
                 qw = qa[done]
-                qw = _ik_analytic.normalize_angles(qw, limits, rev)
+                qw = finish_all(robot, qw, flipped=False)[0]
                 inside = robot.within_limits(qw)
                 qa[np.flatnonzero(done)] = qw
                 bad = np.flatnonzero(done)[~inside]

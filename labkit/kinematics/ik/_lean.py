@@ -1,6 +1,6 @@
 """One Levenberg-Marquardt attempt for a single target, without batch bookkeeping (private).
 
-The batched solver in :mod:`labkit.kinematics._ik_numeric` spends ~100 NumPy
+The batched solver in :mod:`labkit.kinematics.ik._numeric` spends ~100 NumPy
 calls per iteration on masks, compaction and batched linear algebra; for one
 target (``ik`` in a loop, ``arm.move_to``, the last stragglers of a batch)
 that overhead dominates. :func:`attempt` runs the same iteration (same task
@@ -41,7 +41,7 @@ def error(kind, T, target, rows):
     e : list of float
         Error per task row [m, rad].
     residual : float
-        As :func:`labkit.kinematics._ik_numeric._error` [m, rad].
+        As :func:`labkit.kinematics.ik._numeric._error` [m, rad].
     """
     if kind == "position":
         full = (target[0] - T[3], target[1] - T[7], target[2] - T[11])
