@@ -14,8 +14,7 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
 2. batched FK and Jacobian of the PUMA 560 for batches of 1, 10, 1000 and
    100k [configurations/s], with the write-bandwidth floor of the output
    (allocating and filling an array of the output's size) and the ratio to the
-   numba chain; the Jacobian also forced through the generic walk (before the
-   compiled per-robot programs, same run);
+   numba chain;
 3. numeric IK of the PUMA 560 (in-limit random targets, tolerance 1e-10):
    ms per target one by one, targets/s at batch 1000, success rate, against
    ``ik_LM`` (C++) one target at a time;
@@ -42,7 +41,7 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from labkit.kinematics import _forward, fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
 from labkit.kinematics.ik import _targets  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
@@ -314,17 +313,6 @@ def batched(args):
     print(f"{'analytic IK':<12}{n_ik:>6,}{fmt_rate(lk):>9} targets/s (all 8 branches); rtb ikine_a x8: "
           f"{fmt_rate(rta)} targets/s; {(f'{lk / rta:,.0f}x' if rta else '')}")
     big = batches[-1]
-    # before/after of the compiled Jacobian programs: the same call forced through the generic walk
-    per_call, _forward.PROGRAM_BATCH_PER_CALL = _forward.PROGRAM_BATCH_PER_CALL, float("inf")
-    try:
-        for N in batches[-2:]:
-            before = N / seconds(lambda: jacobian(puma, Q[:N]), None, rep)
-            after, nbr = summary["Jacobian", N]
-            print(f"Jacobian {N:>8,}: before (generic walk) {fmt_rate(before)}"
-                  f"{(f' = {before / nbr:.2f}x numba' if nbr else '')}, after (compiled program) {fmt_rate(after)}"
-                  f"{(f' = {after / nbr:.2f}x numba' if nbr else '')}: {after / before:.2f}x faster")
-    finally:
-        _forward.PROGRAM_BATCH_PER_CALL = per_call
     for quantity in ("FK", "Jacobian"):
         lk, nbr = summary[quantity, big]
         if nbr:
