@@ -26,9 +26,7 @@ import weakref
 
 import numpy as np
 
-from labkit.kinematics._chain import chain
 from labkit.kinematics._forward import fk_jacobian
-from labkit.kinematics.ik import _lean
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
 from labkit.kinematics.ik._targets import task_rows
@@ -58,6 +56,10 @@ def _error(kind, T, target, rows):
     ang = np.arctan2(sv, cos)
     scale = np.where(sv > 1e-12, ang / np.where(sv > 1e-12, sv, 1.0), 1.0)
     full = np.concatenate([target[:, :3, 3] - T[:, :3, 3], v * scale[:, None]], axis=1)
+    if len(rows) == 6:  # the whole pose (rows 0-5 in order)
+        pos = full[:, :3]
+        o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+        return full, np.sqrt((pos * pos).sum(axis=1) + o * o)
     e = full[:, list(rows)]
     # residual: position error and 2 sin(angle/2) per orientation (robust near pi)
     pos = full[:, [r for r in rows if r < 3]] if any(r < 3 for r in rows) else np.zeros((T.shape[0], 0))
@@ -353,24 +355,6 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     rev = robot.is_revolute
     free_lo = np.where(rev, -np.inf, lo)
     free_hi = np.where(rev, np.inf, hi)
-    c = chain(robot)
-
-    def lean(i, qi, lam_i, first, E_check, checked=False):
-        """Finish the current attempt of target ``i`` alone (same iteration, same bookkeeping)."""
-        qi, res_i, its, outcome = _lean.attempt(
-            robot, c, kind, target[i], qi, rows, lo=alo, hi=ahi, free=free, tol=tol, max_iter=max_iter,
-            check_every=check_every, lam0=lam_i, first=first, E_check=E_check, checked=checked,
-            normalize=lambda qq: finish_all(robot, qq, flipped=False)[0],
-        )
-        iterations[i] += its
-        inside = bool(robot.within_limits(qi))
-        if outcome == "done" or (outcome == "exhausted" and res_i < tol and inside):
-            q[i], success[i], residual[i] = qi, True, res_i
-            return
-        if res_i < residual[i] and inside:
-            residual[i], best_q[i] = res_i, qi
-        if outcome == "exhausted":
-            q[i] = qi
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
@@ -392,13 +376,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
-        if act.size == 1 and group == 1:  # one target: the lean path, no batch bookkeeping
-            lean(act[0], q[act[0]], lam_near if near[act[0]] else lam0, 1, None)
-            continue
         qa = q[act]
         tg = target[act]
         T, J = fk_jacobian(robot, qa)
-        J = J[:, rows]
+        J = J if len(rows) == 6 else J[:, rows]
         e, res = _error(kind, T, tg, rows)
         lam = np.where(near[act], lam_near, lam0)
         E = 0.5 * (e * e).sum(axis=1)
@@ -436,9 +417,6 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 act, qa, tg, J, e, res, lam, E, E_check = (
                     x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
                 )
-                if act.size == 1 and group == 1:  # the last target finishes the attempt alone
-                    lean(act[0], qa[0], lam[0], it, E_check[0], checked=True)
-                    act = act[:0]
             if act.size == 0:
                 break
             iterations[act] += 1
@@ -452,7 +430,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
             qn = np.clip(qa + dq, alo, ahi)
             Tn, Jn = fk_jacobian(robot, qn)
-            Jn = Jn[:, rows]
+            Jn = Jn if len(rows) == 6 else Jn[:, rows]
             en, resn = _error(kind, Tn, tg, rows)
             En = 0.5 * (en * en).sum(axis=1)
             better = En < E

@@ -150,13 +150,16 @@ def solve(robot, family, flat):
         Q, R, V, D = [], [], [], []
         for t in flat.tolist():
             qb, rb, d = family.solve(FLOATS, t)
-            rows, valid = [], []
+            rows, valid, done = [], [], {}
             for branch, ok in zip(qb, rb):
                 row = []
-                for v, joint in zip(branch, js):
-                    v, inside = finish(FLOATS, v, joint)
-                    row.append(v)
-                    ok = ok and inside
+                for j, v in enumerate(branch):
+                    key = (j, id(v))  # branches share joint values (q1 of a shoulder side ...): finish each once
+                    fin = done.get(key)
+                    if fin is None:
+                        fin = done[key] = finish(FLOATS, v, js[j])
+                    row.append(fin[0])
+                    ok = ok and fin[1]
                 rows.append(row)
                 valid.append(ok)
             Q.append(rows)
