@@ -18,6 +18,7 @@ units in the last place (both kernels use it, so they agree with each other).
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass
@@ -28,8 +29,34 @@ from labkit.exceptions import ShapeError
 from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
-#: per-robot chain constants (a keyed cache: Robot stays plain frozen data)
-_CHAINS = weakref.WeakKeyDictionary()
+
+
+def per_robot(func):
+    """Cache ``func(robot)`` per robot object, in a keyed cache (``Robot`` stays plain frozen data).
+
+    Entries die with the robot.
+
+    Parameters
+    ----------
+    func : callable
+        ``func(robot)``, a pure function of the robot.
+
+    Returns
+    -------
+    callable
+        The cached ``func``.
+    """
+    cache = weakref.WeakKeyDictionary()
+
+    @functools.wraps(func)
+    def cached(robot):
+        try:
+            return cache[robot]
+        except KeyError:
+            value = cache[robot] = func(robot)
+            return value
+
+    return cached
 
 
 def _clean(v):
@@ -82,22 +109,20 @@ class Chain:
     tool: np.ndarray
 
 
+@per_robot
 def chain(robot):
     """The chain constants of ``robot`` (cached per robot object).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm whose DH rows are read.
 
     Returns
     -------
     Chain
         Its per-link constants.
     """
-    cached = _CHAINS.get(robot)
-    if cached is not None:
-        return cached
     steps = []
     for lk in robot.links:
         th = float(lk.theta)
@@ -118,7 +143,6 @@ def chain(robot):
         base=_frame_or_none(robot.base),
         tool=_frame_or_none(robot.tool),
     )
-    _CHAINS[robot] = result
     return result
 
 

@@ -101,9 +101,10 @@ def fk_position(robot, q, point=None, *, out=None):
     ----------
     robot : Robot
     q : array_like, shape (..., n)
-        Joint values [rad, m].
+        Joint values [rad, m], one configuration or a batch.
     point : array_like, shape (3,), optional
-        A point given in the tool frame [m]; default the tool-frame origin.
+        A point given in the tool frame [m]; default the tool-frame origin
+        (the position of a marker or a fingertip, for instance).
     out : ndarray, shape (..., 3), optional
         C-contiguous float64 array to write the result into (and return).
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from labkit.kinematics import fk, fk_position, ik_all, ik_numeric
+from labkit.kinematics import fk, ik_all, ik_numeric
 from labkit.kinematics.ik import _numeric as _ik_numeric
 from labkit.robot import Robot
 

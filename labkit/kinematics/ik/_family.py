@@ -12,11 +12,15 @@ A family is a class with
     whether :meth:`Family.solve` also runs on Python floats (one target
     without array bookkeeping); a family without it solves one target as a
     batch of one;
-``__init__(robot)``
-    reads the robot's geometry and raises
+``joints``
+    how many revolute joints it needs;
+``__init__(robot, z, o, tool)``
+    reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
+    tool frame at ``q = 0``, from
+    :func:`~labkit.kinematics.ik._geometry.joint_axes`) and raises
     :class:`~labkit.kinematics.ik._geometry.NotThisFamily` with the reason when
-    the robot lacks the structure (:meth:`Family.fits` turns that into an
-    answer);
+    the robot lacks the structure (:meth:`Family.fits` checks the joints, reads
+    the axes and turns that into an answer);
 ``solve(xp, t)``
     every branch of the targets ``t``, in the chain's sense (flipped joints
     not yet negated, angles not yet wrapped: :mod:`labkit.kinematics.ik._finish`
@@ -30,7 +34,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from labkit.kinematics.ik._geometry import NotThisFamily
+from labkit.kinematics.ik._geometry import NotThisFamily, joint_axes, need_revolute
+
+
+#: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
+ELBOWS = ("elbow_up", "elbow_down")
+ELBOW_ALIASES = {"elbow_minus": "elbow_up", "elbow_plus": "elbow_down", "up": "elbow_up", "down": "elbow_down"}
 
 
 class Family(ABC):
@@ -41,6 +50,7 @@ class Family(ABC):
     branches = ()
     aliases = {}
     scalar = True
+    joints = 0
 
     @classmethod
     def fits(cls, robot):
@@ -49,7 +59,7 @@ class Family(ABC):
         Parameters
         ----------
         robot : Robot
-            The arm.
+            The arm whose geometry is tried.
 
         Returns
         -------
@@ -59,7 +69,8 @@ class Family(ABC):
             Empty when it fits, else what the robot lacks.
         """
         try:
-            return cls(robot), ""
+            need_revolute(robot, cls.joints)
+            return cls(robot, *joint_axes(robot)), ""
         except NotThisFamily as exc:
             return None, str(exc)
 

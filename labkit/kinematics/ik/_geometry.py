@@ -16,7 +16,6 @@ tuples of floats.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -109,7 +108,7 @@ def joint_axes(robot):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm whose axes are read (from FK at ``q = 0``).
 
     Returns
     -------
@@ -132,7 +131,7 @@ def length_scale(robot):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm measured.
 
     Returns
     -------
@@ -148,12 +147,26 @@ def need_revolute(robot, n):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm tried.
     n : int
-        Number of joints needed.
+        Number of joints the family needs.
     """
     if robot.n != n or not np.all(robot.is_revolute):
         raise NotThisFamily(f"needs exactly {n} revolute joints")
+
+
+def need_parallel(u, v, reason):
+    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u`` and ``v`` are parallel.
+
+    Parameters
+    ----------
+    u, v : ndarray, shape (3,)
+        Two joint axes.
+    reason : str
+        What the family needs, for the message.
+    """
+    if np.linalg.norm(np.cross(u, v)) > TOL:
+        raise NotThisFamily(reason)
 
 
 def wrist_branches(shoulder):
@@ -177,54 +190,20 @@ def wrist_branches(shoulder):
 
 # -- vectors as component tuples ------------------------------------------------------------
 
-def dot(a, b):
-    """``a . b`` (components arrays or floats).
-
-    Parameters
-    ----------
-    a, b : tuple
-        3 components each (arrays or floats).
-
-    Returns
-    -------
-    ndarray or float
-    """
+def _dot(a, b):
+    """``a . b`` of component 3-tuples (arrays or floats)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def cross(a, b):
-    """``a x b``.
-
-    Parameters
-    ----------
-    a, b : tuple
-        3 components each (arrays or floats).
-
-    Returns
-    -------
-    tuple
-        3 components.
-    """
+def _cross(a, b):
+    """``a x b`` of component 3-tuples."""
     a0, a1, a2 = a
     b0, b1, b2 = b
     return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
 
 
-def reject(k, v):
-    """The part of ``v`` perpendicular to the unit vector ``k``.
-
-    Parameters
-    ----------
-    k : tuple of float
-        A unit vector.
-    v : tuple
-        3 components.
-
-    Returns
-    -------
-    tuple
-        3 components.
-    """
+def _reject(k, v):
+    """The part of ``v`` perpendicular to the unit vector ``k``."""
     s = k[0] * v[0] + k[1] * v[1] + k[2] * v[2]
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
@@ -237,9 +216,9 @@ def rotate(xp, k, angle, v):
     Parameters
     ----------
     xp : namespace
-        Array namespace.
+        Array namespace of ``angle`` and ``v``.
     k : tuple of float
-        Unit axis.
+        The rotation axis (unit).
     angle : ndarray or float
         Rotation angle [rad].
     v : tuple
@@ -258,22 +237,9 @@ def rotate(xp, k, angle, v):
     return (v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2)
 
 
-def matvec(M, v):
-    """``M v`` for a 3 x 3 ``M`` given as rows of components.
-
-    Parameters
-    ----------
-    M : sequence of tuple
-        3 rows of 3 components.
-    v : tuple
-        3 components.
-
-    Returns
-    -------
-    tuple
-        3 components.
-    """
-    return tuple(dot(row, v) for row in M)
+def _matvec(M, v):
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples."""
+    return tuple(_dot(row, v) for row in M)
 
 
 # -- the shared subproblems -----------------------------------------------------------------
@@ -338,8 +304,8 @@ def angle_about(xp, k, v, w):
     ndarray or float
         The angle [rad] in (-pi, pi].
     """
-    vp, wp = reject(k, v), reject(k, w)
-    return xp.arctan2(dot(cross(k, vp), wp), dot(vp, wp))
+    vp, wp = _reject(k, v), _reject(k, w)
+    return xp.arctan2(_dot(_cross(k, vp), wp), _dot(vp, wp))
 
 
 class Subproblem2:
@@ -376,14 +342,14 @@ class Subproblem2:
         """
         a4, a5, k12, a5p, cr = self.a4, self.a5, self.k12, self.a5p, self.cr
         den = k12 * k12 - 1.0
-        a4m = dot(a4, m)
+        a4m = _dot(a4, m)
         alpha = (k12 * a5p - a4m) / den
         beta = (k12 * a4m - a5p) / den
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
-            c = reject(a4, m)
-            s45 = xp.sqrt(dot(c, c))
+            c = _reject(a4, m)
+            s45 = xp.sqrt(_dot(c, c))
             b = xp.abs(beta)
             g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
         else:
@@ -391,7 +357,7 @@ class Subproblem2:
         out = []
         for gg in (g, -g):
             C = tuple(alpha * a4[i] + beta * a5[i] + gg * cr[i] for i in range(3))
-            t5 = xp.arctan2(dot(self.c5, C), dot(self.p, C) - a5p * dot(a5, C))
+            t5 = xp.arctan2(_dot(self.c5, C), _dot(self.p, C) - a5p * _dot(a5, C))
             # subproblem 1 about a4 on the explicit perpendicular parts (near the wrist singularity
             # they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
             out.append((angle_about(xp, a4, C, m), t5))

@@ -22,10 +22,10 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
-import weakref
 
 import numpy as np
 
+from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk_jacobian
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
@@ -86,8 +86,6 @@ SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
 #: largest twist-angle error snapped to a multiple of pi/2 [rad] (3 deg)
 SNAP_ALPHA = np.radians(3.0)
 
-#: per robot object: (nearest closed-form robot, its solver) or (None, None); entries die with the robot
-_NEAR = weakref.WeakKeyDictionary()
 
 
 def snapped(robot, fraction):
@@ -96,7 +94,7 @@ def snapped(robot, fraction):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm to idealise.
     fraction : float
         Lengths ``a``, ``d`` with ``|value| <= fraction * L`` become 0, where
         ``L`` is the sum of all ``|a| + |d|`` [m]; twists ``alpha`` within
@@ -121,6 +119,7 @@ def snapped(robot, fraction):
     return robot.replace(links=tuple(links)) if changed else None
 
 
+@per_robot
 def near_family(robot):
     """The closed-form solver of the nearest idealised copy of ``robot`` (cached), or ``(None, None)``.
 
@@ -142,9 +141,6 @@ def near_family(robot):
     solver : object or None
         Its analytic solver.
     """
-    cached = _NEAR.get(robot)
-    if cached is not None:
-        return cached
     result = (None, None)
     for fraction in SNAP_FRACTIONS:
         ideal = snapped(robot, fraction)
@@ -154,7 +150,6 @@ def near_family(robot):
         if found is not None:
             result = (ideal, found)
             break
-    _NEAR[robot] = result
     return result
 
 
@@ -176,7 +171,7 @@ def analytic_seeds(robot, kind, target, rng):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm to seed (with a closed form of its own, or near one).
     kind : {"position", "planar", "pose"}
         What the targets fix.
     target : ndarray, shape (N, 3) or (N, 4, 4)
@@ -302,40 +297,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     Rows come in consecutive groups of ``group`` copies of one target (the
     multi-start): once a copy converges, its siblings stop iterating.
 
-    Parameters
-    ----------
-    robot : Robot
-        The arm.
-    kind : {"position", "planar", "pose"}
-        What the targets fix.
-    target : ndarray, shape (N, 3) or (N, 4, 4)
-        Targets [m, rad].
-    q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None draws random in-limit starts.
-    rows : tuple of int
-        Rows of the 6 x n Jacobian the task constrains.
-    tol : float
-        Residual at which a target counts as solved [m, rad].
-    max_iter : int
-        Levenberg-Marquardt iterations per attempt.
-    restarts : int
-        Sequential restarts, then multi-start rounds, for failing targets.
-    rng : numpy.random.Generator
-        Draws the random starts (seeded by the caller).
-    group : int
-        Size of the groups of copies of one target (1: every row its own).
-    starts : ndarray, shape (N, m, n), optional
-        Ranked starts (:func:`analytic_seeds`); attempt ``k < m`` restarts a
-        target from ``starts[:, k]`` where that is not NaN, else randomly.
-
-    Returns
-    -------
-    q : ndarray, shape (N, n)
-        Joint values [rad, m].
-    success : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    residual : ndarray, shape (N,)
-        Final task-space error norm [m, rad].
+    ``robot``, ``kind``, ``target``, ``rows``, ``tol``, ``max_iter``,
+    ``restarts`` and ``rng`` are those of :func:`solve`; ``q0`` (N, n) or None
+    (random in-limit starts); ``group`` is the size of the groups of copies of
+    one target (1: every row its own); ``starts`` (N, m, n), optional, the
+    ranked starts of :func:`analytic_seeds`: attempt ``k < m`` restarts a
+    target from ``starts[:, k]`` where that is not NaN, else randomly.
+    Returns ``(q, success, iterations, residual)`` as :func:`solve`.
     """
     N = target.shape[0]
     group_done = np.zeros(-(-N // group), dtype=bool)

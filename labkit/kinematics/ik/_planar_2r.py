@@ -14,9 +14,10 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
+from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, dot, cosine_law, floats, joint_axes, length_scale, need_revolute, perpendicular, unit,
+    TOL, NotThisFamily, _dot, cosine_law, floats, length_scale, need_parallel,
+    perpendicular, unit,
 )
 
 
@@ -25,15 +26,13 @@ class Planar2R(Family):
 
     name = "planar_2r"
     kind = "position"
-    branches = ("elbow_up", "elbow_down")
-    aliases = {"elbow_minus": "elbow_up", "elbow_plus": "elbow_down", "up": "elbow_up", "down": "elbow_down"}
+    joints = 2
+    branches = ELBOWS
+    aliases = ELBOW_ALIASES
 
-    def __init__(self, robot):
-        need_revolute(robot, 2)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         a1, a2 = unit(z[0]), unit(z[1])
-        if np.linalg.norm(np.cross(a1, a2)) > TOL:
-            raise NotThisFamily("axes 1 and 2 must be parallel")
+        need_parallel(a1, a2, "axes 1 and 2 must be parallel")
         scale = length_scale(robot)
         u = perpendicular(a1)
         v = np.cross(a1, u)
@@ -51,8 +50,8 @@ class Planar2R(Family):
     @documented
     def solve(self, xp, t):
         d = tuple(t[k] - self.O[k] for k in range(3))
-        dz = dot(self.n, d) - self.h
-        ok, in_plane, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, dot(self.u, d), dot(self.v, d))
+        dz = _dot(self.n, d) - self.h
+        ok, in_plane, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, _dot(self.u, d), _dot(self.v, d))
         off_plane = xp.abs(dz) > self.height_tol
         distance = xp.hypot(in_plane, xp.where(off_plane, dz, 0.0))
         ok = ok & xp.logical_not(off_plane)

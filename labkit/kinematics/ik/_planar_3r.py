@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
-from labkit.kinematics.ik._geometry import TOL, NotThisFamily, cosine_law, joint_axes, need_revolute
+from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics.ik._geometry import TOL, NotThisFamily, cosine_law
 
 
 class Planar3R(Family):
@@ -23,12 +23,10 @@ class Planar3R(Family):
 
     name = "planar_3r"
     kind = "planar"
-    branches = ("elbow_up", "elbow_down")
-    aliases = {"elbow_minus": "elbow_up", "elbow_plus": "elbow_down", "up": "elbow_up", "down": "elbow_down"}
+    branches, aliases = ELBOWS, ELBOW_ALIASES
+    joints = 3
 
-    def __init__(self, robot):
-        need_revolute(robot, 3)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         if np.any(np.abs(z[:, 2] - 1.0) > TOL):
             raise NotThisFamily("all joint axes must be parallel to world +z")
         if abs(tool[2, 2] - 1.0) > TOL:

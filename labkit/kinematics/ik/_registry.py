@@ -9,8 +9,7 @@ plain frozen data). Adding a family: one module with a
 
 from __future__ import annotations
 
-import weakref
-
+from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik._planar_2r import Planar2R
 from labkit.kinematics.ik._planar_3r import Planar3R
 from labkit.kinematics.ik._spherical_wrist import SphericalWrist
@@ -23,10 +22,7 @@ FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, SphericalWris
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 
-#: (solver or None, reasons) per robot object; entries die with the robot
-_DETECTED = weakref.WeakKeyDictionary()
-
-
+@per_robot
 def detect(robot):
     """The closed-form solver for ``robot`` (the first family that fits) or None, cached per robot.
 
@@ -42,17 +38,13 @@ def detect(robot):
     reasons : dict
         For every family tried before, why it does not fit.
     """
-    cached = _DETECTED.get(robot)
-    if cached is not None:
-        return cached
     reasons, found = {}, None
     for family in FAMILIES:
         found, why = family.fits(robot)
         if found is not None:
             break
         reasons[family.name] = why
-    _DETECTED[robot] = result = (found, reasons)
-    return result
+    return found, reasons
 
 
 def build(robot, name):

@@ -17,10 +17,10 @@ towards the target), a fill, not a solution.
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
 
+from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik import _targets
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
@@ -32,28 +32,22 @@ _TURN = 2 * math.pi
 #: slack of the limit test [rad, m] (as ``Robot.within_limits``)
 _SLACK = 1e-9
 
-#: per robot object: ((revolute, flip, lower, upper) per joint)
-_JOINTS = weakref.WeakKeyDictionary()
 
-
+@per_robot
 def joints(robot):
     """Per joint ``(revolute, flip, lower, upper)`` [rad, m] (cached per robot object).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm whose links are read.
 
     Returns
     -------
     tuple of tuple
         ``(revolute, flip, lower, upper)`` per joint [rad, m].
     """
-    js = _JOINTS.get(robot)
-    if js is None:
-        js = _JOINTS[robot] = tuple((lk.is_revolute, lk.flip, float(lk.limits[0]), float(lk.limits[1]))
-                                    for lk in robot.links)
-    return js
+    return tuple((lk.is_revolute, lk.flip, float(lk.limits[0]), float(lk.limits[1])) for lk in robot.links)
 
 
 def finish(xp, v, joint):

@@ -18,7 +18,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, Subproblem2, angle_about, dot, floats, joint_axes, length_scale, matvec, need_revolute,
+    TOL, NotThisFamily, Subproblem2, angle_about, _dot, floats, length_scale, _matvec,
     perpendicular, rotate, unit, wrist_branches,
 )
 from labkit.kinematics.ik._yaw_pitch_pitch import Arm
@@ -30,10 +30,9 @@ class SphericalWrist(Family):
 
     name = "spherical_wrist"
     kind = "pose"
+    joints = 6
 
-    def __init__(self, robot):
-        need_revolute(robot, 6)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         a4, a5, a6 = (unit(v) for v in z[3:])
         if np.linalg.norm(np.cross(a4, a5)) < 1e-6 or np.linalg.norm(np.cross(a5, a6)) < 1e-6:
             raise NotThisFamily("wrist axes 4-5 and 5-6 must not be parallel")
@@ -62,11 +61,11 @@ class SphericalWrist(Family):
     @documented
     def solve(self, xp, t):
         R = [t[i][:3] for i in range(3)]
-        W = tuple(t[i][3] + dot(self.w_tool, R[i]) for i in range(3))
+        W = tuple(t[i][3] + _dot(self.w_tool, R[i]) for i in range(3))
         arm_q, arm_ok, distance = self.arm.solve(xp, W)
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
-        RR0t = [[dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
-        m, mx = matvec(RR0t, self.a6), matvec(RR0t, self.x6)
+        RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
+        m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
         a1, a2, a4, a5, a6 = self.arm.a1, self.arm.a2, self.a4, self.a5, self.a6
         q, reach = [], []
         for b, (q1, q2, q3) in enumerate(arm_q):

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.kinematics.ik._geometry import cross, dot
+from labkit.kinematics.ik._geometry import _cross, _dot
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.validation import as_batch
 
@@ -116,13 +116,13 @@ def _rigid_defects(xp, t):
     determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``.
     """
     c0, c1, c2 = ((t[0][k], t[1][k], t[2][k]) for k in range(3))
-    err = xp.abs(dot(c0, c0) - 1.0)
-    for e in (dot(c1, c1) - 1.0, dot(c2, c2) - 1.0, dot(c0, c1), dot(c0, c2), dot(c1, c2)):
+    err = xp.abs(_dot(c0, c0) - 1.0)
+    for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
         err = xp.maximum(err, xp.abs(e))
     last = xp.abs(t[3][3] - 1.0)
     for e in t[3][:3]:
         last = xp.maximum(last, xp.abs(e))
-    return err, dot(cross(c0, c1), c2), last
+    return err, _dot(_cross(c0, c1), c2), last
 
 
 def _is_bad(err, det, last):

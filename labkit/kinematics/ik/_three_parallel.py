@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, angle_about, cosine_law, feet, floats, joint_axes, length_scale, need_revolute,
+    REACH_TOL, TOL, NotThisFamily, angle_about, cosine_law, feet, floats, length_scale, need_parallel,
     perpendicular, rotation_matrices, unit, wrist_branches,
 )
 from labkit.kinematics.ik._xp import NUMPY
@@ -62,15 +62,14 @@ class ThreeParallel(Family):
 
     name = "three_parallel"
     kind = "pose"
+    joints = 6
     scalar = False
 
-    def __init__(self, robot):
-        need_revolute(robot, 6)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         w = [unit(v) for v in z]
         n = w[1]
-        if np.linalg.norm(np.cross(n, w[2])) > TOL or np.linalg.norm(np.cross(n, w[3])) > TOL:
-            raise NotThisFamily("axes 2, 3 and 4 must be parallel")
+        for k in (2, 3):
+            need_parallel(n, w[k], "axes 2, 3 and 4 must be parallel")
         if abs(w[0] @ n) > TOL or abs(w[4] @ n) > TOL:
             raise NotThisFamily("axes 1 and 5 must be perpendicular to axes 2-4")
         if np.linalg.norm(np.cross(w[4], w[5])) < 1e-6:

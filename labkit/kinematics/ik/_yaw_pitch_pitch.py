@@ -27,7 +27,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, dot, cosine_law, feet, floats, joint_axes, length_scale, need_revolute, unit,
+    REACH_TOL, TOL, NotThisFamily, _dot, cosine_law, feet, floats, length_scale, need_parallel, unit,
 )
 
 
@@ -53,8 +53,7 @@ class Arm:
         a1, a2, a3 = (unit(v) for v in z[:3])
         if abs(a1 @ a2) > TOL:
             raise NotThisFamily("axis 2 must be perpendicular to axis 1")
-        if np.linalg.norm(np.cross(a2, a3)) > TOL:
-            raise NotThisFamily("axis 3 must be parallel to axis 2")
+        need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
         scale = length_scale(robot)
         er = np.cross(a2, a1)
         # the shoulder: foot of the common normal of axes 1 and 2 on axis 2, at the radial
@@ -104,7 +103,7 @@ class Arm:
             3 components of the point to place [m].
         """
         d = tuple(W[k] - self.S[k] for k in range(3))
-        hr, hn, w = dot(self.er, d), dot(self.a2, d), dot(self.a1, d)
+        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
         off = self.off
         rho2 = hr * hr + hn * hn
         u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
@@ -137,12 +136,11 @@ class YawPitchPitch(Family):
 
     name = "yaw_pitch_pitch"
     kind = "position"
+    joints = 3
     branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
     aliases = {"up": "elbow_up", "down": "elbow_down"}
 
-    def __init__(self, robot):
-        need_revolute(robot, 3)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         self.arm = Arm(robot, z, o, tool[:3, 3])
 
     @documented

@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.exceptions import ShapeError
-from labkit.kinematics.ik._family import Family, documented
+from labkit.kinematics.ik._family import ELBOWS, Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, angle_about, floats, joint_axes, need_revolute, perpendicular, rotation_matrices, unit,
+    angle_about, floats, need_parallel, perpendicular, rotation_matrices, unit,
 )
 from labkit.kinematics.ik._xp import NUMPY
 from labkit.kinematics.ik._yaw_pitch_pitch import Arm
@@ -30,16 +30,14 @@ class YawPitchPitchPitch(Family):
 
     name = "yaw_pitch_pitch_pitch"
     kind = "pose"
-    branches = ("elbow_up", "elbow_down")
+    joints = 4
+    branches = ELBOWS
     aliases = {"up": "elbow_up", "down": "elbow_down"}
     scalar = False
 
-    def __init__(self, robot):
-        need_revolute(robot, 4)
-        z, o, tool = joint_axes(robot)
+    def __init__(self, robot, z, o, tool):
         a2, a4 = unit(z[1]), unit(z[3])
-        if np.linalg.norm(np.cross(a2, a4)) > TOL:
-            raise NotThisFamily("axis 4 must be parallel to axes 2 and 3")
+        need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
         self.arm = Arm(robot, z, o, o[3])  # joints 1-3 place a point on axis 4
         self.s4 = 1.0 if a4 @ a2 > 0 else -1.0
         self.M = tool.copy()
