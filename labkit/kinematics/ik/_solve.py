@@ -35,7 +35,7 @@ _SLACK = 1e-9
 
 @per_robot
 def joints(robot):
-    """Per joint ``(revolute, flip, lower, upper)`` [rad, m] (cached per robot object).
+    """Per joint what :func:`finish` needs (cached per robot object).
 
     Parameters
     ----------
@@ -45,9 +45,17 @@ def joints(robot):
     Returns
     -------
     tuple of tuple
-        ``(revolute, flip, lower, upper)`` per joint [rad, m].
+        ``(revolute, flip, lower, upper, turn_up, turn_down)`` per joint: the limits
+        with the slack of the limit test [rad, m], and whether a turn up or down
+        can enter them.
     """
-    return tuple((lk.is_revolute, lk.flip, float(lk.limits[0]), float(lk.limits[1])) for lk in robot.links)
+    out = []
+    for lk in robot.links:
+        lo, hi = float(lk.limits[0]), float(lk.limits[1])
+        # a value in (-pi, pi] below the limits may enter them one turn up, or one turn down above them
+        # (pi itself, when the range starts at -pi)
+        out.append((lk.is_revolute, lk.flip, lo - _SLACK, hi + _SLACK, hi > math.pi, lo < -math.pi + _SLACK))
+    return tuple(out)
 
 
 def finish(xp, v, joint):
@@ -60,7 +68,7 @@ def finish(xp, v, joint):
     v : ndarray or float
         Joint values in the chain's sense [rad, m].
     joint : tuple
-        ``(revolute, flip, lower, upper)`` from :func:`joints`.
+        One joint's entry of :func:`joints`.
 
     Returns
     -------
@@ -71,20 +79,20 @@ def finish(xp, v, joint):
     inside : ndarray of bool or bool
         Inside the limits (slack 1e-9).
     """
-    rev, flip, lo, hi = joint
+    rev, flip, lo, hi, turn_up, turn_down = joint
     if flip:
         v = -v
     if rev:
         v = wrap_angle(v)
-        if hi > math.pi:  # a value in (-pi, pi] below the limits may enter them one turn up
+        if turn_up:
             up = v + _TURN
-            v = xp.where((v < lo - _SLACK) & (up <= hi + _SLACK), up, v)
-        if lo < -math.pi + _SLACK:  # ... or one turn down (pi itself, when the range starts at -pi)
+            v = xp.where((v < lo) & (up <= hi), up, v)
+        if turn_down:
             dn = v - _TURN
-            v = xp.where((v > hi + _SLACK) & (dn >= lo - _SLACK), dn, v)
+            v = xp.where((v > hi) & (dn >= lo), dn, v)
     if xp.batch:  # (the float formulas raise rather than return NaN)
         v = xp.where(xp.isfinite(v), v, 0.0)
-    return v, (v >= lo - _SLACK) & (v <= hi + _SLACK)
+    return v, (v >= lo) & (v <= hi)
 
 
 def finish_all(robot, q, *, flipped=True):
@@ -110,8 +118,8 @@ def finish_all(robot, q, *, flipped=True):
     """
     q = np.array(q, dtype=float)
     inside = np.ones(q.shape[:-1], dtype=bool)
-    for j, (rev, flip, lo, hi) in enumerate(joints(robot)):
-        q[..., j], ok = finish(NUMPY, q[..., j], (rev, flip and flipped, lo, hi))
+    for j, (rev, flip, *rest) in enumerate(joints(robot)):
+        q[..., j], ok = finish(NUMPY, q[..., j], (rev, flip and flipped, *rest))
         inside &= ok
     return q, inside
 
