@@ -374,6 +374,10 @@ def numeric_ik(args):
         print(f"rtb ik_LM (C++, one by one): {lm:9,.0f} targets/s, success {lm_ok:.1%}; "
               f"labkit batch {nb} / ik_LM = {batch / lm:.2f}x (target >= 2x: {verdict(batch >= 2 * lm)}); "
               f"labkit batch 1 / ik_LM = {(1 / one) / lm:.2f}x")
+        # one target at a time, on the same targets, in the same run
+        same = seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(n1)], 1, 2) / n1
+        print(f"one target (same {n1} targets): labkit {one * 1e3:.3f} ms, ik_LM {same * 1e3:.3f} ms: "
+              f"{one / same:.2f}x slower (target <= 2.5x: {verdict(one <= 2.5 * same)})")
 
 
 def peak_memory(args):

@@ -1,19 +1,18 @@
 """The kinematic chain's constants and where joint values enter it (private).
 
-:func:`chain` turns a robot's DH rows into the per-link constants both FK
-kernels use (the batched one in :mod:`labkit.kinematics._forward`, the
-pure-Python one for a handful of configurations in
-:mod:`labkit.kinematics._forward_small`), cached per robot object.
-:func:`prepare` is the one place joint values enter the chain: it validates
-``q`` and returns the effective joint values, shape ``(N, n)``, both kernels run
-on.
+:func:`chain` turns a robot's DH rows into the per-link constants the
+compiled programs of :mod:`labkit.kinematics._program` are built from, cached
+per robot object (:func:`per_robot`, the keyed cache every per-robot constant
+of the kinematics uses). :func:`prepare` is the one place joint values enter
+the chain: it validates ``q`` and returns the effective joint values, shape
+``(N, n)``, that every evaluator runs on.
 
 Joint angles enter through the half-angle tangent ``t = tan(theta / 2)``:
 ``cos theta = 2 / (1 + t^2) - 1`` and ``sin theta = t * 2 / (1 + t^2)``. One
 ``tan`` per joint instead of a ``sin`` and a ``cos``: NumPy evaluates float64
 ``tan`` with SIMD but ``sin``/``cos`` one element at a time on AVX2 machines,
 so this is about 5x cheaper, and it agrees with ``sin``/``cos`` to a few
-units in the last place (both kernels use it, so they agree with each other).
+units in the last place.
 """
 
 from __future__ import annotations
