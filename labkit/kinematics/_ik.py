@@ -30,7 +30,7 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics.ik import (
-    FAMILIES, batch_index, build, describe_target, detect, solve_closed_form, solve_numeric, task_rows,
+    FAMILIES, LazyGenerator, batch_index, build, describe_target, detect, solve_closed_form, solve_numeric, task_rows,
     validate_targets,
 )
 from labkit.rotations import wrap_angle
@@ -442,7 +442,7 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
         rows = tuple(r for r, keep in zip(rows, mask) if keep)
         if not rows:
             raise OptionError("mask selects no task coordinate")
-    rng = np.random.default_rng(seed)
+    rng = LazyGenerator(seed)
     return solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
 
 

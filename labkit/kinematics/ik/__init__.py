@@ -21,7 +21,7 @@ what they run on:
 
 from labkit.kinematics.ik._registry import FAMILIES, build, detect
 from labkit.kinematics.ik._solve import solve as solve_closed_form
-from labkit.kinematics.ik._numeric import solve as solve_numeric
+from labkit.kinematics.ik._numeric import LazyGenerator, solve as solve_numeric
 from labkit.kinematics.ik._targets import batch_index, describe_target, task_rows, validate_targets
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "build",
     "solve_closed_form",
     "solve_numeric",
+    "LazyGenerator",
     "validate_targets",
     "task_rows",
     "batch_index",

@@ -74,8 +74,32 @@ def _error(kind, T, target, rows):
     return e, np.sqrt(res2)
 
 
+class LazyGenerator:
+    """``numpy.random.default_rng(seed)``, created when first drawn from.
+
+    Creating a generator costs more than polishing one target that starts on a
+    closed-form branch, which never draws.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the generator.
+    """
+
+    def __init__(self, seed):
+        self._seed = seed
+
+    def __getattr__(self, name):
+        rng = self.__dict__.get("_generator")
+        if rng is None:
+            rng = self._generator = np.random.default_rng(self._seed)
+        return getattr(rng, name)
+
+
 def _random_q(rng, limits, size):
-    """Uniform inside the limits (infinite limits replaced by +-2 pi)."""
+    """Uniform inside the limits (infinite limits replaced by +-2 pi); no draw for ``size = 0``."""
+    if size == 0:
+        return np.empty((0, limits.shape[0]))
     lo = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -2 * np.pi)
     hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
