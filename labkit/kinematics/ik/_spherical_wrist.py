@@ -67,20 +67,26 @@ class SphericalWrist(Family):
         RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
         a1, a2, a4, a5, a6 = self.arm.a1, self.arm.a2, self.a4, self.a5, self.a6
-        q, reach = [], []
-        for b, (q1, q2, q3) in enumerate(arm_q):
-            if b % 2 == 0:  # undo joint 1 (the same q1 for both elbows)
-                m1, mx1 = rotate(xp, a1, -q1, m), rotate(xp, a1, -q1, mx)
-            q23 = q2 + self.arm.s3 * q3  # undo joints 2 and 3
-            m6, MX = rotate(xp, a2, -q23, m1), rotate(xp, a2, -q23, mx1)
-            wrist = []
+
+        def wrist(q1, q23, m0, m1, m2, x0, x1, x2):
+            """Joints 4-6 (noflip, then flip) for one arm branch."""
+            m6, MX = ((m0, m1, m2), (x0, x1, x2))
+            m6, MX = rotate(xp, a1, -q1, m6), rotate(xp, a1, -q1, MX)  # undo joint 1
+            m6, MX = rotate(xp, a2, -q23, m6), rotate(xp, a2, -q23, MX)  # undo joints 2 and 3
+            out = []
             for t4, t5 in self.wrist.solve(xp, m6):
                 Y = rotate(xp, a5, -t5, rotate(xp, a4, -t4, MX))
-                wrist.append((t4, t5, angle_about(xp, a6, self.x6, Y)))
-            (p4, p5, p6), (n4, n5, n6) = wrist
+                out.append((t4, t5, angle_about(xp, a6, self.x6, Y)))
+            (p4, p5, p6), (n4, n5, n6) = out
             swap = (xp.sin(p5) * self.noflip_sign) < 0  # noflip first
             keep = xp.logical_not(swap)
-            q.append((q1, q2, q3, xp.where(swap, n4, p4), xp.where(swap, n5, p5), xp.where(swap, n6, p6)))
-            q.append((q1, q2, q3, xp.where(keep, n4, p4), xp.where(keep, n5, p5), xp.where(keep, n6, p6)))
-            reach += [arm_ok[b], arm_ok[b]]
+            return (xp.where(swap, n4, p4), xp.where(swap, n5, p5), xp.where(swap, n6, p6),
+                    xp.where(keep, n4, p4), xp.where(keep, n5, p5), xp.where(keep, n6, p6))
+
+        # the four arm branches at once (one call on numpy rows four times as long)
+        wrists = xp.per_branch(wrist, [(q1, q2 + self.arm.s3 * q3) for q1, q2, q3 in arm_q], (*m, *mx))
+        q, reach = [], []
+        for (q1, q2, q3), w, ok in zip(arm_q, wrists, arm_ok):
+            q += [(q1, q2, q3, *w[:3]), (q1, q2, q3, *w[3:])]
+            reach += [ok, ok]
         return q, reach, distance
