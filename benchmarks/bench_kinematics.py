@@ -14,8 +14,7 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
 2. batched FK and Jacobian of the PUMA 560 for batches of 1, 10, 1000 and
    100k [configurations/s], with the write-bandwidth floor of the output
    (allocating and filling an array of the output's size) and the ratio to the
-   numba chain; the Jacobian also forced through the generic walk (before the
-   compiled per-robot programs, same run);
+   numba chain;
 3. numeric IK of the PUMA 560 (in-limit random targets, tolerance 1e-10):
    ms per target one by one, targets/s at batch 1000, success rate, against
    ``ik_LM`` (C++) one target at a time;
@@ -42,7 +41,8 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from labkit.kinematics import _forward, _ik_small, fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
+from labkit.kinematics.ik import _targets  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
@@ -196,23 +196,23 @@ def single_calls(args):
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
             try:
                 r["ik 1 br. batched"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                          seconds(lm, None) if ets else None, None)
                 r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
             finally:
-                _ik_small.SMALL_TARGETS = small
+                _targets.SMALL_TARGETS = small
         else:
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _ik_small.SMALL_TARGETS = _ik_small.SMALL_TARGETS, 0  # before: the batched path
+            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
             try:
                 r["ik batched"] = (seconds(lambda: ik(robot, tgt), None), seconds(lm, None) if ets else None, None)
                 r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
             finally:
-                _ik_small.SMALL_TARGETS = small
+                _targets.SMALL_TARGETS = small
         rows.append((name, r))
     targets = {("3-DOF arm", "fk"): 25, ("3-DOF arm", "jacobian"): 40, ("3-DOF arm", "ik one branch"): 40,
                ("3-DOF arm", "ik_all"): 60, ("PUMA 560", "fk"): 40}
@@ -313,17 +313,6 @@ def batched(args):
     print(f"{'analytic IK':<12}{n_ik:>6,}{fmt_rate(lk):>9} targets/s (all 8 branches); rtb ikine_a x8: "
           f"{fmt_rate(rta)} targets/s; {(f'{lk / rta:,.0f}x' if rta else '')}")
     big = batches[-1]
-    # before/after of the compiled Jacobian programs: the same call forced through the generic walk
-    per_call, _forward.PROGRAM_BATCH_PER_CALL = _forward.PROGRAM_BATCH_PER_CALL, float("inf")
-    try:
-        for N in batches[-2:]:
-            before = N / seconds(lambda: jacobian(puma, Q[:N]), None, rep)
-            after, nbr = summary["Jacobian", N]
-            print(f"Jacobian {N:>8,}: before (generic walk) {fmt_rate(before)}"
-                  f"{(f' = {before / nbr:.2f}x numba' if nbr else '')}, after (compiled program) {fmt_rate(after)}"
-                  f"{(f' = {after / nbr:.2f}x numba' if nbr else '')}: {after / before:.2f}x faster")
-    finally:
-        _forward.PROGRAM_BATCH_PER_CALL = per_call
     for quantity in ("FK", "Jacobian"):
         lk, nbr = summary[quantity, big]
         if nbr:
@@ -385,6 +374,10 @@ def numeric_ik(args):
         print(f"rtb ik_LM (C++, one by one): {lm:9,.0f} targets/s, success {lm_ok:.1%}; "
               f"labkit batch {nb} / ik_LM = {batch / lm:.2f}x (target >= 2x: {verdict(batch >= 2 * lm)}); "
               f"labkit batch 1 / ik_LM = {(1 / one) / lm:.2f}x")
+        # one target at a time, on the same targets, in the same run
+        same = seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(n1)], 1, 2) / n1
+        print(f"one target (same {n1} targets): labkit {one * 1e3:.3f} ms, ik_LM {same * 1e3:.3f} ms: "
+              f"{one / same:.2f}x slower (target <= 2.5x: {verdict(one <= 2.5 * same)})")
 
 
 def peak_memory(args):

@@ -4,6 +4,7 @@ statics and velocity kinematics, workspace sampling. Symbolic DH algebra lives i
 :mod:`labkit.kinematics.symbolic` (imports sympy when used).
 """
 
+from labkit.kinematics import _display, _forward, _ik, _statics, _workspace
 from labkit.kinematics._forward import fk, fk_position, fk_frames, jacobian, fk_jacobian
 from labkit.kinematics._ik import (
     Solver,
@@ -14,9 +15,9 @@ from labkit.kinematics._ik import (
     ik,
     ik_all,
     ik_numeric,
+    pose_from_position_pitch,
 )
-from labkit.kinematics._ik_detect import pose_from_position_pitch
-from labkit.kinematics._ik_targets import task_rows
+from labkit.kinematics.ik import task_rows
 from labkit.kinematics._statics import (
     joint_torques,
     wrench_transform_matrix,
@@ -32,35 +33,10 @@ from labkit.kinematics._display import target_from_display, target_to_display, t
 from labkit.kinematics._workspace import Workspace, workspace_points, PlanarRegion, planar_region
 
 __all__ = [
-    "fk",
-    "fk_position",
-    "fk_frames",
-    "jacobian",
-    "fk_jacobian",
-    "Solver",
-    "IKSolutions",
-    "IKResult",
-    "target_kind",
-    "solver_for",
-    "ik",
-    "ik_all",
-    "ik_numeric",
-    "pose_from_position_pitch",
+    *_forward.__all__,
+    *_ik.__all__,
     "task_rows",
-    "joint_torques",
-    "wrench_transform_matrix",
-    "transform_wrench",
-    "singular_values",
-    "manipulability",
-    "condition_number",
-    "is_singular",
-    "damping_factor",
-    "joint_rates",
-    "target_from_display",
-    "target_to_display",
-    "target_error",
-    "Workspace",
-    "workspace_points",
-    "PlanarRegion",
-    "planar_region",
+    *_statics.__all__,
+    *_display.__all__,
+    *_workspace.__all__,
 ]

@@ -1,23 +1,23 @@
 """The kinematic chain's constants and where joint values enter it (private).
 
-:func:`chain` turns a robot's DH rows into the per-link constants both FK
-kernels use (the batched one in :mod:`labkit.kinematics._forward`, the
-pure-Python one for a handful of configurations in
-:mod:`labkit.kinematics._forward_small`), cached per robot object.
-:func:`prepare` is the one place joint values enter the chain: it validates
-``q`` and returns the effective joint values, shape ``(N, n)``, both kernels run
-on.
+:func:`chain` turns a robot's DH rows into the per-link constants the
+compiled programs of :mod:`labkit.kinematics._program` are built from, cached
+per robot object (:func:`per_robot`, the keyed cache every per-robot constant
+of the kinematics uses). :func:`prepare` is the one place joint values enter
+the chain: it validates ``q`` and returns the effective joint values, shape
+``(N, n)``, that every evaluator runs on.
 
 Joint angles enter through the half-angle tangent ``t = tan(theta / 2)``:
 ``cos theta = 2 / (1 + t^2) - 1`` and ``sin theta = t * 2 / (1 + t^2)``. One
 ``tan`` per joint instead of a ``sin`` and a ``cos``: NumPy evaluates float64
 ``tan`` with SIMD but ``sin``/``cos`` one element at a time on AVX2 machines,
 so this is about 5x cheaper, and it agrees with ``sin``/``cos`` to a few
-units in the last place (both kernels use it, so they agree with each other).
+units in the last place.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass
@@ -28,8 +28,34 @@ from labkit.exceptions import ShapeError
 from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
-#: per-robot chain constants (a keyed cache: Robot stays plain frozen data)
-_CHAINS = weakref.WeakKeyDictionary()
+
+
+def per_robot(func):
+    """Cache ``func(robot)`` per robot object, in a keyed cache (``Robot`` stays plain frozen data).
+
+    Entries die with the robot.
+
+    Parameters
+    ----------
+    func : callable
+        ``func(robot)``, a pure function of the robot.
+
+    Returns
+    -------
+    callable
+        The cached ``func``.
+    """
+    cache = weakref.WeakKeyDictionary()
+
+    @functools.wraps(func)
+    def cached(robot):
+        try:
+            return cache[robot]
+        except KeyError:
+            value = cache[robot] = func(robot)
+            return value
+
+    return cached
 
 
 def _clean(v):
@@ -82,22 +108,20 @@ class Chain:
     tool: np.ndarray
 
 
+@per_robot
 def chain(robot):
     """The chain constants of ``robot`` (cached per robot object).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm whose DH rows are read.
 
     Returns
     -------
     Chain
         Its per-link constants.
     """
-    cached = _CHAINS.get(robot)
-    if cached is not None:
-        return cached
     steps = []
     for lk in robot.links:
         th = float(lk.theta)
@@ -118,7 +142,6 @@ def chain(robot):
         base=_frame_or_none(robot.base),
         tool=_frame_or_none(robot.tool),
     )
-    _CHAINS[robot] = result
     return result
 
 

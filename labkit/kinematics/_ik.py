@@ -8,14 +8,11 @@ Targets, by :func:`target_kind`:
   (seeds 003 and 004), ``phi`` the angle of the tool ``x`` axis from world ``x``;
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
 
-The analytic solver is chosen from the robot's geometry (joint axes at
+The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
-:mod:`labkit.kinematics` and ``docs/ik.md``): ``planar_2r`` (position in the
-arm's plane), ``planar_3r``, ``yaw_pitch_pitch`` (3R, shoulder on the base axis
-or offset from it, parallel pitch axes) or ``spherical_wrist`` (6R, such an arm
-plus three wrist axes through one point: PUMA 560, the PUMA 600 of seed 002,
-IRB140 and KR5 with their shoulder offset) or ``three_parallel`` (UR-type 6R:
-axes 2, 3, 4 parallel, up to 8 solutions). Other robots use :func:`ik_numeric`.
+``docs/ik.md``): the first of :data:`labkit.kinematics.ik.FAMILIES` that fits
+(``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
+``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -32,8 +29,10 @@ import numpy as np
 
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_numeric, _ik_small
-from labkit.kinematics._ik_targets import batch_index, describe_target, task_rows, validate_targets
+from labkit.kinematics.ik import (
+    FAMILIES, LazyGenerator, batch_index, build, describe_target, detect, solve_closed_form, solve_numeric, task_rows,
+    validate_targets,
+)
 from labkit.rotations import wrap_angle
 
 __all__ = [
@@ -45,22 +44,14 @@ __all__ = [
     "ik",
     "ik_all",
     "ik_numeric",
+    "pose_from_position_pitch",
 ]
 
-_CHUNK = 8192
-
-
-class Solver(str, Enum):
-    """IK solver choice; ``AUTO`` picks the analytic solver that fits the robot, else ``NUMERIC``."""
-
-    AUTO = "auto"
-    PLANAR_3R = "planar_3r"
-    YAW_PITCH_PITCH = "yaw_pitch_pitch"
-    SPHERICAL_WRIST = "spherical_wrist"
-    PLANAR_2R = "planar_2r"
-    THREE_PARALLEL = "three_parallel"
-    YAW_PITCH_PITCH_PITCH = "yaw_pitch_pitch_pitch"
-    NUMERIC = "numeric"
+#: IK solver choice: ``AUTO`` picks the closed-form family that fits the robot, else ``NUMERIC``;
+#: one member per family of the registry
+Solver = Enum("Solver", [("AUTO", "auto"), *((f.name.upper(), f.name) for f in FAMILIES), ("NUMERIC", "numeric")],
+              type=str, module=__name__, qualname="Solver")
+Solver.__doc__ = "IK solver choice; ``AUTO`` picks the analytic solver that fits the robot, else ``NUMERIC``."
 
 
 def _as_solver(solver):
@@ -212,7 +203,7 @@ def target_kind(robot):
     >>> [target_kind(Robot.load(n)) for n in ("arduino_arm_3dof", "planar3r_seed004", "puma560")]
     ['position', 'planar', 'pose']
     """
-    found, _ = _ik_detect.detect(robot)
+    found, _ = detect(robot)
     if found is not None:
         return found.kind
     return "pose" if robot.n >= 6 else "position"
@@ -237,30 +228,41 @@ def solver_for(robot):
     >>> solver_for(Robot.load("puma600_seed002")).value
     'spherical_wrist'
     """
-    found, _ = _ik_detect.detect(robot)
+    found, _ = detect(robot)
     return Solver(found.name) if found is not None else Solver.NUMERIC
 
 
-def _analytic(robot, solver):
+def _family(robot, solver):
+    """The closed-form family ``solver`` asks for on ``robot``, or None for the numeric solver."""
     solver = _as_solver(solver)
     if solver is Solver.NUMERIC:
         return None
-    found, reasons = _ik_detect.detect(robot)
-    if solver is Solver.AUTO:
+    found, _ = detect(robot)
+    if solver is Solver.AUTO or (found is not None and found.name == solver.value):
         return found
-    if found is not None and found.name == solver.value:
-        return found
-    try:
-        impl = _ik_detect.build(robot, solver.value)
-    except _ik_analytic._NotThisStructure as exc:
+    impl, why = build(robot, solver.value)
+    if impl is None:
         fits = found.name if found is not None else "numeric"
         raise OptionError(
-            f"{robot.name}: solver {solver.value!r} does not fit this robot ({exc}); "
+            f"{robot.name}: solver {solver.value!r} does not fit this robot ({why}); "
             f"the automatic choice is {fits!r}"
-        ) from None
+        )
     if impl.kind != target_kind(robot):
         raise OptionError(f"{robot.name}: solver {solver.value!r} expects {impl.kind} targets")
     return impl
+
+
+def _solutions(robot, family, kind, flat, q0=None):
+    """``(q (N, m, n), reachable (N, m), valid (N, m), distance (N,), branches)`` of validated targets.
+
+    The numeric solver is a family of one branch, ``"numeric"``: reachable where
+    it converged, ``distance`` its residual elsewhere [m, rad].
+    """
+    if family is not None:
+        return (*solve_closed_form(robot, family, flat), tuple(family.branches))
+    q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
+    q = q[:, None, :]
+    return q, ok[:, None], ok[:, None] & robot.within_limits(q), np.where(ok, 0.0, res), ("numeric",)
 
 
 def ik_all(robot, target, *, solver="auto"):
@@ -302,50 +304,13 @@ def ik_all(robot, target, *, solver="auto"):
     True
     """
     kind = target_kind(robot)
-    impl = _analytic(robot, solver)
-    small, lead = _ik_small.solve_small(robot, impl, target)
-    if small is not None:  # a few targets of a 3R family: plain Python, same results
-        q, reach, valid, dist = _ik_small.arrays(small, lead, len(impl.branches), robot.n)
-        return IKSolutions(q, reach, valid, tuple(impl.branches), dist, impl.name)
+    family = _family(robot, solver)
     flat, lead = validate_targets(target, kind)
-    return _solve_all(robot, impl, kind, flat, lead)
-
-
-def _solve_all(robot, impl, kind, flat, lead):
-    """ik_all on validated, flattened targets."""
-    n = robot.n
-    limits = robot.joint_limits
-    rev = robot.is_revolute
-    if impl is None:
-        res = _numeric(robot, kind, flat, None, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
-        q = res[0][:, None, :]
-        reach = res[1][:, None]
-        valid = reach & robot.within_limits(q)
-        distance = np.where(res[1], 0.0, res[3])
-        return IKSolutions(
-            q.reshape(lead + (1, n)), reach.reshape(lead + (1,)), valid.reshape(lead + (1,)),
-            ("numeric",), distance.reshape(lead), Solver.NUMERIC.value,
-        )
-    N = flat.shape[0]
-    m = len(impl.branches)
-    flipped = np.flatnonzero(robot.flip)
-    q = np.empty((N, m, n))
-    reach = np.empty((N, m), dtype=bool)
-    distance = np.empty(N)
-    for s in range(0, N, _CHUNK):
-        qc, rc, dc = impl.solve(flat[s:s + _CHUNK])
-        if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
-            qc[..., flipped] *= -1.0
-        q[s:s + _CHUNK] = _ik_analytic.normalize_angles(qc, limits, rev)
-        reach[s:s + _CHUNK] = rc
-        distance[s:s + _CHUNK] = dc
-    distance = np.where(reach.any(axis=1), 0.0, distance)
-    if not np.isfinite(q.sum()):  # belt and braces: never let NaN out
-        q = np.where(np.isfinite(q), q, 0.0)
-    valid = reach & robot.within_limits(q)
+    q, reach, valid, distance, branches = _solutions(robot, family, kind, flat)
+    m, n = len(branches), robot.n
     return IKSolutions(
         q.reshape(lead + (m, n)), reach.reshape(lead + (m,)), valid.reshape(lead + (m,)),
-        tuple(impl.branches), distance.reshape(lead), impl.name,
+        branches, distance.reshape(lead), Solver.NUMERIC.value if family is None else family.name,
     )
 
 
@@ -405,38 +370,35 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     (True, True)
     """
     kind = target_kind(robot)
-    impl = _analytic(robot, solver)
-    if impl is None:
+    family = _family(robot, solver)
+    n = robot.n
+    if family is None:
         if branch not in (None, "numeric"):
             raise OptionError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
-        return _ik_one_numeric(robot, kind, target, q_near)
-    idx = None if branch is None else _branch_index(impl.branches, impl.aliases, branch)
-    small, lead = _ik_small.solve_small(robot, impl, target)
-    out = None if small is None else _ik_small.pick(robot, small, idx, q_near)
-    if out is not None:  # else the batched path below raises or broadcasts q_near
-        return np.array(out).reshape(lead + (robot.n,))
+        idx = None
+    else:
+        idx = None if branch is None else _branch_index(family.branches, family.aliases, branch)
     flat, lead = validate_targets(target, kind)
-    q = None if idx is None else _ik_analytic.solve_one_branch(robot, impl, flat, idx, _CHUNK)
-    if q is not None:  # every target valid on the named branch; else the full path below raises
-        return q.reshape(lead + (robot.n,))
-    sols = _solve_all(robot, impl, kind, flat, lead)
-    n = robot.n
-    m = len(sols.branches)
-    q = sols.q.reshape(-1, m, n)
-    reach = sols.reachable.reshape(-1, m)
-    valid = sols.valid.reshape(-1, m)
-    dist = sols.distance.reshape(-1)
+    qn = None if q_near is None else np.broadcast_to(as_batch(q_near, (n,), "q_near"), lead + (n,)).reshape(-1, n)
+    q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)
     if idx is not None:
         reach_t, valid_t = reach[:, idx], valid[:, idx]
     else:
         reach_t, valid_t = reach.any(axis=1), valid.any(axis=1)
-    if not np.all(reach_t):
+    if not reach_t.all():
         i = int(np.flatnonzero(~reach_t)[0])
         where = "" if not lead else f" (target {batch_index(i, lead)})"
+        if family is None:
+            raise UnreachableError(
+                f"{robot.name}: numeric IK found no solution inside the joint limits for "
+                f"{describe_target(kind, flat[i])}{where}; the closest configuration found misses it by "
+                f"{dist[i]:.4g} (m and rad combined)",
+                distance=dist[i], index=batch_index(i, lead),
+            )
         if idx is not None and reach[i].any():
             raise UnreachableError(
-                f"{robot.name}: branch {sols.branches[idx]!r} cannot reach {describe_target(kind, flat[i])}{where}; "
-                f"reachable branches: {', '.join(b for b, r in zip(sols.branches, reach[i]) if r)}",
+                f"{robot.name}: branch {branches[idx]!r} cannot reach {describe_target(kind, flat[i])}{where}; "
+                f"reachable branches: {', '.join(b for b, r in zip(branches, reach[i]) if r)}",
                 distance=0.0, index=batch_index(i, lead),
             )
         raise UnreachableError(
@@ -444,50 +406,31 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
             distance=dist[i], index=batch_index(i, lead),
         )
-    if not np.all(valid_t):
+    if not valid_t.all():
         i = int(np.flatnonzero(~valid_t)[0])
-        cols = [idx] if idx is not None else [k for k in range(m) if reach[i, k]]
+        cols = [idx] if idx is not None else [k for k in range(len(branches)) if reach[i, k]]
         reasons, joint = [], None
         for k in cols:
             try:
                 robot.check_limits(q[i, k])
             except JointLimitError as exc:
                 joint = exc.joint if joint is None else joint
-                reasons.append(f"{sols.branches[k]}: {str(exc).split(': ', 1)[-1]}")
+                reasons.append(f"{branches[k]}: {str(exc).split(': ', 1)[-1]}")
         where = "" if not lead else f" (target {batch_index(i, lead)})"
         raise JointLimitError(
             f"{robot.name}: target {describe_target(kind, flat[i])}{where} is reachable only outside the "
             f"joint limits: " + "; ".join(reasons),
             joint=joint, index=batch_index(i, lead),
         )
+    rows = np.arange(q.shape[0])
     if idx is not None:
         out = q[:, idx]
-    elif q_near is not None:
-        qn = as_batch(q_near, (n,), "q_near")
-        qn = np.broadcast_to(qn, lead + (n,)).reshape(-1, 1, n)
-        dd = np.where(valid, _angle_distance(q, qn, robot.is_revolute), np.inf)
-        out = q[np.arange(q.shape[0]), np.argmin(dd, axis=1)]
+    elif qn is not None and len(branches) > 1:
+        dd = np.where(valid, _angle_distance(q, qn[:, None, :], robot.is_revolute), np.inf)
+        out = q[rows, np.argmin(dd, axis=1)]
     else:
-        out = q[np.arange(q.shape[0]), np.argmax(valid, axis=1)]
+        out = q[rows, np.argmax(valid, axis=1)]
     return out.reshape(lead + (n,))
-
-
-def _ik_one_numeric(robot, kind, target, q_near):
-    flat, lead = validate_targets(target, kind)
-    q0 = None
-    if q_near is not None:
-        q0 = np.broadcast_to(as_batch(q_near, (robot.n,), "q_near"), lead + (robot.n,)).reshape(-1, robot.n)
-    q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
-    if not np.all(ok):
-        i = int(np.flatnonzero(~ok)[0])
-        where = "" if not lead else f" (target {batch_index(i, lead)})"
-        raise UnreachableError(
-            f"{robot.name}: numeric IK found no solution inside the joint limits for "
-            f"{describe_target(kind, flat[i])}{where}; the closest configuration found misses it by "
-            f"{res[i]:.4g} (m and rad combined)",
-            distance=res[i], index=batch_index(i, lead),
-        )
-    return q.reshape(lead + (robot.n,))
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
@@ -499,8 +442,8 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
         rows = tuple(r for r, keep in zip(rows, mask) if keep)
         if not rows:
             raise OptionError("mask selects no task coordinate")
-    rng = np.random.default_rng(seed)
-    return _ik_numeric.solve(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+    rng = LazyGenerator(seed)
+    return solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
 
 
 def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_iter=50, restarts=10, seed=0):
@@ -557,3 +500,40 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         q0 = np.broadcast_to(as_batch(q0, (n,), "q0"), lead + (n,)).reshape(-1, n)
     q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=tol, max_iter=max_iter, restarts=restarts, seed=seed)
     return IKResult(q.reshape(lead + (n,)), ok.reshape(lead), it.reshape(lead), res.reshape(lead))
+
+
+def pose_from_position_pitch(robot, target):
+    """Tool poses of ``(x, y, z, pitch)`` targets of a 4-DOF yaw-pitch-pitch-pitch arm.
+
+    A MeArm / uArm / Dobot type arm reaches a tool point and one pitch angle; its
+    IK targets are poses (``target_kind`` is ``"pose"``), built here.
+
+    Parameters
+    ----------
+    robot : Robot
+        An arm whose closed-form family is ``yaw_pitch_pitch_pitch``.
+    target : array_like, shape (..., 4)
+        Tool point ``(x, y, z)`` [m] and pitch [rad]: the elevation of the tool x
+        axis above the plane perpendicular to axis 1 (positive towards +axis 1;
+        0 = pointing away from axis 1 in the arm's plane).
+
+    Returns
+    -------
+    T : ndarray, shape (..., 4, 4)
+        ``world_from_tool`` poses to pass to :func:`ik` / :func:`ik_all`.
+
+    Raises
+    ------
+    OptionError
+        The robot is not of that family.
+    ShapeError
+        Bad target shape or values.
+    """
+    found, reasons = detect(robot)
+    if found is None or found.name != Solver.YAW_PITCH_PITCH_PITCH.value:
+        raise OptionError(
+            f"{robot.name}: (x, y, z, pitch) targets need a 4-DOF yaw-pitch-pitch-pitch arm "
+            f"({reasons.get('yaw_pitch_pitch_pitch', 'its solver is ' + repr(getattr(found, 'name', None)))})"
+        )
+    t = as_batch(target, (4,), "target (x, y, z, pitch)")
+    return found.pose(t.reshape(-1, 4)).reshape(t.shape[:-1] + (4, 4))

@@ -1,28 +1,29 @@
-"""Straight-line programs for the batched Jacobian, specialised per robot (private).
+"""The DH recursion, written once, compiled per robot into straight-line programs (private).
 
-The batched Jacobian kernel of :mod:`labkit.kinematics._forward` does not walk
-the chain with generic ``(3, m)`` blocks. Once per robot (and per ``point``,
-``frame`` and whether the pose is wanted) :func:`program` runs the same DH
-recursion on *symbols*: every vector component is either a Python float known
-when the robot is loaded (the base's columns, ``cos alpha = 0``, ``a = 0`` ...)
-or a signed reference to a row of per-chunk scratch. Arithmetic on two
-constants is folded, multiplications by 0 and +-1 and additions of 0 vanish,
-negations are carried as a sign instead of computed, repeated products are
-shared, and whatever the outputs do not need (the last joint's rotation when
-only the Jacobian is asked for ...) is dropped. What is left is a list of
-ufunc calls on ``(m,)`` rows with ``out=`` (no temporaries), with scratch rows
-reused as soon as a value is dead so a chunk's working set stays in the L2
-cache, and each output row written once (the operation that produces it writes
-it directly).
+:func:`walk` is the one place the Denavit-Hartenberg chain is written (both
+conventions, prismatic and revolute joints, base and tool). It runs on an
+*algebra*: :class:`_Builder` records it on *symbols*, where every vector
+component is either a Python float known when the robot is loaded (the
+base's columns, ``cos alpha = 0``, ``a = 0`` ...) or a signed reference to a
+row of per-chunk scratch. Arithmetic on two constants is folded,
+multiplications by 0 and +-1 and additions of 0 vanish, negations are carried
+as a sign instead of computed, repeated products are shared, and whatever the
+outputs do not need (the last joint's rotation when only the Jacobian is
+asked for ...) is dropped. :mod:`labkit.kinematics.symbolic` runs the same
+walk on sympy expressions.
 
-For the PUMA 560 the Jacobian needs about a third of the elementwise work of
-the generic walk: the first joints' frames are mostly zeros and ones, which the
-generic blocks multiply anyway.
+What is left, a :class:`Program` per robot and output (pose, position, every
+frame, Jacobian with or without the pose), is evaluated two ways:
 
-The operations and their order are those of the generic walk (``x cos + y
-sin``, ``p + d z``, ``p + a x``, ``z x (p_e - o_i)`` ...), so the results agree
-with it to the last bit or to a few units in the last place (the only
-differences are folded multiplications by exactly 1 or 0).
+* on numpy: a list of ufunc calls on ``(m,)`` rows with ``out=`` (no
+  temporaries), scratch rows reused as soon as a value is dead so a chunk's
+  working set stays in the L2 cache, each output row written once;
+* on Python floats: the same calls as generated straight-line Python code
+  (:meth:`Program.scalar`), for a handful of configurations, where numpy's
+  per-call overhead would cost more than the arithmetic.
+
+For the PUMA 560 the Jacobian needs about a third of the elementwise work of a
+generic block walk: the first joints' frames are mostly zeros and ones.
 """
 
 from __future__ import annotations
@@ -109,6 +110,10 @@ class _Builder:
     def sub(self, x, y):
         return self.add(x, _neg(y))
 
+    @staticmethod
+    def neg(x):
+        return _neg(x)
+
     # -- 3-vectors (tuples of three values) --
     def comb(self, x, cx, y, cy):
         """``x * cx + y * cy``."""
@@ -129,11 +134,12 @@ class _Builder:
 
 def _rotate_x(b, c1, c2, ca, sa):
     """Columns 1, 2 after post-multiplying by Rx(alpha)."""
-    if sa == 0.0:
-        return (c1, c2) if ca == 1.0 else (tuple(map(_neg, c1)), tuple(map(_neg, c2)))
-    if ca == 0.0:
-        return (c2, tuple(map(_neg, c1))) if sa > 0 else (tuple(map(_neg, c2)), c1)
-    return b.comb(c1, ca, c2, sa), b.comb(c2, ca, c1, -sa)
+    neg = b.neg
+    if sa == 0:
+        return (c1, c2) if ca == 1 else (tuple(map(neg, c1)), tuple(map(neg, c2)))
+    if ca == 0:
+        return (c2, tuple(map(neg, c1))) if sa > 0 else (tuple(map(neg, c2)), c1)
+    return b.comb(c1, ca, c2, sa), b.comb(c2, ca, c1, neg(sa))
 
 
 def _cross_lever(b, z, p, o):
@@ -188,6 +194,21 @@ class Program:
 
         self.ops = [(f, at(a), at(b), at(o)) for f, a, b, o in ops]
 
+    def scalar(self):
+        """The program as a Python function on floats (generated once, kept on the program).
+
+        Returns
+        -------
+        callable
+            ``f(x) -> list of float``: the ``n_rows`` outputs of one
+            configuration from its ``n_inputs`` input values ``x`` (a sequence
+            of floats), by the same operations in the same order.
+        """
+        f = getattr(self, "_scalar", None)
+        if f is None:
+            f = self._scalar = _python_function(self)
+        return f
+
     def bind(self, inputs, out_rows, scratch):
         """The calls for one buffer set: a list of ``(ufunc, a, b, out)`` with arrays bound.
 
@@ -209,6 +230,33 @@ class Program:
         for row, value in self.constants:
             out_rows[row][...] = value
         return [(f, rows[a], rows[b], rows[o]) for f, a, b, o in self.ops]
+
+
+_OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
+
+
+def _python_function(prog):
+    """Generate and compile the straight-line Python code of a :class:`Program`."""
+    n_in, n_out = prog.n_inputs, prog.n_rows
+
+    def name(k):
+        if k < n_in:
+            return f"x{k}"
+        if k < n_in + n_out:
+            return f"o{k - n_in}"
+        if k < n_in + n_out + prog.n_scratch:
+            return f"s{k - n_in - n_out}"
+        return repr(prog.constant_args[k - n_in - n_out - prog.n_scratch])
+
+    lines = ["def f(x):"]
+    if n_in:
+        lines.append("    " + "".join(f"x{k}, " for k in range(n_in)) + "= x")
+    lines += [f"    o{row} = {value!r}" for row, value in prog.constants]
+    lines += [f"    {name(o)} = {name(a)} {_OPERATOR[func]} {name(b)}" for func, a, b, o in prog.ops]
+    lines.append("    return [" + ", ".join(f"o{k}" for k in range(n_out)) + "]")
+    namespace = {}
+    exec(compile("\n".join(lines), f"<labkit kinematics program, {len(prog.ops)} operations>", "exec"), namespace)
+    return namespace["f"]
 
 
 def _negate(ops, producer, used, reg):
@@ -307,35 +355,40 @@ def _compile(b, outputs, n_rows):
     return Program(program, constants, n_rows, n_scratch, b.n_inputs)
 
 
-def program(c, point_offset, tool_frame, want_T, position_only=False):
-    """The compiled Jacobian (and pose) program of chain ``c``, or its position program (cached).
+#: what a program computes
+POSE, POSITION, FRAMES, JACOBIAN = "pose", "position", "frames", "jacobian"
+
+
+def program(c, output, point_offset=None, tool_frame=False, want_T=False):
+    """The compiled program of chain ``c`` for one output (cached per chain and options).
 
     Parameters
     ----------
     c : Chain
         From :func:`labkit.kinematics._chain.chain`.
+    output : {"pose", "position", "frames", "jacobian"}
+        The pose of the point (16 rows, row-major (4, 4)), its position (3
+        rows), every frame (base, frames 1..n, tool: 16 rows each) or the
+        Jacobian (6 n rows, row-major (6, n), then the pose's 16 rows if
+        ``want_T``).
     point_offset : ndarray, shape (3,) or None
         Origin of the output frame in frame-n coordinates [m]
         (``_forward._tool_offset``); None for frame n's origin.
     tool_frame : bool
-        Express the velocities in the tool frame (``R^T J``).
+        Jacobian only: express the velocities in the tool frame (``R^T J``).
     want_T : bool
-        Also write the pose.
-    position_only : bool
-        Only the position of the point (``tool_frame`` and ``want_T`` are
-        then ignored): 3 output rows.
+        Jacobian only: also write the pose.
 
     Returns
     -------
     Program
         Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (rows
         ``r .. 2r-1``), then the prismatic joints' values (rows ``2r ..``), in
-        joint order. Outputs: as :class:`Program` (flipped joints' columns
-        already negated).
+        joint order. Flipped joints' Jacobian columns are already negated.
     """
-    if position_only:
+    if output != JACOBIAN:
         tool_frame = want_T = None
-    key = (None if point_offset is None else tuple(float(v) for v in point_offset), tool_frame, want_T)
+    key = (output, None if point_offset is None else tuple(float(v) for v in point_offset), tool_frame, want_T)
     per_chain = _PROGRAMS.get(c)
     if per_chain is None:
         per_chain = _PROGRAMS[c] = {}
@@ -343,52 +396,96 @@ def program(c, point_offset, tool_frame, want_T, position_only=False):
     if prog is None:
         if len(per_chain) >= _MAX_PER_CHAIN:
             per_chain.clear()
-        prog = per_chain[key] = _build(c, point_offset, tool_frame, want_T)
+        prog = per_chain[key] = _build(c, output, point_offset, tool_frame, want_T)
     return prog
 
 
-def _build(c, off, tool_frame, want_T):
-    n, r = c.n, c.revolute.size
-    b = _Builder(2 * r + (n - r))
-    base = np.eye(4) if c.base is None else c.base
-    c0, c1, c2, p = (tuple(float(v) for v in base[:3, k]) for k in range(4))
-    axes, j, jp = [], 0, 2 * r
-    for rev, a, ca, sa, d, _, cth, sth in c.steps:
+def walk(b, modified, base, steps, trig, joint_value):
+    """The DH recursion: every frame of the chain and each joint's axis, on the algebra ``b``.
+
+    Parameters
+    ----------
+    b : algebra
+        ``mul``, ``add``, ``comb``, ``axpy`` and ``neg`` on its values
+        (:class:`_Builder`, or sympy's in :mod:`labkit.kinematics.symbolic`).
+    modified : bool
+        Modified (Craig) DH convention, else standard.
+    base : tuple
+        Frame 0 as columns ``(x, y, z, origin)``, each a 3-tuple.
+    steps : sequence of tuple
+        Per link ``(revolute, a, cos alpha, sin alpha, d, cos theta, sin theta)``
+        (the last two used for prismatic joints), values of the algebra.
+    trig : callable
+        ``trig(j) -> (cos, sin)`` of the j-th revolute joint's angle (offset included).
+    joint_value : callable
+        ``joint_value(i, d) -> d_i`` of the prismatic joint ``i`` (offset ``d`` included).
+
+    Returns
+    -------
+    frames : list of tuple
+        Frames 1..n as columns ``(x, y, z, origin)``.
+    axes : list of tuple
+        Per joint ``(direction, point)`` of its axis, in world coordinates.
+    """
+    c0, c1, c2, p = base
+    frames, axes, j = [], [], 0
+    for i, (rev, a, ca, sa, d, cth, sth) in enumerate(steps):
         if rev:
-            ct, st = _Sym(j), _Sym(r + j)
+            ct, st = trig(j)
             j += 1
         else:
             ct, st = cth, sth
-            dd = b.add(_Sym(jp), d)
-            jp += 1
-        if c.modified:
+            d = joint_value(i, d)
+        if modified:
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
-            if a != 0.0:
+            if a != 0:
                 p = b.axpy(p, c0, a)
             axes.append((c2, p))
-            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, _neg(st))
-            if not rev:
-                p = b.axpy(p, c2, dd)
-            elif d != 0.0:
+            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
+            if not rev or d != 0:
                 p = b.axpy(p, c2, d)
         else:
             axes.append((c2, p))
-            n0, n1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, _neg(st))
-            if not rev:
-                p = b.axpy(p, c2, dd)
-            elif d != 0.0:
+            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
+            if not rev or d != 0:
                 p = b.axpy(p, c2, d)
-            if a != 0.0:
-                p = b.axpy(p, n0, a)
-            c0 = n0
-            c1, c2 = _rotate_x(b, n1, c2, ca, sa)
+            if a != 0:
+                p = b.axpy(p, c0, a)
+            c1, c2 = _rotate_x(b, c1, c2, ca, sa)
+        frames.append((c0, c1, c2, p))
+    return frames, axes
+
+
+def _pose_rows(first, cols):
+    """(output row, value) of a (4, 4) pose written row-major from row ``first``."""
+    rows = [(first + 4 * r + k, col[r]) for k, col in enumerate(cols) for r in range(3)]
+    return rows + [(first + 12 + k, v) for k, v in enumerate((0.0, 0.0, 0.0, 1.0))]
+
+
+def _build(c, output, off, tool_frame, want_T):
+    n, r = c.n, c.revolute.size
+    b = _Builder(2 * r + (n - r))
+    base = np.eye(4) if c.base is None else c.base
+    base_cols = tuple(tuple(float(v) for v in base[:3, k]) for k in range(4))
+    prismatic = {i: 2 * r + k for k, i in enumerate(i for i, step in enumerate(c.steps) if not step[0])}
+    frames, axes = walk(b, c.modified, base_cols, [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth
+                                                   in c.steps],
+                        lambda j: (_Sym(j), _Sym(r + j)), lambda i, d: b.add(_Sym(prismatic[i]), d))
+    c0, c1, c2, p = frames[-1] if frames else base_cols
     cols = (c0, c1, c2)
     if off is not None:
         p = b.lincomb(p, cols, off)
-    if tool_frame is None:  # position only
+    if output == POSITION:
         return _compile(b, list(enumerate(p)), 3)
     if c.tool is not None and not np.array_equal(c.tool[:3, :3], np.eye(3)):
         cols = tuple(b.lincomb(None, cols, c.tool[:3, k]) for k in range(3))
+    if output == POSE:
+        return _compile(b, _pose_rows(0, cols + (p,)), 16)
+    if output == FRAMES:
+        outputs = _pose_rows(0, base_cols)
+        for i, frame in enumerate(frames):
+            outputs += _pose_rows(16 * (i + 1), frame)
+        return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2))
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)
     lin, ang = [], []
     for (z, o), step in zip(axes, c.steps):
@@ -412,9 +509,6 @@ def _build(c, off, tool_frame, want_T):
                 outputs.append((row * n + i, _neg(v) if i in flipped else v))
     n_rows = 6 * n
     if want_T:
-        for k, col in enumerate(cols + (p,)):
-            for row in range(3):
-                outputs.append((n_rows + 4 * row + k, col[row]))
-        outputs += [(n_rows + 12 + k, v) for k, v in enumerate((0.0, 0.0, 0.0, 1.0))]
+        outputs += _pose_rows(n_rows, cols + (p,))
         n_rows += 16
     return _compile(b, outputs, n_rows)

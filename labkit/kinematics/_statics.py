@@ -165,7 +165,9 @@ def singular_values(J, part: Part = "full"):
     Parameters
     ----------
     J : array_like, shape (..., 6, n)
+        Geometric Jacobian(s).
     part : {"full", "linear", "angular"}
+        All six rows, the three linear or the three angular ones.
 
     Returns
     -------
@@ -187,7 +189,9 @@ def manipulability(J, part: Part = "full"):
     Parameters
     ----------
     J : array_like, shape (..., 6, n)
+        Geometric Jacobian(s) [m/rad or 1].
     part : {"full", "linear", "angular"}
+        Which rows measure the volume (all, linear or angular).
 
     Returns
     -------

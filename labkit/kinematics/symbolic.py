@@ -15,7 +15,10 @@ Conventions are those of :mod:`labkit.robot`:
 * modified (Craig): ``A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``;
   joint ``i`` moves about/along ``z_i``.
 
-The full chain is ``base @ A_1 @ ... @ A_n @ tool``. Simplification uses
+The full chain is ``base @ A_1 @ ... @ A_n @ tool``, computed by the same DH
+recursion as the numeric kinematics (:func:`labkit.kinematics._program.walk`,
+run here on sympy expressions), so the LaTeX a student sees is the formula
+the numbers come from. Simplification uses
 ``trigsimp`` entry by entry, which is quick for the 3-DOF arms of the lab
 handouts; for a 6-DOF arm pass ``simplify=False`` and lambdify.
 """
@@ -27,8 +30,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from labkit.robot.types import Convention
 from labkit.exceptions import OptionError, ShapeError
+from labkit.kinematics._program import walk
+from labkit.robot.types import Convention
 
 __all__ = [
     "dh_matrix",
@@ -102,24 +106,50 @@ def dh_matrix(a, alpha, d, theta, convention="standard"):
     conv = Convention(convention)
     a, d = _exact_length(a), _exact_length(d)
     alpha, theta = _exact_angle(alpha), _exact_angle(theta)
-    ct, st, ca, sa = sp.cos(theta), sp.sin(theta), sp.cos(alpha), sp.sin(alpha)
-    if conv is Convention.STANDARD:
-        return sp.Matrix(
-            [
-                [ct, -st * ca, st * sa, a * ct],
-                [st, ct * ca, -ct * sa, a * st],
-                [0, sa, ca, d],
-                [0, 0, 0, 1],
-            ]
-        )
-    return sp.Matrix(
-        [
-            [ct, -st, 0, a],
-            [st * ca, ct * ca, -sa, -sa * d],
-            [st * sa, ct * sa, ca, ca * d],
-            [0, 0, 0, 1],
-        ]
-    )
+    identity = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0))
+    step = (True, a, sp.cos(alpha), sp.sin(alpha), d, None, None)
+    frames, _ = walk(_SYMPY, conv is Convention.MODIFIED, identity, [step],
+                     lambda j: (sp.cos(theta), sp.sin(theta)), None)
+    return _matrix(frames[0])
+
+
+class _Sympy:
+    """The algebra :func:`labkit.kinematics._program.walk` runs on here: sympy expressions."""
+
+    @staticmethod
+    def mul(x, y):
+        return x * y
+
+    @staticmethod
+    def add(x, y):
+        return x + y
+
+    @staticmethod
+    def neg(x):
+        return -x
+
+    @staticmethod
+    def comb(x, cx, y, cy):
+        return tuple(x[k] * cx + y[k] * cy for k in range(3))
+
+    @staticmethod
+    def axpy(p, v, w):
+        return tuple(p[k] + v[k] * w for k in range(3))
+
+
+_SYMPY = _Sympy()
+
+
+def _matrix(frame):
+    """A frame ``(x, y, z, origin)`` of 3-tuples as a sympy 4 x 4 matrix."""
+    sp = _sp()
+    cols = [list(c) for c in frame]
+    return sp.Matrix([[cols[k][r] for k in range(4)] for r in range(3)] + [[0, 0, 0, 1]])
+
+
+def _columns(M):
+    """A sympy 4 x 4 matrix as a frame ``(x, y, z, origin)`` of 3-tuples."""
+    return tuple(tuple(M[r, k] for r in range(3)) for k in range(4))
 
 
 def joint_symbols(robot, q=None):
@@ -256,13 +286,30 @@ def _simplify_matrix(M):
     return M.applyfunc(sp.trigsimp)
 
 
-def _chain(robot, q, lengths, length_unit):
+def _walk(robot, q, lengths, length_unit):
+    """The DH walk on sympy: frames 1..n, the joint axes, and the tool transform."""
+    sp = _sp()
     _check_unit(length_unit)
+    qs = joint_symbols(robot, q)
     L = _length_mapper(lengths, length_unit)
-    A = link_transforms(robot, q=q, lengths=lengths, length_unit=length_unit)
+    mod = robot.convention is Convention.MODIFIED
+    steps, angles, values = [], [], {}
+    for i, (lk, qi) in enumerate(zip(robot.links, qs), start=1):
+        if lk.flip:  # the variable enters negated (Link.flip)
+            qi = -qi
+        alpha, theta = _exact_angle(lk.alpha), _exact_angle(lk.theta)
+        a = L(lk.a, f"a_{i - 1 if mod else i}")
+        if lk.is_revolute:
+            angles.append(qi + theta)
+            steps.append((True, a, sp.cos(alpha), sp.sin(alpha), L(lk.d, f"d_{i}"), None, None))
+        else:
+            values[i - 1] = qi
+            steps.append((False, a, sp.cos(alpha), sp.sin(alpha), L(lk.d, f"d0_{i}"), sp.cos(theta), sp.sin(theta)))
     base = _frame_matrix(robot.base, L, "base")
-    tool = _frame_matrix(robot.tool, L, "t")
-    return A, base, tool, L
+    frames, axes = walk(_SYMPY, mod, _columns(base), steps, lambda j: (sp.cos(angles[j]), sp.sin(angles[j])),
+                        lambda i, d: values[i] + d)
+    last = _matrix(frames[-1]) if frames else base
+    return last, axes, _frame_matrix(robot.tool, L, "t")
 
 
 def forward_kinematics(robot, *, q=None, lengths=None, length_unit="m", simplify=True):
@@ -288,11 +335,8 @@ def forward_kinematics(robot, *, q=None, lengths=None, length_unit="m", simplify
     >>> T[0, 3]
     a_1*cos(q1) + a_2*cos(q1 + q2) + a_3*cos(q1 + q2 + q3)
     """
-    A, base, tool, _ = _chain(robot, q, lengths, length_unit)
-    T = base
-    for Ai in A:
-        T = T * Ai
-    T = T * tool
+    last, _, tool = _walk(robot, q, lengths, length_unit)
+    T = last * tool
     return _simplify_matrix(T) if simplify else T
 
 
@@ -374,16 +418,11 @@ def geometric_jacobian(robot, *, point=None, q=None, lengths=None, length_unit="
     [              1, 0,           0]])
     """
     sp = _sp()
-    A, base, tool, _ = _chain(robot, q, lengths, length_unit)
-    mod = robot.convention is Convention.MODIFIED
-    frames = [base]
-    for Ai in A:
-        frames.append(frames[-1] * Ai)
-    pe = (frames[-1] * tool * _point(point, length_unit))[:3, 0]
+    last, axes, tool = _walk(robot, q, lengths, length_unit)
+    pe = (last * tool * _point(point, length_unit))[:3, 0]
     cols = []
-    for i, lk in enumerate(robot.links):
-        F = frames[i + 1] if mod else frames[i]
-        z, o = F[:3, 2], F[:3, 3]
+    for (z, o), lk in zip(axes, robot.links):
+        z, o = sp.Matrix(z), sp.Matrix(o)
         sign = -1 if lk.flip else 1  # d/dq = -d/dtheta for a flipped joint
         if lk.is_revolute:
             cols.append(sign * sp.Matrix.vstack(z.cross(pe - o), z))

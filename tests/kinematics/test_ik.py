@@ -62,7 +62,7 @@ def test_target_kind_and_automatic_solver(name, kind, solver):
 
 
 def test_forced_solver_errors(arm):
-    with pytest.raises(ValueError, match="unknown IK solver 'fast'.*'auto', 'planar_3r'"):
+    with pytest.raises(ValueError, match="unknown IK solver 'fast'.*'auto', 'planar_2r', 'planar_3r'"):
         ik_all(arm, [0.1, 0.1, -0.1], solver="fast")
     with pytest.raises(ValueError, match="'spherical_wrist' does not fit.*6 revolute.*automatic choice is 'yaw_pitch_pitch'"):
         ik_all(arm, [0.1, 0.1, -0.1], solver="spherical_wrist")

@@ -1,5 +1,4 @@
-"""Closed-form IK families added beside the seed ones: planar 2R, 4-DOF yaw-pitch-pitch-pitch,
-6R spherical wrist with a shoulder offset, UR-type 6R with three parallel axes.
+"""Every closed-form IK family of the registry, on both evaluators (numpy rows and Python floats).
 
 For each family: FK of every returned branch hits the target, the configuration the target was
 made from is among the branches, and the branch set is complete: numeric IK started from many
@@ -11,6 +10,8 @@ import pytest
 
 from labkit.exceptions import UnreachableError
 from labkit.kinematics import fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_kind
+from labkit.kinematics.ik import FAMILIES
+from labkit.kinematics.ik._targets import SMALL_TARGETS
 from labkit.robot import Link, Robot
 from labkit.rotations import matrix_from_rpy, wrap_angle
 
@@ -33,6 +34,9 @@ def _arm4():
 
 
 ROBOTS = {
+    "arduino_arm_3dof": (lambda: Robot.load("arduino_arm_3dof"), "yaw_pitch_pitch"),
+    "planar3r_seed004": (lambda: Robot.load("planar3r_seed004"), "planar_3r"),
+    "puma560": (lambda: Robot.load("puma560"), "spherical_wrist"),
     "arm4": (_arm4, "yaw_pitch_pitch_pitch"),
     "planar_2r_tilted": (_planar_2r, "planar_2r"),
     "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
@@ -41,9 +45,21 @@ ROBOTS = {
 }
 
 
+#: (calls, targets per call) that take each evaluator: a few targets run on floats (families with
+#: ``scalar = True``; the others solve them as a numpy batch), a big batch on numpy rows
+EVALUATORS = {"floats": (60, SMALL_TARGETS), "numpy": (1, 3000)}
+
+
 def _target(robot, q):
     T = fk(robot, q)
-    return T if target_kind(robot) == "pose" else T[..., :3, 3]
+    kind = target_kind(robot)
+    if kind == "planar":
+        return np.concatenate([T[..., :2, 3], np.arctan2(T[..., 1, 0], T[..., 0, 0])[..., None]], axis=-1)
+    return T if kind == "pose" else T[..., :3, 3]
+
+
+def test_every_family_of_the_registry_is_tested():
+    assert {family for _, family in ROBOTS.values()} == {f.name for f in FAMILIES}
 
 
 def _in_limits(robot, rng, size):
@@ -51,24 +67,33 @@ def _in_limits(robot, rng, size):
     return rng.uniform(lim[:, 0], lim[:, 1], size=(size, robot.n))
 
 
+@pytest.mark.parametrize("evaluator", sorted(EVALUATORS))
 @pytest.mark.parametrize("name", ROBOTS)
-def test_every_branch_hits_the_target_and_the_start_is_among_them(name):
+def test_every_branch_hits_the_target_and_the_start_is_among_them(name, evaluator):
     make, family = ROBOTS[name]
     robot = make()
     assert solver_for(robot).value == family
     rng = np.random.default_rng(5)
-    q = _in_limits(robot, rng, 3000)
+    calls, per = EVALUATORS[evaluator]
+    q = _in_limits(robot, rng, calls * per)
     target = _target(robot, q)
-    sols = ik_all(robot, target)
-    assert sols.solver == family
-    assert np.all(sols.reachable.any(axis=1))
-    reached = _target(robot, sols.q)
-    err = np.abs(reached - target[:, None]).reshape(len(q), len(sols.branches), -1).max(axis=-1)
-    assert err[sols.reachable].max() < 1e-9
-    found = np.abs(wrap_angle(sols.q - q[:, None])).max(axis=-1)
-    found = np.where(sols.valid, found, np.inf).min(axis=-1)
+    parts = [ik_all(robot, target[k * per:(k + 1) * per]) for k in range(calls)]
+    assert all(p.solver == family for p in parts)
+    sq = np.concatenate([p.q for p in parts])
+    reachable = np.concatenate([p.reachable for p in parts])
+    valid = np.concatenate([p.valid for p in parts])
+    assert np.all(reachable.any(axis=1))
+    reached = _target(robot, sq)
+    d = reached - target[:, None]
+    if target_kind(robot) == "planar":
+        d[..., 2] = wrap_angle(d[..., 2])
+    err = np.abs(d).reshape(len(q), len(parts[0].branches), -1).max(axis=-1)
+    assert err[reachable].max() < 1e-9
+    found = np.abs(wrap_angle(sq - q[:, None])).max(axis=-1)
+    found = np.where(valid, found, np.inf).min(axis=-1)
     assert found.max() < 1e-7  # 100 % of the in-limit targets: the start is a valid branch
-    assert np.array_equal(sols.valid, sols.reachable & robot.within_limits(sols.q))
+    assert np.array_equal(valid, reachable & robot.within_limits(sq))
+    assert np.isfinite(sq).all()
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -1,14 +1,10 @@
-"""Numeric IK: analytic seeds, the lean one-target path against the batched iteration, and plain LM.
-
-The lean path (``labkit.kinematics._ik_lean``) runs the batched solver's iteration for a single
-target on Python floats; it must take the same steps (same iterations, same answer).
-"""
+"""Numeric IK: closed-form seeds (the robot's own family or its idealised copy's) and plain LM."""
 
 import numpy as np
 import pytest
 
-from labkit.kinematics import fk, fk_position, ik_all, ik_numeric
-from labkit.kinematics import _ik_lean, _ik_numeric
+from labkit.kinematics import fk, ik_all, ik_numeric
+from labkit.kinematics.ik import _numeric as _ik_numeric
 from labkit.robot import Robot
 
 
@@ -51,7 +47,7 @@ def test_lm_keeps_full_success_without_a_closed_form(bent):
     res = ik_numeric(bent, T)
     assert res.success.all() and res.residual.max() < 1e-10
     assert bent.within_limits(res.q).all() and np.abs(fk(bent, res.q) - T).max() < 1e-9
-    for k in range(3):  # one target at a time: the lean path
+    for k in range(3):  # one target at a time: a batch of one
         one = ik_numeric(bent, T[k])
         assert one.success and one.residual < 1e-10 and np.abs(fk(bent, one.q) - T[k]).max() < 1e-9
 
@@ -100,68 +96,3 @@ def test_no_idealised_copy_for_an_arm_far_from_every_family():
     T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
     res = ik_numeric(far, T)  # plain LM from random starts
     assert res.success.all() and res.residual.max() < 1e-10 and far.within_limits(res.q).all()
-
-
-@pytest.mark.parametrize("kind,mask", [("pose", None), ("pose", [1, 1, 1, 0, 0, 1]), ("position", None)])
-def test_lean_path_takes_the_batched_steps(bent, kind, mask):
-    rng = np.random.default_rng(4)
-    lim = bent.joint_limits
-    for _ in range(4):
-        q_true = rng.uniform(0.7 * lim[:, 0], 0.7 * lim[:, 1])
-        T = fk(bent, q_true)
-        target = T if kind == "pose" else T[:3, 3]
-        q0 = np.clip(q_true + rng.uniform(-0.3, 0.3, 6), lim[:, 0], lim[:, 1])
-        lean = ik_numeric(bent, target, q0=q0, kind=kind, mask=mask)  # one target: lean path
-        # two identical rows stay together in the batched loop and finish at the same iteration
-        batched = ik_numeric(bent, np.stack([target, target]), q0=[q0, q0], kind=kind, mask=mask)
-        assert lean.success and batched.success.all()
-        assert int(lean.iterations) == batched.iterations[0] == batched.iterations[1]
-        np.testing.assert_allclose(batched.q[0], lean.q, rtol=0, atol=1e-12)
-
-
-@pytest.mark.parametrize("kind,rows", [
-    ("pose", (0, 1, 2, 3, 4, 5)), ("pose", (0, 1, 2, 5)), ("pose", (3, 4, 5)),
-    ("position", (0, 1, 2)), ("position", (0, 2)), ("planar", (0, 1, 5)), ("planar", (0, 1)),
-])
-def test_lean_task_error_equals_the_batched_one(bent, kind, rows):
-    rng = np.random.default_rng(len(rows))
-    Tq = fk(bent, rng.uniform(-2, 2, size=(50, 6)))
-    Tt = fk(bent, rng.uniform(-2, 2, size=(50, 6)))
-    if kind == "pose":
-        target = Tt
-    elif kind == "position":
-        target = Tt[:, :3, 3]
-    else:
-        target = np.c_[Tt[:, :2, 3], rng.uniform(-4, 4, 50)]
-    e, res = _ik_numeric._error(kind, Tq, target, rows)
-    for k in range(50):
-        ek, rk = _ik_lean.error(kind, Tq[k].ravel().tolist(), target[k].tolist(), rows)
-        # near a half turn the rotation vector divides by sin(angle): summation order shows at 1e-13
-        np.testing.assert_allclose(ek, e[k], rtol=1e-12, atol=1e-14)
-        assert abs(rk - res[k]) <= 1e-14 + 1e-12 * res[k]
-
-
-def test_lean_path_reports_failure_like_the_batched_one():
-    rpp = Robot.load("rpp_seed002")
-    res = ik_numeric(rpp, [10.0, 0.0, 0.5], restarts=2)
-    assert not res.success and np.isfinite(res.q).all() and res.residual > 1.0 and rpp.within_limits(res.q)
-    assert np.isclose(res.residual, np.linalg.norm(fk_position(rpp, res.q) - [10.0, 0.0, 0.5]))
-
-
-def test_seeds_of_a_few_targets_take_the_small_path_with_the_same_values(bent, monkeypatch):
-    from labkit.kinematics import _ik_small
-
-    rng = np.random.default_rng(4)
-    lim = bent.joint_limits
-    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
-    calls = []
-    real = _ik_small.solve_raw
-    monkeypatch.setattr(_ik_small, "solve_raw", lambda *a: calls.append(1) or real(*a))
-    small = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
-    assert calls == [1]
-    monkeypatch.setattr(_ik_small, "SMALL_TARGETS", 0)
-    batched = _ik_numeric.analytic_seeds(bent, "pose", T, np.random.default_rng(0))
-    assert calls == [1]
-    assert np.array_equal(np.isnan(small), np.isnan(batched))
-    d = np.nan_to_num(small - batched)
-    np.testing.assert_allclose(np.angle(np.exp(1j * d)), 0.0, atol=1e-12)

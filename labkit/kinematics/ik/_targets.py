@@ -2,8 +2,8 @@
 descriptions for error messages (private; :func:`task_rows` is public from
 :mod:`labkit.kinematics`).
 
-Used by :mod:`labkit.kinematics._ik`; the plain-Python small-target paths accept
-exactly what :func:`validate_targets` accepts (and hand anything else to it).
+Every solver, closed-form or numeric, takes its targets through
+:func:`validate_targets`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,12 @@ import math
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
+from labkit.kinematics.ik._geometry import _cross, _dot
+from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.validation import as_batch
+
+#: at most this many targets run on Python floats (closed-form families with ``scalar = True``)
+SMALL_TARGETS = 8
 
 __all__ = ["task_rows", "batch_index", "describe_target", "validate_targets"]
 
@@ -83,25 +88,45 @@ def validate_targets(target, kind):
         T = as_batch(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        c0, c1, c2 = T[:, :3, 0], T[:, :3, 1], T[:, :3, 2]
-        err = np.abs(np.stack([
-            (c0 * c0).sum(axis=1) - 1.0, (c1 * c1).sum(axis=1) - 1.0, (c2 * c2).sum(axis=1) - 1.0,
-            (c0 * c1).sum(axis=1), (c0 * c2).sum(axis=1), (c1 * c2).sum(axis=1),
-        ])).max(axis=0, initial=0.0)
-        det = (np.cross(c0, c1) * c2).sum(axis=1)
-        bad = (err > 1e-6) | (det < 0) | (np.abs(T[:, 3] - [0, 0, 0, 1]).max(axis=1, initial=0.0) > 1e-12)
+        if T.shape[0] <= SMALL_TARGETS:  # the same test on floats, pose by pose
+            defects = [_rigid_defects(FLOATS, t) for t in T.tolist()]
+            bad = np.array([_is_bad(*d) for d in defects], dtype=bool)
+        else:
+            defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
+            bad = _is_bad(*defects)
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
+            err, det, _ = defects[i] if T.shape[0] <= SMALL_TARGETS else (d[i] for d in defects)
             which = "the target" if not lead else f"target {batch_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
-                f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err[i]:.2g}, det {det[i]:.3g}, "
+                f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err:.2g}, det {det:.3g}, "
                 f"last row {T[i, 3].tolist()})"
             )
         return T, lead
     name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
     p = as_batch(target, (3,), name)
     return p.reshape(-1, 3), p.shape[:-1]
+
+
+def _rigid_defects(xp, t):
+    """How far pose components ``t[i][j]`` are from a rigid transform.
+
+    Returns the largest deviation of the rotation columns from orthonormal, the
+    determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``.
+    """
+    c0, c1, c2 = ((t[0][k], t[1][k], t[2][k]) for k in range(3))
+    err = xp.abs(_dot(c0, c0) - 1.0)
+    for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
+        err = xp.maximum(err, xp.abs(e))
+    last = xp.abs(t[3][3] - 1.0)
+    for e in t[3][:3]:
+        last = xp.maximum(last, xp.abs(e))
+    return err, _dot(_cross(c0, c1), c2), last
+
+
+def _is_bad(err, det, last):
+    return (err > 1e-6) | (det < 0) | (last > 1e-12)
 
 
 def batch_index(i, lead):

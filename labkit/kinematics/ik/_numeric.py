@@ -22,14 +22,14 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
-import weakref
 
 import numpy as np
 
-from labkit.kinematics import _ik_analytic, _ik_detect, _ik_lean, _ik_small
-from labkit.kinematics._chain import chain
+from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk_jacobian
-from labkit.kinematics._ik_targets import task_rows
+from labkit.kinematics.ik._registry import detect
+from labkit.kinematics.ik._solve import finish_all, solve as solve_family
+from labkit.kinematics.ik._targets import task_rows
 from labkit.rotations import wrap_angle
 
 
@@ -56,6 +56,10 @@ def _error(kind, T, target, rows):
     ang = np.arctan2(sv, cos)
     scale = np.where(sv > 1e-12, ang / np.where(sv > 1e-12, sv, 1.0), 1.0)
     full = np.concatenate([target[:, :3, 3] - T[:, :3, 3], v * scale[:, None]], axis=1)
+    if len(rows) == 6:  # the whole pose (rows 0-5 in order)
+        pos = full[:, :3]
+        o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+        return full, np.sqrt((pos * pos).sum(axis=1) + o * o)
     e = full[:, list(rows)]
     # residual: position error and 2 sin(angle/2) per orientation (robust near pi)
     pos = full[:, [r for r in rows if r < 3]] if any(r < 3 for r in rows) else np.zeros((T.shape[0], 0))
@@ -70,8 +74,32 @@ def _error(kind, T, target, rows):
     return e, np.sqrt(res2)
 
 
+class LazyGenerator:
+    """``numpy.random.default_rng(seed)``, created when first drawn from.
+
+    Creating a generator costs more than polishing one target that starts on a
+    closed-form branch, which never draws.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the generator.
+    """
+
+    def __init__(self, seed):
+        self._seed = seed
+
+    def __getattr__(self, name):
+        rng = self.__dict__.get("_generator")
+        if rng is None:
+            rng = self._generator = np.random.default_rng(self._seed)
+        return getattr(rng, name)
+
+
 def _random_q(rng, limits, size):
-    """Uniform inside the limits (infinite limits replaced by +-2 pi)."""
+    """Uniform inside the limits (infinite limits replaced by +-2 pi); no draw for ``size = 0``."""
+    if size == 0:
+        return np.empty((0, limits.shape[0]))
     lo = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -2 * np.pi)
     hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
@@ -82,8 +110,6 @@ SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
 #: largest twist-angle error snapped to a multiple of pi/2 [rad] (3 deg)
 SNAP_ALPHA = np.radians(3.0)
 
-#: per robot object: (nearest closed-form robot, its solver) or (None, None); entries die with the robot
-_NEAR = weakref.WeakKeyDictionary()
 
 
 def snapped(robot, fraction):
@@ -92,7 +118,7 @@ def snapped(robot, fraction):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm to idealise.
     fraction : float
         Lengths ``a``, ``d`` with ``|value| <= fraction * L`` become 0, where
         ``L`` is the sum of all ``|a| + |d|`` [m]; twists ``alpha`` within
@@ -117,6 +143,7 @@ def snapped(robot, fraction):
     return robot.replace(links=tuple(links)) if changed else None
 
 
+@per_robot
 def near_family(robot):
     """The closed-form solver of the nearest idealised copy of ``robot`` (cached), or ``(None, None)``.
 
@@ -138,26 +165,22 @@ def near_family(robot):
     solver : object or None
         Its analytic solver.
     """
-    cached = _NEAR.get(robot)
-    if cached is not None:
-        return cached
     result = (None, None)
     for fraction in SNAP_FRACTIONS:
         ideal = snapped(robot, fraction)
         if ideal is None:
             continue
-        found, _ = _ik_detect.detect(ideal)
+        found, _ = detect(ideal)
         if found is not None:
             result = (ideal, found)
             break
-    _NEAR[robot] = result
     return result
 
 
 def analytic_seeds(robot, kind, target, rng):
     """Ranked starting configurations from a closed-form family of the robot or of its idealised copy, or None.
 
-    When :func:`labkit.kinematics._ik_detect.detect` finds a solver for
+    When :func:`labkit.kinematics.ik._registry.detect` finds a solver for
     ``robot`` whose targets are of ``kind``, its branches that are reachable
     and inside the joint limits are the starts (so LM only polishes them).
     Otherwise the same is done with the solver of the nearest idealised copy
@@ -172,7 +195,7 @@ def analytic_seeds(robot, kind, target, rng):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        The arm to seed (with a closed form of its own, or near one).
     kind : {"position", "planar", "pose"}
         What the targets fix.
     target : ndarray, shape (N, 3) or (N, 4, 4)
@@ -187,21 +210,14 @@ def analytic_seeds(robot, kind, target, rng):
         target's last usable start (all NaN: no start, :func:`solve` draws a
         random one). None when no closed form applies.
     """
-    found, _ = _ik_detect.detect(robot)
+    found, _ = detect(robot)
     ideal = robot
     if found is None:
         ideal, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
     limits = robot.joint_limits
-    if target.shape[0] <= _ik_small.SMALL_TARGETS and _ik_small.supports(found):
-        q, reach, _ = _ik_small.solve_raw(found, target)  # plain Python: same values, no array overhead
-    else:
-        q, reach, _ = found.solve(target)
-    flipped = np.flatnonzero(ideal.flip)
-    if flipped.size:  # the solvers work in the chain's sense (theta_i = q_i + offset)
-        q[..., flipped] *= -1.0
-    q = _ik_analytic.normalize_angles(q, limits, robot.is_revolute)
+    q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
     lo, hi = limits[:, 0], limits[:, 1]
     rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
     if ideal is robot:
@@ -305,40 +321,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     Rows come in consecutive groups of ``group`` copies of one target (the
     multi-start): once a copy converges, its siblings stop iterating.
 
-    Parameters
-    ----------
-    robot : Robot
-        The arm.
-    kind : {"position", "planar", "pose"}
-        What the targets fix.
-    target : ndarray, shape (N, 3) or (N, 4, 4)
-        Targets [m, rad].
-    q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None draws random in-limit starts.
-    rows : tuple of int
-        Rows of the 6 x n Jacobian the task constrains.
-    tol : float
-        Residual at which a target counts as solved [m, rad].
-    max_iter : int
-        Levenberg-Marquardt iterations per attempt.
-    restarts : int
-        Sequential restarts, then multi-start rounds, for failing targets.
-    rng : numpy.random.Generator
-        Draws the random starts (seeded by the caller).
-    group : int
-        Size of the groups of copies of one target (1: every row its own).
-    starts : ndarray, shape (N, m, n), optional
-        Ranked starts (:func:`analytic_seeds`); attempt ``k < m`` restarts a
-        target from ``starts[:, k]`` where that is not NaN, else randomly.
-
-    Returns
-    -------
-    q : ndarray, shape (N, n)
-        Joint values [rad, m].
-    success : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    residual : ndarray, shape (N,)
-        Final task-space error norm [m, rad].
+    ``robot``, ``kind``, ``target``, ``rows``, ``tol``, ``max_iter``,
+    ``restarts`` and ``rng`` are those of :func:`solve`; ``q0`` (N, n) or None
+    (random in-limit starts); ``group`` is the size of the groups of copies of
+    one target (1: every row its own); ``starts`` (N, m, n), optional, the
+    ranked starts of :func:`analytic_seeds`: attempt ``k < m`` restarts a
+    target from ``starts[:, k]`` where that is not NaN, else randomly.
+    Returns ``(q, success, iterations, residual)`` as :func:`solve`.
     """
     N = target.shape[0]
     group_done = np.zeros(-(-N // group), dtype=bool)
@@ -358,24 +347,6 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     rev = robot.is_revolute
     free_lo = np.where(rev, -np.inf, lo)
     free_hi = np.where(rev, np.inf, hi)
-    c = chain(robot)
-
-    def lean(i, qi, lam_i, first, E_check, checked=False):
-        """Finish the current attempt of target ``i`` alone (same iteration, same bookkeeping)."""
-        qi, res_i, its, outcome = _ik_lean.attempt(
-            robot, c, kind, target[i], qi, rows, lo=alo, hi=ahi, free=free, tol=tol, max_iter=max_iter,
-            check_every=check_every, lam0=lam_i, first=first, E_check=E_check, checked=checked,
-            normalize=lambda qq: _ik_analytic.normalize_angles(qq, limits, rev),
-        )
-        iterations[i] += its
-        inside = bool(robot.within_limits(qi))
-        if outcome == "done" or (outcome == "exhausted" and res_i < tol and inside):
-            q[i], success[i], residual[i] = qi, True, res_i
-            return
-        if res_i < residual[i] and inside:
-            residual[i], best_q[i] = res_i, qi
-        if outcome == "exhausted":
-            q[i] = qi
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
@@ -397,13 +368,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
-        if act.size == 1 and group == 1:  # one target: the lean path, no batch bookkeeping
-            lean(act[0], q[act[0]], lam_near if near[act[0]] else lam0, 1, None)
-            continue
         qa = q[act]
         tg = target[act]
         T, J = fk_jacobian(robot, qa)
-        J = J[:, rows]
+        J = J if len(rows) == 6 else J[:, rows]
         e, res = _error(kind, T, tg, rows)
         lam = np.where(near[act], lam_near, lam0)
         E = 0.5 * (e * e).sum(axis=1)
@@ -412,7 +380,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             done = res < tol
             if free and np.any(done):
                 qw = qa[done]
-                qw = _ik_analytic.normalize_angles(qw, limits, rev)
+                qw = finish_all(robot, qw, flipped=False)[0]
                 inside = robot.within_limits(qw)
                 qa[np.flatnonzero(done)] = qw
                 bad = np.flatnonzero(done)[~inside]
@@ -441,9 +409,6 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 act, qa, tg, J, e, res, lam, E, E_check = (
                     x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
                 )
-                if act.size == 1 and group == 1:  # the last target finishes the attempt alone
-                    lean(act[0], qa[0], lam[0], it, E_check[0], checked=True)
-                    act = act[:0]
             if act.size == 0:
                 break
             iterations[act] += 1
@@ -457,7 +422,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
             qn = np.clip(qa + dq, alo, ahi)
             Tn, Jn = fk_jacobian(robot, qn)
-            Jn = Jn[:, rows]
+            Jn = Jn if len(rows) == 6 else Jn[:, rows]
             en, resn = _error(kind, Tn, tg, rows)
             En = 0.5 * (en * en).sum(axis=1)
             better = En < E

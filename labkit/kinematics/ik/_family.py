@@ -1,0 +1,115 @@
+"""What a closed-form IK family is (private): the protocol every family module follows.
+
+A family is a class with
+
+``name``
+    its :class:`labkit.kinematics.Solver` value (``"planar_3r"`` ...);
+``kind``
+    the target it takes: ``"position"``, ``"planar"`` or ``"pose"``;
+``branches``, ``aliases``
+    the names of its solutions, in order, and accepted other names;
+``scalar``
+    whether :meth:`Family.solve` also runs on Python floats (one target
+    without array bookkeeping); a family without it solves one target as a
+    batch of one;
+``joints``
+    how many revolute joints it needs;
+``__init__(robot, z, o, tool)``
+    reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
+    tool frame at ``q = 0``, from
+    :func:`~labkit.kinematics.ik._geometry.joint_axes`) and raises
+    :class:`~labkit.kinematics.ik._geometry.NotThisFamily` with the reason when
+    the robot lacks the structure (:meth:`Family.fits` checks the joints, reads
+    the axes and turns that into an answer);
+``solve(xp, t)``
+    every branch of the targets ``t``, in the chain's sense (flipped joints
+    not yet negated, angles not yet wrapped: :mod:`labkit.kinematics.ik._finish`
+    does that for every family).
+
+A new family is one module with such a class and one line in
+:data:`labkit.kinematics.ik._registry.FAMILIES`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+from labkit.kinematics.ik._geometry import NotThisFamily, joint_axes, need_revolute
+
+
+#: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
+ELBOWS = ("elbow_up", "elbow_down")
+ELBOW_ALIASES = {"elbow_minus": "elbow_up", "elbow_plus": "elbow_down", "up": "elbow_up", "down": "elbow_down"}
+
+
+class Family(ABC):
+    """Base of the closed-form families (see the module docstring for the protocol)."""
+
+    name = ""
+    kind = ""
+    branches = ()
+    aliases = {}
+    scalar = True
+    joints = 0
+
+    @classmethod
+    def fits(cls, robot):
+        """The family's solver for ``robot``, or why it does not fit.
+
+        Parameters
+        ----------
+        robot : Robot
+            The arm whose geometry is tried.
+
+        Returns
+        -------
+        solver : Family or None
+            The family built on the robot's geometry.
+        reason : str
+            Empty when it fits, else what the robot lacks.
+        """
+        try:
+            need_revolute(robot, cls.joints)
+            return cls(robot, *joint_axes(robot)), ""
+        except NotThisFamily as exc:
+            return None, str(exc)
+
+    @abstractmethod
+    def solve(self, xp, t):
+        """Every branch of targets ``t``.
+
+        Parameters
+        ----------
+        xp : namespace
+            :data:`~labkit.kinematics.ik._xp.NUMPY` (``t`` holds ``(N,)`` rows)
+            or :data:`~labkit.kinematics.ik._xp.FLOATS` (``t`` holds floats).
+        t : sequence
+            The target's components: ``t[i]`` for a position or planar target,
+            ``t[i][j]`` for a pose.
+
+        Returns
+        -------
+        q : list of tuple
+            Per branch, the ``n`` joint values [rad] in the chain's sense.
+        reachable : list
+            Per branch, whether it reaches the target.
+        distance : ndarray or float
+            How far the target lies out of reach [m].
+        """
+
+
+def documented(method):
+    """Give a family's method the protocol's docstring of the method of that name (a decorator).
+
+    Parameters
+    ----------
+    method : function
+        A method of a family class.
+
+    Returns
+    -------
+    function
+        ``method`` itself.
+    """
+    method.__doc__ = getattr(Family, method.__name__).__doc__
+    return method

@@ -1,0 +1,394 @@
+"""Geometry shared by the closed-form families, each formula once (private).
+
+* the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), read from
+  :func:`labkit.kinematics.fk_frames`, so every family works in the world frame
+  for either DH convention, base and tool included;
+* the cosine law of a two-link chain (:func:`cosine_law`);
+* Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
+  another (:func:`angle_about`), and subproblem 2, two rotations about
+  intersecting axes (:func:`subproblem2`);
+* Rodrigues' rotation of a vector about a constant axis (:func:`rotate`).
+
+Vectors are 3-tuples of components, each an ``(N,)`` array or a float (see
+:mod:`labkit.kinematics.ik._xp`); constant vectors (axes of the robot) are
+tuples of floats.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from labkit.kinematics._forward import fk_frames
+from labkit.robot.types import Convention
+
+#: geometric tolerance of the structure tests [m or rad]
+TOL = 1e-9
+#: slack on cosine-law arguments
+REACH_TOL = 1e-12
+
+
+class NotThisFamily(Exception):
+    """The robot does not have the structure a family needs (the reason in args)."""
+
+
+def unit(v):
+    """``v`` divided by its norm, as a float array of shape (3,).
+
+    Parameters
+    ----------
+    v : array_like, shape (3,)
+        A non-zero vector.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def floats(v):
+    """A constant vector as a tuple of Python floats.
+
+    Parameters
+    ----------
+    v : array_like, shape (3,)
+        A vector.
+
+    Returns
+    -------
+    tuple of float
+    """
+    return tuple(float(x) for x in v)
+
+
+def perpendicular(axis):
+    """A unit vector perpendicular to the unit vector ``axis`` (from the world axis least along it).
+
+    Parameters
+    ----------
+    axis : ndarray, shape (3,)
+        A unit vector.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    t = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    return unit(t - axis * (t @ axis))
+
+
+def feet(p1, d1, p2, d2):
+    """Feet of the common normal of two non-parallel lines: the closest point on each.
+
+    Parameters
+    ----------
+    p1, d1 : ndarray, shape (3,)
+        A point on line 1 [m] and its unit direction.
+    p2, d2 : ndarray, shape (3,)
+        The same for line 2.
+
+    Returns
+    -------
+    f1, f2 : ndarray, shape (3,)
+        The closest points on line 1 and on line 2 [m].
+    """
+    w = p1 - p2
+    b = d1 @ d2
+    den = 1.0 - b * b
+    t1 = (b * (d2 @ w) - (d1 @ w)) / den
+    t2 = ((d2 @ w) - b * (d1 @ w)) / den
+    return p1 + t1 * d1, p2 + t2 * d2
+
+
+def joint_axes(robot):
+    """Joint axes (unit directions) and a point on each at ``q = 0``, plus the tool frame.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm whose axes are read (from FK at ``q = 0``).
+
+    Returns
+    -------
+    z : ndarray, shape (n, 3)
+        Axis directions in the world frame.
+    o : ndarray, shape (n, 3)
+        A point on each axis [m].
+    tool : ndarray, shape (4, 4)
+        ``world_from_tool`` at ``q = 0``.
+    """
+    n = robot.n
+    F = fk_frames(robot, np.zeros(n))
+    idx = np.arange(1, n + 1) if robot.convention is Convention.MODIFIED else np.arange(0, n)
+    return F[idx, :3, 2].copy(), F[idx, :3, 3].copy(), F[n + 1]
+
+
+def length_scale(robot):
+    """A length that scales the structure tolerances [m] (at least 1).
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm measured.
+
+    Returns
+    -------
+    float
+        Sum of the absolute DH lengths and the tool offset [m], at least 1.
+    """
+    return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
+
+
+def need_revolute(robot, n):
+    """Raise :class:`NotThisFamily` unless ``robot`` has exactly ``n`` revolute joints.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm tried.
+    n : int
+        Number of joints the family needs.
+    """
+    if robot.n != n or not np.all(robot.is_revolute):
+        raise NotThisFamily(f"needs exactly {n} revolute joints")
+
+
+def need_parallel(u, v, reason):
+    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u`` and ``v`` are parallel.
+
+    Parameters
+    ----------
+    u, v : ndarray, shape (3,)
+        Two joint axes.
+    reason : str
+        What the family needs, for the message.
+    """
+    if np.linalg.norm(np.cross(u, v)) > TOL:
+        raise NotThisFamily(reason)
+
+
+def wrist_branches(shoulder):
+    """Branch names and their three-letter aliases of an 8-solution 6R arm.
+
+    Parameters
+    ----------
+    shoulder : tuple of str
+        The two shoulder names, in the family's order (e.g. ``("right", "left")``).
+
+    Returns
+    -------
+    branches : tuple of str
+        ``"<shoulder>_<up|down>_<noflip|flip>"``, shoulder slowest.
+    aliases : dict
+        ``{"run": "right_up_noflip", ...}``.
+    """
+    names = [(s, e, w) for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")]
+    return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
+
+
+# -- vectors as component tuples ------------------------------------------------------------
+
+def _dot(a, b):
+    """``a . b`` of component 3-tuples (arrays or floats)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b):
+    """``a x b`` of component 3-tuples."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+
+
+def _reject(k, v):
+    """The part of ``v`` perpendicular to the unit vector ``k``."""
+    s = k[0] * v[0] + k[1] * v[1] + k[2] * v[2]
+    return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
+
+
+def rotate(xp, k, angle, v):
+    """Rodrigues: ``v`` rotated by ``angle`` about the unit axis ``k``.
+
+    ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace of ``angle`` and ``v``.
+    k : tuple of float
+        The rotation axis (unit).
+    angle : ndarray or float
+        Rotation angle [rad].
+    v : tuple
+        3 components.
+
+    Returns
+    -------
+    tuple
+        3 components.
+    """
+    k0, k1, k2 = k
+    v0, v1, v2 = v
+    u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
+    w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
+    s, c1 = xp.sin(angle), 1.0 - xp.cos(angle)
+    return (v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2)
+
+
+def _matvec(M, v):
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples."""
+    return tuple(_dot(row, v) for row in M)
+
+
+# -- the shared subproblems -----------------------------------------------------------------
+
+def cosine_law(xp, L1, L2, x, y):
+    """A two-link chain of lengths ``L1``, ``L2`` reaching the point ``(x, y)`` of its plane.
+
+    Parameters
+    ----------
+    xp : namespace
+        :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
+    L1, L2 : float
+        Link lengths [m].
+    x, y : ndarray or float
+        The point, relative to the first joint [m].
+
+    Returns
+    -------
+    reachable : ndarray of bool or bool
+        The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
+    distance : ndarray or float
+        How far the point lies outside the annulus the chain reaches [m].
+    elbow : ndarray or float
+        The magnitude of the relative angle of link 2 [rad] (argument clipped).
+    shoulder : ndarray or float
+        The interior angle at joint 1 between the line to the point and link 1 [rad].
+    direction : ndarray or float
+        The angle of the point, ``atan2(y, x)`` [rad].
+
+    Notes
+    -----
+    The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
+    ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
+    """
+    r2 = x * x + y * y
+    r = xp.sqrt(r2)
+    cb = (r2 - L1 * L1 - L2 * L2) / (2 * L1 * L2)
+    ok = xp.abs(cb) <= 1.0 + REACH_TOL
+    distance = xp.maximum(xp.maximum(r - (L1 + L2), abs(L1 - L2) - r), 0.0)
+    cb = xp.clip(cb, -1.0, 1.0)
+    sb = xp.sqrt(1.0 - cb * cb)
+    return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
+
+
+def angle_about(xp, k, v, w):
+    """Paden-Kahan subproblem 1: the angle rotating ``v`` onto ``w`` about the constant unit axis ``k``.
+
+    Both vectors are projected perpendicular to ``k`` first (explicitly, so the
+    result keeps its precision when the projections are tiny).
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace.
+    k : tuple of float
+        Unit axis.
+    v, w : tuple
+        3 components each.
+
+    Returns
+    -------
+    ndarray or float
+        The angle [rad] in (-pi, pi].
+    """
+    vp, wp = _reject(k, v), _reject(k, w)
+    return xp.arctan2(_dot(_cross(k, vp), wp), _dot(vp, wp))
+
+
+class Subproblem2:
+    """Paden-Kahan subproblem 2: ``Rot(a4, t4) Rot(a5, t5) p = m`` for unit axes meeting in a point.
+
+    Parameters
+    ----------
+    a4, a5, p : array_like, shape (3,)
+        The two axes and the vector rotated (unit vectors, constants of the robot).
+    """
+
+    def __init__(self, a4, a5, p):
+        self.a4, self.a5, self.p = floats(a4), floats(a5), floats(p)
+        self.k12, self.a5p = float(np.dot(a4, a5)), float(np.dot(a5, p))
+        self.cr = floats(np.cross(a4, a5))
+        self.cr2 = float(np.dot(self.cr, self.cr))
+        self.c5 = floats(np.cross(a5, p))
+        self.orthogonal = abs(self.k12) < 1e-12
+
+    def solve(self, xp, m):
+        """Both solutions for the target direction ``m`` (components).
+
+        Returns
+        -------
+        list of (t4, t5)
+            The solution with ``+gamma`` then the one with ``-gamma`` [rad].
+
+        Parameters
+        ----------
+        xp : namespace
+            Array namespace.
+        m : tuple
+            3 components of the target direction (unit).
+        """
+        a4, a5, k12, a5p, cr = self.a4, self.a5, self.k12, self.a5p, self.cr
+        den = k12 * k12 - 1.0
+        a4m = _dot(a4, m)
+        alpha = (k12 * a5p - a4m) / den
+        beta = (k12 * a4m - a5p) / den
+        if self.orthogonal:
+            # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
+            # where 1 - alpha^2 - beta^2 would lose half the digits
+            c = _reject(a4, m)
+            s45 = xp.sqrt(_dot(c, c))
+            b = xp.abs(beta)
+            g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
+        else:
+            g = xp.sqrt(xp.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
+        out = []
+        for gg in (g, -g):
+            C = tuple(alpha * a4[i] + beta * a5[i] + gg * cr[i] for i in range(3))
+            t5 = xp.arctan2(_dot(self.c5, C), _dot(self.p, C) - a5p * _dot(a5, C))
+            # subproblem 1 about a4 on the explicit perpendicular parts (near the wrist singularity
+            # they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
+            out.append((angle_about(xp, a4, C, m), t5))
+        return out
+
+
+def rotation_matrices(axis, angle):
+    """Rotation matrices about a constant unit axis, ``angle (N,) -> (N, 3, 3)`` (numpy).
+
+    Parameters
+    ----------
+    axis : sequence of float
+        Unit axis (3,).
+    angle : ndarray, shape (N,)
+        Angles [rad].
+
+    Returns
+    -------
+    ndarray, shape (N, 3, 3)
+    """
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    C = 1.0 - c
+    R = np.empty(np.shape(angle) + (3, 3))
+    R[..., 0, 0] = c + x * x * C
+    R[..., 0, 1] = x * y * C - z * s
+    R[..., 0, 2] = x * z * C + y * s
+    R[..., 1, 0] = y * x * C + z * s
+    R[..., 1, 1] = c + y * y * C
+    R[..., 1, 2] = y * z * C - x * s
+    R[..., 2, 0] = z * x * C - y * s
+    R[..., 2, 1] = z * y * C + x * s
+    R[..., 2, 2] = c + z * z * C
+    return R

@@ -1,0 +1,61 @@
+"""Closed-form IK family ``planar_2r`` (private).
+
+Two revolute joints with parallel axes (either direction, any orientation in
+the world) and a tool point off axis 2. Target: tool position ``(x, y, z)``;
+the point must lie in the arm's plane (its height along axis 1 is fixed),
+otherwise it is unreachable by the height difference. Branches ``elbow_up``
+(relative elbow angle negative about axis 1, as ``planar_3r``) and
+``elbow_down``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics.ik._geometry import (
+    TOL, NotThisFamily, _dot, cosine_law, floats, length_scale, need_parallel,
+    perpendicular, unit,
+)
+
+
+class Planar2R(Family):
+    """Closed-form position IK of a planar 2R arm: both elbow branches."""
+
+    name = "planar_2r"
+    kind = "position"
+    joints = 2
+    branches = ELBOWS
+    aliases = ELBOW_ALIASES
+
+    def __init__(self, robot, z, o, tool):
+        a1, a2 = unit(z[0]), unit(z[1])
+        need_parallel(a1, a2, "axes 1 and 2 must be parallel")
+        scale = length_scale(robot)
+        u = perpendicular(a1)
+        v = np.cross(a1, u)
+        self.n, self.u, self.v, self.O = floats(a1), floats(u), floats(v), floats(o[0])
+        self.s2 = 1.0 if a1 @ a2 > 0 else -1.0
+        self.h = float(a1 @ (tool[:3, 3] - o[0]))  # height of the tool point along axis 1 (constant)
+        e, f = o[1] - o[0], tool[:3, 3] - o[1]
+        ex, ey, fx, fy = e @ u, e @ v, f @ u, f @ v
+        self.L1, self.L2 = math.hypot(ex, ey), math.hypot(fx, fy)
+        if self.L1 < TOL * scale or self.L2 < TOL * scale:
+            raise NotThisFamily("axis 2 must be away from axis 1 and the tool point away from axis 2")
+        self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
+        self.height_tol = 1e-9 * scale
+
+    @documented
+    def solve(self, xp, t):
+        d = tuple(t[k] - self.O[k] for k in range(3))
+        dz = _dot(self.n, d) - self.h
+        ok, in_plane, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, _dot(self.u, d), _dot(self.v, d))
+        off_plane = xp.abs(dz) > self.height_tol
+        distance = xp.hypot(in_plane, xp.where(off_plane, dz, 0.0))
+        ok = ok & xp.logical_not(off_plane)
+        q = []
+        for sign in (-1.0, 1.0):  # elbow up: relative angle < 0
+            q.append((direction - sign * shoulder - self.g1, self.s2 * (sign * elbow - (self.g2 - self.g1))))
+        return q, [ok, ok], distance

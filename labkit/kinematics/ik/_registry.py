@@ -1,0 +1,66 @@
+"""The one ordered registry of closed-form IK families (private).
+
+A robot's family is the first of :data:`FAMILIES` that fits its geometry (joint
+axes at ``q = 0``), cached per robot object in a keyed cache (``Robot`` stays
+plain frozen data). Adding a family: one module with a
+:class:`~labkit.kinematics.ik._family.Family` subclass and one line here; the
+``Solver`` enum of :mod:`labkit.kinematics` is built from this tuple.
+"""
+
+from __future__ import annotations
+
+from labkit.kinematics._chain import per_robot
+from labkit.kinematics.ik._planar_2r import Planar2R
+from labkit.kinematics.ik._planar_3r import Planar3R
+from labkit.kinematics.ik._spherical_wrist import SphericalWrist
+from labkit.kinematics.ik._three_parallel import ThreeParallel
+from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
+from labkit.kinematics.ik._yaw_pitch_pitch_pitch import YawPitchPitchPitch
+
+#: the families, in the order they are tried
+FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, SphericalWrist, ThreeParallel)
+
+_BY_NAME = {f.name: f for f in FAMILIES}
+
+@per_robot
+def detect(robot):
+    """The closed-form solver for ``robot`` (the first family that fits) or None, cached per robot.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm whose geometry is inspected.
+
+    Returns
+    -------
+    solver : Family or None
+        The family built on the robot.
+    reasons : dict
+        For every family tried before, why it does not fit.
+    """
+    reasons, found = {}, None
+    for family in FAMILIES:
+        found, why = family.fits(robot)
+        if found is not None:
+            break
+        reasons[family.name] = why
+    return found, reasons
+
+
+def build(robot, name):
+    """The family ``name`` on ``robot``, or why it does not fit.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    name : str
+        A family name (``FAMILIES[k].name``).
+
+    Returns
+    -------
+    solver : Family or None
+    reason : str
+        Empty when it fits.
+    """
+    return _BY_NAME[name].fits(robot)

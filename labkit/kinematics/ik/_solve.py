@@ -1,0 +1,185 @@
+"""Running a closed-form family on targets, and the one finishing step (private).
+
+:func:`solve` runs a family's formulas on the validated targets: a few targets
+of a family with ``scalar = True`` on Python floats
+(:data:`~labkit.kinematics.ik._xp.FLOATS`), anything else on numpy rows in
+cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
+joint value then goes through :func:`finish`: flipped joints negated, revolute
+angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
+shifted by a turn where that enters the limits, and the limit test.
+
+No NaN ever leaves: where a branch cannot reach a target its ``reachable``
+flag is False and its ``q`` holds the finite configuration obtained by
+clipping the cosine-law arguments to [-1, 1] (the arm stretched or folded
+towards the target), a fill, not a solution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.kinematics._chain import per_robot
+from labkit.kinematics.ik import _targets
+from labkit.kinematics.ik._xp import FLOATS, NUMPY
+from labkit.rotations import wrap_angle
+
+#: targets per numpy call of a family
+_CHUNK = 8192
+#: one turn [rad]
+_TURN = 2 * math.pi
+#: slack of the limit test [rad, m] (as ``Robot.within_limits``)
+_SLACK = 1e-9
+
+
+@per_robot
+def joints(robot):
+    """Per joint what :func:`finish` needs (cached per robot object).
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm whose links are read.
+
+    Returns
+    -------
+    tuple of tuple
+        ``(revolute, flip, lower, upper, turn_up, turn_down)`` per joint: the limits
+        with the slack of the limit test [rad, m], and whether a turn up or down
+        can enter them.
+    """
+    out = []
+    for lk in robot.links:
+        lo, hi = float(lk.limits[0]), float(lk.limits[1])
+        # a value in (-pi, pi] below the limits may enter them one turn up, or one turn down above them
+        # (pi itself, when the range starts at -pi)
+        out.append((lk.is_revolute, lk.flip, lo - _SLACK, hi + _SLACK, hi > math.pi, lo < -math.pi + _SLACK))
+    return tuple(out)
+
+
+def finish(xp, v, joint):
+    """One joint's values from a family, as the robot's joint values, and whether they are in the limits.
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace of ``v``.
+    v : ndarray or float
+        Joint values in the chain's sense [rad, m].
+    joint : tuple
+        One joint's entry of :func:`joints`.
+
+    Returns
+    -------
+    v : ndarray or float
+        Negated for a flipped joint; for a revolute one wrapped into (-pi, pi],
+        then a turn up or down where that enters the limits; non-finite
+        values replaced by 0.
+    inside : ndarray of bool or bool
+        Inside the limits (slack 1e-9).
+    """
+    rev, flip, lo, hi, turn_up, turn_down = joint
+    if flip:
+        v = -v
+    if rev:
+        v = wrap_angle(v)
+        if turn_up:
+            up = v + _TURN
+            v = xp.where((v < lo) & (up <= hi), up, v)
+        if turn_down:
+            dn = v - _TURN
+            v = xp.where((v > hi) & (dn >= lo), dn, v)
+    if xp.batch:  # (the float formulas raise rather than return NaN)
+        v = xp.where(xp.isfinite(v), v, 0.0)
+    return v, (v >= lo) & (v <= hi)
+
+
+def finish_all(robot, q, *, flipped=True):
+    """:func:`finish` on every joint of ``q`` (..., n): a new array and the in-limits flags (...).
+
+    ``flipped=False`` for joint values that are already the robot's (numeric IK): wrap and limits only.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    q : array_like, shape (..., n)
+        Joint values [rad, m].
+    flipped : bool
+        Negate flipped joints (values in the chain's sense).
+
+    Returns
+    -------
+    q : ndarray, shape (..., n)
+        Finished joint values [rad, m].
+    inside : ndarray of bool, shape (...)
+        Inside the joint limits.
+    """
+    q = np.array(q, dtype=float)
+    inside = np.ones(q.shape[:-1], dtype=bool)
+    for j, (rev, flip, *rest) in enumerate(joints(robot)):
+        q[..., j], ok = finish(NUMPY, q[..., j], (rev, flip and flipped, *rest))
+        inside &= ok
+    return q, inside
+
+
+def solve(robot, family, flat):
+    """Every branch of validated targets, finished.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    family : Family
+        Its closed-form solver.
+    flat : ndarray, shape (N, 3) or (N, 4, 4)
+        Validated targets (:func:`labkit.kinematics.ik._targets.validate_targets`).
+
+    Returns
+    -------
+    q : ndarray, shape (N, m, n)
+        Joint values [rad, m] per branch (unreachable: a finite fill).
+    reachable : ndarray of bool, shape (N, m)
+    valid : ndarray of bool, shape (N, m)
+        Reachable and inside the joint limits.
+    distance : ndarray, shape (N,)
+        How far each target lies out of reach [m] (0 if any branch reaches it).
+    """
+    N, m, n = flat.shape[0], len(family.branches), robot.n
+    js = joints(robot)
+    if family.scalar and N <= _targets.SMALL_TARGETS:
+        Q, R, V, D = [], [], [], []
+        for t in flat.tolist():
+            qb, rb, d = family.solve(FLOATS, t)
+            rows, valid, done = [], [], {}
+            for branch, ok in zip(qb, rb):
+                row = []
+                for j, v in enumerate(branch):
+                    key = (j, id(v))  # branches share joint values (q1 of a shoulder side ...): finish each once
+                    fin = done.get(key)
+                    if fin is None:
+                        fin = done[key] = finish(FLOATS, v, js[j])
+                    row.append(fin[0])
+                    ok = ok and fin[1]
+                rows.append(row)
+                valid.append(ok)
+            Q.append(rows)
+            R.append(rb)
+            V.append(valid)
+            D.append(0.0 if any(rb) else d)
+        return np.array(Q), np.array(R, dtype=bool), np.array(V, dtype=bool), np.array(D, dtype=float)
+    q = np.empty((N, m, n))
+    reach = np.empty((N, m), dtype=bool)
+    distance = np.empty(N)
+    for s in range(0, N, _CHUNK):
+        part = flat[s:s + _CHUNK]
+        qb, rb, d = family.solve(NUMPY, np.ascontiguousarray(np.moveaxis(part, 0, -1)))
+        for k, (branch, ok) in enumerate(zip(qb, rb)):
+            for j, v in enumerate(branch):
+                q[s:s + _CHUNK, k, j] = v
+            reach[s:s + _CHUNK, k] = ok
+        distance[s:s + _CHUNK] = d
+    q, inside = finish_all(robot, q)
+    distance[reach.any(axis=1)] = 0.0
+    return q, reach, reach & inside, distance

@@ -1,0 +1,92 @@
+"""Closed-form IK family ``spherical_wrist`` (private).
+
+Six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` (with or without a
+shoulder offset: PUMA 560/600, IRB140, KR5) and axes 4, 5, 6 meeting in one
+point (the wrist centre), 4 not parallel to 5 and 5 not parallel to 6.
+Target: tool pose. Joints 1-3 place the wrist centre
+(:class:`~labkit.kinematics.ik._yaw_pitch_pitch.Arm`), joints 4-6 are a
+Paden-Kahan subproblem 2 and a subproblem 1. Eight branches
+``{right|left}_{up|down}_{noflip|flip}`` ("no flip" as roboticstoolbox-python:
+``sign(q5) = -sign(alpha_4)``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.kinematics.ik._family import Family, documented
+from labkit.kinematics.ik._geometry import (
+    TOL, NotThisFamily, Subproblem2, angle_about, _dot, floats, length_scale, _matvec,
+    perpendicular, rotate, unit, wrist_branches,
+)
+from labkit.kinematics.ik._yaw_pitch_pitch import Arm
+from labkit.robot.types import Convention
+
+
+class SphericalWrist(Family):
+    """Closed-form pose IK of a 6R arm with a spherical wrist: all 8 solutions."""
+
+    name = "spherical_wrist"
+    kind = "pose"
+    joints = 6
+
+    def __init__(self, robot, z, o, tool):
+        a4, a5, a6 = (unit(v) for v in z[3:])
+        if np.linalg.norm(np.cross(a4, a5)) < 1e-6 or np.linalg.norm(np.cross(a5, a6)) < 1e-6:
+            raise NotThisFamily("wrist axes 4-5 and 5-6 must not be parallel")
+        # wrist centre: least-squares intersection of axes 4, 5, 6
+        A, b = np.zeros((3, 3)), np.zeros(3)
+        for d, p in zip((a4, a5, a6), o[3:]):
+            P = np.eye(3) - np.outer(d, d)
+            A += P
+            b += P @ p
+        C = np.linalg.solve(A, b)
+        scale = length_scale(robot)
+        for d, p in zip((a4, a5, a6), o[3:]):
+            if np.linalg.norm(np.cross(C - p, d)) > TOL * scale:
+                raise NotThisFamily("wrist axes 4, 5, 6 do not meet in one point")
+        self.arm = Arm(robot, z, o, C)
+        self.a4, self.a5, self.a6 = floats(a4), floats(a5), floats(a6)
+        self.R0 = [floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
+        self.w_tool = floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
+        self.x6 = floats(perpendicular(a6))  # perpendicular to axis 6, to recover q6
+        self.wrist = Subproblem2(a4, a5, a6)
+        # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
+        alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
+        self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
+        self.branches, self.aliases = wrist_branches(("right", "left"))
+
+    @documented
+    def solve(self, xp, t):
+        R = [t[i][:3] for i in range(3)]
+        W = tuple(t[i][3] + _dot(self.w_tool, R[i]) for i in range(3))
+        arm_q, arm_ok, distance = self.arm.solve(xp, W)
+        # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
+        RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
+        m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
+        a1, a2, a4, a5, a6 = self.arm.a1, self.arm.a2, self.a4, self.a5, self.a6
+
+        def wrist(q1, q23, m0, m1, m2, x0, x1, x2):
+            """Joints 4-6 (noflip, then flip) for one arm branch."""
+            m6, MX = ((m0, m1, m2), (x0, x1, x2))
+            m6, MX = rotate(xp, a1, -q1, m6), rotate(xp, a1, -q1, MX)  # undo joint 1
+            m6, MX = rotate(xp, a2, -q23, m6), rotate(xp, a2, -q23, MX)  # undo joints 2 and 3
+            out = []
+            for t4, t5 in self.wrist.solve(xp, m6):
+                Y = rotate(xp, a5, -t5, rotate(xp, a4, -t4, MX))
+                out.append((t4, t5, angle_about(xp, a6, self.x6, Y)))
+            (p4, p5, p6), (n4, n5, n6) = out
+            swap = (xp.sin(p5) * self.noflip_sign) < 0  # noflip first
+            keep = xp.logical_not(swap)
+            return (xp.where(swap, n4, p4), xp.where(swap, n5, p5), xp.where(swap, n6, p6),
+                    xp.where(keep, n4, p4), xp.where(keep, n5, p5), xp.where(keep, n6, p6))
+
+        # the four arm branches at once (one call on numpy rows four times as long)
+        wrists = xp.per_branch(wrist, [(q1, q2 + self.arm.s3 * q3) for q1, q2, q3 in arm_q], (*m, *mx))
+        q, reach = [], []
+        for (q1, q2, q3), w, ok in zip(arm_q, wrists, arm_ok):
+            q += [(q1, q2, q3, *w[:3]), (q1, q2, q3, *w[3:])]
+            reach += [ok, ok]
+        return q, reach, distance

@@ -1,0 +1,148 @@
+"""Closed-form IK family ``yaw_pitch_pitch`` and the arm geometry it shares (private).
+
+Three revolute joints: axis 1, axis 2 perpendicular to axis 1 and either
+intersecting it or offset from it along their common normal (a *shoulder
+offset*, ``a_1`` of IRB140 / KR5 arms), axis 3 parallel to axis 2; the tool
+point may lie off the arm plane by a constant lateral offset. Target: tool
+position. :class:`Arm` (joints 1-3 placing a point) is also the first half of
+``yaw_pitch_pitch_pitch`` and ``spherical_wrist``.
+
+Branch naming (geometric, so it does not depend on sign conventions):
+*elbow up* is the branch whose elbow lies on the "up" side of the line from
+the shoulder to the wrist centre (tool point). "Up" is the side of the
+shoulder's horizontal plane (perpendicular to axis 1) that the elbow points to
+at the middle of joint 2's range (the side the arm works on); if that is
+ambiguous (elbow within 0.2 L1 of the plane) it is ``+axis 1``. For the
+Arduino arm of seed 000 (frame 0 ``z`` points down, servos 0-180 deg) this is
+``-z0`` and reproduces the seed's elbow-up formula; for the PUMAs it is
+``+z0``. With a shoulder offset the front and back arm solutions reach
+differently far: ``reachable`` is per branch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.kinematics.ik._family import Family, documented
+from labkit.kinematics.ik._geometry import (
+    REACH_TOL, TOL, NotThisFamily, _dot, cosine_law, feet, floats, length_scale, need_parallel, unit,
+)
+
+
+class Arm:
+    """Geometry of joints 1-3: base yaw, two parallel pitch axes, a point ``W`` they place.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm (for its joint 2 limits).
+    z, o : ndarray, shape (n, 3)
+        Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
+    W0 : ndarray, shape (3,)
+        The point placed (tool point, wrist centre), at ``q = 0`` [m].
+
+    Raises
+    ------
+    NotThisFamily
+        Axes 1-3 are not yaw-pitch-pitch.
+    """
+
+    def __init__(self, robot, z, o, W0):
+        a1, a2, a3 = (unit(v) for v in z[:3])
+        if abs(a1 @ a2) > TOL:
+            raise NotThisFamily("axis 2 must be perpendicular to axis 1")
+        need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
+        scale = length_scale(robot)
+        er = np.cross(a2, a1)
+        # the shoulder: foot of the common normal of axes 1 and 2 on axis 2, at the radial
+        # distance Sr from axis 1 (the shoulder offset a_1 of IRB140 / KR5 arms; 0 for a PUMA)
+        S1, S2 = feet(o[0], a1, o[1], a2)
+        self.S = floats(S1)
+        self.Sr = float((S2 - S1) @ er)
+        self.s3 = 1.0 if a3 @ a2 > 0 else -1.0
+        E = o[2] - S2
+        Er, Ev = E @ er, E @ a1
+        Wd = W0 - S1
+        Wr, Wv = Wd @ er, Wd @ a1
+        self.off = float(Wd @ a2)
+        self.L1 = float(math.hypot(Er, Ev))
+        self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
+        if self.L1 < TOL * scale or self.L2 < TOL * scale:
+            raise NotThisFamily("the elbow must be away from the shoulder and the wrist")
+        self.g1 = math.atan2(Ev, Er)
+        self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
+        # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
+        self.front = -1.0 if Wr < -TOL * scale else 1.0
+        lim = robot.joint_limits[1]
+        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+        if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
+            mid = -mid
+        self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
+        self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
+
+    def solve(self, xp, W):
+        """Joints 1-3 placing ``W`` (components), four branches.
+
+        Returns
+        -------
+        q : list of tuple
+            ``(q1, q2, q3)`` [rad] per branch: front elbow up, front elbow down,
+            back elbow up, back elbow down.
+        reachable : list
+            Per branch.
+        distance : ndarray or float
+            How far ``W`` lies out of reach [m].
+
+        Parameters
+        ----------
+        xp : namespace
+            Array namespace.
+        W : tuple
+            3 components of the point to place [m].
+        """
+        d = tuple(W[k] - self.S[k] for k in range(3))
+        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
+        off = self.off
+        rho2 = hr * hr + hn * hn
+        u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
+        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
+        lateral = xp.maximum(abs(off) - xp.sqrt(rho2), 0.0)
+        az = xp.arctan2(hn, hr)
+        up_pos = self.up > 0
+        q, reach, distance = [], [], None
+        for side in (self.front, -self.front):
+            u = side * u0
+            ur = u - self.Sr  # radial coordinate of W seen from the shoulder
+            ok, dist, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, ur, w)
+            ok = shoulder_ok & ok
+            dist = xp.maximum(dist, lateral)
+            distance = dist if distance is None else xp.minimum(distance, dist)
+            q1 = az - xp.arctan2(off, u)
+            # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
+            forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
+            # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
+            neg = forward == up_pos
+            for below in (False, True):
+                sign = xp.where(xp.logical_not(neg) if below else neg, -1.0, 1.0)
+                q.append((q1, self.g1 - (direction - sign * shoulder), self.s3 * (self.g2 - self.g1 - sign * elbow)))
+                reach.append(ok)
+        return q, reach, distance
+
+
+class YawPitchPitch(Family):
+    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm)."""
+
+    name = "yaw_pitch_pitch"
+    kind = "position"
+    joints = 3
+    branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
+    aliases = {"up": "elbow_up", "down": "elbow_down"}
+
+    def __init__(self, robot, z, o, tool):
+        self.arm = Arm(robot, z, o, tool[:3, 3])
+
+    @documented
+    def solve(self, xp, t):
+        return self.arm.solve(xp, t)
