@@ -30,6 +30,10 @@ from labkit.arm._protocol import (
 
 __all__ = ["LinkStats"]
 
+#: largest read of one :meth:`Wire.pump` [bytes] and most reads of one :meth:`Wire._drain`
+_READ_CHUNK = 4096
+_DRAIN_READS = 16
+
 
 class _NoReply(DeviceError):
     """No usable reply to one attempt (raised and caught inside :meth:`Wire.transact`)."""
@@ -191,7 +195,8 @@ class Wire:
             raise DeviceError("the link is closed")
         port.timeout = max(self._port_seconds(timeout), 0.0)
         waiting = self.io(lambda: port.in_waiting)
-        chunk = self.io(port.read, max(1, waiting))
+        # at most _READ_CHUNK bytes: a board flooding the line is read in bounded steps between deadline checks
+        chunk = self.io(port.read, min(max(1, waiting), _READ_CHUNK))
         if not chunk:
             return False
         self._buf += chunk
@@ -268,6 +273,16 @@ class Wire:
         self._seq = (self._seq % 65535) + 1
         return self._seq
 
+    def follow(self, seq):
+        """Number the next requests after ``seq`` (the board's ``STATUS last=``) and after those already sent.
+
+        Parameters
+        ----------
+        seq : int
+            The last ``#seq`` the board executed (0..65535).
+        """
+        self._seq = max(self._seq, int(seq) % 65535)
+
     def _await(self, seq):
         deadline = self.clock() + self.timeout
         while True:
@@ -287,8 +302,15 @@ class Wire:
             self.pump(left)
 
     def _drain(self):
-        """Handle every line already received; forget unanswered replies (stale by now)."""
-        while self.io(lambda: self.port.in_waiting):
+        """Handle the lines already received; forget unanswered replies (stale by now).
+
+        Bounded: at most ``_DRAIN_READS`` reads, so a board that never stops sending (a flood
+        of bytes faster than they are read) cannot hold the host here; what is left is read by
+        the next wait, which has a deadline.
+        """
+        for _ in range(_DRAIN_READS):
+            if not self.io(lambda: self.port.in_waiting):
+                break
             self.pump(0.0)
         self._lines.clear()
 
@@ -387,10 +409,12 @@ class Wire:
         expected_echo = echo(command, args) if state_changing else None
         last = None
         retries = self.retries if retries is None else retries
+        # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
+        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay
+        seq = self._next_seq()
+        body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
         for attempt in range(retries + 1):
             self._drain()
-            seq = self._next_seq()
-            body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
             self._send(("\n" if attempt else "") + seal(body) + "\n")
             try:
                 reply = self._await(seq)
