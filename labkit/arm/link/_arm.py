@@ -373,13 +373,22 @@ class Arm:
         """
         q = self._check_q(q)
         target = [cdeg(v) for v in q]
-        now = [cdeg(v) for v in self._verify_status()[0].q]
+        before = self._verify_status()[0]
+        now = [cdeg(v) for v in before.q]
         if duration is None:
             dur = move_duration_ms(now, target, *self.speed_limits())
         else:
             dur = int(round(finite("duration", duration, lo=0.001, hi=60.0, unit="s") * 1000))
             check_segment_speeds(self.robot, [move_segment(now, target, dur)], *self.speed_limits())
         self._transact("MOVE", *target, dur, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        # first let most of the move pass (a STATUS costs a long reply, often resent on a noisy line), in steps
+        # that feed the host-silence timer (a STATUS at least every 40 % of it), then poll for its end
+        step = dur / 1000.0 if not before.timeout else min(dur / 1000.0, 0.4 * before.timeout)
+        end = self._wire.clock() + 0.9 * dur / 1000.0
+        while (left := end - self._wire.clock()) > 0:
+            self.sleep(min(left, step))
+            if left > step:
+                self._verify_status()
         while (st := self._verify_status()[0]).state == "RUN":  # STATUS also feeds the host-silence timer
             self.sleep(min(0.05, dur / 1000.0))
         if st.state == "HOLD":

@@ -33,6 +33,8 @@ __all__ = ["LinkStats"]
 #: largest read of one :meth:`Wire.pump` [bytes] and most reads of one :meth:`Wire._drain`
 _READ_CHUNK = 4096
 _DRAIN_READS = 16
+#: how long a reply is still awaited after a damaged line arrived [s]: the wire time of a longest line at 115200 baud
+_AFTER_BAD_LINE = (MAX_LINE + 2) * 10 / 115200
 
 
 class _NoReply(DeviceError):
@@ -285,7 +287,13 @@ class Wire:
 
     def _await(self, seq):
         deadline = self.clock() + self.timeout
+        bad = self.stats.bad_lines
         while True:
+            if self.stats.bad_lines > bad:
+                # a damaged line came, most likely the reply (the board sends exactly one per request): wait
+                # only as long as a reply behind it would need, then resend (a resent request never runs twice)
+                bad = self.stats.bad_lines
+                deadline = min(deadline, self.clock() + _AFTER_BAD_LINE)
             for k, ln in enumerate(self._lines):
                 if ln.seq == seq or (ln.kind == "ERR" and ln.seq is None):
                     del self._lines[k]
