@@ -209,8 +209,8 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
         if sdot * T <= 1.0:
             need = float(np.max(D[moving] / vm[moving]))
             raise TrajectoryError(
-                f"v_max too low for an LSPB move in {T:.6g} s: the move needs a cruise speed above "
-                f"distance/T; with this v_max the minimum duration is above {need:.6g} s"
+                f"v_max too low for an LSPB move in {T:.6g} s: expected a cruise speed above "
+                f"distance/T, got v_max {v_max!r}; with this v_max the minimum duration is above {need:.6g} s"
             )
         if sdot * T > 2.0:  # v_max higher than needed: triangular profile
             return T / 2
@@ -225,7 +225,8 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
         if disc < 0:
             need = 2 * math.sqrt(1.0 / sdd)
             raise TrajectoryError(
-                f"a_max too low for an LSPB move in {T:.6g} s: minimum duration {need:.6g} s"
+                f"a_max too low for an LSPB move in {T:.6g} s: expected a_max >= {4 / T**2:.6g} x distance, "
+                f"got {a_max!r} (minimum duration {need:.6g} s)"
             )
         return T / 2 - math.sqrt(disc) / (2 * sdd)
     return T / 3  # default: cruise at 1.5 x the mean speed
