@@ -11,7 +11,8 @@ import argparse
 import math
 import re
 
-__all__ = ["positive_float", "positive_int", "port_number", "scheduler_url", "finite_float", "OneLineErrors"]
+__all__ = ["positive_float", "positive_int", "port_number", "scheduler_url", "finite_float", "bounded_float",
+           "OneLineErrors"]
 
 
 def _number(text, kind=float):
@@ -23,7 +24,22 @@ def _number(text, kind=float):
 
 
 def finite_float(text):
-    """A finite number (not nan or inf)."""
+    """A finite number (not nan or inf).
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Saying what was expected and what was typed.
+    """
     v = _number(text)
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
@@ -31,7 +47,22 @@ def finite_float(text):
 
 
 def positive_float(text):
-    """A finite number > 0."""
+    """A finite number > 0.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Saying what was expected and what was typed.
+    """
     v = finite_float(text)
     if v <= 0:
         raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
@@ -39,7 +70,20 @@ def positive_float(text):
 
 
 def bounded_float(lo, hi, unit=""):
-    """An argparse type for a finite number within ``lo..hi`` (inclusive) [unit]."""
+    """An argparse type for a finite number within ``lo..hi`` (inclusive).
+
+    Parameters
+    ----------
+    lo, hi : float
+        Smallest and largest accepted value [unit].
+    unit : str
+        Unit named in the error message.
+
+    Returns
+    -------
+    callable
+        ``parse(text) -> float``, raising :class:`argparse.ArgumentTypeError`.
+    """
     def parse(text):
         v = finite_float(text)
         if not lo <= v <= hi:
@@ -51,7 +95,22 @@ def bounded_float(lo, hi, unit=""):
 
 
 def positive_int(text):
-    """A whole number >= 1."""
+    """A whole number >= 1.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Saying what was expected and what was typed.
+    """
     v = _number(text, int)
     if v < 1:
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
@@ -59,7 +118,22 @@ def positive_int(text):
 
 
 def port_number(text):
-    """A TCP port 1..65535."""
+    """A TCP port 1..65535.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Saying what was expected and what was typed.
+    """
     v = _number(text, int)
     if not 1 <= v <= 65535:
         raise argparse.ArgumentTypeError(f"expected a TCP port 1..65535, got {text!r}")
@@ -70,7 +144,22 @@ _SCHEDULER = re.compile(r"^(tcp|tls|ucx|inproc)://[^\s/:]+(:\d{1,5})?/?$")
 
 
 def scheduler_url(text):
-    """A dask.distributed scheduler address ``tcp://HOST:PORT``."""
+    """A dask.distributed scheduler address ``tcp://HOST:PORT``.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Saying what was expected and what was typed.
+    """
     if not _SCHEDULER.match(text):
         raise argparse.ArgumentTypeError(f"expected a scheduler address like tcp://HOST:PORT, got {text!r}")
     return text
