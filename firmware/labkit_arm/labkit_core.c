@@ -208,10 +208,9 @@ static int16_t get16(const uint8_t *b) { return (int16_t)(b[0] | ((uint16_t)b[1]
 /* The image's fields in order (docs/protocol.md 6): a calibration's pmin pmax zero dir lo hi, then vmax amax per
    joint, then the timeout, each little-endian like the integers of both targets (the ATmega328P and the x86/ARM
    hosts of the tests), so one walk copies them either way: to the image (save) or from it (load) */
-#include <stddef.h>
+#define LK_OFF(f) ((uint8_t)__builtin_offsetof(lk_cal_t, f)) /* gcc, avr-gcc and clang; no <stddef.h> needed */
 static const uint8_t cal_field[] LK_FLASH = {
-    offsetof(lk_cal_t, pmin), 2, offsetof(lk_cal_t, pmax), 2, offsetof(lk_cal_t, zero), 2,
-    offsetof(lk_cal_t, dir), 1, offsetof(lk_cal_t, lo), 2, offsetof(lk_cal_t, hi), 2};
+    LK_OFF(pmin), 2, LK_OFF(pmax), 2, LK_OFF(zero), 2, LK_OFF(dir), 1, LK_OFF(lo), 2, LK_OFF(hi), 2};
 static uint8_t *ee_copy(uint8_t *p, void *v, uint8_t n, uint8_t save) {
     if (save) memcpy(p, v, n); else memcpy(v, p, n);
     return p + n;
