@@ -72,7 +72,7 @@ def main(argv=None):
         _fail(args, f"{where}{exc.strerror or exc} (expected a readable input and a writable output path)")
         return 2
     except (ValueError, UnicodeError) as exc:  # an input file that is not what it should be (e.g. not JSON)
-        _fail(args, f"{type(exc).__name__}: {exc}")
+        _fail(args, f"{type(exc).__name__}: {exc} (expected well-formed input files and option values)")
         return 2
     except Exception as exc:  # noqa: BLE001 - never a traceback for a user; LABKIT_DEBUG=1 shows it
         import os

@@ -369,7 +369,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
                                   f"trajectory never leaves q0), got {duration!r}")
     if duration is None:
         if robot is None:
-            raise TrajectoryError("expected a duration, or a robot whose joints have max_velocity/max_acceleration; got neither")
+            raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration: expected one of them, got neither")
         v, a = _robot_bounds(robot)
         kind = law if isinstance(law, str) else LawKind(law).value
         T = minimum_duration(qf - q0, v_max=v, a_max=a, kind=kind)
