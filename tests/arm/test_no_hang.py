@@ -117,3 +117,37 @@ def test_a_simavr_port_left_open_exits_cleanly(how):
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0 and "Fatal Python error" not in proc.stderr, (proc.returncode, proc.stderr[-2000:])
     assert proc.stdout.strip() == "done"
+
+
+BAD = [float("nan"), float("inf"), -1.0, 1e308, "x", None, [1.0, 2.0], True]
+
+
+@pytest.fixture(scope="module")
+def sim_arm():
+    with Arm("sim://?clock=lockstep", timeout=0.02) as arm:
+        yield arm
+
+
+@pytest.mark.parametrize("value", BAD, ids=repr)
+@pytest.mark.parametrize("call", ["sleep", "wait_settled tol", "wait_settled max_wait", "Arm timeout", "Arm retries",
+                                  "Arm boot_wait", "grip", "set_host_timeout", "move_joints"])
+def test_bad_arm_arguments_are_labkit_errors_and_never_wait_forever(sim_arm, call, value):
+    from labkit.exceptions import LabkitError  # noqa: F401 - caught below
+
+    run = {
+        "sleep": lambda: sim_arm.sleep(value),
+        "wait_settled tol": lambda: sim_arm.wait_settled(sim_arm.commanded_joints(), tol=value, max_wait=0.1),
+        "wait_settled max_wait": lambda: sim_arm.wait_settled(sim_arm.commanded_joints(), max_wait=value),
+        "Arm timeout": lambda: Arm("sim://?clock=lockstep", timeout=value).close(),
+        "Arm retries": lambda: Arm("sim://?clock=lockstep", retries=value).close(),
+        "Arm boot_wait": lambda: Arm("sim://?clock=lockstep", boot_wait=value).close(),
+        "grip": lambda: sim_arm.grip(value),
+        "set_host_timeout": lambda: sim_arm.set_host_timeout(value),
+        "move_joints": lambda: sim_arm.move_joints([value, 1.0, 1.0]),
+    }[call]
+    t0 = time.monotonic()
+    try:  # a value that makes sense (a huge tolerance, True as 1 rad) may be accepted; nothing else may come
+        run()
+    except LabkitError:
+        pass
+    assert time.monotonic() - t0 < 30
