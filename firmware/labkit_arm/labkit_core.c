@@ -38,6 +38,7 @@
 static uint16_t g_cs;   /* running CRC-16 of the board line being written */
 static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-changing requests) */
 static uint16_t g_echo;
+static uint16_t g_field; /* the one integer field of the OK reply being written (ok_int), or LK_NO_FIELD */
 
 static LK_NOINLINE uint16_t crc_step(uint16_t crc, uint8_t b) { /* CRC-16/CCITT-FALSE, one byte, no table */
     uint8_t x = (uint8_t)(crc >> 8) ^ b, lo;
@@ -115,6 +116,7 @@ typedef struct {
 } call_t;
 static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHH]" */
 static LK_NOINLINE uint8_t ok_int(const call_t *c, int32_t v) { /* "OK ... NAME v"; returns 1 */
+    g_field = (uint16_t)v; /* every such v of a sealed request fits: free slots, us, ms (<= 60000), Hz, bytes */
     ok_head(c); out_sp_i(v); out_end();
     return 1;
 }
@@ -201,31 +203,35 @@ void lk_defaults(lk_t *lk) {
     for (j = 0; j < LK_JOINTS; j++) { lk->vmax[j] = LK_VMAX_DEFAULT; lk->amax[j] = 0; }
 }
 
-static void put32(uint8_t *b, uint32_t v) { b[0] = (uint8_t)v; b[1] = (uint8_t)(v >> 8); b[2] = (uint8_t)(v >> 16); b[3] = (uint8_t)(v >> 24); }
-static uint32_t get32(const uint8_t *b) { return b[0] | ((uint32_t)b[1] << 8) | ((uint32_t)b[2] << 16) | ((uint32_t)b[3] << 24); }
-
-static void put16(uint8_t *b, int16_t v) { b[0] = (uint8_t)v; b[1] = (uint8_t)((uint16_t)v >> 8); }
 static int16_t get16(const uint8_t *b) { return (int16_t)(b[0] | ((uint16_t)b[1] << 8)); }
 
-static void ee_image(const lk_t *lk, uint8_t *b) {
-    uint8_t c, *p = b + 4;
-    uint16_t crc;
-    b[0] = 'L'; b[1] = 'K'; b[2] = LK_EE_VERSION; b[3] = LK_CHANNELS;
-    for (c = 0; c < LK_CHANNELS; c++, p += 11) {
-        const lk_cal_t *k = &lk->cal[c];
-        put16(p, k->pmin); put16(p + 2, k->pmax); put16(p + 4, k->zero);
-        p[6] = (uint8_t)k->dir; put16(p + 7, k->lo); put16(p + 9, k->hi);
-    }
-    for (c = 0; c < LK_JOINTS; c++, p += 8) { put32(p, lk->vmax[c]); put32(p + 4, lk->amax[c]); }
-    put16(p, (int16_t)lk->timeout_ms);
-    crc = lk_crc16(b, LK_EE_SIZE - 2);
-    put16(p + 2, (int16_t)crc);
+/* The image's fields in order (docs/protocol.md 6): a calibration's pmin pmax zero dir lo hi, then vmax amax per
+   joint, then the timeout, each little-endian like the integers of both targets (the ATmega328P and the x86/ARM
+   hosts of the tests), so one walk copies them either way: to the image (save) or from it (load) */
+#define LK_OFF(f) ((uint8_t)__builtin_offsetof(lk_cal_t, f)) /* gcc, avr-gcc and clang; no <stddef.h> needed */
+static const uint8_t cal_field[] LK_FLASH = {
+    LK_OFF(pmin), 2, LK_OFF(pmax), 2, LK_OFF(zero), 2, LK_OFF(dir), 1, LK_OFF(lo), 2, LK_OFF(hi), 2};
+static uint8_t *ee_copy(uint8_t *p, void *v, uint8_t n, uint8_t save) {
+    if (save) memcpy(p, v, n); else memcpy(v, p, n);
+    return p + n;
 }
+static void ee_walk(lk_t *lk, uint8_t *b, uint8_t save) {
+    uint8_t c, f, *p = b + 4;
+    for (c = 0; c < LK_CHANNELS; c++)
+        for (f = 0; f < sizeof cal_field; f += 2)
+            p = ee_copy(p, (uint8_t *)&lk->cal[c] + pgm_byte(&cal_field[f]), pgm_byte(&cal_field[f + 1]), save);
+    for (c = 0; c < LK_JOINTS; c++) { p = ee_copy(p, &lk->vmax[c], 4, save); p = ee_copy(p, &lk->amax[c], 4, save); }
+    ee_copy(p, &lk->timeout_ms, 2, save);
+}
+typedef char lk_ee_layout[(int)(4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 2) == LK_EE_SIZE ? 1 : -1];
 
 uint16_t lk_ee_save(const lk_t *lk) {
     uint8_t b[LK_EE_SIZE];
-    uint16_t i;
-    ee_image(lk, b);
+    uint16_t i, crc;
+    b[0] = 'L'; b[1] = 'K'; b[2] = LK_EE_VERSION; b[3] = LK_CHANNELS;
+    ee_walk((lk_t *)lk, b, 1); /* reads lk only */
+    crc = lk_crc16(b, LK_EE_SIZE - 2);
+    b[LK_EE_SIZE - 2] = (uint8_t)crc; b[LK_EE_SIZE - 1] = (uint8_t)(crc >> 8);
     for (i = 0; i < LK_EE_SIZE; i++) lk_hw_ee_write(i, b[i]);
     for (i = 0; i < LK_EE_SIZE; i++)
         if (lk_hw_ee_read(i) != b[i]) return 0;
@@ -240,29 +246,18 @@ static uint8_t cal_valid(const lk_cal_t *k) {
 
 static uint8_t timeout_valid(int32_t t) { return t == 0 || (t >= 50 && t <= 60000); }
 
+/* loads straight into lk: on 0 (no valid image) the caller sets the factory defaults over whatever was copied */
 uint8_t lk_ee_load(lk_t *lk) {
-    uint8_t b[LK_EE_SIZE], c, *p = b + 4;
-    lk_cal_t cal[LK_CHANNELS];
-    uint32_t vmax[LK_JOINTS], amax[LK_JOINTS];
-    uint16_t i, t;
+    uint8_t b[LK_EE_SIZE], c;
+    uint16_t i;
     int32_t lo, hi;
     for (i = 0; i < LK_EE_SIZE; i++) b[i] = lk_hw_ee_read(i);
     if (b[0] != 'L' || b[1] != 'K' || b[2] != LK_EE_VERSION || b[3] != LK_CHANNELS) return 0;
     if ((uint16_t)get16(b + LK_EE_SIZE - 2) != lk_crc16(b, LK_EE_SIZE - 2)) return 0;
-    for (c = 0; c < LK_CHANNELS; c++, p += 11) {
-        cal[c].pmin = get16(p); cal[c].pmax = get16(p + 2); cal[c].zero = get16(p + 4);
-        cal[c].dir = (int8_t)p[6]; cal[c].lo = get16(p + 7); cal[c].hi = get16(p + 9);
-        if (!cal_valid(&cal[c])) return 0;
-        if (c < LK_JOINTS && !feasible(&cal[c], &lo, &hi)) return 0;
-    }
-    for (c = 0; c < LK_JOINTS; c++, p += 8) { vmax[c] = get32(p); amax[c] = get32(p + 4); } /* the CRC vouches for them */
-    t = (uint16_t)get16(p);
-    if (!timeout_valid(t)) return 0;
-    memcpy(lk->cal, cal, sizeof cal);
-    memcpy(lk->vmax, vmax, sizeof vmax);
-    memcpy(lk->amax, amax, sizeof amax);
-    lk->timeout_ms = t;
-    return 1;
+    ee_walk(lk, b, 0); /* vmax, amax: the CRC vouches for them */
+    for (c = 0; c < LK_CHANNELS; c++)
+        if (!cal_valid(&lk->cal[c]) || (c < LK_JOINTS && !feasible(&lk->cal[c], &lo, &hi))) return 0;
+    return timeout_valid(lk->timeout_ms);
 }
 
 /* ------------------------------------------------------------------ state changes */
@@ -794,6 +789,18 @@ static uint8_t dispatch(lk_t *lk, const lk_command_t *e, call_t *c) {
     return LK_RD_HANDLER(&e->run)(lk, c);
 }
 
+/* A repeat (docs/protocol.md 2.1): a sealed request with the #seq and echo of one of the last LK_SEEN accepted
+   ones is answered with that request's reply and not run: its stored integer field, or for STOP, CAL, LIMITS and
+   DEFAULTS (whose fields report the state they left) the same report made now, without changing anything */
+static void replay(lk_t *lk, const lk_command_t *e, call_t *c, uint16_t v) {
+    lk_handler_t run = LK_RD_HANDLER(&e->run);
+    if (v != LK_NO_FIELD) { ok_int(c, v); return; }
+    if (run == cmd_cal || run == cmd_limits) { c->argc = 1; run(lk, c); return; } /* their report-only form */
+    ok_head(c);
+    if (run == cmd_stop) out_q(lk);
+    out_end();
+}
+
 /* CRC of a valid integer token as the board would write it (no '+', no leading zeros, no "-0") */
 static uint16_t crc_canonical(uint16_t crc, const char *t) {
     uint8_t neg = *t == '-';
@@ -866,10 +873,23 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         c.argc++;
         echo = crc_canonical(crc_step(echo, ' '), tok);
     }
-    if (!read_only) { g_echo = echo; g_echo_on = 1; }
+    g_field = LK_NO_FIELD;
+    if (!read_only) {
+        lk_seen_t *r;
+        g_echo = echo; g_echo_on = 1;
+        for (r = lk->seen; r < lk->seen + lk->seen_n; r++)
+            if (r->seq == (uint16_t)c.seq && r->echo == echo) { replay(lk, e, &c, r->v); goto accepted; }
+    }
     if (dispatch(lk, e, &c)) {
+        if (g_echo_on) {
+            lk_seen_t *r = &lk->seen[lk->seen_w];
+            lk->last_seq = r->seq = (uint16_t)c.seq;
+            r->echo = echo; r->v = g_field;
+            lk->seen_w = (uint8_t)((lk->seen_w + 1) % LK_SEEN);
+            if (lk->seen_n < LK_SEEN) lk->seen_n++;
+        }
+accepted:
         lk->last_accept_ms = lk->now_ms;
-        if (g_echo_on) lk->last_seq = (uint16_t)c.seq;
     }
     g_echo_on = 0;
 }

@@ -13,7 +13,7 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "2.1.0"
+#define LK_FW_VERSION "2.2.0"
 #define LK_PROTO_VERSION 2
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
@@ -27,6 +27,9 @@ extern "C" {
 #define LK_USER_POT_PIN 5
 #define LK_SERVO_FULL 18000 /* servo travel, centidegrees */
 #define LK_MAX_ORDER 5
+#ifndef LK_SEEN
+#define LK_SEEN 4 /* accepted sealed requests remembered to answer repeats (docs/protocol.md 2.1) */
+#endif
 #define LK_SCRATCH ((LK_MAXLINE + 1) / 4) /* int32 words: 6 pending halves of a quintic */
 
 #if LK_JOINTS < 1 || LK_JOINTS > 5
@@ -58,6 +61,12 @@ typedef struct {
 } lk_seg_t;
 
 typedef struct {
+    uint16_t seq, echo; /* #seq and echo p= of an accepted sealed request */
+    uint16_t v;         /* its reply's one integer field (0..60000), or LK_NO_FIELD (the reply is regenerated) */
+} lk_seen_t;
+#define LK_NO_FIELD 0xFFFFu
+
+typedef struct {
     /* configuration (EEPROM) */
     lk_cal_t cal[LK_CHANNELS];
     uint16_t timeout_ms;
@@ -77,6 +86,8 @@ typedef struct {
     uint8_t state, flags;
     uint32_t last_accept_ms;
     uint16_t last_seq;           /* #seq of the last accepted sealed request */
+    lk_seen_t seen[LK_SEEN];     /* the last LK_SEEN accepted sealed requests (a repeat is answered, not run) */
+    uint8_t seen_n, seen_w;      /* valid entries, next entry to overwrite */
     /* feedback stream */
     uint8_t stream_hz, stream_arm;
     uint16_t frame_counter;

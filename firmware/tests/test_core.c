@@ -56,17 +56,21 @@ static int read_only(const char *line) {
            !strncmp(line, "READ", 4);
 }
 
-/* A state-changing command is sent sealed (#1 ... *CRC); its replies are shown without " #1" and " p=HHHH"
-   (after checking that they are valid lines), so the expectations below read like the commands. */
+/* A state-changing command is sent sealed (#seq ... *CRC, a new seq each time: the board answers a repeated
+   seq and echo without running it); its replies are shown without " #seq" and " p=HHHH" (after checking that
+   they are valid lines), so the expectations below read like the commands. */
+static unsigned send_seq;
 static const char *send(const char *line) {
-    char buf[256];
+    char buf[256], tag[12];
     if (strlen(line) > 150 || strspn(line, " ") == strlen(line) || line[0] == '#' || line[0] == '$' || strchr(line, '*') || read_only(line)) return send_raw(line);
-    send_raw(sealed(buf, sizeof buf, 1, line));
+    send_seq = send_seq % 60000 + 1;
+    send_raw(sealed(buf, sizeof buf, send_seq, line));
     if (!lines_valid(stub_out)) return stub_out;
     char norm[STUB_OUT_SIZE];
     size_t n = 0;
+    int tl = snprintf(tag, sizeof tag, " #%u ", send_seq);
     for (const char *p = stub_out; *p;) {
-        if (!strncmp(p, " #1 ", 4) && (p - stub_out == 2 || p - stub_out == 3)) { p += 3; continue; }
+        if (!strncmp(p, tag, (size_t)tl) && (p - stub_out == 2 || p - stub_out == 3)) { p += tl - 1; continue; }
         if (!strncmp(p, " p=", 3) && strlen(p) > 7) { p += 7; continue; }
         norm[n++] = *p++;
     }
@@ -501,6 +505,47 @@ static void test_motion_checks_against_dense_sampling(void) {
            accepted, refused, undecided_near);
 }
 
+/* a repeated sealed request (same #seq, same echo) among the last LK_SEEN accepted ones is answered with its reply
+   and not run; a rejected one, or one with the same seq but other content, runs */
+static void test_repeats(void) {
+    char buf[256], first[STUB_OUT_SIZE];
+    boot();
+    send_raw(sealed(buf, sizeof buf, 777, "SEG 500 3 9000 0 0 0 9000 0 0 0 9000 0 0 0"));
+    CHECK(starts(stub_out, "OK #777 SEG p=") && lk.q_count == 1, "%s", stub_out);
+    strcpy(first, stub_out);
+    send_raw(buf);
+    CHECK(!strcmp(stub_out, first) && lk.q_count == 1, "repeat ran or answered otherwise: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 777, "SEG 500 3 9000 0 0 0 9000 0 0 0 9000 0 0 1"));
+    CHECK(starts(stub_out, "OK #777 SEG p=") && lk.q_count == 2, "same seq, other content: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 778, "STOP"));
+    strcpy(first, stub_out);
+    CHECK(starts(stub_out, "OK #778 STOP p=") && lk.q_count == 0, "%s", stub_out);
+    send_raw(buf);
+    CHECK(!strcmp(stub_out, first), "STOP repeat: %s vs %s", stub_out, first);
+    send_raw(sealed(buf, sizeof buf, 779, "CAL 3 700 2300 0 1 0 18000"));
+    strcpy(first, stub_out);
+    send_raw(buf);
+    CHECK(!strcmp(stub_out, first) && starts(first, "OK #779 CAL p="), "CAL repeat: %s vs %s", stub_out, first);
+    send_raw(sealed(buf, sizeof buf, 780, "LIMITS 1 30000 0"));
+    strcpy(first, stub_out);
+    send_raw(buf);
+    CHECK(!strcmp(stub_out, first) && starts(first, "OK #780 LIMITS p="), "LIMITS repeat: %s vs %s", stub_out, first);
+    send_raw(sealed(buf, sizeof buf, 781, "GRIP 5000")); /* rejected: not remembered, runs again when repeated */
+    CHECK(starts(stub_out, "ERR #781 5 RANGE"), "%s", stub_out);
+    send_raw(buf);
+    CHECK(starts(stub_out, "ERR #781 5 RANGE"), "%s", stub_out);
+    /* a repeat of a request older than the last LK_SEEN accepted ones is no longer recognised */
+    send_raw(sealed(buf, sizeof buf, 782, "SEG 500 3 9000 0 0 0 9000 0 0 0 9000 0 0 0"));
+    CHECK(lk.q_count == 1, "%s", stub_out);
+    for (unsigned k = 0; k < LK_SEEN; k++) {
+        char b2[64];
+        send_raw(sealed(b2, sizeof b2, 800 + k, "GRIP 1500"));
+        CHECK(starts(stub_out, "OK #"), "%s", stub_out);
+    }
+    send_raw(buf);
+    CHECK(lk.q_count == 2, "beyond the window: %s", stub_out);
+}
+
 int main(void) {
     test_helpers();
     test_handshake_and_framing();
@@ -510,6 +555,7 @@ int main(void) {
     test_motion_checks_against_dense_sampling();
     test_timeout_and_stream();
     test_eeprom();
+    test_repeats();
     printf("core tests: %d checks, %d failed\n", checks, failed);
     return failed ? 1 : 0;
 }

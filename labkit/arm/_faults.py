@@ -56,6 +56,9 @@ class FaultConfig:
         Probability that a read or write call is held up by ``delay_s``.
     delay_s : float
         Length of a delay [s of board time when the port has ``sleep``].
+    duplicate : float
+        Probability that a write call (a request line of the host) reaches the port twice, as a
+        line repeated by a flaky adapter or a retry below the host would (each copy damaged on its own).
     disconnect_after : float
         The port vanishes (every call raises ``SerialException``) after this
         many bytes have been written by the host (``inf``: never).
@@ -67,11 +70,12 @@ class FaultConfig:
     drop: float = 0.0
     delay: float = 0.0
     delay_s: float = 0.05
+    duplicate: float = 0.0
     disconnect_after: float = math.inf
     direction: Direction = Direction.BOTH
 
     def __post_init__(self):
-        for name in ("corrupt", "drop", "delay"):
+        for name in ("corrupt", "drop", "delay", "duplicate"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise OptionError(f"expected {name} as a probability in [0, 1], got {v!r}")
@@ -95,6 +99,7 @@ class FaultCounts:
     corrupted: dict = field(default_factory=lambda: {"read": 0, "write": 0})
     dropped: dict = field(default_factory=lambda: {"read": 0, "write": 0})
     delayed: int = 0
+    duplicated: int = 0
     disconnected: bool = False
 
 
@@ -199,7 +204,8 @@ class FaultyPort(PortWrapper):
         """Write ``data`` to the wrapped port, corrupting/dropping some bytes.
 
         Once the host has written ``config.disconnect_after`` bytes the bytes up to
-        that count are sent and the port disconnects. Faults apply when
+        that count are sent and the port disconnects. With probability ``config.duplicate``
+        the data is written a second time. Faults apply when
         ``config.direction`` is ``WRITE`` or ``BOTH``; a write may be delayed by
         ``config.delay_s``.
 
@@ -230,6 +236,9 @@ class FaultyPort(PortWrapper):
         self._written += len(data)
         self._maybe_delay()
         self._port.write(self._mangle(data, "write"))
+        if self.config.duplicate and self._rng.random() < self.config.duplicate:
+            self.counts.duplicated += 1
+            self._port.write(self._mangle(data, "write"))
         return len(data)
 
     def close(self):

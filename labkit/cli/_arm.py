@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import sys
+from labkit.cli._types import positive_float
 
 
 def add_commands(sub):
@@ -17,7 +18,7 @@ def add_commands(sub):
     sp = sub.add_parser("sim", help="serve the virtual arm on a pseudo-terminal (prints the port path)")
     sp.add_argument("robot", nargs="?", default="arduino_arm_3dof", help="bundled robot name or robot file")
     sp.add_argument("--seed", type=int, default=0, help="physics seed (offsets, noise)")
-    sp.add_argument("--time-scale", type=float, default=1.0, help="board seconds per wall-clock second")
+    sp.add_argument("--time-scale", type=positive_float, default=1.0, help="board seconds per wall-clock second")
     sp.set_defaults(func=_cmd_sim)
     sp = sub.add_parser("ports", help="list serial ports (USB VID:PID; likely Arduinos marked with *)")
     sp.set_defaults(func=_cmd_ports)

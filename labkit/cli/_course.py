@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from labkit.cli._types import bounded_float, positive_int, scheduler_url
 
 
 def add_commands(sub):
@@ -31,9 +32,9 @@ def add_commands(sub):
                     help="gradebook .csv (an .xlsx twin is written too) or .xlsx (default gradebook.csv)")
     sp.add_argument("--feedback", metavar="DIR", help="feedback reports folder (default: <gradebook stem>_feedback/)")
     add_engine_options(sp)
-    sp.add_argument("--cpu", type=float, default=120.0, metavar="SECONDS", help="CPU time per notebook (default 120)")
-    sp.add_argument("--memory", type=float, default=4.0, metavar="GIB", help="memory per notebook [GiB] (default 4)")
-    sp.add_argument("--wall", type=float, default=300.0, metavar="SECONDS",
+    sp.add_argument("--cpu", type=bounded_float(0.1, 86400.0, "s"), default=120.0, metavar="SECONDS", help="CPU time per notebook (default 120)")
+    sp.add_argument("--memory", type=bounded_float(0.01, 4096.0, "GiB"), default=4.0, metavar="GIB", help="memory per notebook [GiB] (default 4)")
+    sp.add_argument("--wall", type=bounded_float(0.1, 86400.0, "s"), default=300.0, metavar="SECONDS",
                     help="wall-clock time per notebook (default 300)")
     sp.add_argument("--no-sandbox", action="store_true",
                     help="limits only, no bubblewrap (for machines without it; student code then sees every file)")
@@ -51,8 +52,8 @@ def add_engine_options(sp):
     sp : argparse.ArgumentParser
         The subcommand's parser.
     """
-    sp.add_argument("-j", "--jobs", type=int, default=2, help="local worker processes (default 2)")
-    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+    sp.add_argument("-j", "--jobs", type=positive_int, default=2, help="local worker processes (default 2)")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT", type=scheduler_url,
                     help="run on this dask.distributed scheduler instead of the local pool")
 
 

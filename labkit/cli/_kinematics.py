@@ -11,6 +11,7 @@ import math
 import sys
 
 from labkit.exceptions import LabkitError
+from labkit.cli._types import finite_float
 
 
 def add_commands(sub):
@@ -30,7 +31,7 @@ def add_commands(sub):
 
     sp = sub.add_parser("fk", parents=[units], help="forward kinematics of a robot at joint values q")
     sp.add_argument("robot", help="bundled robot name or robot file")
-    sp.add_argument("q", nargs="+", type=float, help="joint values")
+    sp.add_argument("q", nargs="+", type=finite_float, help="joint values")
     sp.set_defaults(func=_cmd_fk)
 
     sp = sub.add_parser(
@@ -38,7 +39,7 @@ def add_commands(sub):
         help="inverse kinematics: all solutions for x y z (3-DOF), x y phi (planar), x y z roll pitch yaw (6-DOF)",
     )
     sp.add_argument("robot", help="bundled robot name or robot file")
-    sp.add_argument("target", nargs="+", type=float, help="target coordinates")
+    sp.add_argument("target", nargs="+", type=finite_float, help="target coordinates")
     sp.set_defaults(func=_cmd_ik)
 
 

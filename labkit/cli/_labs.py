@@ -1,6 +1,7 @@
 """``labkit lab`` and ``labkit new``: JupyterLab on the labs, and a new lab for any arm."""
 
 from __future__ import annotations
+from labkit.cli._types import port_number
 
 
 def add_commands(sub):
@@ -14,7 +15,7 @@ def add_commands(sub):
     sp = sub.add_parser("lab", help="open JupyterLab on the labs (default: the notebooks/ folder)")
     sp.add_argument("path", nargs="?", default=None, metavar="PATH",
                     help="folder or notebook to open (default: the labs folder, as `labkit render` finds it)")
-    sp.add_argument("--port", type=int, default=None, help="TCP port (default 8888 or the next free one)")
+    sp.add_argument("--port", type=port_number, default=None, help="TCP port (default 8888 or the next free one)")
     sp.add_argument("--no-browser", action="store_true", help="do not open a browser; print the URL with its token")
     sp.add_argument("--instructor", action="store_true",
                     help="keep nbgrader's instructor tools (Formgrader, Create Assignment, Validate); "

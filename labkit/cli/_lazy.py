@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import argparse
 
+from labkit.cli._types import OneLineErrors
 
-class LazyParser(argparse.ArgumentParser):
+
+class LazyParser(OneLineErrors, argparse.ArgumentParser):
     """An :class:`argparse.ArgumentParser` whose arguments are added on first use.
 
     Parameters

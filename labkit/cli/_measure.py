@@ -1,6 +1,7 @@
 """``labkit errors``, ``labkit audit``, ``labkit calibrate``: measurement tables at the command line."""
 
 from __future__ import annotations
+from labkit.cli._types import finite_float
 
 
 def add_commands(sub):
@@ -42,7 +43,7 @@ def _calibrate_arguments(sp):
     sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
     sp.add_argument("--params", nargs="+", default=["joint_offsets", "link_lengths"],
                     help=f"groups {GROUPS} or names like offset[2] a[3] tool_x sag[2]")
-    sp.add_argument("--gravity", nargs=3, type=float, default=None, metavar=("GX", "GY", "GZ"),
+    sp.add_argument("--gravity", nargs=3, type=finite_float, default=None, metavar=("GX", "GY", "GZ"),
                     help="gravity direction in world coordinates (for sag terms; default: minus the robot file's up)")
     sp.add_argument("--weighted", action="store_true", help="weight residuals by 1/uncertainty")
     sp.add_argument("--out", help="write the calibrated robot file here")

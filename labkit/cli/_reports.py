@@ -6,6 +6,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from labkit.cli._types import positive_float, positive_int, scheduler_url
 
 
 def add_commands(sub):
@@ -72,8 +73,8 @@ def _render_arguments(sp):
 
     sp.add_argument("notebooks", nargs="*", metavar="NOTEBOOK_OR_LAB",
                     help="notebooks, lab folders or lab names (default: all under notebooks/)")
-    sp.add_argument("-j", "--jobs", type=int, default=2, help="parallel worker processes (default 2)")
-    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+    sp.add_argument("-j", "--jobs", type=positive_int, default=2, help="parallel worker processes (default 2)")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT", type=scheduler_url,
                     help="run on this dask.distributed scheduler (workers need labkit, and Chromium for PDFs)")
     sp.add_argument("--no-input", action="store_true", help="report mode: hide code cells")
     sp.add_argument("--pdf", action=argparse.BooleanOptionalAction, default=True,
@@ -81,7 +82,7 @@ def _render_arguments(sp):
     sp.add_argument("-o", "--output", default="reports", help="reports folder (default reports/)")
     sp.add_argument("-p", "--parameter", dest="parameters", nargs=2, action="append", metavar=("NAME", "VALUE"),
                     help="override a parameter in every notebook that declares it, e.g. -p port sim://")
-    sp.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+    sp.add_argument("--timeout", type=positive_float, default=None, metavar="SECONDS",
                     help=f"seconds one cell may run before the notebook fails (default {CELL_TIMEOUT})")
     sp.set_defaults(func=_cmd_render)
 

@@ -24,6 +24,7 @@ directions of ``v`` are still met exactly.
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
@@ -48,15 +49,33 @@ Part = Literal["full", "linear", "angular"]
 _PARTS = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}
 
 
+def _matrix(J, name="J"):
+    try:
+        return np.asarray(J, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"expected {name} as a matrix of numbers, got {J!r}") from None
+
+
+def _positive(value, name, *, zero=False):
+    """A finite number > 0 (``zero``: >= 0), else :class:`OptionError` saying what came."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        out = math.nan
+    if not (math.isfinite(out) and (out >= 0 if zero else out > 0)):
+        raise OptionError(f"expected {name} as a finite number {'>=' if zero else '>'} 0, got {value!r}")
+    return out
+
+
 def _jac(J, name="J"):
-    J = np.asarray(J, dtype=float)
+    J = _matrix(J, name)
     if J.ndim < 2 or J.shape[-2] != 6:
         raise ShapeError(f"expected {name} with shape (..., 6, n), got {J.shape}")
     return as_batch(J, J.shape[-2:], name)
 
 
 def _select(J, part):
-    if part not in _PARTS:
+    if not isinstance(part, str) or part not in _PARTS:
         raise OptionError(f"expected part in {sorted(_PARTS)}, got {part!r}")
     return _jac(J)[..., _PARTS[part], :]
 
@@ -264,6 +283,7 @@ def is_singular(J, part: Part = "full", *, tol=1e-6):
     >>> bool(is_singular(jacobian(arm, [0.3, 0.4, 0.0]), "linear"))
     True
     """
+    tol = _positive(tol, "tol", zero=True)
     s = singular_values(J, part)
     return s[..., -1] <= tol * np.maximum(s[..., 0], 1.0)
 
@@ -292,7 +312,8 @@ def damping_factor(sigma_min, epsilon, max_damping):
     >>> damping_factor([1.0, 0.0], epsilon=0.05, max_damping=0.1)
     array([0. , 0.1])
     """
-    s = np.asarray(sigma_min, dtype=float)
+    s = as_batch(sigma_min, (), "sigma_min")
+    epsilon, max_damping = _positive(epsilon, "epsilon"), _positive(max_damping, "max_damping", zero=True)
     ratio = np.clip(s / epsilon, 0.0, 1.0)
     return max_damping * np.sqrt(1.0 - ratio**2)
 
@@ -337,9 +358,10 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     >>> np.allclose(Jv @ qd, [0.01, 0.0, 0.0])
     True
     """
-    J = np.asarray(J, dtype=float)
+    J = _matrix(J)
     if J.ndim < 2:
         raise ShapeError(f"expected J with shape (..., m, n), got {J.shape}")
+    _positive(epsilon, "epsilon"), _positive(max_damping, "max_damping", zero=True)
     J = as_batch(J, J.shape[-2:], "J")
     v = as_batch(twist, (J.shape[-2],), "twist")
     U, s, Vt = np.linalg.svd(J, full_matrices=False)

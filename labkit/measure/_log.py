@@ -3,6 +3,8 @@ written, flushed and ``fsync``-ed before :meth:`MeasurementLog.record` returns."
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import errno
 import math
 import os
@@ -15,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import MeasurementError, StorageError
-from labkit.measure._schema import MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
-from labkit.measure._csv import _check_quantity_unit, _check_ranges, _read_rows, load_measurements
+from labkit.measure._schema import COLUMNS, MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
+from labkit.measure._csv import _check_quantity_unit, _check_ranges, _line_state, _read_rows, load_measurements
 
 try:  # advisory lock against a second writer (POSIX only)
     import fcntl
@@ -26,8 +28,30 @@ except ImportError:  # pragma: no cover - Windows
 __all__ = ["MeasurementLog"]
 
 
+def _is_record(header, text):
+    """Whether ``text`` (a line without its newline) loads as a record under ``header``: whole and checked."""
+    try:
+        fields = next(csv.reader([text], strict=True))
+    except (csv.Error, StopIteration):
+        return False
+    return _line_state(header, fields, text) == "ok" and (
+        "check" not in header or len(fields[header.index("check")].strip()) == 8)
 
 
+def _torn_terminator(header, text):
+    """What to append to the torn line ``text`` so that no reader loads it: ``""`` or an unclosed quote.
+
+    A cut inside a field leaves too few fields (or a cut checksum): a newline is enough. A cut right after the
+    last comma would load as a record with a blank (hand-edited) check cell: an unclosed quote makes it torn.
+    """
+    for term in ("", '"', ',"'):
+        try:
+            fields = next(csv.reader([text + term], strict=True))
+        except (csv.Error, StopIteration):
+            return term
+        if _line_state(header, fields, text + term) == "torn":
+            return term
+    return ',"'
 
 
 class MeasurementLog:
@@ -97,15 +121,32 @@ class MeasurementLog:
         if created:
             _fsync_dir(self.path.parent)
         size = os.fstat(fd).st_size
+        self._header = list(COLUMNS)
+        self._failed = None  # (line, bytes of it on disk, record, key) of a write that raised StorageError
         if size == 0:
             self._write(_HEADER_LINE)
         else:
             with open(self.path, "rb") as f:
+                first = f.readline().decode("utf-8", "replace").lstrip("\ufeff").strip()
                 f.seek(size - 1)
-                if f.read(1) != b"\n":
-                    self._write("\n")  # terminate a torn line from a crash
-                    if torn_header:  # the crash cut the header itself
-                        self._write(_HEADER_LINE)
+                last_byte = f.read(1)
+                if first and not torn_header:
+                    self._header = [c.strip() for c in first.split(",")]
+                if last_byte != b"\n":
+                    f.seek(max(0, size - 65536))
+                    tail = f.read().rsplit(b"\n", 1)[-1].decode("utf-8", "replace").rstrip("\r")
+            if last_byte != b"\n":
+                if torn_header:  # the crash cut the header itself
+                    self._write("\n" + _HEADER_LINE)
+                elif _is_record(self._header, tail):
+                    self._write("\n")  # a whole, checked record that only lost its newline: kept
+                else:  # a torn record from a crash: sealed so that no reader takes it for a record, and reported
+                    self._write(_torn_terminator(self._header, tail) + "\n")
+                    existing = [(n, row) for n, row in existing if n != existing[-1][0]] if existing and \
+                        existing[-1][1].get("check", "x").strip() == "" else existing
+                    warnings.warn(f"{self.path}: the last line was torn by a crash or a full disk "
+                                  f"({len(tail)} bytes, not a whole checked record): skipped, never loaded",
+                                  MeasurementWarning, stacklevel=2)
         self._next_record = 1
         self._repeats = {}
         existing = [(n, {k: (v or "").strip() for k, v in row.items()}) for n, row in existing]
@@ -138,12 +179,17 @@ class MeasurementLog:
         data = (("\n" if self._torn else "") + text).encode("utf-8")
         view = memoryview(data)
         self._torn = True
+        start = os.fstat(self._fd).st_size + len(data) - len(text.encode("utf-8"))
         try:
             while view:
                 n = os.write(self._fd, view)
                 view = view[n:]
             os.fsync(self._fd)
         except OSError as exc:
+            try:  # bytes of `text` in the file (the file's size says it, whatever the failing call reported)
+                self._landed = max(0, os.fstat(self._fd).st_size - start)
+            except OSError:
+                self._landed = len(text.encode("utf-8")) - 1  # unknown: its end gets a newline on retry
             hint = ("the disk is full: free some space" if exc.errno == errno.ENOSPC
                     else "check the disk or the file system")
             raise StorageError(f"cannot write the measurement log {self.path}: {exc.strerror or exc}; {hint}, "
@@ -221,23 +267,59 @@ class MeasurementLog:
         if commanded is not None and robot_n is not None and len(commanded) != robot_n:
             raise MeasurementError(f"expected {robot_n} commanded joint values, got {len(commanded)}", column="commanded")
         key = (self.session, pose_id, quantity)
-        if repeat is None:
-            repeat = self._repeats.get(key, 0) + 1
-        repeat = int(repeat)
-        if repeat < 1:
-            raise MeasurementError(f"expected a repeat index >= 1, got {repeat}", column="repeat")
-        rec = MeasurementRecord(
-            record=self._next_record, session=self.session,
-            timestamp=datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
-            robot=self.robot, pose_id=pose_id, commanded=commanded, target=target,
-            quantity=quantity, repeat=repeat, value=value, unit=unit,
-            instrument=_one_line(instrument), resolution=resolution, half_range=hr,
-            n_readings=int(n_readings), operator=self.operator, note=_one_line(note),
-        )
-        self._write(_encode_line(rec.to_row()))
+        if repeat is not None:
+            repeat = int(repeat)
+            if repeat < 1:
+                raise MeasurementError(f"expected a repeat index >= 1, got {repeat}", column="repeat")
+
+        def build():
+            return MeasurementRecord(
+                record=self._next_record, session=self.session,
+                timestamp=datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ"),
+                robot=self.robot, pose_id=pose_id, commanded=commanded, target=target,
+                quantity=quantity, repeat=self._repeats.get(key, 0) + 1 if repeat is None else repeat,
+                value=value, unit=unit, instrument=_one_line(instrument), resolution=resolution, half_range=hr,
+                n_readings=int(n_readings), operator=self.operator, note=_one_line(note),
+            )
+
+        rec = build()
+        if self._failed is not None:
+            stored = self._settle_failed()
+            if stored is not None and dataclasses.replace(rec, timestamp=stored.timestamp).to_row() == stored.to_row():
+                return stored  # the retry of a reading that did reach the disk whole: not written twice
+            rec = build()
+        line = _encode_line(rec.to_row())
+        try:
+            self._write(line)
+        except StorageError:
+            self._failed = (line, self._landed, rec, key)
+            raise
         self._next_record += 1
-        self._repeats[key] = max(self._repeats.get(key, 0), repeat)
+        self._repeats[key] = max(self._repeats.get(key, 0), rec.repeat)
         return rec
+
+    def _settle_failed(self):
+        """Make the line of the write that raised :class:`StorageError` whole or surely torn.
+
+        Returns the failed record if all of it reached the disk (then it counts: its record number and
+        repeat are used, its newline is added if missing), else None (its torn part is sealed so that no
+        reader loads it, and its record number is free again).
+        """
+        line, landed, rec, key = self._failed
+        data = line.encode("utf-8")
+        self._torn = False  # the torn line is terminated here, not by a bare newline
+        if landed >= len(data) - 1:  # the whole checked record, perhaps without its newline
+            if landed < len(data):
+                self._write("\n")
+            self._failed = None
+            self._next_record = max(self._next_record, rec.record + 1)
+            self._repeats[key] = max(self._repeats.get(key, 0), rec.repeat)
+            return rec
+        if landed > 0:
+            part = data[:landed].decode("utf-8", "ignore")
+            self._write(_torn_terminator(self._header, part) + "\n")
+        self._failed = None
+        return None
 
     def to_dataframe(self, *, all_sessions=False):
         """The file's records as a DataFrame (this session's only by default).

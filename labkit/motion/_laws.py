@@ -16,12 +16,33 @@ __all__ = ["cubic_law", "quintic_law", "lspb_law", "linear_law", "make_law", "mi
 
 # -- constructors ---------------------------------------------------------------
 
+#: durations a time law accepts [s]: below 1 ns or above ~30 years the float arithmetic of the laws breaks down
+_MIN_DURATION, _MAX_DURATION = 1e-9, 1e9
+#: most samples a time grid makes (10^7 samples of 8 bytes: 80 MB per array)
+_MAX_SAMPLES = 10_000_000
+
+
+def _number(value, name, unit="s", error=TrajectoryError):
+    """``value`` as a finite float, else ``error`` saying what was expected and what came."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise error(f"expected {name} as a finite number [{unit}], got {value!r}") from None
+    if not math.isfinite(out):
+        raise error(f"expected {name} as a finite number [{unit}], got {value!r}")
+    return out
+
+
 def _check_duration(duration, t0):
-    duration = float(duration)
-    if not math.isfinite(duration) or duration <= 0:
-        raise TrajectoryError(f"expected a positive finite duration [s], got {duration!r}")
-    if not math.isfinite(float(t0)):
-        raise TrajectoryError(f"expected a finite start time t0 [s], got {t0!r}")
+    try:
+        d = float(duration)
+    except (TypeError, ValueError):
+        d = math.nan
+    if not _MIN_DURATION <= d <= _MAX_DURATION:
+        raise TrajectoryError(f"expected a positive finite duration [s] within {_MIN_DURATION:g}..{_MAX_DURATION:g} s, "
+                              f"got {duration!r}")
+    duration = d
+    _number(t0, "the start time t0")
     return duration
 
 
@@ -29,7 +50,10 @@ def _values(*arrays, names):
     """Broadcast boundary values to one shape, checking finiteness."""
     out = []
     for a, name in zip(arrays, names):
-        arr = np.asarray(a, dtype=float)
+        try:
+            arr = np.asarray(a, dtype=float)
+        except (TypeError, ValueError):
+            raise ShapeError(f"expected {name} as finite numbers, got {a!r}") from None
         if not np.all(np.isfinite(arr)):
             raise ShapeError(f"expected finite {name}, got {a!r}")
         out.append(arr)
@@ -38,6 +62,18 @@ def _values(*arrays, names):
     except ValueError:
         shapes = ", ".join(f"{n} {np.shape(a)}" for a, n in zip(out, names))
         raise ShapeError(f"expected boundary values of one shape, got {shapes}") from None
+
+
+def _bounds(value, name, shape):
+    """A speed or acceleration bound broadcast to ``shape``: positive numbers (``inf``: unbounded), never NaN."""
+    try:
+        arr = np.broadcast_to(np.asarray(value, dtype=float), shape)
+    except (TypeError, ValueError):
+        raise TrajectoryError(f"expected {name} as positive numbers (inf: unbounded) of shape {shape}, "
+                              f"got {value!r}") from None
+    if np.any(np.isnan(arr)) or np.any(arr <= 0):
+        raise TrajectoryError(f"expected positive {name} (inf: unbounded), got {value!r}")
+    return arr
 
 
 def cubic_law(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
@@ -158,14 +194,14 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
     D = np.abs(distance)
     Dmax = float(np.max(D)) if D.size else 0.0
     if blend_time is not None:
-        tb = float(blend_time)
+        tb = _number(blend_time, "blend_time")
         if not 0 < tb <= T / 2:
             raise TrajectoryError(f"expected 0 < blend_time <= T/2 = {T / 2:.6g} s, got {tb!r}")
         return tb
     if Dmax == 0.0:
         return T / 3
     if v_max is not None:
-        vm = np.broadcast_to(np.asarray(v_max, dtype=float), D.shape)
+        vm = _bounds(v_max, "v_max", D.shape)
         if np.any(vm <= 0):
             raise TrajectoryError(f"expected positive v_max, got {v_max!r}")
         moving = D > 0
@@ -173,14 +209,14 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
         if sdot * T <= 1.0:
             need = float(np.max(D[moving] / vm[moving]))
             raise TrajectoryError(
-                f"v_max too low for an LSPB move in {T:.6g} s: the move needs a cruise speed above "
-                f"distance/T; with this v_max the minimum duration is above {need:.6g} s"
+                f"v_max too low for an LSPB move in {T:.6g} s: expected a cruise speed above "
+                f"distance/T, got v_max {v_max!r}; with this v_max the minimum duration is above {need:.6g} s"
             )
         if sdot * T > 2.0:  # v_max higher than needed: triangular profile
             return T / 2
         return T - 1.0 / sdot
     if a_max is not None:
-        am = np.broadcast_to(np.asarray(a_max, dtype=float), D.shape)
+        am = _bounds(a_max, "a_max", D.shape)
         if np.any(am <= 0):
             raise TrajectoryError(f"expected positive a_max, got {a_max!r}")
         moving = D > 0
@@ -189,7 +225,8 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
         if disc < 0:
             need = 2 * math.sqrt(1.0 / sdd)
             raise TrajectoryError(
-                f"a_max too low for an LSPB move in {T:.6g} s: minimum duration {need:.6g} s"
+                f"a_max too low for an LSPB move in {T:.6g} s: expected a_max >= {4 / T**2:.6g} x distance, "
+                f"got {a_max!r} (minimum duration {need:.6g} s)"
             )
         return T / 2 - math.sqrt(disc) / (2 * sdd)
     return T / 3  # default: cruise at 1.5 x the mean speed
@@ -317,19 +354,21 @@ def minimum_duration(distance, *, v_max=math.inf, a_max=math.inf, kind="cubic"):
     """
     kind = LawKind.parse(_ALIASES.get(kind, kind) if isinstance(kind, str) else kind,
                          (LawKind.CUBIC, LawKind.QUINTIC, LawKind.LSPB))
-    D = np.abs(np.asarray(distance, dtype=float))
-    v = np.broadcast_to(np.asarray(v_max, dtype=float), D.shape)
-    a = np.broadcast_to(np.asarray(a_max, dtype=float), D.shape)
-    if np.any(v <= 0) or np.any(a <= 0):
-        raise TrajectoryError(f"expected positive v_max and a_max, got {v_max!r}, {a_max!r}")
+    (D,) = _values(distance, names=["distance"])
+    D = np.abs(D)
+    v = _bounds(v_max, "v_max", D.shape)
+    a = _bounds(a_max, "a_max", D.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
         if kind is LawKind.LSPB:
             tri = D <= v**2 / a  # never reaches v: triangular profile
             T = np.where(tri, 2 * np.sqrt(D / a), D / v + v / a)
         else:
             cv, ca = _PEAKS[kind]
-            T = np.maximum(cv * D / v, np.sqrt(ca * D / a))
+            T = np.maximum(cv * D / v, np.where(np.isinf(a), 0.0, np.sqrt(ca * D / a)))
     T = np.where(D > 0, T, 0.0)
+    if not np.all(np.isfinite(T)):
+        raise TrajectoryError(f"expected a distance and bounds whose duration is a finite number of seconds, got "
+                              f"distance {distance!r}, v_max {v_max!r}, a_max {a_max!r}")
     return float(np.max(T)) if T.size else 0.0
 
 
@@ -352,12 +391,16 @@ def time_grid(t0, tf, dt):
     >>> time_grid(0.0, 5.0, 0.1).size  # MATLAB 0:0.1:5
     51
     """
-    dt = float(dt)
-    if not math.isfinite(dt) or dt <= 0:
+    dt = _number(dt, "a time step dt")
+    if dt <= 0:
         raise TrajectoryError(f"expected a positive time step dt [s], got {dt!r}")
-    span = float(tf) - float(t0)
-    if span < 0:
-        raise TrajectoryError(f"expected tf >= t0, got t0 = {t0!r}, tf = {tf!r}")
+    t0, tf = _number(t0, "the start time t0"), _number(tf, "the end time tf")
+    span = tf - t0
+    if not 0 <= span < math.inf:
+        raise TrajectoryError(f"expected tf >= t0 (and tf - t0 finite), got t0 = {t0!r}, tf = {tf!r}")
+    if span / dt > _MAX_SAMPLES:
+        raise TrajectoryError(f"expected at most {_MAX_SAMPLES} samples, got (tf - t0) / dt = {span / dt:.3g} "
+                              f"(tf - t0 = {span:g} s, dt = {dt:g} s): use a larger dt")
     k = int(math.floor(span / dt + 1e-9))
     t = float(t0) + dt * np.arange(k + 1)
     if span - k * dt > 1e-9 * max(1.0, span):

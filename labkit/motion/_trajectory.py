@@ -29,7 +29,7 @@ from scipy.interpolate import CubicHermiteSpline
 from labkit.validation import as_batch, readonly
 from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion._timelaw import LawKind, TimeLaw
-from labkit.motion._laws import make_law, minimum_duration, time_grid
+from labkit.motion._laws import _number, make_law, minimum_duration, time_grid
 from labkit.motion._checks import _checked, _robot_bounds
 
 __all__ = ["Trajectory", "joint_trajectory", "law_trajectory"]
@@ -358,6 +358,10 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
         raise ShapeError(f"expected q0 with shape (n,), got {q0.shape}")
     qf = as_batch(qf, (n,), "qf")
     names, rev = _robot_info(robot, n)
+    if t is None:
+        dt = _number(dt, "a time step dt")
+        if dt <= 0:
+            raise TrajectoryError(f"expected a positive time step dt [s], got {dt!r}")
     if duration is not None and t is None:
         d = float(duration) if isinstance(duration, (int, float)) and not isinstance(duration, bool) else math.nan
         if not (math.isfinite(d) and d >= dt):
@@ -365,7 +369,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
                                   f"trajectory never leaves q0), got {duration!r}")
     if duration is None:
         if robot is None:
-            raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration")
+            raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration: expected one of them, got neither")
         v, a = _robot_bounds(robot)
         kind = law if isinstance(law, str) else LawKind(law).value
         T = minimum_duration(qf - q0, v_max=v, a_max=a, kind=kind)

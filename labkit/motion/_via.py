@@ -26,6 +26,15 @@ class SplineEnds(str, Enum):
     NATURAL = "natural"
 
 
+
+def _floats(value, name):
+    """``value`` as a float array, else :class:`ShapeError` saying what came."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"expected {name} as numbers, got {value!r}") from None
+
+
 def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
     """Via-point velocities by the usual heuristic (Craig, ch. 7).
 
@@ -51,8 +60,8 @@ def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
     >>> heuristic_velocities([[0.0], [1.0], [3.0], [2.0]], [0.0, 1.0, 2.0, 3.0])[:, 0]
     array([0. , 1.5, 0. , 0. ])
     """
-    P = np.asarray(points, dtype=float)
-    t = np.asarray(times, dtype=float)
+    P = _floats(points, "points")
+    t = _floats(times, "times")
     slopes = np.diff(P, axis=0) / np.diff(t)[:, None]
     V = np.zeros_like(P)
     if P.shape[0] > 2:
@@ -69,7 +78,7 @@ def _via_times(points, times, durations, robot, law_kind):
     if times is not None and durations is not None:
         raise TrajectoryError("give either times or durations, not both")
     if times is not None:
-        t = np.asarray(times, dtype=float).reshape(-1)
+        t = _floats(times, "times").reshape(-1)
         if t.shape != (m,):
             raise ShapeError(f"expected times with shape ({m},), got {t.shape}")
     else:
@@ -83,7 +92,7 @@ def _via_times(points, times, durations, robot, law_kind):
                 raise TrajectoryError(f"{robot.name} gives no speed limits: give times or durations")
             d = np.maximum(d, 1e-3)
         else:
-            d = np.broadcast_to(np.asarray(durations, dtype=float), (m - 1,))
+            d = np.broadcast_to(_floats(durations, "durations"), (m - 1,))
         t = np.concatenate([[0.0], np.cumsum(d)])
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise TrajectoryError(f"expected strictly increasing finite via times [s], got {t.tolist()}")
@@ -128,7 +137,7 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
     >>> law.n_segments, law.degree
     (2, 3)
     """
-    P = np.asarray(points, dtype=float)
+    P = _floats(points, "points")
     if P.ndim == 1:
         P = P[:, None]
     if P.ndim != 2 or P.shape[0] < 2:
@@ -138,13 +147,13 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
     kind = LawKind.parse(method, (LawKind.VIA_CUBIC, LawKind.SPLINE))
     t = _via_times(P, times, durations, robot, kind)
     n = P.shape[1]
-    v0 = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
-    vf = np.broadcast_to(np.asarray(vf, dtype=float), (n,))
+    v0 = np.broadcast_to(_floats(v0, "v0"), (n,))
+    vf = np.broadcast_to(_floats(vf, "vf"), (n,))
     if kind is LawKind.VIA_CUBIC:
         if velocities is None:
             V = heuristic_velocities(P, t, v0=v0, vf=vf)
         else:
-            V = np.asarray(velocities, dtype=float)
+            V = _floats(velocities, "velocities")
             if V.shape != P.shape:
                 raise ShapeError(f"expected velocities with shape {P.shape}, got {V.shape}")
         spl = CubicHermiteSpline(t, P, V, axis=0)

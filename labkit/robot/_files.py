@@ -32,6 +32,8 @@ _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "m
                "flip"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
 _FRAME_KEYS = {"translation", "rpy"}
+#: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
+_MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
 
 
 def _num(path, field, value, *, default=None):
@@ -44,12 +46,26 @@ def _num(path, field, value, *, default=None):
     return float(value)
 
 
+#: smallest speed or acceleration limit a file may give (in its units): below it a limit is a typo (1e-320)
+_MIN_LIMIT = 1e-6
+
+
 def _positive(path, field, value):
-    """An optional strictly positive limit (speed, acceleration); inf when absent."""
+    """An optional positive limit (speed, acceleration) of at least ``_MIN_LIMIT``; inf when absent."""
     v = _num(path, field, value, default=math.inf)
-    if not v > 0:
-        raise RobotFileError(path, field, f"expected a positive number, got {value!r}")
+    if not v >= _MIN_LIMIT:
+        raise RobotFileError(path, field, f"expected a positive number >= {_MIN_LIMIT:g}, got {value!r}")
     return v
+
+
+def _text(path, field, value, *, empty=True):
+    """A string of printable characters (no NUL, newline or other control character)."""
+    if not isinstance(value, str) or (not empty and not value):
+        raise RobotFileError(path, field, f"expected a {'' if empty else 'non-empty '}string, got {value!r}")
+    bad = [c for c in value if not c.isprintable()]
+    if bad:
+        raise RobotFileError(path, field, f"expected printable characters, got {value!r} (with {bad[0]!r})")
+    return value
 
 
 def _pair(path, field, value):
@@ -157,8 +173,7 @@ def parse(data, path):
     for i, j in enumerate(joints, start=1):
         where = f"joint[{i}]"
         _check_keys(path, where, j, _JOINT_KEYS)
-        if not isinstance(j.get("name", ""), str):
-            raise RobotFileError(path, f"{where}.name", f"expected a string, got {j['name']!r}")
+        _text(path, f"{where}.name", j.get("name", ""))
         jt = j.get("type", "revolute")
         if not isinstance(jt, str) or jt not in ("revolute", "prismatic"):
             raise RobotFileError(path, f"{where}.type", f"expected 'revolute' or 'prismatic', got {jt!r}")
@@ -181,9 +196,12 @@ def parse(data, path):
             if isinstance(ch, bool) or not isinstance(ch, int) or not 0 <= ch <= 5:
                 raise RobotFileError(path, f"{where}.servo.channel", f"expected an integer 0-5, got {ch!r}")
             direction = s.get("direction", 1)
-            if direction not in (1, -1):
+            if isinstance(direction, bool) or not isinstance(direction, int) or direction not in (1, -1):
                 raise RobotFileError(path, f"{where}.servo.direction", f"expected 1 or -1, got {direction!r}")
             ar = _pair(path, f"{where}.servo.range", s.get("range", [0, 180 if au == "deg" else math.pi]))
+            if (ar[1] - ar[0]) * qscale < _MIN_SERVO_SPAN[rev]:
+                raise RobotFileError(path, f"{where}.servo.range", f"expected a range of at least "
+                                     f"{_MIN_SERVO_SPAN[rev] / qscale:g} {au if rev else lu}, got {s.get('range')!r}")
             pr = _pair(path, f"{where}.servo.pulse_us", s.get("pulse_us", [500, 2500]))
             _within(path, f"{where}.servo.pulse_us", pr, 400, 2600, "us (RC servo pulses)")
             servo = ServoCalibration(
@@ -226,17 +244,16 @@ def parse(data, path):
         ch = g.get("channel")
         if isinstance(ch, bool) or not isinstance(ch, int) or not 0 <= ch <= 5:
             raise RobotFileError(path, "gripper.channel", f"expected an integer 0-5, got {ch!r}")
-        gripper = Gripper(
-            ch,
-            *(_within(path, f"gripper.{key}", (_num(path, f"gripper.{key}", g.get(key)),), 400, 2600,
-                      "us (RC servo pulses)")[0] for key in ("open_us", "closed_us")),
-        )
+        open_us, closed_us = (_within(path, f"gripper.{key}", (_num(path, f"gripper.{key}", g.get(key)),), 400, 2600,
+                                      "us (RC servo pulses)")[0] for key in ("open_us", "closed_us"))
+        if open_us == closed_us:
+            raise RobotFileError(path, "gripper.closed_us", f"expected a pulse other than open_us = {open_us:g} us "
+                                 f"(the gripper would never move), got {closed_us:g}")
+        gripper = Gripper(ch, open_us, closed_us)
         channels.append(ch)
     if len(set(channels)) != len(channels):
         raise RobotFileError(path, "servo.channel", f"expected distinct servo channels, got {channels}")
-    name = data.get("name")
-    if not isinstance(name, str) or not name:
-        raise RobotFileError(path, "name", f"expected a non-empty string, got {name!r}")
+    name = _text(path, "name", data.get("name"), empty=False)
     return dict(
         name=name,
         links=tuple(links),

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from labkit.validation import readonly
-from labkit.exceptions import JointLimitError, RobotError, ShapeError
+from labkit.exceptions import JointLimitError, LabkitError, RobotError, RobotFileError, ShapeError
 from labkit.robot.types import Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
 from labkit.robot._files import load_fields
 
@@ -368,7 +368,15 @@ class Robot:
         """
         if isinstance(name_or_path, Robot):
             return name_or_path
-        return cls(**load_fields(name_or_path))
+        fields = load_fields(name_or_path)
+        try:
+            return cls(**fields)
+        except RobotFileError:
+            raise
+        except LabkitError as exc:  # a check of the robot as a whole: still name the file
+            from labkit.robot._files import _resolve
+
+            raise RobotFileError(_resolve(name_or_path), getattr(exc, "field", None) or "<robot>", str(exc)) from None
 
     @classmethod
     def from_urdf(cls, path, *, base_link=None, tip_link=None, name=None, parallel_tol=1e-12):

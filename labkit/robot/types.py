@@ -109,7 +109,8 @@ class ServoCalibration:
     def __post_init__(self):
         owner = "ServoCalibration"
         _check_channel(owner, "channel", self.channel)
-        if self.direction not in (1, -1) or isinstance(self.direction, bool):
+        if isinstance(self.direction, bool) or not isinstance(self.direction, (int, np.integer)) \
+                or self.direction not in (1, -1):
             raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {self.direction!r}", "direction")
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
         for field in ("angle_range", "pulse_range", "feedback_adc"):
@@ -244,6 +245,9 @@ class Gripper:
         _check_channel("Gripper", "channel", self.channel)
         for field in ("open_us", "closed_us"):
             object.__setattr__(self, field, _finite("Gripper", field, getattr(self, field)))
+        if self.open_us == self.closed_us:
+            raise RobotError(f"Gripper: field 'closed_us': expected a pulse other than open_us = {self.open_us:g} us "
+                             f"(the gripper would never move), got {self.closed_us:g}", "closed_us")
 
 
 @dataclass(frozen=True)
@@ -317,11 +321,12 @@ class Link:
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
                     or math.isnan(v) or v == -math.inf:
                 raise RobotError(f"{owner}: field '{field}': expected a finite number, got {v!r}", field)
-            if not v > 0:
-                raise RobotError(f"{owner}: field '{field}': expected a positive number, got {v!r}", field)
+            if not v >= 1e-6:  # the robot-file loader's _MIN_LIMIT: 1e-320 is a typo, not a speed
+                raise RobotError(f"{owner}: field '{field}': expected a positive number >= 1e-06, got {v!r}", field)
             object.__setattr__(self, field, float(v))
-        if not isinstance(self.name, str):
-            raise RobotError(f"{owner}: field 'name': expected a string, got {self.name!r}", "name")
+        if not isinstance(self.name, str) or not self.name.isprintable():
+            raise RobotError(f"{owner}: field 'name': expected a string of printable characters, got {self.name!r}",
+                             "name")
         if self.servo is not None and not isinstance(self.servo, ServoCalibration):
             raise RobotError(
                 f"{owner}: field 'servo': expected a ServoCalibration or None, got {self.servo!r}", "servo"

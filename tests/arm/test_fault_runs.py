@@ -1,6 +1,6 @@
-"""Fault runs (issue 13 acceptance): a mix of commands through :class:`FaultyPort` (1 % corrupted bytes,
-0.5 % lost bytes, random disconnects) on ``sim://`` and on the firmware in simavr, checked against
-what the board really received and sent:
+"""Fault runs (issues 13 and 27): a mix of commands through :class:`FaultyPort` (1 % corrupted bytes,
+0.5 % lost bytes, 1 % duplicated request lines, random disconnects) on ``sim://`` and on the firmware in
+simavr, checked against what the board really received and sent:
 
 - damaged requests executed: a state-changing request the board acknowledged (``OK #seq NAME p=...``,
   read below the fault injection) whose seq/echo the host never sent;
@@ -8,8 +8,11 @@ what the board really received and sent:
   sent; ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-16 at all (about
   one in 65,536 damaged lines can), ``wrong_replies_matched`` those of them matched to the awaited
   request, which the content checks then refused (the request was sent again);
-- unrequested motions left unreported: an API call that returned normally while the board ran more
-  (or fewer) MOVE/SEG than it asked for.
+- unrequested motions left unreported: an API call that returned normally while the board acknowledged
+  more (or fewer) MOVE/SEG requests than it asked for;
+- motions run twice: segments the board ran (its ``done`` count, read below the fault injection at the
+  end of each connection once the arm has stopped) beyond the distinct MOVE/SEG requests it acknowledged
+  (a repeated line is answered with the same reply, so the replies alone cannot tell).
 
 ``fault_run`` is also what ``benchmarks/bench_faults.py`` runs at 10,000 commands per board. Both boards
 run in lockstep (``sim://?clock=lockstep``, ``simavr://?clock=lockstep``): every wait and reply timeout of
@@ -31,7 +34,7 @@ from labkit.arm.urlhandler import register
 from labkit.exceptions import DeviceError
 
 register()
-NOISY = dict(corrupt=0.01, drop=0.005)
+NOISY = dict(corrupt=0.01, drop=0.005, duplicate=0.01)
 OK_ECHO = re.compile(rb"^OK #(\d+) ([A-Z]+) p=([0-9A-F]{4})(?: .*)?$")
 
 
@@ -74,9 +77,63 @@ def _lines(data):
     return [ln for ln in bytes(data).replace(b"\r", b"\n").split(b"\n") if ln]
 
 
+def _motion_replies(lines, commands=(b"MOVE", b"SEG")):
+    """The distinct ``(seq, echo)`` of the board's OK replies to ``commands`` among ``lines``."""
+    return {(m.group(1), m.group(3)) for ln in lines
+            if (m := OK_ECHO.match(unseal(ln) or b"")) and m.group(2) in commands}
+
+
+COUNTED = (b"MOVE", b"SEG", b"GRIP", b"TIMEOUT", b"STOP")
+
+
+def _count_runs(board):
+    """Count the state-changing commands a virtual board really runs (MOVE runs as its SEG), in ``board.runs``."""
+    board.runs = 0
+    for name in ("seg", "grip", "timeout", "stop"):
+        def run(args, fn=getattr(board, f"_cmd_{name}")):
+            fields = fn(args)
+            board.runs += 1  # not reached when the command is rejected
+            return fields
+        setattr(board, f"_cmd_{name}", run)
+
+
 def _motions(truth):
-    return sum(1 for ln in _lines(truth.board_out)
-               if (m := OK_ECHO.match(unseal(ln) or b"")) and m.group(2) in (b"MOVE", b"SEG"))
+    return len(_motion_replies(_lines(truth.board_out)))
+
+
+STATUS_DONE = re.compile(rb"^OK STATUS state=(\w+) .*queue=(\d+) .*done=(\d+) ")
+
+
+def _segments_run(raw, truth):
+    """``(requests the board ran, distinct requests it acknowledged)``, asked below the faults.
+
+    The virtual board counts the MOVE, SEG, GRIP, TIMEOUT and STOP it runs; of the firmware, the
+    segments it ran are read (``STATUS done`` + ``queue``) once the arm has stopped (waiting in board
+    time) and compared with the distinct MOVE/SEG it acknowledged. The board's lines the host had
+    not read yet are counted too.
+    """
+    seen, tail, m = _motion_replies(_lines(truth.board_out)), bytearray(), None
+    for _ in range(100):
+        raw.write(b"\nSTATUS\n")
+        for _ in range(200):
+            line = raw.readline()
+            if not line:
+                break
+            tail += line
+            m = STATUS_DONE.match(unseal(line.rstrip(b"\r\n")) or b"")
+            if m:
+                break
+        if m and m.group(1) != b"RUN":
+            break
+        raw.sleep(0.1)
+    seen |= _motion_replies(_lines(tail))
+    acknowledged = len(_motion_replies(_lines(truth.board_out + tail), COUNTED))
+    board = getattr(raw, "board", None)
+    if board is not None:  # the virtual board: every command it ran, against the distinct ones it acknowledged
+        return board.runs, acknowledged
+    if not m:  # the firmware: the segments it ran, against the distinct MOVE/SEG it acknowledged
+        return None, len(seen)
+    return int(m.group(3)) + int(m.group(2)), len(seen)
 
 
 def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, retries=40, max_seconds=None):
@@ -105,11 +162,13 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
     rng = np.random.default_rng(seed)
     out = dict(url=url, commands=0, api_calls=0, damaged_executed=0, wrong_replies_accepted=0,
                wrong_lines_passing_crc=0, wrong_replies_matched=0, examples=[],
-               unreported_motions=0, lost_motions=0, raised=0, disconnects=0, reconnects=0,
+               unreported_motions=0, lost_motions=0, run_twice=0, duplicated_lines=0, raised=0, disconnects=0, reconnects=0,
                corrupted_bytes=0, dropped_bytes=0, verified=0, wrong_echoes=0, seconds=0.0)
     t0 = time.perf_counter()
     while out["commands"] < commands:
         raw = serial.serial_for_url(url, baudrate=115200, timeout=0.05)
+        if hasattr(raw, "board"):
+            _count_runs(raw.board)
         truth = Truth(raw)
         cfg = FaultConfig(seed=int(rng.integers(2**31)), disconnect_after=float(rng.exponential(disconnect_every)),
                           **NOISY)
@@ -223,6 +282,9 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
             true_bodies = {" ".join(b.decode("latin-1").split()) for b in map(unseal, truth_lines) if b is not None}
             out["wrong_replies_matched"] += sum(1 for u in used if u not in true_bodies)
             out["wrong_replies_accepted"] += sum(1 for u in taken if u not in true_bodies)
+            run, acknowledged = _segments_run(raw, truth)
+            out["run_twice"] += max(0, (run if run is not None else 0) - acknowledged)
+            out["duplicated_lines"] += faulty.counts.duplicated
             _close(raw, faulty, out)
             arm.close()
     out["seconds"] = round(time.perf_counter() - t0, 1)
@@ -241,10 +303,10 @@ def _close(raw, faulty, out):
 
 
 def check(r):
-    assert r["damaged_executed"] == 0, r
+    assert r["damaged_executed"] == 0 and r["run_twice"] == 0, r
     assert r["wrong_replies_accepted"] == 0, r
     assert r["unreported_motions"] == 0 and r["lost_motions"] == 0, r
-    assert r["corrupted_bytes"] > 100 and r["dropped_bytes"] > 50, r  # the faults were real
+    assert r["corrupted_bytes"] > 100 and r["dropped_bytes"] > 50 and r["duplicated_lines"] > 3, r  # real faults
 
 
 def test_fault_run_on_the_virtual_arm():
@@ -259,7 +321,7 @@ def test_fault_run_on_the_virtual_arm():
 def test_fault_run_on_the_firmware_in_simavr():
     # lockstep: a 50 ms reply timeout is 50 ms of simulated time (a few ms of wall time), and the run is
     # deterministic, so the disconnects (a new simulator each) happen at the same bytes on every machine
-    r = fault_run("simavr://?clock=lockstep", 300, seed=2, disconnect_every=40000, timeout=0.05, retries=40)
+    r = fault_run("simavr://?clock=lockstep", 200, seed=2, disconnect_every=30000, timeout=0.05, retries=40)
     print(r)
     check(r)
-    assert r["commands"] >= 300 and r["disconnects"] >= 1 and r["reconnects"] >= 2 and r["verified"] >= 1
+    assert r["commands"] >= 200 and r["disconnects"] >= 1 and r["reconnects"] >= 2 and r["verified"] >= 1

@@ -280,15 +280,20 @@ def test_an_older_board_is_refused_with_what_to_do():
         Arm(v1_board(), timeout=0.02)
 
 
-def test_a_protocol_2_board_older_than_the_timed_move_is_refused():
+@pytest.mark.parametrize("old", ["2.0.0", "2.1.0"])
+def test_a_protocol_2_board_older_than_exactly_once_requests_is_refused(old):
+    # 2.0.0: untimed MOVE; 2.1.0: runs a resent request twice (issue 27)
     raw = serial.serial_for_url(SIM, timeout=0.05)
     orig = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.1.0", "fw=2.0.0")
-    with pytest.raises(DeviceError, match=r"firmware 2\.0\.0; labkit needs 2\.1\.0 or newer .*flash firmware/labkit_arm"):
+    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.2.0", f"fw={old}")
+    with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 2\.2\.0 or newer .*flash firmware/labkit_arm"):
         Arm(raw, timeout=0.02)
+
+
+def test_a_newer_board_is_driven():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     newer = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.1.0", "fw=2.10.0")
+    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.2.0", "fw=2.10.0")
     with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
         assert arm.info.firmware == "2.10.0"
 

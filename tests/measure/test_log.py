@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -409,3 +410,84 @@ def test_a_full_disk_is_a_clear_labkit_error(tmp_path, monkeypatch):
                                                r"the disk is full: free some space") as info:
             log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001)
     assert isinstance(info.value, LabkitError) and isinstance(info.value, OSError)
+
+
+def _fail_after(monkeypatch, landed):
+    """The next os.write in the log puts only ``landed`` bytes of its data on disk, then the disk is full."""
+    import labkit.measure._log as m
+
+    real_write = os.write
+
+    def full(fd, data):
+        real_write(fd, bytes(data[:landed]))
+        monkeypatch.setattr(m.os, "write", real_write)
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(m.os, "write", full)
+
+
+def test_a_retry_after_a_full_disk_never_duplicates_a_record(tmp_path, monkeypatch):
+    """Issue 27: the failed write lost only the newline or only the check field, and the retry added a copy."""
+    from labkit.exceptions import StorageError
+    from labkit.measure._schema import _encode_line
+
+    args = dict(unit="m", instrument="tape", resolution=0.001)
+    with MeasurementLog(tmp_path / "probe.csv", session="s") as log:
+        log.record("p", "x", 1.0, **args)
+        size = len(_encode_line(log.record("p", "x", 2.0, **args).to_row()).encode())
+    for landed in sorted({0, 1, size // 2, size - 10, size - 9, size - 8, size - 2, size - 1, size}):
+        path = tmp_path / f"cut{landed}.csv"
+        with MeasurementLog(path, session="s") as log:
+            log.record("p", "x", 1.0, **args)
+            _fail_after(monkeypatch, landed)
+            with pytest.raises(StorageError):
+                log.record("p", "x", 2.0, **args)
+            retry = log.record("p", "x", 2.0, **args)  # what the error message tells the user to do
+            after = log.record("p", "x", 3.0, **args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MeasurementWarning)
+            df = load_measurements(path)
+        assert list(df["value"]) == [1.0, 2.0, 3.0], (landed, path.read_text())
+        assert list(df["record"]) == [1, 2, 3] and list(df["repeat"]) == [1, 2, 3], landed
+        assert (retry.record, after.record) == (2, 3), landed
+        # resumed, the file goes on with the next number
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", MeasurementWarning)
+            assert MeasurementLog(path).record("p", "x", 4.0, **args).record == 4
+
+
+def test_a_retry_with_another_reading_keeps_the_one_on_disk(tmp_path, monkeypatch):
+    from labkit.exceptions import StorageError
+    from labkit.measure._schema import _encode_line
+
+    path = tmp_path / "log.csv"
+    with MeasurementLog(path, session="s") as log:
+        rec = log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
+        _fail_after(monkeypatch, len(_encode_line(rec.to_row()).encode()) - 1)  # only the newline lost
+        with pytest.raises(StorageError):
+            log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001)
+        other = log.record("p", "y", 5.0, unit="m", instrument="tape", resolution=0.001)
+    df = load_measurements(path)
+    assert list(df["value"]) == [1.0, 2.0, 5.0] and list(df["record"]) == [1, 2, 3] and other.record == 3
+
+
+@pytest.mark.parametrize("cut", ["after_last_comma", "inside_check", "inside_note"])
+def test_a_torn_tail_is_reported_and_never_loaded(tmp_path, cut):
+    path = tmp_path / "log.csv"
+    with MeasurementLog(path, session="s") as log:
+        log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001, note="a, b")
+        log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001, note="a, b")
+    text = path.read_text()
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    keep = {"after_last_comma": last.rfind(",") + 1, "inside_check": len(last) - 4,
+            "inside_note": last.index('"a,') + 3}[cut]
+    path.write_text(text[: len(text) - len(last) - 1] + last[:keep])
+    with pytest.warns(MeasurementWarning, match="last line was torn"):
+        log = MeasurementLog(path)
+    rec = log.record("p", "x", 3.0, unit="m", instrument="tape", resolution=0.001)
+    log.close()
+    assert rec.record == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MeasurementWarning)
+        df = load_measurements(path)
+    assert list(df["value"]) == [1.0, 3.0] and list(df["record"]) == [1, 2]

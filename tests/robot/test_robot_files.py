@@ -110,8 +110,8 @@ def _write(tmp_path, text, name="bad.toml"):
         ("limits = [0, 50]", "", r"joint\[2\].limits", "required for a prismatic joint"),
         ("d = 10", 'd = "ten"', r"joint\[2\].d", "finite number, got 'ten'"),
         ('format = "labkit-robot/1"', 'format = "labkit-robot/9"', "format", "expected 'labkit-robot/1'"),
-        ("a = 100", "a = 100\nmax_velocity = 0", r"joint\[1\].max_velocity", "positive number, got 0"),
-        ("a = 100", "a = 100\nmax_acceleration = -5", r"joint\[1\].max_acceleration", "positive number, got -5"),
+        ("a = 100", "a = 100\nmax_velocity = 0", r"joint\[1\].max_velocity", "positive number >= 1e-06, got 0"),
+        ("a = 100", "a = 100\nmax_acceleration = -5", r"joint\[1\].max_acceleration", "positive number >= 1e-06, got -5"),
         ("d = 10", 'd = 10\nname = "q1"', "joint.name", "distinct joint names, got 'q1' twice"),
         ("[[joint]]\na = 100", '[[joint]]\nname = "q2"\na = 100', "joint.name", "got 'q2' twice"),
         # issue 13: wrong types gave tracebacks or were accepted silently

@@ -135,6 +135,8 @@ class VirtualBoard(BoardCommands):
         self.stream_counter = 0
         self.last_ok = self.time
         self.last_seq = 0
+        #: ``((seq, echo), fields)`` of the last accepted sealed requests, oldest first (repeats are answered from it)
+        self.seen = []
         self.next_frame = self.time
         self.mem = 812
         if self.model is None:  # power-up: the arm rests at the boot position; a reset keeps it where it is

@@ -37,7 +37,11 @@ from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
 __all__ = ["FW_VERSION"]
 
 #: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
-FW_VERSION = "2.1.0"
+FW_VERSION = "2.2.0"
+#: accepted sealed requests the board remembers to answer a repeat without running it (docs/protocol.md 2.1)
+SEEN = 4
+#: commands whose reply fields report the state they left: a repeat regenerates them (the others store theirs)
+_REPORTS = {"STOP": None, "CAL": 1, "LIMITS": 1, "DEFAULTS": None}
 #: factory calibration of every channel: pmin, pmax [us], zero [cdeg], direction, lo, hi [cdeg]
 FACTORY = (500, 2500, 0, 1, 0, 18000)
 #: EEPROM image version (2: with the speed limits)
@@ -189,7 +193,16 @@ class BoardCommands:
                 if not REQUEST_INT.match(tok) or not -2**31 < int(tok) < 2**31:
                     raise _Reject(2, "arguments")
                 args.append(int(tok))
-            fields = handler(args)
+            key = (seq, echo(name, args)) if name not in READ_ONLY else None
+            seen = next((s for s in self.seen if s[0] == key), None)
+            if seen is not None:  # a repeat: answered with the original reply, not run
+                fields = seen[1] if seen[1] is not None else self._report(name, args)
+            else:
+                fields = handler(args)
+                if key is not None:
+                    self.seen.append((key, None if name in _REPORTS else fields))
+                    del self.seen[:-SEEN]
+                    self.last_seq = seq
         except _Reject as rej:
             self._emit(f"ERR{tag} {rej}")
             return
@@ -197,8 +210,15 @@ class BoardCommands:
         head = f"OK{tag} {name}"
         if name not in READ_ONLY:
             head += " " + echo(name, args)
-            self.last_seq = seq
         self._emit(head + (f" {fields}" if fields else ""))
+
+    def _report(self, name, args):
+        """The fields of a repeated STOP, CAL, LIMITS or DEFAULTS: the state they left, reported now, nothing changed."""
+        if name == "STOP":
+            return " ".join(str(v) for v in self._q_int())
+        if name in ("CAL", "LIMITS"):
+            return getattr(self, f"_cmd_{name.lower()}")(args[:1])  # their report-only form
+        return ""
 
     @staticmethod
     def _nargs(args, *counts):

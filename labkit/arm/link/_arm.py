@@ -30,6 +30,7 @@ True
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -107,6 +108,10 @@ class Arm:
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
                  boot_wait=3.0, sync_calibration=True, check_moves=True):
+        timeout = finite("timeout", timeout, lo=1e-4, hi=60.0, unit="s")
+        if isinstance(retries, bool) or not isinstance(retries, numbers.Integral) or not 0 <= retries <= 1000:
+            raise OptionError(f"expected retries as a whole number 0..1000, got {retries!r}")
+        boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot = Robot.load(robot)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
@@ -202,8 +207,14 @@ class Arm:
         seconds : float
             Time to wait [s] (board clock: simulated time on ``sim://`` and ``simavr://``, whose
             ports offer ``port.board_time``; in lockstep the simulated board runs only while the
-            host waits, so a slow host machine cannot stretch it).
+            host waits, so a slow host machine cannot stretch it); finite, 0..86400 s.
+
+        Raises
+        ------
+        OptionError
+            ``seconds`` not a finite number within 0..86400 (nothing waits forever).
         """
+        seconds = finite("seconds", seconds, lo=0.0, hi=86400.0, unit="s")
         end = self._clock() + seconds
         while (left := end - self._clock()) > 0:
             self._wire.pump(min(left, 0.05))
@@ -373,13 +384,22 @@ class Arm:
         """
         q = self._check_q(q)
         target = [cdeg(v) for v in q]
-        now = [cdeg(v) for v in self._verify_status()[0].q]
+        before = self._verify_status()[0]
+        now = [cdeg(v) for v in before.q]
         if duration is None:
             dur = move_duration_ms(now, target, *self.speed_limits())
         else:
             dur = int(round(finite("duration", duration, lo=0.001, hi=60.0, unit="s") * 1000))
             check_segment_speeds(self.robot, [move_segment(now, target, dur)], *self.speed_limits())
         self._transact("MOVE", *target, dur, motion=True, verify=lambda seq: self._verify_status(seq)[1])
+        # first let most of the move pass (a STATUS costs a long reply, often resent on a noisy line), in steps
+        # that feed the host-silence timer (a STATUS at least every 40 % of it), then poll for its end
+        step = dur / 1000.0 if not before.timeout else min(dur / 1000.0, 0.4 * before.timeout)
+        end = self._wire.clock() + 0.9 * dur / 1000.0
+        while (left := end - self._wire.clock()) > 0:
+            self.sleep(min(left, step))
+            if left > step:
+                self._verify_status()
         while (st := self._verify_status()[0]).state == "RUN":  # STATUS also feeds the host-silence timer
             self.sleep(min(0.05, dur / 1000.0))
         if st.state == "HOLD":
@@ -416,9 +436,14 @@ class Arm:
         DeviceError
             The joints did not settle within ``max_wait``.
         """
+        q = self._check_q(q)
+        tol = finite("tol", tol, lo=0.0, unit="rad")
+        max_wait = finite("max_wait", max_wait, lo=0.0, hi=86400.0, unit="s")
+        interval = finite("interval", interval, lo=1e-3, hi=60.0, unit="s")
         end = self._clock() + max_wait
         hits = 0
-        while self._clock() < end:
+        sensed = None
+        while self._clock() < end or sensed is None:  # at least one read
             sensed = self.read_joints()
             hits = hits + 1 if np.all(np.abs(sensed - q) <= tol) else 0
             if hits >= 2:
@@ -476,7 +501,7 @@ class Arm:
         CommandRejected
             Outside the gripper's pulse range (``ERR 5 RANGE``).
         """
-        self._transact("GRIP", int(round(finite("us", us, unit="us"))))
+        self._transact("GRIP", int(round(finite("us", us, lo=400.0, hi=2600.0, unit="us"))))  # RC pulses (protocol 4.2)
 
     def open_gripper(self):
         """Open the gripper (robot file's ``open_us``)."""

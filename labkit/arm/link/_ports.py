@@ -26,8 +26,9 @@ from labkit.arm.link._replies import BoardInfo, parse_hello
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
-#: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits
-MIN_FIRMWARE = (2, 1, 0)
+#: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits, 2.2.0
+#: answers a repeated sealed request without running it (the host resends a request under the same ``#seq``)
+MIN_FIRMWARE = (2, 2, 0)
 
 ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
                 0x10C4: "CP210x", 0x239A: "Adafruit"}
@@ -176,13 +177,15 @@ def handshake(arm, boot_wait):
                           f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
     if _version(info.firmware) < MIN_FIRMWARE:
         raise DeviceError(f"{arm.name}: the board runs labkit firmware {info.firmware}; labkit needs "
-                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (MOVE carries a duration since 2.1.0): "
+                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (since 2.2.0 a resent request never runs twice): "
                           f"flash firmware/labkit_arm (make -C firmware, then avrdude or the Arduino IDE, see README)")
     if info.joints != arm.robot.n:
         raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
                           f"{arm.robot.name} has {arm.robot.n}")
-    # what ran before this connection is not ours to judge
+    # what ran before this connection is not ours to judge; our seqs follow it, so that none of them is
+    # taken for a repeat of a request the board remembers from an earlier connection
     wire.last_seq = arm._verify_status()[0].last
+    wire.follow(wire.last_seq)
 
 
 def _version(text):

@@ -30,6 +30,12 @@ from labkit.arm._protocol import (
 
 __all__ = ["LinkStats"]
 
+#: largest read of one :meth:`Wire.pump` [bytes] and most reads of one :meth:`Wire._drain`
+_READ_CHUNK = 4096
+_DRAIN_READS = 16
+#: how long a reply is still awaited after a damaged line arrived [s]: the wire time of a longest line at 115200 baud
+_AFTER_BAD_LINE = (MAX_LINE + 2) * 10 / 115200
+
 
 class _NoReply(DeviceError):
     """No usable reply to one attempt (raised and caught inside :meth:`Wire.transact`)."""
@@ -191,7 +197,8 @@ class Wire:
             raise DeviceError("the link is closed")
         port.timeout = max(self._port_seconds(timeout), 0.0)
         waiting = self.io(lambda: port.in_waiting)
-        chunk = self.io(port.read, max(1, waiting))
+        # at most _READ_CHUNK bytes: a board flooding the line is read in bounded steps between deadline checks
+        chunk = self.io(port.read, min(max(1, waiting), _READ_CHUNK))
         if not chunk:
             return False
         self._buf += chunk
@@ -268,9 +275,25 @@ class Wire:
         self._seq = (self._seq % 65535) + 1
         return self._seq
 
+    def follow(self, seq):
+        """Number the next requests after ``seq`` (the board's ``STATUS last=``) and after those already sent.
+
+        Parameters
+        ----------
+        seq : int
+            The last ``#seq`` the board executed (0..65535).
+        """
+        self._seq = max(self._seq, int(seq) % 65535)
+
     def _await(self, seq):
         deadline = self.clock() + self.timeout
+        bad = self.stats.bad_lines
         while True:
+            if self.stats.bad_lines > bad:
+                # a damaged line came, most likely the reply (the board sends exactly one per request): wait
+                # only as long as a reply behind it would need, then resend (a resent request never runs twice)
+                bad = self.stats.bad_lines
+                deadline = min(deadline, self.clock() + _AFTER_BAD_LINE)
             for k, ln in enumerate(self._lines):
                 if ln.seq == seq or (ln.kind == "ERR" and ln.seq is None):
                     del self._lines[k]
@@ -287,8 +310,15 @@ class Wire:
             self.pump(left)
 
     def _drain(self):
-        """Handle every line already received; forget unanswered replies (stale by now)."""
-        while self.io(lambda: self.port.in_waiting):
+        """Handle the lines already received; forget unanswered replies (stale by now).
+
+        Bounded: at most ``_DRAIN_READS`` reads, so a board that never stops sending (a flood
+        of bytes faster than they are read) cannot hold the host here; what is left is read by
+        the next wait, which has a deadline.
+        """
+        for _ in range(_DRAIN_READS):
+            if not self.io(lambda: self.port.in_waiting):
+                break
             self.pump(0.0)
         self._lines.clear()
 
@@ -387,10 +417,12 @@ class Wire:
         expected_echo = echo(command, args) if state_changing else None
         last = None
         retries = self.retries if retries is None else retries
+        # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
+        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay
+        seq = self._next_seq()
+        body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
         for attempt in range(retries + 1):
             self._drain()
-            seq = self._next_seq()
-            body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
             self._send(("\n" if attempt else "") + seal(body) + "\n")
             try:
                 reply = self._await(seq)

@@ -24,6 +24,7 @@ pyserial port whose waits run in board time.
 
 from __future__ import annotations
 
+import atexit
 import collections
 import fcntl
 import os
@@ -31,6 +32,7 @@ import queue
 import subprocess
 import threading
 import time
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping
@@ -220,6 +222,7 @@ class FirmwareSim:
         """Path of the pty connected to the simulated UART0."""
         self._reader = threading.Thread(target=self._read_loop, name="labkit-simavr", daemon=True)
         self._reader.start()
+        _LIVE.add(self)
         if on_tick is not None:
             self._command(f"tick {self.tick_period * 1e6:.3f}", "OK")
 
@@ -575,3 +578,18 @@ class FirmwareSim:
         proc = getattr(self, "_proc", None)
         if proc is not None and proc.poll() is None:
             proc.kill()
+
+
+#: every FirmwareSim not yet garbage collected: closed at interpreter exit, before the daemon reader threads
+#: are frozen in the middle of a read of the harness's pipe (which aborted the interpreter: "Fatal Python
+#: error: _enter_buffered_busy", exit status -6, when a simavr:// port was left open)
+_LIVE = weakref.WeakSet()
+
+
+@atexit.register
+def _close_all():
+    for sim in list(_LIVE):
+        try:
+            sim.close()
+        except Exception:  # noqa: BLE001 - best effort at exit
+            pass

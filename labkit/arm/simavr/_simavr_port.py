@@ -24,6 +24,7 @@ from __future__ import annotations
 import time
 
 from serial import serialposix
+from serial.serialutil import to_bytes
 
 from labkit.arm._port_errors import PortError
 from labkit.exceptions import OptionError
@@ -38,6 +39,8 @@ FREE_RUN_SCALE = 10.0
 
 _RESOLUTION_S = 1e-6  # simulated time is reported in whole microseconds (a cycle is 62.5 ns)
 _TRANSIT_S = 10.0  # wall-clock limit for board bytes known to be on their way through the pty
+_WRITE_CHUNK = 1024  # largest lockstep write before the UART is given the time to take it [bytes]
+_BYTE_S = 10 / 115200  # wire time of one byte at 115200 baud, 8N1 [s]
 
 
 class SimavrPort(serialposix.Serial):
@@ -220,10 +223,27 @@ class SimavrPort(serialposix.Serial):
         int
             Bytes written.
         """
-        n = super().write(data)
-        if self._clock == "lockstep" and self.sim is not None:
-            self.sim.host_bytes += n
+        if not (self._clock == "lockstep" and self.sim is not None):
+            return super().write(data)
+        # lockstep: the CPU runs only while the host waits, so the pty and the harness's buffer (8 kB) would fill
+        # and a large write block forever; a chunk at a time, each followed by its wire time of board time (the
+        # UART takes the bytes at the baud rate, as a real port would)
+        data = memoryview(to_bytes(data))
+        n = 0
+        while n < len(data):
+            chunk = data[n:n + _WRITE_CHUNK]
+            k = super().write(chunk)
+            n += k
+            self.sim.host_bytes += k
+            if len(data) > _WRITE_CHUNK:
+                self._advance_wire(k * _BYTE_S)
         return n
+
+    def _advance_wire(self, seconds):
+        try:
+            self.sim.advance(seconds)
+        except Exception as exc:  # DeviceError of a failed simulator: a failing port to pyserial users
+            raise PortError(f"{self.portstr}: {exc}") from exc
 
     def reset_input_buffer(self):
         """Discard the bytes received and not read (lockstep: read and dropped, so the count stays exact)."""

@@ -41,6 +41,8 @@ from serial.serialutil import SerialBase, to_bytes
 from labkit.arm._port_errors import PortClosedError, PortError, PortURLError
 
 CLOCKS = ("realtime", "lockstep")
+#: longest wait [s of board time] of a lockstep read with ``timeout=None`` before it fails
+_BLOCKING_LIMIT = 120.0
 
 
 def _parse_value(field, text):
@@ -249,18 +251,20 @@ class Serial(SerialBase):
         timeout = self._timeout
         data = bytearray()
         if self._clock == "lockstep":
-            limit = math.inf if timeout is None else board.time + timeout
+            # timeout=None blocks until `size` bytes came; in lockstep a board that sends nothing would make that
+            # an endless loop of servo frames, so the wait ends with an error after _BLOCKING_LIMIT of board time
+            limit = board.time + (_BLOCKING_LIMIT if timeout is None else timeout)
             while len(data) < size:
                 if board.out_waiting:
                     data += board.take_output(size - len(data))
                     continue
-                if board.time >= limit:
-                    break
                 nxt = min(board.next_event_time(), limit)
-                if math.isinf(nxt):
+                if board.time >= limit or math.isinf(nxt):
+                    if timeout is not None:
+                        break
                     raise PortError(f"{self.port}: expected a read timeout with clock=lockstep (board time passes "
-                                    f"only while the host waits), got timeout=None and nothing to read: "
-                                    f"the read would block forever")
+                                    f"only while the host waits), got timeout=None and {len(data)} of {size} "
+                                    f"bytes after {_BLOCKING_LIMIT:g} s of board time: the read would block forever")
                 board.advance_to(nxt)
             return bytes(data)
         deadline = None if timeout is None else time.monotonic() + timeout
