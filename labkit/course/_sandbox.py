@@ -186,24 +186,14 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> 
     return args + ["--"]
 
 
-def _children_map():
-    kids = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        kids.setdefault(int(fields[1]), []).append(int(stat.parent.name))
-    return kids
-
-
 def _tree(pid) -> list:
-    kids, out, todo = _children_map(), [], [pid]
-    while todo:
-        p = todo.pop()
-        out.append(p)
-        todo += kids.get(p, [])
-    return out
+    """``pid`` and all its descendants (psutil), [] once it is gone."""
+    import psutil
+
+    try:
+        return [pid] + [child.pid for child in psutil.Process(pid).children(recursive=True)]
+    except psutil.Error:
+        return []
 
 
 def _pss(pid) -> int:

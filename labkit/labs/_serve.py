@@ -211,19 +211,13 @@ def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_
 
 
 def _descendants(pid) -> list:
-    kids = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        kids.setdefault(int(fields[1]), []).append(int(stat.parent.name))
-    out, todo = [], list(kids.get(pid, []))
-    while todo:
-        p = todo.pop()
-        out.append(p)
-        todo += kids.get(p, [])
-    return out
+    """The pids of all descendants of ``pid`` (psutil), [] once it is gone."""
+    import psutil
+
+    try:
+        return [child.pid for child in psutil.Process(pid).children(recursive=True)]
+    except psutil.Error:
+        return []
 
 
 def serve_lab(path=None, *, port=None, no_browser=False, extra_args=(), instructor=False) -> int:
