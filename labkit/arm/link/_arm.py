@@ -30,7 +30,6 @@ True
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 
@@ -43,7 +42,7 @@ from labkit.arm.link._segments import (check_segment_positions, check_segment_sp
                                   move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import record_stream
 from labkit.arm.link._ports import find_ports, handshake, open_port
-from labkit.arm.link._inputs import finite, joint_vector
+from labkit.arm.link._inputs import finite, joint_vector, whole
 
 __all__ = ["Arm"]
 
@@ -109,8 +108,7 @@ class Arm:
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
                  boot_wait=3.0, sync_calibration=True, check_moves=True):
         timeout = finite("timeout", timeout, lo=1e-4, hi=60.0, unit="s")
-        if isinstance(retries, bool) or not isinstance(retries, numbers.Integral) or not 0 <= retries <= 1000:
-            raise OptionError(f"expected retries as a whole number 0..1000, got {retries!r}")
+        retries = whole("retries", retries, lo=0, hi=1000)
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot = Robot.load(robot)
@@ -205,9 +203,8 @@ class Arm:
         Parameters
         ----------
         seconds : float
-            Time to wait [s] (board clock: simulated time on ``sim://`` and ``simavr://``, whose
-            ports offer ``port.board_time``; in lockstep the simulated board runs only while the
-            host waits, so a slow host machine cannot stretch it); finite, 0..86400 s.
+            Time to wait [s], finite, 0..86400 s, on the board clock: ``port.board_time`` on ``sim://``
+            and ``simavr://`` (in lockstep the board runs only while the host waits).
 
         Raises
         ------
@@ -600,11 +597,4 @@ class Arm:
         OptionError
             ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200 (a ``ValueError``).
         """
-        duration = finite("duration", duration, unit="s")
-        if duration <= 0:
-            raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")
-        hz = finite("hz", hz, lo=1, hi=200, unit="Hz")
-        if hz != int(hz):
-            raise OptionError(f"expected hz as a whole number of frames per second, got {hz:g}")
-        hz = int(hz)
         return record_stream(self._wire, self.robot, duration, hz)

@@ -17,8 +17,9 @@ import time
 
 import numpy as np
 
-from labkit.exceptions import ProtocolError
+from labkit.exceptions import OptionError, ProtocolError
 from labkit.arm._protocol import board_int
+from labkit.arm.link._inputs import finite, whole
 from labkit.arm.link._replies import parse_ping
 
 __all__ = []
@@ -127,13 +128,22 @@ def record_stream(wire, robot, duration, hz):
     duration : float
         Recording time [s of board time].
     hz : int
-        Frame rate [Hz], 1..200 (checked by the caller).
+        Frame rate [Hz], a whole number 1..200.
 
     Returns
     -------
     pandas.DataFrame
         The table of :func:`frame_table`.
+
+    Raises
+    ------
+    OptionError
+        ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200.
     """
+    duration = finite("duration", duration, unit="s")
+    if duration <= 0:
+        raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")
+    hz = whole("hz", hz, lo=1, hi=200, unit="Hz")
     stats = wire.stats
     rejected0 = stats.rejected_frames + stats.bad_lines
     t_begin = wire.transact("PING", parse=parse_ping)

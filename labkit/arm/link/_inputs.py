@@ -59,6 +59,35 @@ def finite(name, value, *, lo=None, hi=None, unit=""):
     return v
 
 
+def whole(name, value, *, lo, hi, unit=""):
+    """``value`` as an int if it is a whole number within ``lo..hi``.
+
+    Parameters
+    ----------
+    name : str
+        Argument name for the message.
+    value : object
+        What the caller passed.
+    lo, hi : int
+        Inclusive bounds.
+    unit : str
+        Unit shown in the message (``"Hz"``).
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    OptionError
+        Not a finite number (a bool is not one), not whole, or out of bounds (a ``ValueError``).
+    """
+    v = finite(name, value, lo=lo, hi=hi, unit=unit)
+    if v != int(v):
+        raise OptionError(f"expected {name} as a whole number, got {v:g}")
+    return int(v)
+
+
 def joint_vector(robot, q):
     """One configuration ``q`` checked against the robot's joint limits and every servo's range.
 
