@@ -1,12 +1,12 @@
 """Robot descriptions: Denavit-Hartenberg rows, the frozen :class:`Robot`, robot files.
 
 :mod:`labkit.robot.types` holds the leaf types (Convention, JointType, Link,
-ServoCalibration, Gripper) that the kinematics layer uses; the :class:`Robot`
+ServoCalibration, Gripper, BusServo, Bus) that the kinematics layer uses; the :class:`Robot`
 model and the robot-file reader/writer build on them; joint values in display
 units (deg, mm), the servos' joint window and a bound of the reach are helpers for labs.
 """
 
-from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, Link
+from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusServo, Bus, BUS_KINDS, Link
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
 from labkit.robot._display import joints_from_display, joints_to_display, servo_window, robot_reach
@@ -16,6 +16,9 @@ __all__ = [
     "JointType",
     "ServoCalibration",
     "Gripper",
+    "BusServo",
+    "Bus",
+    "BUS_KINDS",
     "Link",
     "Robot",
     "bundled_robots",

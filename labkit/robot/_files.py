@@ -17,7 +17,10 @@ import numpy as np
 from labkit.robot.types import (
     _ANGLE_UNITS,
     _LENGTH_UNITS,
+    BUS_KINDS,
     FORMAT,
+    Bus,
+    BusServo,
     Convention,
     Gripper,
     JointType,
@@ -27,11 +30,13 @@ from labkit.robot.types import (
 from labkit.data import robots_dir
 from labkit.exceptions import RobotFileError
 
-_TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper"}
+_TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper", "bus"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
-               "flip"}
+               "flip", "bus"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
 _FRAME_KEYS = {"translation", "rpy"}
+_BUS_KEYS = {"kind", "baudrate", "resolution"}
+_BUS_SERVO_KEYS = {"id", "zero", "direction"}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
 
@@ -126,6 +131,41 @@ def _up(path, value):
     return v / norm
 
 
+def _int(path, field, value, lo, hi, unit=""):
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise RobotFileError(path, field, f"expected an integer {lo}..{hi}{' ' + unit if unit else ''}, got {value!r}")
+    return value
+
+
+def _bus(path, table):
+    """The ``[bus]`` table: ``kind``, ``baudrate`` [bit/s], ``resolution`` [ticks/turn]."""
+    if table is None:
+        return None
+    _check_keys(path, "bus", table, _BUS_KEYS)
+    kind = table.get("kind")
+    if not isinstance(kind, str) or kind not in BUS_KINDS:
+        raise RobotFileError(path, "bus.kind", f"expected one of {', '.join(repr(k) for k in BUS_KINDS)}, got {kind!r}")
+    baud = _int(path, "bus.baudrate", table.get("baudrate", 1_000_000), 9600, 4_500_000, "bit/s")
+    res = _int(path, "bus.resolution", table.get("resolution", BUS_KINDS[kind]), 16, 1_048_576, "ticks/turn")
+    return Bus(kind, baud, res)
+
+
+def _bus_servo(path, where, table, bus):
+    """A joint's ``bus = { id, zero, direction }`` (needs the ``[bus]`` table for the resolution)."""
+    _check_keys(path, f"{where}.bus", table, _BUS_SERVO_KEYS)
+    if bus is None:
+        raise RobotFileError(path, f"{where}.bus", "expected a [bus] table (kind, baudrate, resolution) in the file, "
+                             "got a bus servo without one")
+    sid = _int(path, f"{where}.bus.id", table.get("id"), 0, 252)
+    zero = _num(path, f"{where}.bus.zero", table.get("zero", bus.resolution // 2))
+    if not 0 <= zero <= bus.resolution - 1:
+        raise RobotFileError(path, f"{where}.bus.zero", f"expected a position 0..{bus.resolution - 1} ticks, got {zero:g}")
+    direction = table.get("direction", 1)
+    if isinstance(direction, bool) or direction not in (1, -1):
+        raise RobotFileError(path, f"{where}.bus.direction", f"expected 1 or -1, got {direction!r}")
+    return BusServo(sid, zero, direction, bus.resolution)
+
+
 def parse(data, path):
     """Check parsed TOML ``data`` (read from ``path``) and return the robot's fields.
 
@@ -169,6 +209,7 @@ def parse(data, path):
     joints = data.get("joint")
     if not isinstance(joints, list) or not joints:
         raise RobotFileError(path, "joint", "expected at least one [[joint]] table")
+    bus = _bus(path, data.get("bus"))
     links = []
     for i, j in enumerate(joints, start=1):
         where = f"joint[{i}]"
@@ -214,6 +255,15 @@ def parse(data, path):
                                      _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
                                      0, 1023, "ADC counts"),
             )
+        bus_servo = _bus_servo(path, where, j["bus"], bus) if "bus" in j else None
+        if bus_servo is not None and servo is not None:
+            raise RobotFileError(path, f"{where}.bus", "expected either a hobby servo (servo = {...}) or a bus servo "
+                                 "(bus = {...}), got both")
+        if bus_servo is not None and not rev:
+            raise RobotFileError(path, f"{where}.bus", "expected a revolute joint on a servo bus, got a prismatic one")
+        if bus is not None and bus_servo is None:
+            raise RobotFileError(path, f"{where}.bus", "expected bus = { id = ..., zero = ..., direction = ... } on "
+                                 "every joint of a robot with a [bus] table, got none")
         flip = j.get("flip", False)
         if not isinstance(flip, bool):
             raise RobotFileError(path, f"{where}.flip", f"expected true or false, got {flip!r}")
@@ -230,6 +280,7 @@ def parse(data, path):
                 max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity")) * qscale,
                 max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration")) * qscale,
                 flip=flip,
+                bus=bus_servo,
             )
         )
     names = [lk.name for lk in links]
@@ -267,6 +318,7 @@ def parse(data, path):
         path=str(path),
         length_unit=lu,
         angle_unit=au,
+        bus=bus,
     )
 
 
@@ -340,7 +392,12 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                 f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
                 f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}] }}"
             )
+        if lk.bus:
+            out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction} }}")
         out.append("")
+    if robot.bus:
+        out += ["[bus]", f'kind = "{robot.bus.kind}"', f"baudrate = {robot.bus.baudrate}",
+                f"resolution = {robot.bus.resolution}", ""]
     for name in ("base", "tool"):
         T = getattr(robot, name)
         if not np.allclose(T, np.eye(4), atol=0, rtol=0):

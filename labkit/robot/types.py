@@ -22,8 +22,14 @@ __all__ = [
     "JointType",
     "ServoCalibration",
     "Gripper",
+    "BusServo",
+    "Bus",
+    "BUS_KINDS",
     "Link",
 ]
+
+#: servo buses a robot file's ``[bus]`` table may name (``kind``), each with its default resolution [ticks/turn]
+BUS_KINDS = {"dynamixel": 4096, "feetech": 4096}
 
 FORMAT = "labkit-robot/1"
 _LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
@@ -251,6 +257,107 @@ class Gripper:
 
 
 @dataclass(frozen=True)
+class BusServo:
+    """A joint driven by a smart servo on a bus (Dynamixel, Feetech): its id and the tick <-> radian map.
+
+    ``ticks = zero + direction * q * resolution / (2 pi)``: the joint angle is 0 rad at tick
+    ``zero`` (robot-file table ``bus = { id = 11, zero = 2048, direction = 1 }``).
+
+    Attributes
+    ----------
+    id : int
+        Servo id on the bus (0..252).
+    zero : float
+        Position [ticks] at ``q = 0``.
+    direction : int
+        +1 or -1 (the servo's positive sense against the joint's).
+    resolution : int
+        Ticks per turn (the ``[bus]`` table's ``resolution``; 4096 on an XM430 and an STS3215).
+
+    Examples
+    --------
+    >>> s = BusServo(id=11, zero=2048, direction=-1, resolution=4096)
+    >>> int(s.ticks(math.pi / 2))
+    1024
+    >>> float(s.joint(1024)) == math.pi / 2
+    True
+    """
+
+    id: int
+    zero: float = 2048.0
+    direction: int = 1
+    resolution: int = 4096
+
+    def __post_init__(self):
+        owner = "BusServo"
+        if isinstance(self.id, (bool, np.bool_)) or not isinstance(self.id, (int, np.integer)) or not 0 <= self.id <= 252:
+            raise RobotError(f"{owner}: field 'id': expected an integer 0-252, got {self.id!r}", "id")
+        if isinstance(self.direction, bool) or self.direction not in (1, -1):
+            raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {self.direction!r}", "direction")
+        res = self.resolution
+        if isinstance(res, (bool, np.bool_)) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 1_048_576:
+            raise RobotError(f"{owner}: field 'resolution': expected an integer 16..1048576 ticks/turn, got {res!r}",
+                             "resolution")
+        object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
+
+    def ticks(self, q):
+        """Servo position [ticks, rounded to integers] for joint values ``q`` [rad].
+
+        Parameters
+        ----------
+        q : array_like, shape (...)
+            Joint values [rad].
+
+        Returns
+        -------
+        ndarray of int, shape (...)
+        """
+        t = self.zero + self.direction * np.asarray(q, dtype=float) * self.resolution / (2 * math.pi)
+        return np.rint(t).astype(np.int64)
+
+    def joint(self, ticks):
+        """Joint values [rad] for servo positions ``ticks``.
+
+        Parameters
+        ----------
+        ticks : array_like, shape (...)
+            Servo positions [ticks].
+
+        Returns
+        -------
+        ndarray, shape (...)
+        """
+        return (np.asarray(ticks, dtype=float) - self.zero) * self.direction * (2 * math.pi) / self.resolution
+
+
+@dataclass(frozen=True)
+class Bus:
+    """A robot file's ``[bus]`` table: which servo bus drives the joints.
+
+    Attributes
+    ----------
+    kind : str
+        ``"dynamixel"`` (Protocol 2.0) or ``"feetech"`` (STS/SCS), a key of :data:`BUS_KINDS`.
+    baudrate : int
+        Bus baud rate [bit/s] the servos are set to (1,000,000 on OpenMANIPULATOR-X and SO-101).
+    resolution : int
+        Ticks per turn of every servo.
+    """
+
+    kind: str
+    baudrate: int = 1_000_000
+    resolution: int = 4096
+
+    def __post_init__(self):
+        if self.kind not in BUS_KINDS:
+            raise RobotError(f"Bus: field 'kind': expected one of {', '.join(BUS_KINDS)}, got {self.kind!r}", "kind")
+        if isinstance(self.baudrate, bool) or not isinstance(self.baudrate, (int, np.integer)) \
+                or not 9600 <= self.baudrate <= 4_500_000:
+            raise RobotError(f"Bus: field 'baudrate': expected an integer 9600..4500000 bit/s, got {self.baudrate!r}",
+                             "baudrate")
+
+
+@dataclass(frozen=True)
 class Link:
     """One Denavit-Hartenberg row.
 
@@ -274,6 +381,9 @@ class Link:
         (lower, upper) limits of ``q`` [rad or m], ``lower < upper``.
     name : str
     servo : ServoCalibration or None
+        The hobby servo behind an Arduino board, or None.
+    bus : BusServo or None
+        The smart servo on a bus (robot-file ``bus = {...}``), or None.
     max_velocity, max_acceleration : float
         Joint speed [rad/s or m/s] and acceleration limits (> 0); ``inf`` if unknown.
     flip : bool
@@ -303,6 +413,7 @@ class Link:
     max_velocity: float = math.inf
     max_acceleration: float = math.inf
     flip: bool = False
+    bus: BusServo | None = None
 
     def __post_init__(self):
         owner = f"Link {self.name!r}" if self.name else "Link"
@@ -331,6 +442,8 @@ class Link:
             raise RobotError(
                 f"{owner}: field 'servo': expected a ServoCalibration or None, got {self.servo!r}", "servo"
             )
+        if self.bus is not None and not isinstance(self.bus, BusServo):
+            raise RobotError(f"{owner}: field 'bus': expected a BusServo or None, got {self.bus!r}", "bus")
         if not isinstance(self.flip, (bool, np.bool_)):
             raise RobotError(f"{owner}: field 'flip': expected true or false, got {self.flip!r}", "flip")
         object.__setattr__(self, "flip", bool(self.flip))

@@ -1,22 +1,20 @@
 """Host link to the arm: a pyserial client of protocol v2 (``docs/protocol.md``).
 
-:class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected),
-the virtual arm (``sim://``) or the firmware simulator (``simavr://``),
-waits for the board's ``READY`` after the reset-on-open, shakes hands, and offers the lab operations in SI
-units: joint moves (checked against the robot file's limits and servo ranges
-*before* anything is sent), Cartesian moves through :func:`labkit.kinematics.ik`,
-trajectories streamed as polynomial segments, gripper, stop, joint read-back
-and feedback streams into pandas.
+:class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected), the virtual arm
+(``sim://``), the firmware simulator (``simavr://``) or a servo bus (``dynamixel://``,
+``feetech://``, ``sim://...?bus=``: a host-side board, :mod:`labkit.arm.bus`), waits for the board's
+``READY`` after the reset-on-open, shakes hands, and offers the lab operations in SI units: joint
+moves (checked against the robot file's limits and servo ranges *before* anything is sent),
+Cartesian moves through :func:`labkit.kinematics.ik`, trajectories streamed as polynomial
+segments, gripper, stop, joint read-back and feedback streams into pandas.
 
-Reliability rules (``docs/link.md``): every request carries a sequence id and
-a CRC-16; board lines with a bad CRC are dropped and counted, never used; the
-reply to a state-changing request echoes the CRC of what the board parsed and
-a different echo stops the arm; idempotent requests are retried; a motion
-request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
-host asks ``STATUS`` (``last=``, the sequence id of the last state-changing
-request run) whether it was executed and resends only if it was not; a request
-the host never had acknowledged showing up there stops the arm; anything that
-cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
+Reliability rules (``docs/link.md``): every request carries a sequence id and a CRC-16; board lines
+with a bad CRC are dropped and counted, never used; the reply to a state-changing request echoes
+the CRC of what the board parsed and a different echo stops the arm; idempotent requests are
+retried; a motion request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
+host asks ``STATUS`` (``last=``, the sequence id of the last state-changing request run) whether it
+was executed and resends only if it was not; a request the host never had acknowledged showing up
+there stops the arm; anything that cannot be settled raises :class:`~labkit.exceptions.DeviceError`.
 
 Examples
 --------
@@ -65,9 +63,8 @@ class Arm:
     Parameters
     ----------
     port : str or serial-like, optional
-        Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``,
-        ``simavr://``, any pyserial URL) or an open pyserial-like object;
-        ``None`` auto-detects an Arduino-like port (:func:`find_ports`).
+        Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``, ``simavr://``, ``dynamixel://``,
+        ``feetech://``, any pyserial URL) or an open pyserial-like object; ``None`` auto-detects an Arduino.
     robot : Robot or str
         The robot file whose servo calibrations and limits the host enforces.
     baudrate : int
@@ -77,32 +74,27 @@ class Arm:
     retries : int
         Extra attempts of a request whose reply was lost or garbled.
     boot_wait : float
-        How long to wait for the board's ``READY`` after opening [s] (a real Uno
-        resets when the port opens and needs about 1.6 s); without it the host
-        still tries ``HELLO`` once before giving up.
+        How long to wait for the board's ``READY`` after opening [s] (a real Uno resets when the port opens
+        and needs about 1.6 s); without it the host still tries ``HELLO`` once before giving up.
     sync_calibration : bool
         Send the robot file's servo calibrations (``CAL``) after the handshake.
     check_moves : bool
-        After each acknowledged ``MOVE``, read the commanded joints back with
-        ``STATUS`` and raise if they differ from what was sent (a second check
-        besides the reply's echo).
+        After each acknowledged ``MOVE``, read the commanded joints back with ``STATUS`` and raise if
+        they differ from what was sent (a second check besides the reply's echo).
 
     Attributes
     ----------
     port, name, timeout, retries, stats, events, info
-        The link's state, kept by the arm's wire object (the request/retry
-        layer of ``_wire.py``): the open port, its name, the reply timeout [s]
-        and retry count (both settable), the :class:`LinkStats` counters, the
-        ``EV`` lines received and the :class:`BoardInfo` of the handshake.
+        The link's state, kept by the arm's wire object (the request/retry layer of ``_wire.py``): the open
+        port, its name, the reply timeout [s] and retry count (both settable), the :class:`LinkStats`
+        counters, the ``EV`` lines received and the :class:`BoardInfo` of the handshake.
     virtual_model : ArmModel or None
-        The simulated arm behind a ``sim://`` or ``simavr://?physics=`` port
-        (true joints, ruler); ``None`` on a real board.
+        The simulated arm behind a ``sim://`` or ``simavr://?physics=`` port (true joints, ruler); else ``None``.
 
     Raises
     ------
     DeviceError
-        No port found, the port cannot be opened, no handshake, wrong protocol
-        version or joint count.
+        No port found, the port cannot be opened, no handshake, wrong protocol version or joint count.
     """
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
@@ -114,7 +106,7 @@ class Arm:
         self.robot = Robot.load(robot)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
-        opened = self._open(port, baudrate)
+        opened = self._open(port, baudrate, self.robot)
         name = getattr(opened, "port", None) or getattr(opened, "name", repr(opened))
         self._wire = Wire(opened, name=name, timeout=timeout, retries=retries)
         try:
@@ -127,7 +119,7 @@ class Arm:
 
     # -- opening ------------------------------------------------------------------------
     @staticmethod
-    def _open(port, baudrate):
+    def _open(port, baudrate, robot):
         from labkit.arm.urlhandler import register
 
         register()
@@ -140,7 +132,7 @@ class Arm:
                                   "board in, name the port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual "
                                   "arm 'sim://'")
             port = ports[0]
-        return open_port(port, baudrate)
+        return open_port(port, baudrate, robot)
 
     def close(self):
         """Close the port (never raises, even if the port has vanished)."""
@@ -168,11 +160,10 @@ class Arm:
     def virtual_model(self):
         """The simulated arm behind the port, or ``None`` for a real board.
 
-        The :class:`ArmModel` of a virtual arm (``sim://``) or of the firmware
-        simulator with physics (``simavr://?physics=...``), also through port
-        wrappers such as :class:`FaultyPort`. It knows what a real arm hides:
-        the true joints (``true_q``), the injected zero offsets and a ruler
-        (``ruler(readings)`` [m]).
+        The :class:`ArmModel` of a virtual arm (``sim://``, also on a virtual servo bus ``?bus=``) or of the
+        firmware simulator with physics (``simavr://?physics=...``), also through port wrappers such as
+        :class:`FaultyPort`. It knows what a real arm hides: the true joints (``true_q``), the injected zero
+        offsets and a ruler (``ruler(readings)`` [m]).
 
         Returns
         -------
@@ -185,7 +176,9 @@ class Arm:
         (2, 3)
         """
         port = self.port
-        for owner in (getattr(port, "board", None), getattr(port, "physics", None)):  # sim://, simavr://
+        if hasattr(port, "virtual_model"):  # sim:// (with or without a servo bus), dynamixel://, feetech://
+            return port.virtual_model
+        for owner in (getattr(port, "board", None), getattr(port, "physics", None)):  # simavr://, wrappers
             model = getattr(owner, "model", None)
             if model is not None:
                 return model
@@ -292,16 +285,31 @@ class Arm:
         return self._transact("READ", parse=lambda fields: parse_read(fields, self.robot.n))
 
     def read_joints(self):
-        """Joint values sensed by the feedback pots, shape (n,) [rad].
+        """Joint values sensed by the feedback pots (on a servo bus: the present positions), shape (n,) [rad].
 
         Returns
         -------
         ndarray, shape (n,)
-            Sensed joint values [rad], from :meth:`read_adc` through each joint's
-            servo calibration.
+            From :meth:`read_adc` through each joint's servo calibration, or one sync read of a servo bus.
         """
+        if self.robot.bus is not None:
+            return self.port.read_bus().q
         adc = self.read_adc()
         return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
+
+    def read_load(self):
+        """Present current of every joint's servo on a servo bus (one sync read), the load signal; hobby servos
+        (no ``[bus]`` table in the robot file) report none: :class:`DeviceError`, as when the bus fails.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Signed current [A] per joint.
+        """
+        if self.robot.bus is None:
+            raise DeviceError(f"{self.name}: expected an arm on a servo bus ([bus] in the robot file) to read the "
+                              f"load of, got {self.robot.name!r} with hobby servos (they report no current)")
+        return self.port.read_bus().current
 
     # -- configuration ---------------------------------------------------------------------
     def speed_limits(self):
@@ -332,8 +340,7 @@ class Arm:
         Parameters
         ----------
         seconds : float
-            Time without a host line after which the board holds [s]; sent
-            rounded to ms; 0 disables the timeout, else 0.05..60 s.
+            Time without a host line after which the board holds [s], sent rounded to ms; 0: off, else 0.05..60.
 
         Raises
         ------
@@ -346,24 +353,18 @@ class Arm:
         self._transact("TIMEOUT", int(round(seconds * 1000)))
 
     # -- motion ----------------------------------------------------------------------------
-    def _check_q(self, q):
-        return joint_vector(self.robot, q)
-
     def move_joints(self, q, *, duration=None, wait=False, tol=math.radians(1.0), max_wait=10.0):
         """Move all joints at once (``MOVE``: a rest-to-rest cubic the board runs); returns when it ends.
 
         Parameters
         ----------
         q : array_like, shape (n,)
-            Joint values [rad]; checked against the joint limits and servo
-            ranges before anything is sent.
+            Joint values [rad]; checked against the joint limits and servo ranges before anything is sent.
         duration : float, optional
-            Duration of the move [s]; by default the shortest one the robot
-            file's speed and acceleration limits allow. Checked against them
-            before sending, as the board checks it.
+            Duration of the move [s]; by default the shortest one the robot file's speed and acceleration
+            limits allow. Checked against them before sending, as the board checks it.
         wait : bool
-            Wait until the sensed joints are within ``tol`` [rad] of ``q``
-            (at most ``max_wait`` s).
+            Wait until the sensed joints are within ``tol`` [rad] of ``q`` (at most ``max_wait`` s).
         tol : float
             Settling tolerance per joint [rad] when ``wait``.
         max_wait : float
@@ -376,10 +377,9 @@ class Arm:
         TrajectoryError
             ``duration`` too short for a joint's speed or acceleration limit (nothing is sent).
         DeviceError
-            The board rejected or did not acknowledge the move, or (``wait``) the
-            joints did not settle in time.
+            The board rejected or did not acknowledge the move, or (``wait``) the joints did not settle in time.
         """
-        q = self._check_q(q)
+        q = joint_vector(self.robot, q)
         target = [cdeg(v) for v in q]
         before = self._verify_status()[0]
         now = [cdeg(v) for v in before.q]
@@ -433,7 +433,7 @@ class Arm:
         DeviceError
             The joints did not settle within ``max_wait``.
         """
-        q = self._check_q(q)
+        q = joint_vector(self.robot, q)
         tol = finite("tol", tol, lo=0.0, unit="rad")
         max_wait = finite("max_wait", max_wait, lo=0.0, hi=86400.0, unit="s")
         interval = finite("interval", interval, lo=1e-3, hi=60.0, unit="s")
@@ -534,9 +534,8 @@ class Arm:
         Parameters
         ----------
         traj : labkit.motion.Trajectory or list of segments
-            A sampled trajectory (checked against the joint limits first) or
-            ``(dur_ms, order, coefficients)`` tuples from
-            :func:`segments_from_trajectory`.
+            A sampled trajectory (checked against the joint limits first) or ``(dur_ms, order,
+            coefficients)`` tuples from :func:`segments_from_trajectory`.
         order : {3, 5}
             Polynomial order of the segments made from a sampled trajectory.
         min_duration : float
@@ -565,7 +564,7 @@ class Arm:
         else:
             self.robot.check_limits(np.asarray(traj.q))
             for row in np.asarray(traj.q):
-                self._check_q(row)
+                joint_vector(self.robot, row)
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
         check_segment_positions(self.robot, segs)
         check_segment_speeds(self.robot, segs, *self.speed_limits())
@@ -587,7 +586,8 @@ class Arm:
         pandas.DataFrame
             One row per frame received intact: ``t`` [s, board clock],
             ``counter``, ``received`` (host UTC timestamp), ``adc<i>``,
-            ``pot`` and the sensed joints ``q_<name>`` [rad]. ``df.attrs``
+            ``pot`` and the sensed joints ``q_<name>`` [rad] (on a servo bus: ``tick<i>``, ``q_<name>`` and
+            ``current_<name>`` [A] instead of ``adc<i>``, ``pot``). ``df.attrs``
             holds ``expected`` (frames the board sent in the window, from its
             clock), ``lost`` (expected but not received intact), ``rejected``
             (lines dropped as corrupt while streaming) and ``hz``.

@@ -21,6 +21,7 @@ from labkit.exceptions import OptionError, ProtocolError
 from labkit.arm._protocol import board_int
 from labkit.arm.link._inputs import finite, whole
 from labkit.arm.link._replies import parse_ping
+from labkit.arm.bus import record_bus_stream
 
 __all__ = []
 
@@ -140,6 +141,8 @@ def record_stream(wire, robot, duration, hz):
     OptionError
         ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200.
     """
+    if robot.bus is not None:  # a servo bus: the servos' positions and currents, one sync read per frame
+        return record_bus_stream(wire, robot, duration, hz)
     duration = finite("duration", duration, unit="s")
     if duration <= 0:
         raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")

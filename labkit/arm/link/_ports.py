@@ -96,15 +96,17 @@ def find_ports():
     return [p.device for p in list_ports() if p.arduino]
 
 
-def open_port(port, baudrate):
+def open_port(port, baudrate, robot=None):
     """Open ``port`` (device name or pyserial URL) with an error that says what to do.
 
     Parameters
     ----------
     port : str
-        Device name or URL (``sim://``, ``simavr://``...).
+        Device name or URL (``sim://``, ``simavr://``, ``dynamixel://``, ``feetech://``...).
     baudrate : int
-        Baud rate [bit/s].
+        Baud rate [bit/s] (of a board; a servo bus runs at its robot file's ``[bus] baudrate``).
+    robot : Robot, optional
+        The arm's robot file, handed to a servo-bus URL (``dynamixel://``, ``feetech://``) for its ``[bus]`` table.
 
     Returns
     -------
@@ -117,10 +119,14 @@ def open_port(port, baudrate):
         The port does not exist, is held by another program, or may not be opened by this user.
     """
     import serial
+    from labkit.robot import BUS_KINDS
 
+    bus = {"robot": robot} if str(port).split("://", 1)[0].lower() in BUS_KINDS else {}
     try:
-        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05)
+        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05, **bus)
     except (serial.SerialException, OSError, ValueError) as exc:
+        if bus and isinstance(exc, DeviceError):  # a silent servo, an arm outside its limits: the message says
+            raise
         code = getattr(exc, "errno", None)
         text = str(exc)
         if code == errno.EBUSY or "busy" in text.lower() or (sys.platform == "win32" and "denied" in text.lower()):

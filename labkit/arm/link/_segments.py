@@ -142,6 +142,9 @@ def feasible_ranges(robot):
     """
     ranges = []
     for lk in robot.links:
+        if lk.bus is not None:  # a servo bus: the robot file's loader checked the limits against the servo's ticks
+            ranges.append((cdeg(lk.limits[0]), cdeg(lk.limits[1])))
+            continue
         lo, hi = (cdeg(v) for v in lk.limits) if lk.servo is not None else (0, 18000)
         zero, direction = (cdeg(lk.servo.zero), int(lk.servo.direction)) if lk.servo is not None else (0, 1)
         a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)

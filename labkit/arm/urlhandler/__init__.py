@@ -1,4 +1,5 @@
-"""pyserial URL handlers of labkit (``sim://`` virtual arm, ``simavr://`` firmware simulator).
+"""pyserial URL handlers of labkit (``sim://`` virtual arm, ``simavr://`` firmware simulator,
+``dynamixel://`` and ``feetech://`` servo buses).
 
 pyserial looks for ``protocol_<scheme>`` modules in the packages listed in
 ``serial.protocol_handler_packages``; :func:`register` adds this package once.

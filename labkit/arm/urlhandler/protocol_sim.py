@@ -15,6 +15,10 @@ URL form::
   calibration (saved with ``CAL`` + ``SAVE``), so the joints start at the middle of their
   limits; default ``0``, the factory calibration (every servo centred at 90 deg), under which
   a robot whose limits exclude 90 deg cannot be calibrated;
+* ``bus``: ``dynamixel`` or ``feetech`` puts a virtual servo bus between the board and the arm: the
+  robot file's ``[bus]`` table names the servos, a :class:`labkit.arm.bus.BusEmulator` serves them on a
+  pseudo-terminal and a :class:`labkit.arm.bus.BusBoard` drives them through the vendor SDK (default:
+  none, the hobby-servo board); the bus's physics has no deadband unless ``deadband`` is given;
 * ``queue``: segment queue depth; any field of
   :class:`labkit.arm.PhysicsConfig` (``deadband=0``, ``zero_offsets=0.01,0,0``...).
 
@@ -70,7 +74,7 @@ def parse_url(url):
     physics : dict
         :class:`labkit.arm.PhysicsConfig` fields given in the URL.
     options : dict
-        ``clock`` (str), ``time_scale`` (float), ``queue`` (int), ``calibrated`` (bool).
+        ``clock`` (str), ``time_scale`` (float), ``queue`` (int), ``calibrated`` (bool), ``bus`` (str, "" for none).
 
     Raises
     ------
@@ -79,6 +83,7 @@ def parse_url(url):
         also a ``serial.SerialException``.
     """
     from labkit.arm.board import PhysicsConfig
+    from labkit.robot import BUS_KINDS
 
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "sim":
@@ -105,8 +110,12 @@ def parse_url(url):
                 if value not in ("0", "1"):
                     raise PortURLError(f"{url}: expected calibrated=0 or 1, got {value!r}")
                 options["calibrated"] = value == "1"
+            elif key == "bus":
+                if value not in BUS_KINDS:
+                    raise PortURLError(f"{url}: expected bus one of {', '.join(BUS_KINDS)}, got {value!r}")
+                options["bus"] = value
             else:
-                valid = ", ".join(["clock", "time_scale", "queue", "calibrated", *fields])
+                valid = ", ".join(["clock", "time_scale", "queue", "calibrated", "bus", *fields])
                 raise PortURLError(f"{url}: unknown option {key!r}; valid options: {valid}")
         except PortURLError:  # an OptionError, hence a ValueError: already says what is wrong
             raise
@@ -121,6 +130,8 @@ class Serial(SerialBase):
 
     def __init__(self, *args, **kwargs):
         self.board = None
+        #: the virtual servo bus of ``bus=...`` (a :class:`labkit.arm.bus.BusEmulator`), else None
+        self.emulator = None
         self._clock = "realtime"
         self._scale = 1.0
         self._t0 = 0.0
@@ -137,8 +148,12 @@ class Serial(SerialBase):
             raise PortError("expected a sim:// URL as the port to open, got none (port=None)")
         robot, physics, options = parse_url(self.port)
         try:
-            config = PhysicsConfig(**physics)
-            self.board = VirtualBoard(robot, config, queue=options["queue"], saved_calibration=options["calibrated"])
+            if options["bus"]:
+                self._open_bus(robot, PhysicsConfig(**{"deadband": 0.0, **physics}), options)
+            else:
+                config = PhysicsConfig(**physics)
+                self.board = VirtualBoard(robot, config, queue=options["queue"],
+                                          saved_calibration=options["calibrated"])
         except ValueError as exc:  # a robot or physics value the URL gives
             raise PortURLError(f"{self.port}: {exc}") from None
         except OSError as exc:  # a robot file that cannot be read
@@ -148,10 +163,52 @@ class Serial(SerialBase):
         self._t0 = time.monotonic()
         self.is_open = True
 
+    def _open_bus(self, robot, config, options):
+        from labkit.arm.bus import BusEmulator, open_bus_board
+
+        self.emulator = BusEmulator(robot, config)
+        try:
+            self.board = open_bus_board(options["bus"], self.emulator.path, robot, model=self.emulator.model,
+                                        queue=options["queue"], name=self.port)
+        except BaseException:
+            self.emulator.close()
+            raise
+
     def close(self):
-        """Close the port; the board object stays inspectable."""
+        """Close the port; the board object stays inspectable (a bus board turns torque off, its bus closes)."""
+        if self.is_open and hasattr(self.board, "shutdown"):
+            self.board.shutdown()
+        if self.emulator is not None:
+            self.emulator.close()
         self.is_open = False  # the board object stays inspectable after close
         super().close()
+
+    # -- a servo bus (bus=..., dynamixel://, feetech://) ----------------------------------------------
+    @property
+    def virtual_model(self):
+        """The simulated arm (:class:`labkit.arm.ArmModel`), ``None`` behind a real servo bus."""
+        if self.emulator is not None:
+            return self.emulator.model
+        return None if hasattr(self.board, "driver") else getattr(self.board, "model", None)
+
+    def read_bus(self):
+        """A sync read of every servo of a bus board now (:class:`labkit.arm.bus.BusReading`).
+
+        Returns
+        -------
+        BusReading
+
+        Raises
+        ------
+        PortError
+            The board is not on a servo bus.
+        """
+        self._check_open()
+        if not hasattr(self.board, "read_now"):
+            raise PortError(f"{self.port}: expected a port on a servo bus (bus=..., dynamixel://, feetech://) to read "
+                            f"present positions and currents from, got a hobby-servo board")
+        self._sync()
+        return self.board.read_now()
 
     def _reconfigure_port(self):
         pass

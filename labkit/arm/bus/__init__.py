@@ -1,0 +1,27 @@
+"""Smart-servo buses behind :class:`labkit.arm.Arm`: Dynamixel Protocol 2.0 and Feetech STS.
+
+:class:`BusBoard` is a host-side board: it speaks labkit's protocol to :class:`~labkit.arm.Arm`
+(the virtual board's command set and segment executor, reused) and drives the servos through the
+vendor SDK (``dynamixel-sdk``, ``feetech-servo-sdk``); :class:`BusEmulator` is a virtual bus on a
+pseudo-terminal that the unmodified SDKs talk to. URLs: ``dynamixel:///dev/ttyUSB0``,
+``feetech:///dev/ttyACM0``, ``sim://<robot>?bus=dynamixel`` (``docs/link.md``).
+"""
+
+from labkit.arm.bus._driver import BusFault, BusReading, BusDriver
+from labkit.arm.bus._registry import BUSES, bus_module
+from labkit.arm.bus._emulator import BusEmulator, BusFaults
+from labkit.arm.bus._board import BusBoard, open_bus_board
+from labkit.arm.bus._stream import record_bus_stream
+
+__all__ = [
+    "BusFault",
+    "BusReading",
+    "BusDriver",
+    "BUSES",
+    "bus_module",
+    "BusEmulator",
+    "BusFaults",
+    "BusBoard",
+    "open_bus_board",
+    "record_bus_stream",
+]

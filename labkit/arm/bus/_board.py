@@ -1,0 +1,268 @@
+"""A host-side board for a servo bus: labkit's protocol to :class:`~labkit.arm.Arm`, the vendor SDK to the servos.
+
+:class:`BusBoard` is a :class:`labkit.arm.VirtualBoard` whose servo frames go to a bus instead of
+a physics model: the same request parser, checks, segment queue and executor run the ``MOVE`` s
+and ``SEG`` s :class:`~labkit.arm.Arm` sends (so limits, speeds and continuity are checked
+exactly as on every other board), and each 20 ms servo frame writes the executor's joint values
+as goal positions to every servo in one sync-write packet. Every fifth frame, every ``READ``
+and every stream frame read the servos' present positions and currents in one sync read.
+
+The servos' range replaces the hobby-servo window: a joint may go anywhere within its limits
+(the robot-file loader checks that the limits map inside the servo's ticks). The board starts
+where the arm is: it reads the present positions, refuses an arm resting outside its limits
+(torque stays off), makes them the goals, sets the motion profiles and turns torque on.
+
+A bus failure (a servo silent, a corrupt status packet after the retries, a hardware error such
+as an overload) stops the executor, turns torque off on every servo and raises a
+:class:`BusFault` (a :class:`~labkit.exceptions.DeviceError`), again on every later use until the
+port is closed. Closing turns torque off.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.exceptions import DeviceError, OptionError
+from labkit.robot import Robot
+from labkit.arm.board import PhysicsConfig, VirtualBoard
+from labkit.arm.bus._driver import BusFault
+from labkit.arm.bus._registry import DRIVERS
+
+__all__ = ["BusBoard", "open_bus_board"]
+
+#: a health read (present position, current, errors) every this many servo frames while nothing else reads
+HEALTH_FRAMES = 5
+
+
+class _Unpowered:
+    """The board's physics slot on a real bus: the servos are real, nothing to simulate."""
+
+    def advance_to(self, t):
+        pass
+
+    def command_pulses(self, pulses):
+        pass
+
+
+class BusBoard(VirtualBoard):
+    """labkit's board protocol in front of a servo bus (see the module notes).
+
+    Parameters
+    ----------
+    robot : Robot or str
+        A robot with a ``[bus]`` table.
+    driver : BusDriver
+        The open bus (:class:`DynamixelDriver`, :class:`FeetechDriver`).
+    model : ArmModel, optional
+        The virtual arm behind a virtual bus (:class:`BusEmulator`): advanced to board time before
+        each bus transaction; ``None`` on a real bus.
+    queue : int
+        Segment queue depth.
+
+    Attributes
+    ----------
+    reading : BusReading or None
+        The last sync read.
+    stream_rows : list of tuple
+        ``(counter, t_ms, ticks..., current...)`` of the stream frames since ``STREAM`` was switched on.
+    fault : BusFault or None
+        The failure that stopped the board.
+    goals_sent : int
+        Sync-write packets of goal positions sent.
+
+    Raises
+    ------
+    BusFault
+        A servo does not answer, or the arm rests outside its joint limits (torque stays off).
+    """
+
+    def __init__(self, robot, driver, *, model=None, queue=6):
+        robot = Robot.load(robot)
+        if robot.bus is None:
+            raise OptionError(f"expected a robot file with a [bus] table, got {robot.name!r}")
+        self.driver = driver
+        self.fault = None
+        self.reading = None
+        self.stream_rows = []
+        self.goals_sent = 0
+        self._physics = model if model is not None else _Unpowered()
+        self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
+        self._goal = None
+        self._frames = 0
+        super().__init__(robot, PhysicsConfig(), queue=queue)
+
+    # -- power-up: start where the arm is -----------------------------------------------------------
+    def _boot(self, reason, config):
+        self.model = self._physics
+        super()._boot(reason, config)
+        self._guard(self._power_up)
+
+    def _power_up(self):
+        driver = self.driver
+        driver.ping_all()
+        driver.torque(False)
+        reading = self._read()
+        for j, (lk, q) in enumerate(zip(self.robot.links, reading.q)):
+            lo, hi = lk.limits
+            if not lo - 1e-9 <= q <= hi + 1e-9:
+                raise BusFault(f"{driver.name}: joint {lk.name!r} rests at {math.degrees(q):.1f} deg, outside its limits "
+                               f"{math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg: torque stays off; move it "
+                               f"inside by hand (or fix the robot file's bus zero {lk.bus.zero:g} / direction)")
+        self.q = [min(max(math.degrees(v) * 100, lo), hi) for v, (lo, hi) in zip(reading.q, self._lim)]
+        self._goal = [int(t) for t in reading.ticks]
+        driver.write_goals(self._goal)
+        driver.set_profiles()
+        driver.torque(True)
+
+    # -- faults ------------------------------------------------------------------------------------------
+    def _guard(self, fn, *args):
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        try:
+            return fn(*args)
+        except DeviceError as exc:
+            self._fail(exc)
+
+    def _fail(self, exc):
+        self.segments.clear()
+        self.state = "HOLD"
+        failed = self.driver.torque_off_quietly()
+        note = "torque is off on every servo" if not failed else \
+            f"torque off not acknowledged by servo(s) {', '.join(map(str, failed))}: switch the servo power off"
+        self.fault = BusFault(f"{exc}; the arm is stopped and {note}")
+        raise self.fault from None
+
+    def shutdown(self):
+        """Turn torque off and close the bus (never raises; the port's ``close`` calls it)."""
+        self.segments.clear()
+        self.state = "IDLE"
+        self.driver.close()
+
+    # -- the servos' range replaces the hobby-servo window ------------------------------------------------
+    def _valid(self, j, q, cal=None):
+        lo, hi = self._lim[j]
+        return lo <= q <= hi
+
+    def _clamp_servo(self, j, q):
+        lo, hi = self._lim[j]
+        return min(max(q, lo), hi)
+
+    def _feasible(self, j):
+        return self._lim[j]
+
+    # -- the bus ---------------------------------------------------------------------------------------------
+    def _read(self):
+        self._physics.advance_to(self.time)
+        self.reading = self.driver.read_state(self.time)
+        return self.reading
+
+    def read_now(self):
+        """A sync read of every servo now (board time), checked for faults.
+
+        Returns
+        -------
+        BusReading
+
+        Raises
+        ------
+        BusFault
+        """
+        return self._guard(self._read)
+
+    def receive(self, data):
+        """Bytes from the host (refused once the bus has failed, see :class:`VirtualBoard`).
+
+        Parameters
+        ----------
+        data : bytes-like
+        """
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        super().receive(data)
+
+    def advance_to(self, t):
+        """Run the board until board time ``t`` [s] (servo frames go to the bus).
+
+        Parameters
+        ----------
+        t : float
+        """
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        super().advance_to(t)
+
+    def _servo_frame(self):
+        super()._servo_frame()
+        self._guard(self._drive)
+
+    def _drive(self):
+        goal = [int(lk.bus.ticks(math.radians(q / 100.0))) for lk, q in zip(self.robot.links, self.q)]
+        self._physics.advance_to(self.time)
+        if goal != self._goal:
+            self.driver.write_goals(goal)
+            self._goal = goal
+            self.goals_sent += 1
+        self._frames += 1
+        if self._frames % HEALTH_FRAMES == 0 and self.stream_hz == 0:
+            self._read()
+
+    def _adc(self):
+        """``READ`` on a bus: the present positions as 10-bit counts of the servo's turn, and 0 for the pot."""
+        reading = self._guard(self._read)
+        res = self.robot.bus.resolution
+        return [int(round(int(t) % res * 1023 / (res - 1))) for t in reading.ticks] + [0]
+
+    def _stream_frame(self):
+        reading = self._guard(self._read)
+        t_ms = self.clock_ms
+        self.stream_rows.append((self.stream_counter, t_ms, *reading.ticks.tolist(), *reading.current.tolist()))
+        self.stream_counter = (self.stream_counter + 1) % 65536
+        self._stream_k += 1
+        self.stream_next = self._stream_t0 + self._stream_k / self.stream_hz
+
+    def _cmd_stream(self, args):
+        out = super()._cmd_stream(args)
+        if self.stream_hz:
+            self.stream_rows = []
+        return out
+
+
+def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None):
+    """Open the bus ``kind`` on ``device`` through its SDK and put a :class:`BusBoard` in front of it.
+
+    Parameters
+    ----------
+    kind : str
+        ``"dynamixel"`` or ``"feetech"`` (the robot file's ``[bus] kind`` must agree).
+    device : str
+        The bus adapter's serial device (or a :class:`BusEmulator`'s pseudo-terminal).
+    robot : Robot or str
+    model : ArmModel, optional
+        The virtual arm behind a virtual bus.
+    queue : int
+    name : str, optional
+        How messages name the bus.
+
+    Returns
+    -------
+    BusBoard
+
+    Raises
+    ------
+    OptionError
+        ``kind`` unknown or not the robot file's.
+    DeviceError
+        The bus cannot be opened, a servo does not answer, the arm rests outside its limits.
+    """
+    robot = Robot.load(robot)
+    if robot.bus is None or robot.bus.kind != kind:
+        got = "no [bus] table" if robot.bus is None else f"[bus] kind = {robot.bus.kind!r}"
+        raise OptionError(f"expected robot {robot.name!r} to have [bus] kind = {kind!r} for a {kind} bus, got {got}")
+    driver = DRIVERS[kind](device, robot, name=name)
+    try:
+        return BusBoard(robot, driver, model=model, queue=queue)
+    except BaseException:
+        driver.close()
+        raise

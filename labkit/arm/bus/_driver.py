@@ -1,0 +1,268 @@
+"""The host side of a servo bus: one driver per vendor SDK behind one interface (:class:`BusDriver`).
+
+A driver opens the bus device with the vendor's ``PortHandler`` at the robot file's baud rate,
+pings every servo, sets torque and motion profiles, writes every joint's goal position in one
+sync-write packet and reads every joint's present position and current in one sync read. Every
+failure is a :class:`BusFault` naming the servo, its joint and what to check; the driver never
+retries a write (a sync write has no status packet) and retries a state read ``retries`` times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.exceptions import DeviceError
+
+__all__ = ["BusFault", "BusReading"]
+
+
+class BusFault(DeviceError):
+    """A servo bus failed: a servo silent or its status packet corrupt, or a servo in hardware error.
+
+    The arm is stopped and every servo's torque turned off before it is raised.
+    """
+
+
+@dataclass(frozen=True)
+class BusReading:
+    """One sync read of every joint's servo.
+
+    Attributes
+    ----------
+    t : float
+        Board time of the read [s].
+    ticks : ndarray of int, shape (n,)
+        Present positions [ticks].
+    q : ndarray, shape (n,)
+        Present joint values [rad] (through each joint's ``bus`` zero and direction).
+    current : ndarray, shape (n,)
+        Present current of each servo [A], the load signal hobby servos lack (signed).
+    """
+
+    t: float
+    ticks: np.ndarray
+    q: np.ndarray
+    current: np.ndarray
+
+
+class BusDriver:
+    """A servo bus through a vendor SDK (subclasses: one per bus kind).
+
+    Parameters
+    ----------
+    device : str
+        Serial device of the bus adapter (``/dev/ttyUSB0``, a pseudo-terminal of the virtual bus).
+    robot : labkit.robot.Robot
+        A robot with a ``[bus]`` table: baud rate, resolution, each joint's servo id.
+    retries : int
+        Extra attempts of a state read whose status packets were lost or corrupt.
+    name : str, optional
+        How messages name the bus (default ``"<kind>://<device>"``).
+
+    Raises
+    ------
+    DeviceError
+        The device cannot be opened or set to the baud rate.
+    """
+
+    kind = ""
+    table = {}
+    state = (0, 0)
+    current_unit = 1.0
+    errors = {}
+    profile = ()
+
+    def __init__(self, device, robot, *, retries=1, name=None):
+        self.device = device
+        self.robot = robot
+        self.resolution = robot.bus.resolution
+        self.baudrate = robot.bus.baudrate
+        self.ids = [lk.bus.id for lk in robot.links]
+        self.retries = int(retries)
+        self.name = name or f"{self.kind}://{device}"
+        self.sdk, self.handler, self.packets = self._sdk()
+        try:
+            ok = self.handler.openPort()
+        except Exception as exc:  # noqa: BLE001 - pyserial's SerialException or an OSError
+            raise DeviceError(f"cannot open the {self.kind} bus {device!r}: {exc}; is the adapter (U2D2, "
+                              f"OpenRB-150, Feetech board) plugged in? 'labkit ports' lists the serial ports") from None
+        if not ok or not self.handler.setBaudRate(self.baudrate):
+            self.handler.closePort()
+            raise DeviceError(f"cannot set the {self.kind} bus {device!r} to {self.baudrate} bit/s")
+        # the SDKs open the port with timeout=0 and poll it while a status packet is due: a 1 ms read timeout
+        # lets that wait sleep in select() instead of spinning (a read still returns as soon as its bytes came)
+        self.handler.ser.timeout = 0.001
+
+    # -- what the subclasses fix -------------------------------------------------------------
+    def _sdk(self):  # -> (sdk module, PortHandler, PacketHandler)
+        raise NotImplementedError
+
+    def _sync_read_tx(self, address, size, ids):
+        raise NotImplementedError
+
+    def _hardware_error(self, servo_id, error):
+        raise NotImplementedError
+
+    def _decode_state(self, data):  # -> (present position [ticks], present current [LSB])
+        raise NotImplementedError
+
+    # -- messages ------------------------------------------------------------------------------
+    def servo(self, servo_id):
+        """``"servo 12 (joint 'shoulder')"`` for messages."""
+        names = dict(zip(self.ids, self.robot.joint_names))
+        return f"servo {servo_id} (joint {names.get(servo_id, '?')!r})"
+
+    def describe(self, code):
+        """The names of the hardware-error bits set in ``code`` (``"overload"``)."""
+        names = [name for bit, name in self.errors.items() if code & bit]
+        return f"hardware error {code:#04x} ({', '.join(names) or 'unknown bits'})"
+
+    def _comm(self, result):
+        return self.packets.getTxRxResult(result).replace("[TxRxResult] ", "")
+
+    # -- requests ---------------------------------------------------------------------------------
+    def ping_all(self):
+        """Ping every joint's servo; raise a :class:`BusFault` naming the first that does not answer.
+
+        Returns
+        -------
+        dict of int to int
+            Servo id -> model number.
+        """
+        models = {}
+        for servo_id in self.ids:
+            model, result, error = self.packets.ping(self.handler, servo_id)
+            if result != self.sdk.COMM_SUCCESS:
+                raise BusFault(f"{self.name}: {self.servo(servo_id)} does not answer ping ({self._comm(result)}); "
+                               f"check its id, that it is set to {self.baudrate} bit/s, the wiring and the "
+                               f"servo power supply")
+            models[servo_id] = model
+        return models
+
+    def write(self, servo_id, field, value):
+        """Write ``value`` to control-table ``field`` of one servo and check its status packet.
+
+        Parameters
+        ----------
+        servo_id : int
+        field : str
+            A key of the driver's control table (``"torque_enable"`` ...).
+        value : int
+        """
+        address, size = self.table[field]
+        fn = {1: self.packets.write1ByteTxRx, 2: self.packets.write2ByteTxRx, 4: self.packets.write4ByteTxRx}[size]
+        result, error = fn(self.handler, servo_id, address, int(value) & ((1 << 8 * size) - 1))
+        if result != self.sdk.COMM_SUCCESS:
+            raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed: {self._comm(result)}")
+        if error:
+            raise BusFault(f"{self.name}: {self.servo(servo_id)} reports {self._hardware_error(servo_id, error)}")
+
+    def torque(self, on):
+        """Torque on (or off) on every joint's servo.
+
+        Parameters
+        ----------
+        on : bool
+        """
+        for servo_id in self.ids:
+            self.write(servo_id, "torque_enable", 1 if on else 0)
+
+    def torque_off_quietly(self):
+        """Try to turn every servo's torque off; never raises (after a fault, on close).
+
+        Returns
+        -------
+        list of int
+            Ids whose torque-off was not acknowledged.
+        """
+        failed = []
+        for servo_id in self.ids:
+            try:
+                self.write(servo_id, "torque_enable", 0)
+            except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
+                failed.append(servo_id)
+        return failed
+
+    def set_profiles(self):
+        """Each servo's speed and acceleration profile from the robot file's ``max_velocity`` / ``max_acceleration``.
+
+        A joint without a limit keeps the servo's setting.
+        """
+        velocity, acceleration = self.profile
+        for lk in self.robot.links:
+            if math.isfinite(lk.max_velocity):
+                self.write(lk.bus.id, velocity, self._velocity_value(lk.max_velocity))
+            if math.isfinite(lk.max_acceleration):
+                self.write(lk.bus.id, acceleration, self._acceleration_value(lk.max_acceleration))
+
+    def write_goals(self, ticks):
+        """Every joint's goal position in one sync-write packet (no status packet comes back).
+
+        Parameters
+        ----------
+        ticks : sequence of int, shape (n,)
+            Goal positions [ticks].
+        """
+        address, size = self.table["goal_position"]
+        group = self.sdk.GroupSyncWrite(self.handler, self.packets, address, size)
+        for servo_id, t in zip(self.ids, ticks):
+            group.addParam(servo_id, list(int(t).to_bytes(size, "little", signed=True)))
+        result = group.txPacket()
+        if result != self.sdk.COMM_SUCCESS:
+            raise BusFault(f"{self.name}: sync write of the goal positions failed: {self._comm(result)}")
+
+    def read_state(self, t=0.0):
+        """Every joint's present position and current in one sync read.
+
+        Parameters
+        ----------
+        t : float
+            Board time to stamp the reading with [s].
+
+        Returns
+        -------
+        BusReading
+
+        Raises
+        ------
+        BusFault
+            No intact status packet from a servo after ``retries`` extra attempts, or a servo reports a
+            hardware error (overload, overheating ...).
+        """
+        address, size = self.state
+        last = ""
+        for _ in range(self.retries + 1):
+            result = self._sync_read_tx(address, size, self.ids)
+            if result != self.sdk.COMM_SUCCESS:
+                last = f"sync read not sent: {self._comm(result)}"
+                continue
+            rows = []
+            for servo_id in self.ids:
+                data, result, error = self.packets.readRx(self.handler, servo_id, size)
+                if result != self.sdk.COMM_SUCCESS:
+                    last = f"{self.servo(servo_id)}: {self._comm(result)}"
+                    break
+                if error:
+                    raise BusFault(f"{self.name}: {self.servo(servo_id)} reports "
+                                   f"{self._hardware_error(servo_id, error)}")
+                rows.append(self._decode_state(data))
+            else:
+                ticks = np.array([r[0] for r in rows], dtype=np.int64)
+                q = np.array([float(lk.bus.joint(k)) for lk, k in zip(self.robot.links, ticks)])
+                return BusReading(float(t), ticks, q, np.array([r[1] for r in rows], float) * self.current_unit)
+            self.handler.clearPort()
+        raise BusFault(f"{self.name}: no intact status packet after {self.retries + 1} sync reads ({last}); "
+                       f"check the cable, the baud rate ({self.baudrate} bit/s) and the servo power supply")
+
+    def close(self):
+        """Turn every servo's torque off (best effort) and close the port; never raises."""
+        try:
+            self.torque_off_quietly()
+        finally:
+            try:
+                self.handler.closePort()
+            except Exception:  # noqa: BLE001 - a vanished adapter
+                pass

@@ -1,0 +1,112 @@
+"""The port of a real servo bus, ``dynamixel://<device>`` and ``feetech://<device>``.
+
+URL form::
+
+    dynamixel:///dev/ttyUSB0?baud=1000000        (U2D2, OpenRB-150 / OpenCM9.04 as a USB bridge)
+    feetech:///dev/ttyACM0?baud=1000000          (SO-100 / SO-101 bus adapter board)
+    dynamixel://COM4                              (Windows)
+
+* the device is the bus adapter's serial port;
+* ``baud``: the servos' baud rate [bit/s] (default: the robot file's ``[bus] baudrate``);
+* ``queue``: the segment queue depth of the host-side board (default 6).
+
+The port holds a :class:`labkit.arm.bus.BusBoard` on the wall clock (``clock=realtime``,
+``time_scale=1``): :class:`labkit.arm.Arm` speaks labkit's protocol to it as to any board, and it
+drives the servos through the vendor SDK. The robot (its ``[bus]`` table) is the one the
+:class:`~labkit.arm.Arm` is opened with (``serial_for_url(url, robot=...)``).
+"""
+
+from __future__ import annotations
+
+import time
+import urllib.parse
+from dataclasses import replace
+
+from labkit.arm._port_errors import PortURLError
+from labkit.arm.urlhandler.protocol_sim import Serial as SimSerial
+
+__all__ = ["parse_bus_url", "BusSerial"]
+
+
+def parse_bus_url(url):
+    """Split ``<kind>://<device>?baud=..&queue=..`` into ``(kind, device, options)``.
+
+    Parameters
+    ----------
+    url : str
+
+    Returns
+    -------
+    kind : str
+        ``"dynamixel"`` or ``"feetech"``.
+    device : str
+        The adapter's serial device.
+    options : dict
+        ``baud`` (int or None), ``queue`` (int).
+
+    Raises
+    ------
+    PortURLError
+        Another scheme, no device, an unknown option or a malformed value.
+
+    Examples
+    --------
+    >>> parse_bus_url("dynamixel:///dev/ttyUSB0?baud=57600")
+    ('dynamixel', '/dev/ttyUSB0', {'baud': 57600, 'queue': 6})
+    """
+    from labkit.robot import BUS_KINDS
+
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme not in BUS_KINDS:
+        raise PortURLError(f"expected a URL <bus>://<device> with <bus> one of {', '.join(BUS_KINDS)}, got {url!r}")
+    device = urllib.parse.unquote(parts.netloc + parts.path)
+    if not device:
+        raise PortURLError(f"{url}: expected the bus adapter's device after {parts.scheme}:// "
+                           f"(e.g. {parts.scheme}:///dev/ttyUSB0), got none")
+    options = {"baud": None, "queue": 6}
+    for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
+        if key not in options:
+            raise PortURLError(f"{url}: unknown option {key!r}; valid options: {', '.join(options)}")
+        try:
+            options[key] = int(values[-1])
+        except ValueError:
+            raise PortURLError(f"{url}: option {key!r}: expected an integer, got {values[-1]!r}") from None
+    if options["baud"] is not None and not 9600 <= options["baud"] <= 4_500_000:
+        raise PortURLError(f"{url}: expected baud 9600..4500000 bit/s, got {options['baud']}")
+    return parts.scheme, device, options
+
+
+class BusSerial(SimSerial):
+    """A pyserial-like port holding a :class:`labkit.arm.bus.BusBoard` on a real bus (see the module notes).
+
+    Parameters
+    ----------
+    *args, **kwargs
+        As for ``serial.Serial``; ``robot`` (a Robot or robot file with a ``[bus]`` table) is required.
+    """
+
+    def __init__(self, *args, robot=None, **kwargs):
+        self.robot = robot
+        super().__init__(*args, **kwargs)
+
+    def open(self):
+        """Open the bus through its SDK and start the host-side board (pyserial calls this)."""
+        from labkit.arm.bus import open_bus_board
+        from labkit.exceptions import OptionError
+        from labkit.robot import Robot
+
+        kind, device, options = parse_bus_url(self.port)
+        if self.robot is None:
+            raise PortURLError(f"{self.port}: expected the robot file of the arm on the bus (Arm(url, robot=...) "
+                               f"or serial_for_url(url, robot=...)), got none")
+        robot = Robot.load(self.robot)
+        if options["baud"] is not None and robot.bus is not None:
+            robot = replace(robot, bus=replace(robot.bus, baudrate=options["baud"]))
+        try:
+            self.board = open_bus_board(kind, device, robot, queue=options["queue"], name=self.port)
+        except OptionError as exc:
+            raise PortURLError(str(exc)) from None
+        self._clock = "realtime"
+        self._scale = 1.0
+        self._t0 = time.monotonic()
+        self.is_open = True
