@@ -60,6 +60,9 @@ class BusBoard(VirtualBoard):
         each bus transaction; ``None`` on a real bus.
     queue : int
         Segment queue depth.
+    settle : callable, optional
+        ``settle(n)`` returns once a virtual bus has handled the first ``n`` sync writes (they have no status
+        packet), so that its physics never runs ahead of a goal sent (:meth:`BusEmulator.wait_sync_writes`).
 
     Attributes
     ----------
@@ -78,7 +81,7 @@ class BusBoard(VirtualBoard):
         A servo does not answer, or the arm rests outside its joint limits (torque stays off).
     """
 
-    def __init__(self, robot, driver, *, model=None, queue=6):
+    def __init__(self, robot, driver, *, model=None, queue=6, settle=None):
         robot = Robot.load(robot)
         if robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table, got {robot.name!r}")
@@ -88,6 +91,7 @@ class BusBoard(VirtualBoard):
         self.stream_rows = []
         self.goals_sent = 0
         self._physics = model if model is not None else _Unpowered()
+        self._settle = settle
         self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
         self._goal = None
         self._frames = 0
@@ -111,8 +115,7 @@ class BusBoard(VirtualBoard):
                                f"{math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg: torque stays off; move it "
                                f"inside by hand (or fix the robot file's bus zero {lk.bus.zero:g} / direction)")
         self.q = [min(max(math.degrees(v) * 100, lo), hi) for v, (lo, hi) in zip(reading.q, self._lim)]
-        self._goal = [int(t) for t in reading.ticks]
-        driver.write_goals(self._goal)
+        self._write_goals([int(t) for t in reading.ticks])
         driver.set_profiles()
         driver.torque(True)
 
@@ -158,6 +161,12 @@ class BusBoard(VirtualBoard):
         self.reading = self.driver.read_state(self.time)
         return self.reading
 
+    def _write_goals(self, goal):
+        self.driver.write_goals(goal)
+        self._goal = goal
+        if self._settle is not None and not self._settle(self.driver.sync_writes):
+            raise BusFault(f"{self.driver.name}: the virtual bus did not take the goal positions within 2 s")
+
     def read_now(self):
         """A sync read of every servo now (board time), checked for faults.
 
@@ -201,8 +210,7 @@ class BusBoard(VirtualBoard):
         goal = [int(lk.bus.ticks(math.radians(q / 100.0))) for lk, q in zip(self.robot.links, self.q)]
         self._physics.advance_to(self.time)
         if goal != self._goal:
-            self.driver.write_goals(goal)
-            self._goal = goal
+            self._write_goals(goal)
             self.goals_sent += 1
         self._frames += 1
         if self._frames % HEALTH_FRAMES == 0 and self.stream_hz == 0:
@@ -229,7 +237,7 @@ class BusBoard(VirtualBoard):
         return out
 
 
-def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None):
+def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None, latency=None, settle=None):
     """Open the bus ``kind`` on ``device`` through its SDK and put a :class:`BusBoard` in front of it.
 
     Parameters
@@ -244,6 +252,10 @@ def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None):
     queue : int
     name : str, optional
         How messages name the bus.
+    latency : float, optional
+        Adapter latency in the SDK's status timeout [ms] (see :class:`BusDriver`).
+    settle : callable, optional
+        A virtual bus's wait for its sync writes (see :class:`BusBoard`).
 
     Returns
     -------
@@ -260,9 +272,9 @@ def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None):
     if robot.bus is None or robot.bus.kind != kind:
         got = "no [bus] table" if robot.bus is None else f"[bus] kind = {robot.bus.kind!r}"
         raise OptionError(f"expected robot {robot.name!r} to have [bus] kind = {kind!r} for a {kind} bus, got {got}")
-    driver = DRIVERS[kind](device, robot, name=name)
+    driver = DRIVERS[kind](device, robot, name=name, latency=latency)
     try:
-        return BusBoard(robot, driver, model=model, queue=queue)
+        return BusBoard(robot, driver, model=model, queue=queue, settle=settle)
     except BaseException:
         driver.close()
         raise

@@ -19,6 +19,17 @@ from labkit.exceptions import DeviceError
 __all__ = ["BusFault", "BusReading"]
 
 
+def _with_latency(port_class, latency):
+    """The SDK's ``PortHandler`` with its status-packet timeout computed for an adapter latency of ``latency`` ms."""
+
+    class Port(port_class):
+        def setPacketTimeout(self, packet_length):  # the SDK's formula, with this bus's latency
+            self.packet_start_time = self.getCurrentTime()
+            self.packet_timeout = self.tx_time_per_byte * packet_length + latency * 2.0 + 2.0
+
+    return Port
+
+
 class BusFault(DeviceError):
     """A servo bus failed: a servo silent or its status packet corrupt, or a servo in hardware error.
 
@@ -61,6 +72,10 @@ class BusDriver:
         Extra attempts of a state read whose status packets were lost or corrupt.
     name : str, optional
         How messages name the bus (default ``"<kind>://<device>"``).
+    latency : float, optional
+        The adapter's latency [ms] in the SDK's status-packet timeout (``2 * latency + 2 ms`` plus the packet's
+        wire time); default the SDK's 16 ms (an FTDI adapter's latency timer); the virtual bus uses more, as a
+        loaded host may take longer than a servo to answer.
 
     Raises
     ------
@@ -75,15 +90,20 @@ class BusDriver:
     errors = {}
     profile = ()
 
-    def __init__(self, device, robot, *, retries=1, name=None):
+    def __init__(self, device, robot, *, retries=1, name=None, latency=None):
         self.device = device
         self.robot = robot
         self.resolution = robot.bus.resolution
         self.baudrate = robot.bus.baudrate
         self.ids = [lk.bus.id for lk in robot.links]
         self.retries = int(retries)
+        #: sync-write packets sent (a virtual bus waits until it has handled as many)
+        self.sync_writes = 0
         self.name = name or f"{self.kind}://{device}"
-        self.sdk, self.handler, self.packets = self._sdk()
+        self.sdk, port_class, self.packets = self._sdk()
+        if latency is not None:
+            port_class = _with_latency(port_class, float(latency))
+        self.handler = port_class(device)
         try:
             ok = self.handler.openPort()
         except Exception as exc:  # noqa: BLE001 - pyserial's SerialException or an OSError
@@ -96,27 +116,37 @@ class BusDriver:
         # lets that wait sleep in select() instead of spinning (a read still returns as soon as its bytes came)
         self.handler.ser.timeout = 0.001
 
-    # -- what the subclasses fix -------------------------------------------------------------
-    def _sdk(self):  # -> (sdk module, PortHandler, PacketHandler)
-        raise NotImplementedError
-
-    def _sync_read_tx(self, address, size, ids):
-        raise NotImplementedError
-
-    def _hardware_error(self, servo_id, error):
-        raise NotImplementedError
-
-    def _decode_state(self, data):  # -> (present position [ticks], present current [LSB])
-        raise NotImplementedError
+    # what each subclass defines: _sdk() -> (sdk module, PortHandler, PacketHandler); _sync_read_tx(address, size,
+    # ids) -> result; _hardware_error(servo_id, error) -> text; _decode_state(data) -> (position [ticks], current
+    # [LSB]); _velocity_value(rad/s), _acceleration_value(rad/s^2) -> the profile registers' values
 
     # -- messages ------------------------------------------------------------------------------
     def servo(self, servo_id):
-        """``"servo 12 (joint 'shoulder')"`` for messages."""
+        """``"servo 12 (joint 'shoulder')"`` for messages.
+
+        Parameters
+        ----------
+        servo_id : int
+
+        Returns
+        -------
+        str
+        """
         names = dict(zip(self.ids, self.robot.joint_names))
         return f"servo {servo_id} (joint {names.get(servo_id, '?')!r})"
 
     def describe(self, code):
-        """The names of the hardware-error bits set in ``code`` (``"overload"``)."""
+        """The names of the hardware-error bits set in ``code`` (``"hardware error 0x20 (overload)"``).
+
+        Parameters
+        ----------
+        code : int
+            Hardware error status (Dynamixel address 70) or status-packet error byte (Feetech).
+
+        Returns
+        -------
+        str
+        """
         names = [name for bit, name in self.errors.items() if code & bit]
         return f"hardware error {code:#04x} ({', '.join(names) or 'unknown bits'})"
 
@@ -154,7 +184,10 @@ class BusDriver:
         """
         address, size = self.table[field]
         fn = {1: self.packets.write1ByteTxRx, 2: self.packets.write2ByteTxRx, 4: self.packets.write4ByteTxRx}[size]
-        result, error = fn(self.handler, servo_id, address, int(value) & ((1 << 8 * size) - 1))
+        for _ in range(self.retries + 1):  # writing a register twice is harmless: retried when its status is lost
+            result, error = fn(self.handler, servo_id, address, int(value) & ((1 << 8 * size) - 1))
+            if result == self.sdk.COMM_SUCCESS:
+                break
         if result != self.sdk.COMM_SUCCESS:
             raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed: {self._comm(result)}")
         if error:
@@ -211,6 +244,7 @@ class BusDriver:
         for servo_id, t in zip(self.ids, ticks):
             group.addParam(servo_id, list(int(t).to_bytes(size, "little", signed=True)))
         result = group.txPacket()
+        self.sync_writes += 1
         if result != self.sdk.COMM_SUCCESS:
             raise BusFault(f"{self.name}: sync write of the goal positions failed: {self._comm(result)}")
 

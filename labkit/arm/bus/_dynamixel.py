@@ -58,7 +58,17 @@ SIGN_MAGNITUDE = False
 
 
 def ping_reply(model):
-    """The parameters of the status packet answering a ping: model number (2 bytes), firmware version."""
+    """The parameters of the status packet answering a ping: model number (2 bytes), firmware version.
+
+    Parameters
+    ----------
+    model : int
+        The servo's model number.
+
+    Returns
+    -------
+    list of int
+    """
     return [model & 0xFF, model >> 8, 52]
 
 
@@ -179,13 +189,37 @@ def decode(buffer):
 
 
 def word(values, size):
-    """Little-endian integer of ``size`` bytes (two's complement) from ``values``."""
+    """Little-endian integer of ``size`` bytes (two's complement) from ``values``.
+
+    Parameters
+    ----------
+    values : sequence of int
+        Bytes, least significant first.
+    size : int
+        How many of them.
+
+    Returns
+    -------
+    int
+    """
     v = int.from_bytes(bytes(values[:size]), "little")
     return v - (1 << 8 * size) if v >> (8 * size - 1) else v
 
 
 def status(servo_id, error, params):
-    """A status packet (instruction 0x55, error byte, parameters)."""
+    """A status packet (instruction 0x55, error byte, parameters).
+
+    Parameters
+    ----------
+    servo_id : int
+    error : int
+        The error byte.
+    params : sequence of int
+
+    Returns
+    -------
+    bytes
+    """
     return encode(servo_id, STATUS, params, error=error)
 
 
@@ -202,7 +236,7 @@ class DynamixelDriver(BusDriver):
     def _sdk(self):
         import dynamixel_sdk as sdk
 
-        return sdk, sdk.PortHandler(self.device), sdk.PacketHandler(2.0)
+        return sdk, sdk.PortHandler, sdk.PacketHandler(2.0)
 
     def _sync_read_tx(self, address, size, ids):
         return self.packets.syncReadTx(self.handler, address, size, list(ids), len(ids), False)

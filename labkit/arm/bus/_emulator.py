@@ -108,6 +108,8 @@ class BusEmulator:
         self.packets = []
         self.rejected = []
         self.status_sent = 0
+        #: sync-write packets handled (a sync write has no status packet: :meth:`wait_sync_writes` waits for them)
+        self.sync_writes = 0
         self.wall_clock = bool(wall_clock)
         self._t0 = time.monotonic()
         self._fresh = None
@@ -151,6 +153,10 @@ class BusEmulator:
 
     def torque(self, servo_id):
         """Whether servo ``servo_id``'s torque is on.
+
+        Parameters
+        ----------
+        servo_id : int
 
         Returns
         -------
@@ -272,6 +278,7 @@ class BusEmulator:
             for k in range(0, len(rows), size + 1):
                 if rows[k] in self.memory:
                     self._apply_write(rows[k], address, rows[k + 1:k + 1 + size])
+            self.sync_writes += 1
         return b"".join(self._status(i, p) for i, p in replies)
 
     def _status(self, servo_id, params):
@@ -286,6 +293,28 @@ class BusEmulator:
             out[-1] ^= 0x5A
         self.status_sent += 1
         return bytes(out)
+
+    def wait_sync_writes(self, count, timeout=2.0):
+        """Wait until ``count`` sync-write packets have been handled (they have no status packet to wait for).
+
+        Parameters
+        ----------
+        count : int
+            Sync writes sent so far by the host.
+        timeout : float
+            Longest wait [s of wall time].
+
+        Returns
+        -------
+        bool
+            Whether they all arrived.
+        """
+        deadline = time.monotonic() + timeout
+        while self.sync_writes < count:
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.0002)
+        return True
 
     # -- life -----------------------------------------------------------------------------------------
     def close(self):

@@ -54,16 +54,38 @@ SIGN_MAGNITUDE = True
 
 
 def ping_reply(model):
-    """The parameters of the status packet answering a ping: none."""
+    """The parameters of the status packet answering a ping: none.
+
+    Parameters
+    ----------
+    model : int
+        The servo's model number.
+
+    Returns
+    -------
+    list of int
+    """
     return []
 
 
 def status(servo_id, error, params):
-    """A status packet (error byte, parameters)."""
+    """A status packet (error byte, parameters).
+
+    Parameters
+    ----------
+    servo_id : int
+    error : int
+        The error byte.
+    params : sequence of int
+
+    Returns
+    -------
+    bytes
+    """
     return encode(servo_id, 0, params, error=error)
 
 
-def checksum(body):
+def sts_checksum(body):
     """The STS checksum: the inverted low byte of the sum of id, length, instruction and parameters.
 
     Parameters
@@ -95,7 +117,7 @@ def encode(servo_id, instruction, params, error=None):
     bytes
     """
     body = bytes([servo_id, len(params) + 2, instruction if error is None else error, *params])
-    return b"\xff\xff" + body + bytes([checksum(body)])
+    return b"\xff\xff" + body + bytes([sts_checksum(body)])
 
 
 def decode(buffer):
@@ -135,14 +157,26 @@ def decode(buffer):
         if len(buf) < 4 + length:
             return packets, buf, rejected
         packet, buf = buf[:4 + length], buf[4 + length:]
-        if checksum(packet[2:-1]) != packet[-1]:
+        if sts_checksum(packet[2:-1]) != packet[-1]:
             rejected.append("checksum mismatch")
             continue
         packets.append((packet[2], packet[4], list(packet[5:-1])))
 
 
 def signed(value, bit=15):
-    """An STS sign-magnitude word (sign in ``bit``) as an int."""
+    """An STS sign-magnitude word (sign in ``bit``) as an int.
+
+    Parameters
+    ----------
+    value : int
+        The word as read.
+    bit : int
+        The sign bit.
+
+    Returns
+    -------
+    int
+    """
     return -(value & ~(1 << bit)) if value & (1 << bit) else value
 
 
@@ -159,7 +193,7 @@ class FeetechDriver(BusDriver):
     def _sdk(self):
         import scservo_sdk as sdk
 
-        return sdk, sdk.PortHandler(self.device), sdk.PacketHandler(0)
+        return sdk, sdk.PortHandler, sdk.PacketHandler(0)
 
     def _sync_read_tx(self, address, size, ids):
         return self.packets.syncReadTx(self.handler, address, size, list(ids), len(ids))

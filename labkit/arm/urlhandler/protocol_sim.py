@@ -45,6 +45,8 @@ from serial.serialutil import SerialBase, to_bytes
 from labkit.arm._port_errors import PortClosedError, PortError, PortURLError
 
 CLOCKS = ("realtime", "lockstep")
+#: the adapter latency [ms] the SDK's status timeouts assume on a virtual bus (a loaded host answers late)
+VIRTUAL_BUS_LATENCY = 100.0
 #: longest wait [s of board time] of a lockstep read with ``timeout=None`` before it fails
 _BLOCKING_LIMIT = 120.0
 
@@ -169,7 +171,8 @@ class Serial(SerialBase):
         self.emulator = BusEmulator(robot, config)
         try:
             self.board = open_bus_board(options["bus"], self.emulator.path, robot, model=self.emulator.model,
-                                        queue=options["queue"], name=self.port)
+                                        queue=options["queue"], name=self.port, latency=VIRTUAL_BUS_LATENCY,
+                                        settle=self.emulator.wait_sync_writes)
         except BaseException:
             self.emulator.close()
             raise
