@@ -92,7 +92,7 @@ def parse_url(url):
         raise PortURLError(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
     robot = urllib.parse.unquote(parts.netloc + parts.path) or "arduino_arm_3dof"
     fields = {f.name: f for f in dataclasses.fields(PhysicsConfig)}
-    physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6, "calibrated": False}
+    physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6, "calibrated": False, "bus": ""}
     for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
         value = values[-1]
         try:

@@ -1,0 +1,143 @@
+"""Arm end to end on the virtual Dynamixel and Feetech buses: moves, trajectories, read-back, streams, faults."""
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from labkit.arm import Arm
+from labkit.exceptions import DeviceError, JointLimitError, TrajectoryError
+from labkit.motion import joint_trajectory
+from labkit.robot import Robot
+
+
+def _url(robot_file, kind):
+    return f"sim://{robot_file}?bus={kind}&clock=lockstep"
+
+
+@pytest.fixture
+def arm(robot_file, kind):
+    with Arm(_url(robot_file, kind), robot=robot_file) as arm:
+        yield arm
+
+
+def _torques(arm, settle=False):
+    emu = arm.port.emulator
+    deadline = time.monotonic() + (2.0 if settle else 0.0)
+    while settle and any(emu.torque(i) for i in emu.ids) and time.monotonic() < deadline:
+        time.sleep(0.01)  # a torque-off whose status packet was lost may still be on its way to the bus
+    return [emu.torque(i) for i in emu.ids]
+
+
+def test_opening_starts_where_the_arm_rests_with_torque_on(arm):
+    emu = arm.port.emulator
+    assert _torques(arm) == [True] * arm.robot.n
+    assert np.allclose(arm.commanded_joints(), arm.robot.joint_limits.mean(axis=1), atol=math.radians(0.1))
+    names = {p[0] for p in emu.packets}
+    assert {"ping", "write", "sync write", "sync read"} <= names and emu.rejected == []
+
+
+def test_move_joints_then_read_back_through_the_bus(arm):
+    emu = arm.port.emulator
+    target = np.radians([30.0, 20.0, -10.0, 15.0])
+    writes = emu.sync_writes
+    arm.move_joints(target, wait=True)
+    assert emu.sync_writes > writes + 5  # the executor's cubic, frame by frame, one packet for all joints
+    q = arm.read_joints()
+    assert np.allclose(q, target, atol=math.radians(0.5))
+    ticks = [emu.get(lk.bus.id, "present_position") for lk in arm.robot.links]
+    assert np.allclose([lk.bus.joint(t) for lk, t in zip(arm.robot.links, ticks)], q, atol=1e-12)
+    assert np.allclose(arm.virtual_model.shaft_q, target, atol=math.radians(0.5))
+    load = arm.read_load()
+    assert load.shape == (4,) and abs(load[0]) < 1e-9 and abs(load[1]) > 0.05  # the base carries no gravity
+    assert emu.rejected == []
+
+
+def test_trajectory_and_stream_with_the_load_signal(arm):
+    start = arm.commanded_joints()
+    goal = start + np.radians([20.0, -15.0, 10.0, 5.0])
+    traj = joint_trajectory(start, goal, 1.0)
+    report = arm.run_trajectory(traj)
+    assert report.segments >= 10
+    assert np.allclose(arm.commanded_joints(), goal, atol=math.radians(0.02))
+    df = arm.stream(0.4, hz=50)
+    assert len(df) == df.attrs["expected"] >= 19 and df.attrs["lost"] == 0
+    names = arm.robot.joint_names
+    assert {f"q_{n}" for n in names} | {f"current_{n}" for n in names} <= set(df.columns)
+    assert np.allclose(df[[f"q_{n}" for n in names]].to_numpy()[-1], goal, atol=math.radians(1.0))
+    assert (df[f"current_{names[1]}"].abs() > 0.05).all()
+
+
+def test_limits_refused_before_anything_is_sent(arm):
+    emu = arm.port.emulator
+    before = len(emu.packets), emu.sync_writes
+    with pytest.raises(JointLimitError, match="shoulder"):
+        arm.move_joints(np.radians([0.0, 95.0, 0.0, 0.0]))
+    start = arm.commanded_joints()
+    fast = joint_trajectory(start, start + np.radians([90.0, 0, 0, 0]), 0.2)  # 120 deg/s allowed
+    with pytest.raises(TrajectoryError):
+        arm.run_trajectory(fast)
+    assert (len(emu.packets), emu.sync_writes) == before
+
+
+@pytest.mark.parametrize("fault", ["drop_status", "corrupt_status", "overload", "silent"])
+def test_a_bus_fault_stops_the_arm_with_torque_off(arm, fault):
+    emu = arm.port.emulator
+    shoulder = arm.robot.links[1].bus.id
+    if fault == "overload":
+        emu.faults.overload.add(shoulder)
+    elif fault == "silent":
+        emu.faults.silent.add(shoulder)
+    else:
+        setattr(emu.faults, fault, 50)
+    expected = {"overload": "overload", "silent": "no intact status packet"}.get(fault, "no intact status packet")
+    with pytest.raises(DeviceError, match=expected) as info:
+        arm.move_joints(arm.commanded_joints() + np.radians([10.0, 10.0, 0, 0]), wait=True)
+    assert "torque" in str(info.value)
+    setattr(emu.faults, fault, set() if fault in ("overload", "silent") else 0)
+    assert _torques(arm, settle=True) == [False] * arm.robot.n
+    with pytest.raises(DeviceError):  # the board stays stopped until the port is closed
+        arm.read_joints()
+
+
+def test_closing_turns_torque_off(robot_file, kind):
+    arm = Arm(_url(robot_file, kind), robot=robot_file)
+    emu = arm.port.emulator
+    assert _torques(arm) == [True] * arm.robot.n
+    arm.close()
+    assert [emu.memory[i][emu.bus.TABLE["torque_enable"][0]] for i in emu.ids] == [0] * arm.robot.n
+
+
+def test_the_dynamixel_url_drives_a_bus_on_its_device():
+    from labkit.arm.bus import BusEmulator
+    from tests.arm.bus.conftest import ROBOTS
+
+    with BusEmulator(ROBOTS["dynamixel"], wall_clock=True) as emu:
+        with Arm(f"dynamixel://{emu.path}?baud=1000000", robot=ROBOTS["dynamixel"]) as arm:
+            assert arm.virtual_model is None  # a "real" bus: nothing simulated on this side
+            target = arm.commanded_joints() + np.radians([5.0, 0.0, 0.0, -5.0])
+            arm.move_joints(target, wait=True)
+            assert np.allclose(arm.read_joints(), target, atol=math.radians(0.5))
+        assert [emu.torque(i) for i in emu.ids] == [False] * 4
+        assert emu.rejected == []
+
+
+def test_a_servo_that_does_not_answer_is_named_at_open():
+    from labkit.arm.bus import BusEmulator
+    from tests.arm.bus.conftest import ROBOTS
+
+    with BusEmulator(ROBOTS["feetech"], wall_clock=True) as emu:
+        emu.faults.silent.add(3)
+        with pytest.raises(DeviceError, match=r"servo 3 \(joint 'elbow'\) does not answer ping"):
+            Arm(f"feetech://{emu.path}", robot=ROBOTS["feetech"])
+
+
+def test_a_bus_url_needs_a_robot_with_that_bus(robot_file):
+    with pytest.raises(DeviceError, match="bus"):
+        Arm("feetech:///dev/null-no-such", robot="arduino_arm_3dof")
+    with pytest.raises(DeviceError, match="expected bus one of dynamixel, feetech"):
+        Arm(f"sim://{robot_file}?bus=can", robot=robot_file)
+    with pytest.raises(DeviceError, match="hobby servos"):
+        with Arm("sim://?clock=lockstep") as plain:
+            plain.read_load()
