@@ -8,7 +8,9 @@ URL form::
 
 * the device is the bus adapter's serial port;
 * ``baud``: the servos' baud rate [bit/s] (default: the robot file's ``[bus] baudrate``);
-* ``queue``: the segment queue depth of the host-side board (default 6).
+* ``queue``: the segment queue depth of the host-side board (default 6);
+* ``latency``: the adapter's latency [ms] in the SDK's status-packet timeout (default: the SDK's 16 ms, an
+  FTDI adapter's default latency timer; a U2D2 set to 1 ms may use less, a busy host more).
 
 The port holds a :class:`labkit.arm.bus.BusBoard` on the wall clock (``clock=realtime``,
 ``time_scale=1``): :class:`labkit.arm.Arm` speaks labkit's protocol to it as to any board, and it
@@ -42,7 +44,7 @@ def parse_bus_url(url):
     device : str
         The adapter's serial device.
     options : dict
-        ``baud`` (int or None), ``queue`` (int).
+        ``baud`` (int or None), ``queue`` (int), ``latency`` (float or None) [ms].
 
     Raises
     ------
@@ -52,7 +54,7 @@ def parse_bus_url(url):
     Examples
     --------
     >>> parse_bus_url("dynamixel:///dev/ttyUSB0?baud=57600")
-    ('dynamixel', '/dev/ttyUSB0', {'baud': 57600, 'queue': 6})
+    ('dynamixel', '/dev/ttyUSB0', {'baud': 57600, 'queue': 6, 'latency': None})
     """
     from labkit.robot import BUS_KINDS
 
@@ -63,14 +65,17 @@ def parse_bus_url(url):
     if not device:
         raise PortURLError(f"{url}: expected the bus adapter's device after {parts.scheme}:// "
                            f"(e.g. {parts.scheme}:///dev/ttyUSB0), got none")
-    options = {"baud": None, "queue": 6}
+    options = {"baud": None, "queue": 6, "latency": None}
     for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
         if key not in options:
             raise PortURLError(f"{url}: unknown option {key!r}; valid options: {', '.join(options)}")
         try:
-            options[key] = int(values[-1])
+            options[key] = float(values[-1]) if key == "latency" else int(values[-1])
         except ValueError:
-            raise PortURLError(f"{url}: option {key!r}: expected an integer, got {values[-1]!r}") from None
+            kind = "a number [ms]" if key == "latency" else "an integer"
+            raise PortURLError(f"{url}: option {key!r}: expected {kind}, got {values[-1]!r}") from None
+    if options["latency"] is not None and not 0 <= options["latency"] <= 1000:
+        raise PortURLError(f"{url}: expected latency 0..1000 ms, got {options['latency']:g}")
     if options["baud"] is not None and not 9600 <= options["baud"] <= 4_500_000:
         raise PortURLError(f"{url}: expected baud 9600..4500000 bit/s, got {options['baud']}")
     return parts.scheme, device, options
@@ -103,7 +108,8 @@ class BusSerial(SimSerial):
         if options["baud"] is not None and robot.bus is not None:
             robot = replace(robot, bus=replace(robot.bus, baudrate=options["baud"]))
         try:
-            self.board = open_bus_board(kind, device, robot, queue=options["queue"], name=self.port)
+            self.board = open_bus_board(kind, device, robot, queue=options["queue"], name=self.port,
+                                        latency=options["latency"])
         except OptionError as exc:
             raise PortURLError(str(exc)) from None
         self._clock = "realtime"

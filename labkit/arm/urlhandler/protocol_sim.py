@@ -117,7 +117,7 @@ def parse_url(url):
                     raise PortURLError(f"{url}: expected bus one of {', '.join(BUS_KINDS)}, got {value!r}")
                 options["bus"] = value
             else:
-                valid = ", ".join(["clock", "time_scale", "queue", "calibrated", "bus", *fields])
+                valid = ", ".join(["clock", "time_scale", "queue", "calibrated", *fields, "bus"])
                 raise PortURLError(f"{url}: unknown option {key!r}; valid options: {valid}")
         except PortURLError:  # an OptionError, hence a ValueError: already says what is wrong
             raise

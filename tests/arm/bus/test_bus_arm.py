@@ -114,7 +114,7 @@ def test_the_dynamixel_url_drives_a_bus_on_its_device():
     from tests.arm.bus.conftest import ROBOTS
 
     with BusEmulator(ROBOTS["dynamixel"], wall_clock=True) as emu:
-        with Arm(f"dynamixel://{emu.path}?baud=1000000", robot=ROBOTS["dynamixel"]) as arm:
+        with Arm(f"dynamixel://{emu.path}?baud=1000000&latency=100", robot=ROBOTS["dynamixel"]) as arm:
             assert arm.virtual_model is None  # a "real" bus: nothing simulated on this side
             target = arm.commanded_joints() + np.radians([5.0, 0.0, 0.0, -5.0])
             arm.move_joints(target, wait=True)
@@ -130,7 +130,7 @@ def test_a_servo_that_does_not_answer_is_named_at_open():
     with BusEmulator(ROBOTS["feetech"], wall_clock=True) as emu:
         emu.faults.silent.add(3)
         with pytest.raises(DeviceError, match=r"servo 3 \(joint 'elbow'\) does not answer ping"):
-            Arm(f"feetech://{emu.path}", robot=ROBOTS["feetech"])
+            Arm(f"feetech://{emu.path}?latency=100", robot=ROBOTS["feetech"])
 
 
 def test_a_bus_url_needs_a_robot_with_that_bus(robot_file):
