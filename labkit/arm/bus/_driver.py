@@ -172,7 +172,7 @@ class BusDriver:
             models[servo_id] = model
         return models
 
-    def write(self, servo_id, field, value):
+    def write(self, servo_id, field, value, *, check_error=True):
         """Write ``value`` to control-table ``field`` of one servo and check its status packet.
 
         Parameters
@@ -181,6 +181,9 @@ class BusDriver:
         field : str
             A key of the driver's control table (``"torque_enable"`` ...).
         value : int
+        check_error : bool
+            Raise when the status packet flags a hardware error (a servo in error still runs the write:
+            turning its torque off passes ``False``).
         """
         address, size = self.table[field]
         fn = {1: self.packets.write1ByteTxRx, 2: self.packets.write2ByteTxRx, 4: self.packets.write4ByteTxRx}[size]
@@ -190,7 +193,7 @@ class BusDriver:
                 break
         if result != self.sdk.COMM_SUCCESS:
             raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed: {self._comm(result)}")
-        if error:
+        if error and check_error:
             raise BusFault(f"{self.name}: {self.servo(servo_id)} reports {self._hardware_error(servo_id, error)}")
 
     def torque(self, on):
@@ -214,7 +217,7 @@ class BusDriver:
         failed = []
         for servo_id in self.ids:
             try:
-                self.write(servo_id, "torque_enable", 0)
+                self.write(servo_id, "torque_enable", 0, check_error=False)
             except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
                 failed.append(servo_id)
         return failed

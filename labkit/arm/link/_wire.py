@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass, field
 
 from labkit.exceptions import DeviceError, ProtocolError
+from labkit.arm.bus import BusFault
 from labkit.arm._protocol import (
     MAX_LINE,
     NOT_EXECUTED,
@@ -172,6 +173,8 @@ class Wire:
             raise DeviceError("the link is closed")
         try:
             return fn(*args)
+        except BusFault:  # a servo bus stopped the arm: its message names the servo, the fault and the torque-off
+            raise
         except (serial.SerialException, OSError) as exc:
             raise DeviceError(f"{self.name}: port vanished or failed: {exc}") from None
 
