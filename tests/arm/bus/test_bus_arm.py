@@ -142,3 +142,14 @@ def test_a_bus_url_needs_a_robot_with_that_bus(robot_file):
     with pytest.raises(DeviceError, match="hobby servos"):
         with Arm("sim://?clock=lockstep") as plain:
             plain.read_load()
+
+
+def test_lockstep_runs_on_a_virtual_bus_repeat_exactly(robot_file, kind):
+    def run():
+        with Arm(_url(robot_file, kind) + "&seed=3", robot=robot_file) as arm:
+            arm.move_joints(arm.commanded_joints() + np.radians([15.0, -10.0, 5.0, 0.0]))
+            df = arm.stream(0.2, hz=50)
+            return df.to_numpy(), arm.virtual_model.true_q
+
+    (a, qa), (b, qb) = run(), run()
+    assert np.array_equal(a, b) and np.array_equal(qa, qb)
