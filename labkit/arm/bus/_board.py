@@ -20,7 +20,9 @@ port is closed. Closing turns torque off.
 
 from __future__ import annotations
 
+import atexit
 import math
+import weakref
 
 import numpy as np
 
@@ -96,6 +98,7 @@ class BusBoard(VirtualBoard):
         self._goal = None
         self._frames = 0
         super().__init__(robot, PhysicsConfig(), queue=queue)
+        atexit.register(_shutdown_at_exit, weakref.ref(self))  # torque off if the program ends with the arm open
 
     # -- power-up: start where the arm is -----------------------------------------------------------
     def _boot(self, reason, config):
@@ -235,6 +238,12 @@ class BusBoard(VirtualBoard):
         if self.stream_hz:
             self.stream_rows = []
         return out
+
+
+def _shutdown_at_exit(ref):
+    board = ref()
+    if board is not None:
+        board.shutdown()
 
 
 def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None, latency=None, settle=None):

@@ -104,6 +104,8 @@ class BusDriver:
         if latency is not None:
             port_class = _with_latency(port_class, float(latency))
         self.handler = port_class(device)
+        #: the port has been closed (:meth:`close`)
+        self.closed = False
         try:
             ok = self.handler.openPort()
         except Exception as exc:  # noqa: BLE001 - pyserial's SerialException or an OSError
@@ -295,7 +297,10 @@ class BusDriver:
                        f"check the cable, the baud rate ({self.baudrate} bit/s) and the servo power supply")
 
     def close(self):
-        """Turn every servo's torque off (best effort) and close the port; never raises."""
+        """Turn every servo's torque off (best effort) and close the port; never raises (idempotent)."""
+        if self.closed:
+            return
+        self.closed = True
         try:
             self.torque_off_quietly()
         finally:

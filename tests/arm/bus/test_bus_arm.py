@@ -2,6 +2,7 @@
 
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -153,3 +154,27 @@ def test_lockstep_runs_on_a_virtual_bus_repeat_exactly(robot_file, kind):
 
     (a, qa), (b, qb) = run(), run()
     assert np.array_equal(a, b) and np.array_equal(qa, qb)
+
+
+def test_a_program_that_ends_with_the_arm_open_turns_torque_off(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from tests.arm.bus.conftest import ROBOTS
+
+    script = tmp_path / "forget_to_close.py"
+    script.write_text(f"""
+import atexit, time
+from labkit.arm import Arm
+from labkit.arm.bus import BusEmulator
+emu = BusEmulator({ROBOTS['dynamixel']!r}, wall_clock=True)
+atexit.register(lambda: print("after", [emu.torque(i) for i in emu.ids]))  # runs after the board's handler
+arm = Arm(f"dynamixel://{{emu.path}}?latency=100", robot={ROBOTS['dynamixel']!r})
+print("before", [emu.torque(i) for i in emu.ids])
+""", encoding="utf-8")
+    root = Path(__file__).parents[3]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "before [True, True, True, True]" in out.stdout and "after [False, False, False, False]" in out.stdout
