@@ -24,8 +24,6 @@ import atexit
 import math
 import weakref
 
-import numpy as np
-
 from labkit.exceptions import DeviceError, OptionError
 from labkit.robot import Robot
 from labkit.arm.board import PhysicsConfig, VirtualBoard

@@ -10,7 +10,6 @@ import pytest
 from labkit.arm import Arm
 from labkit.exceptions import DeviceError, JointLimitError, TrajectoryError
 from labkit.motion import joint_trajectory
-from labkit.robot import Robot
 
 
 def _url(robot_file, kind):

@@ -6,7 +6,6 @@ import time
 import numpy as np
 import pytest
 
-from labkit.robot import Robot
 from labkit.arm.bus import BusEmulator, bus_module
 
 
