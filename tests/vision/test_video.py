@@ -76,8 +76,8 @@ def test_a_camera_session_through_video_capture_agrees_with_the_truth(recording,
     assert video.capture.getBackendName() == "FFMPEG" and video.dropped == 0
     assert len(df) == len(PLAN) * FRAMES * 3 and set(df.instrument) == {"camera"}
     ratio = _ratio(load_measurements(tmp_path / "webcam.csv"), recording[1])
-    # the readings' k = 2 uncertainties hold through MJPG compression
-    assert np.mean(ratio <= 1.0) >= 0.9 and ratio.max() <= 2.0, np.sort(ratio)[-5:]
+    # the readings' k = 2 uncertainties hold through MJPG compression (measured: |error| <= 0.2 U)
+    assert np.all(ratio <= 1.0), np.sort(ratio)[-5:]
     # the stream is used up: the next capture says so instead of returning old frames
     with pytest.raises(DeviceError, match="pose 'after_the_plan'.*end of the stream") as info:
         video.frames("after_the_plan", 1)
