@@ -27,6 +27,7 @@ from labkit.measure._session import (
 from labkit.measure._calculated import COMBINE_RULES, decimals_for_resolution
 from labkit.measure._errortables import ErrorTable, error_table, fk_error_table, ik_error_table
 from labkit.measure._audit import AuditResult, audit_published, load_published
+from labkit.measure._errormodels import ERROR_MODELS
 from labkit.measure._calibration import (
     GROUPS,
     CalibrationResult,
@@ -64,6 +65,7 @@ __all__ = [
     "audit_published",
     "load_published",
     "GROUPS",
+    "ERROR_MODELS",
     "CalibrationResult",
     "calibrate",
     "parameter_names",

@@ -5,8 +5,8 @@ offsets, link lengths, base offset, and optionally a gravity-sag term per
 joint) so that forward kinematics of the commanded joints reproduces the
 measured tool positions in the least-squares sense
 (:func:`scipy.optimize.least_squares`). It reports each fitted value with a
-confidence interval from the Jacobian at the solution and the residual
-variance, the residuals before and after, and a leave-one-pose-out check
+confidence interval from the Jacobian and the scatter of the poses about the fit
+(the readings of one pose may share one error), the residuals before and after, and a leave-one-pose-out check
 (each pose predicted by a fit that did not see it), so overfitting shows as a
 leave-one-out error well above the fit residual.
 
@@ -47,8 +47,9 @@ import warnings
 import numpy as np
 
 from labkit.exceptions import MeasurementError
+from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
 
-__all__ = ["GROUPS", 
+__all__ = ["GROUPS",
     "CalibrationResult",
     "calibrate",
     "parameter_names",
@@ -239,10 +240,17 @@ class CalibrationResult:
         Fitted parameters (see module docstring).
     nominal, fitted, std_error, ci_low, ci_high : ndarray, shape (p,)
         In SI units (rad, m); ``ci_*`` at :attr:`confidence` (Student t,
-        ``dof`` degrees of freedom).
+        ``interval_dof`` degrees of freedom).
     confidence : float
     dof : int
         Residual degrees of freedom (measured components - parameters).
+    errors : str
+        The error model of the intervals (``"per_pose"`` or ``"independent"``, see :func:`calibrate`).
+    interval_dof : int
+        Degrees of freedom of the intervals: poses - parameters (``"per_pose"``) or ``dof``.
+    shared_std : float
+        With ``weighted=True`` and ``"per_pose"``: the standard deviation [m] added in quadrature
+        to every stated uncertainty for the error a pose's readings share (0 otherwise).
     robot : Robot
         The calibrated robot (sag not included).
     sag : ndarray, shape (n,)
@@ -270,6 +278,9 @@ class CalibrationResult:
     ci_high: np.ndarray
     confidence: float
     dof: int
+    errors: str
+    interval_dof: int
+    shared_std: float
     robot: object
     sag: np.ndarray
     gravity: np.ndarray
@@ -431,7 +442,7 @@ def _pose_data(measurements, robot):
 
 
 def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_lengths"),
-              weighted=False, gravity=None, confidence=0.95, leave_one_out=True):
+              weighted=False, gravity=None, confidence=0.95, leave_one_out=True, errors="per_pose"):
     """Least-squares fit of robot parameters to measured tool positions.
 
     Parameters
@@ -446,7 +457,8 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
         Groups and/or parameter names (see module docstring).
     weighted : bool
         Weight each residual by 1 / its measurement uncertainty (resolution
-        combined with the half range); default unweighted.
+        combined with the half range); default unweighted. With ``"per_pose"`` errors
+        the fit is repeated with the pose-shared error (``shared_std``) added in quadrature.
     gravity : array_like, shape (3,), optional
         Gravity direction in world coordinates (for ``sag``); default
         ``-robot.up``, the robot file's ``up`` key (the seed 000 arm's frame 0
@@ -456,6 +468,12 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
         Level of the confidence intervals.
     leave_one_out : bool
         Also refit once per pose with that pose left out.
+    errors : {"per_pose", "independent"}
+        Error model of the intervals (:mod:`labkit.measure._errormodels`): ``"per_pose"``
+        (default) lets the readings of one pose share an error (a joint stopped in its
+        deadband) and takes the uncertainty from how the poses scatter (needs more poses
+        than parameters + 1, else a warning and ``"independent"``); ``"independent"``
+        takes every measured component as independent (too narrow when they share one).
 
     Returns
     -------
@@ -497,6 +515,8 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
         raise MeasurementError(f"expected q (P, {robot.n}) and positions (P, 3), got {q.shape} and {measured.shape}")
     if not 0 < confidence < 1:
         raise MeasurementError(f"expected confidence in (0, 1), got {confidence!r}")
+    if errors not in ERROR_MODELS:
+        raise MeasurementError(f"unknown errors={errors!r}; expected one of {ERROR_MODELS}")
     names = parameter_names(robot, params)
     nominal = np.array([_nominal(robot, nm) for nm in names])
     sag_index = [k for k, nm in enumerate(names) if nm.startswith("sag")]
@@ -522,19 +542,33 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
     p = len(names)
     if m <= p:
         raise MeasurementError(f"expected more measured components than parameters, got {m} for {p} parameters {names}")
+    if errors == "per_pose" and len(q) <= p + 1:
+        warnings.warn(f"{len(q)} poses for {p} parameters: too few to estimate a per-pose error, the intervals "
+                      "take every measured component as independent (errors='independent')", UserWarning, stacklevel=2)
+        errors = "independent"
     sol = least_squares(residuals, nominal, args=(all_rows,), x_scale="jac", method="trf")
     dof = m - p
-    s2 = 2 * sol.cost / dof
+    shared = 0.0
+    if weighted and errors == "per_pose":
+        # the stated uncertainties leave out what a pose's readings share: add that variance to
+        # every component (estimated from the scatter of the poses), so no pose weighs more than it knows
+        mask = ~np.isnan(measured * weights)
+        shared = _shared_variance((model(sol.x, q) - measured)[mask], sigma[mask], dof)
+        if shared > 0:
+            weights = 1.0 / np.sqrt(sigma ** 2 + shared)
+            sol = least_squares(residuals, sol.x, args=(all_rows,), x_scale="jac", method="trf")
+        shared = math.sqrt(shared)
     J = sol.jac
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
     if sv[-1] <= sv[0] * 1e-9:
         weak = [names[k] for k in np.flatnonzero(np.abs(vt[-1]) > 0.1)]
         warnings.warn(f"calibration parameters not identifiable from these measurements: {weak}", UserWarning, stacklevel=2)
-        cov = np.full((p, p), np.inf)
+        cov, interval_dof = np.full((p, p), np.inf), dof
     else:
-        cov = s2 * np.linalg.inv(J.T @ J)
+        pose_of = np.broadcast_to(all_rows[:, None], measured.shape)[~np.isnan(measured * weights)]
+        cov, interval_dof = _covariance(J, sol.fun, pose_of, errors)
     std = np.sqrt(np.diag(cov))
-    half = student_t.ppf(0.5 + confidence / 2, dof) * std
+    half = student_t.ppf(0.5 + confidence / 2, interval_dof) * std
     fitted = sol.x
 
     before = model(nominal, q) - measured
@@ -557,6 +591,7 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
     return CalibrationResult(
         names=names, nominal=nominal, fitted=fitted, std_error=std,
         ci_low=fitted - half, ci_high=fitted + half, confidence=float(confidence), dof=dof,
+        errors=errors, interval_dof=int(interval_dof), shared_std=float(shared),
         robot=apply_parameters(robot, names, fitted), sag=sag, gravity=g,
         pose_ids=pose_ids, q=q, measured=measured,
         residuals_before=before, residuals_after=after, loo_residuals=loo,

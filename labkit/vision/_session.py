@@ -35,55 +35,128 @@ _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
 class VideoSource:
-    """Frames from a live camera (``cv2.VideoCapture``).
+    """Frames from a webcam, a video stream or a video file (``cv2.VideoCapture``).
+
+    A webcam keeps a queue of frames it took earlier (OpenCV's V4L2 backend holds 4 by
+    default and stops filling it while it is full), so after the arm moves the first
+    frames read still show it where it was. :meth:`frames` therefore drops the queued
+    frames (``stale``, grabbed without decoding) and ``warmup`` more (auto exposure
+    settles) before it keeps ``count`` fresh ones.
 
     Parameters
     ----------
-    device : int or str
-        Camera index (0: the first webcam) or a video URL/file.
+    device : int or str or os.PathLike
+        Camera index (0: the first webcam), a stream URL (``http://.../video.mjpg``,
+        ``rtsp://...``) or a video file.
     width, height : int, optional
-        Requested resolution [px].
+        Requested resolution [px]; a device that delivers another one raises.
+    stale : int, optional
+        Frames the device queues. Default: ask the backend for a one-frame queue
+        (``CAP_PROP_BUFFERSIZE``) and take the length it reports, 4 (the V4L2 default) if it
+        reports none; 0 for a video file (its frames are not taken live).
     warmup : int
-        Frames dropped before each capture (auto-exposure settles, old buffered frames go).
+        Frames dropped after the queued ones, at each pose.
+    retries : int
+        Failed reads in a row tolerated at a pose (a webcam drops a frame now and then).
+
+    Raises
+    ------
+    DeviceError
+        The device cannot be opened, or it delivers another resolution than requested.
+
+    Attributes
+    ----------
+    dropped : int
+        Failed reads so far (each one retried).
     """
 
-    def __init__(self, device=0, *, width=None, height=None, warmup=3):
+    def __init__(self, device=0, *, width=None, height=None, stale=None, warmup=3, retries=2):
         import cv2
 
-        self.capture = cv2.VideoCapture(device)
+        if int(warmup) < 0 or int(retries) < 0 or (stale is not None and int(stale) < 0):
+            raise OptionError(f"expected stale, warmup and retries >= 0, got {stale}, {warmup}, {retries}")
+        self.device = device if isinstance(device, int) else str(device)
+        is_file = not isinstance(device, int) and Path(device).is_file()
+        self.capture = cv2.VideoCapture(str(device) if is_file else device)
         if not self.capture.isOpened():
-            raise DeviceError(f"expected a camera at {device!r}, could not open it")
+            raise DeviceError(f"expected a camera, stream or video at {device!r}, cv2.VideoCapture could not open it")
         if width:
             self.capture.set(cv2.CAP_PROP_FRAME_WIDTH, int(width))
         if height:
             self.capture.set(cv2.CAP_PROP_FRAME_HEIGHT, int(height))
-        self.warmup = int(warmup)
+        size = (int(self.capture.get(cv2.CAP_PROP_FRAME_WIDTH)), int(self.capture.get(cv2.CAP_PROP_FRAME_HEIGHT)))
+        if (width and size[0] != int(width)) or (height and size[1] != int(height)):
+            self.capture.release()
+            raise DeviceError(f"expected {width}x{height} frames from {device!r}, it delivers {size[0]}x{size[1]}")
+        if stale is None:
+            if is_file:
+                stale = 0
+            else:
+                self.capture.set(cv2.CAP_PROP_BUFFERSIZE, 1)
+                queued = int(self.capture.get(cv2.CAP_PROP_BUFFERSIZE))
+                stale = queued if queued > 0 else 4
+        self.stale, self.warmup, self.retries = int(stale), int(warmup), int(retries)
+        self.dropped = 0
+
+    def _next(self, decode):
+        for _ in range(self.retries + 1):
+            if decode:
+                ok, frame = self.capture.read()
+                ok = ok and frame is not None
+            else:
+                ok, frame = self.capture.grab(), None
+            if ok:
+                return True, frame
+            self.dropped += 1
+        return False, None
 
     def frames(self, pose_id, count):
-        """``count`` fresh frames (after dropping ``warmup`` ones); ``pose_id`` is a label.
+        """``count`` fresh frames, after dropping ``stale`` queued and ``warmup`` frames.
 
         Parameters
         ----------
         pose_id : str
+            The pose being measured (a label in messages).
         count : int
+            Frames to keep.
 
         Returns
         -------
-        list of ndarray
+        list of ndarray, shape (height, width, 3), uint8
             BGR images.
+
+        Raises
+        ------
+        DeviceError
+            The device gave no frame ``retries + 1`` times in a row (end of the stream, or the
+            camera dropped out); the message says how many frames it gave at this pose.
         """
+        if not self.capture.isOpened():
+            raise DeviceError(f"pose {pose_id!r}: expected an open camera at {self.device!r}, it was closed")
+        skip = self.stale + self.warmup
+        for k in range(skip):
+            if not self._next(decode=False)[0]:
+                raise DeviceError(f"pose {pose_id!r}: {self.device!r} gave no frame after {k} of the {skip} dropped "
+                                  f"before a capture ({self.stale} queued + {self.warmup} warm-up): end of the stream "
+                                  "or the camera dropped out")
         out = []
-        for k in range(self.warmup + int(count)):
-            ok, frame = self.capture.read()
+        for k in range(int(count)):
+            ok, frame = self._next(decode=True)
             if not ok:
-                raise DeviceError(f"the camera returned no frame (pose {pose_id!r})")
-            if k >= self.warmup:
-                out.append(frame)
+                raise DeviceError(f"pose {pose_id!r}: expected {int(count)} frames from {self.device!r}, got {k} "
+                                  f"({self.retries + 1} failed reads in a row): end of the stream or the camera dropped out")
+            out.append(frame)
         return out
 
     def close(self):
         """Release the camera."""
         self.capture.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 class FolderSource:
@@ -259,6 +332,8 @@ class CameraSession:
 
         Raises
         ------
+        VisionError
+            A frame of another size than the camera's ``image_size``.
         MarkerNotFoundError
             No reference marker in any frame (the camera cannot be located).
         WrongMarkerError
@@ -266,7 +341,13 @@ class CameraSession:
         """
         q = np.asarray(pose.q, dtype=float)
         self._moves.goto(q)
-        frames = self.detect(self.source.frames(pose.pose_id, self.frames))
+        images = self.source.frames(pose.pose_id, self.frames)
+        size = self.camera.image_size
+        wrong = [np.shape(img)[1::-1] for img in images if size is not None and tuple(np.shape(img)[1::-1]) != tuple(size)]
+        if wrong:
+            raise VisionError(f"pose {pose.pose_id!r}: expected {size[0]}x{size[1]} frames (the calibrated camera's), "
+                              f"got {wrong[0][0]}x{wrong[0][1]}")
+        frames = self.detect(images)
         location = locate_camera(frames, self.rig.base_markers, self.camera)
         records, failures = [], []
         for k, dets in enumerate(frames):
