@@ -14,7 +14,9 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
 2. batched FK and Jacobian of the PUMA 560 for batches of 1, 10, 1000 and
    100k [configurations/s], with the write-bandwidth floor of the output
    (allocating and filling an array of the output's size) and the ratio to the
-   numba chain;
+   numba chain; the Jacobian also through a generic numpy block walk
+   (``benchmarks/_numpy_walk.py``: what labkit ran before the compiled
+   per-robot programs, same run);
 3. numeric IK of the PUMA 560 (in-limit random targets, tolerance 1e-10):
    ms per target one by one, targets/s at batch 1000, success rate, against
    ``ik_LM`` (C++) one target at a time;
@@ -313,6 +315,15 @@ def batched(args):
     print(f"{'analytic IK':<12}{n_ik:>6,}{fmt_rate(lk):>9} targets/s (all 8 branches); rtb ikine_a x8: "
           f"{fmt_rate(rta)} targets/s; {(f'{lk / rta:,.0f}x' if rta else '')}")
     big = batches[-1]
+    # before/after of the compiled Jacobian programs: the same Jacobians by a generic block walk
+    import _numpy_walk
+
+    for N in batches[-2:]:
+        before = N / seconds(lambda: _numpy_walk.jacobian(puma, Q[:N]), None, rep)
+        after, nbr = summary["Jacobian", N]
+        print(f"Jacobian {N:>8,}: before (generic walk) {fmt_rate(before)}"
+              f"{(f' = {before / nbr:.2f}x numba' if nbr else '')}, after (compiled program) {fmt_rate(after)}"
+              f"{(f' = {after / nbr:.2f}x numba' if nbr else '')}: {after / before:.2f}x faster")
     for quantity in ("FK", "Jacobian"):
         lk, nbr = summary[quantity, big]
         if nbr:

@@ -21,7 +21,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _program
-from labkit.kinematics._chain import check_out, half_angle_trig, prepare
+from labkit.kinematics._chain import chain, check_out, half_angle_trig, prepare
 from labkit.validation import as_vector
 
 __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
@@ -265,6 +265,41 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     fJ = J.reshape(N, 6 * n)
     _evaluate(c, prog, q2, (fJ,) if T is None else (fJ, T.reshape(N, 16)))  # flipped joints included
     return T, J
+
+
+def fk_jacobian_kernel(robot):
+    """``f(q) -> (T, J)``: :func:`fk_jacobian` of validated configurations, without the checks.
+
+    For a solver that calls it many times on arrays it made itself (numeric
+    IK): the chain and the compiled program are looked up once.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    callable
+        ``f(q)`` for a finite float64 array ``q`` of shape (N, n) [rad, m]:
+        poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n).
+    """
+    c = chain(robot)
+    if c.flipped.size:  # the joint values need negating: the checked path does it
+        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
+    prog = _default_program(c, _program.JACOBIAN, False, True)
+    n = c.n
+
+    def f(q):
+        N = q.shape[0]
+        if N <= SMALL_BATCH:
+            rows = _small(prog, q)
+            return rows[:, 6 * n:].reshape(N, 4, 4), rows[:, :6 * n].reshape(N, 6, n)
+        T, J = np.empty((N, 4, 4)), np.empty((N, 6, n))
+        _run_program(c, prog, q, (J.reshape(N, 6 * n), T.reshape(N, 16)))
+        return T, J
+
+    return f
 
 
 def _default_program(c, output, tool_frame=False, want_T=False):
