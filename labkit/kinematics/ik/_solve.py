@@ -166,20 +166,20 @@ def solve(robot, family, flat):
     return q, reach, reach & inside, distance
 
 
-def _finish_floats(js, branch, ok, done):
+def _finish_floats(js, branch, ok, last):
     """One branch of a family's float solution finished: ``(q, valid)``.
 
-    ``done`` memoises the finished joint values by identity (branches share
-    values: q1 of a shoulder side ...), so each is finished once.
+    ``last`` holds per joint the value finished last and its result
+    (``[value, finished, inside]``): consecutive branches share values (q1 of
+    a shoulder side ...), which are then finished once.
     """
     row = []
-    for j, v in enumerate(branch):
-        key = (j, id(v))
-        fin = done.get(key)
-        if fin is None:
-            fin = done[key] = finish(FLOATS, v, js[j])
-        row.append(fin[0])
-        ok = ok and fin[1]
+    for v, joint, memo in zip(branch, js, last):
+        if v is not memo[0]:
+            memo[0] = v
+            memo[1], memo[2] = finish(FLOATS, v, joint)
+        row.append(memo[1])
+        ok = ok and memo[2]
     return row, ok
 
 
@@ -207,8 +207,8 @@ def solve_floats(robot, family, targets):
     Q, R, V, D = [], [], [], []
     for t in targets:
         qb, rb, d = family.solve(FLOATS, t)
-        done = {}
-        rows = [_finish_floats(js, branch, ok, done) for branch, ok in zip(qb, rb)]
+        last = [[None, None, None] for _ in js]
+        rows = [_finish_floats(js, branch, ok, last) for branch, ok in zip(qb, rb)]
         Q.append([row for row, _ in rows])
         R.append(rb)
         V.append([ok for _, ok in rows])
@@ -248,9 +248,9 @@ def pick_floats(robot, family, targets, idx, q_near):
     out = []
     for t in targets:
         qb, rb, _ = family.solve(FLOATS, t)
-        done = {}
+        last = [[None, None, None] for _ in js]
         if idx is not None:
-            row, ok = _finish_floats(js, qb[idx], rb[idx], done)
+            row, ok = _finish_floats(js, qb[idx], rb[idx], last)
             if not ok:
                 return None
             out.append(row)
@@ -259,7 +259,7 @@ def pick_floats(robot, family, targets, idx, q_near):
         for branch, reach in zip(qb, rb):
             if not reach:
                 continue
-            row, ok = _finish_floats(js, branch, reach, done)
+            row, ok = _finish_floats(js, branch, reach, last)
             if not ok:
                 continue
             if q_near is None:
