@@ -28,8 +28,9 @@ __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
 #: chunks of the compiled programs with many output rows: _PROGRAM_CHUNK_ENTRIES // n configurations
 _PROGRAM_CHUNK_ENTRIES = 49152
-#: at most this many configurations run the program's Python code on floats
-SMALL_BATCH = 8
+#: at most this many configurations run the program's Python code on floats (the crossover with the
+#: ufunc calls is at about 20 configurations for the PUMA 560)
+SMALL_BATCH = 16
 #: a program with at most _DIRECT_ROWS output rows writes straight into the output, in chunks of
 #: _DIRECT_BATCH configurations; so does one whose whole output has at most _DIRECT_ENTRIES entries
 #: (one chunk); bigger outputs go through contiguous rows copied out transposed

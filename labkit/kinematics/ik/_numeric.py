@@ -13,6 +13,12 @@ the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
 
+One target is a batch of one: the same loop, where the per-robot
+fk + Jacobian program runs as generated Python code on floats
+(:func:`labkit.kinematics._forward.fk_jacobian_kernel`) and the pose error
+(:func:`_pose_error`, written once on components) on floats too, so a handful
+of targets costs few numpy calls per iteration.
+
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (:func:`near_family`, for
 an arm a little off a family, e.g. after calibration), which also feed the
@@ -237,9 +243,9 @@ def analytic_seeds(robot, kind, target, rng):
         ideal, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
-    limits = robot.joint_limits
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
-    lo, hi = limits[:, 0], limits[:, 1]
+    lim = _limits(robot)
+    lo, hi = lim.lo, lim.hi
     rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
     if ideal is robot:
         rank[(rank > 0) | ~reach] = np.inf
@@ -301,7 +307,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
         if starts is not None:
             q0 = starts[:, 0].copy()
             none = np.isnan(q0[:, 0])
-            q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
+            if none.any():
+                q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng, starts=starts
     )
@@ -408,6 +415,15 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 done[bad] = False
                 any_done = done.any()
             check = it % check_every == 0
+            if any_done and bad is None and done.all():  # every active row converged (one target: the usual end)
+                q[act] = qa
+                success[act] = True
+                residual[act] = res
+                iterations[act] += it - 1
+                if group > 1:
+                    group_done[act // group] = True
+                act = act[:0]
+                break
             if any_done or check or (bad is not None and bad.size):
                 stalled = np.zeros_like(done)
                 if bad is not None:
@@ -475,9 +491,9 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             residual[act[better]] = res[better]
             best_q[act[better]] = qa[better]
             q[act] = qa
-    fail = ~success
-    q[fail] = best_q[fail]
-    q[fail] = np.clip(q[fail], lo, hi)
+    if not success.all():
+        fail = ~success
+        q[fail] = np.clip(best_q[fail], lo, hi)
     return q, success, iterations, residual
 
 

@@ -188,10 +188,8 @@ def solve_floats(robot, family, targets):
 
     Parameters
     ----------
-    robot : Robot
-        The arm.
-    family : Family
-        Its closed-form solver.
+    robot, family : Robot, Family
+        The arm and its closed-form solver, as for :func:`solve`.
     targets : list
         Valid targets as nested lists of floats
         (:func:`labkit.kinematics.ik._targets.small_targets`).
