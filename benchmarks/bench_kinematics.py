@@ -14,7 +14,9 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
 2. batched FK and Jacobian of the PUMA 560 for batches of 1, 10, 1000 and
    100k [configurations/s], with the write-bandwidth floor of the output
    (allocating and filling an array of the output's size) and the ratio to the
-   numba chain;
+   numba chain; the Jacobian also through a generic numpy block walk
+   (``benchmarks/_numpy_walk.py``: what labkit ran before the compiled
+   per-robot programs, same run);
 3. numeric IK of the PUMA 560 (in-limit random targets, tolerance 1e-10):
    ms per target one by one, targets/s at batch 1000, success rate, against
    ``ik_LM`` (C++) one target at a time;
@@ -313,6 +315,15 @@ def batched(args):
     print(f"{'analytic IK':<12}{n_ik:>6,}{fmt_rate(lk):>9} targets/s (all 8 branches); rtb ikine_a x8: "
           f"{fmt_rate(rta)} targets/s; {(f'{lk / rta:,.0f}x' if rta else '')}")
     big = batches[-1]
+    # before/after of the compiled Jacobian programs: the same Jacobians by a generic block walk
+    import _numpy_walk
+
+    for N in batches[-2:]:
+        before = N / seconds(lambda: _numpy_walk.jacobian(puma, Q[:N]), None, rep)
+        after, nbr = summary["Jacobian", N]
+        print(f"Jacobian {N:>8,}: before (generic walk) {fmt_rate(before)}"
+              f"{(f' = {before / nbr:.2f}x numba' if nbr else '')}, after (compiled program) {fmt_rate(after)}"
+              f"{(f' = {after / nbr:.2f}x numba' if nbr else '')}: {after / before:.2f}x faster")
     for quantity in ("FK", "Jacobian"):
         lk, nbr = summary[quantity, big]
         if nbr:
@@ -356,14 +367,17 @@ def numeric_ik(args):
     bent = puma.with_link(4, a=0.002)
     Tb = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(nb, 6)))
     res = [ik_numeric(bent, Tb[k]) for k in range(n1)]
-    one = seconds(lambda: [ik_numeric(bent, Tb[k]) for k in range(n1)], 1, 2) / n1
+    one = seconds(lambda: [ik_numeric(bent, Tb[k]) for k in range(n1)], 1, 2 if args.smoke else 5) / n1
     resb = ik_numeric(bent, Tb)
     batch = nb / seconds(lambda: ik_numeric(bent, Tb), 1, 2)
     lm = None
     if peers:
         ets_b = rtb_models(bent)[1]
         m = 10 if args.smoke else 50 if args.quick else 200
-        lm_ok = np.mean([ets_b.ik_LM(Tb[k], tol=1e-10).success for k in range(m)])
+        sols = [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(m)]
+        lm_ok = np.mean([s.success for s in sols])
+        lm_it = np.mean([s.iterations for s in sols])
+        lm_res = max(float(s.residual) for s in sols)
         lm = m / seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(m)], 1, 2)
     print("PUMA 560 with a5 = 2 mm (no closed form; LM from the branches of its idealised copy, a5 = 0):")
     print(f"batch 1:     {one * 1e3:7.3f} ms per target  (target <= 1 ms: {verdict(one <= 1e-3)}), "
@@ -374,8 +388,10 @@ def numeric_ik(args):
         print(f"rtb ik_LM (C++, one by one): {lm:9,.0f} targets/s, success {lm_ok:.1%}; "
               f"labkit batch {nb} / ik_LM = {batch / lm:.2f}x (target >= 2x: {verdict(batch >= 2 * lm)}); "
               f"labkit batch 1 / ik_LM = {(1 / one) / lm:.2f}x")
+        print(f"rtb ik_LM on the first {m} targets: mean iterations {lm_it:.1f}, max residual {lm_res:.1e} "
+              f"(its own measure: E = e^T W e)")
         # one target at a time, on the same targets, in the same run
-        same = seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(n1)], 1, 2) / n1
+        same = seconds(lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(n1)], 1, 2 if args.smoke else 5) / n1
         print(f"one target (same {n1} targets): labkit {one * 1e3:.3f} ms, ik_LM {same * 1e3:.3f} ms: "
               f"{one / same:.2f}x slower (target <= 2.5x: {verdict(one <= 2.5 * same)})")
 

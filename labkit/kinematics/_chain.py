@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import math
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -95,6 +95,9 @@ class Chain:
     base, tool : ndarray, shape (4, 4) or None
         World-from-base and frame-n-from-tool transforms [m]; ``None`` when
         the identity (skipped).
+    programs : dict
+        The compiled programs of the tool point, by output and options
+        (filled by :mod:`labkit.kinematics._forward` on first use).
     """
 
     modified: bool
@@ -106,6 +109,7 @@ class Chain:
     half_theta: np.ndarray
     base: np.ndarray
     tool: np.ndarray
+    programs: dict = field(default_factory=dict, repr=False)
 
 
 @per_robot

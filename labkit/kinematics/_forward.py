@@ -21,15 +21,16 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _program
-from labkit.kinematics._chain import check_out, half_angle_trig, prepare
+from labkit.kinematics._chain import chain, check_out, half_angle_trig, prepare
 from labkit.validation import as_vector
 
 __all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
 
 #: chunks of the compiled programs with many output rows: _PROGRAM_CHUNK_ENTRIES // n configurations
 _PROGRAM_CHUNK_ENTRIES = 49152
-#: at most this many configurations run the program's Python code on floats
-SMALL_BATCH = 8
+#: at most this many configurations run the program's Python code on floats (the crossover with the
+#: ufunc calls is at about 20 configurations for the PUMA 560)
+SMALL_BATCH = 16
 #: a program with at most _DIRECT_ROWS output rows writes straight into the output, in chunks of
 #: _DIRECT_BATCH configurations; so does one whose whole output has at most _DIRECT_ENTRIES entries
 #: (one chunk); bigger outputs go through contiguous rows copied out transposed
@@ -89,8 +90,11 @@ def fk(robot, q, *, out=None):
     array([0.273 , 0.0239, 0.    ])
     """
     c, q2, lead = prepare(robot, q)
+    prog = _default_program(c, _program.POSE)
+    if out is None and q2.shape[0] <= SMALL_BATCH:
+        return _small(prog, q2).reshape(lead + (4, 4))
     res = _output(out, lead + (4, 4))
-    _evaluate(c, _program.program(c, _program.POSE, _tool_offset(c, None)), q2, (res.reshape(-1, 16),))
+    _evaluate(c, prog, q2, (res.reshape(-1, 16),))
     return res
 
 
@@ -120,8 +124,14 @@ def fk_position(robot, q, point=None, *, out=None):
     array([0.35, 0.12, 0.  ])
     """
     c, q2, lead = prepare(robot, q)
+    if point is None:
+        prog = _default_program(c, _program.POSITION)
+    else:
+        prog = _program.program(c, _program.POSITION, _tool_offset(c, _as_point(point)))
+    if out is None and q2.shape[0] <= SMALL_BATCH:
+        return _small(prog, q2).reshape(lead + (3,))
     res = _output(out, lead + (3,))
-    _evaluate(c, _program.program(c, _program.POSITION, _tool_offset(c, _as_point(point))), q2, (res.reshape(-1, 3),))
+    _evaluate(c, prog, q2, (res.reshape(-1, 3),))
     return res
 
 
@@ -147,8 +157,11 @@ def fk_frames(robot, q):
     (8, 4, 4)
     """
     c, q2, lead = prepare(robot, q)
+    prog = _default_program(c, _program.FRAMES)
+    if q2.shape[0] <= SMALL_BATCH:
+        return _small(prog, q2).reshape(lead + (c.n + 2, 4, 4))
     out = np.empty(lead + (c.n + 2, 4, 4))
-    _evaluate(c, _program.program(c, _program.FRAMES, _tool_offset(c, None)), q2, (out.reshape(-1, 16 * (c.n + 2)),))
+    _evaluate(c, prog, q2, (out.reshape(-1, 16 * (c.n + 2)),))
     return out
 
 
@@ -176,18 +189,20 @@ def _evaluate(c, prog, q2, outs):
     ``outs`` are (N, k) C-contiguous arrays whose columns, side by side, are
     the program's output rows.
     """
-    N = q2.shape[0]
-    if N > SMALL_BATCH:
+    if q2.shape[0] > SMALL_BATCH:
         _run_program(c, prog, q2, outs)
         return
-    inputs = np.empty((prog.n_inputs, N))
-    _program_inputs(c, q2, inputs)
-    f = prog.scalar()
-    rows = np.array([f(x) for x in inputs.T.tolist()]).reshape(N, prog.n_rows)
+    rows = _small(prog, q2)
     first = 0
     for o in outs:
         o[...] = rows[:, first:first + o.shape[1]]
         first += o.shape[1]
+
+
+def _small(prog, q2):
+    """The outputs (N, n_rows) of a few configurations ``q2`` (N, n) from the program's Python code."""
+    f = prog.scalar()
+    return np.array([f(x) for x in q2.tolist()])
 
 
 def _run_program(c, prog, q2, outs):
@@ -230,17 +245,71 @@ def _run_program(c, prog, q2, outs):
 
 
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
-    if frame not in ("base", "tool"):
+    if frame == "base":
+        tool = False
+    elif frame == "tool":
+        tool = True
+    else:
         raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
     c, q2, lead = prepare(robot, q)
-    off = _tool_offset(c, _as_point(point))
     N, n = q2.shape[0], c.n
+    if point is None:
+        prog = _default_program(c, _program.JACOBIAN, tool, want_T)
+    else:
+        prog = _program.program(c, _program.JACOBIAN, _tool_offset(c, _as_point(point)), tool, want_T)
+    if N <= SMALL_BATCH and out_T is None and out_J is None:
+        rows = _small(prog, q2)
+        J = rows[:, :6 * n].reshape(lead + (6, n))
+        return (rows[:, 6 * n:].reshape(lead + (4, 4)) if want_T else None), J
     J = _output(out_J, lead + (6, n))
     T = _output(out_T, lead + (4, 4)) if want_T else None
     fJ = J.reshape(N, 6 * n)
-    prog = _program.program(c, _program.JACOBIAN, off, frame == "tool", want_T)
     _evaluate(c, prog, q2, (fJ,) if T is None else (fJ, T.reshape(N, 16)))  # flipped joints included
     return T, J
+
+
+def fk_jacobian_kernel(robot):
+    """``f(q) -> (T, J)``: :func:`fk_jacobian` of validated configurations, without the checks.
+
+    For a solver that calls it many times on arrays it made itself (numeric
+    IK): the chain and the compiled program are looked up once.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    callable
+        ``f(q)`` for a finite float64 array ``q`` of shape (N, n) [rad, m]:
+        poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n).
+    """
+    c = chain(robot)
+    if c.flipped.size:  # the joint values need negating: the checked path does it
+        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
+    prog = _default_program(c, _program.JACOBIAN, False, True)
+    n = c.n
+
+    def f(q):
+        N = q.shape[0]
+        if N <= SMALL_BATCH:
+            rows = _small(prog, q)
+            return rows[:, 6 * n:].reshape(N, 4, 4), rows[:, :6 * n].reshape(N, 6, n)
+        T, J = np.empty((N, 4, 4)), np.empty((N, 6, n))
+        _run_program(c, prog, q, (J.reshape(N, 6 * n), T.reshape(N, 16)))
+        return T, J
+
+    return f
+
+
+def _default_program(c, output, tool_frame=False, want_T=False):
+    """The program of ``output`` for the tool point (no ``point`` argument), kept on the chain."""
+    key = (output, tool_frame, want_T)
+    prog = c.programs.get(key)
+    if prog is None:
+        prog = c.programs[key] = _program.program(c, output, _tool_offset(c, None), tool_frame, want_T)
+    return prog
 
 
 def fk_jacobian(robot, q, *, point=None, frame="base", out=None):

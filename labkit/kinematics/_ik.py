@@ -30,8 +30,8 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics.ik import (
-    FAMILIES, LazyGenerator, batch_index, build, describe_target, detect, solve_closed_form, solve_numeric, task_rows,
-    validate_targets,
+    FAMILIES, LazyGenerator, batch_index, build, describe_target, detect, pick_floats, small_targets,
+    solve_closed_form, solve_floats, solve_numeric, task_rows, validate_targets,
 )
 from labkit.rotations import wrap_angle
 
@@ -305,9 +305,19 @@ def ik_all(robot, target, *, solver="auto"):
     """
     kind = target_kind(robot)
     family = _family(robot, solver)
+    m, n = (0 if family is None else len(family.branches)), robot.n
+    if family is not None and family.scalar:  # a few targets: on Python floats
+        small, lead = small_targets(target, kind)
+        if small is not None:
+            q, reach, valid, distance = solve_floats(robot, family, small)
+            return IKSolutions(
+                np.array(q).reshape(lead + (m, n)), np.array(reach, dtype=bool).reshape(lead + (m,)),
+                np.array(valid, dtype=bool).reshape(lead + (m,)), family.branches,
+                np.array(distance, dtype=float).reshape(lead), family.name,
+            )
     flat, lead = validate_targets(target, kind)
     q, reach, valid, distance, branches = _solutions(robot, family, kind, flat)
-    m, n = len(branches), robot.n
+    m = len(branches)
     return IKSolutions(
         q.reshape(lead + (m, n)), reach.reshape(lead + (m,)), valid.reshape(lead + (m,)),
         branches, distance.reshape(lead), Solver.NUMERIC.value if family is None else family.name,
@@ -378,6 +388,12 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
         idx = None
     else:
         idx = None if branch is None else _branch_index(family.branches, family.aliases, branch)
+        small, lead = small_targets(target, kind) if family.scalar else (None, ())
+        qn = None if q_near is None else as_batch(q_near, (n,), "q_near")
+        if small is not None and (qn is None or qn.ndim == 1):  # a few targets: on Python floats
+            out = pick_floats(robot, family, small, idx, None if qn is None else qn.tolist())
+            if out is not None:  # else the path below says why not
+                return np.array(out).reshape(lead + (n,))
     flat, lead = validate_targets(target, kind)
     qn = None if q_near is None else np.broadcast_to(as_batch(q_near, (n,), "q_near"), lead + (n,)).reshape(-1, n)
     q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)

@@ -29,6 +29,7 @@ generic block walk: the first joints' frames are mostly zeros and ones.
 from __future__ import annotations
 
 import itertools
+import math
 import weakref
 
 import numpy as np
@@ -173,7 +174,8 @@ class Program:
         Scratch rows needed.
     """
 
-    def __init__(self, ops, constants, n_rows, n_scratch, n_inputs):
+    def __init__(self, ops, constants, n_rows, n_scratch, n_inputs, joints=None):
+        self.joints = joints  # per joint (input row, half theta) or (input row, None): see _build
         self.constants = constants  # (output row, value) filled once per buffer
         self.n_rows = n_rows
         self.n_scratch = n_scratch
@@ -195,14 +197,17 @@ class Program:
         self.ops = [(f, at(a), at(b), at(o)) for f, a, b, o in ops]
 
     def scalar(self):
-        """The program as a Python function on floats (generated once, kept on the program).
+        """The program as a Python function of joint values (generated once, kept on the program).
 
         Returns
         -------
         callable
-            ``f(x) -> list of float``: the ``n_rows`` outputs of one
-            configuration from its ``n_inputs`` input values ``x`` (a sequence
-            of floats), by the same operations in the same order.
+            ``f(q) -> list of float``: the ``n_rows`` outputs of one
+            configuration from its ``n`` effective joint values ``q`` (a
+            sequence of floats, flipped joints already negated), by the same
+            operations in the same order as the ufunc calls, the half-angle
+            trigonometry of :func:`labkit.kinematics._chain.half_angle_trig`
+            included.
         """
         f = getattr(self, "_scalar", None)
         if f is None:
@@ -236,8 +241,9 @@ _OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
 
 
 def _python_function(prog):
-    """Generate and compile the straight-line Python code of a :class:`Program`."""
+    """Generate and compile the straight-line Python code of a :class:`Program` on joint values."""
     n_in, n_out = prog.n_inputs, prog.n_rows
+    r = sum(half is not None for _, half in prog.joints)
 
     def name(k):
         if k < n_in:
@@ -248,13 +254,21 @@ def _python_function(prog):
             return f"s{k - n_in - n_out}"
         return repr(prog.constant_args[k - n_in - n_out - prog.n_scratch])
 
-    lines = ["def f(x):"]
-    if n_in:
-        lines.append("    " + "".join(f"x{k}, " for k in range(n_in)) + "= x")
+    lines = ["def f(q):"]
+    if prog.joints:
+        lines.append("    " + "".join(f"q{i}, " for i in range(len(prog.joints))) + "= q")
+    for i, (row, half) in enumerate(prog.joints):
+        if half is None:  # prismatic: the joint value itself
+            lines.append(f"    x{row} = q{i}")
+            continue
+        # cos and sin from the half-angle tangent, as half_angle_trig does on rows
+        arg = f"q{i} * 0.5" + (f" + {half!r}" if half else "")
+        lines += [f"    t = tan({arg})", "    w = 2.0 / (t * t + 1.0)", f"    x{row} = w - 1.0",
+                  f"    x{row + r} = t * w"]
     lines += [f"    o{row} = {value!r}" for row, value in prog.constants]
     lines += [f"    {name(o)} = {name(a)} {_OPERATOR[func]} {name(b)}" for func, a, b, o in prog.ops]
     lines.append("    return [" + ", ".join(f"o{k}" for k in range(n_out)) + "]")
-    namespace = {}
+    namespace = {"tan": math.tan}
     exec(compile("\n".join(lines), f"<labkit kinematics program, {len(prog.ops)} operations>", "exec"), namespace)
     return namespace["f"]
 
@@ -294,7 +308,7 @@ def _negate(ops, producer, used, reg):
     return False
 
 
-def _compile(b, outputs, n_rows):
+def _compile(b, outputs, n_rows, joints):
     """Dead-code elimination, output placement and scratch allocation of a recorded walk."""
     producer = {op[3]: k for k, op in enumerate(b.ops)}
     live = set()
@@ -352,7 +366,7 @@ def _compile(b, outputs, n_rows):
                     n_scratch += 1
             o = loc[o]
         program.append((f, args[0], args[1], o))
-    return Program(program, constants, n_rows, n_scratch, b.n_inputs)
+    return Program(program, constants, n_rows, n_scratch, b.n_inputs, joints)
 
 
 #: what a program computes
@@ -468,6 +482,10 @@ def _build(c, output, off, tool_frame, want_T):
     base = np.eye(4) if c.base is None else c.base
     base_cols = tuple(tuple(float(v) for v in base[:3, k]) for k in range(4))
     prismatic = {i: 2 * r + k for k, i in enumerate(i for i, step in enumerate(c.steps) if not step[0])}
+    # where each joint's value enters: the cosine row (sine r rows on) and half the theta offset of a
+    # revolute joint, the row of a prismatic one (None)
+    rev_row = {int(i): j for j, i in enumerate(c.revolute)}
+    joints = tuple((rev_row[i], 0.5 * step[5]) if step[0] else (prismatic[i], None) for i, step in enumerate(c.steps))
     frames, axes = walk(b, c.modified, base_cols, [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth
                                                    in c.steps],
                         lambda j: (_Sym(j), _Sym(r + j)), lambda i, d: b.add(_Sym(prismatic[i]), d))
@@ -476,16 +494,16 @@ def _build(c, output, off, tool_frame, want_T):
     if off is not None:
         p = b.lincomb(p, cols, off)
     if output == POSITION:
-        return _compile(b, list(enumerate(p)), 3)
+        return _compile(b, list(enumerate(p)), 3, joints)
     if c.tool is not None and not np.array_equal(c.tool[:3, :3], np.eye(3)):
         cols = tuple(b.lincomb(None, cols, c.tool[:3, k]) for k in range(3))
     if output == POSE:
-        return _compile(b, _pose_rows(0, cols + (p,)), 16)
+        return _compile(b, _pose_rows(0, cols + (p,)), 16, joints)
     if output == FRAMES:
         outputs = _pose_rows(0, base_cols)
         for i, frame in enumerate(frames):
             outputs += _pose_rows(16 * (i + 1), frame)
-        return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2))
+        return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2), joints)
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)
     lin, ang = [], []
     for (z, o), step in zip(axes, c.steps):
@@ -511,4 +529,4 @@ def _build(c, output, off, tool_frame, want_T):
     if want_T:
         outputs += _pose_rows(n_rows, cols + (p,))
         n_rows += 16
-    return _compile(b, outputs, n_rows)
+    return _compile(b, outputs, n_rows, joints)

@@ -14,24 +14,28 @@ what they run on:
 * the geometry they share once (:mod:`~labkit.kinematics.ik._geometry`: cosine
   law, Paden-Kahan subproblems);
 * the one finishing step (flip, wrap, limits) and the driver
-  (:func:`solve_closed_form`);
+  (:func:`solve_closed_form`; :func:`solve_floats` and :func:`pick_floats`
+  for a few targets on Python floats);
 * target validation and task rows (:func:`validate_targets`, :func:`task_rows`);
 * the batched Levenberg-Marquardt solver (:func:`solve_numeric`).
 """
 
 from labkit.kinematics.ik._registry import FAMILIES, build, detect
-from labkit.kinematics.ik._solve import solve as solve_closed_form
+from labkit.kinematics.ik._solve import pick_floats, solve as solve_closed_form, solve_floats
 from labkit.kinematics.ik._numeric import LazyGenerator, solve as solve_numeric
-from labkit.kinematics.ik._targets import batch_index, describe_target, task_rows, validate_targets
+from labkit.kinematics.ik._targets import batch_index, describe_target, small_targets, task_rows, validate_targets
 
 __all__ = [
     "FAMILIES",
     "detect",
     "build",
     "solve_closed_form",
+    "solve_floats",
+    "pick_floats",
     "solve_numeric",
     "LazyGenerator",
     "validate_targets",
+    "small_targets",
     "task_rows",
     "batch_index",
     "describe_target",

@@ -13,6 +13,12 @@ the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
 
+One target is a batch of one: the same loop, where the per-robot
+fk + Jacobian program runs as generated Python code on floats
+(:func:`labkit.kinematics._forward.fk_jacobian_kernel`) and the pose error
+(:func:`_pose_error`, written once on components) on floats too, so a handful
+of targets costs few numpy calls per iteration.
+
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (:func:`near_family`, for
 an arm a little off a family, e.g. after calibration), which also feed the
@@ -22,14 +28,17 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk_jacobian
+from labkit.kinematics._forward import SMALL_BATCH, fk_jacobian_kernel
+from labkit.kinematics.ik._geometry import _dot
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
 from labkit.kinematics.ik._targets import task_rows
+from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
 
 
@@ -46,18 +55,21 @@ def _error(kind, T, target, rows):
         e[:, 2] = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
         e = e[:, [task_rows("planar").index(r) for r in rows]]
         return e, np.sqrt((e * e).sum(axis=1))
-    # pose: position error and rotation-vector error of R_target R^T
-    R = T[:, :3, :3]
-    Rt = target[:, :3, :3]
-    E = Rt @ np.swapaxes(R, -1, -2)
-    v = 0.5 * np.stack([E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], axis=1)
-    sv = np.sqrt((v * v).sum(axis=1))
-    cos = 0.5 * (E[:, 0, 0] + E[:, 1, 1] + E[:, 2, 2] - 1.0)
-    ang = np.arctan2(sv, cos)
-    scale = np.where(sv > 1e-12, ang / np.where(sv > 1e-12, sv, 1.0), 1.0)
-    full = np.concatenate([target[:, :3, 3] - T[:, :3, 3], v * scale[:, None]], axis=1)
+    # pose: position error and rotation-vector error of E = R_target R^T
+    if T.shape[0] <= SMALL_BATCH and len(rows) == 6:  # a few targets: on Python floats
+        e, res = [], []
+        for Tk, tk in zip(T.tolist(), target.tolist()):
+            E = [[_dot(tk[i], Tk[j]) for j in range(3)] for i in range(3)]  # (rows' 4th entries not used)
+            full, ang = _pose_error(FLOATS, E, Tk, tk)
+            o = 2.0 * math.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+            e.append(full)
+            res.append(math.sqrt(full[0] * full[0] + full[1] * full[1] + full[2] * full[2] + o * o))
+        return np.array(e), np.array(res)
+    E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
+    full, ang = _pose_error(NUMPY, E, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1))
+    full = np.stack(full, axis=1)
+    pos = full[:, :3]
     if len(rows) == 6:  # the whole pose (rows 0-5 in order)
-        pos = full[:, :3]
         o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
         return full, np.sqrt((pos * pos).sum(axis=1) + o * o)
     e = full[:, list(rows)]
@@ -72,6 +84,21 @@ def _error(kind, T, target, rows):
             o = full[:, [r for r in rows if r >= 3]]
             res2 = res2 + (o * o).sum(axis=1)
     return e, np.sqrt(res2)
+
+
+def _pose_error(xp, E, T, t):
+    """Position error and rotation vector of pose ``T`` against target ``t`` (components ``[i][j]``).
+
+    ``E`` is ``R_t R^T`` (components); the rotation vector is its axis times
+    its angle. Returns the six components ``(dx, dy, dz, rx, ry, rz)`` [m,
+    rad] and the angle [rad].
+    """
+    v0, v1, v2 = 0.5 * (E[2][1] - E[1][2]), 0.5 * (E[0][2] - E[2][0]), 0.5 * (E[1][0] - E[0][1])
+    sv = xp.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    ang = xp.arctan2(sv, 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0))
+    big = sv > 1e-12
+    scale = xp.where(big, ang / xp.where(big, sv, 1.0), 1.0)
+    return (t[0][3] - T[0][3], t[1][3] - T[1][3], t[2][3] - T[2][3], v0 * scale, v1 * scale, v2 * scale), ang
 
 
 class LazyGenerator:
@@ -216,9 +243,9 @@ def analytic_seeds(robot, kind, target, rng):
         ideal, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
-    limits = robot.joint_limits
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
-    lo, hi = limits[:, 0], limits[:, 1]
+    lim = _limits(robot)
+    lo, hi = lim.lo, lim.hi
     rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
     if ideal is robot:
         rank[(rank > 0) | ~reach] = np.inf
@@ -280,7 +307,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
         if starts is not None:
             q0 = starts[:, 0].copy()
             none = np.isnan(q0[:, 0])
-            q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
+            if none.any():
+                q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng, starts=starts
     )
@@ -332,33 +360,31 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     N = target.shape[0]
     group_done = np.zeros(-(-N // group), dtype=bool)
     n = robot.n
-    limits = robot.joint_limits
-    lo, hi = limits[:, 0], limits[:, 1]
-    q = _random_q(rng, limits, N) if q0 is None else np.clip(np.array(q0, dtype=float), lo, hi)
+    lim = _limits(robot)
+    lo, hi = lim.lo, lim.hi
+    q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.clip(np.array(q0, dtype=float), lo, hi)
     near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts[:, 0, 0])  # started from a closed form
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
     best_q = q.copy()
-    eye = np.eye(n)
     rows = list(rows)
+    all_rows = len(rows) == 6
     wide = len(rows) < n
-    eye_m = np.eye(len(rows))
-    rev = robot.is_revolute
-    free_lo = np.where(rev, -np.inf, lo)
-    free_hi = np.where(rev, np.inf, hi)
+    eye = np.eye(len(rows) if wide else n)
+    fk_jacobian = fk_jacobian_kernel(robot)  # (no checks: q is made here)
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
-        alo, ahi = (free_lo, free_hi) if free else (lo, hi)
+        alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
         act = np.flatnonzero(~success)
         if group > 1:
             act = act[~group_done[act // group]]
         if act.size == 0:
             break
         if attempt > 0:
-            q[act] = _random_q(rng, limits, act.size)
+            q[act] = _random_q(rng, robot.joint_limits, act.size)
             near[act] = False
             if starts is not None and attempt < 2 * starts.shape[1]:
                 # the next closed-form start, jittered by a few degrees (two starts of an idealised copy can
@@ -370,76 +396,126 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 near[act[ok]] = True
         qa = q[act]
         tg = target[act]
-        T, J = fk_jacobian(robot, qa)
-        J = J if len(rows) == 6 else J[:, rows]
+        T, J = fk_jacobian(qa)
+        J = J if all_rows else J[:, rows]
         e, res = _error(kind, T, tg, rows)
         lam = np.where(near[act], lam_near, lam0)
-        E = 0.5 * (e * e).sum(axis=1)
+        E = 0.5 * np.einsum("ij,ij->i", e, e)
         E_check = E.copy()
+        it = 0
         for it in range(1, max_iter + 1):
             done = res < tol
-            if free and np.any(done):
-                qw = qa[done]
-                qw = finish_all(robot, qw, flipped=False)[0]
-                inside = robot.within_limits(qw)
-                qa[np.flatnonzero(done)] = qw
-                bad = np.flatnonzero(done)[~inside]
+            any_done = done.any()
+            bad = None
+            if free and any_done:
+                idx = np.flatnonzero(done)
+                qw = finish_all(robot, qa[idx], flipped=False)[0]
+                qa[idx] = qw
+                bad = idx[~lim.inside(qw)]
                 done[bad] = False
-            else:
-                bad = None
-            stalled = np.zeros_like(done)
-            if bad is not None and bad.size:
-                stalled[bad] = True  # converged outside the limits: restart
-            if it % check_every == 0:
-                stalled |= (~done) & (E > 0.01 * E_check)
-                E_check = E.copy()
-            if np.any(done) or np.any(stalled):
-                idx = act[done]
-                q[idx] = qa[done]
-                success[idx] = True
-                residual[idx] = res[done]
-                s_idx = act[stalled]
-                better = (res[stalled] < residual[s_idx]) & robot.within_limits(qa[stalled])
-                residual[s_idx[better]] = res[stalled][better]
-                best_q[s_idx[better]] = qa[stalled][better]
-                keep = ~(done | stalled)
-                if group > 1 and np.any(done):  # a copy converged: its siblings stop
-                    group_done[act[done] // group] = True
-                    keep &= ~group_done[act // group]
-                act, qa, tg, J, e, res, lam, E, E_check = (
-                    x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
-                )
-            if act.size == 0:
+                any_done = done.any()
+            check = it % check_every == 0
+            if any_done and bad is None and done.all():  # every active row converged (one target: the usual end)
+                q[act] = qa
+                success[act] = True
+                residual[act] = res
+                iterations[act] += it - 1
+                if group > 1:
+                    group_done[act // group] = True
+                act = act[:0]
                 break
-            iterations[act] += 1
+            if any_done or check or (bad is not None and bad.size):
+                stalled = np.zeros_like(done)
+                if bad is not None:
+                    stalled[bad] = True  # converged outside the limits: restart
+                if check:
+                    stalled |= (~done) & (E > 0.01 * E_check)
+                    E_check = E.copy()
+                leave = done | stalled
+                if leave.any():
+                    idx = act[done]
+                    q[idx] = qa[done]
+                    success[idx] = True
+                    residual[idx] = res[done]
+                    iterations[act[leave]] += it - 1
+                    s_idx = act[stalled]
+                    better = (res[stalled] < residual[s_idx]) & lim.inside(qa[stalled])
+                    residual[s_idx[better]] = res[stalled][better]
+                    best_q[s_idx[better]] = qa[stalled][better]
+                    keep = ~leave
+                    if group > 1 and any_done:  # a copy converged: its siblings stop
+                        group_done[act[done] // group] = True
+                        sib = keep & group_done[act // group]
+                        iterations[act[sib]] += it - 1
+                        keep &= ~sib
+                    act, qa, tg, J, e, res, lam, E, E_check = (
+                        x[keep] for x in (act, qa, tg, J, e, res, lam, E, E_check)
+                    )
+                    if act.size == 0:
+                        break
             Jt = np.swapaxes(J, -1, -2)
             if wide:  # fewer task rows than joints: dq = J^T (J J^T + lam I)^-1 e
-                A = J @ Jt + lam[:, None, None] * eye_m
+                A = J @ Jt
+                A += lam[:, None, None] * eye
                 dq = (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
             else:  # dq = (J^T J + lam I)^-1 J^T e
-                A = Jt @ J + lam[:, None, None] * eye
-                g = (Jt @ e[:, :, None])[:, :, 0]
-                dq = np.linalg.solve(A, g[:, :, None])[:, :, 0]
-            qn = np.clip(qa + dq, alo, ahi)
-            Tn, Jn = fk_jacobian(robot, qn)
-            Jn = Jn if len(rows) == 6 else Jn[:, rows]
+                A = Jt @ J
+                A += lam[:, None, None] * eye
+                dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
+            qn = qa + dq
+            np.maximum(qn, alo, out=qn)
+            np.minimum(qn, ahi, out=qn)
+            Tn, Jn = fk_jacobian(qn)
+            Jn = Jn if all_rows else Jn[:, rows]
             en, resn = _error(kind, Tn, tg, rows)
-            En = 0.5 * (en * en).sum(axis=1)
+            En = 0.5 * np.einsum("ij,ij->i", en, en)
             better = En < E
-            qa = np.where(better[:, None], qn, qa)
-            J = np.where(better[:, None, None], Jn, J)
-            e = np.where(better[:, None], en, e)
-            res = np.where(better, resn, res)
-            E = np.where(better, En, E)
-            lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
+            if better.all():
+                qa, J, e, res, E = qn, Jn, en, resn, En
+                lam = np.maximum(lam * 0.1, 1e-12)
+            else:
+                qa = np.where(better[:, None], qn, qa)
+                J = np.where(better[:, None, None], Jn, J)
+                e = np.where(better[:, None], en, e)
+                res = np.where(better, resn, res)
+                E = np.where(better, En, E)
+                lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
+        else:
+            it = max_iter + 1
         if act.size:
-            done = (res < tol) & robot.within_limits(qa)
+            iterations[act] += it - 1
+            inside = lim.inside(qa)
+            done = (res < tol) & inside
             success[act[done]] = True
-            better = (res < residual[act]) & robot.within_limits(qa)
+            better = (res < residual[act]) & inside
             residual[act[better]] = res[better]
             best_q[act[better]] = qa[better]
             q[act] = qa
-    fail = ~success
-    q[fail] = best_q[fail]
-    q[fail] = np.clip(q[fail], lo, hi)
+    if not success.all():
+        fail = ~success
+        q[fail] = np.clip(best_q[fail], lo, hi)
     return q, success, iterations, residual
+
+
+@dataclasses.dataclass(frozen=True)
+class _Limits:
+    """A robot's joint limits as the LM loop uses them."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    free_lo: np.ndarray  # revolute joints unbounded (the odd attempts)
+    free_hi: np.ndarray
+    lo_tol: np.ndarray  # with the slack of Robot.within_limits
+    hi_tol: np.ndarray
+
+    def inside(self, q):
+        """``Robot.within_limits(q)`` (slack 1e-9) of ``q`` (k, n)."""
+        return ((q >= self.lo_tol) & (q <= self.hi_tol)).all(axis=-1)
+
+
+@per_robot
+def _limits(robot):
+    lim = robot.joint_limits
+    lo, hi = lim[:, 0].copy(), lim[:, 1].copy()
+    rev = robot.is_revolute
+    return _Limits(lo, hi, np.where(rev, -np.inf, lo), np.where(rev, np.inf, hi), lo - 1e-9, hi + 1e-9)

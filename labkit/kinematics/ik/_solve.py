@@ -147,27 +147,8 @@ def solve(robot, family, flat):
         How far each target lies out of reach [m] (0 if any branch reaches it).
     """
     N, m, n = flat.shape[0], len(family.branches), robot.n
-    js = joints(robot)
     if family.scalar and N <= _targets.SMALL_TARGETS:
-        Q, R, V, D = [], [], [], []
-        for t in flat.tolist():
-            qb, rb, d = family.solve(FLOATS, t)
-            rows, valid, done = [], [], {}
-            for branch, ok in zip(qb, rb):
-                row = []
-                for j, v in enumerate(branch):
-                    key = (j, id(v))  # branches share joint values (q1 of a shoulder side ...): finish each once
-                    fin = done.get(key)
-                    if fin is None:
-                        fin = done[key] = finish(FLOATS, v, js[j])
-                    row.append(fin[0])
-                    ok = ok and fin[1]
-                rows.append(row)
-                valid.append(ok)
-            Q.append(rows)
-            R.append(rb)
-            V.append(valid)
-            D.append(0.0 if any(rb) else d)
+        Q, R, V, D = solve_floats(robot, family, flat.tolist())
         return np.array(Q), np.array(R, dtype=bool), np.array(V, dtype=bool), np.array(D, dtype=float)
     q = np.empty((N, m, n))
     reach = np.empty((N, m), dtype=bool)
@@ -183,3 +164,112 @@ def solve(robot, family, flat):
     q, inside = finish_all(robot, q)
     distance[reach.any(axis=1)] = 0.0
     return q, reach, reach & inside, distance
+
+
+def _finish_floats(js, branch, ok, last):
+    """One branch of a family's float solution finished: ``(q, valid)``.
+
+    ``last`` holds per joint the value finished last and its result
+    (``[value, finished, inside]``): consecutive branches share values (q1 of
+    a shoulder side ...), which are then finished once.
+    """
+    row = []
+    for v, joint, memo in zip(branch, js, last):
+        if v is not memo[0]:
+            memo[0] = v
+            memo[1], memo[2] = finish(FLOATS, v, joint)
+        row.append(memo[1])
+        ok = ok and memo[2]
+    return row, ok
+
+
+def solve_floats(robot, family, targets):
+    """:func:`solve` on Python floats, for a few targets of a family with ``scalar = True``.
+
+    Parameters
+    ----------
+    robot, family : Robot, Family
+        The arm and its closed-form solver, as for :func:`solve`.
+    targets : list
+        Valid targets as nested lists of floats
+        (:func:`labkit.kinematics.ik._targets.small_targets`).
+
+    Returns
+    -------
+    q : list, shape (N, m, n)
+    reachable, valid : list of list of bool, shape (N, m)
+    distance : list of float, shape (N,)
+        As :func:`solve`.
+    """
+    js = joints(robot)
+    Q, R, V, D = [], [], [], []
+    for t in targets:
+        qb, rb, d = family.solve(FLOATS, t)
+        last = [[None, None, None] for _ in js]
+        rows = [_finish_floats(js, branch, ok, last) for branch, ok in zip(qb, rb)]
+        Q.append([row for row, _ in rows])
+        R.append(rb)
+        V.append([ok for _, ok in rows])
+        D.append(0.0 if any(rb) else d)
+    return Q, R, V, D
+
+
+def pick_floats(robot, family, targets, idx, q_near):
+    """One solution per target on Python floats, as :func:`labkit.kinematics.ik` picks it, or None.
+
+    Only the branches the choice needs are finished: the one asked for, the
+    first valid one, or every one when the nearest to ``q_near`` is wanted.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    family : Family
+        Its closed-form solver (``scalar = True``).
+    targets : list
+        Valid targets as nested lists of floats
+        (:func:`labkit.kinematics.ik._targets.small_targets`).
+    idx : int or None
+        The requested branch, or None for the valid branch nearest ``q_near``
+        (the first valid one without it).
+    q_near : list of float or None
+        The preferred configuration [rad, m], one for every target.
+
+    Returns
+    -------
+    list of list of float, shape (N, n), or None
+        None when a target has no valid solution on the branch asked for (the
+        batched path then says why).
+    """
+    js = joints(robot)
+    rev = [j[0] for j in js]
+    out = []
+    for t in targets:
+        qb, rb, _ = family.solve(FLOATS, t)
+        last = [[None, None, None] for _ in js]
+        if idx is not None:
+            row, ok = _finish_floats(js, qb[idx], rb[idx], last)
+            if not ok:
+                return None
+            out.append(row)
+            continue
+        best, best_d = None, math.inf
+        for branch, reach in zip(qb, rb):
+            if not reach:
+                continue
+            row, ok = _finish_floats(js, branch, reach, last)
+            if not ok:
+                continue
+            if q_near is None:
+                best = row
+                break
+            dd = 0.0
+            for x, y, r in zip(row, q_near, rev):
+                e = wrap_angle(x - y) if r else x - y
+                dd += e * e
+            if dd < best_d:
+                best, best_d = row, dd
+        if best is None:
+            return None
+        out.append(best)
+    return out

@@ -20,7 +20,7 @@ from labkit.validation import as_batch
 #: at most this many targets run on Python floats (closed-form families with ``scalar = True``)
 SMALL_TARGETS = 8
 
-__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets"]
+__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets", "small_targets"]
 
 #: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind
 _TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
@@ -168,3 +168,43 @@ def describe_target(kind, t):
     if kind == "planar":
         return "(x, y, phi) = ({:.4g} m, {:.4g} m, {:.4g} deg)".format(t[0], t[1], math.degrees(t[2]))
     return "({:.4g}, {:.4g}, {:.4g}) m".format(*t)
+
+
+def small_targets(target, kind):
+    """A few valid targets as Python floats, or None (then :func:`validate_targets` raises or batches).
+
+    Accepts exactly what :func:`validate_targets` accepts, for at most
+    :data:`SMALL_TARGETS` targets, without building arrays of the components.
+
+    Parameters
+    ----------
+    target : array_like, shape (..., 3) or (..., 4, 4)
+        As :func:`validate_targets`.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+
+    Returns
+    -------
+    flat : list or None
+        One ``[x, y, z]`` (or nested 4 x 4 list) per target; None for anything
+        else (more targets, a bad shape or value, not a rigid transform).
+    lead : tuple of int
+        The batch shape.
+    """
+    try:
+        arr = target if type(target) is np.ndarray and target.dtype == np.float64 else np.asarray(target, dtype=float)
+    except (TypeError, ValueError):
+        return None, ()
+    tail = (4, 4) if kind == "pose" else (3,)
+    shape, k = arr.shape, len(tail)
+    if len(shape) < k or shape[len(shape) - k:] != tail or arr.size > SMALL_TARGETS * (16 if k == 2 else 3):
+        return None, ()
+    flat = arr.reshape((-1,) + tail).tolist()
+    isfinite = math.isfinite
+    for t in flat:
+        for v in (t[0] + t[1] + t[2] + t[3] if k == 2 else t):
+            if not isfinite(v):
+                return None, ()
+        if k == 2 and _is_bad(*_rigid_defects(FLOATS, t)):
+            return None, ()
+    return flat, shape[:len(shape) - k]
