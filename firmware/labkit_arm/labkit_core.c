@@ -318,8 +318,9 @@ void lk_frame(lk_t *lk, uint32_t frame_index) {
     for (;;) {
         lk_seg_t *seg = &lk->queue[lk->q_head];
         uint32_t el = t - lk->seg_start_ms;
-        if (el < seg->dur_ms) {
-            int32_t s = (int32_t)(((uint64_t)el << 24) / seg->dur_ms);
+        if (el < seg->dur_ms) { /* s = floor(el 2^24 / dur) in two 32-bit long-division steps (el < dur < 2^16) */
+            uint32_t hi = (el << 8) / seg->dur_ms, rem = (el << 8) - hi * seg->dur_ms;
+            int32_t s = (int32_t)((hi << 16) | ((rem << 16) / seg->dur_ms));
             for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, s));
             break;
         }
