@@ -13,7 +13,7 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "2.2.0"
+#define LK_FW_VERSION "2.3.0"
 #define LK_PROTO_VERSION 2
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
@@ -38,7 +38,8 @@ extern "C" {
 
 enum lk_error {
     LK_E_BADCHK = 1, LK_E_SYNTAX = 2, LK_E_UNKNOWN = 3, LK_E_TOOLONG = 4, LK_E_RANGE = 5,
-    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10, LK_E_SPEED = 11
+    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10, LK_E_SPEED = 11,
+    LK_E_STALE = 12
 };
 enum lk_state { LK_IDLE = 0, LK_RUN = 1, LK_HOLD = 2 };
 enum lk_flag {
@@ -74,6 +75,7 @@ typedef struct {
     uint8_t overflow, badchar;
     uint8_t stream_hz, stream_arm;
     uint8_t seen_n, seen_w;      /* valid entries of seen, next entry to overwrite */
+    uint8_t window;              /* 1: a sealed request was accepted since power-up or HELLO: last_seq is the newest */
     uint16_t frame_counter;
     uint16_t timeout_ms;
     uint16_t grip_us;

@@ -20,6 +20,7 @@ from labkit.arm._protocol import (
     MAX_LINE,
     NOT_EXECUTED,
     READ_ONLY,
+    STALE,
     STRICT_INT,
     CommandRejected,
     echo,
@@ -336,7 +337,7 @@ class Wire:
             Always; the message says whether the arm is now stopped.
         """
         try:
-            self.transact("STOP", retries=max(self.retries, 3), stop_on_wrong_echo=False)
+            self.transact("STOP", retries=max(self.retries, 3), stop_on_wrong_echo=False, renumber_stale=True)
             state = "the arm is stopped (STOP sent)"
         except DeviceError as exc:
             state = f"STOP failed too ({exc}): switch the arm off"
@@ -370,7 +371,8 @@ class Wire:
                       f"(last known #{self.last_seq}): unrequested motion")
         return False
 
-    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None, stop_on_wrong_echo=True):
+    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None, stop_on_wrong_echo=True,
+                 renumber_stale=False):
         """Send one request until it is acknowledged; return the (parsed) reply.
 
         Every request is sealed (``#seq`` and CRC-16). The ``OK`` reply to a
@@ -396,6 +398,9 @@ class Wire:
         stop_on_wrong_echo : bool
             Send ``STOP`` (through :meth:`hold`) before raising on a wrong echo; off for that
             ``STOP`` itself.
+        renumber_stale : bool
+            On ``ERR 12 STALE`` (not executed) number the request after the board's newest ``#seq`` and send it
+            again instead of raising; for the ``STOP`` of :meth:`hold`, which must get through.
 
         Returns
         -------
@@ -418,7 +423,8 @@ class Wire:
         last = None
         retries = self.retries if retries is None else retries
         # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
-        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay
+        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay;
+        # an old copy arriving after newer requests is refused as stale (ERR 12, firmware 2.3.0)
         seq = self._next_seq()
         body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
         for attempt in range(retries + 1):
@@ -467,5 +473,19 @@ class Wire:
                 last = _NoReply(" ".join(reply.tokens))
                 continue
             name = reply.tokens[2] if len(reply.tokens) > 2 else "?"
+            newest = reply.tokens[-1]
+            if code == STALE and renumber_stale and newest[:1] == "#" and newest[1:].isdigit():
+                self.follow(int(newest[1:]))  # "ERR 12 STALE after #<newest>": it did not run
+                seq = self._next_seq()
+                body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
+                last = _NoReply(" ".join(reply.tokens))
+                continue
+            if code == STALE:
+                # not run, and never resent under this seq (it would stay stale): the board accepted newer requests
+                # than this one since the handshake, which only another program on the port can have sent
+                raise CommandRejected(f"{self.name}: {command} #{seq} was not executed: the board has run newer "
+                                      f"requests ({' '.join(reply.tokens[1:])}) than labkit sent; is another "
+                                      f"program talking to the board? Reconnect (a new Arm) to start a new session",
+                                      code, name)
             raise CommandRejected(f"{self.name}: {command} rejected: {' '.join(reply.tokens[1:])}", code, name)
         raise DeviceError(f"{self.name}: {command} failed after {retries + 1} attempts: {last}")
