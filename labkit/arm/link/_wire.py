@@ -12,6 +12,7 @@ port; ``Arm`` creates one and keeps it. What the fields of a reply mean is in
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -34,8 +35,14 @@ __all__ = ["LinkStats"]
 #: largest read of one :meth:`Wire.pump` [bytes] and most reads of one :meth:`Wire._drain`
 _READ_CHUNK = 4096
 _DRAIN_READS = 16
+#: wire time of one byte at 115200 baud, 8N1 [s]
+_BYTE_S = 10 / 115200
 #: how long a reply is still awaited after a damaged line arrived [s]: the wire time of a longest line at 115200 baud
-_AFTER_BAD_LINE = (MAX_LINE + 2) * 10 / 115200
+_AFTER_BAD_LINE = (MAX_LINE + 2) * _BYTE_S
+#: the board's own time to answer an intact request [s] (docs/protocol.md 2.3: 2 ms; a margin for the motion checks),
+#: and the commands that may take longer (``SAVE`` writes the EEPROM: up to 0.5 s)
+_BOARD_REPLY_S = 0.005
+_SLOW_COMMANDS = frozenset({"SAVE"})
 
 
 class _NoReply(DeviceError):
@@ -109,6 +116,8 @@ class Wire:
         #: ``None`` until the handshake has read it
         self.last_seq = None
         self._seq = 0
+        #: :meth:`clock` when the last complete line was read
+        self._line_at = -math.inf
         self._buf = bytearray()
         self._lines = []
 
@@ -216,6 +225,8 @@ class Wire:
             if raw:
                 self._dispatch(raw)
                 got = True
+        if got:
+            self._line_at = self.clock()
         return got
 
     def _dispatch(self, raw):
@@ -286,8 +297,66 @@ class Wire:
         """
         self._seq = max(self._seq, int(seq) % 65535)
 
-    def _await(self, seq):
-        deadline = self.clock() + self.timeout
+    def reply_wait(self, command, request_bytes):
+        """How long one attempt awaits its reply [s of :meth:`clock`]: :attr:`timeout`, shorter in lockstep.
+
+        A lockstep simulated port (``clock == "lockstep"``: ``sim://`` and ``simavr://`` stepped by the host's
+        waits) has an exact board clock and no host, USB or scheduling latency, so a reply that has not come
+        within the protocol's bound never comes: the request's and a longest reply's wire time at 115200 baud
+        plus the board's reply time (docs/protocol.md 2.3). A lost reply then costs that, not the full timeout
+        (a reply later than the bound would only cost a resend, which the board answers without running it
+        again). Any other port, and ``SAVE``, waits :attr:`timeout`.
+
+        Parameters
+        ----------
+        command : str
+            Upper-case command name.
+        request_bytes : int
+            Length of the request line as sent [bytes].
+
+        Returns
+        -------
+        float
+            Reply timeout of the attempt [s].
+        """
+        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+            return self.timeout
+        return min(self.timeout, (request_bytes + MAX_LINE + 2) * _BYTE_S + _BOARD_REPLY_S)
+
+    def reply_quiet(self, command, request_bytes):
+        """When silence on a lockstep port means no reply is coming [s after sending], or ``None``.
+
+        The request's wire time plus the board's reply time (docs/protocol.md 2.3): by then its reply has
+        begun, unless the request was lost or damaged. ``None`` (wait the whole :meth:`reply_wait`) on any
+        other port and for ``SAVE``.
+
+        Parameters
+        ----------
+        command : str
+            Upper-case command name.
+        request_bytes : int
+            Length of the request line as sent [bytes].
+
+        Returns
+        -------
+        float or None
+            Seconds of :meth:`clock`.
+        """
+        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+            return None
+        return request_bytes * _BYTE_S + _BOARD_REPLY_S
+
+    def _await(self, seq, timeout=None, quiet=None):
+        """The reply to ``seq`` within ``timeout`` [s]; on a lockstep port give up once the line stays ``quiet``.
+
+        ``quiet`` [s after the call]: when the reply has not begun by then (no byte of a line arriving, and
+        none within the board's reply time after the last line), no reply is coming: a lockstep board's clock
+        is exact, so it can tell, and the request is resent at once instead of after the timeout.
+        """
+        timeout = self.timeout if timeout is None else timeout
+        start = self.clock()
+        deadline = start + timeout
+        silent = None if quiet is None else start + quiet
         bad = self.stats.bad_lines
         while True:
             if self.stats.bad_lines > bad:
@@ -304,10 +373,19 @@ class Wire:
                                        executed=False if code in NOT_EXECUTED else None)
                     return ln
             self._lines.clear()  # stale replies to earlier attempts
-            left = deadline - self.clock()
+            now = self.clock()
+            left = deadline - now
             if left <= 0:
                 self.stats.timeouts += 1
-                raise _NoReply(f"no valid reply within {self.timeout:g} s")
+                raise _NoReply(f"no valid reply within {timeout:g} s")
+            if silent is not None:
+                # a line in progress, or one that may follow the last within the board's reply time: wait for it
+                quiet_at = max(silent, self._line_at + _BOARD_REPLY_S)
+                if now >= quiet_at and not self._buf.strip(b"\r\n") and not self.io(lambda: self.port.in_waiting):
+                    self.stats.timeouts += 1
+                    raise _NoReply(f"no valid reply: none began within {quiet_at - start:.3g} s (lockstep board clock)")
+                if now < quiet_at:
+                    left = min(left, quiet_at - now)
             self.pump(left)
 
     def _drain(self):
@@ -429,9 +507,10 @@ class Wire:
         body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
         for attempt in range(retries + 1):
             self._drain()
-            self._send(("\n" if attempt else "") + seal(body) + "\n")
+            line = ("\n" if attempt else "") + seal(body) + "\n"
+            self._send(line)
             try:
-                reply = self._await(seq)
+                reply = self._await(seq, self.reply_wait(command, len(line)), self.reply_quiet(command, len(line)))
             except _NoReply as exc:
                 last = exc
                 self.stats.retries += attempt < retries
