@@ -87,7 +87,7 @@ static void out_end(void) {
     lk_hw_write(b, 7);
 }
 static void out_seq(int32_t seq) {
-    if (seq >= 0) { out_p(LK_P(" #")); out_u((uint32_t)seq); }
+    if (seq >= 0) out_kv(LK_P(" #"), (uint32_t)seq);
 }
 static void ok_begin(int32_t seq, const char *name_p) {
     out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
@@ -102,7 +102,7 @@ static LK_NOINLINE const char *nth_word(const char *list_p, uint8_t k) {
 static const char error_names[] LK_FLASH =
     "BADCHK\0SYNTAX\0UNKNOWN\0TOOLONG\0RANGE\0LIMIT\0QFULL\0BUSY\0DISCONT\0EEPROM\0SPEED\0STALE";
 static void err_begin(int32_t seq, uint8_t code) {
-    out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_c(' '); out_u(code); out_c(' ');
+    out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_kv(LK_P(" "), code); out_c(' ');
     out_p(nth_word(error_names, (uint8_t)(code - 1)));
 }
 static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
@@ -334,7 +334,7 @@ void lk_frame(lk_t *lk, uint32_t frame_index) {
         if (lk->q_count == 1) {
             for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, 1L << 24));
             halt(lk);
-            out_begin(); out_p(LK_P("EV DONE ")); out_u(lk->done); out_end();
+            out_begin(); out_kv(LK_P("EV DONE "), lk->done); out_end();
             break;
         }
         lk->seg_start_ms += seg->dur_ms;
@@ -357,7 +357,7 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us) {
         int32_t late = (int32_t)(now_us - lk->stream_next_us);
         if (late >= 0) {
             uint32_t missed;
-            out_begin(); out_p(LK_P("FB ")); out_u(lk->frame_counter); out_c(' '); out_u(now_ms);
+            out_begin(); out_kv(LK_P("FB "), lk->frame_counter); out_kv(LK_P(" "), now_ms);
             out_adc();
             missed = (uint32_t)late / lk->stream_period_us; /* whole periods skipped (board busy) */
             lk->frame_counter = (uint16_t)(lk->frame_counter + 1 + missed);
@@ -648,7 +648,7 @@ static uint8_t cmd_hello(lk_t *lk, call_t *c) {
 }
 
 static uint8_t cmd_ping(lk_t *lk, call_t *c) {
-    ok_head(c); out_c(' '); out_u(lk->now_ms); out_end();
+    ok_head(c); out_kv(LK_P(" "), lk->now_ms); out_end();
     return 1;
 }
 
