@@ -4,7 +4,9 @@
 // segment queue, EEPROM image). This file only connects it to the hardware:
 //   - Timer1 servo pulse driver (normal mode, compare-A interrupt toggling pins, like the
 //     Arduino Servo library): channel c on digital pin D(2+c), 20 ms frames, 0.5 us ticks;
-//   - UART at 115200 8N1 (Serial), ADC (analogRead), EEPROM (avr-libc), watchdog (500 ms);
+//   - UART at 115200 8N1: a small interrupt-driven driver with 64-byte receive and transmit rings
+//     (the registers and buffer sizes of the Arduino core's Serial, without its Stream/Print classes,
+//     which cost ~600 B of flash), ADC (analogRead), EEPROM (avr-libc), watchdog (500 ms);
 //   - a stack canary for the free-memory report; idle sleep between interrupts.
 // Protocol: docs/protocol.md. Build: `make -C firmware` (or open this folder in the Arduino IDE).
 #include <Arduino.h>
@@ -64,7 +66,7 @@ ISR(TIMER1_COMPA_vect) {
 }
 
 static void servo_begin(void) {
-  for (uint8_t c = 0; c < LK_CHANNELS; c++) pinMode(2 + c, OUTPUT);
+  DDRD |= (uint8_t)(((1u << LK_CHANNELS) - 1u) << 2);  // D2..D(1 + LK_CHANNELS) outputs
   // D2/D3 double as INT0/INT1. Their interrupts stay disabled (EIMSK = 0), but simavr polls a
   // low pin every cycle while the sense mode is "low level" (the reset value), which makes the
   // simulation ~10x slower; "any change" mode stops that and changes nothing on a real board.
@@ -77,9 +79,55 @@ static void servo_begin(void) {
   TIMSK1 |= _BV(OCIE1A);
 }
 
+// ---- UART: 115200 baud (U2X, UBRR 16, as the Arduino core sets it at 16 MHz), 8N1 ----
+#define UART_RING 64  // power of two
+static uint8_t rx_ring[UART_RING], tx_ring[UART_RING];
+static volatile uint8_t rx_head, rx_tail, tx_head, tx_tail;
+
+static void uart_begin(void) {
+  UCSR0A = _BV(U2X0);
+  UBRR0 = (F_CPU / 4 / 115200 - 1) / 2;
+  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+  UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+}
+
+ISR(USART_RX_vect) {  // a byte that finds the ring full is dropped (the line then fails its CRC)
+  uint8_t c = UDR0, next = (uint8_t)((rx_head + 1) & (UART_RING - 1));
+  if (next != rx_tail) {
+    rx_ring[rx_head] = c;
+    rx_head = next;
+  }
+}
+
+ISR(USART_UDRE_vect) {
+  uint8_t t = tx_tail;
+  if (t != tx_head) {
+    UDR0 = tx_ring[t];
+    tx_tail = t = (uint8_t)((t + 1) & (UART_RING - 1));
+  }
+  if (t == tx_head) UCSR0B &= (uint8_t)~_BV(UDRIE0);
+}
+
+static uint8_t uart_waiting(void) { return (uint8_t)((rx_head - rx_tail) & (UART_RING - 1)); }
+
+static uint8_t uart_read(void) {
+  uint8_t t = rx_tail, c = rx_ring[t];
+  rx_tail = (uint8_t)((t + 1) & (UART_RING - 1));
+  return c;
+}
+
 // ---- lk_hw_* functions used by the core ----
 extern "C" {
-void lk_hw_write(const char *buf, uint8_t n) { Serial.write((const uint8_t *)buf, n); }
+void lk_hw_write(const char *buf, uint8_t n) {  // waits (interrupts on) while the ring is full
+  while (n--) {
+    uint8_t next = (uint8_t)((tx_head + 1) & (UART_RING - 1));
+    while (next == tx_tail) {
+    }
+    tx_ring[tx_head] = (uint8_t)*buf++;
+    tx_head = next;
+    UCSR0B |= _BV(UDRIE0);
+  }
+}
 uint16_t lk_hw_adc(uint8_t pin) { return (uint16_t)analogRead(pin); }
 uint8_t lk_hw_ee_read(uint16_t addr) { return eeprom_read_byte((const uint8_t *)addr); }
 void lk_hw_ee_write(uint16_t addr, uint8_t value) {
@@ -118,7 +166,7 @@ static uint8_t reset_cause(void) {
 
 void setup() {
   paint_stack();
-  Serial.begin(115200);
+  uart_begin();
   lk_init(&lk, reset_cause(), millis(), micros());
   servo_begin();
   wdt_enable(WDTO_500MS);
@@ -126,8 +174,8 @@ void setup() {
 
 void loop() {
   wdt_reset();
-  int n = Serial.available();
-  while (n-- > 0) lk_rx(&lk, (uint8_t)Serial.read(), millis());
+  uint8_t n = uart_waiting();
+  while (n--) lk_rx(&lk, uart_read(), millis());
   uint8_t sreg = SREG;
   cli();
   uint32_t f = servo_frames;
@@ -141,7 +189,7 @@ void loop() {
   // pending. `sei; sleep` is atomic on AVR, so a wake-up cannot be lost between check and sleep.
   set_sleep_mode(SLEEP_MODE_IDLE);
   cli();
-  if (!Serial.available() && servo_frames == last_frame) {
+  if (rx_head == rx_tail && servo_frames == last_frame) {
     sleep_enable();
     sei();
     sleep_cpu();

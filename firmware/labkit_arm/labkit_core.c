@@ -87,20 +87,23 @@ static void out_end(void) {
     lk_hw_write(b, 7);
 }
 static void out_seq(int32_t seq) {
-    if (seq >= 0) { out_p(LK_P(" #")); out_u((uint32_t)seq); }
+    if (seq >= 0) out_kv(LK_P(" #"), (uint32_t)seq);
 }
 static void ok_begin(int32_t seq, const char *name_p) {
     out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
     if (g_echo_on) { char b[4]; out_p(LK_P(" p=")); hex4(b, g_echo); out_n(b, 4); }
 }
+/* word k (from 0) of a list of NUL-separated words in program memory */
+static LK_NOINLINE const char *nth_word(const char *list_p, uint8_t k) {
+    while (k--) while (LK_RD(list_p++)) {}
+    return list_p;
+}
 /* error names, in code order from 1 */
 static const char error_names[] LK_FLASH =
-    "BADCHK\0SYNTAX\0UNKNOWN\0TOOLONG\0RANGE\0LIMIT\0QFULL\0BUSY\0DISCONT\0EEPROM\0SPEED";
+    "BADCHK\0SYNTAX\0UNKNOWN\0TOOLONG\0RANGE\0LIMIT\0QFULL\0BUSY\0DISCONT\0EEPROM\0SPEED\0STALE";
 static void err_begin(int32_t seq, uint8_t code) {
-    const char *name = error_names;
-    uint8_t k;
-    for (k = 1; k < code; k++) while (LK_RD(name++)) {}
-    out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_c(' '); out_u(code); out_c(' '); out_p(name);
+    out_begin(); out_p(LK_P("ERR")); out_seq(seq); out_kv(LK_P(" "), code); out_c(' ');
+    out_p(nth_word(error_names, (uint8_t)(code - 1)));
 }
 static void err_msg(int32_t seq, uint8_t code, const char *msg_p) {
     err_begin(seq, code);
@@ -285,13 +288,16 @@ void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us) {
     out_begin();
     out_p(LK_P("READY labkit-arm 2 ")); out_p(s_ident);
     out_p(LK_P(" reset="));
-    switch (reset_cause) {
-    case LK_RESET_EXTERNAL: out_p(LK_P("EXTERNAL")); break;
-    case LK_RESET_WATCHDOG: out_p(LK_P("WATCHDOG")); break;
-    case LK_RESET_BROWNOUT: out_p(LK_P("BROWNOUT")); break;
-    default: out_p(LK_P("POWER")); break;
-    }
-    out_p(ok ? LK_P(" eeprom=OK") : LK_P(" eeprom=DEFAULTS"));
+    out_p(nth_word(LK_P("POWER\0EXTERNAL\0WATCHDOG\0BROWNOUT"), reset_cause <= LK_RESET_BROWNOUT ? reset_cause : 0));
+    out_p(LK_P(" eeprom=")); out_p(ok ? LK_P("OK") : LK_P("DEFAULTS"));
+    out_end();
+}
+
+/* " a0 a1 ... pot" (the joint potentiometers, then the user's) and the line's end: FB and READ */
+static LK_NOINLINE void out_adc(void) {
+    uint8_t j;
+    for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
+    out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
     out_end();
 }
 
@@ -318,8 +324,9 @@ void lk_frame(lk_t *lk, uint32_t frame_index) {
     for (;;) {
         lk_seg_t *seg = &lk->queue[lk->q_head];
         uint32_t el = t - lk->seg_start_ms;
-        if (el < seg->dur_ms) {
-            int32_t s = (int32_t)(((uint64_t)el << 24) / seg->dur_ms);
+        if (el < seg->dur_ms) { /* s = floor(el 2^24 / dur) in two 32-bit long-division steps (el < dur < 2^16) */
+            uint32_t hi = (el << 8) / seg->dur_ms, rem = (el << 8) - hi * seg->dur_ms;
+            int32_t s = (int32_t)((hi << 16) | ((rem << 16) / seg->dur_ms));
             for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, s));
             break;
         }
@@ -327,7 +334,7 @@ void lk_frame(lk_t *lk, uint32_t frame_index) {
         if (lk->q_count == 1) {
             for (j = 0; j < LK_JOINTS; j++) clamp_set(lk, j, lk_poly(seg->c[j], seg->order, 1L << 24));
             halt(lk);
-            out_begin(); out_p(LK_P("EV DONE ")); out_u(lk->done); out_end();
+            out_begin(); out_kv(LK_P("EV DONE "), lk->done); out_end();
             break;
         }
         lk->seg_start_ms += seg->dur_ms;
@@ -349,12 +356,9 @@ void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us) {
     if (lk->stream_hz) {
         int32_t late = (int32_t)(now_us - lk->stream_next_us);
         if (late >= 0) {
-            uint8_t j;
             uint32_t missed;
-            out_begin(); out_p(LK_P("FB ")); out_u(lk->frame_counter); out_c(' '); out_u(now_ms);
-            for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
-            out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
-            out_end();
+            out_begin(); out_kv(LK_P("FB "), lk->frame_counter); out_kv(LK_P(" "), now_ms);
+            out_adc();
             missed = (uint32_t)late / lk->stream_period_us; /* whole periods skipped (board busy) */
             lk->frame_counter = (uint16_t)(lk->frame_counter + 1 + missed);
             lk->stream_next_us += (1 + missed) * lk->stream_period_us;
@@ -418,7 +422,7 @@ static uint8_t busy(lk_t *lk, const call_t *c) {
 static uint8_t cmd_status(lk_t *lk, call_t *c) {
     uint8_t j;
     ok_head(c); out_p(LK_P(" state="));
-    out_p(lk->state == LK_RUN ? LK_P("RUN") : lk->state == LK_HOLD ? LK_P("HOLD") : LK_P("IDLE"));
+    out_p(nth_word(LK_P("IDLE\0RUN\0HOLD"), lk->state)); /* enum lk_state order */
     out_p(LK_P(" q="));
     for (j = 0; j < LK_JOINTS; j++) { if (j) out_c(','); out_i(lk->q[j]); }
     out_kv(LK_P(" grip="), lk->grip_us);
@@ -547,7 +551,7 @@ uint8_t lk_check(const int32_t *c, uint8_t order, uint8_t kind, int32_t lo, int3
 
 /* SEG, and MOVE's cubic (move = 1: its end points were checked) */
 static uint8_t queue_seg(lk_t *lk, const call_t *c, uint8_t move) {
-    const int32_t *a = c->a;
+    const int32_t *a = c->a, *cj;
     uint8_t order, j, k, slot;
     uint16_t i;
     lk_seg_t *seg;
@@ -563,27 +567,24 @@ static uint8_t queue_seg(lk_t *lk, const call_t *c, uint8_t move) {
     seg = &lk->queue[slot];
     seg->dur_ms = (uint16_t)a[0];
     seg->order = order;
-    for (j = 0; j < LK_JOINTS; j++)
-        for (k = 0; k <= order; k++) seg->c[j][k] = a[2 + j * (order + 1) + k];
-    for (j = 0; j < LK_JOINTS; j++) {
-        const int32_t *cj = a + 2 + j * (order + 1);
+    for (j = 0, cj = a + 2; j < LK_JOINTS; j++, cj += order + 1) {
         int32_t lo, hi, d = cj[0] - (lk->q_count ? lk->tail_q[j] : lk->q[j]);
+        memcpy(seg->c[j], cj, (order + 1) * sizeof *cj);
         /* a MOVE's end points were checked and its cubic is monotone between them: no position check */
         if (!move && (!feasible(&lk->cal[j], &lo, &hi) || !lk_check(cj, order, 0, lo, hi, 0, 0, lk->scratch)))
             return err_joint(c, LK_E_LIMIT, j);
         if (d > LK_DISCONT_CDEG || d < -LK_DISCONT_CDEG) return err_joint(c, LK_E_DISCONT, j);
     }
-    for (j = 0; j < LK_JOINTS; j++) {
+    for (j = 0, cj = a + 2; j < LK_JOINTS; j++, cj += order + 1) {
         int32_t b0[LK_MAX_ORDER + 1], b[LK_MAX_ORDER + 1];
-        bern(a + 2 + j * (order + 1), order, b0);
+        bern(cj, order, b0);
         for (k = 1; k <= 2; k++) { /* speed (vmax dur / 1000), acceleration (amax dur^2 / 10^6); 0: unchecked */
             uint32_t x = k == 1 ? lk->vmax[j] : lk->amax[j], y = k == 1 ? (uint32_t)a[0] : (uint32_t)a[0] * a[0];
             memcpy(b, b0, sizeof b);
             if (x && !check_bern(b, order, k, 0, 0, x, y, lk->scratch)) return err_joint(c, LK_E_SPEED, j);
         }
     }
-    for (j = 0; j < LK_JOINTS; j++) {
-        const int32_t *cj = a + 2 + j * (order + 1);
+    for (j = 0, cj = a + 2; j < LK_JOINTS; j++, cj += order + 1) {
         int32_t end = 0;
         for (k = 0; k <= order; k++) end += cj[k];
         lk->tail_q[j] = end;
@@ -593,8 +594,18 @@ static uint8_t queue_seg(lk_t *lk, const call_t *c, uint8_t move) {
     return ok_int(c, LK_QUEUE - lk->q_count);
 }
 
+/* field f (0..5, cal_field order: pmin pmax zero dir lo hi) of a calibration, or set from v (truncated) */
+static int16_t cal_get(const lk_cal_t *k, uint8_t f) {
+    const uint8_t *p = (const uint8_t *)k + pgm_byte(&cal_field[2 * f]);
+    return pgm_byte(&cal_field[2 * f + 1]) == 1 ? (int8_t)p[0] : get16(p);
+}
+static void cal_set(lk_cal_t *k, uint8_t f, int32_t v) { /* little-endian: the low bytes of v */
+    memcpy((uint8_t *)k + pgm_byte(&cal_field[2 * f]), &v, pgm_byte(&cal_field[2 * f + 1]));
+}
+
 static void out_cal(const lk_cal_t *k) {
-    out_sp_i(k->pmin); out_sp_i(k->pmax); out_sp_i(k->zero); out_sp_i(k->dir); out_sp_i(k->lo); out_sp_i(k->hi);
+    uint8_t f;
+    for (f = 0; f < 6; f++) out_sp_i(cal_get(k, f));
 }
 
 /* check that every current position is valid under calibration `cal` */
@@ -614,10 +625,11 @@ static uint8_t cmd_cal(lk_t *lk, call_t *c) {
         lk_cal_t *k = &cal[ch];
         if (busy(lk, c)) return 0;
         /* the EEPROM's rule (cal_valid) on the fields as received: every valid field is within +-32000 */
-        for (i = 1; i <= 6; i++) if (a[i] < -32000 || a[i] > 32000) fits = 0;
         memcpy(cal, lk->cal, sizeof cal);
-        k->pmin = (int16_t)a[1]; k->pmax = (int16_t)a[2]; k->zero = (int16_t)a[3];
-        k->dir = (int8_t)a[4]; k->lo = (int16_t)a[5]; k->hi = (int16_t)a[6];
+        for (i = 1; i <= 6; i++) {
+            if (a[i] < -32000 || a[i] > 32000) fits = 0;
+            cal_set(k, (uint8_t)(i - 1), a[i]);
+        }
         if (!fits || k->dir != a[4] || !cal_valid(k)) return reject(c, LK_E_RANGE, LK_P("calibration field"));
         if (!positions_valid(lk, c, cal)) return 0;
         memcpy(lk->cal, cal, sizeof cal);
@@ -627,15 +639,16 @@ static uint8_t cmd_cal(lk_t *lk, call_t *c) {
     return 1;
 }
 
+/* HELLO opens a session (docs/protocol.md 2.1): the remembered requests and the stale window are forgotten */
 static uint8_t cmd_hello(lk_t *lk, call_t *c) {
-    (void)lk;
+    lk->seen_n = 0; lk->seen_w = 0; lk->window = 0;
     ok_head(c); out_p(LK_P(" labkit-arm ")); out_p(s_ident); out_kv(LK_P(" channels="), LK_CHANNELS);
     out_kv(LK_P(" queue="), LK_QUEUE); out_kv(LK_P(" maxline="), LK_MAXLINE); out_end();
     return 1;
 }
 
 static uint8_t cmd_ping(lk_t *lk, call_t *c) {
-    ok_head(c); out_c(' '); out_u(lk->now_ms); out_end();
+    ok_head(c); out_kv(LK_P(" "), lk->now_ms); out_end();
     return 1;
 }
 
@@ -678,12 +691,8 @@ static uint8_t cmd_timeout(lk_t *lk, call_t *c) {
 }
 
 static uint8_t cmd_read(lk_t *lk, call_t *c) {
-    uint8_t j;
     (void)lk;
-    ok_head(c);
-    for (j = 0; j < LK_JOINTS; j++) out_sp_i(lk_hw_adc(j));
-    out_sp_i(lk_hw_adc(LK_USER_POT_PIN));
-    out_end();
+    ok_head(c); out_adc();
     return 1;
 }
 
@@ -874,11 +883,18 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         echo = crc_canonical(crc_step(echo, ' '), tok);
     }
     g_field = LK_NO_FIELD;
-    if (!read_only) {
+    if (!read_only && c.argc != 0xFF) { /* a malformed number is ERR 2 SYNTAX arguments (dispatch), whatever the seq */
         lk_seen_t *r;
         g_echo = echo; g_echo_on = 1;
         for (r = lk->seen; r < lk->seen + lk->seen_n; r++)
             if (r->seq == (uint16_t)c.seq && r->echo == echo) { replay(lk, e, &c, r->v); goto accepted; }
+        /* stale: not newer than the newest accepted #seq (modulo 2^16, the 32767 ids after it are newer) and not
+           a remembered repeat: a late copy of an old request, never run */
+        if (lk->window && (uint16_t)((uint16_t)c.seq - lk->last_seq - 1u) >= 0x7FFFu) {
+            err_begin(c.seq, LK_E_STALE); out_p(LK_P(" after #")); out_u(lk->last_seq); out_end();
+            g_echo_on = 0;
+            return;
+        }
     }
     if (dispatch(lk, e, &c)) {
         if (g_echo_on) {
@@ -887,6 +903,7 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
             r->echo = echo; r->v = g_field;
             lk->seen_w = (uint8_t)((lk->seen_w + 1) % LK_SEEN);
             if (lk->seen_n < LK_SEEN) lk->seen_n++;
+            lk->window = 1;
         }
 accepted:
         lk->last_accept_ms = lk->now_ms;

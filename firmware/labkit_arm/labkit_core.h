@@ -13,7 +13,7 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "2.2.0"
+#define LK_FW_VERSION "2.3.0"
 #define LK_PROTO_VERSION 2
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
@@ -38,7 +38,8 @@ extern "C" {
 
 enum lk_error {
     LK_E_BADCHK = 1, LK_E_SYNTAX = 2, LK_E_UNKNOWN = 3, LK_E_TOOLONG = 4, LK_E_RANGE = 5,
-    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10, LK_E_SPEED = 11
+    LK_E_LIMIT = 6, LK_E_QFULL = 7, LK_E_BUSY = 8, LK_E_DISCONT = 9, LK_E_EEPROM = 10, LK_E_SPEED = 11,
+    LK_E_STALE = 12
 };
 enum lk_state { LK_IDLE = 0, LK_RUN = 1, LK_HOLD = 2 };
 enum lk_flag {
@@ -67,39 +68,40 @@ typedef struct {
 #define LK_NO_FIELD 0xFFFFu
 
 typedef struct {
-    /* configuration (EEPROM) */
-    lk_cal_t cal[LK_CHANNELS];
-    uint16_t timeout_ms;
-    uint32_t vmax[LK_JOINTS];    /* joint speed limits [cdeg/s], 0: unchecked */
-    uint32_t amax[LK_JOINTS];    /* joint acceleration limits [cdeg/s^2], 0: unchecked */
-    /* commanded state */
-    int32_t q[LK_JOINTS];        /* cdeg */
-    uint16_t grip_us;
-    uint16_t pulse_hus[LK_CHANNELS]; /* pulse widths in half microseconds */
-    /* trajectory */
-    lk_seg_t queue[LK_QUEUE];
+    /* small fields first: the AVR reaches lk->field in one instruction only within 63 bytes of lk */
+    uint8_t state, flags;
     uint8_t q_head, q_count;
-    int32_t tail_q[LK_JOINTS];   /* end point of the last queued segment [cdeg] */
+    uint8_t len;
+    uint8_t overflow, badchar;
+    uint8_t stream_hz, stream_arm;
+    uint8_t seen_n, seen_w;      /* valid entries of seen, next entry to overwrite */
+    uint8_t window;              /* 1: a sealed request was accepted since power-up or HELLO: last_seq is the newest */
+    uint16_t frame_counter;
+    uint16_t timeout_ms;
+    uint16_t grip_us;
+    uint16_t last_seq;           /* #seq of the last accepted sealed request */
+    uint32_t now_ms;
+    uint32_t last_accept_ms;
+    uint32_t done;
     uint32_t seg_start_ms;       /* frame clock: start of the active segment */
     uint32_t next_frame_ms;      /* frame clock: start of the next frame to be programmed */
-    uint32_t done;
-    uint8_t state, flags;
-    uint32_t last_accept_ms;
-    uint16_t last_seq;           /* #seq of the last accepted sealed request */
-    lk_seen_t seen[LK_SEEN];     /* the last LK_SEEN accepted sealed requests (a repeat is answered, not run) */
-    uint8_t seen_n, seen_w;      /* valid entries, next entry to overwrite */
-    /* feedback stream */
-    uint8_t stream_hz, stream_arm;
-    uint16_t frame_counter;
     uint32_t stream_next_us, stream_period_us;
+    /* commanded state */
+    int32_t q[LK_JOINTS];        /* cdeg */
+    int32_t tail_q[LK_JOINTS];   /* end point of the last queued segment [cdeg] */
+    uint16_t pulse_hus[LK_CHANNELS]; /* pulse widths in half microseconds */
+    lk_seen_t seen[LK_SEEN];     /* the last LK_SEEN accepted sealed requests (a repeat is answered, not run) */
+    /* configuration (EEPROM; also timeout_ms) */
+    lk_cal_t cal[LK_CHANNELS];
+    uint32_t vmax[LK_JOINTS];    /* joint speed limits [cdeg/s], 0: unchecked */
+    uint32_t amax[LK_JOINTS];    /* joint acceleration limits [cdeg/s^2], 0: unchecked */
     /* line input; once a request is parsed the line is scratch for the motion checks */
     union {
         char line[LK_MAXLINE + 1];
         int32_t scratch[LK_SCRATCH];
     };
-    uint8_t len;
-    uint8_t overflow, badchar;
-    uint32_t now_ms;
+    /* trajectory */
+    lk_seg_t queue[LK_QUEUE];
 } lk_t;
 
 /* ---- provided by the glue (Arduino) or by the host test harness ---- */

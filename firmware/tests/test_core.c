@@ -506,7 +506,8 @@ static void test_motion_checks_against_dense_sampling(void) {
 }
 
 /* a repeated sealed request (same #seq, same echo) among the last LK_SEEN accepted ones is answered with its reply
-   and not run; a rejected one, or one with the same seq but other content, runs */
+   and not run; a rejected one runs when repeated; one with the same seq but other content, or older than the window,
+   is stale: ERR 12, not run (issue 27); HELLO opens a new session */
 static void test_repeats(void) {
     char buf[256], first[STUB_OUT_SIZE];
     boot();
@@ -516,7 +517,7 @@ static void test_repeats(void) {
     send_raw(buf);
     CHECK(!strcmp(stub_out, first) && lk.q_count == 1, "repeat ran or answered otherwise: %s", stub_out);
     send_raw(sealed(buf, sizeof buf, 777, "SEG 500 3 9000 0 0 0 9000 0 0 0 9000 0 0 1"));
-    CHECK(starts(stub_out, "OK #777 SEG p=") && lk.q_count == 2, "same seq, other content: %s", stub_out);
+    CHECK(starts(stub_out, "ERR #777 12 STALE after #777*") && lk.q_count == 1, "same seq, other content: %s", stub_out);
     send_raw(sealed(buf, sizeof buf, 778, "STOP"));
     strcpy(first, stub_out);
     CHECK(starts(stub_out, "OK #778 STOP p=") && lk.q_count == 0, "%s", stub_out);
@@ -534,16 +535,46 @@ static void test_repeats(void) {
     CHECK(starts(stub_out, "ERR #781 5 RANGE"), "%s", stub_out);
     send_raw(buf);
     CHECK(starts(stub_out, "ERR #781 5 RANGE"), "%s", stub_out);
-    /* a repeat of a request older than the last LK_SEEN accepted ones is no longer recognised */
+    /* a repeat of a request older than the last LK_SEEN accepted ones is no longer recognised: stale, never run,
+       however many newer requests came (a #5 MOVE after 10 newer ones) */
     send_raw(sealed(buf, sizeof buf, 782, "SEG 500 3 9000 0 0 0 9000 0 0 0 9000 0 0 0"));
     CHECK(lk.q_count == 1, "%s", stub_out);
-    for (unsigned k = 0; k < LK_SEEN; k++) {
+    for (unsigned k = 0; k < 10; k++) {
         char b2[64];
         send_raw(sealed(b2, sizeof b2, 800 + k, "GRIP 1500"));
         CHECK(starts(stub_out, "OK #"), "%s", stub_out);
     }
     send_raw(buf);
-    CHECK(lk.q_count == 2, "beyond the window: %s", stub_out);
+    CHECK(starts(stub_out, "ERR #782 12 STALE after #809*") && lk.q_count == 1, "beyond the window: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 810, "STOP"));
+    boot();
+    send_raw(sealed(buf, sizeof buf, 5, "MOVE 9000 9000 9000 60000"));
+    CHECK(starts(stub_out, "OK #5 MOVE p=") && lk.q_count == 1, "%s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 6, "STOP"));
+    for (unsigned k = 7; k < 17; k++) {
+        char b2[64];
+        send_raw(sealed(b2, sizeof b2, k, "GRIP 1500"));
+    }
+    send_raw(sealed(buf, sizeof buf, 5, "MOVE 9000 9000 9000 60000"));
+    CHECK(starts(stub_out, "ERR #5 12 STALE after #16*") && lk.q_count == 0 && lk.state == LK_IDLE, "stale MOVE: %s",
+          stub_out);
+    /* ids count modulo 2^16: the 32767 after the newest are newer */
+    send_raw(sealed(buf, sizeof buf, 65535, "GRIP 1500"));
+    CHECK(starts(stub_out, "ERR #65535 12 STALE"), "65535 after 16 is 32767 + 1 behind: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 32783, "GRIP 1500"));
+    CHECK(starts(stub_out, "OK #32783 GRIP"), "16 + 32767: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 65535, "GRIP 1500"));
+    CHECK(starts(stub_out, "OK #65535 GRIP"), "%s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 1, "GRIP 1501"));
+    CHECK(starts(stub_out, "OK #1 GRIP"), "wrap-around: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 0, "GRIP 1502"));
+    CHECK(starts(stub_out, "ERR #0 12 STALE after #1*"), "%s", stub_out);
+    /* HELLO opens a new session: the window and the remembered requests are forgotten */
+    send_raw("HELLO");
+    send_raw(sealed(buf, sizeof buf, 1, "GRIP 1600"));
+    CHECK(starts(stub_out, "OK #1 GRIP") && lk.grip_us == 1600, "after HELLO: %s", stub_out);
+    send_raw(sealed(buf, sizeof buf, 1, "GRIP 1600"));
+    CHECK(starts(stub_out, "OK #1 GRIP") && lk.grip_us == 1600, "repeat after HELLO: %s", stub_out);
 }
 
 int main(void) {

@@ -39,7 +39,7 @@ PROTOCOL_VERSION = 2
 MAX_LINE = 160
 #: error codes of ``ERR <code> <NAME>`` replies (``docs/protocol.md`` section 5)
 ERRORS = {1: "BADCHK", 2: "SYNTAX", 3: "UNKNOWN", 4: "TOOLONG", 5: "RANGE", 6: "LIMIT", 7: "QFULL",
-          8: "BUSY", 9: "DISCONT", 10: "EEPROM", 11: "SPEED"}
+          8: "BUSY", 9: "DISCONT", 10: "EEPROM", 11: "SPEED", 12: "STALE"}
 #: factory speed limit of every joint [cdeg/s] (600 deg/s, above any hobby servo); acceleration unchecked
 VMAX_FACTORY = 60000
 #: largest speed [cdeg/s] and acceleration [cdeg/s^2] limits ``LIMITS`` accepts
@@ -49,6 +49,9 @@ AMAX_MAX = 100_000_000
 READ_ONLY = frozenset({"HELLO", "PING", "STATUS", "READ"})
 #: codes of a request that never ran (damaged on the way: checksum, syntax, unknown, too long)
 NOT_EXECUTED = frozenset({1, 2, 3, 4})
+#: code of a sealed request refused as stale (its seq is not newer than the newest accepted one): not run, and
+#: not to be resent under that seq (docs/protocol.md 2.1)
+STALE = 12
 
 #: a board line without its CR LF: printable body, ``*``, four upper-case hex digits (CRC-16)
 BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{4})$")

@@ -67,8 +67,8 @@ def test_ready_line_and_hello_match_the_protocol_examples():
     b.advance_to(0.05)
     assert b.take_output() == b""
     b.advance_to(0.2)
-    assert b.take_output() == b"READY labkit-arm 2 fw=2.2.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*AA1F\r\n"
-    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=2.2.0 proto=2 joints=3 channels=4 queue=6 maxline=160*44C5"]
+    assert b.take_output() == b"READY labkit-arm 2 fw=2.3.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*40FE\r\n"
+    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=2.3.0 proto=2 joints=3 channels=4 queue=6 maxline=160*00B6"]
 
 
 def test_example_session_lines_and_checksums():

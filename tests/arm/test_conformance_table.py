@@ -42,7 +42,7 @@ def test_the_table_covers_what_issue_13_asks():
     assert b"$" in requests and b"*00" in requests  # the lines sim:// used to leave unanswered
     codes = {e.split()[1] if not e.split()[1].startswith("#") else e.split()[2]
              for _, exp in rows for e in exp if e.startswith("ERR")}
-    assert codes == {str(c) for c in range(1, 12) if c != 10}  # every error code but EEPROM failures
+    assert codes == {str(c) for c in range(1, 13) if c != 10}  # every error code but EEPROM failures
 
 
 @pytest.fixture(params=sorted(BOARDS))

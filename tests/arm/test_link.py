@@ -280,20 +280,20 @@ def test_an_older_board_is_refused_with_what_to_do():
         Arm(v1_board(), timeout=0.02)
 
 
-@pytest.mark.parametrize("old", ["2.0.0", "2.1.0"])
+@pytest.mark.parametrize("old", ["2.0.0", "2.1.0", "2.2.0"])
 def test_a_protocol_2_board_older_than_exactly_once_requests_is_refused(old):
-    # 2.0.0: untimed MOVE; 2.1.0: runs a resent request twice (issue 27)
+    # 2.0.0: untimed MOVE; 2.1.0: runs a resent request twice; 2.2.0: runs a stale request's late copy (issue 27)
     raw = serial.serial_for_url(SIM, timeout=0.05)
     orig = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.2.0", f"fw={old}")
-    with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 2\.2\.0 or newer .*flash firmware/labkit_arm"):
+    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.3.0", f"fw={old}")
+    with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 2\.3\.0 or newer .*flash firmware/labkit_arm"):
         Arm(raw, timeout=0.02)
 
 
 def test_a_newer_board_is_driven():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     newer = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.2.0", "fw=2.10.0")
+    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.3.0", "fw=2.10.0")
     with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
         assert arm.info.firmware == "2.10.0"
 
@@ -334,6 +334,20 @@ def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
     with pytest.raises(DeviceError, match=r"request #999.*unrequested motion.*stopped"):
         arm.status()
     assert board.state == "IDLE"
+
+
+def test_a_stale_request_is_refused_not_executed_and_not_resent(arm):
+    # another program numbered its requests ahead of labkit's: the board refuses labkit's next one as stale (issue 27)
+    board = arm.port.board
+    body = "#20000 GRIP 1500 "
+    board.receive(f"{body}*{checksum(body):04X}\n".encode())
+    board.take_output()
+    sent, timeout_ms = arm.stats.sent, board.timeout_ms
+    with pytest.raises(CommandRejected, match=r"TIMEOUT #\d+ was not executed.*12 STALE after #20000.*another program"
+                       ) as info:
+        arm._transact("TIMEOUT", timeout_ms + 100)
+    assert info.value.code == 12 and info.value.name == "STALE"
+    assert arm.stats.sent == sent + 1 and board.timeout_ms == timeout_ms  # sent once, never run
 
 
 def test_no_port_found(monkeypatch):

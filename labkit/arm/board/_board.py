@@ -137,6 +137,8 @@ class VirtualBoard(BoardCommands):
         self.last_seq = 0
         #: ``((seq, echo), fields)`` of the last accepted sealed requests, oldest first (repeats are answered from it)
         self.seen = []
+        #: a sealed request was accepted since power-up or ``HELLO``: ``last_seq`` is the newest (older ones are stale)
+        self.window = False
         self.next_frame = self.time
         self.mem = 812
         if self.model is None:  # power-up: the arm rests at the boot position; a reset keeps it where it is

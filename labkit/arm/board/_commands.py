@@ -37,7 +37,7 @@ from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
 __all__ = ["FW_VERSION"]
 
 #: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
-FW_VERSION = "2.2.0"
+FW_VERSION = "2.3.0"
 #: accepted sealed requests the board remembers to answer a repeat without running it (docs/protocol.md 2.1)
 SEEN = 4
 #: commands whose reply fields report the state they left: a repeat regenerates them (the others store theirs)
@@ -193,16 +193,22 @@ class BoardCommands:
                 if not REQUEST_INT.match(tok) or not -2**31 < int(tok) < 2**31:
                     raise _Reject(2, "arguments")
                 args.append(int(tok))
+            if len(args) > 2 + 6 * self.joints:  # more than a quintic SEG: refused before the repeat/stale checks
+                raise _Reject(2, "arguments")
             key = (seq, echo(name, args)) if name not in READ_ONLY else None
             seen = next((s for s in self.seen if s[0] == key), None)
             if seen is not None:  # a repeat: answered with the original reply, not run
                 fields = seen[1] if seen[1] is not None else self._report(name, args)
             else:
+                if key is not None and self.window and not 1 <= (seq - self.last_seq) % 65536 <= 32767:
+                    # stale: not newer than the newest accepted #seq and not a remembered repeat (a late copy)
+                    raise _Reject(12, f"after #{self.last_seq}")
                 fields = handler(args)
                 if key is not None:
                     self.seen.append((key, None if name in _REPORTS else fields))
                     del self.seen[:-SEEN]
                     self.last_seq = seq
+                    self.window = True
         except _Reject as rej:
             self._emit(f"ERR{tag} {rej}")
             return
@@ -231,6 +237,9 @@ class BoardCommands:
 
     def _cmd_hello(self, args):
         self._nargs(args, 0)
+        # a new session (docs/protocol.md 2.1): the remembered requests and the stale window are forgotten
+        self.seen = []
+        self.window = False
         return (f"labkit-arm fw={FW_VERSION} proto={PROTOCOL_VERSION} joints={self.joints} "
                 f"channels={self.channels} queue={self.queue_depth} maxline={MAX_LINE}")
 

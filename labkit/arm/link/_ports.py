@@ -27,8 +27,9 @@ __all__ = ["PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
 #: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits, 2.2.0
-#: answers a repeated sealed request without running it (the host resends a request under the same ``#seq``)
-MIN_FIRMWARE = (2, 2, 0)
+#: answers a repeated sealed request without running it (the host resends a request under the same ``#seq``),
+#: 2.3.0 refuses a stale one (an old request's late copy never runs)
+MIN_FIRMWARE = (2, 3, 0)
 
 ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
                 0x10C4: "CP210x", 0x239A: "Adafruit"}
@@ -183,7 +184,7 @@ def handshake(arm, boot_wait):
                           f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
     if _version(info.firmware) < MIN_FIRMWARE:
         raise DeviceError(f"{arm.name}: the board runs labkit firmware {info.firmware}; labkit needs "
-                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (since 2.2.0 a resent request never runs twice): "
+                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (since 2.3.0 a resent or late request never runs twice): "
                           f"flash firmware/labkit_arm (make -C firmware, then avrdude or the Arduino IDE, see README)")
     if info.joints != arm.robot.n:
         raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "

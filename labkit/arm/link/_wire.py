@@ -12,6 +12,7 @@ port; ``Arm`` creates one and keeps it. What the fields of a reply mean is in
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -21,6 +22,7 @@ from labkit.arm._protocol import (
     MAX_LINE,
     NOT_EXECUTED,
     READ_ONLY,
+    STALE,
     STRICT_INT,
     CommandRejected,
     echo,
@@ -34,8 +36,14 @@ __all__ = ["LinkStats"]
 #: largest read of one :meth:`Wire.pump` [bytes] and most reads of one :meth:`Wire._drain`
 _READ_CHUNK = 4096
 _DRAIN_READS = 16
+#: wire time of one byte at 115200 baud, 8N1 [s]
+_BYTE_S = 10 / 115200
 #: how long a reply is still awaited after a damaged line arrived [s]: the wire time of a longest line at 115200 baud
-_AFTER_BAD_LINE = (MAX_LINE + 2) * 10 / 115200
+_AFTER_BAD_LINE = (MAX_LINE + 2) * _BYTE_S
+#: the board's own time to answer an intact request [s] (docs/protocol.md 2.3: 2 ms; a margin for the motion checks),
+#: and the commands that may take longer (``SAVE`` writes the EEPROM: up to 0.5 s)
+_BOARD_REPLY_S = 0.005
+_SLOW_COMMANDS = frozenset({"SAVE"})
 
 
 class _NoReply(DeviceError):
@@ -109,6 +117,8 @@ class Wire:
         #: ``None`` until the handshake has read it
         self.last_seq = None
         self._seq = 0
+        #: :meth:`clock` when the last complete line was read
+        self._line_at = -math.inf
         self._buf = bytearray()
         self._lines = []
 
@@ -218,6 +228,8 @@ class Wire:
             if raw:
                 self._dispatch(raw)
                 got = True
+        if got:
+            self._line_at = self.clock()
         return got
 
     def _dispatch(self, raw):
@@ -288,8 +300,66 @@ class Wire:
         """
         self._seq = max(self._seq, int(seq) % 65535)
 
-    def _await(self, seq):
-        deadline = self.clock() + self.timeout
+    def reply_wait(self, command, request_bytes):
+        """How long one attempt awaits its reply [s of :meth:`clock`]: :attr:`timeout`, shorter in lockstep.
+
+        A lockstep simulated port (``clock == "lockstep"``: ``sim://`` and ``simavr://`` stepped by the host's
+        waits) has an exact board clock and no host, USB or scheduling latency, so a reply that has not come
+        within the protocol's bound never comes: the request's and a longest reply's wire time at 115200 baud
+        plus the board's reply time (docs/protocol.md 2.3). A lost reply then costs that, not the full timeout
+        (a reply later than the bound would only cost a resend, which the board answers without running it
+        again). Any other port, and ``SAVE``, waits :attr:`timeout`.
+
+        Parameters
+        ----------
+        command : str
+            Upper-case command name.
+        request_bytes : int
+            Length of the request line as sent [bytes].
+
+        Returns
+        -------
+        float
+            Reply timeout of the attempt [s].
+        """
+        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+            return self.timeout
+        return min(self.timeout, (request_bytes + MAX_LINE + 2) * _BYTE_S + _BOARD_REPLY_S)
+
+    def reply_quiet(self, command, request_bytes):
+        """When silence on a lockstep port means no reply is coming [s after sending], or ``None``.
+
+        The request's wire time plus the board's reply time (docs/protocol.md 2.3): by then its reply has
+        begun, unless the request was lost or damaged. ``None`` (wait the whole :meth:`reply_wait`) on any
+        other port and for ``SAVE``.
+
+        Parameters
+        ----------
+        command : str
+            Upper-case command name.
+        request_bytes : int
+            Length of the request line as sent [bytes].
+
+        Returns
+        -------
+        float or None
+            Seconds of :meth:`clock`.
+        """
+        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+            return None
+        return request_bytes * _BYTE_S + _BOARD_REPLY_S
+
+    def _await(self, seq, timeout=None, quiet=None):
+        """The reply to ``seq`` within ``timeout`` [s]; on a lockstep port give up once the line stays ``quiet``.
+
+        ``quiet`` [s after the call]: when the reply has not begun by then (no byte of a line arriving, and
+        none within the board's reply time after the last line), no reply is coming: a lockstep board's clock
+        is exact, so it can tell, and the request is resent at once instead of after the timeout.
+        """
+        timeout = self.timeout if timeout is None else timeout
+        start = self.clock()
+        deadline = start + timeout
+        silent = None if quiet is None else start + quiet
         bad = self.stats.bad_lines
         while True:
             if self.stats.bad_lines > bad:
@@ -306,10 +376,19 @@ class Wire:
                                        executed=False if code in NOT_EXECUTED else None)
                     return ln
             self._lines.clear()  # stale replies to earlier attempts
-            left = deadline - self.clock()
+            now = self.clock()
+            left = deadline - now
             if left <= 0:
                 self.stats.timeouts += 1
-                raise _NoReply(f"no valid reply within {self.timeout:g} s")
+                raise _NoReply(f"no valid reply within {timeout:g} s")
+            if silent is not None:
+                # a line in progress, or one that may follow the last within the board's reply time: wait for it
+                quiet_at = max(silent, self._line_at + _BOARD_REPLY_S)
+                if now >= quiet_at and not self._buf.strip(b"\r\n") and not self.io(lambda: self.port.in_waiting):
+                    self.stats.timeouts += 1
+                    raise _NoReply(f"no valid reply: none began within {quiet_at - start:.3g} s (lockstep board clock)")
+                if now < quiet_at:
+                    left = min(left, quiet_at - now)
             self.pump(left)
 
     def _drain(self):
@@ -339,7 +418,7 @@ class Wire:
             Always; the message says whether the arm is now stopped.
         """
         try:
-            self.transact("STOP", retries=max(self.retries, 3), stop_on_wrong_echo=False)
+            self.transact("STOP", retries=max(self.retries, 3), stop_on_wrong_echo=False, renumber_stale=True)
             state = "the arm is stopped (STOP sent)"
         except DeviceError as exc:
             state = f"STOP failed too ({exc}): switch the arm off"
@@ -373,7 +452,8 @@ class Wire:
                       f"(last known #{self.last_seq}): unrequested motion")
         return False
 
-    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None, stop_on_wrong_echo=True):
+    def transact(self, command, *args, motion=False, verify=None, parse=None, retries=None, stop_on_wrong_echo=True,
+                 renumber_stale=False):
         """Send one request until it is acknowledged; return the (parsed) reply.
 
         Every request is sealed (``#seq`` and CRC-16). The ``OK`` reply to a
@@ -399,6 +479,9 @@ class Wire:
         stop_on_wrong_echo : bool
             Send ``STOP`` (through :meth:`hold`) before raising on a wrong echo; off for that
             ``STOP`` itself.
+        renumber_stale : bool
+            On ``ERR 12 STALE`` (not executed) number the request after the board's newest ``#seq`` and send it
+            again instead of raising; for the ``STOP`` of :meth:`hold`, which must get through.
 
         Returns
         -------
@@ -421,14 +504,16 @@ class Wire:
         last = None
         retries = self.retries if retries is None else retries
         # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
-        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay
+        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay;
+        # an old copy arriving after newer requests is refused as stale (ERR 12, firmware 2.3.0)
         seq = self._next_seq()
         body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
         for attempt in range(retries + 1):
             self._drain()
-            self._send(("\n" if attempt else "") + seal(body) + "\n")
+            line = ("\n" if attempt else "") + seal(body) + "\n"
+            self._send(line)
             try:
-                reply = self._await(seq)
+                reply = self._await(seq, self.reply_wait(command, len(line)), self.reply_quiet(command, len(line)))
             except _NoReply as exc:
                 last = exc
                 self.stats.retries += attempt < retries
@@ -470,5 +555,19 @@ class Wire:
                 last = _NoReply(" ".join(reply.tokens))
                 continue
             name = reply.tokens[2] if len(reply.tokens) > 2 else "?"
+            newest = reply.tokens[-1]
+            if code == STALE and renumber_stale and newest[:1] == "#" and newest[1:].isdigit():
+                self.follow(int(newest[1:]))  # "ERR 12 STALE after #<newest>": it did not run
+                seq = self._next_seq()
+                body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
+                last = _NoReply(" ".join(reply.tokens))
+                continue
+            if code == STALE:
+                # not run, and never resent under this seq (it would stay stale): the board accepted newer requests
+                # than this one since the handshake, which only another program on the port can have sent
+                raise CommandRejected(f"{self.name}: {command} #{seq} was not executed: the board has run newer "
+                                      f"requests ({' '.join(reply.tokens[1:])}) than labkit sent; is another "
+                                      f"program talking to the board? Reconnect (a new Arm) to start a new session",
+                                      code, name)
             raise CommandRejected(f"{self.name}: {command} rejected: {' '.join(reply.tokens[1:])}", code, name)
         raise DeviceError(f"{self.name}: {command} failed after {retries + 1} attempts: {last}")
