@@ -76,6 +76,8 @@ def compact_image(data: bytes, *, max_width=MAX_WIDTH_PX):
         original = "image/jpeg" if image.format == "JPEG" else "image/png"
     except Exception:  # not an image Pillow reads: keep it as it is
         return "image/png", data
+    if image.width <= max_width and (image.format == "JPEG" or image.mode in ("P", "L")):
+        return original, data  # compact already (a palette PNG written here, or a JPEG)
     rgb = _flat(image)
     if rgb.width > max_width:
         rgb = rgb.resize((max_width, round(rgb.height * max_width / rgb.width)), Image.LANCZOS)

@@ -291,18 +291,18 @@ def _assert_report(pdf, html, chapters, tmp_path, title_page):
     for k, title in enumerate(plain, start=1):
         assert f"{k}{title}" in body, title  # the chapter heading "k Title"
     # each contents entry ends with a page number: the page that starts with that chapter's heading
-    entries, pending = [], ""
-    for line in texts[1].splitlines()[1:]:  # after "Contents"
-        m = re.match(r"(.*?)\s*(\d+)$", line.strip())
-        pending += line if not m else m.group(1)
-        if m and pending.strip():
-            entries.append((re.sub(r"\s+", "", pending), int(m.group(2))))
-            pending = ""
     headings = [f"{k}{t}" for k, t in enumerate(plain, start=1)] + [f"{len(plain) + 1}Verification", "ACode"]
-    assert [e for e, _ in entries] == headings, entries
-    for heading, page in entries:
+    toc = flat_pages[1]
+    assert toc.endswith("2")  # the contents page's number in its footer
+    starts = [toc.find(h) for h in headings]
+    assert -1 not in starts and starts == sorted(starts), (headings, toc)
+    for k, heading in enumerate(headings):
+        end = starts[k + 1] if k + 1 < len(headings) else len(toc) - 1  # the page's footer: "2"
+        page = toc[starts[k] + len(heading):end]
+        assert page.isdigit(), (heading, page)
+        page = int(page)
         assert 3 <= page <= len(pages) and flat_pages[page - 1].startswith(heading), (heading, page)
-        assert [k for k, t in enumerate(flat_pages) if t.startswith(heading)] == [page - 1], heading
+        assert [n for n, t in enumerate(flat_pages) if t.startswith(heading)] == [page - 1], heading
     assert not MACHINE_PATH.search(whole) and str(tmp_path) not in html
     return whole
 
