@@ -84,7 +84,11 @@ def compact_image(data: bytes, *, max_width=MAX_WIDTH_PX):
     colours = rgb.getcolors(PHOTO_COLOURS)
     out = io.BytesIO()
     if colours is None:  # a photograph
-        rgb.save(out, "JPEG", quality=JPEG_QUALITY, subsampling=0, optimize=True)
+        try:
+            rgb.save(out, "JPEG", quality=JPEG_QUALITY, subsampling=0, optimize=True)
+        except OSError:  # Pillow's buffer too small for an optimised JPEG of a noisy image
+            out = io.BytesIO()
+            rgb.save(out, "JPEG", quality=JPEG_QUALITY, subsampling=0)
         mime = "image/jpeg"
     else:
         # <= 256 colours: exact; more (antialiased plot lines): the 256 most representative
