@@ -45,6 +45,7 @@ from labkit.reports._document import _default_roots, number_notebook, scrub_path
 from labkit.reports._images import compact_notebook, externalize
 from labkit.reports._execute import (
     CELL_TIMEOUT,
+    chapter_of,
     execute_notebook,
     find_notebooks,
     lab_of,
@@ -421,24 +422,6 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
         errors.append(f"report export failed: {type(exc).__name__}: {exc}")
     return RenderResult(lab, name, result.ok and len(errors) == 0, "; ".join(errors), result.output, html_path,
                         pdf_path, result.seconds, time.perf_counter() - t0)
-
-
-def chapter_of(notebook) -> int:
-    """The notebook's chapter number in its lab's report (``labkit report``): its place in the lab folder.
-
-    Parameters
-    ----------
-    notebook : str or os.PathLike
-        A notebook ``<lab>/<name>.ipynb``.
-
-    Returns
-    -------
-    int
-        1 for the lab's first notebook (file order, as :func:`labkit.reports.build_report`).
-    """
-    notebook = Path(notebook).resolve()
-    siblings = find_notebooks([notebook.parent])
-    return siblings.index(notebook) + 1 if notebook in siblings else 1
 
 
 @contextmanager

@@ -94,7 +94,7 @@ def test_per_notebook_reports_number_as_the_lab_report(tmp_path):
     from labkit.reports import export_html
     from labkit.reports._document import _chapter
     from labkit.reports._numbering import number_notebooks
-    from labkit.reports._render import chapter_of
+    from labkit.reports._execute import chapter_of
 
     lab = tmp_path / "lab"
     lab.mkdir()
