@@ -26,7 +26,7 @@ from pathlib import Path
 from labkit.reports._nbtools import CHECKS_MIME
 from labkit.reports._numbering import cell_options, number_notebooks, resolve_references
 
-__all__ = ["scrub_paths", "tidy_numbers", "number_notebook", "report_html", "STATIC"]
+__all__ = ["scrub_paths", "tidy_numbers", "number_notebook", "report_html", "fill_toc_pages", "STATIC"]
 
 #: the package's static assets (MathJax, the widget manager, the report stylesheet and script)
 STATIC = Path(__file__).resolve().parent / "static"
@@ -363,11 +363,14 @@ def report_html(chapters, info, *, lab, show_code=False, mathjax="", generated=N
     """
     generated = generated or _dt.date.today().isoformat()
     n_ver = len(chapters) + 1
-    toc = [f'<li><a href="#chapter-{c.number}"><span class="lk-tocnum">{c.number}</span>{_md_inline(c.title)}</a></li>'
-           for c in chapters]
-    toc.append(f'<li><a href="#sec-verification"><span class="lk-tocnum">{n_ver}</span>Verification</a></li>')
+    def entry(anchor, number, title):  # the page number is filled in by a second print (build_report)
+        return (f'<li><a href="#{anchor}"><span class="lk-tocnum">{number}</span><span class="lk-toctitle">{title}'
+                f'</span><span class="lk-tocpage" data-for="{anchor}"></span></a></li>')
+
+    toc = [entry(f"chapter-{c.number}", c.number, _md_inline(c.title)) for c in chapters]
+    toc.append(entry("sec-verification", n_ver, "Verification"))
     if not show_code:
-        toc.append('<li><a href="#appendix-code"><span class="lk-tocnum">A</span>Code</a></li>')
+        toc.append(entry("appendix-code", "A", "Code"))
     body = []
     for c in chapters:
         banner = (f'<p class="lk-failed">This notebook failed: {_html.escape(c.error)}</p>' if not c.ok else "")
@@ -403,12 +406,37 @@ def report_html(chapters, info, *, lab, show_code=False, mathjax="", generated=N
 """
 
 
+_TOC_PAGE = re.compile(r'(<span class="lk-tocpage" data-for="([^"]+)">)[^<]*(</span>)')
+
+
+def fill_toc_pages(html: str, pages: dict) -> str:
+    """Write the page number of each contents entry (``pages``: anchor -> printed page number).
+
+    Parameters
+    ----------
+    html : str
+        A lab report's HTML (:func:`report_html`).
+    pages : dict of str to int
+        Page of each anchor in the printed PDF (1 = the title page); a missing anchor prints nothing.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> fill_toc_pages('<span class="lk-tocpage" data-for="chapter-1"></span>', {"chapter-1": 3})
+    '<span class="lk-tocpage" data-for="chapter-1">3</span>'
+    """
+    return _TOC_PAGE.sub(lambda m: f"{m.group(1)}{pages.get(m.group(2), '')}{m.group(3)}", html)
+
+
 def _caption_output(item):
     return {"output_type": "display_data", "metadata": {},
             "data": {"text/html": f'<div class="lk-caption lk-{item.kind}" id="{item.anchor}">{_caption_html(item)}</div>'}}
 
 
-def number_notebook(nb):
+def number_notebook(nb, chapter=None):
     """Number the figures, tables and equations of one notebook and write its captions and references.
 
     Code cells lose their ``#|`` option lines, round-off in tables prints as ``0``
@@ -420,6 +448,9 @@ def number_notebook(nb):
     ----------
     nb : nbformat.NotebookNode
         An executed notebook (changed in place).
+    chapter : int, optional
+        The notebook's chapter in its lab report (its place among the lab's notebooks,
+        from 1): numbers print as in the lab report, "Figure 3.1"; None: "Figure 1".
 
     Returns
     -------
@@ -427,7 +458,7 @@ def number_notebook(nb):
         The labels referred to but not defined.
     """
 
-    numbering = number_notebooks([nb], chapters=False)
+    numbering = number_notebooks([nb], chapters=chapter is not None, first_chapter=chapter or 1)
     unresolved = []
     for i, cell in enumerate(nb.cells):
         if cell.cell_type == "markdown":
@@ -450,7 +481,7 @@ def number_notebook(nb):
             html = data.get("text/html", "")
             html = html if isinstance(html, str) else "".join(html)
             return (any(m in data for m in ("image/png", "image/jpeg", "image/svg+xml"))
-                    or ("<table" not in html and "data:image/png;base64" in html))
+                    or ("<table" not in html and "data:image/" in html))
 
         images = [k for k, out in enumerate(cell.get("outputs", [])) if is_image(out)]
         after = {k: None for k in images}

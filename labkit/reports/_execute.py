@@ -27,7 +27,7 @@ from pathlib import Path
 
 from labkit.exceptions import LabkitError, OptionError
 
-__all__ = ["CELL_TIMEOUT", "kernel_manager_class",
+__all__ = ["CELL_TIMEOUT", "kernel_manager_class", "chapter_of",
     "ExecutionResult",
     "notebooks_root",
     "find_notebooks",
@@ -440,3 +440,21 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
     seconds = time.perf_counter() - t0
     cell, error = _first_error(nbformat.read(str(output), as_version=4), notebook.name)
     return ExecutionResult(notebook, output, cell is None, seconds, error, cell, parameters)
+
+
+def chapter_of(notebook) -> int:
+    """The notebook's chapter number in its lab's report (``labkit report``): its place in the lab folder.
+
+    Parameters
+    ----------
+    notebook : str or os.PathLike
+        A notebook ``<lab>/<name>.ipynb``.
+
+    Returns
+    -------
+    int
+        1 for the lab's first notebook (file order, as :func:`labkit.reports.build_report`).
+    """
+    notebook = Path(notebook).resolve()
+    siblings = find_notebooks([notebook.parent])
+    return siblings.index(notebook) + 1 if notebook in siblings else 1

@@ -132,7 +132,7 @@ def _as_list(value):
     return [str(v) for v in value] if isinstance(value, (list, tuple)) else [str(value)]
 
 
-def number_notebooks(notebooks, *, chapters=True) -> dict:
+def number_notebooks(notebooks, *, chapters=True, first_chapter=1) -> dict:
     """Number every labelled or captioned figure, table, equation and chapter.
 
     Parameters
@@ -141,6 +141,9 @@ def number_notebooks(notebooks, *, chapters=True) -> dict:
         The notebooks of a report, in chapter order.
     chapters : bool
         Number as ``chapter.n`` ("Figure 2.1"); False for a one-notebook report ("Figure 1").
+    first_chapter : int
+        Chapter number of the first notebook (a per-notebook report of a lab's third
+        notebook numbers its figures "Figure 3.n", as the lab report does).
 
     Returns
     -------
@@ -168,7 +171,8 @@ def number_notebooks(notebooks, *, chapters=True) -> dict:
         owners.setdefault(item.label, []).append(item)
 
     for k, nb in enumerate(notebooks):
-        prefix = f"{k + 1}." if chapters else ""
+        chapter = k + first_chapter
+        prefix = f"{chapter}." if chapters else ""
         count = {"fig": 0, "tbl": 0, "eq": 0}
 
         def anchor(label, k=k):
@@ -178,7 +182,7 @@ def number_notebooks(notebooks, *, chapters=True) -> dict:
             where = f"notebook {k + 1} cell {i + 1}"
             if cell.cell_type == "markdown":
                 for m in _HEADING_LABEL.finditer(cell.source):
-                    add(Label(m.group("label"), "sec", str(k + 1), "", k, i, anchor(m.group("label"))), where)
+                    add(Label(m.group("label"), "sec", str(chapter), "", k, i, anchor(m.group("label"))), where)
                 for m in _EQUATION.finditer(cell.source):
                     count["eq"] += 1
                     add(Label(m.group("label"), "eq", f"{prefix}{count['eq']}", "", k, i, anchor(m.group("label"))),

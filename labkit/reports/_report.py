@@ -32,7 +32,8 @@ from pathlib import Path
 
 from labkit.exceptions import LabkitError, OptionError
 from labkit.reports._execute import execute_notebook, find_notebooks, notebook_parameters
-from labkit.reports._document import _chapter, _default_roots, report_html, scrub_paths
+from labkit.reports._document import _chapter, _default_roots, fill_toc_pages, report_html, scrub_paths
+from labkit.reports._images import compact_notebook, compact_notebook_file, internalize
 from labkit.reports._numbering import number_notebooks
 
 __all__ = ["LAB_FILE", "LabInfo", "ReportResult", "lab_info", "write_lab_info", "build_report", "FORMATS"]
@@ -190,7 +191,12 @@ def _execute_one(notebook, folder, parameters, timeout):
     out = Path(folder) / notebook.name
     with _stderr_to(Path(folder) / f"{notebook.stem}.log"):
         kwargs = {"timeout": timeout} if timeout else {}
-        return execute_notebook(notebook, out, params, **kwargs)
+        result = execute_notebook(notebook, out, params, **kwargs)
+    try:  # small figures and animation frames (see labkit.reports._images)
+        compact_notebook_file(result.output)
+    except Exception:  # noqa: BLE001 - the notebook keeps its outputs; build_report compacts them in memory
+        pass
+    return result
 
 
 def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, executed=None, jobs=2,
@@ -285,6 +291,8 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
             raise LabkitError(f"no executed notebook {path.name} in {run_dir.name}; run `labkit render {lab}` "
                               f"first or leave out --executed")
         nb = nbformat.read(str(path), as_version=4)
+        internalize(nb, path.parent)  # labkit render's notebooks link their figures (<name>_assets/)
+        compact_notebook(nb)  # executed elsewhere (--executed): its figures may still be large
         nbs.append(nb)
         from labkit.reports._execute import _first_error
 
@@ -312,8 +320,9 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
     if "pdf" in to:
         from labkit.reports._render import print_pdf
 
-        files["pdf"] = print_pdf(html_path, base.with_suffix(".pdf"), budget_ms=30000, timeout=300)
-        progress(f"  PDF  {files['pdf'].name} ({files['pdf'].stat().st_size / 1e6:.1f} MB)")
+        files["pdf"], passes = _print_paged(html_path, base.with_suffix(".pdf"), html_text)
+        html_path.write_text(html_text, encoding="utf-8")
+        progress(f"  PDF  {files['pdf'].name} ({files['pdf'].stat().st_size / 1e6:.1f} MB, {passes} passes)")
     if "docx" in to:
         files["docx"] = _docx(html_path, base.with_suffix(".docx"), info)
         progress(f"  DOCX {files['docx'].name}")
@@ -329,6 +338,51 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
     errs = tuple(e for e in errors if e)
     return ReportResult(lab, not errs and not warnings, files, tuple(c.title for c in chapters), errs, warnings,
                         time.perf_counter() - t0)
+
+
+#: most prints of a lab report to settle the contents' page numbers
+MAX_PRINTS = 4
+
+
+def anchor_pages(pdf) -> dict:
+    """The printed page of every link target of a PDF printed by Chromium (its named destinations).
+
+    Parameters
+    ----------
+    pdf : str or os.PathLike
+        A PDF printed by :func:`labkit.reports.print_pdf`.
+
+    Returns
+    -------
+    dict of str to int
+        HTML id (``chapter-1``, ``sec-verification``, ...) -> page number, 1 = the first page.
+    """
+    import pypdf
+
+    reader = pypdf.PdfReader(str(pdf))
+    return {str(name).lstrip("/"): reader.get_destination_page_number(dest) + 1
+            for name, dest in reader.named_destinations.items()}
+
+
+def _print_paged(html_path, pdf_path, html_text):
+    """Print the report until the contents' page numbers are those of the printed chapters.
+
+    The first print has the page numbers empty (their space reserved); each next one has the
+    numbers read back from the previous PDF, until a print confirms them (two prints unless
+    filling in the numbers moved a chapter).
+    """
+    from labkit.reports._render import print_pdf
+
+    pages = {}
+    for passes in range(1, MAX_PRINTS + 1):
+        Path(html_path).write_text(fill_toc_pages(html_text, pages), encoding="utf-8")
+        pdf = print_pdf(html_path, pdf_path, budget_ms=30000, timeout=300)
+        found = anchor_pages(pdf)
+        found = {k: v for k, v in found.items() if f'data-for="{k}"' in html_text}
+        if passes > 1 and found == pages:
+            return pdf, passes
+        pages = found
+    raise LabkitError(f"the contents' page numbers of {Path(pdf_path).name} did not settle in {MAX_PRINTS} prints")
 
 
 def _typeset(html_path) -> str:

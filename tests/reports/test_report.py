@@ -88,6 +88,38 @@ def test_per_notebook_html_numbers_captions_and_references(tmp_path):
     assert text.index("Table 1: Positions") < text.index("x [mm]")  # a table's caption is above it
 
 
+def test_per_notebook_reports_number_as_the_lab_report(tmp_path):
+    """labkit render's HTML of a lab's second notebook says "Figure 2.1", captions as in the lab report."""
+    nbformat = require("nbformat")
+    from labkit.reports import export_html
+    from labkit.reports._document import _chapter
+    from labkit.reports._numbering import number_notebooks
+    from labkit.reports._execute import chapter_of
+
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    first = _nb([("md", "# One\n\nSee @fig-a."), ("code", "#| label: fig-a\n#| fig-cap: First figure\nplot()", [PNG])])
+    second = _nb([("md", "# Two\n\n@fig-arm and @tbl-xyz; $$ x = 1 $$ {#eq-x} and @eq-x."),
+                  ("code", "#| label: tbl-xyz\n#| tbl-cap: Positions\ntable", [TABLE]),
+                  ("code", "#| label: fig-arm\n#| fig-cap: \"The arm (the seed's Figure 8.2)\"\nplot()", [PNG])])
+    for name, nb in (("01_one.ipynb", first), ("02_two.ipynb", second)):
+        nbformat.write(nb, str(lab / name))
+    assert [chapter_of(lab / "01_one.ipynb"), chapter_of(lab / "02_two.ipynb")] == [1, 2]
+    numbering = number_notebooks([first, second])
+    captions = {}
+    for k, (nb, path) in enumerate(((first, lab / "01_one.ipynb"), (second, lab / "02_two.ipynb"))):
+        chapter = _chapter(k, nb, path.stem, numbering, show_code=False, unresolved=[])
+        in_lab = re.findall(r"((?:Figure|Table) \d+\.\d+)</span>: ([^<]*)", "".join(chapter.body))
+        html = export_html(nb, tmp_path / f"{path.stem}.html", chapter=chapter_of(path)).read_text()
+        alone = re.findall(r"((?:Figure|Table) \d+\.\d+)</span>: ([^<]*)", html)
+        assert in_lab and alone == in_lab, (alone, in_lab)
+        captions[path.stem] = alone
+        text = re.sub(r"<[^>]+>", "", html)
+    assert [(n, _html.unescape(c)) for n, c in captions["02_two"]] == [
+        ("Table 2.1", "Positions"), ("Figure 2.1", "The arm (the seed's Figure 8.2)")]
+    assert "Figure 2.1 and Table 2.1" in text and "Equation (2.1)" in text  # references as in the lab report
+
+
 # ---------------------------------------------------------------- numbers, messages
 
 def test_check_table_digits_roundoff_and_typo():
@@ -258,6 +290,19 @@ def _assert_report(pdf, html, chapters, tmp_path, title_page):
     body = re.sub(r"\s+", "", "\n".join(texts[2:]))
     for k, title in enumerate(plain, start=1):
         assert f"{k}{title}" in body, title  # the chapter heading "k Title"
+    # each contents entry ends with a page number: the page that starts with that chapter's heading
+    headings = [f"{k}{t}" for k, t in enumerate(plain, start=1)] + [f"{len(plain) + 1}Verification", "ACode"]
+    toc = flat_pages[1]
+    assert toc.endswith("2")  # the contents page's number in its footer
+    starts = [toc.find(h) for h in headings]
+    assert -1 not in starts and starts == sorted(starts), (headings, toc)
+    for k, heading in enumerate(headings):
+        end = starts[k + 1] if k + 1 < len(headings) else len(toc) - 1  # the page's footer: "2"
+        page = toc[starts[k] + len(heading):end]
+        assert page.isdigit(), (heading, page)
+        page = int(page)
+        assert 3 <= page <= len(pages) and flat_pages[page - 1].startswith(heading), (heading, page)
+        assert [n for n, t in enumerate(flat_pages) if t.startswith(heading)] == [page - 1], heading
     assert not MACHINE_PATH.search(whole) and str(tmp_path) not in html
     return whole
 
