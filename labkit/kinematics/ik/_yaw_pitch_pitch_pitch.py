@@ -10,11 +10,11 @@ The approach direction
     The tool ``x`` axis; it must lie in the arm's plane (perpendicular to axis 2).
 Pitch
     The elevation of the approach direction above the plane perpendicular to
-    axis 1, measured in the arm's plane, positive towards ``+axis 1`` (up for
-    an arm whose axis 1 points up), with pitch 0 pointing horizontally away
-    from axis 1 towards the target. ``-pi/2`` points the tool along
-    ``-axis 1`` (straight down, a grasp from above); beyond ``+-pi/2`` the
-    tool points back over axis 1.
+    axis 1, measured in the arm's plane, positive upwards (towards the side of
+    axis 1 that the robot's ``up`` points to; ``+axis 1`` if axis 1 is
+    horizontal), with pitch 0 pointing horizontally away from axis 1 towards
+    the target. ``-pi/2`` points the tool straight down (a grasp from above);
+    beyond ``+-pi/2`` the tool points back over axis 1.
 
 Branches: for each side of the base (``q1`` facing the target, and turned by
 half a turn: the arm reaches over its back, with the arm-relative elevation
@@ -64,6 +64,8 @@ class YawPitchPitchPitch(Family):
                                 "to axis 2)")
         er, a1 = np.array(arm.er), np.array(arm.a1)
         self.psi0 = math.atan2(float(x0 @ a1), float(x0 @ er))  # elevation of the approach at q = 0
+        # pitch is positive upwards: towards +axis 1 (sign +1) or -axis 1 (-1, an axis 1 pointing down)
+        self.sign = -1.0 if float(np.dot(robot.up, a1)) < -TOL else 1.0
         d0 = pt - W0  # the tool point seen from the wrist point at q = 0, in the arm's plane
         self.dr0, self.dv0 = float(d0 @ er), float(d0 @ a1)
         self.R0 = tool[:3, :3].copy()
@@ -77,6 +79,7 @@ class YawPitchPitchPitch(Family):
         """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
         arm = self.arm
         sides, w, shoulder_ok, lateral = arm.planes(xp, (x, y, z))
+        pitch = self.sign * pitch  # the elevation towards +axis 1
         q, reach, signs, distance = [], [], [], None
         for side, q1, u in sides:
             # the arm-relative elevation: the target lies along +er' (side > 0) or -er' of this plane
@@ -109,7 +112,7 @@ class YawPitchPitchPitch(Family):
     def _rest(self, target):
         """The orientation after joints 1-4 (before any roll): ``Rot(a1, q1) Rot(a2, theta)``, (N, 3, 3)."""
         q1 = self._front(target[:, :3])
-        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(self.arm.a2, self.psi0 - target[:, 3])
+        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(self.arm.a2, self.psi0 - self.sign * target[:, 3])
 
     def pose(self, target):
         """Tool poses of targets, on the side facing them (see the module docstring for pitch).
@@ -153,7 +156,7 @@ class YawPitchPitchPitch(Family):
         ahead = first == (s_a > 0)  # the target lies along +er of the chosen plane
         er = rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
         psi = np.arctan2(app @ np.array(self.arm.a1), (app * er).sum(-1))
-        pitch = wrap_angle(np.where(ahead, psi, math.pi - psi))
+        pitch = wrap_angle(self.sign * np.where(ahead, psi, math.pi - psi))
         out = [p, pitch[:, None]]
         roll = self._roll_of(T, app, q1, psi, ahead)
         if roll is not None:
