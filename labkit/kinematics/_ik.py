@@ -10,7 +10,7 @@ Targets, by :func:`target_kind`:
   yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
 * ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
   5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D); both also take
-  ``(..., 4, 4)`` poses, reached where a branch's FK equals the pose (pitch and
+  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch and
   roll are defined in :mod:`labkit.kinematics.ik._yaw_pitch_pitch_pitch` and
   ``_yaw_pitch_pitch_pitch_roll``, and in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
@@ -278,9 +278,10 @@ def _solutions(robot, family, kind, flat, q0=None):
 
 
 def _pose_solutions(robot, family, T):
-    """Poses as targets of a 4- or 5-DOF family: solved on the targets they reach, kept where FK is the pose."""
+    """Poses as targets of a 4- or 5-DOF family: solved on the targets they reach, kept where FK has the
+    pose's orientation (to 1e-6, the tolerance of a rigid transform; the point itself is reached exactly)."""
     q, reach, valid, distance = solve_closed_form(robot, family, family.target_of(T))
-    same = np.abs(fk(robot, q) - T[:, None]).max(axis=(-2, -1)) < 1e-9
+    same = np.abs(fk(robot, q)[..., :3, :3] - T[:, None, :3, :3]).max(axis=(-2, -1)) < 1e-6
     return q, reach & same, valid & same, distance, tuple(family.branches)
 
 
