@@ -149,14 +149,15 @@ def validate_targets(target, kind):
 def _vector_targets(target, kind):
     """``(..., k)`` targets of a vector kind, with a message naming the components when the size is wrong."""
     names = COMPONENTS[kind]
+    name = "target position (x, y, z)" if kind == "position" else f"target ({', '.join(names)})"
     shape = np.shape(target)
     if not shape or shape[-1] != len(names):
         got = shape[-1] if shape else 1
-        missing = f": {' '.join(names[got:])} missing" if 0 < got < len(names) else ""
+        missing = f"; {' '.join(names[got:])} missing" if 0 < got < len(names) else ""
         also = " or a 4 x 4 pose" if kind in REDUCED else ""
-        raise ShapeError(f"this arm takes {' '.join(names)} (targets of shape (..., {len(names)})){also}; "
-                         f"got {got} value{'s' if got != 1 else ''} (shape {shape}){missing}")
-    p = as_batch(target, (len(names),), f"target ({', '.join(names)})")
+        raise ShapeError(f"expected {name} with shape (..., {len(names)}){also}, got {shape}: this arm takes "
+                         f"{' '.join(names)}{missing}")
+    p = as_batch(target, (len(names),), name)
     return p.reshape(-1, len(names)), p.shape[:-1]
 
 
