@@ -301,3 +301,21 @@ def test_course_arm_pitch_is_the_elevation_and_roll_turns_about_the_approach():
             t2 = _target(robot, turned)
             assert np.abs(t2[:, :4] - t[:, :4]).max() < 1e-12
             assert np.abs(wrap_angle(t2[:, 4] - t[:, 4]) - 0.3 * family.s5).max() < 1e-12, name
+
+
+def test_arm_move_to_takes_the_target_the_arm_needs():
+    """``Arm.move_to`` on the virtual AL5D: x y z pitch roll moves there (nearest branch); four numbers
+    say the roll is missing and nothing moves."""
+    from labkit.arm import Arm
+
+    al5d = Robot.load("al5d")
+    q0 = np.array([0.3, -0.4, 0.5, 0.2, 0.1])
+    target = _target(al5d, q0)
+    with Arm("sim://al5d?clock=lockstep&seed=0&calibrated=1", robot="al5d") as arm:
+        q = arm.move_to(target, wait=True)
+        assert np.abs(_difference(al5d, _target(al5d, q), target)).max() < 1e-12
+        assert np.abs(arm.read_joints() - q).max() < np.radians(2.0)
+        before = arm.commanded_joints()
+        with pytest.raises(ShapeError, match="this arm takes x y z pitch roll; roll missing"):
+            arm.move_to(target[:4])
+        assert np.array_equal(arm.commanded_joints(), before)
