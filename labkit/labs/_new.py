@@ -46,7 +46,8 @@ _PARAM_DOC = {
     "port": "the virtual arm; a real board: \"/dev/ttyACM0\" (COM3 on Windows)",
     "home": "joint values [deg | mm]",
     "poses": "measurement plan / FK poses, one row per pose [deg | mm]",
-    "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 6-DOF: + roll, pitch, yaw [deg])",
+    "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 4-DOF: + pitch [deg]; 5-DOF: + pitch, "
+               "roll [deg]; 6-DOF: + roll, pitch, yaw [deg])",
     "move": "joint move: start and end rows [deg | mm]",
     "line_mm": "Cartesian line: start and end points [mm]",
     "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z (or about \"normal\", a 4-DOF arm's vertical plane)",
