@@ -36,7 +36,8 @@ def add_commands(sub):
 
     sp = sub.add_parser(
         "ik", parents=[units],
-        help="inverse kinematics: all solutions for x y z (3-DOF), x y phi (planar), x y z roll pitch yaw (6-DOF)",
+        help="inverse kinematics: all solutions for x y z (3-DOF), x y phi (planar), x y z pitch (4-DOF), "
+             "x y z pitch roll (5-DOF), x y z roll pitch yaw (6-DOF)",
     )
     sp.add_argument("robot", help="bundled robot name or robot file")
     sp.add_argument("target", nargs="+", type=finite_float, help="target coordinates")
@@ -113,6 +114,7 @@ def _cmd_ik(args):
     import numpy as np
 
     from labkit import kinematics
+    from labkit.kinematics.ik import COMPONENTS
     from labkit.robot import Robot
 
     robot = Robot.load(args.robot)
@@ -120,32 +122,30 @@ def _cmd_ik(args):
     lunit = "mm" if args.mm else "m"
     target = np.array(args.target, dtype=float)
     kind = kinematics.target_kind(robot)
-    if kind == "planar":
-        if target.size != 3:
-            raise LabkitError(f"{robot.name} is a planar 3R arm: expected x y phi, got {target.size} values")
-        target[:2] /= s
-        if args.deg:
-            target[2] = math.radians(target[2])
-    elif kind == "pose":
-        if target.size != 6:
-            raise LabkitError(f"{robot.name} has {robot.n} joints: expected x y z roll pitch yaw, got {target.size} values")
+    names = ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
+    if target.size != len(names):
+        missing = f": {' '.join(names[target.size:])} missing" if target.size < len(names) else ""
+        raise LabkitError(f"{robot.name}: this arm takes {' '.join(names)} ({kind} targets), got {target.size} "
+                          f"value{'s' if target.size != 1 else ''}{missing}")
+    angle = np.array([nm not in ("x", "y", "z") for nm in names])
+    target[~angle] /= s
+    if args.deg:
+        target[angle] = np.radians(target[angle])
+    if kind == "pose":
         from labkit.rotations import matrix_from_rpy
 
-        rpy = np.radians(target[3:]) if args.deg else target[3:]
         T = np.eye(4)
-        T[:3, :3] = matrix_from_rpy(rpy)
-        T[:3, 3] = target[:3] / s
+        T[:3, :3] = matrix_from_rpy(target[3:])
+        T[:3, 3] = target[:3]
         target = T
-    else:
-        if target.size != 3:
-            raise LabkitError(f"{robot.name}: expected x y z, got {target.size} values")
-        target = target / s
     sols = kinematics.ik_all(robot, target)
     if not sols.reachable.any():
-        print(
-            f"labkit ik: {robot.name}: target out of reach by {float(sols.distance) * s:.4g} {lunit}",
-            file=sys.stderr,
-        )
+        distance = float(sols.distance)
+        if math.isfinite(distance) and distance > 0.0:
+            why = f"target out of reach by {distance * s:.4g} {lunit}"
+        else:
+            why = f"no configuration takes that orientation (this arm takes {' '.join(names)})"
+        print(f"labkit ik: {robot.name}: {why}", file=sys.stderr)
         return 1
     rev = robot.is_revolute
     aunit = "deg" if args.deg else "rad"
@@ -159,6 +159,6 @@ def _cmd_ik(args):
             status = "ok" if sols.valid[k] else "outside joint limits"
         rows.append((name, *(f"{v:.4f}" for v in shown), status))
     header = ("branch", *(f"{n} [{aunit if r else lunit}]" for n, r in zip(robot.joint_names, rev)), "status")
-    print(f"{robot.name}: solver {sols.solver}")
+    print(f"{robot.name}: solver {sols.solver}, target {' '.join(names)}")
     print(_fmt_table(header, rows))
     return 0

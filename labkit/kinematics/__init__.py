@@ -29,7 +29,7 @@ from labkit.kinematics._statics import (
     damping_factor,
     joint_rates,
 )
-from labkit.kinematics._display import target_from_display, target_to_display, target_error
+from labkit.kinematics._display import target_from_display, target_to_display, target_error, target_from_pose
 from labkit.kinematics._workspace import Workspace, workspace_points, PlanarRegion, planar_region
 
 __all__ = [

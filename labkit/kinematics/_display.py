@@ -1,9 +1,11 @@
 """IK targets in display units (mm, deg) and how far FK is from a target, for lab notebooks.
 
 A target row reads ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg]
-(planar), or ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY);
+(planar), ``x, y, z`` [mm] and ``pitch`` [deg] (4-DOF) or ``pitch, roll`` [deg] (5-DOF),
+or ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY);
 :func:`target_from_display` turns it into the target :func:`labkit.kinematics.ik_all`
-takes, :func:`target_to_display` goes back.
+takes, :func:`target_to_display` goes back. :func:`target_from_pose` is the target a
+tool pose reaches (the target of FK), in SI units.
 
 Example
 -------
@@ -22,8 +24,45 @@ import numpy as np
 from labkit.exceptions import LabkitError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik import target_kind
+from labkit.kinematics.ik import COMPONENTS, REDUCED, detect
 
-__all__ = ["target_from_display", "target_to_display", "target_error"]
+__all__ = ["target_from_display", "target_to_display", "target_error", "target_from_pose"]
+
+
+def target_from_pose(robot, T):
+    """The IK target of ``robot`` that tool poses ``T`` reach (the target of FK).
+
+    Parameters
+    ----------
+    robot : Robot
+    T : array_like, shape (..., 4, 4)
+        Tool poses [m].
+
+    Returns
+    -------
+    ndarray
+        ``(..., 3)`` position [m], ``(..., 3)`` planar ``(x, y, phi)`` [m, rad],
+        ``(..., 4)`` ``(x, y, z, pitch)`` / ``(..., 5)`` ``(x, y, z, pitch, roll)``
+        [m, rad] (angles in (-pi, pi]), or the poses themselves (6-DOF).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("openmanipulator_x")
+    >>> np.round(target_from_pose(arm, arm.fk([0.0, 0.0, 0.0, np.pi / 2])), 4).tolist()
+    [0.16, 0.0, 0.0615, -1.5708]
+    """
+    kind = target_kind(robot)
+    T = np.asarray(T, dtype=float)
+    if kind == "position":
+        return T[..., :3, 3].copy()
+    if kind == "planar":
+        return np.concatenate([T[..., :2, 3], np.arctan2(T[..., 1, 0], T[..., 0, 0])[..., None]], axis=-1)
+    if kind in REDUCED:
+        found, _ = detect(robot)
+        lead = T.shape[:-2]
+        return found.target_of(T.reshape(-1, 4, 4)).reshape(lead + (len(COMPONENTS[kind]),))
+    return T.copy()
 
 
 def target_from_display(robot, row):
@@ -33,23 +72,26 @@ def target_from_display(robot, row):
     ----------
     robot : Robot
     row : array_like
-        ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg] (planar), or
+        ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg] (planar),
+        ``x, y, z`` [mm] and ``pitch`` [deg] (4-DOF) or ``pitch, roll`` [deg] (5-DOF), or
         ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY).
 
     Returns
     -------
     ndarray
-        Shape (3,) [m] position, (3,) [m, m, rad] planar, or (4, 4) pose [m].
+        Shape (3,) [m] position, (3,) [m, m, rad] planar, (4,) / (5,) [m, rad], or (4, 4) pose [m].
     """
     from labkit.rotations import matrix_from_rpy
 
     kind = target_kind(robot)
     row = np.asarray(row, dtype=float)
-    sizes = {"position": 3, "planar": 3, "pose": 6}
-    if row.shape != (sizes[kind],):
-        raise LabkitError(f"expected a {kind} target of {sizes[kind]} numbers for {robot.name}, got shape {row.shape}")
+    names = ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
+    if row.shape != (len(names),):
+        raise LabkitError(f"{robot.name} takes {' '.join(names)} ({len(names)} numbers), got shape {row.shape}")
     if kind == "position":
         return row / 1000.0
+    if kind in REDUCED:
+        return np.concatenate([row[:3] / 1000.0, np.radians(row[3:])])
     if kind == "planar":
         return np.array([row[0] / 1000.0, row[1] / 1000.0, math.radians(row[2])])
     T = np.eye(4)
@@ -70,7 +112,8 @@ def target_to_display(robot, T):
     Returns
     -------
     ndarray
-        ``x, y, z`` [mm] (position), ``x, y`` [mm] and ``phi`` [deg] (planar), or
+        ``x, y, z`` [mm] (position), ``x, y`` [mm] and ``phi`` [deg] (planar),
+        ``x, y, z`` [mm] and ``pitch`` [, ``roll``] [deg] (4-, 5-DOF), or
         ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (pose).
     """
     from labkit.rotations import rpy_from_matrix
@@ -80,6 +123,8 @@ def target_to_display(robot, T):
     p = T[:3, 3] * 1000.0
     if kind == "position":
         return p
+    if kind in REDUCED:
+        return np.concatenate([p, np.degrees(target_from_pose(robot, T)[3:])])
     if kind == "planar":
         return np.array([p[0], p[1], math.degrees(math.atan2(T[1, 0], T[0, 0]))])
     rpy = np.degrees(np.asarray(rpy_from_matrix(T[:3, :3]), dtype=float))
@@ -95,13 +140,14 @@ def target_error(robot, q, target):
     q : array_like, shape (n,)
         Joint values [rad | m].
     target : array_like
-        Position (3,) [m], planar (x, y, phi) [m, m, rad], or pose (4, 4) [m].
+        Position (3,) [m], planar (x, y, phi) [m, m, rad], (x, y, z, pitch[, roll]) [m, rad],
+        or pose (4, 4) [m].
 
     Returns
     -------
     float
         Largest absolute difference: position [m], planar x, y [m] and phi [rad] (wrapped),
-        or any entry of the 4x4 pose.
+        x, y, z [m] and pitch, roll [rad] (wrapped), or any entry of the 4x4 pose.
     """
     from labkit.rotations import wrap_angle
 
@@ -109,6 +155,10 @@ def target_error(robot, q, target):
     target = np.asarray(target, dtype=float)
     if target.shape == (4, 4):
         return float(np.abs(T - target).max())
+    if target_kind(robot) in REDUCED:
+        d = target_from_pose(robot, T) - target
+        d[3:] = wrap_angle(d[3:])
+        return float(np.abs(d).max())
     if target_kind(robot) == "planar":
         d = np.array([T[0, 3] - target[0], T[1, 3] - target[1],
                       wrap_angle(math.atan2(T[1, 0], T[0, 0]) - target[2])])

@@ -6,13 +6,20 @@ Targets, by :func:`target_kind`:
   and any robot with fewer than 6 joints that is not a planar 3R;
 * ``"planar"`` ``(..., 3)`` ``(x [m], y [m], phi [rad])`` - planar 3R arms
   (seeds 003 and 004), ``phi`` the angle of the tool ``x`` axis from world ``x``;
+* ``"position_pitch"`` ``(..., 4)`` ``(x, y, z [m], pitch [rad])`` - 4-DOF
+  yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
+* ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
+  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D); both also take
+  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch and
+  roll are defined in :mod:`labkit.kinematics.ik._yaw_pitch_pitch_pitch` and
+  ``_yaw_pitch_pitch_pitch_roll``, and in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
 ``docs/ik.md``): the first of :data:`labkit.kinematics.ik.FAMILIES` that fits
 (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
-``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
+``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -29,9 +36,10 @@ import numpy as np
 
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
+from labkit.kinematics._forward import fk
 from labkit.kinematics.ik import (
-    FAMILIES, LazyGenerator, batch_index, build, describe_target, detect, pick_floats, small_targets,
-    solve_closed_form, solve_floats, solve_numeric, task_rows, validate_targets,
+    FAMILIES, REDUCED, LazyGenerator, batch_index, build, describe_target, detect, pick_floats, small_targets,
+    solve_closed_form, solve_floats, solve_numeric, target_words, task_rows, validate_targets,
 )
 from labkit.rotations import wrap_angle
 
@@ -184,7 +192,7 @@ class IKResult:
 
 
 def target_kind(robot):
-    """What an IK target of ``robot`` is: ``"position"``, ``"planar"`` or ``"pose"``.
+    """What an IK target of ``robot`` is: ``"position"``, ``"planar"``, ``"position_pitch"``, ``"position_pitch_roll"`` or ``"pose"``.
 
     Parameters
     ----------
@@ -193,9 +201,11 @@ def target_kind(robot):
     Returns
     -------
     str
-        ``"planar"`` for planar 3R arms (target ``(x, y, phi)``), ``"pose"`` for
-        robots with 6 or more joints (target ``(4, 4)``), otherwise ``"position"``
-        (target ``(x, y, z)``).
+        ``"planar"`` for planar 3R arms (target ``(x, y, phi)``),
+        ``"position_pitch"`` for 4-DOF yaw-pitch-pitch-pitch arms (``(x, y, z,
+        pitch)``), ``"position_pitch_roll"`` for 5-DOF yaw-pitch-pitch-pitch-roll
+        arms (``(x, y, z, pitch, roll)``), ``"pose"`` for robots with 6 or more
+        joints (target ``(4, 4)``), otherwise ``"position"`` (target ``(x, y, z)``).
 
     Examples
     --------
@@ -259,10 +269,20 @@ def _solutions(robot, family, kind, flat, q0=None):
     it converged, ``distance`` its residual elsewhere [m, rad].
     """
     if family is not None:
+        if kind in REDUCED and flat.ndim == 3:
+            return _pose_solutions(robot, family, flat)
         return (*solve_closed_form(robot, family, flat), tuple(family.branches))
     q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
     q = q[:, None, :]
     return q, ok[:, None], ok[:, None] & robot.within_limits(q), np.where(ok, 0.0, res), ("numeric",)
+
+
+def _pose_solutions(robot, family, T):
+    """Poses as targets of a 4- or 5-DOF family: solved on the targets they reach, kept where FK has the
+    pose's orientation (to 1e-6, the tolerance of a rigid transform; the point itself is reached exactly)."""
+    q, reach, valid, distance = solve_closed_form(robot, family, family.target_of(T))
+    same = np.abs(fk(robot, q)[..., :3, :3] - T[:, None, :3, :3]).max(axis=(-2, -1)) < 1e-6
+    return q, reach & same, valid & same, distance, tuple(family.branches)
 
 
 def ik_all(robot, target, *, solver="auto"):
@@ -417,6 +437,12 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
                 f"reachable branches: {', '.join(b for b, r in zip(branches, reach[i]) if r)}",
                 distance=0.0, index=batch_index(i, lead),
             )
+        if not (np.isfinite(dist[i]) and dist[i] > 0.0):  # the point is in reach: the orientation is not
+            raise UnreachableError(
+                f"{robot.name}: no configuration takes the orientation of target {describe_target(kind, flat[i])}"
+                f"{where}; this arm takes {target_words(kind)}",
+                distance=0.0, index=batch_index(i, lead),
+            )
         raise UnreachableError(
             f"{robot.name}: target {describe_target(kind, flat[i])}{where} is out of reach by "
             f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
@@ -450,6 +476,9 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
+    if kind in REDUCED:
+        raise OptionError(f"{robot.name}: numeric IK takes position, planar or pose targets; this arm takes "
+                          f"{target_words(kind)}, solved in closed form (use kind='position' or 'pose')")
     rows = task_rows(kind)
     if mask is not None:
         mask = np.asarray(mask, dtype=bool).reshape(-1)
@@ -519,37 +548,46 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
 
 
 def pose_from_position_pitch(robot, target):
-    """Tool poses of ``(x, y, z, pitch)`` targets of a 4-DOF yaw-pitch-pitch-pitch arm.
+    """Tool poses of ``(x, y, z, pitch)`` targets of a 4-DOF arm (``(x, y, z, pitch, roll)`` of a 5-DOF arm).
 
-    A MeArm / uArm / Dobot type arm reaches a tool point and one pitch angle; its
-    IK targets are poses (``target_kind`` is ``"pose"``), built here.
+    The pose the arm takes facing the target (its IK also takes the target itself).
 
     Parameters
     ----------
     robot : Robot
-        An arm whose closed-form family is ``yaw_pitch_pitch_pitch``.
-    target : array_like, shape (..., 4)
-        Tool point ``(x, y, z)`` [m] and pitch [rad]: the elevation of the tool x
-        axis above the plane perpendicular to axis 1 (positive towards +axis 1;
-        0 = pointing away from axis 1 in the arm's plane).
+        An arm whose closed-form family is ``yaw_pitch_pitch_pitch`` or ``yaw_pitch_pitch_pitch_roll``.
+    target : array_like, shape (..., 4) or (..., 5)
+        Tool point ``(x, y, z)`` [m], pitch [rad]: the elevation of the approach
+        direction above the plane perpendicular to axis 1 (positive towards
+        +axis 1; 0 = pointing away from axis 1 in the arm's plane), and for a
+        5-DOF arm the roll [rad] about the approach direction.
 
     Returns
     -------
     T : ndarray, shape (..., 4, 4)
-        ``world_from_tool`` poses to pass to :func:`ik` / :func:`ik_all`.
+        ``world_from_tool`` poses [m].
 
     Raises
     ------
     OptionError
-        The robot is not of that family.
+        The robot is not of those families.
     ShapeError
         Bad target shape or values.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> T = pose_from_position_pitch(Robot.load("openmanipulator_x"), [0.2, 0.0, 0.1, -np.pi / 2])
+    >>> np.round(T[:3, 0], 6).tolist()  # the approach (tool x) points straight down
+    [0.0, 0.0, -1.0]
     """
     found, reasons = detect(robot)
-    if found is None or found.name != Solver.YAW_PITCH_PITCH_PITCH.value:
+    if found is None or found.kind not in REDUCED:
         raise OptionError(
-            f"{robot.name}: (x, y, z, pitch) targets need a 4-DOF yaw-pitch-pitch-pitch arm "
-            f"({reasons.get('yaw_pitch_pitch_pitch', 'its solver is ' + repr(getattr(found, 'name', None)))})"
+            f"{robot.name}: (x, y, z, pitch[, roll]) targets need a 4-DOF yaw-pitch-pitch-pitch or 5-DOF "
+            f"yaw-pitch-pitch-pitch-roll arm ({reasons.get('yaw_pitch_pitch_pitch', 'its solver is ' + repr(getattr(found, 'name', None)))})"
         )
-    t = as_batch(target, (4,), "target (x, y, z, pitch)")
-    return found.pose(t.reshape(-1, 4)).reshape(t.shape[:-1] + (4, 4))
+    t, lead = validate_targets(np.asarray(target, dtype=float), found.kind)
+    if t.ndim == 3:
+        raise ShapeError(f"expected {target_words(found.kind)} targets, got poses")
+    return found.pose(t).reshape(lead + (4, 4))

@@ -1,8 +1,8 @@
 """A lab for any arm: ``labkit new LAB_DIR --robot ROBOT_FILE``.
 
 :func:`new_lab` copies the generic template notebooks shipped in
-``labkit/labs/templates/`` into a lab folder, with the robot file next to them and
-each notebook's ``parameters`` cell rewritten with defaults picked from the robot by
+``labkit/labs/templates/`` into a lab folder, with the robot file next to them (byte for
+byte: comments, ranges and all), and each notebook's ``parameters`` cell rewritten with defaults picked from the robot by
 :func:`lab_defaults`: the joint window the servos can reach, a home pose, a measurement
 plan, IK targets that the robot's solver reaches inside the limits, a joint move, and a
 Cartesian line and arc that stay inside the window. The lab renders like the seed labs
@@ -29,21 +29,25 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import LabkitError
-from labkit.kinematics import fk, ik_all, jacobian, target_error, target_kind, target_to_display
+from labkit.kinematics import fk, ik_all, jacobian, target_error, target_from_pose, target_kind, target_to_display
+from labkit.kinematics.ik import REDUCED
 from labkit.robot import Robot, ServoCalibration, joints_from_display, joints_to_display, robot_reach, servo_window
 
 __all__ = ["TEMPLATE_DIR", "LabDefaults", "NewLab", "lab_defaults", "with_servos", "template_values", "new_lab"]
 
 #: the generic lab notebooks shipped with the package
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
-#: the robot file's name inside a lab folder
+#: the robot file's name inside a lab folder (the user's file, copied unchanged)
 ROBOT_FILE = "robot.toml"
+#: the robot file the notebooks use when the lab had to add servo calibrations (written by labkit)
+SERVO_FILE = "robot_with_servos.toml"
 _PARAM_DOC = {
     "robot": "robot file (or bundled robot name)",
     "port": "the virtual arm; a real board: \"/dev/ttyACM0\" (COM3 on Windows)",
     "home": "joint values [deg | mm]",
     "poses": "measurement plan / FK poses, one row per pose [deg | mm]",
-    "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 6-DOF: + roll, pitch, yaw [deg])",
+    "targets": "IK targets: x, y, z [mm] (planar: x, y [mm], phi [deg]; 4-DOF: + pitch [deg]; 5-DOF: + pitch, "
+               "roll [deg]; 6-DOF: + roll, pitch, yaw [deg])",
     "move": "joint move: start and end rows [deg | mm]",
     "line_mm": "Cartesian line: start and end points [mm]",
     "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z (or about \"normal\", a 4-DOF arm's vertical plane)",
@@ -64,7 +68,8 @@ class LabDefaults:
         ``"spatial 3-DOF"``, ``"planar 3-DOF"``, ``"4-DOF"``, ``"6-DOF pose"``, ... with
         ``", prismatic"`` when a joint slides.
     target : str
-        IK target kind: ``"position"``, ``"planar"`` or ``"pose"``.
+        IK target kind (:func:`labkit.kinematics.target_kind`): ``"position"``, ``"planar"``,
+        ``"position_pitch"``, ``"position_pitch_roll"`` or ``"pose"``.
     reach : float
         Sum of the link lengths and offsets [m].
     parameters : dict
@@ -79,12 +84,30 @@ class LabDefaults:
 
 @dataclass(frozen=True)
 class NewLab:
-    """A lab folder made by :func:`new_lab`: ``folder``, ``robot_file``, ``notebooks`` (paths), ``kind``."""
+    """A lab folder made by :func:`new_lab`.
+
+    Attributes
+    ----------
+    folder : Path
+    robot_file : Path
+        The user's robot file, copied unchanged (``robot.toml``).
+    notebooks : tuple of Path
+    kind : str
+        :attr:`LabDefaults.kind`.
+    lab_robot_file : Path
+        The robot file the notebooks use: ``robot_file``, or ``robot_with_servos.toml``
+        where the lab added servo calibrations.
+    notes : tuple of str
+        What the lab added to the robot and the joint ranges that result (printed by
+        ``labkit new``); empty when nothing was added.
+    """
 
     folder: Path
     robot_file: Path
     notebooks: tuple
     kind: str
+    lab_robot_file: Path = None
+    notes: tuple = ()
 
 
 def with_servos(robot):
@@ -134,9 +157,7 @@ def _round(robot, q):
 
 def _reachable(robot, q, kind, window):
     """True when IK of FK(q) returns a solution inside the window that reproduces the target."""
-    T = fk(robot, q)
-    target = T[:3, 3] if kind == "position" else (
-        np.array([T[0, 3], T[1, 3], math.atan2(T[1, 0], T[0, 0])]) if kind == "planar" else T)
+    target = target_from_pose(robot, fk(robot, q))
     try:
         sols = ik_all(robot, target)
     except LabkitError:
@@ -150,7 +171,7 @@ def _reachable(robot, q, kind, window):
 
 def _well_conditioned(robot, q, kind):
     J = jacobian(robot, q)
-    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}[kind]
+    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}.get(kind, [0, 1, 2])
     if kind == "pose" and robot.n < 6:  # a 4-DOF arm's pose targets: the position part must stay well-conditioned
         rows = [0, 1, 2]
     s = np.linalg.svd(J[rows], compute_uv=False)
@@ -227,16 +248,19 @@ def lab_defaults(robot) -> LabDefaults:
     if kind == "planar":
         directions = directions[:4]
     arc_normals = [None]  # arcs in the x-y plane about +z
-    if kind == "pose" and n < 6:
+    if kind in REDUCED or (kind == "pose" and n < 6):
         # a 4-DOF (yaw-pitch-pitch-pitch) arm holds its orientation only where the yaw stays put:
         # lines and arcs in the vertical plane through the base axis and the tool
-        radial = np.array([p0[0], p0[1], 0.0])
-        radial = radial / np.linalg.norm(radial) if np.linalg.norm(radial) > 1e-9 else np.array([1.0, 0.0, 0.0])
-        directions = [radial, -radial, directions[4], directions[5]]
-        arc_normals = [np.cross(radial, [0.0, 0.0, 1.0])]
+        # (the arm's plane: spanned by axis 1 and the radial direction axis 2 x axis 1, at the home pose)
+        axes = jacobian(robot, home)[3:, :2].T
+        radial = np.cross(axes[1], axes[0])
+        radial = radial / np.linalg.norm(radial)
+        up = axes[0] / np.linalg.norm(axes[0])
+        directions = [radial, -radial, up, -up]
+        arc_normals = [np.cross(radial, up)]
     # display precision [mm, deg]: 0.1, except for a 4-DOF arm's pose targets, whose orientation and
     # position must agree to 1e-6 rad (a rounded point no longer lies in the tool's vertical plane)
-    digits = 6 if kind == "pose" and n < 6 else 1
+    digits = 6 if kind in REDUCED or (kind == "pose" and n < 6) else 1
     line_pts = arc_spec = None
     for length in (0.15, 0.1, 0.05):
         for u in directions:
@@ -334,15 +358,40 @@ def template_values(robot, robot_ref, stem, defaults=None):
             "measurements": "", "output_dir": f"{stem}_files"}
 
 
+def _servo_notes(user, model):
+    """What :func:`with_servos` added to ``user`` (giving ``model``) and the joint ranges that result."""
+    from labkit.robot import servo_window
+
+    added = [j for j, lk in enumerate(user.links) if lk.servo is None]
+    if not added:
+        return ()
+    window = servo_window(model)
+    notes = [f"{ROBOT_FILE}: your robot file, copied unchanged",
+             f"{SERVO_FILE}: {ROBOT_FILE} plus hobby-servo calibrations (180 deg travel, 500-2500 us, channel = "
+             f"joint index) on {', '.join(user.joint_names[j] for j in added)}, so the virtual arm (sim://) and a "
+             f"servo board can drive them; the notebooks use this file. Joint ranges that result:"]
+    for j in added:
+        rev = user.is_revolute[j]
+        scale, unit = (180.0 / math.pi, "deg") if rev else (1000.0, "mm")
+        lo, hi = (float(v) * scale for v in user.joint_limits[j])
+        wlo, whi = (float(v) * scale for v in window[j])
+        change = "unchanged" if abs(wlo - lo) < 1e-6 and abs(whi - hi) < 1e-6 else f"narrowed to {wlo:.4g}..{whi:.4g} {unit}"
+        notes.append(f"  {user.joint_names[j]}: limits {lo:.4g}..{hi:.4g} {unit} -> {change}")
+    return tuple(notes)
+
+
 def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     """Create a lab folder for ``robot`` from the generic template notebooks.
 
-    Writes ``robot.toml`` (the robot file, with a servo calibration added to joints that have
-    none, so the virtual arm and a servo board can drive it) and the notebooks
-    ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``, ``05_calibration``,
-    ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
+    Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
+    the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
+    ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
+    Where joints have no servo calibration (the virtual arm and a servo board drive joints
+    through one), the lab adds them in a separate file, ``robot_with_servos.toml``
+    (:func:`with_servos`), which the notebooks then use; :attr:`NewLab.notes` says what was
+    added and which joint ranges result (``labkit new`` prints it).
 
     Parameters
     ----------
@@ -365,31 +414,45 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
         The folder exists and is not empty (without ``force``), the robot cannot be loaded,
         or no defaults fit it.
     """
+    import shutil
+
     import nbformat
 
     folder = Path(lab_dir)
     if folder.exists() and any(folder.iterdir()) and not force:
         raise LabkitError(f"expected a new or empty lab folder, got {str(folder)!r} (not empty; use --force)")
-    model = with_servos(Robot.load(robot))
+    user = Robot.load(robot)
+    model = with_servos(user)
+    notes = _servo_notes(user, model)
     defaults = lab_defaults(model)
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
     if not templates:
         raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
     folder.mkdir(parents=True, exist_ok=True)
     robot_file = folder / ROBOT_FILE
-    model.to_toml(robot_file)
+    if Path(user.path).resolve() != robot_file.resolve():
+        shutil.copyfile(user.path, robot_file)
+    lab_file = robot_file
+    if notes:
+        lab_file = folder / SERVO_FILE
+        header = "".join(f"# {line}\n" for line in (
+            f"Written by `labkit new`: {ROBOT_FILE} (unchanged) plus the servo calibrations the lab adds.",
+            *notes[2:]))
+        lab_file.write_text(header + model.to_toml(), encoding="utf-8")
     title = title or f"{model.title or model.name} lab"
     written = []
     for tpl in templates:
         nb = nbformat.read(str(tpl), as_version=4)
-        values = template_values(model, ROBOT_FILE, tpl.stem, defaults)
+        values = template_values(model, lab_file.name, tpl.stem, defaults)
         nb = _render_template(nb, values, title, model.title or model.name)
         out = folder / tpl.name
         nbformat.write(nb, str(out))
         written.append(out)
+    added = (f" The notebooks use `{SERVO_FILE}`: `{ROBOT_FILE}` unchanged plus the servo calibrations the "
+             f"virtual arm needs (joint ranges in its header).") if notes else ""
     (folder / "README.md").write_text(
         f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.kind}, target kind "
-        f"`{defaults.target}`), made with `labkit new`.\n\n"
+        f"`{defaults.target}`), made with `labkit new`.{added}\n\n"
         + "".join(f"* `{p.name}`\n" for p in written)
         + "\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
           "virtual arm, `sim://`). On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`.\n",
@@ -397,5 +460,5 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     from labkit.reports import LabInfo, write_lab_info
 
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
-    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind)
-
+    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind,
+                  lab_file.resolve(), notes)

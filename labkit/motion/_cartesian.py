@@ -188,7 +188,7 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         if i is None:
             raise
         i += offset[0]
-        xi = targets[i][:3, 3] if kind == "pose" else targets[i]
+        xi = targets[i][:3, 3] if np.ndim(targets[i]) == 2 else targets[i]
         raise UnreachableError(
             f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}, "
             f"is unreachable: {exc.distance * 1e3:.3g} mm outside the workspace ({exc})",
@@ -200,7 +200,7 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         if i is None:
             raise
         i += offset[0]
-        xi = targets[i][:3, 3] if kind == "pose" else targets[i]
+        xi = targets[i][:3, 3] if np.ndim(targets[i]) == 2 else targets[i]
         raise JointLimitError(
             f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}: {exc}",
             joint=exc.joint,
@@ -404,8 +404,8 @@ def cartesian_via_trajectory(robot, points, times=None, *, durations=None, metho
     m = targets.shape[0] if targets.ndim else 0
     if m < 2:
         raise ShapeError(f"expected at least 2 via points, got shape {targets.shape}")
-    where = waypoint_path(targets[:, :3, 3] if kind == "pose" else
-                      (np.column_stack([targets[:, :2], np.zeros(m)]) if kind == "planar" else targets))
+    where = waypoint_path(targets[:, :3, 3] if targets.ndim == 3 else
+                      (np.column_stack([targets[:, :2], np.zeros(m)]) if kind == "planar" else targets[:, :3]))
     if times is not None:
         tv = np.asarray(times, dtype=float)
     elif durations is not None:

@@ -140,7 +140,7 @@ def joint_rates_and_accelerations(robot, kind, q, xd, xdd):
             return kinematics.joint_rates(Jr, b)
 
     qd = solve(xd)
-    if kind == "pose":
+    if len(rows) == 6:  # poses (also the Cartesian paths of 4- and 5-DOF arms)
         h = 1e-6
         Jp = kinematics.jacobian(robot, q + h * qd)[:, list(rows), :]
         Jm = kinematics.jacobian(robot, q - h * qd)[:, list(rows), :]

@@ -28,7 +28,7 @@ register()
     ("sim://?deadband=abc", r"option 'deadband': expected a number, got 'abc'"),
     ("sim://?zero_offsets=0,x,0", r"option 'zero_offsets': expected numbers, got '0,x,0'"),
     ("sim://?time_scale=fast", r"option 'time_scale': expected a number, got 'fast'"),
-    ("sim://no_such_robot", r"unknown robot; expected a file path or one of: arduino_arm_3dof"),
+    ("sim://no_such_robot", r"unknown robot; expected a file path or one of: al5d, arduino_arm_3dof"),
 ])
 def test_a_bad_sim_url_raises_a_labkit_option_error_that_is_a_serial_exception(url, message):
     with pytest.raises(LabkitError, match=message) as info:

@@ -80,7 +80,7 @@ def test_fk_robot_file_path(tmp_path, capsys):
     [
         (["fk", "arduino_arm_3dof", "5", "0", "--deg"], "has 3 joints; expected 3 joint values, got 2"),
         (["fk", "arduino_arm_3dof", "5", "0", "200", "--deg"], r"joint 3 \(elbow_pitch\) = 200 deg outside"),
-        (["fk", "no_such_robot", "1", "2", "3"], "unknown robot; expected a file path or one of: arduino_arm_3dof"),
+        (["fk", "no_such_robot", "1", "2", "3"], "unknown robot; expected a file path or one of: al5d, arduino_arm_3dof"),
     ],
 )
 def test_fk_errors_exit_2_with_message(argv, message, capsys):

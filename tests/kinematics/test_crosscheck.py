@@ -201,3 +201,61 @@ def test_benchmark_script_runs_quick():
     assert re.search(r"[\d,]+x$", line), line  # a ratio against rtb's ikine_a is printed
     assert out.stdout.count("success 100.0%") >= 4  # numeric IK, with and without a closed form
     assert "rtb ik_LM" in out.stdout and "peak" in out.stdout and "labkit --help" in out.stdout
+
+
+#: the course arms of issue 25 and their approach direction in tool coordinates (the files' tool frames)
+COURSE_APPROACH = {"openmanipulator_x": [1.0, 0.0, 0.0], "so101": [0.0, -1.0, 0.0], "al5d": [0.0, 0.0, 1.0]}
+
+
+@pytest.mark.parametrize("name", sorted(COURSE_APPROACH))
+def test_course_arm_ik_branches_reach_the_target_in_roboticstoolbox(name):
+    """Every reachable branch of the 4- and 5-DOF closed forms, put through roboticstoolbox's FK of a
+    DH model built from the same rows: the tool point is the target, the approach has the target's
+    pitch (elevation above the world horizontal) and, for 5-DOF arms, turning q5 turns the roll."""
+    from labkit.kinematics import target_from_pose
+
+    robot = Robot.load(name)
+    ref = _rtb_model(robot)
+    rng = np.random.default_rng(251)
+    lim = robot.joint_limits
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(40, robot.n))
+    target = target_from_pose(robot, fk(robot, q))
+    sols = ik_all(robot, target)
+    assert sols.reachable.any(axis=1).all()
+    approach = np.array(COURSE_APPROACH[name])
+    checked = 0
+    for k in range(len(q)):
+        for b in np.flatnonzero(sols.reachable[k]):
+            T = ref.fkine(sols.q[k, b]).A
+            assert np.abs(T[:3, 3] - target[k, :3]).max() < 1e-9
+            a = T[:3, :3] @ approach
+            assert abs(a[2] - np.sin(target[k, 3])) < 1e-9  # elevation above the horizontal (up = +z)
+            # ... and its horizontal part points away from axis 1 (through the base origin) towards the
+            # target by cos(pitch) (SO-101's 0.18 mm lateral offset tilts the arm's plane by < 0.004 rad
+            # at 50 mm from axis 1)
+            out = target[k, :2] - robot.base[:2, 3]
+            if np.linalg.norm(out) > 0.05:
+                assert np.abs(a[:2] - np.cos(target[k, 3]) * out / np.linalg.norm(out)).max() < 1e-2
+            checked += 1
+    assert checked >= 2 * len(q)
+
+
+def test_al5d_file_is_roboticstoolbox_al5d_plus_a_wrist_rotate():
+    """The bundled al5d.toml: joints 1-4 are roboticstoolbox's AL5D model (its tool point and the
+    approach along its tool x), and the wrist rotate turns the tool about that approach."""
+    rtb = require("roboticstoolbox")
+    model = rtb.models.DH.AL5D()
+    robot = Robot.load("al5d")
+    rng = np.random.default_rng(252)
+    q = rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(50, 5))
+    T = fk(robot, q)
+    turn = []
+    for k in range(len(q)):
+        R = model.fkine(q[k, :4]).A
+        assert np.abs(T[k, :3, 3] - R[:3, 3]).max() < 1e-12
+        assert np.abs(T[k, :3, 2] - R[:3, 0]).max() < 1e-12
+        y = T[k, :3, 1]  # the tool y axis, in RTB's tool (y, z) plane
+        turn.append(np.arctan2(y @ R[:3, 2], y @ R[:3, 1]) - q[k, 4])
+    # q5 turns the tool about the approach, right-handed: a constant angle apart from RTB's tool frame
+    turn = np.angle(np.exp(1j * (np.array(turn) - turn[0])))
+    assert np.abs(turn).max() < 1e-9

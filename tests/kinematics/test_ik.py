@@ -598,7 +598,47 @@ def test_cli_ik_errors(capsys):
     assert main(["ik", "arduino_arm_3dof", "1", "1", "1"]) == 1
     assert "out of reach by 1.458 m" in capsys.readouterr().err
     assert main(["ik", "puma560", "0.5", "0.1"]) == 2
-    assert "expected x y z roll pitch yaw, got 2 values" in capsys.readouterr().err
+    assert "this arm takes x y z roll pitch yaw (pose targets), got 2 values: z roll pitch yaw missing" in \
+        capsys.readouterr().err
+
+
+@pytest.mark.parametrize("robot, values, message", [
+    ("openmanipulator_x", ["200", "0", "100"], "this arm takes x y z pitch (position_pitch targets), got 3 values: "
+                                               "pitch missing"),
+    ("openmanipulator_x", ["200", "0", "100", "0", "0", "0"], "this arm takes x y z pitch (position_pitch targets), "
+                                                              "got 6 values"),
+    ("so101", ["200", "0", "100", "-90"], "this arm takes x y z pitch roll (position_pitch_roll targets), got 4 "
+                                          "values: roll missing"),
+    ("al5d", ["200", "0"], "this arm takes x y z pitch roll (position_pitch_roll targets), got 2 values: z pitch "
+                           "roll missing"),
+])
+def test_cli_ik_says_which_target_the_arm_takes(capsys, robot, values, message):
+    from labkit.cli import main
+
+    assert main(["ik", robot, *values, "--mm", "--deg"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "inf" not in err
+
+
+def test_cli_ik_solves_pitch_and_roll_targets_and_never_says_inf(capsys):
+    from labkit.cli import main
+
+    assert main(["ik", "openmanipulator_x", "200", "0", "100", "-60", "--mm", "--deg"]) == 0
+    out = capsys.readouterr().out
+    assert "solver yaw_pitch_pitch_pitch, target x y z pitch" in out
+    rows = {line.split()[0]: line.split() for line in out.splitlines() if "elbow" in line.split()[0]}
+    assert set(rows) == {"elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down"}
+    q = np.radians([float(v) for v in rows["elbow_up"][1:5]])
+    T = fk(Robot.load("openmanipulator_x"), q)
+    assert np.allclose(T[:3, 3], [0.2, 0.0, 0.1], atol=1e-6)  # printed to 1e-4 deg
+    assert np.degrees(np.arcsin(T[2, 0])) == pytest.approx(-60.0, abs=1e-3)  # pitch: the approach (tool x) 60 deg down
+    assert main(["ik", "al5d", "150", "100", "50", "-60", "20", "--mm", "--deg"]) == 0
+    out = capsys.readouterr().out
+    row = next(line.split() for line in out.splitlines() if line.strip().startswith("elbow_up"))
+    assert row[5] == "20.0000"  # wrist rotate = roll (its axis points towards the tool)
+    assert main(["ik", "openmanipulator_x", "900", "0", "100", "0", "--mm", "--deg"]) == 1
+    err = capsys.readouterr().err
+    assert "out of reach by" in err and "mm" in err and "inf" not in err
 
 
 def test_boundary_configurations_stay_reachable_and_exact(arm, puma):

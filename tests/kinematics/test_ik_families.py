@@ -8,9 +8,11 @@ random configurations finds no solution that is not one of the valid branches.
 import numpy as np
 import pytest
 
-from labkit.exceptions import UnreachableError
-from labkit.kinematics import fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_kind
-from labkit.kinematics.ik import FAMILIES
+from labkit.exceptions import OptionError, ShapeError, UnreachableError
+from labkit.kinematics import (
+    fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_from_pose, target_kind,
+)
+from labkit.kinematics.ik import FAMILIES, REDUCED
 from labkit.kinematics.ik._targets import SMALL_TARGETS
 from labkit.robot import Link, Robot
 from labkit.rotations import matrix_from_rpy, wrap_angle
@@ -42,6 +44,9 @@ ROBOTS = {
     "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
     "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
     "ur5": (lambda: Robot.load("ur5"), "three_parallel"),
+    "openmanipulator_x": (lambda: Robot.load("openmanipulator_x"), "yaw_pitch_pitch_pitch"),
+    "so101": (lambda: Robot.load("so101"), "yaw_pitch_pitch_pitch_roll"),
+    "al5d": (lambda: Robot.load("al5d"), "yaw_pitch_pitch_pitch_roll"),
 }
 
 
@@ -51,11 +56,18 @@ EVALUATORS = {"floats": (60, SMALL_TARGETS), "numpy": (1, 3000)}
 
 
 def _target(robot, q):
-    T = fk(robot, q)
+    return target_from_pose(robot, fk(robot, q))
+
+
+def _difference(robot, reached, target):
+    """``reached - target``, the angles of planar and pitch/roll targets wrapped."""
+    d = reached - target
     kind = target_kind(robot)
     if kind == "planar":
-        return np.concatenate([T[..., :2, 3], np.arctan2(T[..., 1, 0], T[..., 0, 0])[..., None]], axis=-1)
-    return T if kind == "pose" else T[..., :3, 3]
+        d[..., 2] = wrap_angle(d[..., 2])
+    elif kind in REDUCED:
+        d[..., 3:] = wrap_angle(d[..., 3:])
+    return d
 
 
 def test_every_family_of_the_registry_is_tested():
@@ -84,9 +96,7 @@ def test_every_branch_hits_the_target_and_the_start_is_among_them(name, evaluato
     valid = np.concatenate([p.valid for p in parts])
     assert np.all(reachable.any(axis=1))
     reached = _target(robot, sq)
-    d = reached - target[:, None]
-    if target_kind(robot) == "planar":
-        d[..., 2] = wrap_angle(d[..., 2])
+    d = _difference(robot, reached, target[:, None])
     err = np.abs(d).reshape(len(q), len(parts[0].branches), -1).max(axis=-1)
     assert err[reachable].max() < 1e-9
     found = np.abs(wrap_angle(sq - q[:, None])).max(axis=-1)
@@ -102,10 +112,13 @@ def test_branch_set_is_complete_against_numeric_ik_from_many_starts(name):
     robot = make()
     rng = np.random.default_rng(6)
     n_targets, n_starts = 12, 40
-    target = _target(robot, _in_limits(robot, rng, n_targets))
+    q = _in_limits(robot, rng, n_targets)
+    target = _target(robot, q)
     sols = ik_all(robot, target)
-    repeated = np.repeat(target, n_starts, axis=0)
-    res = ik_numeric(robot, repeated, q0=_in_limits(robot, rng, n_targets * n_starts), restarts=3, max_iter=100)
+    reduced = target_kind(robot) in REDUCED  # numeric IK has no pitch row: it runs on the tool poses
+    repeated = np.repeat(fk(robot, q) if reduced else target, n_starts, axis=0)
+    res = ik_numeric(robot, repeated, q0=_in_limits(robot, rng, n_targets * n_starts), restarts=3, max_iter=100,
+                     kind="pose" if reduced else None)
     assert res.success.mean() > 0.5  # the comparison has material
     qa = np.repeat(sols.q, n_starts, axis=0)
     valid = np.repeat(sols.valid, n_starts, axis=0)
@@ -115,8 +128,10 @@ def test_branch_set_is_complete_against_numeric_ik_from_many_starts(name):
     hit = np.abs(wrap_angle(qa - res.q[:, None])).max(axis=-1) < 1e-6
     hit &= res.success[:, None]
     hit_any = hit.reshape(n_targets, n_starts, -1).any(axis=1)
-    distinct = sols.valid.sum(axis=1)
-    assert hit_any.sum() >= 0.75 * distinct.sum()
+    same = sols.valid
+    if reduced:  # a 4-DOF arm reaching over its back holds the tool upside down: a pose of its own
+        same = same & (np.abs(fk(robot, sols.q) - fk(robot, q)[:, None]).max(axis=(-2, -1)) < 1e-9)
+    assert hit_any.sum() >= 0.75 * same.sum()
 
 
 def test_planar_2r_out_of_plane_and_out_of_reach():
@@ -182,29 +197,125 @@ def test_ur5_wrist_singularity_and_unreachable_targets():
 
 def test_4dof_position_pitch_targets():
     arm = _arm4()
-    assert target_kind(arm) == "pose"
+    assert target_kind(arm) == "position_pitch"
     targets = np.array([[0.2, 0.1, 0.15, -0.5], [0.05, -0.2, 0.3, 0.8], [-0.1, 0.0, 0.05, -1.4]])
-    T = pose_from_position_pitch(arm, targets)
-    assert T.shape == (3, 4, 4)
-    sols = ik_all(arm, T)
+    sols = ik_all(arm, targets)
+    assert sols.branches == ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
     assert sols.reachable.all()
     reached = fk(arm, sols.q)
     assert np.abs(reached[..., :3, 3] - targets[:, None, :3]).max() < 1e-12
-    # the pitch: elevation of the tool x axis above the horizontal, in the arm's plane (facing the target)
+    # the pitch: elevation of the tool x axis above the horizontal, in the arm's plane, towards the target
     x = reached[..., :3, 0]
     radial = targets[:, None, :2] / np.linalg.norm(targets[:, :2], axis=1)[:, None, None]
     pitch = np.arctan2(x[..., 2], (x[..., :2] * radial).sum(-1))
     assert np.abs(pitch - targets[:, 3, None]).max() < 1e-12
-    # the two branches are different configurations (elbow above / below the shoulder -> wrist line)
-    assert np.all(np.abs(sols.q[:, 0] - sols.q[:, 1]).max(axis=-1) > 1e-3)
-    # an orientation no 4-DOF arm can take is unreachable (distance inf), a far point by its distance
+    # the four branches are different configurations; the back ones turn the base by half a turn
+    q = sols.q
+    assert np.all(np.abs(q[:, 0] - q[:, 1]).max(axis=-1) > 1e-3)
+    assert np.allclose(np.abs(wrap_angle(q[:, 2, 0] - q[:, 0, 0])), np.pi)
+    # poses are targets too: the branches whose FK is the pose (the front ones of a front pose)
+    T = pose_from_position_pitch(arm, targets)
+    assert T.shape == (3, 4, 4)
+    s = ik_all(arm, T)
+    assert s.reachable[:, :2].all() and not s.reachable[:, 2:].any()
+    assert np.abs(fk(arm, s.q[:, :2]) - T[:, None]).max() < 1e-12
+    # an orientation no 4-DOF arm can take: a clear message, never "out of reach by inf"
     twisted = T[0].copy()
     twisted[:3, :3] = twisted[:3, :3] @ np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
     s = ik_all(arm, twisted)
-    assert not s.reachable.any() and np.isinf(s.distance)
-    with pytest.raises(UnreachableError, match="out of reach by 0.5"):
-        ik(arm, pose_from_position_pitch(arm, [0.0, 0.9, 0.1, 0.0]))
-    from labkit.exceptions import OptionError
-
-    with pytest.raises(OptionError, match="need a 4-DOF yaw-pitch-pitch-pitch arm"):
+    assert not s.reachable.any() and np.isfinite(s.distance)
+    with pytest.raises(UnreachableError, match="no configuration takes the orientation.*takes x y z pitch") as info:
+        ik(arm, twisted)
+    assert "inf" not in str(info.value)
+    with pytest.raises(UnreachableError, match=r"out of reach by 0.5\d* m"):
+        ik(arm, [0.0, 0.9, 0.1, 0.0])
+    with pytest.raises(OptionError, match="need a 4-DOF yaw-pitch-pitch-pitch"):
         pose_from_position_pitch(Robot.load("puma560"), [0.2, 0.1, 0.15, -0.5])
+
+
+@pytest.mark.parametrize("values, missing", [([0.2, 0.0, 0.1], "pitch missing"), ([0.2, 0.0], "z pitch missing"),
+                                             ([0.2, 0.0, 0.1, 0.0, 0.3], None)])
+def test_4dof_targets_of_the_wrong_size_say_what_the_arm_takes(values, missing):
+    with pytest.raises(ShapeError, match="this arm takes x y z pitch") as info:
+        ik(Robot.load("openmanipulator_x"), values)
+    message = str(info.value)
+    if missing:
+        assert missing in message
+    else:
+        assert "got (5,)" in message and "missing" not in message
+
+
+def test_5dof_targets_say_roll_is_missing_and_numeric_ik_says_why_not():
+    so101 = Robot.load("so101")
+    assert target_kind(so101) == "position_pitch_roll"
+    with pytest.raises(ShapeError, match="this arm takes x y z pitch roll; roll missing"):
+        ik_all(so101, [0.2, 0.0, 0.1, -1.0])
+    with pytest.raises(OptionError, match="numeric IK takes position, planar or pose targets"):
+        ik(so101, [0.2, 0.0, 0.1, -1.0, 0.0], solver="numeric")
+
+
+#: the course arms of issue 25 (4-DOF pitch and 5-DOF pitch-roll targets)
+COURSE_ARMS = ("openmanipulator_x", "so101", "al5d")
+
+
+@pytest.mark.parametrize("evaluator", ["numpy", "floats"])
+@pytest.mark.parametrize("name", COURSE_ARMS)
+def test_course_arm_solves_10000_random_targets_on_every_branch(name, evaluator):
+    """Random joints in the limits -> FK -> target -> IK: the start is always a valid branch, every
+    branch's FK is the target, and every branch is the valid solution of some targets."""
+    robot = Robot.load(name)
+    rng = np.random.default_rng(25)
+    q = _in_limits(robot, rng, 10_000)
+    target = _target(robot, q)
+    if evaluator == "numpy":
+        sols = ik_all(robot, target)
+        sq, reach, valid = sols.q, sols.reachable, sols.valid
+    else:  # a few targets per call: the formulas on Python floats
+        parts = [ik_all(robot, target[k:k + SMALL_TARGETS]) for k in range(0, len(target), SMALL_TARGETS)]
+        sq, reach, valid = (np.concatenate([getattr(p, f) for p in parts]) for f in ("q", "reachable", "valid"))
+    err = np.abs(_difference(robot, _target(robot, sq), target[:, None])).max(axis=-1)
+    assert err[reach].max() < 1e-9
+    start = np.where(valid, np.abs(wrap_angle(sq - q[:, None])).max(axis=-1), np.inf).min(axis=-1)
+    assert np.all(start < 1e-7), f"{np.mean(start < 1e-7):.2%} solved"
+    assert valid.any(axis=0).all(), "every branch is the valid solution of some target"
+    assert np.isfinite(sq).all()
+
+
+def test_course_arm_pitch_is_the_elevation_and_roll_turns_about_the_approach():
+    """pitch = elevation of the approach above the world horizontal (up = +z for all three files);
+    a change of roll turns the tool about the approach and leaves point and approach in place."""
+    from labkit.kinematics.ik import detect
+
+    rng = np.random.default_rng(7)
+    for name in COURSE_ARMS:
+        robot = Robot.load(name)
+        family, _ = detect(robot)
+        q = _in_limits(robot, rng, 500)
+        T = fk(robot, q)
+        t = _target(robot, q)
+        approach = T[:, :3, :3] @ family.approach_tool
+        assert np.abs(np.sin(t[:, 3]) - approach[:, 2]).max() < 1e-12, name
+        if robot.n == 5:
+            turned = q.copy()
+            turned[:, 4] += 0.3
+            t2 = _target(robot, turned)
+            assert np.abs(t2[:, :4] - t[:, :4]).max() < 1e-12
+            assert np.abs(wrap_angle(t2[:, 4] - t[:, 4]) - 0.3 * family.s5).max() < 1e-12, name
+
+
+def test_arm_move_to_takes_the_target_the_arm_needs():
+    """``Arm.move_to`` on the virtual AL5D: x y z pitch roll moves there (nearest branch); four numbers
+    say the roll is missing and nothing moves."""
+    from labkit.arm import Arm
+
+    al5d = Robot.load("al5d")
+    q0 = np.array([0.3, -0.4, 0.5, 0.2, 0.1])
+    target = _target(al5d, q0)
+    with Arm("sim://al5d?clock=lockstep&seed=0&calibrated=1", robot="al5d") as arm:
+        q = arm.move_to(target, wait=True)
+        assert np.abs(_difference(al5d, _target(al5d, q), target)).max() < 1e-12
+        assert np.abs(arm.read_joints() - q).max() < np.radians(2.0)
+        before = arm.commanded_joints()
+        with pytest.raises(ShapeError, match="this arm takes x y z pitch roll; roll missing"):
+            arm.move_to(target[:4])
+        assert np.array_equal(arm.commanded_joints(), before)

@@ -146,15 +146,86 @@ def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
     assert "spatial 3-DOF, prismatic" in out and "labkit render" in out
     lab = tmp_path / "scara_lab"
     assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
-    robot = Robot.load(lab / "robot.toml")
+    assert (lab / "robot.toml").read_bytes() == open(robot_files["scara"], "rb").read(), "the user's file, unchanged"
+    robot = Robot.load(lab / "robot_with_servos.toml")
     assert all(lk.servo is not None for lk in robot.links), "servo calibrations added so the arm can be driven"
+    assert "robot_with_servos.toml: robot.toml plus hobby-servo calibrations" in out
+    assert "quill: limits 20..120 mm -> unchanged" in out
     params = notebook_parameters(lab / "02_fk_check.ipynb")
-    assert ast.literal_eval(params["robot"]) == "robot.toml"
-    assert ast.literal_eval(params["port"]).startswith("sim://robot.toml?")
+    assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"
+    assert ast.literal_eval(params["port"]).startswith("sim://robot_with_servos.toml?")
     assert len(ast.literal_eval(params["poses"])) == 1 + 2 * robot.n
     nb = json.loads((lab / "01_robot_dh.ipynb").read_text())
     assert nb["cells"][0]["source"][0].startswith("# SCARA lab: 1.")
     assert main(["new", str(lab), "--robot", robot_files["scara"]]) == 2  # not empty
+
+
+#: a user's robot file as in issue 25 (comments, base +-180 deg, shoulder -117..90 deg)
+COMMENTED = """# my OpenMANIPULATOR-X, measured in the lab on 2026-11-30
+format = "labkit-robot/1"
+name = "my_omx"   # keep this comment
+convention = "standard"
+units = { length = "mm", angle = "deg" }
+
+[[joint]]
+name = "base"
+d = 77
+alpha = -90
+limits = [-180, 180]   # the full turn the servo allows
+
+[[joint]]
+name = "shoulder"
+a = 130.23
+theta = -79.38
+limits = [-117, 90]
+
+[[joint]]
+name = "elbow"
+a = 124
+theta = 79.38
+limits = [-90, 87]
+
+[[joint]]
+name = "wrist"
+a = 126
+limits = [-100, 117]
+"""
+
+
+@pytest.mark.parametrize("robot", ["openmanipulator_x", "so101", "al5d", "commented"])
+def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_path, capsys, robot):
+    from labkit.cli import main
+    from labkit.reports import notebook_parameters
+    from labkit.robot import Robot, bundled_robots
+
+    if robot == "commented":
+        source = tmp_path / "my_omx.toml"
+        source.write_text(COMMENTED, encoding="utf-8")
+    else:
+        source = bundled_robots()[robot]
+    lab = tmp_path / "lab"
+    assert main(["new", str(lab), "--robot", str(source)]) == 0
+    out = capsys.readouterr().out
+    assert (lab / "robot.toml").read_bytes() == source.read_bytes()
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
+    user = Robot.load(source)
+    params = notebook_parameters(lab / "03_ik_check.ipynb")
+    if all(lk.servo is not None for lk in user.links):  # al5d: hobby servos, nothing to add
+        assert not (lab / "robot_with_servos.toml").exists() and "robot_with_servos" not in out
+        assert ast.literal_eval(params["robot"]) == "robot.toml"
+        return
+    assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"
+    assert "robot.toml: your robot file, copied unchanged" in out
+    added = Robot.load(lab / "robot_with_servos.toml")
+    assert np.allclose(added.joint_limits, user.joint_limits, rtol=0, atol=1e-9) and added.n == user.n
+    base = {"openmanipulator_x": "joint1: limits -180..180", "so101": "shoulder_pan: limits -110..110",
+            "commented": "base: limits -180..180"}[robot]
+    assert f"{base} deg -> narrowed to -90..90 deg" in out  # the servo's 180 deg travel, said out loud
+    if robot == "commented":
+        assert "shoulder: limits -117..90 deg -> narrowed to -103.5..76.5 deg" in out  # the ranges of issue 25
+    # the lab's targets are the kind the arm takes: x y z pitch (4-DOF) or x y z pitch roll (5-DOF)
+    width = {4: 4, 5: 5}[user.n]
+    assert all(len(row) == width for row in ast.literal_eval(params["targets"]))
 
 
 @pytest.mark.slow

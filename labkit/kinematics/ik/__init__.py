@@ -5,7 +5,7 @@ The public functions (:func:`labkit.kinematics.ik`, ``ik_all``, ``ik_numeric``,
 what they run on:
 
 * one module per closed-form family (``_planar_2r``, ``_planar_3r``,
-  ``_yaw_pitch_pitch``, ``_yaw_pitch_pitch_pitch``, ``_spherical_wrist``,
+  ``_yaw_pitch_pitch``, ``_yaw_pitch_pitch_pitch``, ``_yaw_pitch_pitch_pitch_roll``, ``_spherical_wrist``,
   ``_three_parallel``), each family's formulas written once against a small
   array namespace (:mod:`~labkit.kinematics.ik._xp`: numpy rows for a batch,
   Python floats for one target) following the protocol of
@@ -23,7 +23,9 @@ what they run on:
 from labkit.kinematics.ik._registry import FAMILIES, build, detect
 from labkit.kinematics.ik._solve import pick_floats, solve as solve_closed_form, solve_floats
 from labkit.kinematics.ik._numeric import LazyGenerator, solve as solve_numeric
-from labkit.kinematics.ik._targets import batch_index, describe_target, small_targets, task_rows, validate_targets
+from labkit.kinematics.ik._targets import (
+    COMPONENTS, REDUCED, batch_index, describe_target, small_targets, target_words, task_rows, validate_targets,
+)
 
 __all__ = [
     "FAMILIES",
@@ -39,4 +41,7 @@ __all__ = [
     "task_rows",
     "batch_index",
     "describe_target",
+    "target_words",
+    "COMPONENTS",
+    "REDUCED",
 ]

@@ -5,7 +5,8 @@ A family is a class with
 ``name``
     its :class:`labkit.kinematics.Solver` value (``"planar_3r"`` ...);
 ``kind``
-    the target it takes: ``"position"``, ``"planar"`` or ``"pose"``;
+    the target it takes: ``"position"``, ``"planar"``, ``"position_pitch"``,
+    ``"position_pitch_roll"`` or ``"pose"`` (:data:`labkit.kinematics.ik._targets.COMPONENTS`);
 ``branches``, ``aliases``
     the names of its solutions, in order, and accepted other names;
 ``scalar``

@@ -16,9 +16,11 @@ from labkit.kinematics.ik._spherical_wrist import SphericalWrist
 from labkit.kinematics.ik._three_parallel import ThreeParallel
 from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
 from labkit.kinematics.ik._yaw_pitch_pitch_pitch import YawPitchPitchPitch
+from labkit.kinematics.ik._yaw_pitch_pitch_pitch_roll import YawPitchPitchPitchRoll
 
 #: the families, in the order they are tried
-FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, SphericalWrist, ThreeParallel)
+FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitchPitchRoll, SphericalWrist,
+            ThreeParallel)
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 

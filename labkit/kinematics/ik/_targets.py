@@ -20,10 +20,45 @@ from labkit.validation import as_batch
 #: at most this many targets run on Python floats (closed-form families with ``scalar = True``)
 SMALL_TARGETS = 8
 
-__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets", "small_targets"]
+__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets", "COMPONENTS", "REDUCED", "target_words", "small_targets"]
 
-#: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind
-_TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5)}
+#: the components of each vector target kind, in order (a ``"pose"`` is a 4 x 4 transform)
+COMPONENTS = {
+    "position": ("x", "y", "z"),
+    "planar": ("x", "y", "phi"),
+    "position_pitch": ("x", "y", "z", "pitch"),
+    "position_pitch_roll": ("x", "y", "z", "pitch", "roll"),
+}
+#: target kinds of arms with fewer than 6 joints that fix an orientation too (4-DOF pitch, 5-DOF pitch and
+#: roll, see :mod:`labkit.kinematics.ik._yaw_pitch_pitch_pitch`); they also take poses (checked by FK)
+REDUCED = ("position_pitch", "position_pitch_roll")
+
+#: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind;
+#: the pitch and roll of a reduced kind are no fixed rows: its Cartesian paths are poses (all six rows)
+_TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5),
+              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5)}
+
+
+def target_words(kind):
+    """What a target of ``kind`` is, in words for messages: ``"x y z pitch"``, ``"a 4 x 4 pose"`` ...
+
+    Parameters
+    ----------
+    kind : str
+        A target kind (:func:`labkit.kinematics.target_kind`).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> target_words("position_pitch_roll")
+    'x y z pitch roll'
+    """
+    if kind == "pose":
+        return "a 4 x 4 pose (at the command line: x y z roll pitch yaw)"
+    return " ".join(COMPONENTS[kind])
 
 
 def task_rows(kind):
@@ -34,9 +69,10 @@ def task_rows(kind):
 
     Parameters
     ----------
-    kind : {"position", "planar", "pose"}
+    kind : {"position", "planar", "pose", "position_pitch", "position_pitch_roll"}
         What a target fixes (:func:`labkit.kinematics.target_kind`): the tool
-        point ``(x, y, z)``, a planar arm's ``(x, y, phi)`` or the whole pose.
+        point ``(x, y, z)``, a planar arm's ``(x, y, phi)`` or the whole pose;
+        a 4- or 5-DOF arm's Cartesian paths are poses (all six rows).
 
     Returns
     -------
@@ -65,14 +101,15 @@ def validate_targets(target, kind):
 
     Parameters
     ----------
-    target : array_like, shape (..., 3) or (..., 4, 4)
-        Positions or planar ``(x, y, phi)`` [m, rad], or tool poses.
-    kind : {"position", "planar", "pose"}
+    target : array_like, shape (..., k) or (..., 4, 4)
+        Positions or planar ``(x, y, phi)`` [m, rad], ``(x, y, z, pitch[, roll])``
+        [m, rad], or tool poses (also taken by the ``position_pitch[_roll]`` kinds).
+    kind : str
         What the targets fix (:func:`labkit.kinematics.target_kind`).
 
     Returns
     -------
-    flat : ndarray, shape (N, 3) or (N, 4, 4)
+    flat : ndarray, shape (N, k) or (N, 4, 4)
         The targets, one per row.
     lead : tuple of int
         The batch shape.
@@ -84,7 +121,9 @@ def validate_targets(target, kind):
         (rotation columns orthonormal to 1e-6, det > 0, last row ``[0, 0, 0, 1]``
         to 1e-12).
     """
-    if kind == "pose":
+    if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
+        return _vector_targets(target, kind)
+    if kind in ("pose", *REDUCED):
         T = as_batch(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
@@ -104,9 +143,22 @@ def validate_targets(target, kind):
                 f"last row {T[i, 3].tolist()})"
             )
         return T, lead
-    name = "target (x, y, phi)" if kind == "planar" else "target position (x, y, z)"
-    p = as_batch(target, (3,), name)
-    return p.reshape(-1, 3), p.shape[:-1]
+    return _vector_targets(target, kind)
+
+
+def _vector_targets(target, kind):
+    """``(..., k)`` targets of a vector kind, with a message naming the components when the size is wrong."""
+    names = COMPONENTS[kind]
+    name = "target position (x, y, z)" if kind == "position" else f"target ({', '.join(names)})"
+    shape = np.shape(target)
+    if not shape or shape[-1] != len(names):
+        got = shape[-1] if shape else 1
+        missing = f"; {' '.join(names[got:])} missing" if 0 < got < len(names) else ""
+        also = " or a 4 x 4 pose" if kind in REDUCED else ""
+        raise ShapeError(f"expected {name} with shape (..., {len(names)}){also}, got {shape}: this arm takes "
+                         f"{' '.join(names)}{missing}")
+    p = as_batch(target, (len(names),), name)
+    return p.reshape(-1, len(names)), p.shape[:-1]
 
 
 def _rigid_defects(xp, t):
@@ -154,16 +206,19 @@ def describe_target(kind, t):
 
     Parameters
     ----------
-    kind : {"position", "planar", "pose"}
+    kind : str
         What the target fixes.
-    t : ndarray, shape (3,) or (4, 4)
+    t : ndarray, shape (k,) or (4, 4)
         The target [m, rad].
 
     Returns
     -------
     str
     """
-    if kind == "pose":
+    if kind in REDUCED and np.ndim(t) == 1:
+        angles = ", ".join(f"{name} = {math.degrees(v):.4g} deg" for name, v in zip(COMPONENTS[kind][3:], t[3:]))
+        return "({:.4g}, {:.4g}, {:.4g}) m, ".format(*t[:3]) + angles
+    if np.ndim(t) == 2:
         return "pose at ({:.4g}, {:.4g}, {:.4g}) m".format(*t[:3, 3])
     if kind == "planar":
         return "(x, y, phi) = ({:.4g} m, {:.4g} m, {:.4g} deg)".format(t[0], t[1], math.degrees(t[2]))
@@ -178,9 +233,9 @@ def small_targets(target, kind):
 
     Parameters
     ----------
-    target : array_like, shape (..., 3) or (..., 4, 4)
-        As :func:`validate_targets`.
-    kind : {"position", "planar", "pose"}
+    target : array_like, shape (..., n) or (..., 4, 4)
+        As :func:`validate_targets` (n components of ``kind``, :data:`COMPONENTS`).
+    kind : {"position", "planar", "position_pitch", "position_pitch_roll", "pose"}
         What the targets fix.
 
     Returns
@@ -195,9 +250,9 @@ def small_targets(target, kind):
         arr = target if type(target) is np.ndarray and target.dtype == np.float64 else np.asarray(target, dtype=float)
     except (TypeError, ValueError):
         return None, ()
-    tail = (4, 4) if kind == "pose" else (3,)
+    tail = (4, 4) if kind == "pose" else (len(COMPONENTS[kind]),)
     shape, k = arr.shape, len(tail)
-    if len(shape) < k or shape[len(shape) - k:] != tail or arr.size > SMALL_TARGETS * (16 if k == 2 else 3):
+    if len(shape) < k or shape[len(shape) - k:] != tail or arr.size > SMALL_TARGETS * (16 if k == 2 else tail[0]):
         return None, ()
     flat = arr.reshape((-1,) + tail).tolist()
     isfinite = math.isfinite

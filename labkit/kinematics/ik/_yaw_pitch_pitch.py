@@ -82,6 +82,75 @@ class Arm:
         self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
 
+    def planes(self, xp, P):
+        """The two arm planes through the point ``P`` (components): front side, then back side.
+
+        Parameters
+        ----------
+        xp : namespace
+            Array namespace.
+        P : tuple
+            3 components of a point at the lateral offset of ``W`` [m].
+
+        Returns
+        -------
+        sides : list of tuple
+            ``(side, q1, u)`` per side: ``side`` the sign (a float constant) of
+            ``u``, the radial coordinate of ``P`` in that plane [m] (from axis 1,
+            along the plane's radial direction), and ``q1`` [rad].
+        w : ndarray or float
+            Height of ``P`` along axis 1 from the shoulder's foot on it [m].
+        shoulder_ok : ndarray of bool or bool
+            ``P`` lies at least the lateral offset from axis 1.
+        lateral : ndarray or float
+            How far it lies inside that offset [m].
+        """
+        d = tuple(P[k] - self.S[k] for k in range(3))
+        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
+        off = self.off
+        rho2 = hr * hr + hn * hn
+        u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
+        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
+        lateral = xp.maximum(abs(off) - xp.sqrt(rho2), 0.0)
+        az = xp.arctan2(hn, hr)
+        sides = []
+        for side in (self.front, -self.front):
+            u = side * u0
+            sides.append((side, az - xp.arctan2(off, u), u))
+        return sides, w, shoulder_ok, lateral
+
+    def elbows(self, xp, side, ur, w):
+        """Joints 2-3 placing ``W`` at ``(ur, w)`` in an arm plane, seen from the shoulder: both elbows.
+
+        Parameters
+        ----------
+        xp : namespace
+            Array namespace.
+        side : float
+            The plane's side (``planes``), for a point straight above the shoulder.
+        ur, w : ndarray or float
+            Radial coordinate from the shoulder and height of ``W`` [m].
+
+        Returns
+        -------
+        ok : ndarray of bool or bool
+            The cosine law reaches it.
+        distance : ndarray or float
+            How far it lies out of reach [m].
+        pairs : list of tuple
+            ``(q2, q3)`` [rad], elbow up then elbow down.
+        """
+        ok, dist, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, ur, w)
+        # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
+        forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
+        # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
+        neg = forward == (self.up > 0)
+        pairs = []
+        for below in (False, True):
+            sign = xp.where(xp.logical_not(neg) if below else neg, -1.0, 1.0)
+            pairs.append((self.g1 - (direction - sign * shoulder), self.s3 * (self.g2 - self.g1 - sign * elbow)))
+        return ok, dist, pairs
+
     def solve(self, xp, W):
         """Joints 1-3 placing ``W`` (components), four branches.
 
@@ -102,31 +171,15 @@ class Arm:
         W : tuple
             3 components of the point to place [m].
         """
-        d = tuple(W[k] - self.S[k] for k in range(3))
-        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
-        off = self.off
-        rho2 = hr * hr + hn * hn
-        u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
-        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
-        lateral = xp.maximum(abs(off) - xp.sqrt(rho2), 0.0)
-        az = xp.arctan2(hn, hr)
-        up_pos = self.up > 0
+        sides, w, shoulder_ok, lateral = self.planes(xp, W)
         q, reach, distance = [], [], None
-        for side in (self.front, -self.front):
-            u = side * u0
-            ur = u - self.Sr  # radial coordinate of W seen from the shoulder
-            ok, dist, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, ur, w)
+        for side, q1, u in sides:
+            ok, dist, pairs = self.elbows(xp, side, u - self.Sr, w)
             ok = shoulder_ok & ok
             dist = xp.maximum(dist, lateral)
             distance = dist if distance is None else xp.minimum(distance, dist)
-            q1 = az - xp.arctan2(off, u)
-            # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
-            forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
-            # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
-            neg = forward == up_pos
-            for below in (False, True):
-                sign = xp.where(xp.logical_not(neg) if below else neg, -1.0, 1.0)
-                q.append((q1, self.g1 - (direction - sign * shoulder), self.s3 * (self.g2 - self.g1 - sign * elbow)))
+            for q2, q3 in pairs:
+                q.append((q1, q2, q3))
                 reach.append(ok)
         return q, reach, distance
 

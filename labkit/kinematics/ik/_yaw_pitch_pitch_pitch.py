@@ -1,106 +1,183 @@
-"""Closed-form IK family ``yaw_pitch_pitch_pitch`` (MeArm / uArm / Dobot type 4-DOF arms) (private).
+"""Closed-form IK family ``yaw_pitch_pitch_pitch`` (OpenMANIPULATOR-X, MeArm, uArm, Dobot type 4-DOF arms) (private).
 
 Four revolute joints: joints 1-3 as ``yaw_pitch_pitch`` (shoulder on or offset
-from axis 1) and axis 4 parallel to axes 2 and 3 (a wrist pitch). Such an arm
-reaches a position and one pitch angle of its tool: its pose targets are the
-poses ``Rot(a1, q1) Rot(a2, theta) M`` at a point, built from
-``(x, y, z, pitch)`` by :meth:`YawPitchPitchPitch.pose`. ``q1`` follows from
-the orientation, joints 2-3 place the wrist point on axis 4 (cosine law) and
-``q4`` completes the pitch. Branches ``elbow_up`` and ``elbow_down``
-(geometric, as ``yaw_pitch_pitch``). A pose whose orientation no such arm can
-take is unreachable (``distance`` inf). Runs on numpy batches only.
+from axis 1; the upper arm may leave the shoulder at any angle, such as
+OpenMANIPULATOR-X's 128 mm up / 24 mm forward link) and axis 4 parallel to
+axes 2 and 3 (a wrist pitch). Such an arm reaches a tool point and one angle
+of its tool: targets ``(x, y, z, pitch)`` [m, rad].
+
+The approach direction
+    The tool ``x`` axis; it must lie in the arm's plane (perpendicular to axis 2).
+Pitch
+    The elevation of the approach direction above the plane perpendicular to
+    axis 1, measured in the arm's plane, positive upwards (towards the side of
+    axis 1 that the robot's ``up`` points to; ``+axis 1`` if axis 1 is
+    horizontal), with pitch 0 pointing horizontally away from axis 1 towards
+    the target. ``-pi/2`` points the tool straight down (a grasp from above);
+    beyond ``+-pi/2`` the tool points back over axis 1.
+
+Branches: for each side of the base (``q1`` facing the target, and turned by
+half a turn: the arm reaches over its back, with the arm-relative elevation
+``pi - pitch``) both elbows, named as ``yaw_pitch_pitch``: ``elbow_up``,
+``elbow_down``, ``back_elbow_up``, ``back_elbow_down``. Which of them lie in the
+joint limits is the finishing step's ``valid``.
+
+The solution, per side: ``q1`` from the target point (as ``yaw_pitch_pitch``),
+the total rotation ``theta = q2 + q3 + q4`` (signs of parallel axes included)
+from the pitch, the wrist point on axis 4 from the tool point and ``theta``,
+joints 2-3 from the cosine law, ``q4`` from ``theta``. Written once on the
+array namespace: a batch on numpy rows, one target on Python floats.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from labkit.exceptions import ShapeError
-from labkit.kinematics.ik._family import ELBOWS, Family, documented
-from labkit.kinematics.ik._geometry import (
-    angle_about, floats, need_parallel, perpendicular, rotation_matrices, unit,
-)
+from labkit.kinematics.ik._family import Family, documented
+from labkit.kinematics.ik._geometry import TOL, NotThisFamily, angle_about, need_parallel, rotation_matrices, unit
 from labkit.kinematics.ik._xp import NUMPY
-from labkit.kinematics.ik._yaw_pitch_pitch import Arm
+from labkit.kinematics.ik._yaw_pitch_pitch import Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
 
 
 class YawPitchPitchPitch(Family):
-    """Closed-form pose IK of a 4-DOF arm with three parallel pitch axes: both elbow branches."""
+    """Closed-form IK of a 4-DOF yaw-pitch-pitch-pitch arm for targets (x, y, z, pitch): four branches."""
 
     name = "yaw_pitch_pitch_pitch"
-    kind = "pose"
+    kind = "position_pitch"
     joints = 4
-    branches = ELBOWS
+    branches = YawPitchPitch.branches
     aliases = {"up": "elbow_up", "down": "elbow_down"}
-    scalar = False
 
     def __init__(self, robot, z, o, tool):
         a2, a4 = unit(z[1]), unit(z[3])
         need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
-        self.arm = Arm(robot, z, o, o[3])  # joints 1-3 place a point on axis 4
+        pt = tool[:3, 3]
+        W0 = o[3] + a4 * ((pt - o[3]) @ a4)  # the wrist point: the tool point's foot on axis 4
+        self.arm = arm = Arm(robot, z, o, W0)
         self.s4 = 1.0 if a4 @ a2 > 0 else -1.0
-        self.M = tool.copy()
-        self.w_tool = np.linalg.inv(tool)[:3] @ np.r_[o[3], 1.0]  # that point in tool coordinates
+        x0 = self._approach(robot, z, o, tool)
+        if abs(x0 @ a2) > TOL:
+            raise NotThisFamily("the approach direction (tool x axis) must lie in the arm's plane (perpendicular "
+                                "to axis 2)")
+        er, a1 = np.array(arm.er), np.array(arm.a1)
+        self.psi0 = math.atan2(float(x0 @ a1), float(x0 @ er))  # elevation of the approach at q = 0
+        # pitch is positive upwards: towards +axis 1 (sign +1) or -axis 1 (-1, an axis 1 pointing down)
+        self.sign = -1.0 if float(np.dot(robot.up, a1)) < -TOL else 1.0
+        d0 = pt - W0  # the tool point seen from the wrist point at q = 0, in the arm's plane
+        self.dr0, self.dv0 = float(d0 @ er), float(d0 @ a1)
         self.R0 = tool[:3, :3].copy()
-        self.u = floats(perpendicular(a2))
+        self.approach_tool = self.R0.T @ x0  # the approach direction in tool coordinates
+
+    def _approach(self, robot, z, o, tool):
+        """The approach direction at ``q = 0`` (world): the tool x axis."""
+        return unit(tool[:3, 0])
+
+    def _arm_joints(self, xp, x, y, z, pitch):
+        """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
+        arm = self.arm
+        sides, w, shoulder_ok, lateral = arm.planes(xp, (x, y, z))
+        pitch = self.sign * pitch  # the elevation towards +axis 1
+        q, reach, signs, distance = [], [], [], None
+        for side, q1, u in sides:
+            # the arm-relative elevation: the target lies along +er' (side > 0) or -er' of this plane
+            theta = self.psi0 - (pitch if side > 0 else math.pi - pitch)
+            c, s = xp.cos(theta), xp.sin(theta)
+            wr = u - (self.dr0 * c + self.dv0 * s)  # the wrist point in this plane
+            wv = w - (self.dv0 * c - self.dr0 * s)
+            ok, dist, pairs = arm.elbows(xp, side, wr - arm.Sr, wv)
+            ok = shoulder_ok & ok
+            dist = xp.maximum(dist, lateral)
+            distance = dist if distance is None else xp.minimum(distance, dist)
+            for q2, q3 in pairs:
+                q.append((q1, q2, q3, self.s4 * (theta - q2 - arm.s3 * q3)))
+                reach.append(ok)
+                signs.append(side)
+        return q, reach, signs, distance
+
+    @documented
+    def solve(self, xp, t):
+        q, reach, _, distance = self._arm_joints(xp, t[0], t[1], t[2], t[3])
+        return q, reach, distance
+
+    # -- poses <-> targets (numpy; for display, target errors and pose targets) --------------------
+
+    def _front(self, p):
+        """``q1`` of the plane with the target along its +er (side > 0) for points ``p`` (N, 3)."""
+        sides, _, _, _ = self.arm.planes(NUMPY, tuple(p.T))
+        return next(q1 for side, q1, _ in sides if side > 0)
+
+    def _rest(self, target):
+        """The orientation after joints 1-4 (before any roll): ``Rot(a1, q1) Rot(a2, theta)``, (N, 3, 3)."""
+        q1 = self._front(target[:, :3])
+        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(self.arm.a2, self.psi0 - self.sign * target[:, 3])
 
     def pose(self, target):
-        """Tool poses of ``(x, y, z, pitch)`` targets (see :func:`labkit.kinematics.pose_from_position_pitch`).
+        """Tool poses of targets, on the side facing them (see the module docstring for pitch).
 
         Parameters
         ----------
-        target : ndarray, shape (N, 4)
-            Tool point [m] and pitch [rad]: the elevation of the tool x axis above the
-            plane perpendicular to axis 1, positive towards +axis 1, 0 pointing away
-            from axis 1 in the arm's plane.
+        target : ndarray, shape (N, k)
+            ``(x, y, z, pitch)`` [m, rad] (``k = 4``; the 5-DOF family adds roll).
 
         Returns
         -------
         ndarray, shape (N, 4, 4)
-
-        Raises
-        ------
-        ShapeError
-            The robot's tool x axis is not in the arm's plane.
+            ``world_from_tool`` [m].
         """
-        arm = self.arm
-        er, en, ev = (np.array(v) for v in (arm.er, arm.a2, arm.a1))
-        x0 = self.R0[:, 0]
-        if abs(x0 @ en) > 1e-9:
-            raise ShapeError("the tool x axis of this robot is not in the arm's plane: pitch is undefined")
-        d = target[:, :3] - np.array(arm.S)
-        hr, hn = d @ er, d @ en
-        off = float((self.M[:3, 3] - np.array(arm.S)) @ en)  # lateral offset of the tool point (constant)
-        u = np.sqrt(np.maximum(hr * hr + hn * hn - off * off, 0.0))
-        q1 = np.arctan2(hn, hr) - np.arctan2(off, u)
-        psi0 = np.arctan2(x0 @ ev, x0 @ er)
-        theta = psi0 - target[:, 3]  # rotating about axis 2 by theta lowers the pitch by theta
         T = np.zeros((target.shape[0], 4, 4))
-        T[:, :3, :3] = rotation_matrices(arm.a1, q1) @ rotation_matrices(arm.a2, theta) @ self.R0
+        T[:, :3, :3] = self._rest(target) @ self.R0
         T[:, :3, 3] = target[:, :3]
         T[:, 3, 3] = 1.0
         return T
 
-    @documented
-    def solve(self, xp, t):
-        arm = self.arm
-        T = np.moveaxis(np.asarray(t), -1, 0)
-        N = T.shape[0]
-        Mrot = T[:, :3, :3] @ self.R0.T  # = Rot(a1, q1) Rot(a2, theta)
-        a1, a2 = arm.a1, arm.a2
-        q1 = angle_about(NUMPY, a1, a2, tuple((Mrot @ np.array(a2)).T))
-        rest = rotation_matrices(a1, -q1) @ Mrot
-        theta = angle_about(NUMPY, a2, self.u, tuple((rest @ np.array(self.u)).T))
-        err = np.abs(rotation_matrices(a1, q1) @ rotation_matrices(a2, theta) - Mrot).max(axis=(1, 2))
-        oriented = err < 1e-9
-        W = (T[:, :3, :3] @ self.w_tool + T[:, :3, 3]).T
-        sols, ok, distance = arm.solve(NUMPY, W)
-        front = np.abs(wrap_angle(sols[0][0] - q1)) < 1e-6  # the front pair has the orientation's q1
-        q1_ok = front | (np.abs(wrap_angle(sols[2][0] - q1)) < 1e-6)
-        q, reach = [], []
-        for k in range(2):
-            _, q2, q3 = (np.where(front, f, b) for f, b in zip(sols[k], sols[2 + k]))
-            q.append((q1, q2, q3, self.s4 * (theta - q2 - arm.s3 * q3)))
-            reach.append(np.where(front, ok[k], ok[2 + k]) & oriented & q1_ok)
-        return q, reach, np.where(oriented, distance, np.inf) + np.zeros(N)
+    def target_of(self, T):
+        """The targets that tool poses ``T`` reach (inverse of :meth:`pose` on the poses the arm takes).
+
+        Parameters
+        ----------
+        T : ndarray, shape (N, 4, 4)
+            Tool poses [m].
+
+        Returns
+        -------
+        ndarray, shape (N, k)
+            ``(x, y, z, pitch)`` [m, rad] (and roll for the 5-DOF family), angles in (-pi, pi].
+        """
+        p = T[:, :3, 3]
+        app = T[:, :3, :3] @ self.approach_tool
+        sides, _, _, _ = self.arm.planes(NUMPY, tuple(p.T))
+        (s_a, q1_a, _), (_, q1_b, _) = sides
+        normals = [rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
+        first = np.abs((app * normals[0]).sum(-1)) <= np.abs((app * normals[1]).sum(-1)) + 1e-12
+        q1 = np.where(first, q1_a, q1_b)
+        ahead = first == (s_a > 0)  # the target lies along +er of the chosen plane
+        er = rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
+        psi = np.arctan2(app @ np.array(self.arm.a1), (app * er).sum(-1))
+        pitch = wrap_angle(self.sign * np.where(ahead, psi, math.pi - psi))
+        out = [p, pitch[:, None]]
+        roll = self._roll_of(T, app, q1, psi, ahead)
+        if roll is not None:
+            out.append(roll[:, None])
+        return np.concatenate(out, axis=1)
+
+    def _roll_of(self, T, app, q1, psi, ahead):
+        """The roll of poses (None: this family has no roll)."""
+        return None
+
+
+def roll_about(app, reference, actual):
+    """The angle about the approach directions ``app`` (N, 3) turning ``reference`` onto ``actual`` (N, 3) [rad].
+
+    Parameters
+    ----------
+    app, reference, actual : ndarray, shape (N, 3)
+        Unit approach directions and two vectors perpendicular to them.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    return angle_about(NUMPY, tuple(app.T), tuple(reference.T), tuple(actual.T))
