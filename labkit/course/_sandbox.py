@@ -269,7 +269,9 @@ class _Watchdog(threading.Thread):
 
     def run(self):
         while not self.stop.is_set() and self.proc.poll() is None:
-            pids = _tree(self.proc.pid)
+            # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
+            pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
+                else _tree(self.proc.pid)
             memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
             kills = self.cgroup.oom_kills() if self.cgroup else 0
             self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
