@@ -89,6 +89,10 @@ def _cmd_grade(args):
     frame = gradebook_frame(results)
     written = write_gradebook(frame, out)
     not_ok = frame[frame["status"] != "ok"]
+    mechanisms = sorted({m for m in frame["memory_limit"] if m})
+    if mechanisms:
+        print(f"memory limited per notebook run by: {', '.join(mechanisms)}"
+              + (" (sampling watchdog: no memory cgroup could be made here)" if "watchdog" in mechanisms else ""))
     print(f"{len(frame)} submissions graded; mean {frame['points'].mean():.2f} / {frame['max_points'].max():g} points; "
           f"gradebook: {', '.join(str(p) for p in written)}; feedback: {feedback.resolve()}")
     if len(not_ok):

@@ -1,14 +1,15 @@
 """A course's loop: student versions of the labs (:func:`assign`), sandboxed
 autograding of submissions (:func:`grade_submission`: the submission runs in an allow-list
-sandbox, :func:`run_untrusted`, and hands out the values its checks read as plain data; the
-instructor's checks run afterwards in a clean process; :func:`baseline` finds the checks that
-pass without student work), and
+sandbox, :func:`run_untrusted`, in a memory cgroup of its own, :func:`memory_cgroup`, and hands
+out the values its checks read as plain data; the instructor's checks run afterwards in a clean
+process; :func:`baseline` finds the checks that pass without student work), and
 batches of gradings or renders on a local process pool or a dask.distributed cluster
 (:func:`grade`, :func:`render_batch`, the gradebook).
 """
 
 from labkit.course._assign import CODE_STUB, HIDDEN_TESTS_TAG, PARAMETERS_TAG, SOLUTION_TAG, TESTS_TAG, AssignResult, GradedCell, assign, cell_role, graded_cells, student_notebook
-from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
+from labkit.course._cgroup import MemoryCgroup, memory_cgroup, memory_mechanism
+from labkit.course._sandbox import SANDBOX_HOME, Limits, RunResult, run_untrusted, sandbox_args
 from labkit.course._grade import Baseline, CellScore, RowScore, SubmissionResult, baseline, grade_submission, graded_notebook
 from labkit.course._batch import grade, gradebook_frame, pack_dir, render_batch, run_tasks, unpack_dir, write_gradebook
 
@@ -24,8 +25,12 @@ __all__ = [
     "cell_role",
     "graded_cells",
     "student_notebook",
+    "MemoryCgroup",
+    "memory_cgroup",
+    "memory_mechanism",
     "SANDBOX_HOME",
     "Limits",
+    "RunResult",
     "run_untrusted",
     "sandbox_args",
     "Baseline",

@@ -309,7 +309,8 @@ def gradebook_frame(results):
     pandas.DataFrame
         Index ``student``; columns ``status``, ``points``, ``max_points``, then
         ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``),
-        ``seconds`` and ``detail``.
+        ``seconds``, ``memory_limit`` (how memory was limited: ``cgroup v2``, ``cgroup v1``
+        or ``watchdog``) and ``detail``.
     """
     import pandas as pd
 
@@ -318,7 +319,7 @@ def gradebook_frame(results):
         row = {"student": r.student, "status": r.status, "points": r.points, "max_points": r.max_points}
         for s in r.scores:
             row[f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else "")] = s.points
-        row.update(seconds=round(r.seconds, 2), detail=r.detail)
+        row.update(seconds=round(r.seconds, 2), memory_limit=r.memory_limit, detail=r.detail)
         rows.append(row)
     return pd.DataFrame(rows).set_index("student")
 

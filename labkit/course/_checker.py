@@ -168,6 +168,14 @@ def main(argv=None) -> int:
     return 0
 
 
+def _no_data(job) -> dict:
+    """The result document of a job whose check points all went unreached (what the checker would say)."""
+    return {"notebooks": [{"name": nb["name"], "prelude_errors": [], "cells": [
+        {"cell_id": cell["cell_id"], "rows": [{"passed": False, "error": cell.get("error") or _NO_DATA, "line": row[3]}
+                                              for row in cell["rows"]]} for cell in nb["cells"]]}
+        for nb in job["notebooks"]]}
+
+
 def run_checker(job, private, *, limits, sandbox_args=None) -> dict:
     """Run the checker process on a job; the per-row results, or an ``"error"`` entry.
 
@@ -187,6 +195,8 @@ def run_checker(job, private, *, limits, sandbox_args=None) -> dict:
     dict
         The result document, or ``{"error": "..."}`` if the checker failed.
     """
+    if all(cell.get("data") is None for nb in job["notebooks"] for cell in nb["cells"]):
+        return _no_data(job)  # the kernel reached no check: nothing to run, no process to start
     job_path, result_path = private / "check-job.json", private / "check-result.json"
     job_path.write_text(json.dumps(job), encoding="utf-8")
     flags = ["-P"] if sys.version_info >= (3, 11) else []

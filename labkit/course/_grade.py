@@ -141,6 +141,9 @@ class SubmissionResult:
         Wall time of the grading [s].
     files : dict
         Relative path -> bytes of the feedback written; filled only by batch tasks.
+    memory_limit : str
+        How the memory limit was enforced: ``"cgroup v2"``, ``"cgroup v1"`` (a memory cgroup per
+        run, exact) or ``"watchdog"`` (sampling); ``""`` if no notebook ran.
     """
 
     student: str
@@ -149,6 +152,7 @@ class SubmissionResult:
     scores: tuple
     seconds: float
     files: dict = field(default_factory=dict, repr=False, compare=False)
+    memory_limit: str = ""
 
     @property
     def points(self) -> float:
@@ -223,7 +227,7 @@ def _inject_parameters(nb, params):
 
 
 def _run_one(source, theirs, name, work, limits, hide, private, declared):
-    """Run one notebook; (status, detail, plans, data by cell id, run notebook)."""
+    """Run one notebook; (status, detail, checks, plans, data by cell id, run notebook, memory mechanism)."""
     checks = {c.cell_id: c for c in graded_cells(source, name)}
     plans = {cid: plan_check(next(c.source for c in source.cells if str(c.get("id")) == cid), cid, chk.name)
              for cid, chk in checks.items()}
@@ -238,7 +242,7 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
     params = {k: v for k, v in params.items() if k in declared}
     if params:
         nb = _inject_parameters(nb, params)
-    status, detail = run_untrusted(nb, work, limits=limits, hide=hide, private=private)
+    status, detail, mechanism = run_untrusted(nb, work, limits=limits, hide=hide, private=private)
     data = {}
     for cell in nb.cells:
         cid = cell.get("metadata", {}).get("labkit", {}).get("export")
@@ -250,7 +254,7 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
         "labkit", {}).get("export") is None and any(o.get("output_type") == "error" for o in c.get("outputs", []))]
     if status == "error":
         status, detail = ("error", error_detail(errors[0][1], errors[0][0])) if errors else ("ok", "")
-    return status, detail, checks, plans, data, nb
+    return status, detail, checks, plans, data, nb, mechanism
 
 
 def _scrub(text, *paths) -> str:
@@ -314,7 +318,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
         return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
     hide = [submission.resolve().parent, lab, out, *hide]
     root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
-    statuses, details, scores, pages = [], [], [], []
+    statuses, details, scores, pages, mechanisms = [], [], [], [], []
     try:
         work, private = root / "home", root / "kernel"
         work.mkdir()
@@ -340,8 +344,9 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
                 runs.append((name, "invalid", f"{name} is not a valid notebook: {type(exc).__name__}: "
                                               f"{str(exc).splitlines()[0][:200] if str(exc) else ''}", None))
                 continue
-            status, detail, checks, plans, data, _ = _run_one(source, theirs, name, work, limits, hide, private,
-                                                             notebook_parameters(lab / name))
+            status, detail, checks, plans, data, _, mechanism = _run_one(source, theirs, name, work, limits, hide,
+                                                                        private, notebook_parameters(lab / name))
+            mechanisms.append(mechanism)
             runs.append((name, status, detail, (checks, plans)))
             roles = [(c.source, cell_role(c) == SOLUTION_TAG) for c in source.cells if c.cell_type == "code"]
             job["notebooks"].append({"name": name, "prelude": list(prelude_source(roles)), "cells": [
@@ -379,7 +384,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     finally:
         shutil.rmtree(root, ignore_errors=True)
     worst = max(statuses, key=_SEVERITY.index) if statuses else "missing"
-    result = SubmissionResult(student, worst, " | ".join(details)[:2000], tuple(scores), time.perf_counter() - t0)
+    result = SubmissionResult(student, worst, " | ".join(details)[:2000], tuple(scores), time.perf_counter() - t0,
+                              memory_limit=", ".join(sorted(set(mechanisms))))
     if html:
         write_feedback(result, pages, out / student)
     return result

@@ -18,11 +18,14 @@ ipykernel_launcher``. The sandbox shows **only what the kernel needs**:
 New user, PID, IPC, UTS, cgroup and network namespaces (no network, no abstract Unix
 sockets of the host), no capabilities, a new session, killed with the grader.
 
-**Limits** (:class:`Limits`): ``RLIMIT_CPU`` and ``RLIMIT_AS`` per process, and a
-watchdog in the grader that every 0.1 s adds up the whole sandbox (proportional set
-size of every process in it, plus what its ``/tmp`` and ``/dev/shm`` hold) and its CPU
-time and process count, and kills the sandbox over the limit; a per-cell and
-per-notebook wall clock. See ``docs/course.md`` for what this does not cover.
+**Limits** (:class:`Limits`): memory for the whole sandbox by a memory cgroup made for
+the run (:mod:`labkit.course._cgroup`: every process of the submission is born in it and
+its RAM disks are charged to it; the kernel's OOM killer enforces it, exactly); where no
+cgroup can be made, a watchdog in the grader that every 0.1 s adds up the proportional
+set size of every process in the sandbox plus what its ``/tmp`` and ``/dev/shm`` hold
+(a fast burst can overshoot it between two samples). Also ``RLIMIT_CPU`` and
+``RLIMIT_AS`` per process, the watchdog's CPU time and process count of the whole
+sandbox, and a per-cell and per-notebook wall clock. See ``docs/course.md``.
 
 Example
 -------
@@ -47,11 +50,13 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 from labkit.exceptions import LabkitError
+from labkit.course._cgroup import memory_cgroup
 from labkit.reports import kernel_manager_class
 
-__all__ = ["Limits", "RunStatus", "SANDBOX_HOME", "run_untrusted", "sandbox_args"]
+__all__ = ["Limits", "RunResult", "RunStatus", "SANDBOX_HOME", "run_untrusted", "sandbox_args"]
 
 #: outcomes of one execution (RunStatus values)
 RunStatus = ("ok", "error", "timeout", "cpu-time", "memory", "crash")
@@ -72,14 +77,18 @@ class Limits:
     cpu_seconds : float
         CPU time of the whole sandbox [s] (every process; ``RLIMIT_CPU`` per process too).
     memory_bytes : int
-        Memory of the whole sandbox [bytes]: its processes' proportional set sizes plus its
-        RAM disks (``RLIMIT_AS`` per process too).
+        Memory of the whole sandbox [bytes]: everything its processes and RAM disks hold
+        (``RLIMIT_AS`` per process too; under a memory cgroup 1 GiB more, for the address space
+        a process reserves without using it: thread stacks, allocator arenas, mapped libraries).
     wall_seconds : float
         Wall time of the whole notebook [s]; also the per-cell timeout.
     sandbox : bool
         Run the kernel in bubblewrap (False: limits only, for machines without it).
     max_processes : int
         Processes at once in the sandbox.
+    cgroup : bool
+        Enforce ``memory_bytes`` with a memory cgroup where one can be made (False: always
+        the sampling watchdog).
     """
 
     cpu_seconds: float = 120.0
@@ -87,6 +96,7 @@ class Limits:
     wall_seconds: float = 300.0
     sandbox: bool = True
     max_processes: int = 32
+    cgroup: bool = True
 
     def __post_init__(self):
         for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes"):
@@ -96,8 +106,29 @@ class Limits:
 
     @property
     def tmpfs_bytes(self) -> int:
-        """Size of each RAM disk (``/tmp``, ``/dev/shm``) [bytes]: an eighth of the memory, at most 256 MiB."""
+        """Size of each RAM disk under the watchdog [bytes]: an eighth of the memory, at most 256 MiB.
+
+        Under a memory cgroup each RAM disk may grow to ``memory_bytes``: what it holds is charged
+        to the cgroup with the processes' memory.
+        """
         return int(min(256 * 2**20, self.memory_bytes // 8))
+
+class RunResult(NamedTuple):
+    """Outcome of :func:`run_untrusted`.
+
+    Attributes
+    ----------
+    status : str
+        One of :data:`RunStatus`.
+    detail : str
+        One line on what happened.
+    memory_limit : str
+        How the memory limit was enforced: ``"cgroup v2"``, ``"cgroup v1"`` or ``"watchdog"``.
+    """
+
+    status: str
+    detail: str
+    memory_limit: str = "watchdog"
 
 
 def _python_roots() -> list:
@@ -120,7 +151,7 @@ def labkit_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
 
-def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> list:
+def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmpfs_bytes=None) -> list:
     """The ``bwrap`` command prefix of the allow-list sandbox (ends with ``--``).
 
     Parameters
@@ -135,6 +166,8 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> 
         For the size of the RAM disks.
     writable_home : bool
         Bind ``home`` read-write (the kernel) or read-only (the checker).
+    tmpfs_bytes : int, optional
+        Size of each RAM disk [bytes] (default ``limits.tmpfs_bytes``).
 
     Returns
     -------
@@ -150,11 +183,12 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True) -> 
         raise LabkitError("the grading sandbox needs bubblewrap (Debian package 'bubblewrap', command 'bwrap'); "
                           "install it or grade with sandbox=False (--no-sandbox)")
     limits = limits or Limits()
+    tmpfs = str(int(tmpfs_bytes if tmpfs_bytes is not None else limits.tmpfs_bytes))
     home, private = Path(home).resolve(), Path(private).resolve()
     args = [bwrap, "--unshare-all", "--die-with-parent", "--new-session", "--cap-drop", "ALL", "--clearenv"]
     # the RAM disks first: a bind below /tmp (a venv, a checkout) must land on top of them, not under
-    args += ["--proc", "/proc", "--dev", "/dev", "--size", str(limits.tmpfs_bytes), "--tmpfs", "/tmp",
-             "--size", str(limits.tmpfs_bytes), "--tmpfs", "/dev/shm", "--ro-bind", "/usr", "/usr"]
+    args += ["--proc", "/proc", "--dev", "/dev", "--size", tmpfs, "--tmpfs", "/tmp",
+             "--size", tmpfs, "--tmpfs", "/dev/shm", "--ro-bind", "/usr", "/usr"]
     for top in ("bin", "sbin", "lib", "lib32", "lib64", "libx32"):
         p = Path("/") / top
         if p.is_symlink():
@@ -225,21 +259,29 @@ def _ram_disks(pids) -> int:
 
 
 class _Watchdog(threading.Thread):
-    """Adds up the sandbox's memory, CPU time and processes every ``period`` s; kills it over a limit."""
+    """Every ``period`` s: the sandbox's CPU time, processes, and memory (without ``cgroup``: the sum of its
+    processes' PSS and RAM disks; with it: the cgroup's OOM kills); kills the whole sandbox over a limit."""
 
-    def __init__(self, proc, limits, period=0.1, sandboxed=True):
+    def __init__(self, proc, limits, period=0.1, sandboxed=True, cgroup=None):
         super().__init__(daemon=True)
-        self.proc, self.limits, self.period, self.sandboxed = proc, limits, period, sandboxed
+        self.proc, self.limits, self.period, self.sandboxed, self.cgroup = proc, limits, period, sandboxed, cgroup
         self.reason, self.peak_memory, self.cpu, self.stop = None, 0, 0.0, threading.Event()
 
     def run(self):
         while not self.stop.is_set() and self.proc.poll() is None:
-            pids = _tree(self.proc.pid)
-            memory = sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
+            # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
+            pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
+                else _tree(self.proc.pid)
+            memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
+            kills = self.cgroup.oom_kills() if self.cgroup else 0
             self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
             self.peak_memory = max(self.peak_memory, memory)
             reason = None
-            if memory > self.limits.memory_bytes:
+            if kills:
+                reason = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
+                                    f"{self.limits.memory_bytes / 2**30:g} GiB: the kernel's OOM killer killed "
+                                    f"{kills} process(es) ({self.cgroup.mechanism}), then the whole sandbox")
+            elif memory > self.limits.memory_bytes:
                 reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
                                     f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
             elif self.cpu > self.limits.cpu_seconds:
@@ -253,6 +295,8 @@ class _Watchdog(threading.Thread):
                         os.kill(p, signal.SIGKILL)
                     except OSError:
                         pass
+                if self.cgroup:
+                    self.cgroup.kill()
                 return
             self.stop.wait(self.period)
 
@@ -277,20 +321,23 @@ def _client_class():
     return CappedClient
 
 
-def _kernel_manager(work: Path, private: Path, limits: Limits, hide):
+def _kernel_manager(work: Path, private: Path, limits: Limits, hide, cgroup=None):
     base = kernel_manager_class()
     cpu = int(max(1, round(limits.cpu_seconds)))
-    prefix = ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={int(limits.memory_bytes)}",
-              f"--fsize={int(max(limits.memory_bytes, 2**30))}", "--"]
+    address_space = int(limits.memory_bytes) + (2**30 if cgroup is not None else 0)
+    prefix = cgroup.enter_prefix() if cgroup is not None else []
+    prefix += ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={address_space}",
+               f"--fsize={int(max(limits.memory_bytes, 2**30))}", "--"]
     if limits.sandbox:
-        prefix += sandbox_args(work, private, hide, limits=limits)
+        tmpfs = limits.memory_bytes if cgroup is not None else limits.tmpfs_bytes
+        prefix += sandbox_args(work, private, hide, limits=limits, tmpfs_bytes=tmpfs)
     launched, dogs = [], []
 
     class SandboxedKernelManager(base):
         def format_kernel_cmd(self, extra_arguments=None):
             cmd = [sys.executable if c in ("python", "python3", "{python}") else c
                    for c in super().format_kernel_cmd(extra_arguments)]
-            return [*prefix, *cmd]  # prlimit execs bwrap: the launched process is the sandbox
+            return [*prefix, *cmd]  # sh execs prlimit execs bwrap: the launched process is the sandbox
 
         async def _async_launch_kernel(self, kernel_cmd, **kw):
             kw["stdout"] = subprocess.DEVNULL  # ipykernel's banner; the notebook's output goes over ZMQ
@@ -300,7 +347,7 @@ def _kernel_manager(work: Path, private: Path, limits: Limits, hide):
             kw["cwd"] = str(work)  # the host side; bwrap changes to SANDBOX_HOME inside
             await super()._async_launch_kernel(kernel_cmd, **kw)
             launched.insert(0, self.provisioner.process)
-            dogs.append(_Watchdog(self.provisioner.process, limits, sandboxed=limits.sandbox))
+            dogs.append(_Watchdog(self.provisioner.process, limits, sandboxed=limits.sandbox, cgroup=cgroup))
             dogs[-1].start()
 
     km = SandboxedKernelManager(transport="ipc", ip=str(private / "kernel"),
@@ -331,7 +378,7 @@ def _memory_error(nb) -> bool:
                if o.get("output_type") == "error")
 
 
-def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
+def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
     """Execute ``nb`` (in place) with its kernel sandboxed on ``work``; never raises for student code.
 
     Parameters
@@ -349,19 +396,36 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
 
     Returns
     -------
-    (str, str)
+    RunResult
         The status (one of :data:`RunStatus`: ``"ok"``, ``"error"`` for an exception in some
-        cell, ``"timeout"``, ``"cpu-time"``, ``"memory"``, ``"crash"`` for a kernel that died
-        otherwise) and a one-line detail.
+        cell, ``"timeout"``, ``"cpu-time"``, ``"memory"`` for a process the memory cgroup's OOM
+        killer or the watchdog killed or an allocation over ``RLIMIT_AS``, ``"crash"`` for a
+        kernel that died otherwise), a one-line detail, and how memory was limited.
 
     Raises
     ------
     LabkitError
         If the sandbox cannot be set up (bubblewrap missing).
     """
+    limits = limits or Limits()
+    cgroup = memory_cgroup(limits.memory_bytes) if limits.cgroup else None
+    mechanism = cgroup.mechanism if cgroup is not None else "watchdog"
+    try:
+        status, detail = _execute(nb, work, limits, hide, private, cgroup)
+        kills = cgroup.oom_kills() if cgroup is not None else 0
+        if kills and status != "memory":
+            status, detail = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
+                                        f"{limits.memory_bytes / 2**30:g} GiB: {kills} process(es) killed ({mechanism})")
+        return RunResult(status, detail, mechanism)
+    finally:
+        if cgroup is not None:
+            cgroup.remove()
+
+
+def _execute(nb, work, limits, hide, private, cgroup):
+    """:func:`run_untrusted`'s run in ``cgroup`` (None: the watchdog limits memory); (status, detail)."""
     from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
-    limits = limits or Limits()
     work = Path(work).resolve()
     own = private is None
     private = Path(tempfile.mkdtemp(prefix="labkit-kernel-")) if own else Path(private)
@@ -378,12 +442,37 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
             nonlocal km, client, launched, dogs
             if client is not None:
                 atexit.unregister(client._cleanup_kernel)
-            km, launched, dogs = _kernel_manager(work, private, limits, hide)
+            km, launched, dogs = _kernel_manager(work, private, limits, hide, cgroup)
             client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
                                      startup_timeout=60, resources={"metadata": {"path": cwd}})
 
+        interrupted = []
+
         async def go():
+            loop = asyncio.get_running_loop()
+            add = loop.add_signal_handler
+
+            def recording(sig, callback, *args):  # nbclient's SIGINT/SIGTERM handler stops the kernel, and we note it
+                def handler():
+                    interrupted.append(sig)
+                    callback(*args)
+                return add(sig, handler)
+
+            loop.add_signal_handler = recording
             await asyncio.wait_for(client.async_execute(), limits.wall_seconds)
+
+        def run():
+            """``asyncio.run(go())``; Ctrl-C (SIGTERM) raises KeyboardInterrupt (SystemExit) so the grader stops
+            (nbclient's handler only stops the kernel: the submission would be graded "crash" and the batch go on)."""
+            try:
+                asyncio.run(go())
+            except BaseException:
+                if interrupted:
+                    raise (KeyboardInterrupt() if interrupted[0] == signal.SIGINT
+                           else SystemExit(128 + interrupted[0])) from None
+                raise
+            if interrupted:
+                raise KeyboardInterrupt() if interrupted[0] == signal.SIGINT else SystemExit(128 + interrupted[0])
 
         prepare()
 
@@ -394,7 +483,7 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
         t0 = time.monotonic()
         try:
             try:
-                asyncio.run(go())
+                run()
             except RuntimeError as exc:  # the kernel did not start (a busy machine): once more, afresh
                 if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
                                                            if c.cell_type == "code"):
@@ -402,7 +491,7 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None):
                 _stop(launched, dogs)
                 prepare()
                 t0 = time.monotonic()
-                asyncio.run(go())
+                run()
         except (asyncio.TimeoutError, CellTimeoutError):
             return (reason() or timed_out)
         except DeadKernelError:

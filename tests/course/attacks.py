@@ -119,6 +119,41 @@ for name in os.listdir("."):
 """
 
 
+def memory_attacks(limit_bytes, *, ram_disks_work=True) -> dict:
+    """Submissions that do the work, then go over ``limit_bytes`` in all (each piece under it).
+
+    ``forked_memory``: four forked children holding 0.4 of the limit each; ``ram_disks``: the limit
+    written to each of ``/tmp`` and ``/dev/shm`` (RAM disks: their pages are memory too). Under the
+    watchdog the RAM disks are an eighth of the limit (a full one is no overrun): there
+    ``ram_disks_work=False``, the attack does not do the work.
+    """
+    work = "T = fk(arm, q)\nx = float(T[0, 3])\n"
+    child = int(0.4 * limit_bytes)
+    fill = int(limit_bytes) // 2**20
+    return {
+        "forked_memory": work + f"""import os, time
+kids = []
+for _ in range(4):
+    pid = os.fork()
+    if pid == 0:
+        ballast = bytearray(b'm') * {child}
+        time.sleep(4)
+        os._exit(0)
+    kids.append(pid)
+for pid in kids:
+    os.waitpid(pid, 0)
+""",
+        "ram_disks": (work if ram_disks_work else "") + f"""for d in ('/tmp', '/dev/shm'):
+    try:
+        with open(d + '/fill', 'wb') as f:
+            for _ in range({fill}):
+                f.write(b'z' * 2**20)
+    except OSError as exc:
+        print(d, exc)
+""",
+    }
+
+
 CHECKS_ATTACKS = {
     # issue 23: the six ways to full marks in the student's own kernel
     "patch_assert_all": "from labkit.reports import Checks\nChecks.assert_all = lambda self: None\n"
@@ -152,12 +187,6 @@ CHECKS_ATTACKS = {
                        "    except OSError:\n        pass",
     "process_flood": "import subprocess\nps = [subprocess.Popen(['sleep', '60']) for _ in range(100)]",
     "orphan_process": "import subprocess\nsubprocess.Popen(['sleep', '987654'], start_new_session=True)",
-    "ram_disks": "import os\nfor d in ('/tmp', '/dev/shm'):\n    try:\n        with open(d + '/fill', 'wb') as f:\n"
-                 "            for _ in range(3 * 1024):\n                f.write(b'z' * 2**20)\n    except OSError as exc:\n"
-                 "        print(d, exc)",
-    "forked_memory": "import os, time\nkids = []\nfor _ in range(4):\n    pid = os.fork()\n    if pid == 0:\n"
-                     "        ballast = bytearray(b'm') * (600 * 2**20)\n        time.sleep(30)\n        os._exit(0)\n"
-                     "    kids.append(pid)\ntime.sleep(30)",
     "write_outside": "import labkit, os\nfor path in (os.path.dirname(labkit.__file__) + '/x.py', '/usr/x', '/etc/x'):\n"
                      "    try:\n        open(path, 'w').write('x')\n    except OSError as exc:\n        print(exc)",
     "baseline_values": "port = 'sim://'\nx = float('nan')",

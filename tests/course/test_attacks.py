@@ -4,6 +4,12 @@ The instructor's lab lies under ``/var/tmp``, with copies of it (and of an hones
 work) under ``/tmp``, ``$HOME`` and ``/srv``: the sandbox must show none of them, wherever
 they are. Each attack must score 0 points, and the honest submissions graded alongside
 keep their full 4 points.
+
+Memory: where a memory cgroup can be made (:func:`labkit.course.memory_mechanism`), the batch
+runs under ``--memory 0.5`` (the honest submissions pass under it), the memory attacks
+(forked children, full RAM disks) must be graded ``"memory"`` and every cgroup must be gone
+afterwards; elsewhere under ``--memory 1.5`` and the sampling watchdog (tested on its own in
+``test_watchdog_limits_forked_memory``).
 """
 
 import os
@@ -21,8 +27,20 @@ from tests.course import attacks as at
 from tests.course import course_lab as cl
 
 pytestmark = pytest.mark.slow
-LIMITS = dict(cpu_seconds=10, memory_bytes=int(1.5 * 2**30), wall_seconds=25)
+LIMITS = dict(cpu_seconds=10, wall_seconds=25)
 HONEST = ("honest_a", "honest_b", "honest_c")
+
+
+def _memory_gib(mechanism) -> float:
+    """The batch's memory limit [GiB]: small under a cgroup; under the watchdog ``RLIMIT_AS`` is the limit too."""
+    return 0.5 if mechanism != "watchdog" else 1.5
+
+
+def _cgroups() -> set:
+    """The labkit cgroups that exist now (in every hierarchy a grader here would use)."""
+    from labkit.course._cgroup import _parents
+
+    return {p for _, parent in _parents() for p in parent.glob("labkit-*")}
 
 
 def _places(tag):
@@ -73,9 +91,14 @@ class _SocketServer(threading.Thread):
                 continue
 
 
-def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path):
+def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path, capsys):
     pd = require("pandas")
     from labkit.cli import main
+    from labkit.course import memory_mechanism
+
+    mechanism = memory_mechanism()
+    memory_gib = _memory_gib(mechanism)
+    cgroups_before = _cgroups()
 
     lab, student, places = spread_lab
     subs = places["tmp"] / "submissions"
@@ -90,6 +113,7 @@ def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path):
     codes["cross_kernel"] = at.cross_kernel_code()
     codes["unix_socket"] = at.unix_socket_code([s.path for s in servers])
     codes["symlink_escape"] = at.symlink_escape_code(subs / HONEST[0] / cl.NOTEBOOK)
+    codes.update(at.memory_attacks(int(memory_gib * 2**30), ram_disks_work=mechanism != "watchdog"))
     for name, code in codes.items():
         cl.write_submission(student, subs / name, code)
     (subs / "symlink_escape" / "peek.ipynb").symlink_to(subs / HONEST[0] / cl.NOTEBOOK)
@@ -110,10 +134,11 @@ def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path):
     gradebook = tmp_path / "grades" / "gradebook.csv"
     try:
         assert main(["grade", str(subs), "--lab", str(lab), "-o", str(gradebook), "--jobs", "2",
-                     "--cpu", str(LIMITS["cpu_seconds"]), "--memory", "1.5", "--wall", str(LIMITS["wall_seconds"])]) == 0
+                     "--cpu", str(LIMITS["cpu_seconds"]), "--memory", str(memory_gib), "--wall", str(LIMITS["wall_seconds"])]) == 0
     finally:
         for s in servers:
             s.stop = True
+    assert f"memory limited per notebook run by: {mechanism}" in capsys.readouterr().out
     table = pd.read_csv(gradebook, index_col="student")
     expected_rows = set(codes) | set(HONEST) | {"symlinked_notebook", "no_cell_type", "int_source", "stray_file.ipynb",
                                                 "linked_folder"}
@@ -126,9 +151,13 @@ def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path):
     assert (table["max_points"] == 4).all(), table["max_points"]
     for name in ("symlinked_notebook", "no_cell_type", "int_source", "stray_file.ipynb", "linked_folder"):
         assert table.loc[name, "status"] in ("invalid", "missing"), name
-    for name, status in at.STATUS.items():
+    statuses = dict(at.STATUS, ram_disks="memory" if mechanism != "watchdog" else None)
+    for name, status in statuses.items():
         if status:
             assert table.loc[name, "status"] == status, (name, table.loc[name, "detail"])
+    graded = table[~table["status"].isin(["invalid", "missing"])]
+    assert set(graded["memory_limit"]) == {mechanism}, graded["memory_limit"]
+    assert _cgroups() <= cgroups_before, "a cgroup outlived its run"
     assert "cpu-time" not in str(table.loc["self_kill", "detail"])
     assert not any(s.connections for s in servers), [s.connections for s in servers]
     leftover = subprocess.run(["pgrep", "-f", "sleep 987654"], capture_output=True, text=True).stdout.split()

@@ -285,8 +285,8 @@ def test_run_untrusted_wall_clock_limit(tmp_path, sandbox):
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import os\nprint(os.getcwd())"),
                                          nbformat.v4.new_code_cell("import time\ntime.sleep(120)")])
     t0 = time.monotonic()
-    status, detail = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=10, memory_bytes=2 * 2**30,
-                                                               wall_seconds=8, sandbox=sandbox))
+    status, detail, _ = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=10, memory_bytes=2 * 2**30,
+                                                                  wall_seconds=8, sandbox=sandbox))
     assert (status, time.monotonic() - t0 < 60) == ("timeout", True), detail
     from labkit.course import SANDBOX_HOME
 
@@ -325,7 +325,7 @@ def test_sandbox_shows_only_python_labkit_and_its_own_copy(tmp_path, monkeypatch
         nbformat.v4.new_code_cell("import probe_pkg"),
         nbformat.v4.new_code_cell("open(os.path.join(os.path.dirname(labkit.__file__), 'x.py'), 'w')"),
     ])
-    status, detail = run_untrusted(nb, work, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=60))
+    status, detail, _ = run_untrusted(nb, work, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, wall_seconds=60))
     assert nb.cells[0].outputs[0]["text"].strip() == f"labkit {SANDBOX_HOME} ['mine.txt']", nb.cells[0].outputs
     assert nb.cells[1].outputs[0]["text"].strip() == "False False"
     assert nb.cells[2].outputs[0]["ename"] == "ModuleNotFoundError"
@@ -384,8 +384,8 @@ def test_sandbox_works_from_a_virtualenv_under_tmp_or_home(tmp_path, where):
         script = ("import nbformat\nfrom labkit.course import Limits, run_untrusted\n"
                   "nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("
                   "'import sys, labkit, numpy\\nprint(sys.prefix)')])\n"
-                  f"print(run_untrusted(nb, {str(tmp_path)!r}, limits=Limits(cpu_seconds=30, memory_bytes=2 * 2**30, "
-                  "wall_seconds=60)))\nprint(nb.cells[0].outputs[0]['text'].strip())\n")
+                  f"print(tuple(run_untrusted(nb, {str(tmp_path)!r}, limits=Limits(cpu_seconds=30, "
+                  "memory_bytes=2 * 2**30, wall_seconds=60))[:2]))\nprint(nb.cells[0].outputs[0]['text'].strip())\n")
         env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
         out = subprocess.run([str(venv / "bin" / "python"), "-c", script], capture_output=True, text=True, env=env,
                              timeout=180)
