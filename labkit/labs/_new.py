@@ -6,7 +6,9 @@ byte: comments, ranges and all), and each notebook's ``parameters`` cell rewritt
 :func:`lab_defaults`: the joint window the servos can reach, a home pose, a measurement
 plan, IK targets that the robot's solver reaches inside the limits, a joint move, and a
 Cartesian line and arc that stay inside the window. The lab renders like the seed labs
-(``labkit render LAB_DIR``) against the virtual arm (``sim://``).
+(``labkit render LAB_DIR``) against the virtual arm (``sim://``); an arm on a Dynamixel or Feetech
+servo bus (a robot file with a ``[bus]`` table) runs on its virtual bus
+(``sim://robot.toml?bus=dynamixel``: the vendor SDK's packets to an emulated bus).
 
 Parameters are in the units people read (degrees, millimetres; see
 :func:`labkit.robot.joints_from_display` and :func:`labkit.kinematics.target_from_display`).
@@ -115,7 +117,8 @@ def with_servos(robot):
 
     A revolute joint's 180-deg servo travel is centred on the middle of its limits (the whole
     limits when they span at most 180 deg); a prismatic joint reads its length as the servo
-    "angle" from 0 (the wire format of ``labkit.arm``).
+    "angle" from 0 (the wire format of ``labkit.arm``). A robot on a servo bus (a ``[bus]``
+    table: every joint is a bus servo) is returned unchanged: its servos are the bus's.
 
     Parameters
     ----------
@@ -125,9 +128,12 @@ def with_servos(robot):
     Returns
     -------
     Robot
-        A copy with a :class:`labkit.robot.ServoCalibration` on every joint.
+        A copy with a :class:`labkit.robot.ServoCalibration` on every joint (``robot`` itself
+        on a servo bus).
     """
     robot = Robot.load(robot)
+    if robot.bus is not None:
+        return robot
     for j, lk in enumerate(robot.links):
         if lk.servo is not None:
             continue
@@ -311,15 +317,15 @@ def lab_defaults(robot) -> LabDefaults:
     return LabDefaults(_kind(robot, kind), kind, reach, params)
 
 
-def _parameters_source(values, names):
+def _parameters_source(values, names, docs=_PARAM_DOC):
     lines = []
     for name in names:
         text = json.dumps(values[name]) if not isinstance(values[name], str) else repr(values[name]).replace("'", '"')
-        lines.append(f"{name} = {text}  # {_PARAM_DOC.get(name, '')}".rstrip(" #"))
+        lines.append(f"{name} = {text}  # {docs.get(name, '')}".rstrip(" #"))
     return "\n".join(lines)
 
 
-def _render_template(nb, values, title, robot_title):
+def _render_template(nb, values, title, robot_title, docs=_PARAM_DOC):
     """Fill a template notebook: parameters cell, title placeholders."""
     import ast
 
@@ -331,7 +337,7 @@ def _render_template(nb, values, title, robot_title):
             for node in ast.parse(cell.source).body:
                 if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name):
                     names.append(node.targets[0].id)
-            cell.source = _parameters_source(values, names)
+            cell.source = _parameters_source(values, names, docs)
     nb.metadata["title"] = title
     return nb
 
@@ -353,16 +359,50 @@ def template_values(robot, robot_ref, stem, defaults=None):
     dict
     """
     defaults = defaults or lab_defaults(robot)
-    return {**defaults.parameters, "robot": robot_ref,
-            "port": f"sim://{robot_ref}?clock=lockstep&seed=0&calibrated=1",
+    return {**defaults.parameters, "robot": robot_ref, "port": _virtual_port(robot, robot_ref),
             "measurements": "", "output_dir": f"{stem}_files"}
+
+
+def _virtual_port(robot, robot_ref):
+    """The notebooks' default port: the virtual arm of ``robot``, on its virtual servo bus if it has one.
+
+    Parameters
+    ----------
+    robot : Robot
+    robot_ref : str
+        How the notebook names the robot (file name inside the lab, or a bundled name).
+
+    Returns
+    -------
+    str
+        ``sim://<robot_ref>?clock=lockstep&seed=0&calibrated=1`` (hobby servos, the board's
+        EEPROM holding the robot file's calibration), or ``sim://<robot_ref>?bus=<kind>&clock=lockstep&seed=0``
+        (a Dynamixel or Feetech bus: the vendor SDK drives an emulated bus).
+
+    Examples
+    --------
+    >>> _virtual_port(Robot.load("so101"), "robot.toml")
+    'sim://robot.toml?bus=feetech&clock=lockstep&seed=0'
+    """
+    if robot.bus is not None:
+        return f"sim://{robot_ref}?bus={robot.bus.kind}&clock=lockstep&seed=0"
+    return f"sim://{robot_ref}?clock=lockstep&seed=0&calibrated=1"
+
+
+def _port_doc(robot):
+    """The comment of the notebooks' ``port`` parameter: the virtual arm, and what a real one is."""
+    if robot.bus is not None:
+        device = {"dynamixel": "/dev/ttyUSB0", "feetech": "/dev/ttyACM0"}.get(robot.bus.kind, "/dev/ttyUSB0")
+        return (f"the virtual arm on a virtual {robot.bus.kind} bus; a real bus: \"{robot.bus.kind}://{device}\" "
+                f"({robot.bus.kind}://COM4 on Windows)")
+    return _PARAM_DOC["port"]
 
 
 def _servo_notes(user, model):
     """What :func:`with_servos` added to ``user`` (giving ``model``) and the joint ranges that result."""
     from labkit.robot import servo_window
 
-    added = [j for j, lk in enumerate(user.links) if lk.servo is None]
+    added = [j for j, lk in enumerate(user.links) if lk.servo is None and lk.bus is None]
     if not added:
         return ()
     window = servo_window(model)
@@ -391,7 +431,9 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     Where joints have no servo calibration (the virtual arm and a servo board drive joints
     through one), the lab adds them in a separate file, ``robot_with_servos.toml``
     (:func:`with_servos`), which the notebooks then use; :attr:`NewLab.notes` says what was
-    added and which joint ranges result (``labkit new`` prints it).
+    added and which joint ranges result (``labkit new`` prints it). An arm on a servo bus (a
+    ``[bus]`` table) needs nothing added: its notebooks use ``robot.toml`` and run on its virtual
+    bus (``port = "sim://robot.toml?bus=dynamixel&..."``, or ``feetech``).
 
     Parameters
     ----------
@@ -444,18 +486,25 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     for tpl in templates:
         nb = nbformat.read(str(tpl), as_version=4)
         values = template_values(model, lab_file.name, tpl.stem, defaults)
-        nb = _render_template(nb, values, title, model.title or model.name)
+        nb = _render_template(nb, values, title, model.title or model.name, {**_PARAM_DOC, "port": _port_doc(model)})
         out = folder / tpl.name
         nbformat.write(nb, str(out))
         written.append(out)
     added = (f" The notebooks use `{SERVO_FILE}`: `{ROBOT_FILE}` unchanged plus the servo calibrations the "
              f"virtual arm needs (joint ranges in its header).") if notes else ""
+    if model.bus is not None:
+        kind = model.bus.kind
+        where = (f"virtual arm on a virtual {kind} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "
+                 f"packets to an emulated bus")
+        real = f"On the real arm: `labkit run 02_fk_check.ipynb -p port {kind}://{'/dev/ttyUSB0' if kind == 'dynamixel' else '/dev/ttyACM0'}`"
+    else:
+        where, real = "virtual arm, `sim://`", "On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`"
     (folder / "README.md").write_text(
         f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.kind}, target kind "
         f"`{defaults.target}`), made with `labkit new`.{added}\n\n"
         + "".join(f"* `{p.name}`\n" for p in written)
-        + "\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
-          "virtual arm, `sim://`). On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`.\n",
+        + f"\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
+          f"{where}). {real}.\n",
         encoding="utf-8")
     from labkit.reports import LabInfo, write_lab_info
 
