@@ -269,7 +269,9 @@ class MeasurementSession:
                                                    resolution=RULER_RESOLUTION_MM, commanded=q))
                 self.arm.sleep(0.2)  # a person takes a few seconds; the board keeps running
         elif self.source is Source.FEEDBACK:
-            res = [math.degrees(abs(float(lk.servo.joint_from_adc(1.0) - lk.servo.joint_from_adc(0.0))))
+            # one ADC count of a hobby servo's feedback pot, or one tick of a bus servo's encoder [deg]
+            res = [360.0 / lk.bus.resolution if lk.bus is not None
+                   else math.degrees(abs(float(lk.servo.joint_from_adc(1.0) - lk.servo.joint_from_adc(0.0))))
                    for lk in self.robot.links]
             for _ in range(self.readings):
                 sensed = np.degrees(self.arm.read_joints())

@@ -210,19 +210,19 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
     assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
     user = Robot.load(source)
     params = notebook_parameters(lab / "03_ik_check.ipynb")
-    if all(lk.servo is not None for lk in user.links):  # al5d: hobby servos, nothing to add
+    if user.bus is not None or all(lk.servo is not None for lk in user.links):  # bus servos or hobby servos: nothing to add
         assert not (lab / "robot_with_servos.toml").exists() and "robot_with_servos" not in out
         assert ast.literal_eval(params["robot"]) == "robot.toml"
+        port = ast.literal_eval(params["port"])
+        assert port.startswith("sim://robot.toml?") and (f"bus={user.bus.kind}&" in port) == (user.bus is not None)
+        assert all(len(row) == user.n for row in ast.literal_eval(params["targets"]))  # x y z pitch [roll]
         return
     assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"
     assert "robot.toml: your robot file, copied unchanged" in out
     added = Robot.load(lab / "robot_with_servos.toml")
     assert np.allclose(added.joint_limits, user.joint_limits, rtol=0, atol=1e-9) and added.n == user.n
-    base = {"openmanipulator_x": "joint1: limits -180..180", "so101": "shoulder_pan: limits -110..110",
-            "commented": "base: limits -180..180"}[robot]
-    assert f"{base} deg -> narrowed to -90..90 deg" in out  # the servo's 180 deg travel, said out loud
-    if robot == "commented":
-        assert "shoulder: limits -117..90 deg -> narrowed to -103.5..76.5 deg" in out  # the ranges of issue 25
+    assert "base: limits -180..180 deg -> narrowed to -90..90 deg" in out  # the servo's 180 deg travel, said out loud
+    assert "shoulder: limits -117..90 deg -> narrowed to -103.5..76.5 deg" in out  # the ranges of issue 25
     # the lab's targets are the kind the arm takes: x y z pitch (4-DOF) or x y z pitch roll (5-DOF)
     width = {4: 4, 5: 5}[user.n]
     assert all(len(row) == width for row in ast.literal_eval(params["targets"]))
