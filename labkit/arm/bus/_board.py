@@ -231,6 +231,12 @@ class BusBoard(VirtualBoard):
         self._stream_k += 1
         self.stream_next = self._stream_t0 + self._stream_k / self.stream_hz
 
+    def _cmd_grip(self, args):
+        # the gripper servo of a bus arm is not driven by labkit: refused, never a silent no-op
+        from labkit.arm.board._commands import _Reject
+
+        raise _Reject(5, "gripper not driven on a servo bus")
+
     def _cmd_stream(self, args):
         out = super()._cmd_stream(args)
         if self.stream_hz:

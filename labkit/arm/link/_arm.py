@@ -497,12 +497,7 @@ class Arm:
             Not a finite number (nothing is sent).
         CommandRejected
             Outside the gripper's pulse range (``ERR 5 RANGE``).
-        DeviceError
-            An arm on a servo bus: labkit does not drive its gripper servo (nothing is sent).
         """
-        if self.robot.bus is not None:
-            raise DeviceError(f"robot {self.robot.name} is on a {self.robot.bus.kind} bus: labkit drives its joints, not "
-                              f"its gripper servo (a gripper pulse width is a hobby servo's; docs/link.md, Servo buses)")
         self._transact("GRIP", int(round(finite("us", us, lo=400.0, hi=2600.0, unit="us"))))  # RC pulses (protocol 4.2)
 
     def open_gripper(self):
@@ -514,8 +509,6 @@ class Arm:
         self.grip(self._gripper().closed_us)
 
     def _gripper(self):
-        if self.robot.bus is not None:
-            self.grip(0.0)  # raises: no gripper on a bus arm
         if self.robot.gripper is None:
             raise DeviceError(f"robot {self.robot.name} has no gripper in its robot file")
         return self.robot.gripper
