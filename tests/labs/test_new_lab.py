@@ -214,7 +214,7 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
         assert not (lab / "robot_with_servos.toml").exists() and "robot_with_servos" not in out
         assert ast.literal_eval(params["robot"]) == "robot.toml"
         port = ast.literal_eval(params["port"])
-        assert port.startswith("sim://robot.toml?") and (f"bus={user.bus.kind}&" in port) == (user.bus is not None)
+        assert port.startswith("sim://robot.toml?") and ("bus=" in port) == (user.bus is not None)
         assert all(len(row) == user.n for row in ast.literal_eval(params["targets"]))  # x y z pitch [roll]
         return
     assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"

@@ -146,6 +146,9 @@ class BoardCommands:
     the reply fields or raises a rejection (code of :data:`labkit.arm.ERRORS`).
     """
 
+    #: why ``GRIP`` is refused (``ERR 5 RANGE <text>``) on a board with no gripper servo to drive; ``""``: driven
+    grip_refused = ""
+
     # -- request lines -------------------------------------------------------------
     def _handle(self, raw):
         if any(not (0x20 <= b <= 0x7E or b == 9) for b in raw):
@@ -273,6 +276,8 @@ class BoardCommands:
 
     def _cmd_grip(self, args):
         self._nargs(args, 1)
+        if self.grip_refused:  # a board with no gripper servo to drive (a servo bus)
+            raise _Reject(5, self.grip_refused)
         c = self.cal[self.joints]
         if not min(c[0], c[1]) <= args[0] <= max(c[0], c[1]):
             raise _Reject(5, "gripper")

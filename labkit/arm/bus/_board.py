@@ -81,6 +81,9 @@ class BusBoard(VirtualBoard):
         A servo does not answer, or the arm rests outside its joint limits (torque stays off).
     """
 
+    #: ``GRIP`` is refused (``ERR 5 RANGE``), never a silent no-op: labkit does not drive a bus arm's gripper servo
+    grip_refused = "gripper not driven on a servo bus"
+
     def __init__(self, robot, driver, *, model=None, queue=6, settle=None):
         robot = Robot.load(robot)
         if robot.bus is None:
@@ -230,12 +233,6 @@ class BusBoard(VirtualBoard):
         self.stream_counter = (self.stream_counter + 1) % 65536
         self._stream_k += 1
         self.stream_next = self._stream_t0 + self._stream_k / self.stream_hz
-
-    def _cmd_grip(self, args):
-        # the gripper servo of a bus arm is not driven by labkit: refused, never a silent no-op
-        from labkit.arm.board._commands import _Reject
-
-        raise _Reject(5, "gripper not driven on a servo bus")
 
     def _cmd_stream(self, args):
         out = super()._cmd_stream(args)
