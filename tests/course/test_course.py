@@ -18,7 +18,9 @@ from tests.course import course_lab as cl
 from conftest import require
 from labkit.exceptions import LabkitError
 
-pytestmark = pytest.mark.slow
+# every test that grades shares one xdist group: the attack batch checks that no labkit cgroup outlives
+# its run, which a grading test running beside it on the other worker would make look false
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading")]
 REMOTE = re.compile(r"""<(?:script|link|img)\b[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", re.IGNORECASE)
 LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=120)
 
