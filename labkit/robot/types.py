@@ -75,10 +75,21 @@ def _limit_pair(owner, field, value):
     return lo, hi
 
 
+def _check_integer(owner, field, value, low, high, unit=""):
+    """An integer in ``low..high`` (not a bool, not a float; message as the robot-file loader's)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+        raise RobotError(f"{owner}: field '{field}': expected an integer {low}-{high}{unit}, got {value!r}", field)
+
+
 def _check_channel(owner, field, channel):
-    """A servo channel: an integer 0-5 (message as the robot-file loader's)."""
-    if isinstance(channel, (bool, np.bool_)) or not isinstance(channel, (int, np.integer)) or not 0 <= channel <= 5:
-        raise RobotError(f"{owner}: field '{field}': expected an integer 0-5, got {channel!r}", field)
+    """A servo channel: an integer 0-5."""
+    _check_integer(owner, field, channel, 0, 5)
+
+
+def _check_direction(owner, direction):
+    """A servo direction: the integer 1 or -1 (``1.0`` and ``True`` are refused)."""
+    if isinstance(direction, (bool, np.bool_)) or not isinstance(direction, (int, np.integer)) or direction not in (1, -1):
+        raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {direction!r}", "direction")
 
 
 @dataclass(frozen=True)
@@ -115,9 +126,7 @@ class ServoCalibration:
     def __post_init__(self):
         owner = "ServoCalibration"
         _check_channel(owner, "channel", self.channel)
-        if isinstance(self.direction, bool) or not isinstance(self.direction, (int, np.integer)) \
-                or self.direction not in (1, -1):
-            raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {self.direction!r}", "direction")
+        _check_direction(owner, self.direction)
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
         for field in ("angle_range", "pulse_range", "feedback_adc"):
             pair = _limit_pair(owner, field, getattr(self, field))
@@ -290,14 +299,9 @@ class BusServo:
 
     def __post_init__(self):
         owner = "BusServo"
-        if isinstance(self.id, (bool, np.bool_)) or not isinstance(self.id, (int, np.integer)) or not 0 <= self.id <= 252:
-            raise RobotError(f"{owner}: field 'id': expected an integer 0-252, got {self.id!r}", "id")
-        if isinstance(self.direction, bool) or self.direction not in (1, -1):
-            raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {self.direction!r}", "direction")
-        res = self.resolution
-        if isinstance(res, (bool, np.bool_)) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 1_048_576:
-            raise RobotError(f"{owner}: field 'resolution': expected an integer 16..1048576 ticks/turn, got {res!r}",
-                             "resolution")
+        _check_integer(owner, "id", self.id, 0, 252)
+        _check_direction(owner, self.direction)
+        _check_integer(owner, "resolution", self.resolution, 16, 1_048_576, " ticks/turn")
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
 
     def ticks(self, q):
