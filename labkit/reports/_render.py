@@ -42,6 +42,7 @@ from labkit.exceptions import LabkitError
 from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._images import compact_notebook, externalize
 from labkit.reports._portable import portable_text
+from labkit.reports._typeset import static_page
 from labkit.reports._assets import STATIC, _asset, _needs_math, _shared_asset, _shared_css  # noqa: F401 (STATIC: packaging test)
 from labkit.reports._execute import (
     CELL_TIMEOUT,
@@ -186,9 +187,7 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
     html_path.parent.mkdir(parents=True, exist_ok=True)
     html_path.write_text(body, encoding="utf-8")
     if typeset and (math or widgets):
-        from labkit.reports._typeset import static_page
-
-        page = static_page(html_path, math=math, widgets=widgets, css_dir=asset_dir)
+        page = static_page(rendered_dom(html_path), html_path, math=math, widgets=widgets, css_dir=asset_dir)
         html_path.write_text(scrub_paths(page, _default_roots(str(html_dir))), encoding="utf-8")
     return html_path
 
@@ -264,6 +263,37 @@ def chromium_command(html, out, profile, *, mode="pdf", chromium="chromium", bud
     else:
         cmd += [f"--window-size={window}", f"--screenshot={out}"]
     return cmd + [Path(html).resolve().as_uri()]
+
+
+def rendered_dom(html, *, budget_ms=30000, timeout=300) -> str:
+    """The DOM of ``html`` after its scripts ran (MathJax, widgets), from headless Chromium.
+
+    Parameters
+    ----------
+    html : str or os.PathLike
+        The page.
+    budget_ms : int
+        Chromium's virtual time budget for the scripts [ms].
+    timeout : float
+        Seconds Chromium may take [s].
+
+    Returns
+    -------
+    str
+        ``chromium --dump-dom``'s output.
+
+    Raises
+    ------
+    LabkitError
+        When Chromium is missing or does not finish in ``timeout``.
+    """
+    with tempfile.TemporaryDirectory(prefix="labkit-chromium-") as profile:
+        cmd = chromium_command(Path(html).resolve(), None, profile, mode="dom", chromium=find_chromium(),
+                               budget_ms=budget_ms)
+        try:
+            return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout).stdout
+        except subprocess.TimeoutExpired as exc:
+            raise LabkitError(f"Chromium did not render {Path(html).name} in {timeout} s") from exc
 
 
 def print_pdf(html, pdf, *, mode="pdf", timeout=120, budget_ms=VIRTUAL_TIME_BUDGET_MS, window="1200,1600") -> Path:

@@ -390,9 +390,10 @@ def _print_paged(html_path, pdf_path, html_text):
 
 def _typeset(html_path) -> str:
     """The page as Chromium rendered it (MathJax done, tables fitted), without its scripts."""
+    from labkit.reports._render import rendered_dom
     from labkit.reports._typeset import static_page
 
-    return static_page(html_path, math=True, strip_all=True)
+    return static_page(rendered_dom(html_path), html_path, math=True, strip_all=True)
 
 
 def _docx(html_path, docx_path, info) -> Path:

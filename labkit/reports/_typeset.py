@@ -9,8 +9,6 @@ saved values, with the page's other scripts (jshtml animations, the table fittin
 from __future__ import annotations
 
 import re
-import subprocess
-import tempfile
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
@@ -21,13 +19,16 @@ _RENDER_SCRIPTS = re.compile(r"<script\b[^>]*\bdata-lk-render\b[^>]*>.*?</script
                              re.DOTALL)
 
 
-def static_page(html_path, *, math=True, widgets=False, strip_all=False, css_dir=None, budget_ms=30000) -> str:
-    """The page ``html_path`` as Chromium rendered it, without the scripts that rendered it.
+def static_page(dom, html_path, *, math=True, widgets=False, strip_all=False, css_dir=None) -> str:
+    """The page ``html_path`` as Chromium rendered it (``dom``), without the scripts that rendered it.
 
     Parameters
     ----------
+    dom : str
+        The page's DOM after its scripts ran (``chromium --dump-dom``, see
+        :func:`labkit.reports._render.rendered_dom`).
     html_path : str or os.PathLike
-        An HTML page with MathJax and/or the widget manager (inlined or linked).
+        The HTML page (MathJax and/or the widget manager inlined or linked) ``dom`` comes from.
     math, widgets : bool
         What the page has to render (checked in the result).
     strip_all : bool
@@ -35,8 +36,6 @@ def static_page(html_path, *, math=True, widgets=False, strip_all=False, css_dir
     css_dir : str or os.PathLike, optional
         Folder where the stylesheets the scripts added (the widget manager's, 0.7 MB with its
         icon fonts) are written once, named by content hash, and linked; default: kept inline.
-    budget_ms : int
-        Chromium's virtual time budget for the scripts [ms].
 
     Returns
     -------
@@ -47,17 +46,16 @@ def static_page(html_path, *, math=True, widgets=False, strip_all=False, css_dir
     Raises
     ------
     LabkitError
-        When Chromium does not render the page or MathJax typeset nothing.
-    """
-    from labkit.reports._render import chromium_command, find_chromium
+        When MathJax typeset nothing or no widget was rendered.
 
+    Examples
+    --------
+    >>> page = static_page('<html><head></head><body><mjx-container>x</mjx-container>'
+    ...                    '<script data-lk-render>MathJax</script></body></html>', "r.html")
+    >>> "<script" in page, "<mjx-container>" in page
+    (False, True)
+    """
     html_path = Path(html_path).resolve()
-    with tempfile.TemporaryDirectory(prefix="labkit-chromium-") as profile:
-        cmd = chromium_command(html_path, None, profile, mode="dom", chromium=find_chromium(), budget_ms=budget_ms)
-        try:
-            dom = subprocess.run(cmd, capture_output=True, text=True, timeout=300).stdout
-        except subprocess.TimeoutExpired as exc:
-            raise LabkitError(f"Chromium did not render {html_path.name} in 300 s") from exc
     if math and "<mjx-container" not in dom:
         raise LabkitError(f"MathJax did not typeset {html_path.name} (Chromium printed no math)")
     if widgets and "widget" not in dom:
