@@ -43,7 +43,7 @@ from labkit.reports._document import _default_roots, number_notebook, scrub_path
 from labkit.reports._images import compact_notebook, externalize
 from labkit.reports._portable import portable_text
 from labkit.reports._typeset import static_page
-from labkit.reports._assets import STATIC, _asset, _needs_math, _shared_asset, _shared_css  # noqa: F401 (STATIC: packaging test)
+from labkit.reports._assets import STATIC, _asset, _needs_math, _shared_asset, _shared_css  # noqa: F401 (STATIC)
 from labkit.reports._execute import (
     CELL_TIMEOUT,
     chapter_of,
