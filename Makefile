@@ -10,10 +10,11 @@ install:
 	tools/install-system-deps.sh reports
 	$(PIP) install -q -e .
 
-# every lab notebook executed against the simulated arm (sim://), HTML + PDF + reports/index.html,
-# then one hand-in report per lab (reports/<lab>.pdf + .html) from the notebooks just executed
+# every lab notebook executed against the simulated arm (sim://), its HTML + reports/index.html,
+# then one hand-in report per lab (reports/<lab>.pdf + .html) from the notebooks just executed;
+# a PDF per notebook too: labkit render --pdf (its default) instead of --no-pdf
 reports: install
-	$(PYTHON) -m labkit render --jobs 2 --output reports
+	$(PYTHON) -m labkit render --no-pdf --jobs 2 --output reports
 	for lab in notebooks/*/; do \
 	  name=$$(basename $$lab); \
 	  $(PYTHON) -m labkit report $$lab --executed reports/$$name --output reports/ || exit 1; \

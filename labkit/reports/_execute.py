@@ -438,6 +438,9 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
         return ExecutionResult(notebook, output, False, seconds, f"{notebook.name}: {type(exc).__name__}: {exc}",
                                None, parameters)
     seconds = time.perf_counter() - t0
+    from labkit.reports._portable import portable_notebook
+
+    portable_notebook(output, notebook)  # no absolute path of this machine in the executed notebook
     cell, error = _first_error(nbformat.read(str(output), as_version=4), notebook.name)
     return ExecutionResult(notebook, output, cell is None, seconds, error, cell, parameters)
 

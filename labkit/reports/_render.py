@@ -24,7 +24,6 @@ Example
 from __future__ import annotations
 
 import datetime as _dt
-import gzip
 import html as _html
 import json
 import os
@@ -37,12 +36,14 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
 from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._images import compact_notebook, externalize
+from labkit.reports._portable import portable_text
+from labkit.reports._typeset import static_page
+from labkit.reports._assets import STATIC, _asset, _needs_math, _shared_asset, _shared_css  # noqa: F401 (STATIC)
 from labkit.reports._execute import (
     CELL_TIMEOUT,
     chapter_of,
@@ -56,11 +57,9 @@ __all__ = ["RenderResult", "find_chromium", "export_html", "print_pdf", "render"
 
 _HERE = Path(__file__).resolve().parent
 TEMPLATES = _HERE / "templates"
-STATIC = _HERE / "static"
 TEMPLATE_NAME = "labkit_report"
 #: Chromium's virtual time budget for MathJax and the widget manager before printing [ms]
 VIRTUAL_TIME_BUDGET_MS = 20000
-_MATH = re.compile(r"(?<!\\)\$|\\\(|\\\[|\\begin\{|text/latex")
 _HIDE_INPUT_TAG = "labkit-hide-input"
 # matplotlib's jshtml animations link Font Awesome from a CDN; the template styles the buttons itself
 _REMOTE_LINK = re.compile(r"<link[^>]*href=[\"']https?://[^>]*>", re.IGNORECASE)
@@ -95,62 +94,8 @@ class RenderResult:
     export_seconds: float = 0.0
 
 
-@lru_cache(maxsize=None)
-def _asset(name: str) -> str:
-    path = STATIC / f"{name}.gz"
-    if not path.is_file():
-        raise LabkitError(f"missing report asset {path}; run tools/vendor-assets.sh (needs npm) or reinstall labkit")
-    return gzip.decompress(path.read_bytes()).decode("utf-8")
-
-
-def _needs_math(nb) -> bool:
-    state = nb.metadata.get("widgets", {}).get("application/vnd.jupyter.widget-state+json")
-    if state and "text/latex" in json.dumps(state):
-        return True
-    for cell in nb.cells:
-        if cell.cell_type == "markdown" and _MATH.search(cell.source):
-            return True
-        for out in cell.get("outputs", []):
-            if "text/latex" in out.get("data", {}):
-                return True
-    return False
-
-
-def _lab_css() -> str:
-    """JupyterLab's stylesheet as nbconvert's ``lab`` template inlines it (index + light theme)."""
-    from jupyter_core.paths import jupyter_path
-
-    for root in jupyter_path("nbconvert", "templates", "lab", "static"):
-        if (Path(root) / "index.css").is_file():
-            return "\n".join((Path(root) / f).read_text("utf-8") for f in ("index.css", "theme-light.css"))
-    raise LabkitError("nbconvert's lab template (static/index.css) is missing; reinstall nbconvert")
-
-
-def _shared_css(asset_dir, html_dir) -> str:
-    """Write ``jupyterlab.css`` once into ``asset_dir``; its URL relative to ``html_dir``."""
-    target = Path(asset_dir) / "jupyterlab.css"
-    if not target.is_file():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(_lab_css(), encoding="utf-8")
-        os.replace(tmp, target)
-    return os.path.relpath(target, html_dir).replace(os.sep, "/")
-
-
-def _shared_asset(name, asset_dir, html_dir) -> str:
-    """Write asset ``name`` once into ``asset_dir``; its URL relative to ``html_dir``."""
-    asset_dir = Path(asset_dir)
-    target = asset_dir / name
-    if not target.is_file() or target.stat().st_mtime < (STATIC / f"{name}.gz").stat().st_mtime:
-        asset_dir.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(_asset(name), encoding="utf-8")
-        os.replace(tmp, target)  # atomic: parallel workers may write it at the same time
-    return os.path.relpath(target, html_dir).replace(os.sep, "/")
-
-
 def export_html(notebook, html_path, *, no_input=False, title=None, status="", error="", asset_dir=None,
-                chapter=None, figures=None) -> Path:
+                chapter=None, figures=None, typeset=False) -> Path:
     """Write the offline HTML report of an executed notebook.
 
     Parameters
@@ -177,6 +122,10 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
         Folder (relative to the HTML) where figures and animation frames are written once as
         files and linked (``labkit render``: ``<name>_assets``, shared with the executed
         notebook); default: inlined.
+    typeset : bool
+        Render the math (SVG) and the widgets (at their saved state) once with Chromium and
+        write the page without MathJax and the widget manager (``labkit render``: 4 MB less
+        in ``_static``); default: they run when the page is opened.
 
     Returns
     -------
@@ -217,14 +166,15 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
     has_widgets = "application/vnd.jupyter.widget-state+json" in nb.metadata.get("widgets", {})
     math, widgets = _needs_math(nb), has_widgets
     shared = asset_dir is not None
+    inline = not shared or typeset  # scripts only Chromium runs are inlined into the page it renders
     html_dir = html_path.resolve().parent
     resources = {
         "metadata": {"name": html_path.stem},
         "labkit": {
-            "mathjax": _asset("mathjax-tex-svg-full.js") if math and not shared else "",
-            "widgets": _asset("jupyter-widgets-embed.js") if widgets and not shared else "",
-            "mathjax_src": _shared_asset("mathjax-tex-svg-full.js", asset_dir, html_dir) if math and shared else "",
-            "widgets_src": _shared_asset("jupyter-widgets-embed.js", asset_dir, html_dir) if widgets and shared else "",
+            "mathjax": _asset("mathjax-tex-svg-full.js") if math and inline else "",
+            "widgets": _asset("jupyter-widgets-embed.js") if widgets and inline else "",
+            "mathjax_src": _shared_asset("mathjax-tex-svg-full.js", asset_dir, html_dir) if math and not inline else "",
+            "widgets_src": _shared_asset("jupyter-widgets-embed.js", asset_dir, html_dir) if widgets and not inline else "",
             "css_src": _shared_css(asset_dir, html_dir) if shared else "",
             "status": status,
             "error": error,
@@ -236,6 +186,9 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
     body = scrub_paths(body, _default_roots(str(html_dir)))
     html_path.parent.mkdir(parents=True, exist_ok=True)
     html_path.write_text(body, encoding="utf-8")
+    if typeset and (math or widgets):
+        page = static_page(rendered_dom(html_path), html_path, math=math, widgets=widgets, css_dir=asset_dir)
+        html_path.write_text(scrub_paths(page, _default_roots(str(html_dir))), encoding="utf-8")
     return html_path
 
 
@@ -310,6 +263,37 @@ def chromium_command(html, out, profile, *, mode="pdf", chromium="chromium", bud
     else:
         cmd += [f"--window-size={window}", f"--screenshot={out}"]
     return cmd + [Path(html).resolve().as_uri()]
+
+
+def rendered_dom(html, *, budget_ms=30000, timeout=300) -> str:
+    """The DOM of ``html`` after its scripts ran (MathJax, widgets), from headless Chromium.
+
+    Parameters
+    ----------
+    html : str or os.PathLike
+        The page.
+    budget_ms : int
+        Chromium's virtual time budget for the scripts [ms].
+    timeout : float
+        Seconds Chromium may take [s].
+
+    Returns
+    -------
+    str
+        ``chromium --dump-dom``'s output.
+
+    Raises
+    ------
+    LabkitError
+        When Chromium is missing or does not finish in ``timeout``.
+    """
+    with tempfile.TemporaryDirectory(prefix="labkit-chromium-") as profile:
+        cmd = chromium_command(Path(html).resolve(), None, profile, mode="dom", chromium=find_chromium(),
+                               budget_ms=budget_ms)
+        try:
+            return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout).stdout
+        except subprocess.TimeoutExpired as exc:
+            raise LabkitError(f"Chromium did not render {Path(html).name} in {timeout} s") from exc
 
 
 def print_pdf(html, pdf, *, mode="pdf", timeout=120, budget_ms=VIRTUAL_TIME_BUDGET_MS, window="1200,1600") -> Path:
@@ -392,12 +376,13 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
     except LabkitError:
         declared = {}
     if "output_dir" in declared and "output_dir" not in params:
-        # relative to the kernel's folder (the notebook's): no machine path in the executed notebook
-        params["output_dir"] = os.path.relpath(folder / f"{name}_files", notebook.parent).replace(os.sep, "/")
+        # absolute for the kernel; the executed notebook reads ./<name>_files (labkit.reports._portable)
+        params["output_dir"] = str(folder / f"{name}_files")
     params = {k: v for k, v in params.items() if k in declared}
     with _stderr_to(folder / f"{name}.log"):  # kernel start-up chatter goes to the log, not the terminal
         result = execute_notebook(notebook, folder / f"{name}.ipynb", params, check_names=False,
                                   timeout=timeout or CELL_TIMEOUT)
+    portable_text(folder / f"{name}.log", folder, notebook.parent)
     t0 = time.perf_counter()
     errors = [] if result.ok else [result.error]
     html_path = pdf_path = None
@@ -413,7 +398,7 @@ def render_one(notebook, output_dir, *, no_input=False, pdf=True, parameters=Non
         html_path = export_html(executed, folder / f"{name}.html", no_input=no_input, title=f"{lab} / {name}",
                                 status="passed" if result.ok else "failed", error="" if result.ok else errors[0],
                                 asset_dir=Path(output_dir).resolve() / "_static", chapter=chapter_of(notebook),
-                                figures=figures)
+                                figures=figures, typeset=True)
         externalize(executed, folder, figures)
         nbformat.write(executed, str(result.output))
         if pdf:
@@ -521,7 +506,8 @@ pre {{ margin: 0; white-space: pre-wrap; max-width: 50em; }}
 """
     out.mkdir(parents=True, exist_ok=True)
     index = out / "index.html"
-    index.write_text(page, encoding="utf-8")
+    index.write_text(scrub_paths(page, _default_roots(str(out))), encoding="utf-8")
+    portable_text(out / "index.json", out)
     return index
 
 

@@ -187,11 +187,14 @@ def _execute_one(notebook, folder, parameters, timeout):
         declared = {}
     params = {k: v for k, v in params.items() if k in declared}
     if "output_dir" in declared and "output_dir" not in params:
-        params["output_dir"] = os.path.relpath(Path(folder) / f"{notebook.stem}_files", notebook.parent).replace(os.sep, "/")
+        params["output_dir"] = str(Path(folder).resolve() / f"{notebook.stem}_files")  # ./<name>_files once written
     out = Path(folder) / notebook.name
     with _stderr_to(Path(folder) / f"{notebook.stem}.log"):
         kwargs = {"timeout": timeout} if timeout else {}
         result = execute_notebook(notebook, out, params, **kwargs)
+    from labkit.reports._portable import portable_text
+
+    portable_text(Path(folder) / f"{notebook.stem}.log", folder, notebook.parent)
     try:  # small figures and animation frames (see labkit.reports._images)
         compact_notebook_file(result.output)
     except Exception:  # noqa: BLE001 - the notebook keeps its outputs; build_report compacts them in memory
@@ -304,7 +307,7 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
     unresolved = []
     chapters = [_chapter(k, nb, p.stem, numbering, show_code=show_code, unresolved=unresolved, error=errors[k])
                 for k, (p, nb) in enumerate(zip(notebooks, nbs))]
-    from labkit.reports._render import _asset, _needs_math
+    from labkit.reports._assets import _asset, _needs_math
 
     needs_math = any(_needs_math(nb) for nb in nbs)
     overrides = {k: v for k, v in (parameters or {}).items()}
@@ -387,20 +390,10 @@ def _print_paged(html_path, pdf_path, html_text):
 
 def _typeset(html_path) -> str:
     """The page as Chromium rendered it (MathJax done, tables fitted), without its scripts."""
-    import subprocess
+    from labkit.reports._render import rendered_dom
+    from labkit.reports._typeset import static_page
 
-    from labkit.reports._render import chromium_command, find_chromium
-
-    with tempfile.TemporaryDirectory(prefix="labkit-chromium-") as profile:
-        cmd = chromium_command(html_path, None, profile, mode="dom", chromium=find_chromium(), budget_ms=30000)
-        try:
-            dom = subprocess.run(cmd, capture_output=True, text=True, timeout=300).stdout
-        except subprocess.TimeoutExpired as exc:
-            raise LabkitError(f"Chromium did not render {Path(html_path).name} in 300 s") from exc
-    if "<mjx-container" not in dom:
-        raise LabkitError(f"MathJax did not typeset {Path(html_path).name} (Chromium printed no math)")
-    dom = re.sub(r"<script\b.*?</script>", "", dom, flags=re.DOTALL)
-    return "<!DOCTYPE html>\n" + dom
+    return static_page(rendered_dom(html_path), html_path, math=True, strip_all=True)
 
 
 def _docx(html_path, docx_path, info) -> Path:

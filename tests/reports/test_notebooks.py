@@ -71,3 +71,7 @@ def test_notebook_executes(path, tmp_path):
     assert result.ok, f"{path.parent.name}/{path.name} failed: {result.error}"
     nb = _read(tmp_path / path.name)
     assert all(c.execution_count is not None for c in nb.cells if c.cell_type == "code")
+    # the size budget on the real figures and animations (issue 22): small frames, every image once
+    from reports.test_sizes import assert_images_within_budget
+
+    assert_images_within_budget(nb, tmp_path / "report", path.stem)

@@ -198,6 +198,26 @@ def test_matrix_latex():
 
 # ---------------------------------------------------------------- batch render (kernel + Chromium)
 
+def _assert_no_machine_path(out, tmp_path):
+    """No file under ``out`` (executed notebooks as JSON, HTML, logs, index, PDF text) names the
+    output folder, the repository or the home folder by its absolute path."""
+    import os
+
+    pypdf = require("pypdf")
+    forbidden = [str(tmp_path), str(out), str(REPO), os.path.expanduser("~") + "/"]
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert any(p.suffix == ".pdf" for p in files) and any(p.suffix == ".ipynb" for p in files)
+    for path in files:
+        if path.suffix == ".pdf":
+            text = "\n".join(page.extract_text() or "" for page in pypdf.PdfReader(str(path)).pages)
+        elif path.suffix in (".png", ".jpg", ".jpeg", ".gif"):
+            continue
+        else:
+            text = path.read_text("utf-8", errors="replace")
+        for root in forbidden:
+            assert root not in text, f"{path.relative_to(out)} names {root}"
+
+
 @pytest.mark.slow
 def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
     require("papermill")
@@ -207,6 +227,10 @@ def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
         "import matplotlib.pyplot as plt\nfig, ax = plt.subplots(figsize=(3, 2))\nax.plot([0, 1], [1, 0])\nplt.show()",
         "import ipywidgets as w\nw.IntSlider(value=7, description='q1')",
         "from labkit.reports import Checks\nc = Checks()\nc.check('tau', [2, 3, 1], [2, 3, 1], tol=1e-9)\nc.assert_all()",
+        # absolute paths of the machine printed by the code: the output folder, the kernel's folder, $HOME, the repo
+        "import os, sys, labkit\nos.makedirs(output_dir, exist_ok=True)\n"
+        "print('saved', os.path.abspath(os.path.join(output_dir, 'x.csv')), 'in', os.getcwd())\n"
+        "print('home', os.path.expanduser('~'), 'labkit', labkit.__file__, 'python', sys.prefix)",
     ])
     bad = make_notebook(tmp_path / "nb" / "demo" / "bad.ipynb", ["raise RuntimeError('servo 2 stalled')"])
     out = tmp_path / "reports"
@@ -223,12 +247,19 @@ def test_render_batch_html_pdf_index_and_failure(tmp_path, capsys):
         assert REMOTE.search(html) is None
         assert pdf_pages(out / "demo" / f"{name}.pdf") >= 1
     good_html = (out / "demo" / "good.html").read_text()
-    assert "application/vnd.jupyter.widget-state+json" in good_html and "data:image/png;base64" in good_html
-    # the widget manager and MathJax are written once into reports/_static and linked, not inlined per report
-    assert 'src="../_static/jupyter-widgets-embed.js"' in good_html and "typesetPromise" in good_html
-    assert 'src="../_static/mathjax-tex-svg-full.js"' in good_html and len(good_html) < 1_000_000
-    assert "_jupyter_widget_embedder" in (out / "_static" / "jupyter-widgets-embed.js").read_text()
-    assert str(tmp_path) not in good_html  # no machine path (the injected output_dir is written relative)
+    # math typeset and widgets rendered once by Chromium: SVG math and the slider, no MathJax or widget manager
+    assert "<mjx-container" in good_html and "<svg" in good_html and "q1" in good_html
+    assert "widget-slider" in good_html and "application/vnd.jupyter.widget-state+json" not in good_html
+    assert "window.MathJax" not in good_html and "embed.js" not in good_html and len(good_html) < 300_000
+    static = sorted(p.name for p in (out / "_static").iterdir())
+    assert static[0] == "jupyterlab.css" and all(n.startswith("rendered-") for n in static[1:]), static
+    assert f'href="../_static/{static[1]}"' in good_html  # the widgets' stylesheet, written once
+    assert "_jupyter_widget_embedder" not in good_html
+    _assert_no_machine_path(out, tmp_path)
+    executed = (out / "demo" / "good.ipynb").read_text()
+    assert '"input_path": "demo/good.ipynb"' in executed and '"output_path": "good.ipynb"' in executed
+    assert 'output_dir = \\"./good_files\\"' in executed and "../" not in executed  # relative to the notebook
+    assert "saved ./good_files/x.csv in ." in re.sub(r"<[^>]+>", "", good_html)
     bad_html = (out / "demo" / "bad.html").read_text()
     text = re.sub(r"<[^>]+>", "", bad_html)
     assert "servo 2 stalled" in text and "raise RuntimeError(" in text  # the failing cell is shown
