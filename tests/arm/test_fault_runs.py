@@ -35,7 +35,7 @@ from labkit.exceptions import DeviceError
 
 register()
 NOISY = dict(corrupt=0.01, drop=0.005, duplicate=0.01)
-OK_ECHO = re.compile(rb"^OK #(\d+) ([A-Z]+) p=([0-9A-F]{4})(?: .*)?$")
+OK_ECHO = re.compile(rb"^OK #(\d+) ([A-Z]+) p=([0-9A-F]{8})(?: .*)?$")
 
 
 class Truth(PortWrapper):

@@ -8,7 +8,7 @@ moves (checked against the robot file's limits and servo ranges *before* anythin
 Cartesian moves through :func:`labkit.kinematics.ik`, trajectories streamed as polynomial
 segments, gripper, stop, joint read-back and feedback streams into pandas.
 
-Reliability rules (``docs/link.md``): every request carries a sequence id and a CRC-16; board lines
+Reliability rules (``docs/link.md``): every request carries a sequence id and a CRC-32; board lines
 with a bad CRC are dropped and counted, never used; the reply to a state-changing request echoes
 the CRC of what the board parsed and a different echo stops the arm; idempotent requests are
 retried; a motion request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the

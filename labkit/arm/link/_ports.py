@@ -5,7 +5,8 @@ Which serial ports exist and which look like an Arduino (pyserial's
 one with errors that say what to do: a port held by another program (the
 Arduino IDE's serial monitor) or one the user may not open (Linux: the
 ``dialout`` group); and the handshake: wait for the board's ``READY`` (an Uno
-resets when its port opens), refuse a protocol-1 board, ``HELLO``.
+resets when its port opens), refuse a board of an older protocol (1: XOR
+checksums, 2: CRC-16), ``HELLO``.
 
 Examples
 --------
@@ -26,10 +27,11 @@ from labkit.arm.link._replies import BoardInfo, parse_hello
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
-#: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits, 2.2.0
-#: answers a repeated sealed request without running it (the host resends a request under the same ``#seq``),
-#: 2.3.0 refuses a stale one (an old request's late copy never runs)
-MIN_FIRMWARE = (2, 3, 0)
+#: oldest firmware the host drives: 3.0.0 speaks protocol 3 (every line sealed with a CRC-32); before it 2.1.0 gave
+#: ``MOVE`` a duration checked against the speed limits, 2.2.0 answers a repeated sealed request without running
+#: it (the host resends a request under the same ``#seq``), 2.3.0 refuses a stale one (a late copy never runs)
+MIN_FIRMWARE = (3, 0, 0)
+_MIN_TEXT = ".".join(map(str, MIN_FIRMWARE))
 
 ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
                 0x10C4: "CP210x", 0x239A: "Adafruit"}
@@ -156,20 +158,21 @@ def handshake(arm, boot_wait):
     Raises
     ------
     DeviceError
-        No ``READY`` and no answer, a protocol-1 board, another protocol version or joint count.
+        No ``READY`` and no answer, a board of an older protocol (1 or 2), another protocol version or joint
+        count.
     ProtocolError
         The device answers ``HELLO`` but is not a labkit arm.
     """
     wire = arm._wire
     ready = wire.wait_ready(boot_wait)
-    _refuse_v1(arm)
+    _refuse_old(arm)
     if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
         raise DeviceError(f"{arm.name}: the board announced {' '.join(ready)!r}, labkit expects "
                           f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
     try:
         info = wire.transact("HELLO", parse=parse_hello)
     except DeviceError as exc:
-        _refuse_v1(arm)
+        _refuse_old(arm)
         if ready is None:
             raise DeviceError(
                 f"{arm.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
@@ -180,11 +183,12 @@ def handshake(arm, boot_wait):
         raise ProtocolError(f"{arm.name}: not a labkit arm: HELLO answered {info!r}")
     wire.info = info
     if info.protocol != PROTOCOL_VERSION:
-        raise DeviceError(f"{arm.name}: board speaks protocol {info.protocol}, "
-                          f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+        raise DeviceError(f"{arm.name}: the board (firmware {info.firmware}) speaks protocol {info.protocol}, "
+                          f"labkit expects protocol {PROTOCOL_VERSION} (firmware {_MIN_TEXT} or newer); "
+                          f"flash firmware/labkit_arm or update labkit")
     if _version(info.firmware) < MIN_FIRMWARE:
         raise DeviceError(f"{arm.name}: the board runs labkit firmware {info.firmware}; labkit needs "
-                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (since 2.3.0 a resent or late request never runs twice): "
+                          f"{_MIN_TEXT} or newer (protocol {PROTOCOL_VERSION}: a CRC-32 on every line): "
                           f"flash firmware/labkit_arm (make -C firmware, then avrdude or the Arduino IDE, see README)")
     if info.joints != arm.robot.n:
         raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
@@ -203,9 +207,13 @@ def _version(text):
         return (-1,)
 
 
-def _refuse_v1(arm):
-    old = arm._wire.v1_seen
-    if old is not None:
-        raise DeviceError(f"{arm.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
-                          f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
-                          f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
+def _refuse_old(arm):
+    """Raise if the board sent an intact line of an older protocol (1: XOR checksums, 2: CRC-16)."""
+    if arm._wire.old_seen is None:
+        return
+    proto, line = arm._wire.old_seen
+    fw = next((t[3:] for t in line.rpartition("*")[0].split() if t.startswith("fw=")), None)
+    which = f"labkit firmware {fw}, protocol {proto}" if fw else f"an older labkit firmware, protocol {proto}"
+    raise DeviceError(f"{arm.name}: the board runs {which} ({line!r}); labkit speaks protocol {PROTOCOL_VERSION} "
+                      f"(firmware {_MIN_TEXT} or newer: a CRC-32 on every line): flash firmware/labkit_arm "
+                      f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
