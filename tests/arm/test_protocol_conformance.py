@@ -127,7 +127,7 @@ def board(request):
 def host(board):
     h = Host(board.open())
     ready = h.wait_event("READY")
-    assert ready.startswith("READY labkit-arm 2 fw=")
+    assert ready.startswith("READY labkit-arm 3 fw=")
     return h
 
 
