@@ -74,6 +74,7 @@ typedef struct {
     uint8_t q_head, q_count;
     uint8_t len;
     uint8_t overflow, badchar;
+    uint8_t body;                /* 1: the line's body has begun (past leading blanks and '$'): its bytes are checksummed */
     uint8_t stream_hz, stream_arm;
     uint8_t seen_n, seen_w;      /* valid entries of seen, next entry to overwrite */
     uint8_t window;              /* 1: a sealed request was accepted since power-up or HELLO: last_seq is the newest */
@@ -82,6 +83,7 @@ typedef struct {
     uint16_t grip_us;
     uint16_t last_seq;           /* #seq of the last accepted sealed request */
     uint32_t now_ms;
+    uint32_t rx_crc, star_crc;   /* CRC-32 of the line's body so far, and of the body before its last '*' */
     uint32_t last_accept_ms;
     uint32_t done;
     uint32_t seg_start_ms;       /* frame clock: start of the active segment */
@@ -116,7 +118,6 @@ uint16_t lk_hw_mem_free(void);                    /* smallest free stack/heap ga
 /* ---- core API ---- */
 void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us);
 void lk_rx(lk_t *lk, uint8_t byte, uint32_t now_ms); /* one received byte */
-void lk_exec(lk_t *lk, char *line, uint8_t len);     /* one complete line (no EOL), for tests */
 void lk_frame(lk_t *lk, uint32_t frame_index);       /* program servo frame #frame_index */
 void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback stream */
 
