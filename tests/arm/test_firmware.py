@@ -37,7 +37,7 @@ def build_log():
 
 # ------------------------------------------------------------------------------ helpers
 def line_ok(raw: bytes) -> bool:
-    """A board line with CR LF and a correct *HHHH CRC-16."""
+    """A board line with CR LF and a correct *HHHHHHHH CRC-32."""
     if not raw.endswith(b"\r\n"):
         return False
     return unseal(raw[:-2]) is not None
@@ -46,7 +46,7 @@ def line_ok(raw: bytes) -> bool:
 class Client:
     """Stop-and-wait client on a raw port; keeps events (EV) apart from replies.
 
-    State-changing commands are sent sealed (``#seq`` and CRC-16, as protocol 2 requires); their
+    State-changing commands are sent sealed (``#seq`` and CRC-32, as protocol 3 requires); their
     replies are returned without the ``#seq`` and the (checked) ``p=`` echo, e.g. ``"OK MOVE"``.
     """
 

@@ -21,12 +21,12 @@ US_PER_CDEG = 2000 / 18000  # default calibration: 500..2500 us over 0..180 deg
 
 
 def checked(line: str) -> str:
-    """Append the CRC-16 to a request line."""
+    """Append the CRC-32 to a request line."""
     return seal(line)
 
 
 def sealed(line: str, seq: int) -> str:
-    """A state-changing request as protocol 2 requires it: ``#seq``, the line, a space, ``*CRC``."""
+    """A state-changing request as protocol 3 requires it: ``#seq``, the line, a space, ``*CRC``."""
     return seal(f"#{seq} {line} ")
 
 
