@@ -207,6 +207,20 @@ def test_lost_motion_reply_is_verified_not_repeated():
         assert arm.stats.verified == 1
 
 
+@pytest.mark.parametrize("name, value", [("timeout", float("nan")), ("timeout", float("inf")), ("timeout", 0.0),
+                                         ("timeout", -1.0), ("timeout", "0.1"), ("retries", -1), ("retries", 2.5),
+                                         ("retries", float("inf"))])
+def test_the_timeout_and_retries_setters_refuse_what_the_constructor_refuses(arm, name, value):
+    before = getattr(arm, name)
+    with pytest.raises(OptionError, match=rf"expected {name} "):
+        setattr(arm, name, value)
+    with pytest.raises(OptionError, match=rf"expected {name} "):
+        Arm(SIM, **{name: value})
+    assert getattr(arm, name) == before
+    setattr(arm, name, 0.5 if name == "timeout" else 3)
+    assert getattr(arm, name) == (0.5 if name == "timeout" else 3) and arm.ping() >= 0
+
+
 def test_timeouts_raise_device_error():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     arm = Arm(raw, timeout=0.02, retries=2)

@@ -33,13 +33,15 @@ __all__ = ["PortInfo", "list_ports", "find_ports"]
 MIN_FIRMWARE = (3, 0, 0)
 _MIN_TEXT = ".".join(map(str, MIN_FIRMWARE))
 
-ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
-                0x10C4: "CP210x", 0x239A: "Adafruit"}
+ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x10C4: "CP210x",
+                0x239A: "Adafruit"}
+#: USB vendor ids of the USB-serial chips of servo-bus adapters (ROBOTIS U2D2: FTDI FT232H), not taken for an Arduino
+BUS_ADAPTER_VIDS = {0x0403: "FTDI"}
 
 
 @dataclass(frozen=True)
 class PortInfo:
-    """One serial port: device name, USB ids, description, and whether it looks like an Arduino.
+    """One serial port: device name, USB ids, description, and whether it looks like an Arduino or a bus adapter.
 
     Attributes
     ----------
@@ -51,6 +53,10 @@ class PortInfo:
         What the operating system calls it.
     arduino : bool
         The vendor id or the description says Arduino (or a common clone chip).
+    bus_adapter : bool
+        Not an Arduino, but a USB-serial chip that servo-bus adapters use (FTDI, as in a ROBOTIS U2D2) or a
+        description naming one: possibly a Dynamixel or Feetech bus (``dynamixel://<device>``,
+        ``feetech://<device>``).
     """
 
     device: str
@@ -58,6 +64,7 @@ class PortInfo:
     pid: int | None
     description: str
     arduino: bool
+    bus_adapter: bool = False
 
     @property
     def usb_id(self):
@@ -71,12 +78,12 @@ class PortInfo:
 
 
 def list_ports():
-    """Every serial port pyserial sees, likely Arduinos first.
+    """Every serial port pyserial sees, likely Arduinos first, then possible servo-bus adapters.
 
     Returns
     -------
     list of PortInfo
-        Sorted: Arduino-like before others, ``ACM`` devices (native USB) before ``USB`` ones.
+        Sorted: Arduino-like before bus adapters before others, ``ACM`` devices (native USB) before ``USB`` ones.
     """
     from serial.tools import list_ports as lp
 
@@ -84,12 +91,13 @@ def list_ports():
     for p in lp.comports():
         text = f"{p.description} {p.manufacturer or ''}".lower()
         arduino = p.vid in ARDUINO_VIDS or "arduino" in text or "ch340" in text
-        found.append(PortInfo(p.device, p.vid, p.pid, p.description or "", bool(arduino)))
-    return sorted(found, key=lambda p: (not p.arduino, "ACM" not in p.device, p.device))
+        bus = not arduino and (p.vid in BUS_ADAPTER_VIDS or "u2d2" in text)
+        found.append(PortInfo(p.device, p.vid, p.pid, p.description or "", bool(arduino), bool(bus)))
+    return sorted(found, key=lambda p: (not p.arduino, not p.bus_adapter, "ACM" not in p.device, p.device))
 
 
 def find_ports():
-    """Serial ports that look like an Arduino (USB VID or description), best first.
+    """Serial ports that look like an Arduino (USB VID or description), best first; bus adapters are not among them.
 
     Returns
     -------
