@@ -401,9 +401,9 @@ def test_a_stale_request_is_refused_not_executed_and_not_resent(arm):
 
 
 def test_no_port_found(monkeypatch):
-    import labkit.arm.link._arm as link
+    import labkit.arm.link._ports as ports
 
-    monkeypatch.setattr(link, "find_ports", lambda: [])
+    monkeypatch.setattr(ports, "list_ports", lambda: [])
     with pytest.raises(DeviceError, match="sim://"):
         Arm(None)
 

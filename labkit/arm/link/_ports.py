@@ -107,6 +107,29 @@ def find_ports():
     return [p.device for p in list_ports() if p.arduino]
 
 
+def first_arduino():
+    """The first of :func:`find_ports` (what ``Arm()`` without a port opens).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    DeviceError
+        No Arduino-like port; the message names a possible servo-bus adapter if there is one.
+    """
+    ports = list_ports()
+    arduinos = [p.device for p in ports if p.arduino]
+    if arduinos:
+        return arduinos[0]
+    bus = [p.device for p in ports if p.bus_adapter]
+    hint = (f"; {bus[0]} may be a servo-bus adapter (FTDI, e.g. a U2D2): open it as 'dynamixel://{bus[0]}' or "
+            f"'feetech://{bus[0]}' with the arm's robot file" if bus else "")
+    raise DeviceError("no Arduino-like serial port found ('labkit ports' lists them); plug the board in, name the "
+                      f"port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'{hint}")
+
+
 def open_port(port, baudrate, robot=None):
     """Open ``port`` (device name or pyserial URL) with an error that says what to do.
 
