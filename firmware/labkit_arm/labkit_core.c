@@ -125,7 +125,7 @@ typedef struct {
     int32_t *a;
     const char *name; /* the command's name in its table entry (program memory): the OK reply's first word */
 } call_t;
-static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHH]" */
+static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHHHHHH]" */
 static LK_NOINLINE uint8_t ok_int(const call_t *c, int32_t v) { /* "OK ... NAME v"; returns 1 */
     g_field = (uint16_t)v; /* every such v of a sealed request fits: free slots, us, ms (<= 60000), Hz, bytes */
     ok_head(c); out_sp_i(v); out_end();

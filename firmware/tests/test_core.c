@@ -427,6 +427,14 @@ static void test_eeprom(void) {
     send("TIMEOUT 1500");
     send("SAVE");
     CHECK(starts(stub_out, "OK SAVE 78*"), "%s", stub_out);
+    /* the image is sealed with the lines' CRC-32, little-endian; the virtual board's image of the same settings
+       (labkit.arm.board eeprom_image) ends with the same four bytes */
+    {
+        uint32_t crc = lk_crc32(stub_eeprom, 74);
+        CHECK(stub_eeprom[2] == 3 && stub_eeprom[74] == (uint8_t)crc && stub_eeprom[75] == (uint8_t)(crc >> 8) &&
+              stub_eeprom[76] == (uint8_t)(crc >> 16) && stub_eeprom[77] == (uint8_t)(crc >> 24), "image CRC");
+        CHECK(crc == 0xA63237F5UL, "image CRC %08X, the virtual board's is A63237F5", (unsigned)crc);
+    }
     boot();
     CHECK(!(lk.flags & LK_F_EEPROM_DEFAULTS) && strstr(stub_out, "eeprom=OK"), "%s", stub_out);
     CHECK(lk.cal[2].pmin == 600 && lk.cal[2].dir == -1 && lk.cal[2].hi == 17000 && lk.timeout_ms == 1500, "loaded");

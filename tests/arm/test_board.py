@@ -316,3 +316,18 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
         q = np.radians([10, 60, -120, 20, 30, 40])
         arm.move_joints(q, wait=True)
         assert np.abs(arm.read_joints() - q).max() < np.radians(1.5)
+
+
+def test_the_eeprom_image_is_sealed_with_the_line_crc32():
+    from labkit.arm.board._commands import FACTORY, eeprom_image, read_eeprom
+
+    cal = [list(FACTORY) for _ in range(4)]
+    cal[2] = [600, 2400, 18000, -1, 0, 17000]
+    img = eeprom_image(cal, [60000] * 3, [0] * 3, 1500)
+    # firmware/tests/test_core.c checks that the firmware's image of the same settings ends with the same CRC
+    assert len(img) == 78 and img[2] == 3 and int.from_bytes(img[-4:], "little") == checksum(img[:-4]) == 0xA63237F5
+    assert read_eeprom(img, 4) == (cal, [60000] * 3, [0] * 3, 1500, True)
+    for k in range(len(img)):  # any damaged byte: the factory defaults
+        bad = bytearray(img)
+        bad[k] ^= 0x10
+        assert read_eeprom(bytes(bad), 4)[-1] is False, k
