@@ -95,3 +95,10 @@ def test_the_example_sessions_replay_exactly_on_the_virtual_board():
     assert len(blocks) == 4 and sum(d == ">" for b in blocks for d, _, _ in b) >= 15
     shown = [[line for d, line, _ in block if d == "<"] for block in blocks]
     assert replay(blocks) == shown
+
+
+def test_the_conformance_table_is_as_long_as_the_docs_say():
+    from test_conformance_table import load_table
+
+    said = re.search(r"conformance_table.txt` lists (\d+) raw lines", (DOCS / "protocol.md").read_text(encoding="utf-8"))
+    assert said and int(said.group(1)) == len(load_table()[1])
