@@ -98,7 +98,6 @@ def test_the_example_sessions_replay_exactly_on_the_virtual_board():
 
 
 def test_the_conformance_table_is_as_long_as_the_docs_say():
-    from test_conformance_table import load_table
-
+    table = (Path(__file__).with_name("conformance_table.txt")).read_text(encoding="ascii").splitlines()
     said = re.search(r"conformance_table.txt` lists (\d+) raw lines", (DOCS / "protocol.md").read_text(encoding="utf-8"))
-    assert said and int(said.group(1)) == len(load_table()[1])
+    assert said and int(said.group(1)) == sum(ln.startswith("> ") or ln == ">" for ln in table)
