@@ -28,23 +28,30 @@
 #define LK_MAXARGS (2 + LK_JOINTS * (LK_MAX_ORDER + 1))
 #define LK_COEF_MAX 10000000L
 #define LK_DISCONT_CDEG 50
-#define LK_EE_VERSION 2
-#define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 2)
+#define LK_EE_VERSION 3 /* 3: sealed with the line checksum, CRC-32 */
+#define LK_EE_SIZE (4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 4)
 #define LK_VMAX_DEFAULT 60000UL
 #define LK_VMAX_MAX 1000000UL   /* 10000 deg/s */
 #define LK_AMAX_MAX 100000000UL /* 10^6 deg/s^2 */ /* factory speed limit [cdeg/s]: 600 deg/s, above any hobby servo */
 
 /* ------------------------------------------------------------------ output */
-static uint16_t g_cs;   /* running CRC-16 of the board line being written */
+static uint32_t g_cs;   /* running CRC-32 register of the board line being written (not yet complemented) */
 static uint8_t g_echo_on; /* 1: OK replies carry p=<g_echo> (sealed, state-changing requests) */
-static uint16_t g_echo;
+static uint32_t g_echo;
 static uint16_t g_field; /* the one integer field of the OK reply being written (ok_int), or LK_NO_FIELD */
 
-static LK_NOINLINE uint16_t crc_step(uint16_t crc, uint8_t b) { /* CRC-16/CCITT-FALSE, one byte, no table */
-    uint8_t x = (uint8_t)(crc >> 8) ^ b, lo;
-    x ^= x >> 4;
-    lo = (uint8_t)(x << 5);                       /* crc = (crc << 8) ^ (x << 12) ^ (x << 5) ^ x, byte by byte */
-    return (uint16_t)(((uint16_t)((uint8_t)crc ^ (uint8_t)(x << 4) ^ (x >> 3)) << 8) | (uint8_t)(lo ^ x));
+/* CRC-32/ISO-HDLC (zlib's: polynomial 0x04C11DB7 reflected, register starting at 0xFFFFFFFF, complemented at the
+   end), one byte at a time. The 256-entry byte table (1 KB) is linear in the byte, T[x] = T[x & 15] ^ T[x & 0xF0],
+   so two 16-entry halves of it do (128 B): entries 0..15 are T[0..15], entries 16..31 are T[0x00, 0x10 .. 0xF0].
+   On the AVR the register's shift by 8 is byte moves: about 50 cycles a byte. */
+static const uint32_t crc_table[32] LK_FLASH = {
+    0x00000000UL, 0x77073096UL, 0xEE0E612CUL, 0x990951BAUL, 0x076DC419UL, 0x706AF48FUL, 0xE963A535UL, 0x9E6495A3UL,
+    0x0EDB8832UL, 0x79DCB8A4UL, 0xE0D5E91EUL, 0x97D2D988UL, 0x09B64C2BUL, 0x7EB17CBDUL, 0xE7B82D07UL, 0x90BF1D91UL,
+    0x00000000UL, 0x1DB71064UL, 0x3B6E20C8UL, 0x26D930ACUL, 0x76DC4190UL, 0x6B6B51F4UL, 0x4DB26158UL, 0x5005713CUL,
+    0xEDB88320UL, 0xF00F9344UL, 0xD6D6A3E8UL, 0xCB61B38CUL, 0x9B64C2B0UL, 0x86D3D2D4UL, 0xA00AE278UL, 0xBDBDF21CUL};
+static LK_NOINLINE uint32_t crc_step(uint32_t crc, uint8_t b) {
+    uint8_t x = (uint8_t)crc ^ b;
+    return (crc >> 8) ^ LK_RD32(&crc_table[x & 15]) ^ LK_RD32(&crc_table[16 + (x >> 4)]);
 }
 
 static void out_n(const char *s, uint8_t n) {
@@ -77,21 +84,22 @@ static void out_i(int32_t v) {
 static void out_sp_i(int32_t v) { out_c(' '); out_i(v); }
 static LK_NOINLINE void out_kv(const char *key_p, uint32_t v) { out_p(key_p); out_u(v); } /* " key=v" */
 static char hexdigit(uint8_t v) { return (char)(v < 10 ? '0' + v : 'A' + v - 10); }
-static void out_begin(void) { g_cs = 0xFFFF; }
-static void hex4(char *b, uint16_t v) {
-    b[0] = hexdigit((uint8_t)(v >> 12)); b[1] = hexdigit((v >> 8) & 15); b[2] = hexdigit((v >> 4) & 15); b[3] = hexdigit(v & 15);
+static void out_begin(void) { g_cs = 0xFFFFFFFFUL; }
+static LK_NOINLINE void hex8(char *b, uint32_t v) { /* eight upper-case hex digits */
+    uint8_t i;
+    for (i = 8; i--; v >>= 4) b[i] = hexdigit((uint8_t)(v & 15));
 }
 static void out_end(void) {
-    char b[7];
-    b[0] = '*'; hex4(b + 1, g_cs); b[5] = '\r'; b[6] = '\n';
-    lk_hw_write(b, 7);
+    char b[11];
+    b[0] = '*'; hex8(b + 1, ~g_cs); b[9] = '\r'; b[10] = '\n';
+    lk_hw_write(b, 11);
 }
 static void out_seq(int32_t seq) {
     if (seq >= 0) out_kv(LK_P(" #"), (uint32_t)seq);
 }
 static void ok_begin(int32_t seq, const char *name_p) {
     out_begin(); out_p(LK_P("OK")); out_seq(seq); out_c(' '); out_p(name_p);
-    if (g_echo_on) { char b[4]; out_p(LK_P(" p=")); hex4(b, g_echo); out_n(b, 4); }
+    if (g_echo_on) { char b[8]; out_p(LK_P(" p=")); hex8(b, g_echo); out_n(b, 8); }
 }
 /* word k (from 0) of a list of NUL-separated words in program memory */
 static LK_NOINLINE const char *nth_word(const char *list_p, uint8_t k) {
@@ -117,7 +125,7 @@ typedef struct {
     int32_t *a;
     const char *name; /* the command's name in its table entry (program memory): the OK reply's first word */
 } call_t;
-static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHH]" */
+static LK_NOINLINE void ok_head(const call_t *c) { ok_begin(c->seq, c->name); } /* "OK [#seq] NAME [p=HHHHHHHH]" */
 static LK_NOINLINE uint8_t ok_int(const call_t *c, int32_t v) { /* "OK ... NAME v"; returns 1 */
     g_field = (uint16_t)v; /* every such v of a sealed request fits: free slots, us, ms (<= 60000), Hz, bytes */
     ok_head(c); out_sp_i(v); out_end();
@@ -134,14 +142,14 @@ static uint8_t err_joint(const call_t *c, uint8_t code, uint8_t j) { /* "ERR ...
 static const char s_arguments[] LK_FLASH = "arguments";
 #define LK_STR2(x) #x
 #define LK_STR(x) LK_STR2(x)
-static const char s_ident[] LK_FLASH = "fw=" LK_FW_VERSION " proto=2 joints=" LK_STR(LK_JOINTS);
+static const char s_ident[] LK_FLASH = "fw=" LK_FW_VERSION " proto=" LK_STR(LK_PROTO_VERSION) " joints=" LK_STR(LK_JOINTS);
 static const char s_gripper[] LK_FLASH = "gripper";
 
 /* ------------------------------------------------------------------ helpers */
-uint16_t lk_crc16(const uint8_t *d, uint16_t n) { /* CRC-16/CCITT-FALSE */
-    uint16_t crc = 0xFFFF;
+uint32_t lk_crc32(const uint8_t *d, uint16_t n) { /* CRC-32/ISO-HDLC: lk_crc32("123456789", 9) = 0xCBF43926 */
+    uint32_t crc = 0xFFFFFFFFUL;
     while (n--) crc = crc_step(crc, *d++);
-    return crc;
+    return ~crc;
 }
 
 int32_t lk_poly(const int32_t *c, uint8_t order, int32_t s) {
@@ -226,15 +234,16 @@ static void ee_walk(lk_t *lk, uint8_t *b, uint8_t save) {
     for (c = 0; c < LK_JOINTS; c++) { p = ee_copy(p, &lk->vmax[c], 4, save); p = ee_copy(p, &lk->amax[c], 4, save); }
     ee_copy(p, &lk->timeout_ms, 2, save);
 }
-typedef char lk_ee_layout[(int)(4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 2) == LK_EE_SIZE ? 1 : -1];
+typedef char lk_ee_layout[(int)(4 + 11 * LK_CHANNELS + 8 * LK_JOINTS + 2 + 4) == LK_EE_SIZE ? 1 : -1];
 
 uint16_t lk_ee_save(const lk_t *lk) {
     uint8_t b[LK_EE_SIZE];
-    uint16_t i, crc;
+    uint16_t i;
+    uint32_t crc;
     b[0] = 'L'; b[1] = 'K'; b[2] = LK_EE_VERSION; b[3] = LK_CHANNELS;
     ee_walk((lk_t *)lk, b, 1); /* reads lk only */
-    crc = lk_crc16(b, LK_EE_SIZE - 2);
-    b[LK_EE_SIZE - 2] = (uint8_t)crc; b[LK_EE_SIZE - 1] = (uint8_t)(crc >> 8);
+    crc = lk_crc32(b, LK_EE_SIZE - 4);
+    memcpy(b + LK_EE_SIZE - 4, &crc, 4); /* little-endian on both targets, like every field */
     for (i = 0; i < LK_EE_SIZE; i++) lk_hw_ee_write(i, b[i]);
     for (i = 0; i < LK_EE_SIZE; i++)
         if (lk_hw_ee_read(i) != b[i]) return 0;
@@ -254,9 +263,11 @@ uint8_t lk_ee_load(lk_t *lk) {
     uint8_t b[LK_EE_SIZE], c;
     uint16_t i;
     int32_t lo, hi;
+    uint32_t crc;
     for (i = 0; i < LK_EE_SIZE; i++) b[i] = lk_hw_ee_read(i);
     if (b[0] != 'L' || b[1] != 'K' || b[2] != LK_EE_VERSION || b[3] != LK_CHANNELS) return 0;
-    if ((uint16_t)get16(b + LK_EE_SIZE - 2) != lk_crc16(b, LK_EE_SIZE - 2)) return 0;
+    memcpy(&crc, b + LK_EE_SIZE - 4, 4);
+    if (crc != lk_crc32(b, LK_EE_SIZE - 4)) return 0;
     ee_walk(lk, b, 0); /* vmax, amax: the CRC vouches for them */
     for (c = 0; c < LK_CHANNELS; c++)
         if (!cal_valid(&lk->cal[c]) || (c < LK_JOINTS && !feasible(&lk->cal[c], &lo, &hi))) return 0;
@@ -286,7 +297,7 @@ void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us) {
     if (reset_cause == LK_RESET_WATCHDOG) lk->flags |= LK_F_WATCHDOG_RESET;
     home(lk);
     out_begin();
-    out_p(LK_P("READY labkit-arm 2 ")); out_p(s_ident);
+    out_p(LK_P("READY labkit-arm " LK_STR(LK_PROTO_VERSION) " ")); out_p(s_ident);
     out_p(LK_P(" reset="));
     out_p(nth_word(LK_P("POWER\0EXTERNAL\0WATCHDOG\0BROWNOUT"), reset_cause <= LK_RESET_BROWNOUT ? reset_cause : 0));
     out_p(LK_P(" eeprom=")); out_p(ok ? LK_P("OK") : LK_P("DEFAULTS"));
@@ -811,7 +822,7 @@ static void replay(lk_t *lk, const lk_command_t *e, call_t *c, uint16_t v) {
 }
 
 /* CRC of a valid integer token as the board would write it (no '+', no leading zeros, no "-0") */
-static uint16_t crc_canonical(uint16_t crc, const char *t) {
+static uint32_t crc_canonical(uint32_t crc, const char *t) {
     uint8_t neg = *t == '-';
     if (*t == '+' || *t == '-') t++;
     while (t[0] == '0' && t[1]) t++;
@@ -820,14 +831,17 @@ static uint16_t crc_canonical(uint16_t crc, const char *t) {
     return crc;
 }
 
-void lk_exec(lk_t *lk, char *line, uint8_t len) {
+/* one complete line (no EOL): lk->line, lk->len; lk->star_crc is the CRC-32 of its body before the last '*' */
+static void exec_line(lk_t *lk) {
+    char *line = lk->line;
+    uint8_t len = lk->len;
     char *p = line, *end = line + len, *star = 0, *r, *cmd, *tok;
     const char *name;
     const lk_command_t *e;
     int32_t args[LK_MAXARGS];
     call_t c;
     uint8_t sealed = 0, read_only, i;
-    uint16_t echo = 0xFFFF;
+    uint32_t echo = 0xFFFFFFFFUL; /* the CRC-32 register; complemented once the parsed request is complete */
     char ch;
     line[len] = 0;
     while (p < end && is_ws(*p)) p++;
@@ -838,13 +852,13 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         if (*--r == '*') { star = r; break; }
     }
     if (star) {
-        uint16_t v = 0;
-        for (i = 1; i <= 4; i++) {
-            uint8_t h = end - star != 5 ? 0xFF : hexval(star[i]);
+        uint32_t v = 0;
+        for (i = 1; i <= 8; i++) {
+            uint8_t h = end - star != 9 ? 0xFF : hexval(star[i]);
             if (h > 15) { err_msg(-1, LK_E_BADCHK, LK_P("malformed")); return; }
-            v = (uint16_t)((v << 4) | h);
+            v = (v << 4) | h;
         }
-        if (v != lk_crc16((const uint8_t *)p, (uint16_t)(star - p))) {
+        if (v != lk->star_crc) { /* computed byte by byte as the line came in (lk_rx), while the wire was busy */
             err_msg(-1, LK_E_BADCHK, LK_P("mismatch")); return;
         }
         end = star;
@@ -882,6 +896,7 @@ void lk_exec(lk_t *lk, char *line, uint8_t len) {
         c.argc++;
         echo = crc_canonical(crc_step(echo, ' '), tok);
     }
+    echo = ~echo;
     g_field = LK_NO_FIELD;
     if (!read_only && c.argc != 0xFF) { /* a malformed number is ERR 2 SYNTAX arguments (dispatch), whatever the seq */
         lk_seen_t *r;
@@ -920,13 +935,22 @@ void lk_rx(lk_t *lk, uint8_t b, uint32_t now_ms) {
         } else if (lk->badchar) {
             err_msg(-1, LK_E_SYNTAX, LK_P("character"));
         } else {
-            lk_exec(lk, lk->line, lk->len);
+            exec_line(lk);
         }
-        lk->len = 0; lk->overflow = 0; lk->badchar = 0;
+        lk->len = 0; lk->overflow = 0; lk->badchar = 0; lk->body = 0; lk->rx_crc = 0;
         return;
     }
     if (lk->overflow) return;
     if (lk->len >= LK_MAXLINE) { lk->overflow = 1; return; }
     if (!(b == '\t' || (b >= 0x20 && b <= 0x7E))) lk->badchar = 1;
     lk->line[lk->len++] = (char)b;
+    /* the checksum covers the bytes after leading blanks and an optional '$' up to the last '*' (docs/protocol.md
+       2.1): kept up to date here, so that a line's CRC is ready when its end arrives */
+    if (!lk->body) {
+        if (is_ws((char)b)) return;
+        lk->body = 1;
+        if (b == '$') return;
+    }
+    if (b == '*') lk->star_crc = lk->rx_crc;
+    lk->rx_crc = ~crc_step(~lk->rx_crc, b);
 }

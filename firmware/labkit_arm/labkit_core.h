@@ -13,8 +13,8 @@
 extern "C" {
 #endif
 
-#define LK_FW_VERSION "2.3.0"
-#define LK_PROTO_VERSION 2
+#define LK_FW_VERSION "3.0.0"
+#define LK_PROTO_VERSION 3 /* 3: every line sealed with a CRC-32 (*HHHHHHHH) */
 #ifndef LK_JOINTS
 #define LK_JOINTS 3 /* arm joints (seed arm: 3), at most 5 */
 #endif
@@ -22,7 +22,7 @@ extern "C" {
 #ifndef LK_QUEUE
 #define LK_QUEUE 6 /* segment queue depth */
 #endif
-#define LK_MAXLINE 160  /* longest accepted line, bytes before EOL */
+#define LK_MAXLINE 164  /* longest accepted line, bytes before EOL */
 #define LK_FRAME_MS 20  /* servo frame period */
 #define LK_USER_POT_PIN 5
 #define LK_SERVO_FULL 18000 /* servo travel, centidegrees */
@@ -62,7 +62,8 @@ typedef struct {
 } lk_seg_t;
 
 typedef struct {
-    uint16_t seq, echo; /* #seq and echo p= of an accepted sealed request */
+    uint32_t echo;      /* echo p= (CRC-32 of what was parsed) of an accepted sealed request */
+    uint16_t seq;       /* and its #seq */
     uint16_t v;         /* its reply's one integer field (0..60000), or LK_NO_FIELD (the reply is regenerated) */
 } lk_seen_t;
 #define LK_NO_FIELD 0xFFFFu
@@ -73,6 +74,7 @@ typedef struct {
     uint8_t q_head, q_count;
     uint8_t len;
     uint8_t overflow, badchar;
+    uint8_t body;                /* 1: the line's body has begun (past leading blanks and '$'): its bytes are checksummed */
     uint8_t stream_hz, stream_arm;
     uint8_t seen_n, seen_w;      /* valid entries of seen, next entry to overwrite */
     uint8_t window;              /* 1: a sealed request was accepted since power-up or HELLO: last_seq is the newest */
@@ -81,6 +83,7 @@ typedef struct {
     uint16_t grip_us;
     uint16_t last_seq;           /* #seq of the last accepted sealed request */
     uint32_t now_ms;
+    uint32_t rx_crc, star_crc;   /* CRC-32 of the line's body so far, and of the body before its last '*' */
     uint32_t last_accept_ms;
     uint32_t done;
     uint32_t seg_start_ms;       /* frame clock: start of the active segment */
@@ -115,12 +118,11 @@ uint16_t lk_hw_mem_free(void);                    /* smallest free stack/heap ga
 /* ---- core API ---- */
 void lk_init(lk_t *lk, uint8_t reset_cause, uint32_t now_ms, uint32_t now_us);
 void lk_rx(lk_t *lk, uint8_t byte, uint32_t now_ms); /* one received byte */
-void lk_exec(lk_t *lk, char *line, uint8_t len);     /* one complete line (no EOL), for tests */
 void lk_frame(lk_t *lk, uint32_t frame_index);       /* program servo frame #frame_index */
 void lk_poll(lk_t *lk, uint32_t now_ms, uint32_t now_us); /* timeout, feedback stream */
 
 /* helpers exposed for unit tests */
-uint16_t lk_crc16(const uint8_t *data, uint16_t n);
+uint32_t lk_crc32(const uint8_t *data, uint16_t n); /* CRC-32/ISO-HDLC (zlib.crc32) */
 /* q(s) [cdeg] at s = s24 / 2^24 (0 <= s24 <= 2^24), rounded to the nearest cdeg (integer Horner: before rounding
    within 1/4 cdeg of the exact value for |c_i| <= 10^5; exact at s = 0 and 1) */
 int32_t lk_poly(const int32_t *c, uint8_t order, int32_t s24);

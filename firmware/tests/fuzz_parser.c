@@ -1,6 +1,6 @@
 /* libFuzzer target: arbitrary bytes into the firmware core's receiver, interleaved with servo
  * frames and polls driven by the input. Invariants checked after every input (abort on failure):
- *   - every board line is <= 160 bytes and ends with a correct *HHHH CRC-16 and CR LF;
+ *   - every board line is <= LK_MAXLINE bytes and ends with a correct *HHHHHHHH CRC-32 and CR LF;
  *   - no unsealed state-changing line is ever acknowledged (OK without #seq and p= echo);
  *   - every commanded joint position lies within its limits and the servo range;
  *   - every pulse width lies within 400..2600 us.
@@ -20,12 +20,12 @@ static void check_output(void) {
     while (*p) {
         const char *eol = strstr(p, "\r\n");
         if (!eol) {
-            if (stub_out_len - (size_t)(p - stub_out) > 160) abort();
+            if (stub_out_len - (size_t)(p - stub_out) > LK_MAXLINE) abort();
             return; /* partial line at the end of the capture buffer */
         }
         unsigned hh;
-        if (eol - p < 5 || eol - p > 160 || eol[-5] != '*') abort();
-        if (sscanf(eol - 4, "%4X", &hh) != 1 || hh != lk_crc16((const uint8_t *)p, (uint16_t)(eol - 5 - p))) abort();
+        if (eol - p < 9 || eol - p > LK_MAXLINE || eol[-9] != '*' || strspn(eol - 8, "0123456789ABCDEF") < 8) abort();
+        if (sscanf(eol - 8, "%8X", &hh) != 1 || hh != lk_crc32((const uint8_t *)p, (uint16_t)(eol - 9 - p))) abort();
         if (!strncmp(p, "OK ", 3)) {
             /* the command name follows "OK " or "OK #seq " */
             const char *name = p[3] == '#' ? strchr(p + 3, ' ') + 1 : p + 3;

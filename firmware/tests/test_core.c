@@ -24,14 +24,14 @@ static int checks, failed;
 static lk_t lk;
 static uint32_t now_ms;
 
-/* every board line must end with *HHHH\r\n where HHHH is the CRC-16/CCITT-FALSE of the bytes before '*' */
+/* every board line must end with *HHHHHHHH\r\n where HHHHHHHH is the CRC-32 of the bytes before '*' */
 static int lines_valid(const char *out) {
     const char *p = out;
     while (*p) {
         const char *eol = strstr(p, "\r\n");
         unsigned hh;
-        if (!eol || eol - p < 5 || eol - p > 160 || eol[-5] != '*') return 0;
-        if (sscanf(eol - 4, "%4X", &hh) != 1 || hh != lk_crc16((const uint8_t *)p, (uint16_t)(eol - 5 - p))) return 0;
+        if (!eol || eol - p < 9 || eol - p > LK_MAXLINE || eol[-9] != '*' || strspn(eol - 8, "0123456789ABCDEF") < 8) return 0;
+        if (sscanf(eol - 8, "%8X", &hh) != 1 || hh != lk_crc32((const uint8_t *)p, (uint16_t)(eol - 9 - p))) return 0;
         p = eol + 2;
     }
     return 1;
@@ -47,7 +47,7 @@ static const char *send_raw(const char *line) {
 /* "#<seq> <line> *CRC" in buf */
 static const char *sealed(char *buf, size_t size, unsigned seq, const char *line) {
     int n = snprintf(buf, size, "#%u %s ", seq, line);
-    snprintf(buf + n, size - (size_t)n, "*%04X", lk_crc16((const uint8_t *)buf, (uint16_t)n));
+    snprintf(buf + n, size - (size_t)n, "*%08X", (unsigned)lk_crc32((const uint8_t *)buf, (uint16_t)n));
     return buf;
 }
 
@@ -57,7 +57,7 @@ static int read_only(const char *line) {
 }
 
 /* A state-changing command is sent sealed (#seq ... *CRC, a new seq each time: the board answers a repeated
-   seq and echo without running it); its replies are shown without " #seq" and " p=HHHH" (after checking that
+   seq and echo without running it); its replies are shown without " #seq" and " p=HHHHHHHH" (after checking that
    they are valid lines), so the expectations below read like the commands. */
 static unsigned send_seq;
 static const char *send(const char *line) {
@@ -71,7 +71,7 @@ static const char *send(const char *line) {
     int tl = snprintf(tag, sizeof tag, " #%u ", send_seq);
     for (const char *p = stub_out; *p;) {
         if (!strncmp(p, tag, (size_t)tl) && (p - stub_out == 2 || p - stub_out == 3)) { p += tl - 1; continue; }
-        if (!strncmp(p, " p=", 3) && strlen(p) > 7) { p += 7; continue; }
+        if (!strncmp(p, " p=", 3) && strlen(p) > 11) { p += 11; continue; }
         norm[n++] = *p++;
     }
     norm[n] = 0;
@@ -113,7 +113,8 @@ static void move_done(const char *line) {
 }
 
 static void test_helpers(void) {
-    CHECK(lk_crc16((const uint8_t *)"123456789", 9) == 0x29B1, "crc %04X", lk_crc16((const uint8_t *)"123456789", 9));
+    CHECK(lk_crc32((const uint8_t *)"123456789", 9) == 0xCBF43926UL, "crc %08X", (unsigned)lk_crc32((const uint8_t *)"123456789", 9));
+    CHECK(lk_crc32((const uint8_t *)"", 0) == 0, "crc of nothing %08X", (unsigned)lk_crc32((const uint8_t *)"", 0));
     int32_t c[4] = {4500, 0, 13500, -9000};
     CHECK(lk_poly(c, 3, 1L << 23) == 6750, "poly(0.5) = %d", (int)lk_poly(c, 3, 1L << 23));
     CHECK(lk_poly(c, 3, 1L << 24) == 9000 && lk_poly(c, 3, 0) == 4500, "poly(1), poly(0)");
@@ -141,22 +142,24 @@ static void test_helpers(void) {
 static void test_handshake_and_framing(void) {
     char buf[256];
     boot();
-    CHECK(starts(stub_out, "READY labkit-arm 2 fw=" LK_FW_VERSION " proto=2 joints=3 reset=POWER eeprom=DEFAULTS*"), "%s", stub_out);
+    CHECK(starts(stub_out, "READY labkit-arm 3 fw=" LK_FW_VERSION " proto=3 joints=3 reset=POWER eeprom=DEFAULTS*"), "%s", stub_out);
     CHECK(lines_valid(stub_out), "%s", stub_out);
     send("HELLO");
-    CHECK(starts(stub_out, "OK HELLO labkit-arm fw=" LK_FW_VERSION " proto=2 joints=3 channels=4 queue="), "%s", stub_out);
-    CHECK(strstr(stub_out, "maxline=160*") != NULL && lines_valid(stub_out), "%s", stub_out);
-    send("#7 PING*4824");
+    CHECK(starts(stub_out, "OK HELLO labkit-arm fw=" LK_FW_VERSION " proto=3 joints=3 channels=4 queue="), "%s", stub_out);
+    CHECK(strstr(stub_out, "maxline=164*") != NULL && lines_valid(stub_out), "%s", stub_out);
+    send("#7 PING*8983EB3B");
     CHECK(starts(stub_out, "OK #7 PING 0*"), "%s", stub_out);
-    send("$#7 PING*4824");
+    send("$#7 PING*8983eb3b");
     CHECK(starts(stub_out, "OK #7 PING"), "%s", stub_out);
-    send("$#7 pinG*4824");
+    send("$#7 pinG*8983EB3B");
     CHECK(starts(stub_out, "ERR 1 BADCHK mismatch"), "a case flip changes the CRC: %s", stub_out);
-    send("#7 PING*4825");
+    send("#7 PING*8983EB3C");
     CHECK(starts(stub_out, "ERR 1 BADCHK mismatch*"), "%s", stub_out);
     send("PING*24");
     CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "protocol-1 checksum: %s", stub_out);
-    send("PING*48244");
+    send("#7 PING*4824");
+    CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "protocol-2 checksum (CRC-16): %s", stub_out);
+    send("PING*8983EB3B4");
     CHECK(starts(stub_out, "ERR 1 BADCHK malformed"), "%s", stub_out);
     /* state-changing commands must be sealed; read-only ones may be typed */
     uint16_t before[4];
@@ -171,7 +174,7 @@ static void test_handshake_and_framing(void) {
     {
         const char *body = "MOVE 4500 9000 3000 250 ";
         char line[64];
-        snprintf(line, sizeof line, "%s*%04X", body, lk_crc16((const uint8_t *)body, (uint16_t)strlen(body)));
+        snprintf(line, sizeof line, "%s*%08X", body, (unsigned)lk_crc32((const uint8_t *)body, (uint16_t)strlen(body)));
         send_raw(line);
         CHECK(starts(stub_out, "ERR 1 BADCHK unsealed*"), "%s", stub_out);
     }
@@ -188,7 +191,7 @@ static void test_handshake_and_framing(void) {
     CHECK(memcmp(before, stub_pulses, sizeof before) == 0, "a split line moved something");
     /* the echo: CRC of what was parsed */
     send_raw(sealed(buf, sizeof buf, 9, "MOVE +4500 09000 3000 0250"));
-    CHECK(starts(stub_out, "OK #9 MOVE p=C36C 5*"), "echo of the canonical MOVE 4500 9000 3000 250: %s", stub_out);
+    CHECK(starts(stub_out, "OK #9 MOVE p=9DCE02E2 5*"), "echo of the canonical MOVE 4500 9000 3000 250: %s", stub_out);
     send("STATUS");
     CHECK(strstr(stub_out, " last=9*") != NULL, "%s", stub_out);
     finish_move();
@@ -215,7 +218,7 @@ static void test_handshake_and_framing(void) {
     longline[sizeof longline - 1] = 0;
     send(longline);
     CHECK(starts(stub_out, "ERR 4 TOOLONG"), "%s", stub_out);
-    longline[160] = 0; /* exactly maxline: accepted as a line (unknown command) */
+    longline[LK_MAXLINE] = 0; /* exactly maxline: accepted as a line (unknown command) */
     send(longline);
     CHECK(starts(stub_out, "ERR 3 UNKNOWN*"), "%s", stub_out);
     send("PING");
@@ -350,7 +353,7 @@ static void test_speed_limits(void) {
     CHECK(memcmp(before, stub_pulses, sizeof before) != 0, "the good segment moved");
     send("LIMITS 1 0 0");
     send("SAVE");
-    CHECK(starts(stub_out, "OK SAVE 76*"), "%s", stub_out);
+    CHECK(starts(stub_out, "OK SAVE 78*"), "%s", stub_out);
     boot();
     send("LIMITS 0");
     CHECK(starts(stub_out, "OK LIMITS 0 30000 150000*"), "limits survive a reset: %s", stub_out);
@@ -423,7 +426,15 @@ static void test_eeprom(void) {
     CHECK(starts(stub_out, "OK CAL 2 600 2400 18000 -1 0 17000*"), "%s", stub_out);
     send("TIMEOUT 1500");
     send("SAVE");
-    CHECK(starts(stub_out, "OK SAVE 76*"), "%s", stub_out);
+    CHECK(starts(stub_out, "OK SAVE 78*"), "%s", stub_out);
+    /* the image is sealed with the lines' CRC-32, little-endian; the virtual board's image of the same settings
+       (labkit.arm.board eeprom_image) ends with the same four bytes */
+    {
+        uint32_t crc = lk_crc32(stub_eeprom, 74);
+        CHECK(stub_eeprom[2] == 3 && stub_eeprom[74] == (uint8_t)crc && stub_eeprom[75] == (uint8_t)(crc >> 8) &&
+              stub_eeprom[76] == (uint8_t)(crc >> 16) && stub_eeprom[77] == (uint8_t)(crc >> 24), "image CRC");
+        CHECK(crc == 0xA63237F5UL, "image CRC %08X, the virtual board's is A63237F5", (unsigned)crc);
+    }
     boot();
     CHECK(!(lk.flags & LK_F_EEPROM_DEFAULTS) && strstr(stub_out, "eeprom=OK"), "%s", stub_out);
     CHECK(lk.cal[2].pmin == 600 && lk.cal[2].dir == -1 && lk.cal[2].hi == 17000 && lk.timeout_ms == 1500, "loaded");

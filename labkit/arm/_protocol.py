@@ -1,9 +1,9 @@
-"""Protocol v2 definitions shared by both ends of the wire (``docs/protocol.md``).
+"""Protocol v3 definitions shared by both ends of the wire (``docs/protocol.md``).
 
 The host link (:class:`labkit.arm.Arm` and its wire layer) and the virtual
 board (:class:`labkit.arm.VirtualBoard`) both take from here what the
 protocol fixes: the protocol version, the line length limit, the error codes,
-the CRC-16/CCITT-FALSE line checksum and how a line is sealed with it, which
+the CRC-32 line checksum (CRC-32/ISO-HDLC, ``zlib.crc32``) and how a line is sealed with it, which
 commands may go unsealed, the echo of a parsed request, the strict integer
 syntax of board lines, the angle unit (centidegrees), and
 :class:`CommandRejected`, the error of an ``ERR`` reply. Nothing here knows
@@ -12,13 +12,13 @@ about ports, clocks or physics.
 Examples
 --------
 >>> seal("#7 MOVE 4500 9000 3000 ")
-'#7 MOVE 4500 9000 3000 *0F11'
->>> unseal(b"OK #7 PING 200*232C")
+'#7 MOVE 4500 9000 3000 *C63C85AC'
+>>> unseal(b"OK #7 PING 200*B63589B2")
 b'OK #7 PING 200'
->>> unseal(b"OK #7 PING 201*232C") is None  # checksum mismatch
+>>> unseal(b"OK #7 PING 201*B63589B2") is None  # checksum mismatch
 True
 >>> echo("MOVE", [4500, 9000, 3000])
-'p=BE59'
+'p=53C7C857'
 >>> ERRORS[11]
 'SPEED'
 """
@@ -28,15 +28,17 @@ from __future__ import annotations
 import binascii
 import math
 import re
+import zlib
 
 from labkit.exceptions import DeviceError, ProtocolError
 
 __all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
 
-#: protocol version spoken by both ends (``HELLO`` ``proto=``, ``READY labkit-arm <version>``)
-PROTOCOL_VERSION = 2
-#: longest line [bytes] before the end of line, either direction (``HELLO`` ``maxline=``)
-MAX_LINE = 160
+#: protocol version spoken by both ends (``HELLO`` ``proto=``, ``READY labkit-arm <version>``); 3: CRC-32
+PROTOCOL_VERSION = 3
+#: longest line [bytes] before the end of line, either direction (``HELLO`` ``maxline=``; protocol 2's 160 plus
+#: the four more digits of the CRC-32)
+MAX_LINE = 164
 #: error codes of ``ERR <code> <NAME>`` replies (``docs/protocol.md`` section 5)
 ERRORS = {1: "BADCHK", 2: "SYNTAX", 3: "UNKNOWN", 4: "TOOLONG", 5: "RANGE", 6: "LIMIT", 7: "QFULL",
           8: "BUSY", 9: "DISCONT", 10: "EEPROM", 11: "SPEED", 12: "STALE"}
@@ -53,32 +55,36 @@ NOT_EXECUTED = frozenset({1, 2, 3, 4})
 #: not to be resent under that seq (docs/protocol.md 2.1)
 STALE = 12
 
-#: a board line without its CR LF: printable body, ``*``, four upper-case hex digits (CRC-16)
-BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{4})$")
-#: a protocol-1 board line (XOR checksum, two hex digits): recognised only to refuse an old board
-V1_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2})$")
+#: a board line without its CR LF: printable body, ``*``, eight upper-case hex digits (CRC-32)
+BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{8})$")
+#: a protocol-1 (XOR checksum, two hex digits) or protocol-2 (CRC-16, four) board line: recognised only to refuse
+#: an old board
+OLD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{2}|[0-9A-F]{4})$")
 #: an integer as the board writes it (never ``+``, leading zeros or ``-0``)
 STRICT_INT = re.compile(r"^(0|-?[1-9][0-9]{0,9})$")
 #: an integer argument of a request (optional sign, 1 to 10 digits)
 REQUEST_INT = re.compile(r"^[+-]?[0-9]{1,10}$")
 #: the optional sequence id token of a request
 REQUEST_SEQ = re.compile(r"^#([0-9]{1,5})$")
-#: what may follow the last ``*`` of a request: four hex digits (either case), then blanks
-REQUEST_CHECKSUM = re.compile(r"^[0-9A-Fa-f]{4}[ \t]*$")
+#: what may follow the last ``*`` of a request: eight hex digits (either case), then blanks
+REQUEST_CHECKSUM = re.compile(r"^[0-9A-Fa-f]{8}[ \t]*$")
 
 
 def checksum(text):
-    """CRC-16/CCITT-FALSE of the bytes of ``text``, the protocol's line checksum (int 0..65535).
+    """CRC-32 of the bytes of ``text``, the protocol's line checksum (int 0..2**32 - 1).
+
+    The CRC-32/ISO-HDLC of zlib, Ethernet and PNG (polynomial 0x04C11DB7 reflected, initial value and final XOR
+    0xFFFFFFFF; check value ``CBF43926`` for ``"123456789"``). It also seals the board's EEPROM image.
 
     Parameters
     ----------
     text : str or bytes-like
-        Line body (ASCII), without the ``*HHHH`` suffix.
+        Line body (ASCII), without the ``*HHHHHHHH`` suffix.
 
     Returns
     -------
     int
-        Checksum, 0..65535 (sent as four hex digits).
+        Checksum, 0..4294967295 (sent as eight hex digits).
 
     Raises
     ------
@@ -87,14 +93,16 @@ def checksum(text):
 
     Examples
     --------
-    >>> f"{checksum('#7 PING'):04X}"
-    '4824'
+    >>> f"{checksum('123456789'):08X}"
+    'CBF43926'
+    >>> f"{checksum('#7 PING'):08X}"
+    '8983EB3B'
     """
-    return crc16(text.encode("ascii") if isinstance(text, str) else bytes(text))
+    return zlib.crc32(text.encode("ascii") if isinstance(text, str) else bytes(text))
 
 
 def seal(body):
-    """``body`` with its checksum appended, ``"<body>*HHHH"`` (no end of line).
+    """``body`` with its checksum appended, ``"<body>*HHHHHHHH"`` (no end of line).
 
     Parameters
     ----------
@@ -105,7 +113,7 @@ def seal(body):
     -------
     str
     """
-    return f"{body}*{checksum(body):04X}"
+    return f"{body}*{checksum(body):08X}"
 
 
 def unseal(raw):
@@ -119,7 +127,7 @@ def unseal(raw):
     Returns
     -------
     bytes or None
-        The body before ``*HHHH``; ``None`` for a malformed line or a checksum mismatch.
+        The body before ``*HHHHHHHH``; ``None`` for a malformed line or a checksum mismatch.
     """
     m = BOARD_LINE.match(raw)
     if not m or int(m.group(2), 16) != checksum(m.group(1)):
@@ -127,8 +135,10 @@ def unseal(raw):
     return m.group(1)
 
 
-def is_v1_line(raw):
-    """Whether ``raw`` (bytes, no CR LF) is an intact protocol-1 board line (XOR checksum ``*HH``).
+def old_protocol(raw):
+    """The protocol of an intact board line of an older firmware (``raw``: bytes, no CR LF), else ``None``.
+
+    Protocol 1 sealed lines with an XOR checksum (``*HH``), protocol 2 with a CRC-16/CCITT-FALSE (``*HHHH``).
 
     Parameters
     ----------
@@ -137,19 +147,28 @@ def is_v1_line(raw):
 
     Returns
     -------
-    bool
+    int or None
+        1 or 2, or ``None`` for anything else (a protocol-3 line, damage).
+
+    Examples
+    --------
+    >>> old_protocol(b"OK #7 PING 200*232C"), old_protocol(b"OK #7 PING 200*B63589B2")
+    (2, None)
     """
-    m = V1_LINE.match(raw)
+    m = OLD_LINE.match(raw)
     if not m:
-        return False
+        return None
+    body, value = m.group(1), int(m.group(2), 16)
+    if len(m.group(2)) == 4:
+        return 2 if binascii.crc_hqx(body, 0xFFFF) == value else None
     x = 0
-    for b in m.group(1):
+    for b in body:
         x ^= b
-    return x == int(m.group(2), 16)
+    return 1 if x == value else None
 
 
 def echo(command, args):
-    """The ``p=HHHH`` field a board puts in the ``OK`` reply to a sealed request: CRC of what it parsed.
+    """The ``p=HHHHHHHH`` field a board puts in the ``OK`` reply to a sealed request: CRC of what it parsed.
 
     Parameters
     ----------
@@ -161,9 +180,9 @@ def echo(command, args):
     Returns
     -------
     str
-        ``"p=HHHH"``, the CRC-16 of ``"NAME a0 a1 ..."`` (integers written plainly).
+        ``"p=HHHHHHHH"``, the CRC-32 of ``"NAME a0 a1 ..."`` (integers written plainly).
     """
-    return f"p={checksum(' '.join([command.upper(), *(str(int(a)) for a in args)])):04X}"
+    return f"p={checksum(' '.join([command.upper(), *(str(int(a)) for a in args)])):08X}"
 
 
 def board_int(text):
@@ -200,26 +219,6 @@ def cdeg(q):
     int
     """
     return int(round(math.degrees(float(q)) * 100))
-
-
-def crc16(data):
-    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection, no final XOR) of ``data``.
-
-    Parameters
-    ----------
-    data : bytes-like
-
-    Returns
-    -------
-    int
-        0..65535.
-
-    Examples
-    --------
-    >>> hex(crc16(b"123456789"))
-    '0x29b1'
-    """
-    return binascii.crc_hqx(bytes(data), 0xFFFF)
 
 
 class CommandRejected(DeviceError):

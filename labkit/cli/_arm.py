@@ -33,9 +33,11 @@ def _cmd_ports(args):
         return 0
     width = max(len(p.device) for p in ports)
     for p in ports:
-        print(f"{'*' if p.arduino else ' '} {p.device:<{width}}  {p.usb_id:<9}  {p.description}")
+        print(f"{'*' if p.arduino else 'b' if p.bus_adapter else ' '} {p.device:<{width}}  {p.usb_id:<9}  {p.description}")
     if any(p.arduino for p in ports):
         print("* looks like an Arduino; Arm() without a port takes the first of these")
+    if any(p.bus_adapter for p in ports):
+        print("b may be a servo-bus adapter (FTDI, e.g. a U2D2): dynamixel://<port> or feetech://<port>")
     return 0
 
 

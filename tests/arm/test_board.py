@@ -31,7 +31,7 @@ def talk(board, line):
 
 def strip(line):
     body, _, hhhh = line.rpartition("*")
-    assert len(hhhh) == 4 and int(hhhh, 16) == checksum(body), line
+    assert len(hhhh) == 8 and int(hhhh, 16) == checksum(body), line
     return body
 
 
@@ -67,21 +67,22 @@ def test_ready_line_and_hello_match_the_protocol_examples():
     b.advance_to(0.05)
     assert b.take_output() == b""
     b.advance_to(0.2)
-    assert b.take_output() == b"READY labkit-arm 2 fw=2.3.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*40FE\r\n"
-    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=2.3.0 proto=2 joints=3 channels=4 queue=6 maxline=160*00B6"]
+    assert b.take_output() == b"READY labkit-arm 3 fw=3.0.0 proto=3 joints=3 reset=POWER eeprom=DEFAULTS*8B079DC6\r\n"
+    assert talk(b, "HELLO") == ["OK HELLO labkit-arm fw=3.0.0 proto=3 joints=3 channels=4 queue=6 maxline=164*BA094EC5"]
 
 
 def test_example_session_lines_and_checksums():
     b = booted()
-    assert talk(b, "#1 MOVE 4500 19000 3000 1000 *EF63") == ["ERR #1 6 LIMIT joint 1*9CE1"]
-    assert talk(b, "#2 MOVE 4500 9000 3000 50 *5094") == ["ERR #2 11 SPEED joint 0*519C"]
-    assert talk(b, "#3 MOVE 4500 9000 3000 1000 *3376") == ["OK #3 MOVE p=C350 5*B5AA"]
-    assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed*5F65"]
-    assert talk(b, "FLY") == ["ERR 3 UNKNOWN*B3FC"]
+    assert talk(b, "#1 MOVE 4500 19000 3000 1000 *957893A0") == ["ERR #1 6 LIMIT joint 1*5B92339F"]
+    assert talk(b, "#2 MOVE 4500 9000 3000 50 *DE0686EC") == ["ERR #2 11 SPEED joint 0*8E3CE42C"]
+    assert talk(b, "#3 MOVE 4500 9000 3000 1000 *D4CB5EC6") == ["OK #3 MOVE p=AE3CFF72 5*4CC173D6"]
+    assert talk(b, "#3 PING*XXXX") == ["ERR 1 BADCHK malformed*1C401CB2"]
+    assert talk(b, "FLY") == ["ERR 3 UNKNOWN*F1DCDF7E"]
     assert talk(b, "#4 ping")[0].startswith("OK #4 PING ")
     assert talk(b, "  $#5 PING*12  ")[0].startswith("ERR 1 BADCHK malformed")  # two hex digits: protocol 1
-    assert talk(b, f"$#5 PING*{checksum('#5 PING') ^ 1:04X}")[0].startswith("ERR 1 BADCHK mismatch")
-    assert talk(b, f"$#5 PING*{checksum('#5 PING'):04x}")[0].startswith("OK #5 PING")
+    assert talk(b, "  $#5 PING*A94D  ")[0].startswith("ERR 1 BADCHK malformed")  # four: protocol 2's CRC-16
+    assert talk(b, f"$#5 PING*{checksum('#5 PING') ^ 1:08X}")[0].startswith("ERR 1 BADCHK mismatch")
+    assert talk(b, f"$#5 PING*{checksum('#5 PING'):08x}")[0].startswith("OK #5 PING")
 
 
 def test_state_changing_lines_need_seq_and_crc():
@@ -119,7 +120,7 @@ def test_lines_without_reply_and_malformed_lines():
     assert strip(talk(b, "PING " + "1" * 200)[0]).startswith("ERR 4 TOOLONG")
     assert " flags=11 " in talk(b, "STATUS")[0]  # EEPROM defaults + a line too long
     assert strip(talk(b, "$")[0]) == "ERR 2 SYNTAX command"
-    assert strip(talk(b, "*0000")[0]) == "ERR 1 BADCHK mismatch"
+    assert strip(talk(b, "*FFFFFFFF")[0]) == "ERR 1 BADCHK mismatch"
 
 
 def test_every_request_gets_exactly_one_reply_in_order():
@@ -220,7 +221,7 @@ def test_stream_frames_counter_and_clock():
 def test_calibration_save_survives_reset():
     b = booted()
     assert cmd(b, "CAL 2 600 2400 18000 -1 0 17000") == ["OK CAL 2 600 2400 18000 -1 0 17000"]
-    assert cmd(b, "SAVE") == ["OK SAVE 76"]  # EEPROM image version 2 (with the speed limits)
+    assert cmd(b, "SAVE") == ["OK SAVE 78"]  # EEPROM image version 3 (with the speed limits, sealed with a CRC-32)
     b.reset()
     b.advance(0.2)
     assert b"reset=EXTERNAL eeprom=OK" in b.take_output()
@@ -247,7 +248,7 @@ def test_url_handler_options_and_errors():
                                  timeout=0.5)
     assert port.board.model.zero_offsets[0] == 0.01
     assert port.board.config.deadband == 0.0
-    assert port.readline().startswith(b"READY labkit-arm 2 ")
+    assert port.readline().startswith(b"READY labkit-arm 3 ")
     port.write(b"PING\n")
     assert port.readline().startswith(b"OK PING")
     port.sleep(1.0)
@@ -315,3 +316,18 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
         q = np.radians([10, 60, -120, 20, 30, 40])
         arm.move_joints(q, wait=True)
         assert np.abs(arm.read_joints() - q).max() < np.radians(1.5)
+
+
+def test_the_eeprom_image_is_sealed_with_the_line_crc32():
+    from labkit.arm.board._commands import FACTORY, eeprom_image, read_eeprom
+
+    cal = [list(FACTORY) for _ in range(4)]
+    cal[2] = [600, 2400, 18000, -1, 0, 17000]
+    img = eeprom_image(cal, [60000] * 3, [0] * 3, 1500)
+    # firmware/tests/test_core.c checks that the firmware's image of the same settings ends with the same CRC
+    assert len(img) == 78 and img[2] == 3 and int.from_bytes(img[-4:], "little") == checksum(img[:-4]) == 0xA63237F5
+    assert read_eeprom(img, 4) == (cal, [60000] * 3, [0] * 3, 1500, True)
+    for k in range(len(img)):  # any damaged byte: the factory defaults
+        bad = bytearray(img)
+        bad[k] ^= 0x10
+        assert read_eeprom(bytes(bad), 4)[-1] is False, k

@@ -35,7 +35,7 @@ def load_table(path=TABLE):
 
 def test_the_table_covers_what_issue_13_asks():
     ready, rows = load_table()
-    assert ready.startswith("READY labkit-arm 2 ")
+    assert ready.startswith("READY labkit-arm 3 ")
     requests = [r for r, _ in rows]
     assert len(rows) >= 130
     assert any(r.startswith(b"#5 MOVE 4500 9000 30") and not r.endswith(b"*") for r in requests)  # split line

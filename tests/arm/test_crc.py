@@ -1,16 +1,28 @@
-"""Exhaustive damage enumeration on real request lines: no swap of two bytes, no double flip of the
-same bit and no dropped pair of bytes yields a line the board would accept as sealed (protocol 2's
-CRC-16), while protocol 1's XOR checksum passed many of them (issue 13)."""
+"""The line checksum (CRC-32 since protocol 3, issue 27).
 
+Exhaustive damage enumeration on real request lines: no swap of two bytes, no double flip of the same bit
+and no dropped pair of bytes yields a line the board would accept as sealed, while protocol 1's XOR checksum
+passed many of them (issue 13). And the wrong reply a fault run accepted under protocol 2 (a damaged
+``STATUS`` reply whose CRC-16 still matched, issue 27): rebuilt here by a small search, it passes a CRC-16 but
+not the CRC-32, and the host drops it and asks again.
+"""
+
+import binascii
 import functools
 import itertools
 import re
+import zlib
 
 import numpy as np
 import pytest
+import serial
 
-from labkit.arm import segments_from_trajectory
-from labkit.arm._protocol import REQUEST_CHECKSUM, checksum, seal
+from labkit.arm import Arm, PortWrapper, segments_from_trajectory
+from labkit.arm._protocol import REQUEST_CHECKSUM, checksum, seal, unseal
+from labkit.arm.link._replies import parse_status
+from labkit.arm.urlhandler import register
+
+register()
 
 
 class _Traj:
@@ -36,7 +48,7 @@ def board_accepts_sealed(line: bytes) -> bool:
     k = body.rfind("*")
     if k < 0 or not REQUEST_CHECKSUM.match(body[k + 1:]):
         return False
-    return int(body[k + 1:k + 5], 16) == checksum(body[:k].encode("latin-1"))
+    return int(body[k + 1:k + 9], 16) == checksum(body[:k].encode("latin-1"))
 
 
 def xor_accepts(line: bytes) -> bool:
@@ -93,9 +105,80 @@ def test_no_damaged_request_passes_the_crc(enumeration):
 def test_the_enumeration_would_catch_a_weak_checksum(enumeration):
     """The same enumeration finds many damaged lines that protocol 1's XOR checksum passed."""
     assert enumeration["swap"][2] > 1000 and enumeration["flip"][2] > 1000
-    print({k: {"damaged": v[0], "pass_crc16": v[1], "pass_xor_v1": v[2]} for k, v in enumeration.items()})
+    print({k: {"damaged": v[0], "pass_crc32": v[1], "pass_xor_v1": v[2]} for k, v in enumeration.items()})
 
 
 def test_crc_matches_the_published_check_value():
-    assert checksum(b"123456789") == 0x29B1  # CRC-16/CCITT-FALSE check value
-    assert seal("#1 MOVE 4500 9000 3000 ") == "#1 MOVE 4500 9000 3000 *73E0"  # docs/protocol.md section 7
+    assert checksum(b"123456789") == 0xCBF43926  # CRC-32/ISO-HDLC check value
+    assert checksum("123456789") == zlib.crc32(b"123456789") and checksum(b"") == 0
+    assert seal("#1 MOVE 4500 9000 3000 1000 ") == "#1 MOVE 4500 9000 3000 1000 *09D36844"  # docs/protocol.md 2.1
+
+
+def crc16_collision(body):
+    """A wrong ``STATUS`` reply body with the CRC-16 of ``body``: joint 0 ten degrees off, then a search over
+    the last two digits of the other joints and of ``mem=`` and ``t=`` (10^8 candidates, about 1500 matches)."""
+    target = binascii.crc_hqx(body, 0xFFFF)
+    m = re.search(rb"q=(-?\d+),", body)
+    wrong = bytearray(body[:m.start(1)] + str(int(m.group(1)) + 1000).encode() + body[m.end(1):])
+    free = []
+    for field in (rb"q=-?\d+,(-?\d+)", rb"q=-?\d+,-?\d+,(-?\d+)", rb" mem=(\d+)", rb" t=(\d+)"):
+        f = re.search(field, bytes(wrong))
+        if f and f.end(1) - f.start(1) >= 3:
+            free += [f.end(1) - 2, f.end(1) - 1]
+    assert len(free) >= 6, body
+    for digits in itertools.product(b"0123456789", repeat=len(free)):
+        for k, d in zip(free, digits):
+            wrong[k] = d
+        if binascii.crc_hqx(bytes(wrong), 0xFFFF) == target:
+            return bytes(wrong)
+    raise AssertionError(f"no CRC-16 collision for {body!r}")
+
+
+class DamageOneReply(PortWrapper):
+    """Between host and board: once armed, puts a wrong body under the true checksum of the next STATUS reply."""
+
+    def __init__(self, port):
+        super().__init__(port)
+        self.armed = False
+        self.swaps = []  # (true body, wrong body)
+        self._held = bytearray()
+
+    def read(self, size=1):
+        data = self._port.read(size)
+        if not self.armed and not self._held:
+            return data
+        self._held += data
+        out = bytearray()
+        while (k := self._held.find(b"\r\n")) >= 0:
+            line = bytes(self._held[:k])
+            del self._held[:k + 2]
+            body = unseal(line)
+            if self.armed and body is not None and re.match(rb"OK #\d+ STATUS ", body):
+                wrong = crc16_collision(body)
+                self.swaps.append((body, wrong))
+                line = wrong + line[len(body):]  # the wrong body, the true line's CRC-32
+                self.armed = False
+            out += line + b"\r\n"
+        return bytes(out)
+
+
+def test_a_wrong_reply_that_passes_the_crc16_is_refused_and_asked_again():
+    port = DamageOneReply(serial.serial_for_url("sim://?clock=lockstep", baudrate=115200, timeout=0.05))
+    arm = Arm(port, timeout=0.05, retries=3)
+    try:
+        truth = arm.status()
+        sent, bad = arm.stats.sent, arm.stats.bad_lines
+        port.armed = True
+        status = arm.status()
+    finally:
+        arm.close()
+    (body, wrong), = port.swaps
+    # under protocol 2 this line was accepted: the same CRC-16, a valid STATUS, joint 0 off by 10 degrees
+    assert wrong != body and binascii.crc_hqx(wrong, 0xFFFF) == binascii.crc_hqx(body, 0xFFFF)
+    fake = parse_status(wrong.decode().split()[3:], 3, 6)
+    assert abs(np.degrees(fake.q[0] - truth.q[0]) - 10.0) < 1e-6
+    # the CRC-32 refuses it: dropped as damaged, the request sent again, the true state returned
+    assert zlib.crc32(wrong) != zlib.crc32(body)
+    assert unseal(wrong + b"*" + f"{zlib.crc32(body):08X}".encode()) is None
+    assert arm.stats.bad_lines == bad + 1 and arm.stats.sent == sent + 2
+    np.testing.assert_array_equal(status.q, truth.q)

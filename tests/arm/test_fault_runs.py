@@ -5,9 +5,10 @@ simavr, checked against what the board really received and sent:
 - damaged requests executed: a state-changing request the board acknowledged (``OK #seq NAME p=...``,
   read below the fault injection) whose seq/echo the host never sent;
 - wrong replies accepted: a reply the host used (its request succeeded with it) that the board never
-  sent; ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-16 at all (about
-  one in 65,536 damaged lines can), ``wrong_replies_matched`` those of them matched to the awaited
-  request, which the content checks then refused (the request was sent again);
+  sent; ``wrong_lines_passing_crc`` counts every damaged line that passed the CRC-32 at all (about
+  one in 4.3e9 damaged lines can; one in 65,536 could with protocol 2's CRC-16),
+  ``wrong_replies_matched`` those of them matched to the awaited request, which the content checks
+  then refused (the request was sent again);
 - unrequested motions left unreported: an API call that returned normally while the board acknowledged
   more (or fewer) MOVE/SEG requests than it asked for;
 - motions run twice: segments the board ran (its ``done`` count, read below the fault injection at the
@@ -35,7 +36,7 @@ from labkit.exceptions import DeviceError
 
 register()
 NOISY = dict(corrupt=0.01, drop=0.005, duplicate=0.01)
-OK_ECHO = re.compile(rb"^OK #(\d+) ([A-Z]+) p=([0-9A-F]{4})(?: .*)?$")
+OK_ECHO = re.compile(rb"^OK #(\d+) ([A-Z]+) p=([0-9A-F]{8})(?: .*)?$")
 
 
 class Truth(PortWrapper):

@@ -37,7 +37,7 @@ def build_log():
 
 # ------------------------------------------------------------------------------ helpers
 def line_ok(raw: bytes) -> bool:
-    """A board line with CR LF and a correct *HHHH CRC-16."""
+    """A board line with CR LF and a correct *HHHHHHHH CRC-32."""
     if not raw.endswith(b"\r\n"):
         return False
     return unseal(raw[:-2]) is not None
@@ -46,7 +46,7 @@ def line_ok(raw: bytes) -> bool:
 class Client:
     """Stop-and-wait client on a raw port; keeps events (EV) apart from replies.
 
-    State-changing commands are sent sealed (``#seq`` and CRC-16, as protocol 2 requires); their
+    State-changing commands are sent sealed (``#seq`` and CRC-32, as protocol 3 requires); their
     replies are returned without the ``#seq`` and the (checked) ``p=`` echo, e.g. ``"OK MOVE"``.
     """
 
@@ -86,7 +86,7 @@ def start(pace=0.0, **kw):
     port = serial.Serial(sim.port, BAUD, timeout=20)
     sim.run()
     boot = port.readline()
-    assert line_ok(boot) and boot.startswith(b"READY labkit-arm 2 "), boot
+    assert line_ok(boot) and boot.startswith(b"READY labkit-arm 3 "), boot
     return sim, port
 
 
@@ -387,7 +387,7 @@ def test_simavr_url_handler_opens_a_booted_board(build_log):
     labkit.arm.urlhandler.register()
     port = serial.serial_for_url("simavr://?pace=0", baudrate=BAUD, timeout=20)
     try:
-        assert port.readline().startswith(b"READY labkit-arm 2 ")
+        assert port.readline().startswith(b"READY labkit-arm 3 ")
         port.write(b"#1 HELLO\n")
         assert port.readline().startswith(b"OK #1 HELLO labkit-arm")
         assert port.sim.pulses()[3] == pytest.approx(1500, abs=0.5)

@@ -1,6 +1,8 @@
 """Tests of the host link (labkit.arm) against the virtual arm."""
 
+import binascii
 import math
+import re
 
 import numpy as np
 import pytest
@@ -35,10 +37,10 @@ def arm():
 
 
 def test_handshake_reads_board_info(arm):
-    assert arm.info.protocol == 2 and arm.info.joints == 3 and arm.info.queue == 6
+    assert arm.info.protocol == 3 and arm.info.joints == 3 and arm.info.queue == 6
     assert arm.status().state == "IDLE"
     assert arm.ping() >= 0.1  # READY came 0.1 s after power-up
-    assert arm.events[0][0] == "READY" and arm.events[0][1][:2] == ["labkit-arm", "2"]
+    assert arm.events[0][0] == "READY" and arm.events[0][1][:2] == ["labkit-arm", "3"]
 
 
 def test_requests_carry_sequence_and_checksum():
@@ -49,7 +51,7 @@ def test_requests_carry_sequence_and_checksum():
     for line in rec.lines:
         text = line.decode()
         body, _, hhhh = text.rpartition("*")
-        assert len(hhhh) == 4 and int(hhhh, 16) == checksum(body)
+        assert len(hhhh) == 8 and int(hhhh, 16) == checksum(body)
         assert text.startswith("#")
         seqs.append(int(text.split()[0][1:]))
     assert seqs == sorted(set(seqs))
@@ -205,6 +207,20 @@ def test_lost_motion_reply_is_verified_not_repeated():
         assert arm.stats.verified == 1
 
 
+@pytest.mark.parametrize("name, value", [("timeout", float("nan")), ("timeout", float("inf")), ("timeout", 0.0),
+                                         ("timeout", -1.0), ("timeout", "0.1"), ("retries", -1), ("retries", 2.5),
+                                         ("retries", float("inf"))])
+def test_the_timeout_and_retries_setters_refuse_what_the_constructor_refuses(arm, name, value):
+    before = getattr(arm, name)
+    with pytest.raises(OptionError, match=rf"expected {name} "):
+        setattr(arm, name, value)
+    with pytest.raises(OptionError, match=rf"expected {name} "):
+        Arm(SIM, **{name: value})
+    assert getattr(arm, name) == before
+    setattr(arm, name, 0.5 if name == "timeout" else 3)
+    assert getattr(arm, name) == (0.5 if name == "timeout" else 3) and arm.ping() >= 0
+
+
 def test_timeouts_raise_device_error():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     arm = Arm(raw, timeout=0.02, retries=2)
@@ -249,8 +265,8 @@ def test_wrong_protocol_version_is_refused():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     board = raw.board
     orig = board._cmd_hello
-    board._cmd_hello = lambda args: orig(args).replace("proto=2", "proto=3")
-    with pytest.raises(DeviceError, match="protocol 3"):
+    board._cmd_hello = lambda args: orig(args).replace("proto=3", "proto=4")
+    with pytest.raises(DeviceError, match=r"firmware 3\.0\.0\) speaks protocol 4, labkit expects protocol 3"):
         Arm(raw, timeout=0.02)
     raw2 = serial.serial_for_url(SIM, timeout=0.05)
     raw2.board._cmd_hello = lambda args: "other-board v9"
@@ -275,27 +291,61 @@ def v1_board():
     return raw
 
 
+def v2_board(ready=True):
+    """A virtual board that talks like firmware 2.3.0 (protocol 2: CRC-16 seals ``*HHHH``, 4-digit echoes)."""
+    raw = serial.serial_for_url(SIM, timeout=0.05)
+    board = raw.board
+    handle = board._handle
+
+    def emit(text):
+        text = re.sub(r" p=([0-9A-F]{4})[0-9A-F]{4}\b", r" p=\1", text)
+        text = text.replace("labkit-arm 3 ", "labkit-arm 2 ").replace("fw=3.0.0 proto=3", "fw=2.3.0 proto=2")
+        board._out += f"{text}*{binascii.crc_hqx(text.encode(), 0xFFFF):04X}\r\n".encode()
+
+    def handle_v2(raw_line):  # protocol 3's eight-digit seal is malformed for a protocol-2 board
+        if re.search(rb"\*[0-9A-Fa-f]{8}[ \t]*$", raw_line):
+            emit("ERR 1 BADCHK malformed")
+            return
+        handle(raw_line)
+
+    board._emit = emit
+    board._handle = handle_v2
+    if not ready:  # a board whose auto-reset is disabled: its READY went out before the host opened the port
+        board.advance(0.5)
+        board.take_output()
+    return raw
+
+
 def test_an_older_board_is_refused_with_what_to_do():
-    with pytest.raises(DeviceError, match=r"older labkit firmware \(protocol 1.*flash firmware/labkit_arm"):
+    with pytest.raises(DeviceError, match=r"labkit firmware 1\.0\.0, protocol 1 .*labkit speaks protocol 3 "
+                                          r"\(firmware 3\.0\.0 or newer.*flash firmware/labkit_arm"):
         Arm(v1_board(), timeout=0.02)
 
 
-@pytest.mark.parametrize("old", ["2.0.0", "2.1.0", "2.2.0"])
-def test_a_protocol_2_board_older_than_exactly_once_requests_is_refused(old):
-    # 2.0.0: untimed MOVE; 2.1.0: runs a resent request twice; 2.2.0: runs a stale request's late copy (issue 27)
+@pytest.mark.parametrize("ready", [True, False])
+def test_a_protocol_2_board_is_refused_naming_both_versions(ready):
+    # firmware 2.x seals its lines with a CRC-16 (issue 27: too weak); with or without its READY line
+    which = r"labkit firmware 2\.3\.0, protocol 2" if ready else "an older labkit firmware, protocol 2"
+    with pytest.raises(DeviceError, match=rf"the board runs {which} \(.*\*[0-9A-F]{{4}}'\); labkit speaks protocol 3 "
+                                          r"\(firmware 3\.0\.0 or newer: a CRC-32 on every line\): flash firmware"):
+        Arm(v2_board(ready), timeout=0.02, boot_wait=0.2)
+
+
+@pytest.mark.parametrize("old", ["2.3.0", "2.99.0"])
+def test_a_board_older_than_the_oldest_firmware_driven_is_refused(old):
     raw = serial.serial_for_url(SIM, timeout=0.05)
     orig = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: orig(args).replace("fw=2.3.0", f"fw={old}")
-    with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 2\.3\.0 or newer .*flash firmware/labkit_arm"):
+    raw.board._cmd_hello = lambda args: orig(args).replace("fw=3.0.0", f"fw={old}")
+    with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 3\.0\.0 or newer .*flash firmware/labkit_arm"):
         Arm(raw, timeout=0.02)
 
 
 def test_a_newer_board_is_driven():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     newer = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: newer(args).replace("fw=2.3.0", "fw=2.10.0")
+    raw.board._cmd_hello = lambda args: newer(args).replace("fw=3.0.0", "fw=3.10.0")
     with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
-        assert arm.info.firmware == "2.10.0"
+        assert arm.info.firmware == "3.10.0"
 
 
 def test_no_ready_and_no_answer_says_what_to_check():
@@ -310,7 +360,7 @@ def test_a_board_without_auto_reset_is_still_found():
     raw.board.advance(0.5)
     raw.board.take_output()  # its READY went out before the host opened the port
     with Arm(raw, timeout=0.02, boot_wait=0.2) as arm:
-        assert arm.info.protocol == 2
+        assert arm.info.protocol == 3
 
 
 def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
@@ -329,7 +379,7 @@ def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
 
 def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
     board = arm.port.board
-    board.receive(b"#999 MOVE 1000 2000 3000 1000 *" + f"{checksum('#999 MOVE 1000 2000 3000 1000 '):04X}".encode() + b"\n")
+    board.receive(b"#999 MOVE 1000 2000 3000 1000 *" + f"{checksum('#999 MOVE 1000 2000 3000 1000 '):08X}".encode() + b"\n")
     board.take_output()
     with pytest.raises(DeviceError, match=r"request #999.*unrequested motion.*stopped"):
         arm.status()
@@ -340,7 +390,7 @@ def test_a_stale_request_is_refused_not_executed_and_not_resent(arm):
     # another program numbered its requests ahead of labkit's: the board refuses labkit's next one as stale (issue 27)
     board = arm.port.board
     body = "#20000 GRIP 1500 "
-    board.receive(f"{body}*{checksum(body):04X}\n".encode())
+    board.receive(f"{body}*{checksum(body):08X}\n".encode())
     board.take_output()
     sent, timeout_ms = arm.stats.sent, board.timeout_ms
     with pytest.raises(CommandRejected, match=r"TIMEOUT #\d+ was not executed.*12 STALE after #20000.*another program"
@@ -351,9 +401,9 @@ def test_a_stale_request_is_refused_not_executed_and_not_resent(arm):
 
 
 def test_no_port_found(monkeypatch):
-    import labkit.arm.link._arm as link
+    import labkit.arm.link._ports as ports
 
-    monkeypatch.setattr(link, "find_ports", lambda: [])
+    monkeypatch.setattr(ports, "list_ports", lambda: [])
     with pytest.raises(DeviceError, match="sim://"):
         Arm(None)
 
@@ -489,7 +539,7 @@ def test_a_raw_out_of_speed_move_is_refused_and_nothing_moves(arm):
     board = arm.port.board
     before = list(board.q)
     line = "#900 MOVE 17000 9000 9000 20 "
-    board.receive(f"{line}*{checksum(line):04X}\n".encode())
+    board.receive(f"{line}*{checksum(line):08X}\n".encode())
     out = board.take_output().decode()
     assert out.startswith("ERR #900 11 SPEED joint 0*"), out
     board.advance(0.1)

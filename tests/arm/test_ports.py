@@ -36,6 +36,28 @@ def test_ports_are_listed_arduinos_first(monkeypatch, capsys):
     assert "Arm() without a port takes the first" in out[-1]
 
 
+def test_an_ftdi_adapter_is_a_possible_bus_adapter_not_an_arduino(monkeypatch, capsys):
+    from serial.tools import list_ports as lp
+
+    ports = [SimpleNamespace(device="/dev/ttyUSB1", vid=0x0403, pid=0x6014, description="USB <-> Serial Converter",
+                             manufacturer="FTDI"),  # a ROBOTIS U2D2 (FT232H)
+             SimpleNamespace(device="/dev/ttyUSB2", vid=0x0403, pid=0x6001, description="FT232R USB UART - Arduino Nano",
+                             manufacturer="FTDI")]  # an FTDI clone that says it is an Arduino
+    monkeypatch.setattr(lp, "comports", lambda: ports)
+    found = list_ports()
+    assert [(p.device, p.arduino, p.bus_adapter) for p in found] == [("/dev/ttyUSB2", True, False),
+                                                                      ("/dev/ttyUSB1", False, True)]
+    assert find_ports() == ["/dev/ttyUSB2"]
+    assert main(["ports"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].split()[:2] == ["b", "/dev/ttyUSB1"] and "dynamixel://<port>" in out[-1]
+    monkeypatch.setattr(lp, "comports", lambda: ports[:1])
+    assert find_ports() == []
+    with pytest.raises(DeviceError, match=r"no Arduino-like serial port.*/dev/ttyUSB1 may be a servo-bus adapter.*"
+                                          r"'dynamixel:///dev/ttyUSB1'"):
+        Arm()
+
+
 def test_auto_detection_opens_the_first_arduino(monkeypatch):
     fake_comports(monkeypatch)
     opened = []

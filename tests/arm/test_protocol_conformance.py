@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from boards import BOARDS
-from labkit.arm._protocol import READ_ONLY, echo, seal, unseal
+from labkit.arm._protocol import MAX_LINE, READ_ONLY, echo, seal, unseal
 
 pytestmark = [pytest.mark.firmware, pytest.mark.xdist_group("firmware")]
 
@@ -21,12 +21,12 @@ US_PER_CDEG = 2000 / 18000  # default calibration: 500..2500 us over 0..180 deg
 
 
 def checked(line: str) -> str:
-    """Append the CRC-16 to a request line."""
+    """Append the CRC-32 to a request line."""
     return seal(line)
 
 
 def sealed(line: str, seq: int) -> str:
-    """A state-changing request as protocol 2 requires it: ``#seq``, the line, a space, ``*CRC``."""
+    """A state-changing request as protocol 3 requires it: ``#seq``, the line, a space, ``*CRC``."""
     return seal(f"#{seq} {line} ")
 
 
@@ -49,7 +49,7 @@ class Host:
         assert raw.endswith(b"\r\n"), f"board line not terminated by CR LF (timeout?): {raw!r}"
         body = unseal(raw[:-2])
         assert body is not None, f"no or bad CRC on board line {raw!r}"
-        assert len(raw) - 2 <= 160
+        assert len(raw) - 2 <= MAX_LINE
         return body.decode("ascii")
 
     def read_reply(self) -> str:
@@ -127,7 +127,7 @@ def board(request):
 def host(board):
     h = Host(board.open())
     ready = h.wait_event("READY")
-    assert ready.startswith("READY labkit-arm 2 fw=")
+    assert ready.startswith("READY labkit-arm 3 fw=")
     return h
 
 
@@ -142,9 +142,9 @@ def test_boot_line_and_hello(board, host):
     fields = host.ok("HELLO")
     assert fields[:2] == ["HELLO", "labkit-arm"]
     kv = dict(f.split("=") for f in fields[2:])
-    assert kv["proto"] == "2" and re.fullmatch(r"\d+\.\d+\.\d+", kv["fw"])
+    assert kv["proto"] == "3" and re.fullmatch(r"\d+\.\d+\.\d+", kv["fw"])
     assert kv["joints"] == "3" and kv["channels"] == "4"
-    assert int(kv["queue"]) >= 2 and kv["maxline"] == "160"
+    assert int(kv["queue"]) >= 2 and kv["maxline"] == str(MAX_LINE)
     # boot position: middle of the limits, gripper in the middle of its pulse range
     board.advance(0.05)
     assert_pulses(board, {0: 1500, 1: 1500, 2: 1500, 3: 1500})

@@ -64,7 +64,7 @@ def test_port_waits_in_board_time_and_counts_the_bytes():
     with FirmwareSim() as sim:
         port = sim.open_port(baudrate=115200, timeout=0.2)
         assert isinstance(port, SimavrPort) and port.clock == "lockstep" and sim.stepped
-        assert port.readline().startswith(b"READY labkit-arm 2 ")
+        assert port.readline().startswith(b"READY labkit-arm 3 ")
         t0 = port.board_time
         time.sleep(0.2)  # wall-clock time passes, board time does not
         assert port.board_time == t0 == sim.time()
@@ -100,7 +100,7 @@ def test_paced_simavr_keeps_the_wall_clock():
     port = serial.serial_for_url("simavr://?pace=1", baudrate=115200, timeout=1.0)
     try:
         assert port.clock == "realtime" and port.time_scale == 1.0 and not port.sim.stepped
-        assert port.readline().startswith(b"READY labkit-arm 2 ")
+        assert port.readline().startswith(b"READY labkit-arm 3 ")
         assert port.board_time > 0  # simulated time, read from the simulator
     finally:
         port.close()

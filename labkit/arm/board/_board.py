@@ -19,10 +19,10 @@ Examples
 >>> board = VirtualBoard("arduino_arm_3dof")
 >>> board.advance_to(0.2)
 >>> board.take_output().split(b" ")[:3]
-[b'READY', b'labkit-arm', b'2']
+[b'READY', b'labkit-arm', b'3']
 >>> board.receive(b"#7 PING\\n")
 >>> board.take_output()
-b'OK #7 PING 200*232C\\r\\n'
+b'OK #7 PING 200*B63589B2\\r\\n'
 """
 
 from __future__ import annotations

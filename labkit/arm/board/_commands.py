@@ -1,4 +1,4 @@
-"""The virtual board's request lines and commands (protocol v2, ``docs/protocol.md`` sections 2 and 4).
+"""The virtual board's request lines and commands (protocol v3, ``docs/protocol.md`` sections 2 and 4).
 
 :class:`BoardCommands` is the half of :class:`labkit.arm.VirtualBoard` that
 reads a request line (characters, optional checksum and sequence id, integer
@@ -29,7 +29,6 @@ from labkit.arm._protocol import (
     VMAX_MAX,
     CommandRejected,
     checksum,
-    crc16,
     echo,
 )
 from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
@@ -37,15 +36,15 @@ from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
 __all__ = ["FW_VERSION"]
 
 #: firmware version the virtual board reports (``HELLO`` ``fw=``, ``READY``)
-FW_VERSION = "2.3.0"
+FW_VERSION = "3.0.0"
 #: accepted sealed requests the board remembers to answer a repeat without running it (docs/protocol.md 2.1)
 SEEN = 4
 #: commands whose reply fields report the state they left: a repeat regenerates them (the others store theirs)
 _REPORTS = {"STOP": None, "CAL": 1, "LIMITS": 1, "DEFAULTS": None}
 #: factory calibration of every channel: pmin, pmax [us], zero [cdeg], direction, lo, hi [cdeg]
 FACTORY = (500, 2500, 0, 1, 0, 18000)
-#: EEPROM image version (2: with the speed limits)
-EE_VERSION = 2
+#: EEPROM image version (2: with the speed limits; 3: sealed with the line checksum, CRC-32)
+EE_VERSION = 3
 
 
 class _Reject(CommandRejected):
@@ -71,7 +70,7 @@ class _Segment:
 
 
 def eeprom_image(cal, vmax, amax, timeout_ms):
-    """The EEPROM image (version 2) of a calibration, speed limits and host timeout (``docs/protocol.md`` 4.6).
+    """The EEPROM image (version 3) of a calibration, speed limits and host timeout (``docs/protocol.md`` 4.6).
 
     Parameters
     ----------
@@ -92,7 +91,7 @@ def eeprom_image(cal, vmax, amax, timeout_ms):
     for v, a in zip(vmax, amax):
         img += struct.pack("<II", v, a)
     img += struct.pack("<H", timeout_ms)
-    img += struct.pack("<H", crc16(img))
+    img += struct.pack("<I", checksum(img))
     return bytes(img)
 
 
@@ -122,8 +121,8 @@ def read_eeprom(eeprom, channels):
     defaults = cal, [VMAX_FACTORY] * joints, [0] * joints, 500, False
     e = eeprom
     size = 4 + 11 * channels + 8 * joints + 2
-    if e[0:2] != b"LK" or e[2] != EE_VERSION or e[3] != channels or crc16(e[:size]) != struct.unpack_from(
-            "<H", e, size)[0]:
+    if e[0:2] != b"LK" or e[2] != EE_VERSION or e[3] != channels or checksum(e[:size]) != struct.unpack_from(
+            "<I", e, size)[0]:
         return defaults
     off = 4
     for c in range(channels):
@@ -162,7 +161,7 @@ class BoardCommands:
         if sealed:
             k = body.rindex("*")
             tail = body[k + 1:]
-            if not REQUEST_CHECKSUM.match(tail) or len(tail) != 4:
+            if not REQUEST_CHECKSUM.match(tail) or len(tail) != 8:
                 self._emit("ERR 1 BADCHK malformed")
                 return
             if int(tail, 16) != checksum(body[:k]):

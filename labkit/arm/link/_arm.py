@@ -8,7 +8,7 @@ moves (checked against the robot file's limits and servo ranges *before* anythin
 Cartesian moves through :func:`labkit.kinematics.ik`, trajectories streamed as polynomial
 segments, gripper, stop, joint read-back and feedback streams into pandas.
 
-Reliability rules (``docs/link.md``): every request carries a sequence id and a CRC-16; board lines
+Reliability rules (``docs/link.md``): every request carries a sequence id and a CRC-32; board lines
 with a bad CRC are dropped and counted, never used; the reply to a state-changing request echoes
 the CRC of what the board parsed and a different echo stops the arm; idempotent requests are
 retried; a motion request (``MOVE``, ``SEG``) whose reply is lost is never blindly repeated: the
@@ -39,8 +39,8 @@ from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
                                   move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import record_stream
-from labkit.arm.link._ports import find_ports, handshake, open_port
-from labkit.arm.link._inputs import finite, joint_vector, whole
+from labkit.arm.link._ports import first_arduino, handshake, open_port
+from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
 
 __all__ = ["Arm"]
 
@@ -99,8 +99,8 @@ class Arm:
 
     def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
                  boot_wait=3.0, sync_calibration=True, check_moves=True):
-        timeout = finite("timeout", timeout, lo=1e-4, hi=60.0, unit="s")
-        retries = whole("retries", retries, lo=0, hi=1000)
+        timeout = reply_timeout(timeout)
+        retries = retry_count(retries)
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot = Robot.load(robot)
@@ -125,14 +125,7 @@ class Arm:
         register()
         if port is not None and not isinstance(port, (str, bytes)):
             return port
-        if port is None:
-            ports = find_ports()
-            if not ports:
-                raise DeviceError("no Arduino-like serial port found ('labkit ports' lists them); plug the "
-                                  "board in, name the port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual "
-                                  "arm 'sim://'")
-            port = ports[0]
-        return open_port(port, baudrate, robot)
+        return open_port(first_arduino() if port is None else port, baudrate, robot)
 
     def close(self):
         """Close the port (never raises, even if the port has vanished)."""
@@ -150,8 +143,9 @@ class Arm:
     # -- the link's state, held by the wire object -------------------------------------------------
     port = _on_wire("port", "The open pyserial-like port (``None`` after :meth:`close`).")
     name = _on_wire("name", "Port name (``/dev/ttyACM0``, ``sim://...``) used in error messages.")
-    timeout = _on_wire("timeout", "Reply timeout of one request attempt [s] (settable).", float)
-    retries = _on_wire("retries", "Extra attempts of a request whose reply was lost or garbled (settable).", int)
+    timeout = _on_wire("timeout", "Reply timeout of one request attempt [s] (settable: finite, 1e-4..60 s).", reply_timeout)
+    retries = _on_wire("retries", "Extra attempts of a request whose reply was lost or garbled (settable: 0..1000).",
+                       retry_count)
     stats = _on_wire("stats", "Counters of the wire (:class:`LinkStats`): bad lines, retries, frames lost...")
     events = _on_wire("events", "``EV`` lines received so far, as ``(name, fields)`` tuples, oldest first.")
     info = _on_wire("info", "The board's ``HELLO`` answer (:class:`BoardInfo`).")

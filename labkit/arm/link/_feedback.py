@@ -1,6 +1,6 @@
 """Feedback stream of the host link: which ``FB`` frames to trust, and the table of a recording.
 
-Every frame carries a CRC-16; on top of it (a board that writes a wrong
+Every frame carries a CRC-32; on top of it (a board that writes a wrong
 value seals it with a good CRC), a frame counts only when a neighbouring frame
 confirms it: consecutive
 counters, board times that fit the stream rate, and joint readings that

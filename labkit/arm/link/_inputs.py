@@ -118,3 +118,41 @@ def joint_vector(robot, q):
             except JointLimitError as exc:
                 raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
     return q
+
+
+def reply_timeout(value):
+    """A reply timeout [s] as :class:`labkit.arm.Arm` takes it, in its constructor and its setter alike.
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    float
+        ``value`` [s], finite, 1e-4..60.
+
+    Raises
+    ------
+    OptionError
+    """
+    return finite("timeout", value, lo=1e-4, hi=60.0, unit="s")
+
+
+def retry_count(value):
+    """A retry count as :class:`labkit.arm.Arm` takes it, in its constructor and its setter alike.
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    int
+        ``value``, a whole number 0..1000.
+
+    Raises
+    ------
+    OptionError
+    """
+    return whole("retries", value, lo=0, hi=1000)

@@ -5,7 +5,8 @@ Which serial ports exist and which look like an Arduino (pyserial's
 one with errors that say what to do: a port held by another program (the
 Arduino IDE's serial monitor) or one the user may not open (Linux: the
 ``dialout`` group); and the handshake: wait for the board's ``READY`` (an Uno
-resets when its port opens), refuse a protocol-1 board, ``HELLO``.
+resets when its port opens), refuse a board of an older protocol (1: XOR
+checksums, 2: CRC-16), ``HELLO``.
 
 Examples
 --------
@@ -26,18 +27,21 @@ from labkit.arm.link._replies import BoardInfo, parse_hello
 __all__ = ["PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
-#: oldest firmware the host drives: 2.1.0 gave ``MOVE`` a duration checked against the speed limits, 2.2.0
-#: answers a repeated sealed request without running it (the host resends a request under the same ``#seq``),
-#: 2.3.0 refuses a stale one (an old request's late copy never runs)
-MIN_FIRMWARE = (2, 3, 0)
+#: oldest firmware the host drives: 3.0.0 speaks protocol 3 (every line sealed with a CRC-32); before it 2.1.0 gave
+#: ``MOVE`` a duration checked against the speed limits, 2.2.0 answers a repeated sealed request without running
+#: it (the host resends a request under the same ``#seq``), 2.3.0 refuses a stale one (a late copy never runs)
+MIN_FIRMWARE = (3, 0, 0)
+_MIN_TEXT = ".".join(map(str, MIN_FIRMWARE))
 
-ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x0403: "FTDI",
-                0x10C4: "CP210x", 0x239A: "Adafruit"}
+ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)", 0x10C4: "CP210x",
+                0x239A: "Adafruit"}
+#: USB vendor ids of the USB-serial chips of servo-bus adapters (ROBOTIS U2D2: FTDI FT232H), not taken for an Arduino
+BUS_ADAPTER_VIDS = {0x0403: "FTDI"}
 
 
 @dataclass(frozen=True)
 class PortInfo:
-    """One serial port: device name, USB ids, description, and whether it looks like an Arduino.
+    """One serial port: device name, USB ids, description, and whether it looks like an Arduino or a bus adapter.
 
     Attributes
     ----------
@@ -49,6 +53,10 @@ class PortInfo:
         What the operating system calls it.
     arduino : bool
         The vendor id or the description says Arduino (or a common clone chip).
+    bus_adapter : bool
+        Not an Arduino, but a USB-serial chip that servo-bus adapters use (FTDI, as in a ROBOTIS U2D2) or a
+        description naming one: possibly a Dynamixel or Feetech bus (``dynamixel://<device>``,
+        ``feetech://<device>``).
     """
 
     device: str
@@ -56,6 +64,7 @@ class PortInfo:
     pid: int | None
     description: str
     arduino: bool
+    bus_adapter: bool = False
 
     @property
     def usb_id(self):
@@ -69,12 +78,12 @@ class PortInfo:
 
 
 def list_ports():
-    """Every serial port pyserial sees, likely Arduinos first.
+    """Every serial port pyserial sees, likely Arduinos first, then possible servo-bus adapters.
 
     Returns
     -------
     list of PortInfo
-        Sorted: Arduino-like before others, ``ACM`` devices (native USB) before ``USB`` ones.
+        Sorted: Arduino-like before bus adapters before others, ``ACM`` devices (native USB) before ``USB`` ones.
     """
     from serial.tools import list_ports as lp
 
@@ -82,12 +91,13 @@ def list_ports():
     for p in lp.comports():
         text = f"{p.description} {p.manufacturer or ''}".lower()
         arduino = p.vid in ARDUINO_VIDS or "arduino" in text or "ch340" in text
-        found.append(PortInfo(p.device, p.vid, p.pid, p.description or "", bool(arduino)))
-    return sorted(found, key=lambda p: (not p.arduino, "ACM" not in p.device, p.device))
+        bus = not arduino and (p.vid in BUS_ADAPTER_VIDS or "u2d2" in text)
+        found.append(PortInfo(p.device, p.vid, p.pid, p.description or "", bool(arduino), bool(bus)))
+    return sorted(found, key=lambda p: (not p.arduino, not p.bus_adapter, "ACM" not in p.device, p.device))
 
 
 def find_ports():
-    """Serial ports that look like an Arduino (USB VID or description), best first.
+    """Serial ports that look like an Arduino (USB VID or description), best first; bus adapters are not among them.
 
     Returns
     -------
@@ -95,6 +105,29 @@ def find_ports():
         Device names (``/dev/ttyACM0``, ``COM3`` ...).
     """
     return [p.device for p in list_ports() if p.arduino]
+
+
+def first_arduino():
+    """The first of :func:`find_ports` (what ``Arm()`` without a port opens).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    DeviceError
+        No Arduino-like port; the message names a possible servo-bus adapter if there is one.
+    """
+    ports = list_ports()
+    arduinos = [p.device for p in ports if p.arduino]
+    if arduinos:
+        return arduinos[0]
+    bus = [p.device for p in ports if p.bus_adapter]
+    hint = (f"; {bus[0]} may be a servo-bus adapter (FTDI, e.g. a U2D2): open it as 'dynamixel://{bus[0]}' or "
+            f"'feetech://{bus[0]}' with the arm's robot file" if bus else "")
+    raise DeviceError("no Arduino-like serial port found ('labkit ports' lists them); plug the board in, name the "
+                      f"port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'{hint}")
 
 
 def open_port(port, baudrate, robot=None):
@@ -156,20 +189,21 @@ def handshake(arm, boot_wait):
     Raises
     ------
     DeviceError
-        No ``READY`` and no answer, a protocol-1 board, another protocol version or joint count.
+        No ``READY`` and no answer, a board of an older protocol (1 or 2), another protocol version or joint
+        count.
     ProtocolError
         The device answers ``HELLO`` but is not a labkit arm.
     """
     wire = arm._wire
     ready = wire.wait_ready(boot_wait)
-    _refuse_v1(arm)
+    _refuse_old(arm)
     if ready is not None and (ready[:1] != ["labkit-arm"] or ready[1:2] != [str(PROTOCOL_VERSION)]):
         raise DeviceError(f"{arm.name}: the board announced {' '.join(ready)!r}, labkit expects "
                           f"'labkit-arm {PROTOCOL_VERSION}'; flash firmware/labkit_arm (README) or update labkit")
     try:
         info = wire.transact("HELLO", parse=parse_hello)
     except DeviceError as exc:
-        _refuse_v1(arm)
+        _refuse_old(arm)
         if ready is None:
             raise DeviceError(
                 f"{arm.name}: no READY from the board within {boot_wait:g} s after opening the port, and "
@@ -180,11 +214,12 @@ def handshake(arm, boot_wait):
         raise ProtocolError(f"{arm.name}: not a labkit arm: HELLO answered {info!r}")
     wire.info = info
     if info.protocol != PROTOCOL_VERSION:
-        raise DeviceError(f"{arm.name}: board speaks protocol {info.protocol}, "
-                          f"labkit expects {PROTOCOL_VERSION}; update the firmware or labkit")
+        raise DeviceError(f"{arm.name}: the board (firmware {info.firmware}) speaks protocol {info.protocol}, "
+                          f"labkit expects protocol {PROTOCOL_VERSION} (firmware {_MIN_TEXT} or newer); "
+                          f"flash firmware/labkit_arm or update labkit")
     if _version(info.firmware) < MIN_FIRMWARE:
         raise DeviceError(f"{arm.name}: the board runs labkit firmware {info.firmware}; labkit needs "
-                          f"{'.'.join(map(str, MIN_FIRMWARE))} or newer (since 2.3.0 a resent or late request never runs twice): "
+                          f"{_MIN_TEXT} or newer (protocol {PROTOCOL_VERSION}: a CRC-32 on every line): "
                           f"flash firmware/labkit_arm (make -C firmware, then avrdude or the Arduino IDE, see README)")
     if info.joints != arm.robot.n:
         raise DeviceError(f"{arm.name}: board has {info.joints} joints, robot "
@@ -203,9 +238,13 @@ def _version(text):
         return (-1,)
 
 
-def _refuse_v1(arm):
-    old = arm._wire.v1_seen
-    if old is not None:
-        raise DeviceError(f"{arm.name}: the board runs an older labkit firmware (protocol 1: {old!r}); "
-                          f"labkit speaks protocol {PROTOCOL_VERSION}: flash firmware/labkit_arm "
-                          f"(make -C firmware, then avrdude or the Arduino IDE, see README)")
+def _refuse_old(arm):
+    """Raise if the board sent an intact line of an older protocol (1: XOR checksums, 2: CRC-16)."""
+    if arm._wire.old_seen is None:
+        return
+    proto, line = arm._wire.old_seen
+    fw = next((t[3:] for t in line.rpartition("*")[0].split() if t.startswith("fw=")), None)
+    which = f"labkit firmware {fw}, protocol {proto}" if fw else f"an older labkit firmware, protocol {proto}"
+    raise DeviceError(f"{arm.name}: the board runs {which} ({line!r}); labkit speaks protocol {PROTOCOL_VERSION} "
+                      f"(firmware {_MIN_TEXT} or newer: a CRC-32 on every line): flash firmware/labkit_arm "
+                      f"(make -C firmware, then avrdude or the Arduino IDE, see README)")

@@ -1,8 +1,8 @@
 """Wire layer of the host link (private; the public names are re-exported by :mod:`labkit.arm`).
 
 Everything between :class:`labkit.arm.Arm`'s lab operations and the serial
-port, in protocol v2 (``docs/protocol.md``): request lines sealed with
-sequence id and CRC-16, the byte stream cut into lines, CRC checks of board
+port, in protocol v3 (``docs/protocol.md``): request lines sealed with
+sequence id and CRC-32, the byte stream cut into lines, CRC checks of board
 lines, the ``READY`` announcement, event handling, the echo check of
 state-changing requests, and the request/retry loop. :class:`Wire` owns one open
 port; ``Arm`` creates one and keeps it. What the fields of a reply mean is in
@@ -26,7 +26,7 @@ from labkit.arm._protocol import (
     STRICT_INT,
     CommandRejected,
     echo,
-    is_v1_line,
+    old_protocol,
     seal,
     unseal,
 )
@@ -111,8 +111,9 @@ class Wire:
         self.frames = None
         #: the fields of the board's ``READY`` line once received since the port was opened
         self.ready = None
-        #: an intact protocol-1 line (XOR checksum) has been received: an old firmware
-        self.v1_seen = None
+        #: ``(protocol, line)`` of the first intact line of an older protocol (1: XOR checksum, 2: CRC-16) received:
+        #: an old firmware; ``None`` if none
+        self.old_seen = None
         #: ``#seq`` of the last state-changing request known to have run (the board's ``STATUS last=``);
         #: ``None`` until the handshake has read it
         self.last_seq = None
@@ -235,8 +236,8 @@ class Wire:
     def _dispatch(self, raw):
         body = unseal(raw)
         if body is None:
-            if self.v1_seen is None and is_v1_line(raw):
-                self.v1_seen = raw.decode("ascii")
+            if self.old_seen is None and (old := old_protocol(raw)) is not None:
+                self.old_seen = (old, raw.decode("ascii"))
             self.stats.bad_lines += 1
             return
         tokens = body.decode("ascii").split()
@@ -280,7 +281,7 @@ class Wire:
             The fields of the ``READY`` line (``["labkit-arm", "2", "fw=...", ...]``), or ``None``.
         """
         deadline = self.clock() + seconds
-        while self.ready is None and self.v1_seen is None and self.clock() < deadline:
+        while self.ready is None and self.old_seen is None and self.clock() < deadline:
             self.pump(0.05)
         self._lines = [ln for ln in self._lines if ln.kind != "ERR"]
         return self.ready
@@ -456,9 +457,9 @@ class Wire:
                  renumber_stale=False):
         """Send one request until it is acknowledged; return the (parsed) reply.
 
-        Every request is sealed (``#seq`` and CRC-16). The ``OK`` reply to a
+        Every request is sealed (``#seq`` and CRC-32). The ``OK`` reply to a
         state-changing request must echo the CRC of exactly what was sent
-        (``p=HHHH``); a different echo means the board ran something else: the
+        (``p=HHHHHHHH``); a different echo means the board ran something else: the
         arm is stopped and :class:`DeviceError` raised.
 
         Parameters
@@ -504,7 +505,7 @@ class Wire:
         last = None
         retries = self.retries if retries is None else retries
         # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
-        # not run it again (docs/protocol.md 2.1, firmware 2.2.0), so a lost reply costs a resend, never a replay;
+        # not run it again (docs/protocol.md 2.1, firmware 2.2.0 on), so a lost reply costs a resend, never a replay;
         # an old copy arriving after newer requests is refused as stale (ERR 12, firmware 2.3.0)
         seq = self._next_seq()
         body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "

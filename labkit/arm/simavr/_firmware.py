@@ -166,12 +166,12 @@ class FirmwareSim:
     >>> with FirmwareSim() as sim:                       # doctest: +SKIP
     ...     port = serial.Serial(sim.port, 115200, timeout=1)
     ...     sim.run()                                     # free running: the host waits on the wall clock
-    ...     port.readline()                               # b'READY labkit-arm 2 ...'
+    ...     port.readline()                               # b'READY labkit-arm 3 ...'
     ...     port.write(b"#1 MOVE 4500 9000 9000 *354E\\n"); port.readline()
     ...     sim.sleep(0.1); sim.pulses()[0]               # 1000.0 us
     >>> with FirmwareSim() as sim:                       # doctest: +SKIP
     ...     port = sim.open_port(timeout=1)               # stepped: reads wait in simulated time
-    ...     port.readline(), port.board_time              # (b'READY labkit-arm 2 ...', 0.0088)
+    ...     port.readline(), port.board_time              # (b'READY labkit-arm 3 ...', 0.0088)
     """
 
     def __init__(self, elf=None, *, pace=0.0, on_tick: TickHook | None = None, tick_period=0.005,

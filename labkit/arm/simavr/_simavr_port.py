@@ -68,7 +68,7 @@ class SimavrPort(serialposix.Serial):
     >>> with FirmwareSim() as sim:                               # doctest: +SKIP
     ...     port = sim.open_port(timeout=0.5)                   # lockstep, CPU running
     ...     port.readline()[:19], round(port.board_time, 3)      # 0.5 s of board time at most
-    (b'READY labkit-arm 2 ', 0.002)
+    (b'READY labkit-arm 3 ', 0.002)
     """
 
     sim = None

@@ -29,7 +29,7 @@ Examples
 >>> register()
 >>> port = serial.serial_for_url("sim://?clock=lockstep&seed=1", timeout=0.5)
 >>> port.readline()[:19]
-b'READY labkit-arm 2 '
+b'READY labkit-arm 3 '
 >>> port.close()
 """
 

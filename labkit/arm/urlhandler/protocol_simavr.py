@@ -43,7 +43,7 @@ Example
 >>> labkit.arm.urlhandler.register()
 >>> port = serial.serial_for_url("simavr://", baudrate=115200, timeout=1)   # doctest: +SKIP
 >>> port.clock, port.readline()                                           # doctest: +SKIP
-('lockstep', b'READY labkit-arm 2 fw=2.3.0 proto=2 joints=3 reset=POWER eeprom=DEFAULTS*40FE\\r\\n')
+('lockstep', b'READY labkit-arm 3 fw=3.0.0 proto=3 joints=3 reset=POWER eeprom=DEFAULTS*8B079DC6\\r\\n')
 >>> port.sim.sleep(1.5); round(port.board_time, 3)                        # doctest: +SKIP
 1.502
 """
