@@ -303,6 +303,33 @@ def fk_jacobian_kernel(robot):
     return f
 
 
+def fk_jacobian_floats(robot):
+    """``f(q) -> list``: :func:`fk_jacobian` of one configuration on Python floats, without the checks.
+
+    For a solver that iterates on one target (numeric IK): the generated
+    Python code of the robot's program, fed the effective joint values.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    callable
+        ``f(q)`` for a sequence of ``n`` finite floats [rad, m]: a list of
+        ``6 n + 16`` floats, the base-frame Jacobian of the tool point row by
+        row (``J[r][i]`` at ``r * n + i``), then the pose row by row.
+    """
+    c = chain(robot)
+    f = _default_program(c, _program.JACOBIAN, False, True).scalar()
+    if not c.flipped.size:
+        return f
+    flipped = frozenset(int(i) for i in c.flipped)
+    signs = [-1.0 if i in flipped else 1.0 for i in range(c.n)]
+    return lambda q: f([s * v for s, v in zip(signs, q)])
+
+
 def _default_program(c, output, tool_frame=False, want_T=False):
     """The program of ``output`` for the tool point (no ``point`` argument), kept on the chain."""
     key = (output, tool_frame, want_T)

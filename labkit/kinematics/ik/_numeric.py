@@ -28,12 +28,13 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import SMALL_BATCH, fk_jacobian_kernel
+from labkit.kinematics._forward import fk_jacobian_floats, fk_jacobian_kernel
 from labkit.kinematics.ik._geometry import _dot
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
@@ -42,48 +43,221 @@ from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
 
 
+def _task_error(xp, kind, T, t, E, rows):
+    """Task error and residual of one pose against its target, on components (written once).
+
+    Parameters
+    ----------
+    xp : namespace
+        :data:`~labkit.kinematics.ik._xp.NUMPY` (components are ``(N,)``
+        arrays) or :data:`~labkit.kinematics.ik._xp.FLOATS` (floats).
+    kind : {"position", "planar", "pose"}
+        What the target fixes.
+    T : nested components ``T[i][j]``
+        Pose (rows 0-2 used) [m].
+    t : nested components
+        Target: ``t[i]`` for a point or ``(x, y, phi)``, ``t[i][j]`` for a pose.
+    E : nested components or None
+        ``R_t R^T`` for a pose target.
+    rows : sequence of int
+        Rows of ``[vx, vy, vz, wx, wy, wz]`` the task constrains.
+
+    Returns
+    -------
+    e : list
+        One component per row [m, rad].
+    residual : ndarray or float
+        Norm of the position error and, for a whole orientation,
+        ``2 sin(angle / 2)`` (robust near pi; otherwise the orientation
+        components' norm) [m, rad].
+    """
+    whole = False
+    if kind == "pose":
+        comp, ang = _pose_error(xp, E, T, t)
+        whole = sum(r >= 3 for r in rows) == 3
+    elif kind == "position":
+        comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
+    else:  # planar: x, y and the heading
+        comp = dict(zip(task_rows("planar"), (t[0] - T[0][3], t[1] - T[1][3],
+                                              wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))))
+    e = [comp[r] for r in rows]
+    res2 = 0.0
+    for r, v in zip(rows, e):
+        if not (whole and r >= 3):
+            res2 = res2 + v * v
+    if whole:
+        o = 2.0 * xp.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+        res2 = res2 + o * o
+    return e, xp.sqrt(res2)
+
+
 def _error(kind, T, target, rows):
-    """Task error e (N, len(rows)) and residual (N,) of poses T against targets."""
-    if kind == "position":
-        e = target - T[:, :3, 3]
-        e = e[:, list(rows)]
-        return e, np.sqrt((e * e).sum(axis=1))
-    if kind == "planar":
-        e = np.empty((T.shape[0], 3))
-        e[:, 0] = target[:, 0] - T[:, 0, 3]
-        e[:, 1] = target[:, 1] - T[:, 1, 3]
-        e[:, 2] = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
-        e = e[:, [task_rows("planar").index(r) for r in rows]]
-        return e, np.sqrt((e * e).sum(axis=1))
-    # pose: position error and rotation-vector error of E = R_target R^T
-    if T.shape[0] <= SMALL_BATCH and len(rows) == 6:  # a few targets: on Python floats
-        e, res = [], []
-        for Tk, tk in zip(T.tolist(), target.tolist()):
-            E = [[_dot(tk[i], Tk[j]) for j in range(3)] for i in range(3)]  # (rows' 4th entries not used)
-            full, ang = _pose_error(FLOATS, E, Tk, tk)
-            o = 2.0 * math.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-            e.append(full)
-            res.append(math.sqrt(full[0] * full[0] + full[1] * full[1] + full[2] * full[2] + o * o))
-        return np.array(e), np.array(res)
-    E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
-    full, ang = _pose_error(NUMPY, E, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1))
-    full = np.stack(full, axis=1)
-    pos = full[:, :3]
-    if len(rows) == 6:  # the whole pose (rows 0-5 in order)
-        o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-        return full, np.sqrt((pos * pos).sum(axis=1) + o * o)
-    e = full[:, list(rows)]
-    # residual: position error and 2 sin(angle/2) per orientation (robust near pi)
-    pos = full[:, [r for r in rows if r < 3]] if any(r < 3 for r in rows) else np.zeros((T.shape[0], 0))
-    res2 = (pos * pos).sum(axis=1)
-    if any(r >= 3 for r in rows):
-        if len([r for r in rows if r >= 3]) == 3:
-            o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-            res2 = res2 + o * o
-        else:
-            o = full[:, [r for r in rows if r >= 3]]
-            res2 = res2 + (o * o).sum(axis=1)
-    return e, np.sqrt(res2)
+    """Task error e (N, len(rows)) and residual (N,) of poses T (N, 4, 4) against targets (:func:`_task_error`)."""
+    E = None
+    if kind == "pose":
+        E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
+    e, res = _task_error(NUMPY, kind, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1), E, rows)
+    return np.stack(e, axis=1), res
+
+
+def _step(J, e, lam, eye, solve=np.linalg.solve):
+    """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
+
+    Shapes: ``J`` (..., m, n), ``e`` (..., m), ``lam`` (...) and ``eye`` the
+    identity of the smaller side; returns ``dq`` (..., n). One target is the
+    same call without the leading axis, with ``solve`` :func:`_solve_spd`.
+    """
+    Jt = np.swapaxes(J, -1, -2)
+    if J.shape[-2] < J.shape[-1]:
+        A = J @ Jt
+        A += np.multiply.outer(lam, eye)
+        return (Jt @ solve(A, e[..., None]))[..., 0]
+    A = Jt @ J
+    A += np.multiply.outer(lam, eye)
+    return solve(A, Jt @ e[..., None])[..., 0]
+
+
+def _solve_spd(A, b):
+    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m, k): LAPACK's Cholesky solve.
+
+    ``numpy.linalg.solve`` costs several times more than the arithmetic on a
+    6 x 6 system; LAPACK ``dposv`` (through scipy) is called directly, and
+    ``dgesv`` (LU) where rounding left ``A`` not positive definite.
+    """
+    _, x, info = _lapack().dposv(A, b)
+    if info:
+        _, _, x, info = _lapack().dgesv(A, b)
+    return x
+
+
+@functools.cache
+def _lapack():
+    """``scipy.linalg.lapack``, imported when a first target is solved on floats (it takes a few hundred ms)."""
+    from scipy.linalg import lapack
+
+    return lapack
+
+
+class _Batch:
+    """The arithmetic of :func:`_attempts` on numpy rows: a batch of targets.
+
+    The state of the active targets is held as numpy arrays (``q`` (N, n),
+    ``J`` (N, m, n), ``e`` (N, m), residual, damping and squared error (N,)).
+    """
+
+    def __init__(self, robot, kind, rows):
+        self.kind, self.rows = kind, tuple(rows)
+        self.all_rows = len(rows) == 6
+        self.eye = np.eye(min(len(rows), robot.n))
+        self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
+
+    def enter(self, q, target, lam):
+        """The state's representation of joint values, targets and damping (numpy arrays)."""
+        return q, target, lam
+
+    def arrays(self, *state):
+        """The state as numpy arrays (it is already)."""
+        return state
+
+    def evaluate(self, q, target):
+        """``(J, e, residual, E)`` at ``q``: the Jacobian's task rows, the error, its norm and ``e.e / 2``."""
+        T, J = self._kernel(q)
+        J = J if self.all_rows else J[:, self.rows]
+        e, res = _error(self.kind, T, target, self.rows)
+        return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+
+    def converged(self, res, tol):
+        """``(done, any, all)``: which residuals are below ``tol``."""
+        done = res < tol
+        any_done = done.any()
+        return done, any_done, any_done and done.all()
+
+    def moved(self, q, J, e, lam, lo, hi):
+        """The damped step from ``q``, inside ``[lo, hi]``."""
+        qn = q + _step(J, e, lam, self.eye)
+        np.maximum(qn, lo, out=qn)
+        return np.minimum(qn, hi, out=qn)
+
+    def accept(self, old, new):
+        """Per target the better of ``old`` and ``new`` ``(q, J, e, res, E)``, and the new damping.
+
+        ``old`` carries the damping last: divided by 10 where the step is
+        taken, multiplied by 10 where it is not.
+        """
+        qa, J, e, res, E, lam = old
+        better = new[4] < E
+        if better.all():
+            return (*new, np.maximum(lam * 0.1, 1e-12))
+        return (np.where(better[:, None], new[0], qa), np.where(better[:, None, None], new[1], J),
+                np.where(better[:, None], new[2], e), np.where(better, new[3], res), np.where(better, new[4], E),
+                np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8)))
+
+
+class _Floats(_Batch):
+    """The arithmetic of :func:`_attempts` on Python floats, target by target: a few targets.
+
+    The per-robot program runs as generated Python code, the pose error is
+    :func:`_task_error` on floats, and the step is :func:`_step` on one
+    target's ``m x n`` Jacobian; the state is lists with one entry per target.
+    """
+
+    def __init__(self, robot, kind, rows):
+        super().__init__(robot, kind, rows)
+        self.n = robot.n
+        self._floats = fk_jacobian_floats(robot)
+        n = self.n
+        self._spans = [(r * n, (r + 1) * n) for r in self.rows]
+
+    def enter(self, q, target, lam):
+        return q.tolist(), target.tolist(), lam.tolist()
+
+    def arrays(self, q, target, J, e, res, lam, E, E_check):
+        N = len(q)
+        m = len(self.rows)
+        return (np.array(q, dtype=float).reshape(N, self.n), np.array(target, dtype=float),
+                np.array(J, dtype=float).reshape(N, m, self.n), np.array(e, dtype=float).reshape(N, m),
+                *(np.array(x, dtype=float) for x in (res, lam, E, E_check)))
+
+    def state(self, q, target, J, e, res, lam, E, E_check):
+        """The representation of the state from numpy arrays (:meth:`arrays` undone)."""
+        N = q.shape[0]
+        return (q.tolist(), target.tolist(), J.reshape(N, -1).tolist(), e.tolist(), res.tolist(), lam.tolist(),
+                E.tolist(), E_check.tolist())
+
+    def evaluate(self, q, target):
+        n6 = 6 * self.n
+        Js, es, rs, Es = [], [], [], []
+        for qk, tk in zip(q, target):
+            out = self._floats(qk)
+            T = (out[n6:n6 + 4], out[n6 + 4:n6 + 8], out[n6 + 8:n6 + 12])
+            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+            e, res = _task_error(FLOATS, self.kind, T, tk, E, self.rows)
+            Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
+            es.append(e)
+            rs.append(res)
+            Es.append(0.5 * sum(v * v for v in e))
+        return Js, es, rs, Es
+
+    def converged(self, res, tol):
+        done = [r < tol for r in res]
+        return done, any(done), all(done)
+
+    def moved(self, q, J, e, lam, lo, hi):
+        m, n = len(self.rows), self.n
+        out = []
+        for qk, Jk, ek, lk in zip(q, J, e, lam):
+            dq = _step(np.array(Jk).reshape(m, n), np.array(ek), lk, self.eye, _solve_spd).tolist()
+            out.append([min(max(v + d, a), b) for v, d, a, b in zip(qk, dq, lo, hi)])
+        return out
+
+    def accept(self, old, new):
+        rows = []
+        for k, lk in enumerate(old[5]):
+            if new[4][k] < old[4][k]:
+                rows.append((*(x[k] for x in new), max(lk * 0.1, 1e-12)))
+            else:
+                rows.append((*(x[k] for x in old[:5]), min(lk * 10.0, 1e8)))
+        return tuple(list(col) for col in zip(*rows))
 
 
 def _pose_error(xp, E, T, t):
@@ -131,6 +305,9 @@ def _random_q(rng, limits, size):
     hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
+
+#: most targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
+FLOAT_TARGETS = 2
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
 SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
@@ -245,17 +422,16 @@ def analytic_seeds(robot, kind, target, rng):
         return None
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
     lim = _limits(robot)
-    lo, hi = lim.lo, lim.hi
-    rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
+    inside = np.minimum(np.maximum(q, lim.lo), lim.hi)  # (finite: a family's fills are finite too)
+    rank = np.abs(q - inside).sum(axis=-1)  # how far each branch leaves the limits
     if ideal is robot:
-        rank[(rank > 0) | ~reach] = np.inf
+        rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
     else:
-        rank[~reach] += 1e3
-    rank[~np.isfinite(q).all(axis=-1)] = np.inf
+        rank = rank + np.where(reach, 0.0, 1e3)
     order = np.argsort(rank, axis=1, kind="stable")
     rows = np.arange(q.shape[0])[:, None]
-    seeds = np.clip(q[rows, order], lo, hi)
-    seeds[~np.isfinite(rank[rows, order])] = np.nan
+    seeds = inside[rows, order]
+    seeds[np.isinf(rank[rows, order])] = np.nan
     return seeds
 
 
@@ -368,16 +544,14 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
     best_q = q.copy()
-    rows = list(rows)
-    all_rows = len(rows) == 6
-    wide = len(rows) < n
-    eye = np.eye(len(rows) if wide else n)
-    fk_jacobian = fk_jacobian_kernel(robot)  # (no checks: q is made here)
+    # a few targets one by one on floats, a batch on numpy rows: the same loop below
+    ops = _arithmetic(robot)[_Floats if N <= FLOAT_TARGETS and group == 1 else _Batch, kind, tuple(rows)]
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
+        bounds = (alo.tolist(), ahi.tolist()) if type(ops) is _Floats else (alo, ahi)
         act = np.flatnonzero(~success)
         if group > 1:
             act = act[~group_done[act // group]]
@@ -394,28 +568,14 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
-        qa = q[act]
-        tg = target[act]
-        T, J = fk_jacobian(qa)
-        J = J if all_rows else J[:, rows]
-        e, res = _error(kind, T, tg, rows)
-        lam = np.where(near[act], lam_near, lam0)
-        E = 0.5 * np.einsum("ij,ij->i", e, e)
+        qa, tg, lam = ops.enter(q[act], target[act], np.where(near[act], lam_near, lam0))
+        J, e, res, E = ops.evaluate(qa, tg)
         E_check = E.copy()
         it = 0
         for it in range(1, max_iter + 1):
-            done = res < tol
-            any_done = done.any()
-            bad = None
-            if free and any_done:
-                idx = np.flatnonzero(done)
-                qw = finish_all(robot, qa[idx], flipped=False)[0]
-                qa[idx] = qw
-                bad = idx[~lim.inside(qw)]
-                done[bad] = False
-                any_done = done.any()
+            done, any_done, all_done = ops.converged(res, tol)
             check = it % check_every == 0
-            if any_done and bad is None and done.all():  # every active row converged (one target: the usual end)
+            if all_done and not free:  # every active row converged (one target: the usual end)
                 q[act] = qa
                 success[act] = True
                 residual[act] = res
@@ -424,9 +584,16 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     group_done[act // group] = True
                 act = act[:0]
                 break
-            if any_done or check or (bad is not None and bad.size):
+            if any_done or check:
+                qa, tg, J, e, res, lam, E, E_check = ops.arrays(qa, tg, J, e, res, lam, E, E_check)
+                done = np.asarray(done, dtype=bool)
                 stalled = np.zeros_like(done)
-                if bad is not None:
+                if free and any_done:
+                    idx = np.flatnonzero(done)
+                    qw = finish_all(robot, qa[idx], flipped=False)[0]
+                    qa[idx] = qw
+                    bad = idx[~lim.inside(qw)]
+                    done[bad] = False
                     stalled[bad] = True  # converged outside the limits: restart
                 if check:
                     stalled |= (~done) & (E > 0.01 * E_check)
@@ -443,7 +610,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     residual[s_idx[better]] = res[stalled][better]
                     best_q[s_idx[better]] = qa[stalled][better]
                     keep = ~leave
-                    if group > 1 and any_done:  # a copy converged: its siblings stop
+                    if group > 1 and done.any():  # a copy converged: its siblings stop
                         group_done[act[done] // group] = True
                         sib = keep & group_done[act // group]
                         iterations[act[sib]] += it - 1
@@ -453,36 +620,14 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     )
                     if act.size == 0:
                         break
-            Jt = np.swapaxes(J, -1, -2)
-            if wide:  # fewer task rows than joints: dq = J^T (J J^T + lam I)^-1 e
-                A = J @ Jt
-                A += lam[:, None, None] * eye
-                dq = (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
-            else:  # dq = (J^T J + lam I)^-1 J^T e
-                A = Jt @ J
-                A += lam[:, None, None] * eye
-                dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
-            qn = qa + dq
-            np.maximum(qn, alo, out=qn)
-            np.minimum(qn, ahi, out=qn)
-            Tn, Jn = fk_jacobian(qn)
-            Jn = Jn if all_rows else Jn[:, rows]
-            en, resn = _error(kind, Tn, tg, rows)
-            En = 0.5 * np.einsum("ij,ij->i", en, en)
-            better = En < E
-            if better.all():
-                qa, J, e, res, E = qn, Jn, en, resn, En
-                lam = np.maximum(lam * 0.1, 1e-12)
-            else:
-                qa = np.where(better[:, None], qn, qa)
-                J = np.where(better[:, None, None], Jn, J)
-                e = np.where(better[:, None], en, e)
-                res = np.where(better, resn, res)
-                E = np.where(better, En, E)
-                lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
+                if type(ops) is _Floats:
+                    qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
+            qn = ops.moved(qa, J, e, lam, *bounds)
+            qa, J, e, res, E, lam = ops.accept((qa, J, e, res, E, lam), (qn, *ops.evaluate(qn, tg)))
         else:
             it = max_iter + 1
         if act.size:
+            qa, tg, J, e, res, lam, E, E_check = ops.arrays(qa, tg, J, e, res, lam, E, E_check)
             iterations[act] += it - 1
             inside = lim.inside(qa)
             done = (res < tol) & inside
@@ -495,6 +640,24 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         fail = ~success
         q[fail] = np.clip(best_q[fail], lo, hi)
     return q, success, iterations, residual
+
+
+class _Arithmetic(dict):
+    """``{(class, kind, rows): instance}`` of :class:`_Batch` / :class:`_Floats`, made when first asked for."""
+
+    def __init__(self, robot):
+        super().__init__()
+        self.robot = robot
+
+    def __missing__(self, key):
+        cls, kind, rows = key
+        made = self[key] = cls(self.robot, kind, rows)
+        return made
+
+
+@per_robot
+def _arithmetic(robot):
+    return _Arithmetic(robot)
 
 
 @dataclasses.dataclass(frozen=True)
