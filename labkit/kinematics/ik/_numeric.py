@@ -13,11 +13,12 @@ the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
 
-One target is a batch of one: the same loop, where the per-robot
-fk + Jacobian program runs as generated Python code on floats
-(:func:`labkit.kinematics._forward.fk_jacobian_kernel`) and the pose error
-(:func:`_pose_error`, written once on components) on floats too, so a handful
-of targets costs few numpy calls per iteration.
+One target is a batch of one: the same loop, whose arithmetic for one or
+two targets runs on Python floats (:class:`~labkit.kinematics.ik._lm.Floats`:
+the per-robot program's generated Python code, the pose error on components,
+one LAPACK solve per step) instead of numpy rows
+(:class:`~labkit.kinematics.ik._lm.Batch`), so a single target costs few
+array calls per iteration.
 
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (:func:`near_family`, for
@@ -28,251 +29,13 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
-import functools
-import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk_jacobian_floats, fk_jacobian_kernel
-from labkit.kinematics.ik._geometry import _dot
+from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
-from labkit.kinematics.ik._targets import task_rows
-from labkit.kinematics.ik._xp import FLOATS, NUMPY
-from labkit.rotations import wrap_angle
-
-
-def _task_error(xp, kind, T, t, E, rows):
-    """Task error and residual of one pose against its target, on components (written once).
-
-    Parameters
-    ----------
-    xp : namespace
-        :data:`~labkit.kinematics.ik._xp.NUMPY` (components are ``(N,)``
-        arrays) or :data:`~labkit.kinematics.ik._xp.FLOATS` (floats).
-    kind : {"position", "planar", "pose"}
-        What the target fixes.
-    T : nested components ``T[i][j]``
-        Pose (rows 0-2 used) [m].
-    t : nested components
-        Target: ``t[i]`` for a point or ``(x, y, phi)``, ``t[i][j]`` for a pose.
-    E : nested components or None
-        ``R_t R^T`` for a pose target.
-    rows : sequence of int
-        Rows of ``[vx, vy, vz, wx, wy, wz]`` the task constrains.
-
-    Returns
-    -------
-    e : list
-        One component per row [m, rad].
-    residual : ndarray or float
-        Norm of the position error and, for a whole orientation,
-        ``2 sin(angle / 2)`` (robust near pi; otherwise the orientation
-        components' norm) [m, rad].
-    """
-    whole = False
-    if kind == "pose":
-        comp, ang = _pose_error(xp, E, T, t)
-        whole = sum(r >= 3 for r in rows) == 3
-    elif kind == "position":
-        comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
-    else:  # planar: x, y and the heading
-        comp = dict(zip(task_rows("planar"), (t[0] - T[0][3], t[1] - T[1][3],
-                                              wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))))
-    e = [comp[r] for r in rows]
-    res2 = 0.0
-    for r, v in zip(rows, e):
-        if not (whole and r >= 3):
-            res2 = res2 + v * v
-    if whole:
-        o = 2.0 * xp.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-        res2 = res2 + o * o
-    return e, xp.sqrt(res2)
-
-
-def _error(kind, T, target, rows):
-    """Task error e (N, len(rows)) and residual (N,) of poses T (N, 4, 4) against targets (:func:`_task_error`)."""
-    E = None
-    if kind == "pose":
-        E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
-    e, res = _task_error(NUMPY, kind, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1), E, rows)
-    return np.stack(e, axis=1), res
-
-
-def _step(J, e, lam, eye, solve=np.linalg.solve):
-    """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
-
-    Shapes: ``J`` (..., m, n), ``e`` (..., m), ``lam`` (...) and ``eye`` the
-    identity of the smaller side; returns ``dq`` (..., n). One target is the
-    same call without the leading axis, with ``solve`` :func:`_solve_spd`.
-    """
-    Jt = np.swapaxes(J, -1, -2)
-    if J.shape[-2] < J.shape[-1]:
-        A = J @ Jt
-        A += np.multiply.outer(lam, eye)
-        return (Jt @ solve(A, e[..., None]))[..., 0]
-    A = Jt @ J
-    A += np.multiply.outer(lam, eye)
-    return solve(A, Jt @ e[..., None])[..., 0]
-
-
-def _solve_spd(A, b):
-    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m, k): LAPACK's Cholesky solve.
-
-    ``numpy.linalg.solve`` costs several times more than the arithmetic on a
-    6 x 6 system; LAPACK ``dposv`` (through scipy) is called directly, and
-    ``dgesv`` (LU) where rounding left ``A`` not positive definite.
-    """
-    _, x, info = _lapack().dposv(A, b)
-    if info:
-        _, _, x, info = _lapack().dgesv(A, b)
-    return x
-
-
-@functools.cache
-def _lapack():
-    """``scipy.linalg.lapack``, imported when a first target is solved on floats (it takes a few hundred ms)."""
-    from scipy.linalg import lapack
-
-    return lapack
-
-
-class _Batch:
-    """The arithmetic of :func:`_attempts` on numpy rows: a batch of targets.
-
-    The state of the active targets is held as numpy arrays (``q`` (N, n),
-    ``J`` (N, m, n), ``e`` (N, m), residual, damping and squared error (N,)).
-    """
-
-    def __init__(self, robot, kind, rows):
-        self.kind, self.rows = kind, tuple(rows)
-        self.all_rows = len(rows) == 6
-        self.eye = np.eye(min(len(rows), robot.n))
-        self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
-
-    def enter(self, q, target, lam):
-        """The state's representation of joint values, targets and damping (numpy arrays)."""
-        return q, target, lam
-
-    def arrays(self, *state):
-        """The state as numpy arrays (it is already)."""
-        return state
-
-    def evaluate(self, q, target):
-        """``(J, e, residual, E)`` at ``q``: the Jacobian's task rows, the error, its norm and ``e.e / 2``."""
-        T, J = self._kernel(q)
-        J = J if self.all_rows else J[:, self.rows]
-        e, res = _error(self.kind, T, target, self.rows)
-        return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
-
-    def converged(self, res, tol):
-        """``(done, any, all)``: which residuals are below ``tol``."""
-        done = res < tol
-        any_done = done.any()
-        return done, any_done, any_done and done.all()
-
-    def moved(self, q, J, e, lam, lo, hi):
-        """The damped step from ``q``, inside ``[lo, hi]``."""
-        qn = q + _step(J, e, lam, self.eye)
-        np.maximum(qn, lo, out=qn)
-        return np.minimum(qn, hi, out=qn)
-
-    def accept(self, old, new):
-        """Per target the better of ``old`` and ``new`` ``(q, J, e, res, E)``, and the new damping.
-
-        ``old`` carries the damping last: divided by 10 where the step is
-        taken, multiplied by 10 where it is not.
-        """
-        qa, J, e, res, E, lam = old
-        better = new[4] < E
-        if better.all():
-            return (*new, np.maximum(lam * 0.1, 1e-12))
-        return (np.where(better[:, None], new[0], qa), np.where(better[:, None, None], new[1], J),
-                np.where(better[:, None], new[2], e), np.where(better, new[3], res), np.where(better, new[4], E),
-                np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8)))
-
-
-class _Floats(_Batch):
-    """The arithmetic of :func:`_attempts` on Python floats, target by target: a few targets.
-
-    The per-robot program runs as generated Python code, the pose error is
-    :func:`_task_error` on floats, and the step is :func:`_step` on one
-    target's ``m x n`` Jacobian; the state is lists with one entry per target.
-    """
-
-    def __init__(self, robot, kind, rows):
-        super().__init__(robot, kind, rows)
-        self.n = robot.n
-        self._floats = fk_jacobian_floats(robot)
-        n = self.n
-        self._spans = [(r * n, (r + 1) * n) for r in self.rows]
-
-    def enter(self, q, target, lam):
-        return q.tolist(), target.tolist(), lam.tolist()
-
-    def arrays(self, q, target, J, e, res, lam, E, E_check):
-        N = len(q)
-        m = len(self.rows)
-        return (np.array(q, dtype=float).reshape(N, self.n), np.array(target, dtype=float),
-                np.array(J, dtype=float).reshape(N, m, self.n), np.array(e, dtype=float).reshape(N, m),
-                *(np.array(x, dtype=float) for x in (res, lam, E, E_check)))
-
-    def state(self, q, target, J, e, res, lam, E, E_check):
-        """The representation of the state from numpy arrays (:meth:`arrays` undone)."""
-        N = q.shape[0]
-        return (q.tolist(), target.tolist(), J.reshape(N, -1).tolist(), e.tolist(), res.tolist(), lam.tolist(),
-                E.tolist(), E_check.tolist())
-
-    def evaluate(self, q, target):
-        n6 = 6 * self.n
-        Js, es, rs, Es = [], [], [], []
-        for qk, tk in zip(q, target):
-            out = self._floats(qk)
-            T = (out[n6:n6 + 4], out[n6 + 4:n6 + 8], out[n6 + 8:n6 + 12])
-            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
-            e, res = _task_error(FLOATS, self.kind, T, tk, E, self.rows)
-            Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
-            es.append(e)
-            rs.append(res)
-            Es.append(0.5 * sum(v * v for v in e))
-        return Js, es, rs, Es
-
-    def converged(self, res, tol):
-        done = [r < tol for r in res]
-        return done, any(done), all(done)
-
-    def moved(self, q, J, e, lam, lo, hi):
-        m, n = len(self.rows), self.n
-        out = []
-        for qk, Jk, ek, lk in zip(q, J, e, lam):
-            dq = _step(np.array(Jk).reshape(m, n), np.array(ek), lk, self.eye, _solve_spd).tolist()
-            out.append([min(max(v + d, a), b) for v, d, a, b in zip(qk, dq, lo, hi)])
-        return out
-
-    def accept(self, old, new):
-        rows = []
-        for k, lk in enumerate(old[5]):
-            if new[4][k] < old[4][k]:
-                rows.append((*(x[k] for x in new), max(lk * 0.1, 1e-12)))
-            else:
-                rows.append((*(x[k] for x in old[:5]), min(lk * 10.0, 1e8)))
-        return tuple(list(col) for col in zip(*rows))
-
-
-def _pose_error(xp, E, T, t):
-    """Position error and rotation vector of pose ``T`` against target ``t`` (components ``[i][j]``).
-
-    ``E`` is ``R_t R^T`` (components); the rotation vector is its axis times
-    its angle. Returns the six components ``(dx, dy, dz, rx, ry, rz)`` [m,
-    rad] and the angle [rad].
-    """
-    v0, v1, v2 = 0.5 * (E[2][1] - E[1][2]), 0.5 * (E[0][2] - E[2][0]), 0.5 * (E[1][0] - E[0][1])
-    sv = xp.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    ang = xp.arctan2(sv, 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0))
-    big = sv > 1e-12
-    scale = xp.where(big, ang / xp.where(big, sv, 1.0), 1.0)
-    return (t[0][3] - T[0][3], t[1][3] - T[1][3], t[2][3] - T[2][3], v0 * scale, v1 * scale, v2 * scale), ang
 
 
 class LazyGenerator:
@@ -545,13 +308,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     residual = np.full(N, np.inf)
     best_q = q.copy()
     # a few targets one by one on floats, a batch on numpy rows: the same loop below
-    ops = _arithmetic(robot)[_Floats if N <= FLOAT_TARGETS and group == 1 else _Batch, kind, tuple(rows)]
+    ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS and group == 1 else Batch, kind, tuple(rows)]
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
-        bounds = (alo.tolist(), ahi.tolist()) if type(ops) is _Floats else (alo, ahi)
+        bounds = (alo.tolist(), ahi.tolist()) if type(ops) is Floats else (alo, ahi)
         act = np.flatnonzero(~success)
         if group > 1:
             act = act[~group_done[act // group]]
@@ -620,8 +383,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     )
                     if act.size == 0:
                         break
-                if type(ops) is _Floats:
-                    qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
+                qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
             qn = ops.moved(qa, J, e, lam, *bounds)
             qa, J, e, res, E, lam = ops.accept((qa, J, e, res, E, lam), (qn, *ops.evaluate(qn, tg)))
         else:
@@ -640,24 +402,6 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         fail = ~success
         q[fail] = np.clip(best_q[fail], lo, hi)
     return q, success, iterations, residual
-
-
-class _Arithmetic(dict):
-    """``{(class, kind, rows): instance}`` of :class:`_Batch` / :class:`_Floats`, made when first asked for."""
-
-    def __init__(self, robot):
-        super().__init__()
-        self.robot = robot
-
-    def __missing__(self, key):
-        cls, kind, rows = key
-        made = self[key] = cls(self.robot, kind, rows)
-        return made
-
-
-@per_robot
-def _arithmetic(robot):
-    return _Arithmetic(robot)
 
 
 @dataclasses.dataclass(frozen=True)
