@@ -33,9 +33,11 @@ import dataclasses
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
+from labkit.kinematics._forward import fk
+from labkit.kinematics.ik._lm import Batch, Floats, arithmetic, error
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
+from labkit.kinematics.ik._targets import task_rows
 
 
 class LazyGenerator:
@@ -70,7 +72,7 @@ def _random_q(rng, limits, size):
 
 
 #: most targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
-FLOAT_TARGETS = 2
+FLOAT_TARGETS = 3
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
 SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
@@ -189,8 +191,10 @@ def analytic_seeds(robot, kind, target, rng):
     rank = np.abs(q - inside).sum(axis=-1)  # how far each branch leaves the limits
     if ideal is robot:
         rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
-    else:
-        rank = rank + np.where(reach, 0.0, 1e3)
+    else:  # the copy's branches, ranked by how far they are from solving the real arm too
+        N, m, n = q.shape
+        _, res = error(kind, fk(robot, inside.reshape(N * m, n)), np.repeat(target, m, axis=0), task_rows(kind))
+        rank = rank + res.reshape(N, m) + np.where(reach, 0.0, 1e3)
     order = np.argsort(rank, axis=1, kind="stable")
     rows = np.arange(q.shape[0])[:, None]
     seeds = inside[rows, order]
