@@ -33,8 +33,7 @@ import dataclasses
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk
-from labkit.kinematics.ik._lm import Batch, Floats, arithmetic, error
+from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
 from labkit.kinematics.ik._targets import task_rows
@@ -191,14 +190,23 @@ def analytic_seeds(robot, kind, target, rng):
     rank = np.abs(q - inside).sum(axis=-1)  # how far each branch leaves the limits
     if ideal is robot:
         rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
-    else:  # the copy's branches, ranked by how far they are from solving the real arm too
-        N, m, n = q.shape
-        _, res = error(kind, fk(robot, inside.reshape(N * m, n)), np.repeat(target, m, axis=0), task_rows(kind))
-        rank = rank + res.reshape(N, m) + np.where(reach, 0.0, 1e3)
+    else:
+        rank = rank + np.where(reach, 0.0, 1e3)
     order = np.argsort(rank, axis=1, kind="stable")
     rows = np.arange(q.shape[0])[:, None]
     seeds = inside[rows, order]
-    seeds[np.isinf(rank[rows, order])] = np.nan
+    rank = rank[rows, order]
+    seeds[np.isinf(rank)] = np.nan
+    if ideal is not robot and seeds.shape[1] > 1:
+        # of the copy's two best branches, the one nearer to solving the real arm first (e.g. of a wrist
+        # and its flip, a solution of the copy, only one is near a solution once a5 != 0)
+        N, _, n = seeds.shape
+        head = seeds[:, :2]
+        ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS else Batch, kind, task_rows(kind)]
+        qs, ts, _ = ops.enter(head.reshape(-1, n), np.repeat(target, head.shape[1], axis=0), np.zeros(head.size // n))
+        res = np.array(ops.evaluate(qs, ts)[2]).reshape(N, -1)
+        swap = rank[:, 1:2] + res[:, 1:2] < rank[:, :1] + res[:, :1]  # (NaN: no swap)
+        seeds[:, :2] = np.where(swap[:, :, None], head[:, ::-1], head)
     return seeds
 
 
