@@ -129,13 +129,14 @@ def step(J, e, lam, eye, solve=np.linalg.solve):
     ndarray, shape (..., n)
         Joint step [rad, m].
     """
-    Jt = np.swapaxes(J, -1, -2)
+    Jt = J.swapaxes(-1, -2)
+    damping = np.asarray(lam)[..., None, None] * eye
     if J.shape[-2] < J.shape[-1]:
         A = J @ Jt
-        A += np.multiply.outer(lam, eye)
+        A += damping
         return (Jt @ solve(A, e[..., None]))[..., 0]
     A = Jt @ J
-    A += np.multiply.outer(lam, eye)
+    A += damping
     return solve(A, Jt @ e[..., None])[..., 0]
 
 
