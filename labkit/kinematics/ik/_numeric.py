@@ -350,6 +350,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         for it in range(1, max_iter + 1):
             done, any_done, all_done = ops.converged(res, tol)
             check = it % check_every == 0
+            early = it == check_every // 2  # a closed-form start converges in a few steps, or is the wrong branch
             if all_done and not free:  # every active row converged (one target: the usual end)
                 q[act] = qa
                 success[act] = True
@@ -359,7 +360,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     group_done[act // group] = True
                 act = act[:0]
                 break
-            if any_done or check:
+            if any_done or check or early:
                 qa, tg, J, e, res, lam, E, E_check = ops.arrays(qa, tg, J, e, res, lam, E, E_check)
                 done = np.asarray(done, dtype=bool)
                 stalled = np.zeros_like(done)
@@ -373,6 +374,8 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 if check:
                     stalled |= (~done) & (E > 0.01 * E_check)
                     E_check = E.copy()
+                elif early:
+                    stalled |= (~done) & (E > 0.01 * E_check) & near[act]
                 leave = done | stalled
                 if leave.any():
                     idx = act[done]
