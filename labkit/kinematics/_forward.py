@@ -268,28 +268,40 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     return T, J
 
 
-def fk_jacobian_kernel(robot):
-    """``f(q) -> (T, J)``: :func:`fk_jacobian` of validated configurations, without the checks.
+def fk_jacobian_kernel(robot, floats=False):
+    """``f(q)``: :func:`fk_jacobian` of validated configurations, without the checks.
 
-    For a solver that calls it many times on arrays it made itself (numeric
+    For a solver that calls it many times on values it made itself (numeric
     IK): the chain and the compiled program are looked up once.
 
     Parameters
     ----------
     robot : Robot
         The arm.
+    floats : bool
+        One configuration on Python floats (the program's generated Python
+        code) instead of a batch of arrays.
 
     Returns
     -------
     callable
         ``f(q)`` for a finite float64 array ``q`` of shape (N, n) [rad, m]:
         poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n).
+        With ``floats``, ``f(q)`` for a sequence of ``n`` finite floats: a
+        list of ``6 n + 16`` floats, the Jacobian row by row (``J[r][i]`` at
+        ``r * n + i``), then the pose row by row.
     """
     c = chain(robot)
-    if c.flipped.size:  # the joint values need negating: the checked path does it
-        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
     prog = _default_program(c, _program.JACOBIAN, False, True)
     n = c.n
+    if floats:
+        f = prog.scalar()
+        if not c.flipped.size:
+            return f
+        signs = [-1.0 if i in set(c.flipped.tolist()) else 1.0 for i in range(n)]  # effective joint values
+        return lambda q: f([s * v for s, v in zip(signs, q)])
+    if c.flipped.size:  # the joint values need negating: the checked path does it
+        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
 
     def f(q):
         N = q.shape[0]
@@ -301,33 +313,6 @@ def fk_jacobian_kernel(robot):
         return T, J
 
     return f
-
-
-def fk_jacobian_floats(robot):
-    """``f(q) -> list``: :func:`fk_jacobian` of one configuration on Python floats, without the checks.
-
-    For a solver that iterates on one target (numeric IK): the generated
-    Python code of the robot's program, fed the effective joint values.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm.
-
-    Returns
-    -------
-    callable
-        ``f(q)`` for a sequence of ``n`` finite floats [rad, m]: a list of
-        ``6 n + 16`` floats, the base-frame Jacobian of the tool point row by
-        row (``J[r][i]`` at ``r * n + i``), then the pose row by row.
-    """
-    c = chain(robot)
-    f = _default_program(c, _program.JACOBIAN, False, True).scalar()
-    if not c.flipped.size:
-        return f
-    flipped = frozenset(int(i) for i in c.flipped)
-    signs = [-1.0 if i in flipped else 1.0 for i in range(c.n)]
-    return lambda q: f([s * v for s, v in zip(signs, q)])
 
 
 def _default_program(c, output, tool_frame=False, want_T=False):

@@ -8,7 +8,7 @@ evaluators with the same methods:
   per-robot fk + Jacobian program (:func:`labkit.kinematics._forward.fk_jacobian_kernel`)
   and one batched linear solve per iteration for them all;
 * :class:`Floats` - one or two targets, each on Python floats: the program's
-  generated Python code (:func:`labkit.kinematics._forward.fk_jacobian_floats`),
+  generated Python code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``),
   the pose error on components and one LAPACK Cholesky solve, so one target
   costs few array calls per iteration.
 
@@ -23,7 +23,7 @@ import functools
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk_jacobian_floats, fk_jacobian_kernel
+from labkit.kinematics._forward import fk_jacobian_kernel
 from labkit.kinematics.ik._geometry import _dot
 from labkit.kinematics.ik._targets import task_rows
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
@@ -170,12 +170,9 @@ class Batch:
 
     Parameters
     ----------
-    robot : Robot
-        The arm.
-    kind : {"position", "planar", "pose"}
-        What the targets fix.
-    rows : sequence of int
-        Task rows (of ``[vx, vy, vz, wx, wy, wz]``).
+    robot, kind, rows : Robot, {"position", "planar", "pose"}, sequence of int
+        The arm, what the targets fix and the task rows (of ``[vx, vy, vz,
+        wx, wy, wz]``).
     """
 
     def __init__(self, robot, kind, rows):
@@ -328,7 +325,7 @@ class Floats(Batch):
     def __init__(self, robot, kind, rows):
         super().__init__(robot, kind, rows)
         self.n = robot.n
-        self._floats = fk_jacobian_floats(robot)
+        self._floats = fk_jacobian_kernel(robot, floats=True)
         n = self.n
         self._spans = [(r * n, (r + 1) * n) for r in self.rows]
 
@@ -423,11 +420,11 @@ def arithmetic(robot):
     Parameters
     ----------
     robot : Robot
-        The arm.
+        Whose evaluators.
 
     Returns
     -------
     dict
-        ``{(Batch or Floats, kind, rows): evaluator}``, filled when asked.
+        ``{(Batch or Floats, kind, rows): evaluator}``, filled when asked for.
     """
     return _Arithmetic(robot)
