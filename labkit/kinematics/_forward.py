@@ -295,11 +295,7 @@ def fk_jacobian_kernel(robot, floats=False):
     prog = _default_program(c, _program.JACOBIAN, False, True)
     n = c.n
     if floats:
-        f = prog.scalar()
-        if not c.flipped.size:
-            return f
-        signs = [-1.0 if i in set(c.flipped.tolist()) else 1.0 for i in range(n)]  # effective joint values
-        return lambda q: f([s * v for s, v in zip(signs, q)])
+        return _on_floats(c, prog)
     if c.flipped.size:  # the joint values need negating: the checked path does it
         return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
 
@@ -313,6 +309,34 @@ def fk_jacobian_kernel(robot, floats=False):
         return T, J
 
     return f
+
+
+def fk_floats(robot):
+    """``f(q) -> list``: :func:`fk` of one configuration on Python floats, without the checks.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    callable
+        ``f(q)`` for a sequence of ``n`` finite floats [rad, m]: the 16
+        entries of the tool pose, row by row [m].
+    """
+    c = chain(robot)
+    return _on_floats(c, _default_program(c, _program.POSE))
+
+
+def _on_floats(c, prog):
+    """The program's generated Python code as a function of the joint values (flipped joints negated first)."""
+    f = prog.scalar()
+    if not c.flipped.size:
+        return f
+    flipped = set(c.flipped.tolist())
+    signs = [-1.0 if i in flipped else 1.0 for i in range(c.n)]  # effective joint values
+    return lambda q: f([s * v for s, v in zip(signs, q)])
 
 
 def _default_program(c, output, tool_frame=False, want_T=False):

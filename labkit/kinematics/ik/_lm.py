@@ -23,7 +23,7 @@ import functools
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk_jacobian_kernel
+from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
 from labkit.kinematics.ik._geometry import _dot
 from labkit.kinematics.ik._targets import task_rows
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
@@ -180,6 +180,7 @@ class Batch:
         self.all_rows = len(rows) == 6
         self.eye = np.eye(min(len(rows), robot.n))
         self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
+        self._robot = robot
 
     def enter(self, q, target, lam):
         """The state's form of joint values, targets and damping.
@@ -248,6 +249,22 @@ class Batch:
         J = J if self.all_rows else J[:, self.rows]
         e, res = error(self.kind, T, target, self.rows)
         return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+
+    def residuals(self, q, target):
+        """The residuals alone at ``q`` (no Jacobian).
+
+        Parameters
+        ----------
+        q, target : ndarray
+            Joint values (N, n) [rad, m] and targets (N, 3) or (N, 4, 4)
+            [m, rad], as :meth:`enter` takes them.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            As :meth:`evaluate`'s ``res`` [m, rad].
+        """
+        return error(self.kind, fk(self._robot, q), target, self.rows)[1]
 
     def converged(self, res, tol):
         """Which residuals are below ``tol``.
@@ -326,6 +343,7 @@ class Floats(Batch):
         super().__init__(robot, kind, rows)
         self.n = robot.n
         self._floats = fk_jacobian_kernel(robot, floats=True)
+        self._pose = fk_floats(robot)
         n = self.n
         self._spans = [(r * n, (r + 1) * n) for r in self.rows]
 
@@ -358,6 +376,15 @@ class Floats(Batch):
             Es.append(0.5 * sum(v * v for v in e))
         return Js, es, rs, Es
 
+    def residuals(self, q, target):
+        out = []
+        for qk, tk in zip(q.tolist(), target.tolist()):
+            p = self._pose(qk)
+            T = (p[0:4], p[4:8], p[8:12])
+            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+            out.append(task_error(FLOATS, self.kind, T, tk, E, self.rows)[1])
+        return np.array(out)
+
     def converged(self, res, tol):
         done = [r < tol for r in res]
         return done, any(done), all(done)
@@ -380,7 +407,7 @@ class Floats(Batch):
         return tuple(list(col) for col in zip(*rows))
 
 
-for _name in ("enter", "arrays", "state", "evaluate", "converged", "moved", "accept"):
+for _name in ("enter", "arrays", "state", "evaluate", "residuals", "converged", "moved", "accept"):
     getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
 del _name
 

@@ -203,8 +203,7 @@ def analytic_seeds(robot, kind, target, rng):
         N, _, n = seeds.shape
         head = seeds[:, :2]
         ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS else Batch, kind, task_rows(kind)]
-        qs, ts, _ = ops.enter(head.reshape(-1, n), np.repeat(target, head.shape[1], axis=0), np.zeros(head.size // n))
-        res = np.array(ops.evaluate(qs, ts)[2]).reshape(N, -1)
+        res = ops.residuals(np.nan_to_num(head.reshape(-1, n)), np.repeat(target, head.shape[1], axis=0)).reshape(N, -1)
         swap = rank[:, 1:2] + res[:, 1:2] < rank[:, :1] + res[:, :1]  # (NaN: no swap)
         seeds[:, :2] = np.where(swap[:, :, None], head[:, ::-1], head)
     return seeds
