@@ -268,28 +268,36 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     return T, J
 
 
-def fk_jacobian_kernel(robot):
-    """``f(q) -> (T, J)``: :func:`fk_jacobian` of validated configurations, without the checks.
+def fk_jacobian_kernel(robot, floats=False):
+    """``f(q)``: :func:`fk_jacobian` of validated configurations, without the checks.
 
-    For a solver that calls it many times on arrays it made itself (numeric
+    For a solver that calls it many times on values it made itself (numeric
     IK): the chain and the compiled program are looked up once.
 
     Parameters
     ----------
     robot : Robot
         The arm.
+    floats : bool
+        One configuration on Python floats (the program's generated Python
+        code) instead of a batch of arrays.
 
     Returns
     -------
     callable
         ``f(q)`` for a finite float64 array ``q`` of shape (N, n) [rad, m]:
         poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n).
+        With ``floats``, ``f(q)`` for a sequence of ``n`` finite floats: a
+        list of ``6 n + 16`` floats, the Jacobian row by row (``J[r][i]`` at
+        ``r * n + i``), then the pose row by row.
     """
     c = chain(robot)
-    if c.flipped.size:  # the joint values need negating: the checked path does it
-        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
     prog = _default_program(c, _program.JACOBIAN, False, True)
     n = c.n
+    if floats:
+        return _on_floats(c, prog)
+    if c.flipped.size:  # the joint values need negating: the checked path does it
+        return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
 
     def f(q):
         N = q.shape[0]
@@ -301,6 +309,34 @@ def fk_jacobian_kernel(robot):
         return T, J
 
     return f
+
+
+def fk_floats(robot):
+    """``f(q) -> list``: :func:`fk` of one configuration on Python floats, without the checks.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    callable
+        ``f(q)`` for a sequence of ``n`` finite floats [rad, m]: the 16
+        entries of the tool pose, row by row [m].
+    """
+    c = chain(robot)
+    return _on_floats(c, _default_program(c, _program.POSE))
+
+
+def _on_floats(c, prog):
+    """The program's generated Python code as a function of the joint values (flipped joints negated first)."""
+    f = prog.scalar()
+    if not c.flipped.size:
+        return f
+    flipped = set(c.flipped.tolist())
+    signs = [-1.0 if i in flipped else 1.0 for i in range(c.n)]  # effective joint values
+    return lambda q: f([s * v for s, v in zip(signs, q)])
 
 
 def _default_program(c, output, tool_frame=False, want_T=False):

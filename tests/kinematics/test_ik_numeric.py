@@ -96,3 +96,66 @@ def test_no_idealised_copy_for_an_arm_far_from_every_family():
     T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
     res = ik_numeric(far, T)  # plain LM from random starts
     assert res.success.all() and res.residual.max() < 1e-10 and far.within_limits(res.q).all()
+
+
+def _flipped(robot, joints):
+    """``robot`` with ``joints`` flipped (their limits mirrored): the same arm, other joint signs."""
+    from dataclasses import replace
+
+    return robot.replace(links=tuple(
+        replace(lk, flip=True, limits=(-lk.limits[1], -lk.limits[0])) if j in joints else lk
+        for j, lk in enumerate(robot.links)))
+
+
+@pytest.mark.parametrize("kind, rows", [("pose", (0, 1, 2, 3, 4, 5)), ("pose", (0, 1, 2, 5)), ("position", (0, 1, 2)),
+                                        ("position", (0, 2))])
+@pytest.mark.parametrize("flips", [(), (0, 3)])
+def test_both_evaluators_compute_the_same_iteration(bent, kind, rows, flips):
+    """The LM arithmetic on floats (one target) and on numpy rows (a batch): the same numbers, step by step."""
+    from labkit.kinematics.ik._lm import Batch, Floats
+
+    robot = _flipped(bent, flips)
+    rng = np.random.default_rng(5)
+    lim = robot.joint_limits
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6))
+    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
+    target = T if kind == "pose" else T[:, :3, 3]
+    lam = np.array([1e-2, 1e-6, 1.0])
+    batch, floats = Batch(robot, kind, rows), Floats(robot, kind, rows)
+    b = (q, target, *batch.evaluate(q, target))
+    qs, ts, ls = floats.enter(q, target, lam)
+    f = floats.arrays(qs, ts, *floats.evaluate(qs, ts), ls, [0.0] * 3)
+    for x, y in zip(b, f[:6]):  # q, target, J, e, res, E
+        assert np.asarray(x).shape == y.shape and np.abs(np.asarray(x) - y).max() < 1e-12
+    for ops in (batch, floats):  # the residual alone, from the pose alone
+        assert np.abs(ops.residuals(q, target) - b[4]).max() < 1e-12
+    lo, hi = lim[:, 0], lim[:, 1]
+    qn_b = batch.moved(q, b[2], b[3], lam, lo, hi)
+    qn_f = floats.moved(qs, floats.evaluate(qs, ts)[0], floats.evaluate(qs, ts)[1], ls, lo.tolist(), hi.tolist())
+    assert np.abs(qn_b - np.array(qn_f)).max() < 1e-10
+    assert (qn_b >= lo).all() and (qn_b <= hi).all() and not np.allclose(qn_b, q)
+    # the step solves the damped normal equations
+    Jb, eb = b[2], b[3]
+    for k in range(3):
+        if len(rows) < 6:
+            dq = Jb[k].T @ np.linalg.solve(Jb[k] @ Jb[k].T + lam[k] * np.eye(len(rows)), eb[k])
+        else:
+            dq = np.linalg.solve(Jb[k].T @ Jb[k] + lam[k] * np.eye(6), Jb[k].T @ eb[k])
+        assert np.abs(np.clip(q[k] + dq, lo, hi) - qn_b[k]).max() < 1e-9
+
+
+@pytest.mark.parametrize("flips", [(), (1, 4)])
+def test_one_target_at_a_time_solves_as_the_batch_does(bent, flips):
+    """ik_numeric on single targets (the float evaluator) and on the batch (numpy rows) reach every target."""
+    robot = _flipped(bent, flips)
+    rng = np.random.default_rng(11)
+    lim = robot.joint_limits
+    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(40, 6)))
+    batch = ik_numeric(robot, T)
+    single = [ik_numeric(robot, T[k]) for k in range(40)]
+    assert batch.success.all() and all(r.success for r in single)
+    q1 = np.array([r.q for r in single])
+    assert robot.within_limits(q1).all()
+    assert np.abs(fk(robot, q1) - T).max() < 1e-9 and np.abs(fk(robot, batch.q) - T).max() < 1e-9
+    # the same loop: most targets take the same iterations either way
+    assert np.mean(np.array([r.iterations for r in single]) == batch.iterations) > 0.8

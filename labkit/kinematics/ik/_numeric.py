@@ -13,11 +13,12 @@ the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
 
-One target is a batch of one: the same loop, where the per-robot
-fk + Jacobian program runs as generated Python code on floats
-(:func:`labkit.kinematics._forward.fk_jacobian_kernel`) and the pose error
-(:func:`_pose_error`, written once on components) on floats too, so a handful
-of targets costs few numpy calls per iteration.
+One target is a batch of one: the same loop, whose arithmetic for one or
+two targets runs on Python floats (:class:`~labkit.kinematics.ik._lm.Floats`:
+the per-robot program's generated Python code, the pose error on components,
+one LAPACK solve per step) instead of numpy rows
+(:class:`~labkit.kinematics.ik._lm.Batch`), so a single target costs few
+array calls per iteration.
 
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (:func:`near_family`, for
@@ -28,77 +29,14 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import SMALL_BATCH, fk_jacobian_kernel
-from labkit.kinematics.ik._geometry import _dot
+from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import finish_all, solve as solve_family
 from labkit.kinematics.ik._targets import task_rows
-from labkit.kinematics.ik._xp import FLOATS, NUMPY
-from labkit.rotations import wrap_angle
-
-
-def _error(kind, T, target, rows):
-    """Task error e (N, len(rows)) and residual (N,) of poses T against targets."""
-    if kind == "position":
-        e = target - T[:, :3, 3]
-        e = e[:, list(rows)]
-        return e, np.sqrt((e * e).sum(axis=1))
-    if kind == "planar":
-        e = np.empty((T.shape[0], 3))
-        e[:, 0] = target[:, 0] - T[:, 0, 3]
-        e[:, 1] = target[:, 1] - T[:, 1, 3]
-        e[:, 2] = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
-        e = e[:, [task_rows("planar").index(r) for r in rows]]
-        return e, np.sqrt((e * e).sum(axis=1))
-    # pose: position error and rotation-vector error of E = R_target R^T
-    if T.shape[0] <= SMALL_BATCH and len(rows) == 6:  # a few targets: on Python floats
-        e, res = [], []
-        for Tk, tk in zip(T.tolist(), target.tolist()):
-            E = [[_dot(tk[i], Tk[j]) for j in range(3)] for i in range(3)]  # (rows' 4th entries not used)
-            full, ang = _pose_error(FLOATS, E, Tk, tk)
-            o = 2.0 * math.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-            e.append(full)
-            res.append(math.sqrt(full[0] * full[0] + full[1] * full[1] + full[2] * full[2] + o * o))
-        return np.array(e), np.array(res)
-    E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
-    full, ang = _pose_error(NUMPY, E, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1))
-    full = np.stack(full, axis=1)
-    pos = full[:, :3]
-    if len(rows) == 6:  # the whole pose (rows 0-5 in order)
-        o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-        return full, np.sqrt((pos * pos).sum(axis=1) + o * o)
-    e = full[:, list(rows)]
-    # residual: position error and 2 sin(angle/2) per orientation (robust near pi)
-    pos = full[:, [r for r in rows if r < 3]] if any(r < 3 for r in rows) else np.zeros((T.shape[0], 0))
-    res2 = (pos * pos).sum(axis=1)
-    if any(r >= 3 for r in rows):
-        if len([r for r in rows if r >= 3]) == 3:
-            o = 2.0 * np.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
-            res2 = res2 + o * o
-        else:
-            o = full[:, [r for r in rows if r >= 3]]
-            res2 = res2 + (o * o).sum(axis=1)
-    return e, np.sqrt(res2)
-
-
-def _pose_error(xp, E, T, t):
-    """Position error and rotation vector of pose ``T`` against target ``t`` (components ``[i][j]``).
-
-    ``E`` is ``R_t R^T`` (components); the rotation vector is its axis times
-    its angle. Returns the six components ``(dx, dy, dz, rx, ry, rz)`` [m,
-    rad] and the angle [rad].
-    """
-    v0, v1, v2 = 0.5 * (E[2][1] - E[1][2]), 0.5 * (E[0][2] - E[2][0]), 0.5 * (E[1][0] - E[0][1])
-    sv = xp.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    ang = xp.arctan2(sv, 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0))
-    big = sv > 1e-12
-    scale = xp.where(big, ang / xp.where(big, sv, 1.0), 1.0)
-    return (t[0][3] - T[0][3], t[1][3] - T[1][3], t[2][3] - T[2][3], v0 * scale, v1 * scale, v2 * scale), ang
 
 
 class LazyGenerator:
@@ -131,6 +69,9 @@ def _random_q(rng, limits, size):
     hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
+
+#: most targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
+FLOAT_TARGETS = 3
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
 SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
@@ -245,17 +186,26 @@ def analytic_seeds(robot, kind, target, rng):
         return None
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
     lim = _limits(robot)
-    lo, hi = lim.lo, lim.hi
-    rank = (np.maximum(lo - q, 0.0) + np.maximum(q - hi, 0.0)).sum(axis=-1)
+    inside = np.minimum(np.maximum(q, lim.lo), lim.hi)  # (finite: a family's fills are finite too)
+    rank = np.abs(q - inside).sum(axis=-1)  # how far each branch leaves the limits
     if ideal is robot:
-        rank[(rank > 0) | ~reach] = np.inf
+        rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
     else:
-        rank[~reach] += 1e3
-    rank[~np.isfinite(q).all(axis=-1)] = np.inf
+        rank = rank + np.where(reach, 0.0, 1e3)
     order = np.argsort(rank, axis=1, kind="stable")
     rows = np.arange(q.shape[0])[:, None]
-    seeds = np.clip(q[rows, order], lo, hi)
-    seeds[~np.isfinite(rank[rows, order])] = np.nan
+    seeds = inside[rows, order]
+    rank = rank[rows, order]
+    seeds[np.isinf(rank)] = np.nan
+    if ideal is not robot and seeds.shape[1] > 1:
+        # of the copy's two best branches, the one nearer to solving the real arm first (e.g. of a wrist
+        # and its flip, a solution of the copy, only one is near a solution once a5 != 0)
+        N, _, n = seeds.shape
+        head = seeds[:, :2]
+        ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS else Batch, kind, task_rows(kind)]
+        res = ops.residuals(np.nan_to_num(head.reshape(-1, n)), np.repeat(target, head.shape[1], axis=0)).reshape(N, -1)
+        swap = rank[:, 1:2] + res[:, 1:2] < rank[:, :1] + res[:, :1]  # (NaN: no swap)
+        seeds[:, :2] = np.where(swap[:, :, None], head[:, ::-1], head)
     return seeds
 
 
@@ -368,16 +318,14 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
     best_q = q.copy()
-    rows = list(rows)
-    all_rows = len(rows) == 6
-    wide = len(rows) < n
-    eye = np.eye(len(rows) if wide else n)
-    fk_jacobian = fk_jacobian_kernel(robot)  # (no checks: q is made here)
+    # a few targets one by one on floats, a batch on numpy rows: the same loop below
+    ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS and group == 1 else Batch, kind, tuple(rows)]
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
+        bounds = (alo.tolist(), ahi.tolist()) if type(ops) is Floats else (alo, ahi)
         act = np.flatnonzero(~success)
         if group > 1:
             act = act[~group_done[act // group]]
@@ -394,28 +342,15 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
-        qa = q[act]
-        tg = target[act]
-        T, J = fk_jacobian(qa)
-        J = J if all_rows else J[:, rows]
-        e, res = _error(kind, T, tg, rows)
-        lam = np.where(near[act], lam_near, lam0)
-        E = 0.5 * np.einsum("ij,ij->i", e, e)
+        qa, tg, lam = ops.enter(q[act], target[act], np.where(near[act], lam_near, lam0))
+        J, e, res, E = ops.evaluate(qa, tg)
         E_check = E.copy()
         it = 0
         for it in range(1, max_iter + 1):
-            done = res < tol
-            any_done = done.any()
-            bad = None
-            if free and any_done:
-                idx = np.flatnonzero(done)
-                qw = finish_all(robot, qa[idx], flipped=False)[0]
-                qa[idx] = qw
-                bad = idx[~lim.inside(qw)]
-                done[bad] = False
-                any_done = done.any()
+            done, any_done, all_done = ops.converged(res, tol)
             check = it % check_every == 0
-            if any_done and bad is None and done.all():  # every active row converged (one target: the usual end)
+            early = it == check_every // 2  # a closed-form start converges in a few steps, or is the wrong branch
+            if all_done and not free:  # every active row converged (one target: the usual end)
                 q[act] = qa
                 success[act] = True
                 residual[act] = res
@@ -424,13 +359,22 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     group_done[act // group] = True
                 act = act[:0]
                 break
-            if any_done or check or (bad is not None and bad.size):
+            if any_done or check or early:
+                qa, tg, J, e, res, lam, E, E_check = ops.arrays(qa, tg, J, e, res, lam, E, E_check)
+                done = np.asarray(done, dtype=bool)
                 stalled = np.zeros_like(done)
-                if bad is not None:
+                if free and any_done:
+                    idx = np.flatnonzero(done)
+                    qw = finish_all(robot, qa[idx], flipped=False)[0]
+                    qa[idx] = qw
+                    bad = idx[~lim.inside(qw)]
+                    done[bad] = False
                     stalled[bad] = True  # converged outside the limits: restart
                 if check:
                     stalled |= (~done) & (E > 0.01 * E_check)
                     E_check = E.copy()
+                elif early:
+                    stalled |= (~done) & (E > 0.01 * E_check) & near[act]
                 leave = done | stalled
                 if leave.any():
                     idx = act[done]
@@ -443,7 +387,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     residual[s_idx[better]] = res[stalled][better]
                     best_q[s_idx[better]] = qa[stalled][better]
                     keep = ~leave
-                    if group > 1 and any_done:  # a copy converged: its siblings stop
+                    if group > 1 and done.any():  # a copy converged: its siblings stop
                         group_done[act[done] // group] = True
                         sib = keep & group_done[act // group]
                         iterations[act[sib]] += it - 1
@@ -453,36 +397,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     )
                     if act.size == 0:
                         break
-            Jt = np.swapaxes(J, -1, -2)
-            if wide:  # fewer task rows than joints: dq = J^T (J J^T + lam I)^-1 e
-                A = J @ Jt
-                A += lam[:, None, None] * eye
-                dq = (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
-            else:  # dq = (J^T J + lam I)^-1 J^T e
-                A = Jt @ J
-                A += lam[:, None, None] * eye
-                dq = np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
-            qn = qa + dq
-            np.maximum(qn, alo, out=qn)
-            np.minimum(qn, ahi, out=qn)
-            Tn, Jn = fk_jacobian(qn)
-            Jn = Jn if all_rows else Jn[:, rows]
-            en, resn = _error(kind, Tn, tg, rows)
-            En = 0.5 * np.einsum("ij,ij->i", en, en)
-            better = En < E
-            if better.all():
-                qa, J, e, res, E = qn, Jn, en, resn, En
-                lam = np.maximum(lam * 0.1, 1e-12)
-            else:
-                qa = np.where(better[:, None], qn, qa)
-                J = np.where(better[:, None, None], Jn, J)
-                e = np.where(better[:, None], en, e)
-                res = np.where(better, resn, res)
-                E = np.where(better, En, E)
-                lam = np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8))
+                qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
+            qn = ops.moved(qa, J, e, lam, *bounds)
+            qa, J, e, res, E, lam = ops.accept((qa, J, e, res, E, lam), (qn, *ops.evaluate(qn, tg)))
         else:
             it = max_iter + 1
         if act.size:
+            qa, tg, J, e, res, lam, E, E_check = ops.arrays(qa, tg, J, e, res, lam, E, E_check)
             iterations[act] += it - 1
             inside = lim.inside(qa)
             done = (res < tol) & inside

@@ -1,0 +1,457 @@
+"""The arithmetic of the Levenberg-Marquardt loop, on numpy rows or on Python floats (private).
+
+:func:`labkit.kinematics.ik._numeric.solve` runs one loop (restarts, stall
+tests, the active set); what it computes per target comes from one of two
+evaluators with the same methods:
+
+* :class:`Batch` - the active targets as numpy rows: one call of the
+  per-robot fk + Jacobian program (:func:`labkit.kinematics._forward.fk_jacobian_kernel`)
+  and one batched linear solve per iteration for them all;
+* :class:`Floats` - one or two targets, each on Python floats: the program's
+  generated Python code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``),
+  the pose error on components and one LAPACK Cholesky solve, so one target
+  costs few array calls per iteration.
+
+The task error (:func:`task_error`) and the damped step (:func:`step`) are
+written once, for both.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from labkit.kinematics._chain import per_robot
+from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
+from labkit.kinematics.ik._geometry import _dot
+from labkit.kinematics.ik._targets import task_rows
+from labkit.kinematics.ik._xp import FLOATS, NUMPY
+from labkit.rotations import wrap_angle
+
+
+def task_error(xp, kind, T, t, E, rows):
+    """Task error and residual of one pose against its target, on components (written once).
+
+    Parameters
+    ----------
+    xp : namespace
+        :data:`~labkit.kinematics.ik._xp.NUMPY` (components are ``(N,)``
+        arrays) or :data:`~labkit.kinematics.ik._xp.FLOATS` (floats).
+    kind : {"position", "planar", "pose"}
+        What the target fixes.
+    T : nested components ``T[i][j]``
+        Pose (rows 0-2 used) [m].
+    t : nested components
+        Target: ``t[i]`` for a point or ``(x, y, phi)``, ``t[i][j]`` for a pose.
+    E : nested components or None
+        ``R_t R^T`` for a pose target.
+    rows : sequence of int
+        Rows of ``[vx, vy, vz, wx, wy, wz]`` the task constrains.
+
+    Returns
+    -------
+    e : list
+        One component per row [m, rad].
+    residual : ndarray or float
+        Norm of the position error and, for a whole orientation,
+        ``2 sin(angle / 2)`` (robust near pi; otherwise the orientation
+        components' norm) [m, rad].
+    """
+    whole = False
+    if kind == "pose":
+        comp, ang = _pose_error(xp, E, T, t)
+        whole = sum(r >= 3 for r in rows) == 3
+    elif kind == "position":
+        comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
+    else:  # planar: x, y and the heading
+        comp = dict(zip(task_rows("planar"), (t[0] - T[0][3], t[1] - T[1][3],
+                                              wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))))
+    e = [comp[r] for r in rows]
+    res2 = 0.0
+    for r, v in zip(rows, e):
+        if not (whole and r >= 3):
+            res2 = res2 + v * v
+    if whole:
+        o = 2.0 * xp.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
+        res2 = res2 + o * o
+    return e, xp.sqrt(res2)
+
+
+def error(kind, T, target, rows):
+    """:func:`task_error` of a batch: poses against targets.
+
+    Parameters
+    ----------
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    T : ndarray, shape (N, 4, 4)
+        Poses [m].
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    rows : sequence of int
+        Task rows (of ``[vx, vy, vz, wx, wy, wz]``).
+
+    Returns
+    -------
+    e : ndarray, shape (N, len(rows))
+        Task error [m, rad].
+    residual : ndarray, shape (N,)
+        Its norm as :func:`task_error` measures it [m, rad].
+    """
+    E = None
+    if kind == "pose":
+        E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
+    e, res = task_error(NUMPY, kind, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1), E, rows)
+    return np.stack(e, axis=1), res
+
+
+def step(J, e, lam, eye, solve=np.linalg.solve):
+    """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
+
+    Parameters
+    ----------
+    J : ndarray, shape (..., m, n)
+        Task rows of the Jacobian.
+    e : ndarray, shape (..., m)
+        Task error [m, rad].
+    lam : ndarray, shape (...), or float
+        Damping.
+    eye : ndarray, shape (k, k)
+        The identity of the smaller side ``k = min(m, n)``.
+    solve : callable
+        ``solve(A, b)`` for ``A`` (..., k, k), ``b`` (..., k, 1):
+        ``numpy.linalg.solve`` for a batch, :func:`_solve_spd` for one target
+        (no leading axes).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Joint step [rad, m].
+    """
+    Jt = J.swapaxes(-1, -2)
+    damping = np.asarray(lam)[..., None, None] * eye
+    if J.shape[-2] < J.shape[-1]:
+        A = J @ Jt
+        A += damping
+        return (Jt @ solve(A, e[..., None]))[..., 0]
+    A = Jt @ J
+    A += damping
+    return solve(A, Jt @ e[..., None])[..., 0]
+
+
+def _solve_spd(A, b):
+    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m, k): LAPACK's Cholesky solve.
+
+    ``numpy.linalg.solve`` costs several times more than the arithmetic on a
+    6 x 6 system; LAPACK ``dposv`` (through scipy) is called directly, and
+    ``dgesv`` (LU) where rounding left ``A`` not positive definite.
+    """
+    _, x, info = _lapack().dposv(A, b)
+    if info:
+        _, _, x, info = _lapack().dgesv(A, b)
+    return x
+
+
+@functools.cache
+def _lapack():
+    """``scipy.linalg.lapack``, imported when a first target is solved on floats (it takes a few hundred ms)."""
+    from scipy.linalg import lapack
+
+    return lapack
+
+
+class Batch:
+    """The arithmetic of the LM loop on numpy rows: a batch of targets.
+
+    The state of the active targets is numpy arrays: ``q`` (N, n), targets
+    (N, ...), ``J`` (N, m, n), ``e`` (N, m), and the residuals, damping and
+    squared errors (N,). :class:`Floats` has the same methods on lists.
+
+    Parameters
+    ----------
+    robot, kind, rows : Robot, {"position", "planar", "pose"}, sequence of int
+        The arm, what the targets fix and the task rows (of ``[vx, vy, vz,
+        wx, wy, wz]``).
+    """
+
+    def __init__(self, robot, kind, rows):
+        self.kind, self.rows = kind, tuple(rows)
+        self.all_rows = len(rows) == 6
+        self.eye = np.eye(min(len(rows), robot.n))
+        self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
+        self._robot = robot
+
+    def enter(self, q, target, lam):
+        """The state's form of joint values, targets and damping.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, n)
+            Joint values [rad, m].
+        target : ndarray, shape (N, 3) or (N, 4, 4)
+            Targets [m, rad].
+        lam : ndarray, shape (N,)
+            Damping.
+
+        Returns
+        -------
+        tuple
+            ``(q, target, lam)`` in the evaluator's form (here unchanged).
+        """
+        return q, target, lam
+
+    def arrays(self, q, target, J, e, res, lam, E, E_check):
+        """The state as numpy arrays.
+
+        Parameters
+        ----------
+        q, target, J, e, res, lam, E, E_check : state form
+            Joint values, targets, Jacobian rows, errors, residuals, damping,
+            squared errors and those of the last stall test, of N targets.
+
+        Returns
+        -------
+        tuple of ndarray
+            The same, as arrays of the shapes above (here unchanged).
+        """
+        return q, target, J, e, res, lam, E, E_check
+
+    def state(self, q, target, J, e, res, lam, E, E_check):
+        """:meth:`arrays` undone: numpy arrays back in the evaluator's form.
+
+        Parameters
+        ----------
+        q, target, J, e, res, lam, E, E_check : ndarray
+            As :meth:`arrays` returns them.
+
+        Returns
+        -------
+        tuple
+            The state in the evaluator's form (here unchanged).
+        """
+        return q, target, J, e, res, lam, E, E_check
+
+    def evaluate(self, q, target):
+        """Jacobian task rows, error, residual and ``e.e / 2`` at ``q``.
+
+        Parameters
+        ----------
+        q : state form of joint values, N rows [rad, m]
+        target : state form of the targets, N rows [m, rad]
+
+        Returns
+        -------
+        tuple
+            ``(J, e, res, E)`` in the state's form.
+        """
+        T, J = self._kernel(q)
+        J = J if self.all_rows else J[:, self.rows]
+        e, res = error(self.kind, T, target, self.rows)
+        return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+
+    def residuals(self, q, target):
+        """The residuals alone at ``q`` (no Jacobian).
+
+        Parameters
+        ----------
+        q, target : ndarray
+            Joint values (N, n) [rad, m] and targets (N, 3) or (N, 4, 4)
+            [m, rad], as :meth:`enter` takes them.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            As :meth:`evaluate`'s ``res`` [m, rad].
+        """
+        return error(self.kind, fk(self._robot, q), target, self.rows)[1]
+
+    def converged(self, res, tol):
+        """Which residuals are below ``tol``.
+
+        Parameters
+        ----------
+        res : state form of the residuals, N entries [m, rad]
+        tol : float
+            Convergence threshold [m, rad].
+
+        Returns
+        -------
+        tuple
+            ``(done, any, all)``: a mask (N,) and whether any / all are done.
+        """
+        done = res < tol
+        any_done = done.any()
+        return done, any_done, any_done and done.all()
+
+    def moved(self, q, J, e, lam, lo, hi):
+        """The damped step (:func:`step`) from ``q``, clipped to ``[lo, hi]``.
+
+        Parameters
+        ----------
+        q, J, e, lam : state form
+            Joint values, Jacobian rows, error and damping of N targets.
+        lo, hi : ndarray, shape (n,), or list
+            Bounds of this attempt [rad, m].
+
+        Returns
+        -------
+        state form of joint values, N rows [rad, m]
+        """
+        qn = q + step(J, e, lam, self.eye)
+        np.maximum(qn, lo, out=qn)
+        return np.minimum(qn, hi, out=qn)
+
+    def accept(self, old, new):
+        """Per target the better of two iterates, and the new damping.
+
+        Parameters
+        ----------
+        old : tuple
+            ``(q, J, e, res, E, lam)`` before the step.
+        new : tuple
+            ``(q, J, e, res, E)`` after it.
+
+        Returns
+        -------
+        tuple
+            ``(q, J, e, res, E, lam)``: ``new`` where its ``E`` is lower
+            (damping / 10, at least 1e-12), else ``old`` (damping x 10, at
+            most 1e8).
+        """
+        qa, J, e, res, E, lam = old
+        better = new[4] < E
+        if better.all():
+            return (*new, np.maximum(lam * 0.1, 1e-12))
+        return (np.where(better[:, None], new[0], qa), np.where(better[:, None, None], new[1], J),
+                np.where(better[:, None], new[2], e), np.where(better, new[3], res), np.where(better, new[4], E),
+                np.where(better, np.maximum(lam * 0.1, 1e-12), np.minimum(lam * 10.0, 1e8)))
+
+
+class Floats(Batch):
+    """The arithmetic of the LM loop on Python floats, target by target: one or two targets.
+
+    The per-robot program runs as generated Python code, the pose error is
+    :func:`task_error` on floats, and the step is :func:`step` on one
+    target's ``m x n`` Jacobian. The state is lists with one entry per
+    target (joint values, targets and errors as lists of floats, a
+    Jacobian as its ``m * n`` entries row by row). Parameters and methods
+    as :class:`Batch`.
+    """
+
+    def __init__(self, robot, kind, rows):
+        super().__init__(robot, kind, rows)
+        self.n = robot.n
+        self._floats = fk_jacobian_kernel(robot, floats=True)
+        self._pose = fk_floats(robot)
+        n = self.n
+        self._spans = [(r * n, (r + 1) * n) for r in self.rows]
+
+    def enter(self, q, target, lam):
+        return q.tolist(), target.tolist(), lam.tolist()
+
+    def arrays(self, q, target, J, e, res, lam, E, E_check):
+        N = len(q)
+        m = len(self.rows)
+        return (np.array(q, dtype=float).reshape(N, self.n), np.array(target, dtype=float),
+                np.array(J, dtype=float).reshape(N, m, self.n), np.array(e, dtype=float).reshape(N, m),
+                *(np.array(x, dtype=float) for x in (res, lam, E, E_check)))
+
+    def state(self, q, target, J, e, res, lam, E, E_check):
+        N = q.shape[0]
+        return (q.tolist(), target.tolist(), J.reshape(N, -1).tolist(), e.tolist(), res.tolist(), lam.tolist(),
+                E.tolist(), E_check.tolist())
+
+    def evaluate(self, q, target):
+        n6 = 6 * self.n
+        Js, es, rs, Es = [], [], [], []
+        for qk, tk in zip(q, target):
+            out = self._floats(qk)
+            T = (out[n6:n6 + 4], out[n6 + 4:n6 + 8], out[n6 + 8:n6 + 12])
+            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+            e, res = task_error(FLOATS, self.kind, T, tk, E, self.rows)
+            Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
+            es.append(e)
+            rs.append(res)
+            Es.append(0.5 * sum(v * v for v in e))
+        return Js, es, rs, Es
+
+    def residuals(self, q, target):
+        out = []
+        for qk, tk in zip(q.tolist(), target.tolist()):
+            p = self._pose(qk)
+            T = (p[0:4], p[4:8], p[8:12])
+            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+            out.append(task_error(FLOATS, self.kind, T, tk, E, self.rows)[1])
+        return np.array(out)
+
+    def converged(self, res, tol):
+        done = [r < tol for r in res]
+        return done, any(done), all(done)
+
+    def moved(self, q, J, e, lam, lo, hi):
+        m, n = len(self.rows), self.n
+        out = []
+        for qk, Jk, ek, lk in zip(q, J, e, lam):
+            dq = step(np.array(Jk).reshape(m, n), np.array(ek), lk, self.eye, _solve_spd).tolist()
+            out.append([min(max(v + d, a), b) for v, d, a, b in zip(qk, dq, lo, hi)])
+        return out
+
+    def accept(self, old, new):
+        rows = []
+        for k, lk in enumerate(old[5]):
+            if new[4][k] < old[4][k]:
+                rows.append((*(x[k] for x in new), max(lk * 0.1, 1e-12)))
+            else:
+                rows.append((*(x[k] for x in old[:5]), min(lk * 10.0, 1e8)))
+        return tuple(list(col) for col in zip(*rows))
+
+
+for _name in ("enter", "arrays", "state", "evaluate", "residuals", "converged", "moved", "accept"):
+    getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
+del _name
+
+
+def _pose_error(xp, E, T, t):
+    """Position error and rotation vector of pose ``T`` against target ``t`` (components ``[i][j]``).
+
+    ``E`` is ``R_t R^T`` (components); the rotation vector is its axis times
+    its angle. Returns the six components ``(dx, dy, dz, rx, ry, rz)`` [m,
+    rad] and the angle [rad].
+    """
+    v0, v1, v2 = 0.5 * (E[2][1] - E[1][2]), 0.5 * (E[0][2] - E[2][0]), 0.5 * (E[1][0] - E[0][1])
+    sv = xp.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    ang = xp.arctan2(sv, 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0))
+    big = sv > 1e-12
+    scale = xp.where(big, ang / xp.where(big, sv, 1.0), 1.0)
+    return (t[0][3] - T[0][3], t[1][3] - T[1][3], t[2][3] - T[2][3], v0 * scale, v1 * scale, v2 * scale), ang
+
+
+class _Arithmetic(dict):
+    """``{(class, kind, rows): instance}`` of :class:`Batch` / :class:`Floats`, made when first asked for."""
+
+    def __init__(self, robot):
+        super().__init__()
+        self.robot = robot
+
+    def __missing__(self, key):
+        cls, kind, rows = key
+        made = self[key] = cls(self.robot, kind, rows)
+        return made
+
+
+@per_robot
+def arithmetic(robot):
+    """The robot's evaluators, ``arithmetic(robot)[Floats, kind, rows]`` (made once per robot, kind and rows).
+
+    Parameters
+    ----------
+    robot : Robot
+        Whose evaluators.
+
+    Returns
+    -------
+    dict
+        ``{(Batch or Floats, kind, rows): evaluator}``, filled when asked for.
+    """
+    return _Arithmetic(robot)
