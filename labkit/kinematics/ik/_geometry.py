@@ -7,7 +7,7 @@
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
   another (:func:`angle_about`), and subproblem 2, two rotations about
   intersecting axes (:func:`subproblem2`);
-* Rodrigues' rotation of a vector about a constant axis (:func:`rotate`).
+* Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array or a float (see
 :mod:`labkit.kinematics.ik._xp`); constant vectors (axes of the robot) are
@@ -208,38 +208,40 @@ def _reject(k, v):
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
 
-def rotate(xp, k, angle, v):
-    """Rodrigues: ``v`` rotated by ``angle`` about the unit axis ``k``.
+def rotate(xp, k, angle, *vectors):
+    """Rodrigues: vectors rotated by ``angle`` about the unit axis ``k`` (its sine and cosine taken once).
 
     ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
 
     Parameters
     ----------
     xp : namespace
-        Array namespace of ``angle`` and ``v``.
+        Array namespace of ``angle`` and the vectors.
     k : tuple of float
         The rotation axis (unit).
     angle : ndarray or float
         Rotation angle [rad].
-    v : tuple
-        3 components.
+    *vectors : tuple
+        3 components each.
 
     Returns
     -------
-    tuple
-        3 components.
+    list of tuple
+        The rotated vectors, 3 components each, in order.
     """
     k0, k1, k2 = k
-    v0, v1, v2 = v
-    u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
-    w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
     s, c1 = xp.sin(angle), 1.0 - xp.cos(angle)
-    return (v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2)
+    out = []
+    for v0, v1, v2 in vectors:
+        u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
+        w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
+        out.append((v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2))
+    return out
 
 
 def _matvec(M, v):
     """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples."""
-    return tuple(_dot(row, v) for row in M)
+    return (_dot(M[0], v), _dot(M[1], v), _dot(M[2], v))
 
 
 # -- the shared subproblems -----------------------------------------------------------------
@@ -304,8 +306,31 @@ def angle_about(xp, k, v, w):
     ndarray or float
         The angle [rad] in (-pi, pi].
     """
-    vp, wp = _reject(k, v), _reject(k, w)
-    return xp.arctan2(_dot(_cross(k, vp), wp), _dot(vp, wp))
+    return angle_between(xp, k, _reject(k, v), _reject(k, w))
+
+
+def angle_between(xp, k, vp, wp):
+    """:func:`angle_about` of vectors already perpendicular to ``k`` (projections computed once, used twice).
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace.
+    k : tuple of float
+        Unit axis.
+    vp, wp : tuple
+        3 components each, perpendicular to ``k`` (``_reject(k, v)``).
+
+    Returns
+    -------
+    ndarray or float
+        The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
+    """
+    k0, k1, k2 = k
+    v0, v1, v2 = vp
+    w0, w1, w2 = wp
+    return xp.arctan2((k1 * v2 - k2 * v1) * w0 + (k2 * v0 - k0 * v2) * w1 + (k0 * v1 - k1 * v0) * w2,
+                      v0 * w0 + v1 * w1 + v2 * w2)
 
 
 class Subproblem2:
@@ -340,27 +365,28 @@ class Subproblem2:
         m : tuple
             3 components of the target direction (unit).
         """
-        a4, a5, k12, a5p, cr = self.a4, self.a5, self.k12, self.a5p, self.cr
+        a4, a5, k12, a5p, cr, c5, p = self.a4, self.a5, self.k12, self.a5p, self.cr, self.c5, self.p
         den = k12 * k12 - 1.0
         a4m = _dot(a4, m)
         alpha = (k12 * a5p - a4m) / den
         beta = (k12 * a4m - a5p) / den
+        # subproblem 1 about a4 below works on the explicit perpendicular parts (near the wrist
+        # singularity they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
+        mp = _reject(a4, m)
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
-            c = _reject(a4, m)
-            s45 = xp.sqrt(_dot(c, c))
+            s45 = xp.sqrt(_dot(mp, mp))
             b = xp.abs(beta)
             g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
         else:
             g = xp.sqrt(xp.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
         out = []
         for gg in (g, -g):
-            C = tuple(alpha * a4[i] + beta * a5[i] + gg * cr[i] for i in range(3))
-            t5 = xp.arctan2(_dot(self.c5, C), _dot(self.p, C) - a5p * _dot(a5, C))
-            # subproblem 1 about a4 on the explicit perpendicular parts (near the wrist singularity
-            # they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
-            out.append((angle_about(xp, a4, C, m), t5))
+            C = (alpha * a4[0] + beta * a5[0] + gg * cr[0], alpha * a4[1] + beta * a5[1] + gg * cr[1],
+                 alpha * a4[2] + beta * a5[2] + gg * cr[2])
+            t5 = xp.arctan2(_dot(c5, C), _dot(p, C) - a5p * _dot(a5, C))
+            out.append((angle_between(xp, a4, _reject(a4, C), mp), t5))
         return out
 
 
