@@ -306,31 +306,29 @@ def angle_about(xp, k, v, w):
     ndarray or float
         The angle [rad] in (-pi, pi].
     """
-    return angle_between(xp, k, _reject(k, v), _reject(k, w))
+    vp, wp = _reject(k, v), _reject(k, w)
+    return angle_between(xp, _cross(k, vp), vp, wp)
 
 
-def angle_between(xp, k, vp, wp):
-    """:func:`angle_about` of vectors already perpendicular to ``k`` (projections computed once, used twice).
+def angle_between(xp, n, vp, wp):
+    """:func:`angle_about` from the projections (computed once where they are used again).
 
     Parameters
     ----------
     xp : namespace
         Array namespace.
-    k : tuple of float
-        Unit axis.
+    n : tuple
+        ``k x vp``, 3 components (a constant where ``vp`` is one).
     vp, wp : tuple
-        3 components each, perpendicular to ``k`` (``_reject(k, v)``).
+        The vectors' parts perpendicular to the axis ``k``, 3 components each (``_reject(k, v)``).
 
     Returns
     -------
     ndarray or float
         The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
     """
-    k0, k1, k2 = k
-    v0, v1, v2 = vp
     w0, w1, w2 = wp
-    return xp.arctan2((k1 * v2 - k2 * v1) * w0 + (k2 * v0 - k0 * v2) * w1 + (k0 * v1 - k1 * v0) * w2,
-                      v0 * w0 + v1 * w1 + v2 * w2)
+    return xp.arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
 class Subproblem2:
@@ -349,6 +347,8 @@ class Subproblem2:
         self.cr2 = float(np.dot(self.cr, self.cr))
         self.c5 = floats(np.cross(a5, p))
         self.orthogonal = abs(self.k12) < 1e-12
+        self.den = self.k12 * self.k12 - 1.0
+        self.k12a5p = self.k12 * self.a5p
 
     def solve(self, xp, m):
         """Both solutions for the target direction ``m`` (components).
@@ -365,14 +365,15 @@ class Subproblem2:
         m : tuple
             3 components of the target direction (unit).
         """
-        a4, a5, k12, a5p, cr, c5, p = self.a4, self.a5, self.k12, self.a5p, self.cr, self.c5, self.p
-        den = k12 * k12 - 1.0
-        a4m = _dot(a4, m)
-        alpha = (k12 * a5p - a4m) / den
+        (a40, a41, a42), (a50, a51, a52), (c0, c1, c2) = self.a4, self.a5, self.cr
+        k12, a5p, den = self.k12, self.a5p, self.den
+        m0, m1, m2 = m
+        a4m = a40 * m0 + a41 * m1 + a42 * m2
+        alpha = (self.k12a5p - a4m) / den
         beta = (k12 * a4m - a5p) / den
         # subproblem 1 about a4 below works on the explicit perpendicular parts (near the wrist
         # singularity they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
-        mp = _reject(a4, m)
+        mp = (m0 - a40 * a4m, m1 - a41 * a4m, m2 - a42 * a4m)
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
@@ -381,12 +382,19 @@ class Subproblem2:
             g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
         else:
             g = xp.sqrt(xp.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
+        # C = alpha a4 + beta a5 +- g (a4 x a5)
+        b0, b1, b2 = alpha * a40 + beta * a50, alpha * a41 + beta * a51, alpha * a42 + beta * a52
+        g0, g1, g2 = g * c0, g * c1, g * c2
+        (d0, d1, d2), (p0, p1, p2) = self.c5, self.p
         out = []
-        for gg in (g, -g):
-            C = (alpha * a4[0] + beta * a5[0] + gg * cr[0], alpha * a4[1] + beta * a5[1] + gg * cr[1],
-                 alpha * a4[2] + beta * a5[2] + gg * cr[2])
-            t5 = xp.arctan2(_dot(c5, C), _dot(p, C) - a5p * _dot(a5, C))
-            out.append((angle_between(xp, a4, _reject(a4, C), mp), t5))
+        for C0, C1, C2 in ((b0 + g0, b1 + g1, b2 + g2), (b0 - g0, b1 - g1, b2 - g2)):
+            t5 = xp.arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
+                            - a5p * (a50 * C0 + a51 * C1 + a52 * C2))
+            # t4: subproblem 1 about a4 from C's part perpendicular to a4 (v) to m's
+            a4C = a40 * C0 + a41 * C1 + a42 * C2
+            v0, v1, v2 = C0 - a40 * a4C, C1 - a41 * a4C, C2 - a42 * a4C
+            n = (a41 * v2 - a42 * v1, a42 * v0 - a40 * v2, a40 * v1 - a41 * v0)  # a4 x v
+            out.append((angle_between(xp, n, (v0, v1, v2), mp), t5))
         return out
 
 

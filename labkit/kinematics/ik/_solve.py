@@ -84,12 +84,14 @@ def finish(xp, v, joint):
         v = -v
     if rev:
         v = wrap_angle(v)
-        if turn_up:
-            up = v + _TURN
-            v = xp.where((v < lo) & (up <= hi), up, v)
-        if turn_down:
-            dn = v - _TURN
-            v = xp.where((v > hi) & (dn >= lo), dn, v)
+        # a turn can only apply outside the limits: one float inside them skips it (a batch takes it per element)
+        if (turn_up or turn_down) and (xp.batch or not lo <= v <= hi):
+            if turn_up:
+                up = v + _TURN
+                v = xp.where((v < lo) & (up <= hi), up, v)
+            if turn_down:
+                dn = v - _TURN
+                v = xp.where((v > hi) & (dn >= lo), dn, v)
     if xp.batch:  # (the float formulas raise rather than return NaN)
         v = xp.where(xp.isfinite(v), v, 0.0)
     return v, (v >= lo) & (v <= hi)

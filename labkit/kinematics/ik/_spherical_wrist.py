@@ -18,7 +18,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, Subproblem2, angle_between, _dot, floats, length_scale, _matvec, perpendicular,
+    TOL, NotThisFamily, Subproblem2, angle_between, _cross, _dot, floats, length_scale, _matvec, perpendicular,
     _reject, rotate, unit, wrist_branches,
 )
 from labkit.kinematics.ik._yaw_pitch_pitch import Arm
@@ -52,7 +52,8 @@ class SphericalWrist(Family):
         self.R0 = [floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
         self.w_tool = floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
         self.x6 = floats(perpendicular(a6))  # perpendicular to axis 6, to recover q6
-        self.x6p = _reject(self.a6, self.x6)  # (its part perpendicular to a6, as angle_about takes it)
+        self.x6p = _reject(self.a6, self.x6)  # its part perpendicular to a6, as angle_about takes it,
+        self.n6 = _cross(self.a6, self.x6p)  # and a6 x that
         self.wrist = Subproblem2(a4, a5, a6)
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
@@ -67,7 +68,7 @@ class SphericalWrist(Family):
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
         RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
-        a2, a4, a5, a6, x6p, s3 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.arm.s3
+        a2, a4, a5, a6, x6p, n6, s3 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.n6, self.arm.s3
         subproblem2 = self.wrist.solve
 
         def wrist(q23, m0, m1, m2, x0, x1, x2):
@@ -76,7 +77,7 @@ class SphericalWrist(Family):
             (t4, t5), (u4, u5) = subproblem2(xp, m6)
             Y, = rotate(xp, a5, -t5, *rotate(xp, a4, -t4, MX))
             Z, = rotate(xp, a5, -u5, *rotate(xp, a4, -u4, MX))
-            t6, u6 = angle_between(xp, a6, x6p, _reject(a6, Y)), angle_between(xp, a6, x6p, _reject(a6, Z))
+            t6, u6 = angle_between(xp, n6, x6p, _reject(a6, Y)), angle_between(xp, n6, x6p, _reject(a6, Z))
             swap = (xp.sin(t5) * self.noflip_sign) < 0  # noflip first
             return (xp.where(swap, u4, t4), xp.where(swap, u5, t5), xp.where(swap, u6, t6),
                     xp.where(swap, t4, u4), xp.where(swap, t5, u5), xp.where(swap, t6, u6))
