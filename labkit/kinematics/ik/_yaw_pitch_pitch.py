@@ -80,6 +80,7 @@ class Arm:
         if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
             mid = -mid
         self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
+        self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
 
     def planes(self, xp, P):
@@ -105,7 +106,8 @@ class Arm:
         lateral : ndarray or float
             How far it lies inside that offset [m].
         """
-        d = tuple(P[k] - self.S[k] for k in range(3))
+        S = self.S
+        d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
         hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
         off = self.off
         rho2 = hr * hr + hn * hn
@@ -144,12 +146,10 @@ class Arm:
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
         forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
-        neg = forward == (self.up > 0)
-        pairs = []
-        for below in (False, True):
-            sign = xp.where(xp.logical_not(neg) if below else neg, -1.0, 1.0)
-            pairs.append((self.g1 - (direction - sign * shoulder), self.s3 * (self.g2 - self.g1 - sign * elbow)))
-        return ok, dist, pairs
+        sign = xp.where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
+        ss, se = sign * shoulder, sign * elbow
+        g1, g21, s3 = self.g1, self.g21, self.s3
+        return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
     def solve(self, xp, W):
         """Joints 1-3 placing ``W`` (components), four branches.
