@@ -240,8 +240,10 @@ def rotate(xp, k, angle, *vectors):
 
 
 def _matvec(M, v):
-    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples."""
-    return (_dot(M[0], v), _dot(M[1], v), _dot(M[2], v))
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples (three :func:`_dot` in one call)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = M
+    v0, v1, v2 = v
+    return (m00 * v0 + m01 * v1 + m02 * v2, m10 * v0 + m11 * v1 + m12 * v2, m20 * v0 + m21 * v1 + m22 * v2)
 
 
 # -- the shared subproblems -----------------------------------------------------------------

@@ -18,7 +18,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, Subproblem2, angle_between, _cross, _dot, floats, length_scale, _matvec, perpendicular,
+    TOL, NotThisFamily, Subproblem2, angle_between, _cross, floats, length_scale, _matvec, perpendicular,
     _reject, rotate, unit, wrist_branches,
 )
 from labkit.kinematics.ik._yaw_pitch_pitch import Arm
@@ -62,11 +62,11 @@ class SphericalWrist(Family):
 
     @documented
     def solve(self, xp, t):
-        R = [t[i][:3] for i in range(3)]
-        W = tuple(t[i][3] + _dot(self.w_tool, R[i]) for i in range(3))
-        arm_q, arm_ok, distance = self.arm.solve(xp, W)
+        R = (t[0][:3], t[1][:3], t[2][:3])
+        Rw = _matvec(R, self.w_tool)
+        arm_q, arm_ok, distance = self.arm.solve(xp, (t[0][3] + Rw[0], t[1][3] + Rw[1], t[2][3] + Rw[2]))
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
-        RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
+        RR0t = (_matvec(self.R0, R[0]), _matvec(self.R0, R[1]), _matvec(self.R0, R[2]))
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
         a2, a4, a5, a6, x6p, n6, s3 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.n6, self.arm.s3
         subproblem2 = self.wrist.solve

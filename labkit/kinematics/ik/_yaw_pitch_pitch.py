@@ -27,7 +27,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, _dot, cosine_law, feet, floats, length_scale, need_parallel, unit,
+    REACH_TOL, TOL, NotThisFamily, cosine_law, feet, _matvec, floats, length_scale, need_parallel, unit,
 )
 
 
@@ -82,6 +82,7 @@ class Arm:
         self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
         self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
+        self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def planes(self, xp, P):
         """The two arm planes through the point ``P`` (components): front side, then back side.
@@ -108,7 +109,7 @@ class Arm:
         """
         S = self.S
         d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
-        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
+        hr, hn, w = _matvec(self.planes_frame, d)
         off = self.off
         rho2 = hr * hr + hn * hn
         u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
