@@ -3,7 +3,7 @@
 * the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), read from
   :func:`labkit.kinematics.fk_frames`, so every family works in the world frame
   for either DH convention, base and tool included;
-* the cosine law of a two-link chain (:func:`cosine_law`);
+* the cosine law of a two-link chain (:class:`CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
   another (:func:`angle_about`), and subproblem 2, two rotations about
   intersecting axes (:func:`subproblem2`);
@@ -248,44 +248,58 @@ def _matvec(M, v):
 
 # -- the shared subproblems -----------------------------------------------------------------
 
-def cosine_law(xp, L1, L2, x, y):
-    """A two-link chain of lengths ``L1``, ``L2`` reaching the point ``(x, y)`` of its plane.
+class CosineLaw:
+    """A two-link chain of lengths ``L1``, ``L2`` (its constants computed once per robot).
 
     Parameters
     ----------
-    xp : namespace
-        :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
     L1, L2 : float
         Link lengths [m].
-    x, y : ndarray or float
-        The point, relative to the first joint [m].
-
-    Returns
-    -------
-    reachable : ndarray of bool or bool
-        The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
-    distance : ndarray or float
-        How far the point lies outside the annulus the chain reaches [m].
-    elbow : ndarray or float
-        The magnitude of the relative angle of link 2 [rad] (argument clipped).
-    shoulder : ndarray or float
-        The interior angle at joint 1 between the line to the point and link 1 [rad].
-    direction : ndarray or float
-        The angle of the point, ``atan2(y, x)`` [rad].
-
-    Notes
-    -----
-    The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
-    ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
     """
-    r2 = x * x + y * y
-    r = xp.sqrt(r2)
-    cb = (r2 - L1 * L1 - L2 * L2) / (2 * L1 * L2)
-    ok = xp.abs(cb) <= 1.0 + REACH_TOL
-    distance = xp.maximum(xp.maximum(r - (L1 + L2), abs(L1 - L2) - r), 0.0)
-    cb = xp.clip(cb, -1.0, 1.0)
-    sb = xp.sqrt(1.0 - cb * cb)
-    return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
+
+    def __init__(self, L1, L2):
+        self.L1, self.L2 = L1, L2
+        self.L1L1, self.L2L2, self.den = L1 * L1, L2 * L2, 2 * L1 * L2
+        self.longest, self.shortest = L1 + L2, abs(L1 - L2)
+        self.ok_below = 1.0 + REACH_TOL
+
+    def solve(self, xp, x, y):
+        """The chain reaching the point ``(x, y)`` of its plane.
+
+        Parameters
+        ----------
+        xp : namespace
+            :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
+        x, y : ndarray or float
+            The point, relative to the first joint [m].
+
+        Returns
+        -------
+        reachable : ndarray of bool or bool
+            The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
+        distance : ndarray or float
+            How far the point lies outside the annulus the chain reaches [m].
+        elbow : ndarray or float
+            The magnitude of the relative angle of link 2 [rad] (argument clipped).
+        shoulder : ndarray or float
+            The interior angle at joint 1 between the line to the point and link 1 [rad].
+        direction : ndarray or float
+            The angle of the point, ``atan2(y, x)`` [rad].
+
+        Notes
+        -----
+        The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
+        ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
+        """
+        L1, L2 = self.L1, self.L2
+        r2 = x * x + y * y
+        r = xp.sqrt(r2)
+        cb = (r2 - self.L1L1 - self.L2L2) / self.den
+        ok = xp.abs(cb) <= self.ok_below
+        distance = xp.maximum(xp.maximum(r - self.longest, self.shortest - r), 0.0)
+        cb = xp.clip(cb, -1.0, 1.0)
+        sb = xp.sqrt(1.0 - cb * cb)
+        return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
 
 
 def angle_about(xp, k, v, w):

@@ -27,7 +27,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, cosine_law, feet, _matvec, floats, length_scale, need_parallel, unit,
+    REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
 )
 
 
@@ -71,6 +71,7 @@ class Arm:
         self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
         if self.L1 < TOL * scale or self.L2 < TOL * scale:
             raise NotThisFamily("the elbow must be away from the shoulder and the wrist")
+        self.law = CosineLaw(self.L1, self.L2)
         self.g1 = math.atan2(Ev, Er)
         self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
@@ -143,7 +144,7 @@ class Arm:
         pairs : list of tuple
             ``(q2, q3)`` [rad], elbow up then elbow down.
         """
-        ok, dist, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, ur, w)
+        ok, dist, elbow, shoulder, direction = self.law.solve(xp, ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
         forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
