@@ -88,7 +88,7 @@ class SphericalWrist(Family):
         wrists = xp.per_branch(wrist, [(q2 + s3 * q3, *undone[b // 2][0], *undone[b // 2][1])
                                        for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
-        for (q1, q2, q3), w, ok in zip(arm_q, wrists, arm_ok):
-            q += [(q1, q2, q3, *w[:3]), (q1, q2, q3, *w[3:])]
+        for (q1, q2, q3), (t4, t5, t6, u4, u5, u6), ok in zip(arm_q, wrists, arm_ok):
+            q += [(q1, q2, q3, t4, t5, t6), (q1, q2, q3, u4, u5, u6)]
             reach += [ok, ok]
         return q, reach, distance
