@@ -229,6 +229,10 @@ def compose_fixed_frame(sequence, angles):
 
 _TWO_PI = 2 * math.pi
 _INV_TWO_PI = 1.0 / (2 * math.pi)
+_PI = math.pi
+#: floats in (_INSIDE, pi] are already wrapped: the formula of :func:`_wrap` takes no turn off them and
+#: returns them unchanged, bit for bit (its ceil is 0 there with a margin; near -pi it decides)
+_INSIDE = -3.14
 
 
 def wrap_angle(angle):
@@ -250,6 +254,8 @@ def wrap_angle(angle):
     True
     """
     if isinstance(angle, float):  # one angle: the same formula on a float (no array round trip)
+        if _INSIDE < angle <= _PI:  # (most angles: returned as the formula would, without computing it)
+            return angle
         return _wrap(angle, math.ceil)
     return _wrap(np.asarray(angle, dtype=float), np.ceil)
 

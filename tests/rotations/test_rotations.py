@@ -195,6 +195,18 @@ def test_wrap_angle():
     assert np.allclose(wrap_angle([3 * np.pi, -np.pi, np.pi, 0.5 - 2 * np.pi]), [np.pi, np.pi, np.pi, 0.5])
 
 
+def test_wrap_angle_of_one_float_is_the_array_result():
+    # the float path returns most angles as they are; near -pi and outside (-pi, pi] it applies the formula
+    rng = np.random.default_rng(3)
+    near = [np.pi, -np.pi, 0.0, -0.0, -3.14, np.nextafter(-3.14, 0.0), np.nextafter(-np.pi, 0.0),
+            np.nextafter(np.pi, 0.0), np.nextafter(np.pi, 4.0), 3 * np.pi, -7.5, 1e300, -1e-300]
+    values = np.concatenate([near, rng.uniform(-10.0, 10.0, 2000), rng.uniform(-np.pi, np.pi, 2000)])
+    one = np.array([wrap_angle(float(v)) for v in values])
+    assert all(type(wrap_angle(float(v))) is float for v in near)
+    assert np.array_equal(one, wrap_angle(values))  # (-0.0 stays -0.0 on a float, as before)
+    assert wrap_angle(-np.pi) == np.pi and wrap_angle(np.pi) == np.pi and wrap_angle(-3.0) == -3.0
+
+
 # -- validity and re-orthonormalisation ----------------------------------------
 
 def test_is_rotation_batched(rng):

@@ -3,11 +3,11 @@
 * the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), read from
   :func:`labkit.kinematics.fk_frames`, so every family works in the world frame
   for either DH convention, base and tool included;
-* the cosine law of a two-link chain (:func:`cosine_law`);
+* the cosine law of a two-link chain (:class:`CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
   another (:func:`angle_about`), and subproblem 2, two rotations about
   intersecting axes (:func:`subproblem2`);
-* Rodrigues' rotation of a vector about a constant axis (:func:`rotate`).
+* Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array or a float (see
 :mod:`labkit.kinematics.ik._xp`); constant vectors (axes of the robot) are
@@ -208,80 +208,98 @@ def _reject(k, v):
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
 
-def rotate(xp, k, angle, v):
-    """Rodrigues: ``v`` rotated by ``angle`` about the unit axis ``k``.
+def rotate(xp, k, angle, *vectors):
+    """Rodrigues: vectors rotated by ``angle`` about the unit axis ``k`` (its sine and cosine taken once).
 
     ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
 
     Parameters
     ----------
     xp : namespace
-        Array namespace of ``angle`` and ``v``.
+        Array namespace of ``angle`` and the vectors.
     k : tuple of float
         The rotation axis (unit).
     angle : ndarray or float
         Rotation angle [rad].
-    v : tuple
-        3 components.
+    *vectors : tuple
+        3 components each.
 
     Returns
     -------
-    tuple
-        3 components.
+    list of tuple
+        The rotated vectors, 3 components each, in order.
     """
     k0, k1, k2 = k
-    v0, v1, v2 = v
-    u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
-    w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
     s, c1 = xp.sin(angle), 1.0 - xp.cos(angle)
-    return (v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2)
+    out = []
+    for v0, v1, v2 in vectors:
+        u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
+        w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
+        out.append((v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2))
+    return out
 
 
 def _matvec(M, v):
-    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples."""
-    return tuple(_dot(row, v) for row in M)
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples (three :func:`_dot` in one call)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = M
+    v0, v1, v2 = v
+    return (m00 * v0 + m01 * v1 + m02 * v2, m10 * v0 + m11 * v1 + m12 * v2, m20 * v0 + m21 * v1 + m22 * v2)
 
 
 # -- the shared subproblems -----------------------------------------------------------------
 
-def cosine_law(xp, L1, L2, x, y):
-    """A two-link chain of lengths ``L1``, ``L2`` reaching the point ``(x, y)`` of its plane.
+class CosineLaw:
+    """A two-link chain of lengths ``L1``, ``L2`` (its constants computed once per robot).
 
     Parameters
     ----------
-    xp : namespace
-        :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
     L1, L2 : float
         Link lengths [m].
-    x, y : ndarray or float
-        The point, relative to the first joint [m].
-
-    Returns
-    -------
-    reachable : ndarray of bool or bool
-        The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
-    distance : ndarray or float
-        How far the point lies outside the annulus the chain reaches [m].
-    elbow : ndarray or float
-        The magnitude of the relative angle of link 2 [rad] (argument clipped).
-    shoulder : ndarray or float
-        The interior angle at joint 1 between the line to the point and link 1 [rad].
-    direction : ndarray or float
-        The angle of the point, ``atan2(y, x)`` [rad].
-
-    Notes
-    -----
-    The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
-    ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
     """
-    r2 = x * x + y * y
-    r = xp.sqrt(r2)
-    cb = (r2 - L1 * L1 - L2 * L2) / (2 * L1 * L2)
-    ok = xp.abs(cb) <= 1.0 + REACH_TOL
-    distance = xp.maximum(xp.maximum(r - (L1 + L2), abs(L1 - L2) - r), 0.0)
-    cb = xp.clip(cb, -1.0, 1.0)
-    sb = xp.sqrt(1.0 - cb * cb)
-    return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
+
+    def __init__(self, L1, L2):
+        self.L1, self.L2 = L1, L2
+        self.L1L1, self.L2L2, self.den = L1 * L1, L2 * L2, 2 * L1 * L2
+        self.longest, self.shortest = L1 + L2, abs(L1 - L2)
+        self.ok_below = 1.0 + REACH_TOL
+
+    def solve(self, xp, x, y):
+        """The chain reaching the point ``(x, y)`` of its plane.
+
+        Parameters
+        ----------
+        xp : namespace
+            :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
+        x, y : ndarray or float
+            The point, relative to the first joint [m].
+
+        Returns
+        -------
+        reachable : ndarray of bool or bool
+            The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
+        distance : ndarray or float
+            How far the point lies outside the annulus the chain reaches [m].
+        elbow : ndarray or float
+            The magnitude of the relative angle of link 2 [rad] (argument clipped).
+        shoulder : ndarray or float
+            The interior angle at joint 1 between the line to the point and link 1 [rad].
+        direction : ndarray or float
+            The angle of the point, ``atan2(y, x)`` [rad].
+
+        Notes
+        -----
+        The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
+        ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
+        """
+        L1, L2 = self.L1, self.L2
+        r2 = x * x + y * y
+        r = xp.sqrt(r2)
+        cb = (r2 - self.L1L1 - self.L2L2) / self.den
+        ok = xp.abs(cb) <= self.ok_below
+        distance = xp.maximum(xp.maximum(r - self.longest, self.shortest - r), 0.0)
+        cb = xp.clip(cb, -1.0, 1.0)
+        sb = xp.sqrt(1.0 - cb * cb)
+        return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
 
 
 def angle_about(xp, k, v, w):
@@ -305,7 +323,28 @@ def angle_about(xp, k, v, w):
         The angle [rad] in (-pi, pi].
     """
     vp, wp = _reject(k, v), _reject(k, w)
-    return xp.arctan2(_dot(_cross(k, vp), wp), _dot(vp, wp))
+    return angle_between(xp, _cross(k, vp), vp, wp)
+
+
+def angle_between(xp, n, vp, wp):
+    """:func:`angle_about` from the projections (computed once where they are used again).
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace.
+    n : tuple
+        ``k x vp``, 3 components (a constant where ``vp`` is one).
+    vp, wp : tuple
+        The vectors' parts perpendicular to the axis ``k``, 3 components each (``_reject(k, v)``).
+
+    Returns
+    -------
+    ndarray or float
+        The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
+    """
+    w0, w1, w2 = wp
+    return xp.arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
 class Subproblem2:
@@ -324,6 +363,8 @@ class Subproblem2:
         self.cr2 = float(np.dot(self.cr, self.cr))
         self.c5 = floats(np.cross(a5, p))
         self.orthogonal = abs(self.k12) < 1e-12
+        self.den = self.k12 * self.k12 - 1.0
+        self.k12a5p = self.k12 * self.a5p
 
     def solve(self, xp, m):
         """Both solutions for the target direction ``m`` (components).
@@ -340,27 +381,36 @@ class Subproblem2:
         m : tuple
             3 components of the target direction (unit).
         """
-        a4, a5, k12, a5p, cr = self.a4, self.a5, self.k12, self.a5p, self.cr
-        den = k12 * k12 - 1.0
-        a4m = _dot(a4, m)
-        alpha = (k12 * a5p - a4m) / den
+        (a40, a41, a42), (a50, a51, a52), (c0, c1, c2) = self.a4, self.a5, self.cr
+        k12, a5p, den = self.k12, self.a5p, self.den
+        m0, m1, m2 = m
+        a4m = a40 * m0 + a41 * m1 + a42 * m2
+        alpha = (self.k12a5p - a4m) / den
         beta = (k12 * a4m - a5p) / den
+        # subproblem 1 about a4 below works on the explicit perpendicular parts (near the wrist
+        # singularity they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
+        mp = (m0 - a40 * a4m, m1 - a41 * a4m, m2 - a42 * a4m)
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
-            c = _reject(a4, m)
-            s45 = xp.sqrt(_dot(c, c))
+            s45 = xp.sqrt(_dot(mp, mp))
             b = xp.abs(beta)
             g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
         else:
             g = xp.sqrt(xp.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
+        # C = alpha a4 + beta a5 +- g (a4 x a5)
+        b0, b1, b2 = alpha * a40 + beta * a50, alpha * a41 + beta * a51, alpha * a42 + beta * a52
+        g0, g1, g2 = g * c0, g * c1, g * c2
+        (d0, d1, d2), (p0, p1, p2) = self.c5, self.p
         out = []
-        for gg in (g, -g):
-            C = tuple(alpha * a4[i] + beta * a5[i] + gg * cr[i] for i in range(3))
-            t5 = xp.arctan2(_dot(self.c5, C), _dot(self.p, C) - a5p * _dot(a5, C))
-            # subproblem 1 about a4 on the explicit perpendicular parts (near the wrist singularity
-            # they are tiny, and c.m - (a4.c)(a4.m) would cancel catastrophically)
-            out.append((angle_about(xp, a4, C, m), t5))
+        for C0, C1, C2 in ((b0 + g0, b1 + g1, b2 + g2), (b0 - g0, b1 - g1, b2 - g2)):
+            t5 = xp.arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
+                            - a5p * (a50 * C0 + a51 * C1 + a52 * C2))
+            # t4: subproblem 1 about a4 from C's part perpendicular to a4 (v) to m's
+            a4C = a40 * C0 + a41 * C1 + a42 * C2
+            v0, v1, v2 = C0 - a40 * a4C, C1 - a41 * a4C, C2 - a42 * a4C
+            n = (a41 * v2 - a42 * v1, a42 * v0 - a40 * v2, a40 * v1 - a41 * v0)  # a4 x v
+            out.append((angle_between(xp, n, (v0, v1, v2), mp), t5))
         return out
 
 

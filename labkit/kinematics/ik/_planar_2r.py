@@ -16,7 +16,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, _dot, cosine_law, floats, length_scale, need_parallel,
+    TOL, CosineLaw, NotThisFamily, _dot, floats, length_scale, need_parallel,
     perpendicular, unit,
 )
 
@@ -45,13 +45,14 @@ class Planar2R(Family):
         if self.L1 < TOL * scale or self.L2 < TOL * scale:
             raise NotThisFamily("axis 2 must be away from axis 1 and the tool point away from axis 2")
         self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
+        self.law = CosineLaw(self.L1, self.L2)
         self.height_tol = 1e-9 * scale
 
     @documented
     def solve(self, xp, t):
         d = tuple(t[k] - self.O[k] for k in range(3))
         dz = _dot(self.n, d) - self.h
-        ok, in_plane, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, _dot(self.u, d), _dot(self.v, d))
+        ok, in_plane, elbow, shoulder, direction = self.law.solve(xp, _dot(self.u, d), _dot(self.v, d))
         off_plane = xp.abs(dz) > self.height_tol
         distance = xp.hypot(in_plane, xp.where(off_plane, dz, 0.0))
         ok = ok & xp.logical_not(off_plane)

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
-from labkit.kinematics.ik._geometry import TOL, NotThisFamily, cosine_law
+from labkit.kinematics.ik._geometry import TOL, CosineLaw, NotThisFamily
 
 
 class Planar3R(Family):
@@ -37,6 +37,7 @@ class Planar3R(Family):
         self.L1, self.L2 = float(np.hypot(*e)), float(np.hypot(*f))
         if self.L1 < TOL or self.L2 < TOL:
             raise NotThisFamily("links 1 and 2 must have non-zero length")
+        self.law = CosineLaw(self.L1, self.L2)
         self.g1 = math.atan2(e[1], e[0])
         self.g2 = math.atan2(f[1], f[0])
         self.psi0 = math.atan2(tool[1, 0], tool[0, 0])
@@ -51,7 +52,7 @@ class Planar3R(Family):
         t0x, t0y = self.t0
         wx = x - (c * t0x - s * t0y) - self.base[0]
         wy = y - (s * t0x + c * t0y) - self.base[1]
-        ok, distance, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, wx, wy)
+        ok, distance, elbow, shoulder, direction = self.law.solve(xp, wx, wy)
         q = []
         for sign in (-1.0, 1.0):  # elbow up: theta_b < 0
             q1 = direction - sign * shoulder - self.g1

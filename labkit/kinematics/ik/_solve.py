@@ -84,12 +84,14 @@ def finish(xp, v, joint):
         v = -v
     if rev:
         v = wrap_angle(v)
-        if turn_up:
-            up = v + _TURN
-            v = xp.where((v < lo) & (up <= hi), up, v)
-        if turn_down:
-            dn = v - _TURN
-            v = xp.where((v > hi) & (dn >= lo), dn, v)
+        # a turn can only apply outside the limits: one float inside them skips it (a batch takes it per element)
+        if (turn_up or turn_down) and (xp.batch or not lo <= v <= hi):
+            if turn_up:
+                up = v + _TURN
+                v = xp.where((v < lo) & (up <= hi), up, v)
+            if turn_down:
+                dn = v - _TURN
+                v = xp.where((v > hi) & (dn >= lo), dn, v)
     if xp.batch:  # (the float formulas raise rather than return NaN)
         v = xp.where(xp.isfinite(v), v, 0.0)
     return v, (v >= lo) & (v <= hi)
@@ -149,7 +151,8 @@ def solve(robot, family, flat):
     N, m, n = flat.shape[0], len(family.branches), robot.n
     if family.scalar and N <= _targets.SMALL_TARGETS:
         Q, R, V, D = solve_floats(robot, family, flat.tolist())
-        return np.array(Q), np.array(R, dtype=bool), np.array(V, dtype=bool), np.array(D, dtype=float)
+        reach_valid = np.array((R, V), dtype=bool)  # (one array for both: one conversion)
+        return np.array(Q, dtype=float), reach_valid[0], reach_valid[1], np.array(D, dtype=float)
     q = np.empty((N, m, n))
     reach = np.empty((N, m), dtype=bool)
     distance = np.empty(N)
@@ -169,18 +172,21 @@ def solve(robot, family, flat):
 def _finish_floats(js, branch, ok, last):
     """One branch of a family's float solution finished: ``(q, valid)``.
 
-    ``last`` holds per joint the value finished last and its result
-    (``[value, finished, inside]``): consecutive branches share values (q1 of
-    a shoulder side ...), which are then finished once.
+    ``last`` holds per joint the value finished last and its result (lists
+    ``(values, finished, inside)`` from :func:`_memo`): consecutive branches
+    share values (q1 of a shoulder side ...), which are then finished once.
     """
-    row = []
-    for v, joint, memo in zip(branch, js, last):
-        if v is not memo[0]:
-            memo[0] = v
-            memo[1], memo[2] = finish(FLOATS, v, joint)
-        row.append(memo[1])
-        ok = ok and memo[2]
-    return row, ok
+    values, finished, inside = last
+    for j, v in enumerate(branch):
+        if v is not values[j]:
+            values[j] = v
+            finished[j], inside[j] = finish(FLOATS, v, js[j])
+    return finished[:], ok and all(inside)
+
+
+def _memo(n):
+    """An empty ``last`` of :func:`_finish_floats` for ``n`` joints."""
+    return [None] * n, [None] * n, [None] * n
 
 
 def solve_floats(robot, family, targets):
@@ -205,7 +211,7 @@ def solve_floats(robot, family, targets):
     Q, R, V, D = [], [], [], []
     for t in targets:
         qb, rb, d = family.solve(FLOATS, t)
-        last = [[None, None, None] for _ in js]
+        last = _memo(len(js))
         rows = [_finish_floats(js, branch, ok, last) for branch, ok in zip(qb, rb)]
         Q.append([row for row, _ in rows])
         R.append(rb)
@@ -246,7 +252,7 @@ def pick_floats(robot, family, targets, idx, q_near):
     out = []
     for t in targets:
         qb, rb, _ = family.solve(FLOATS, t)
-        last = [[None, None, None] for _ in js]
+        last = _memo(len(js))
         if idx is not None:
             row, ok = _finish_floats(js, qb[idx], rb[idx], last)
             if not ok:

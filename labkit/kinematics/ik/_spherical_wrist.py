@@ -18,8 +18,8 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    TOL, NotThisFamily, Subproblem2, angle_about, _dot, floats, length_scale, _matvec,
-    perpendicular, rotate, unit, wrist_branches,
+    TOL, NotThisFamily, Subproblem2, angle_between, _cross, floats, length_scale, _matvec, perpendicular,
+    _reject, rotate, unit, wrist_branches,
 )
 from labkit.kinematics.ik._yaw_pitch_pitch import Arm
 from labkit.robot.types import Convention
@@ -52,6 +52,8 @@ class SphericalWrist(Family):
         self.R0 = [floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
         self.w_tool = floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
         self.x6 = floats(perpendicular(a6))  # perpendicular to axis 6, to recover q6
+        self.x6p = _reject(self.a6, self.x6)  # its part perpendicular to a6, as angle_about takes it,
+        self.n6 = _cross(self.a6, self.x6p)  # and a6 x that
         self.wrist = Subproblem2(a4, a5, a6)
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
@@ -60,33 +62,33 @@ class SphericalWrist(Family):
 
     @documented
     def solve(self, xp, t):
-        R = [t[i][:3] for i in range(3)]
-        W = tuple(t[i][3] + _dot(self.w_tool, R[i]) for i in range(3))
-        arm_q, arm_ok, distance = self.arm.solve(xp, W)
+        R = (t[0][:3], t[1][:3], t[2][:3])
+        Rw = _matvec(R, self.w_tool)
+        arm_q, arm_ok, distance = self.arm.solve(xp, (t[0][3] + Rw[0], t[1][3] + Rw[1], t[2][3] + Rw[2]))
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
-        RR0t = [[_dot(self.R0[j], R[i]) for j in range(3)] for i in range(3)]
+        RR0t = (_matvec(self.R0, R[0]), _matvec(self.R0, R[1]), _matvec(self.R0, R[2]))
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
-        a1, a2, a4, a5, a6 = self.arm.a1, self.arm.a2, self.a4, self.a5, self.a6
+        a2, a4, a5, a6, x6p, n6, s3 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.n6, self.arm.s3
+        subproblem2 = self.wrist.solve
 
-        def wrist(q1, q23, m0, m1, m2, x0, x1, x2):
-            """Joints 4-6 (noflip, then flip) for one arm branch."""
-            m6, MX = ((m0, m1, m2), (x0, x1, x2))
-            m6, MX = rotate(xp, a1, -q1, m6), rotate(xp, a1, -q1, MX)  # undo joint 1
-            m6, MX = rotate(xp, a2, -q23, m6), rotate(xp, a2, -q23, MX)  # undo joints 2 and 3
-            out = []
-            for t4, t5 in self.wrist.solve(xp, m6):
-                Y = rotate(xp, a5, -t5, rotate(xp, a4, -t4, MX))
-                out.append((t4, t5, angle_about(xp, a6, self.x6, Y)))
-            (p4, p5, p6), (n4, n5, n6) = out
-            swap = (xp.sin(p5) * self.noflip_sign) < 0  # noflip first
-            keep = xp.logical_not(swap)
-            return (xp.where(swap, n4, p4), xp.where(swap, n5, p5), xp.where(swap, n6, p6),
-                    xp.where(keep, n4, p4), xp.where(keep, n5, p5), xp.where(keep, n6, p6))
+        def wrist(q23, m0, m1, m2, x0, x1, x2):
+            """Joints 4-6 (noflip, then flip) for one arm branch, joint 1 undone on ``m`` and ``mx``."""
+            m6, MX = rotate(xp, a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3
+            (t4, t5), (u4, u5) = subproblem2(xp, m6)
+            Y, = rotate(xp, a5, -t5, *rotate(xp, a4, -t4, MX))
+            Z, = rotate(xp, a5, -u5, *rotate(xp, a4, -u4, MX))
+            t6, u6 = angle_between(xp, n6, x6p, _reject(a6, Y)), angle_between(xp, n6, x6p, _reject(a6, Z))
+            swap = (xp.sin(t5) * self.noflip_sign) < 0  # noflip first
+            return (xp.where(swap, u4, t4), xp.where(swap, u5, t5), xp.where(swap, u6, t6),
+                    xp.where(swap, t4, u4), xp.where(swap, t5, u5), xp.where(swap, t6, u6))
 
+        # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)
-        wrists = xp.per_branch(wrist, [(q1, q2 + self.arm.s3 * q3) for q1, q2, q3 in arm_q], (*m, *mx))
+        undone = [rotate(xp, self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
+        wrists = xp.per_branch(wrist, [(q2 + s3 * q3, *undone[b // 2][0], *undone[b // 2][1])
+                                       for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
-        for (q1, q2, q3), w, ok in zip(arm_q, wrists, arm_ok):
-            q += [(q1, q2, q3, *w[:3]), (q1, q2, q3, *w[3:])]
+        for (q1, q2, q3), (t4, t5, t6, u4, u5, u6), ok in zip(arm_q, wrists, arm_ok):
+            q += [(q1, q2, q3, t4, t5, t6), (q1, q2, q3, u4, u5, u6)]
             reach += [ok, ok]
         return q, reach, distance

@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, angle_about, cosine_law, feet, floats, length_scale, need_parallel,
+    REACH_TOL, TOL, CosineLaw, NotThisFamily, angle_about, feet, floats, length_scale, need_parallel,
     perpendicular, rotation_matrices, unit, wrist_branches,
 )
 from labkit.kinematics.ik._xp import NUMPY
@@ -98,6 +98,7 @@ class ThreeParallel(Family):
         if self.L1 < TOL * scale or self.L2 < TOL * scale:
             raise NotThisFamily("axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
+        self.law = CosineLaw(self.L1, self.L2)
         self.branches, self.aliases = wrist_branches(("left", "right"))
 
     @documented
@@ -141,7 +142,7 @@ class ThreeParallel(Family):
                     # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
                     phi = angle_about(NUMPY, nf, uf, tuple((G[:, :3, :3] @ self.u).T))
                     p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
-                    ok, dist, bend, shoulder, direction = cosine_law(NUMPY, self.L1, self.L2, p4 @ self.u, p4 @ self.v)
+                    ok, dist, bend, shoulder, direction = self.law.solve(NUMPY, p4 @ self.u, p4 @ self.v)
                     distance = np.minimum(distance, np.maximum(dist1, dist))
                     r2_ = direction - elbow * shoulder - self.g1  # rotations about n
                     r3_ = elbow * bend - (self.g2 - self.g1)

@@ -27,7 +27,7 @@ import numpy as np
 
 from labkit.kinematics.ik._family import Family, documented
 from labkit.kinematics.ik._geometry import (
-    REACH_TOL, TOL, NotThisFamily, _dot, cosine_law, feet, floats, length_scale, need_parallel, unit,
+    REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
 )
 
 
@@ -71,6 +71,7 @@ class Arm:
         self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
         if self.L1 < TOL * scale or self.L2 < TOL * scale:
             raise NotThisFamily("the elbow must be away from the shoulder and the wrist")
+        self.law = CosineLaw(self.L1, self.L2)
         self.g1 = math.atan2(Ev, Er)
         self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
@@ -80,7 +81,9 @@ class Arm:
         if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
             mid = -mid
         self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
+        self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
+        self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def planes(self, xp, P):
         """The two arm planes through the point ``P`` (components): front side, then back side.
@@ -105,8 +108,9 @@ class Arm:
         lateral : ndarray or float
             How far it lies inside that offset [m].
         """
-        d = tuple(P[k] - self.S[k] for k in range(3))
-        hr, hn, w = _dot(self.er, d), _dot(self.a2, d), _dot(self.a1, d)
+        S = self.S
+        d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
+        hr, hn, w = _matvec(self.planes_frame, d)
         off = self.off
         rho2 = hr * hr + hn * hn
         u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
@@ -140,16 +144,14 @@ class Arm:
         pairs : list of tuple
             ``(q2, q3)`` [rad], elbow up then elbow down.
         """
-        ok, dist, elbow, shoulder, direction = cosine_law(xp, self.L1, self.L2, ur, w)
+        ok, dist, elbow, shoulder, direction = self.law.solve(xp, ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
         forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
-        neg = forward == (self.up > 0)
-        pairs = []
-        for below in (False, True):
-            sign = xp.where(xp.logical_not(neg) if below else neg, -1.0, 1.0)
-            pairs.append((self.g1 - (direction - sign * shoulder), self.s3 * (self.g2 - self.g1 - sign * elbow)))
-        return ok, dist, pairs
+        sign = xp.where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
+        ss, se = sign * shoulder, sign * elbow
+        g1, g21, s3 = self.g1, self.g21, self.s3
+        return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
     def solve(self, xp, W):
         """Joints 1-3 placing ``W`` (components), four branches.
