@@ -159,3 +159,18 @@ def test_one_target_at_a_time_solves_as_the_batch_does(bent, flips):
     assert np.abs(fk(robot, q1) - T).max() < 1e-9 and np.abs(fk(robot, batch.q) - T).max() < 1e-9
     # the same loop: most targets take the same iterations either way
     assert np.mean(np.array([r.iterations for r in single]) == batch.iterations) > 0.8
+
+
+def test_a_batch_down_to_a_few_targets_finishes_on_floats(bent, monkeypatch):
+    """The stragglers of a batch iterate on the float evaluator, and still reach their targets."""
+    from labkit.kinematics.ik._lm import Floats
+
+    calls = []
+    evaluate = Floats.evaluate
+    monkeypatch.setattr(Floats, "evaluate", lambda self, q, t: calls.append(len(q)) or evaluate(self, q, t))
+    rng = np.random.default_rng(3)
+    lim = bent.joint_limits
+    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(200, 6)))
+    res = ik_numeric(bent, T)
+    assert res.success.all() and np.abs(fk(bent, res.q) - T).max() < 1e-9
+    assert calls and max(calls) <= _ik_numeric.FLOAT_TARGETS  # the tail only, never the whole batch

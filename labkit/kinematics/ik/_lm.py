@@ -101,8 +101,8 @@ def error(kind, T, target, rows):
     """
     E = None
     if kind == "pose":
-        E = np.moveaxis(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], -1, -2), 0, -1)
-    e, res = task_error(NUMPY, kind, np.moveaxis(T, 0, -1), np.moveaxis(target, 0, -1), E, rows)
+        E = (target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)).transpose(1, 2, 0)
+    e, res = task_error(NUMPY, kind, T.transpose(1, 2, 0), target.transpose((*range(1, target.ndim), 0)), E, rows)
     return np.stack(e, axis=1), res
 
 
@@ -266,6 +266,21 @@ class Batch:
         """
         return error(self.kind, fk(self._robot, q), target, self.rows)[1]
 
+    def bounds(self, lo, hi):
+        """Joint bounds in the form :meth:`moved` takes them.
+
+        Parameters
+        ----------
+        lo, hi : ndarray, shape (n,)
+            Lower and upper bounds of an attempt [rad, m].
+
+        Returns
+        -------
+        tuple
+            ``(lo, hi)`` (here unchanged).
+        """
+        return lo, hi
+
     def converged(self, res, tol):
         """Which residuals are below ``tol``.
 
@@ -385,6 +400,9 @@ class Floats(Batch):
             out.append(task_error(FLOATS, self.kind, T, tk, E, self.rows)[1])
         return np.array(out)
 
+    def bounds(self, lo, hi):
+        return lo.tolist(), hi.tolist()
+
     def converged(self, res, tol):
         done = [r < tol for r in res]
         return done, any(done), all(done)
@@ -407,7 +425,7 @@ class Floats(Batch):
         return tuple(list(col) for col in zip(*rows))
 
 
-for _name in ("enter", "arrays", "state", "evaluate", "residuals", "converged", "moved", "accept"):
+for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "converged", "moved", "accept"):
     getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
 del _name
 

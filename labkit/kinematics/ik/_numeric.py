@@ -318,19 +318,23 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
     best_q = q.copy()
-    # a few targets one by one on floats, a batch on numpy rows: the same loop below
-    ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS and group == 1 else Batch, kind, tuple(rows)]
+    # a few active targets one by one on floats, more on numpy rows: the same loop below
+    evaluators, rows = arithmetic(robot), tuple(rows)
+
+    def evaluator(active):
+        return evaluators[Floats if active <= FLOAT_TARGETS and group == 1 else Batch, kind, rows]
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
-        bounds = (alo.tolist(), ahi.tolist()) if type(ops) is Floats else (alo, ahi)
         act = np.flatnonzero(~success)
         if group > 1:
             act = act[~group_done[act // group]]
         if act.size == 0:
             break
+        ops = evaluator(act.size)
+        bounds = ops.bounds(alo, ahi)
         if attempt > 0:
             q[act] = _random_q(rng, robot.joint_limits, act.size)
             near[act] = False
@@ -397,6 +401,9 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     )
                     if act.size == 0:
                         break
+                    if evaluator(act.size) is not ops:  # the batch is down to a few targets: on floats
+                        ops = evaluator(act.size)
+                        bounds = ops.bounds(alo, ahi)
                 qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
             qn = ops.moved(qa, J, e, lam, *bounds)
             qa, J, e, res, E, lam = ops.accept((qa, J, e, res, E, lam), (qn, *ops.evaluate(qn, tg)))
