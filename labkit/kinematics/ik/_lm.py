@@ -7,7 +7,8 @@ evaluators with the same methods:
 * :class:`Batch` - the active targets as numpy rows: one call of the
   per-robot fk + Jacobian program (:func:`labkit.kinematics._forward.fk_jacobian_kernel`)
   and one batched linear solve per iteration for them all;
-* :class:`Floats` - one or two targets, each on Python floats: the program's
+* :class:`Floats` - a few targets (at most ``FLOAT_TARGETS`` of the loop, also a
+  batch's last few), each on Python floats: the program's
   generated Python code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``),
   the pose error on components and one LAPACK Cholesky solve, so one target
   costs few array calls per iteration.
@@ -344,7 +345,7 @@ class Batch:
 
 
 class Floats(Batch):
-    """The arithmetic of the LM loop on Python floats, target by target: one or two targets.
+    """The arithmetic of the LM loop on Python floats, target by target: a few targets.
 
     The per-robot program runs as generated Python code, the pose error is
     :func:`task_error` on floats, and the step is :func:`step` on one

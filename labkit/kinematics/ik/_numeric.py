@@ -13,10 +13,11 @@ the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
 
-One target is a batch of one: the same loop, whose arithmetic for one or
-two targets runs on Python floats (:class:`~labkit.kinematics.ik._lm.Floats`:
-the per-robot program's generated Python code, the pose error on components,
-one LAPACK solve per step) instead of numpy rows
+One target is a batch of one: the same loop, whose arithmetic for at most
+:data:`FLOAT_TARGETS` active targets (one target, or a batch's last few)
+runs on Python floats (:class:`~labkit.kinematics.ik._lm.Floats`: the
+per-robot program's generated Python code, the pose error on components, one
+LAPACK solve per step) instead of numpy rows
 (:class:`~labkit.kinematics.ik._lm.Batch`), so a single target costs few
 array calls per iteration.
 
@@ -70,7 +71,7 @@ def _random_q(rng, limits, size):
     return lo + (hi - lo) * rng.random((size, limits.shape[0]))
 
 
-#: most targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
+#: most active targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
 FLOAT_TARGETS = 3
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
