@@ -323,7 +323,7 @@ class Wire:
         float
             Reply timeout of the attempt [s].
         """
-        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+        if not self._wire_timed(command):
             return self.timeout
         return min(self.timeout, (request_bytes + MAX_LINE + 2) * _BYTE_S + _BOARD_REPLY_S)
 
@@ -346,9 +346,13 @@ class Wire:
         float or None
             Seconds of :meth:`clock`.
         """
-        if command in _SLOW_COMMANDS or getattr(self.port, "clock", None) != "lockstep":
+        if not self._wire_timed(command):
             return None
         return request_bytes * _BYTE_S + _BOARD_REPLY_S
+
+    def _wire_timed(self, command):
+        """Whether the reply to ``command`` is bounded by wire times: a lockstep port, and not ``SAVE``."""
+        return command not in _SLOW_COMMANDS and getattr(self.port, "clock", None) == "lockstep"
 
     def _await(self, seq, timeout=None, quiet=None):
         """The reply to ``seq`` within ``timeout`` [s]; on a lockstep port give up once the line stays ``quiet``.
