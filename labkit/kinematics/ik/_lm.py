@@ -383,9 +383,7 @@ class Floats(Batch):
         Js, es, rs, Es = [], [], [], []
         for qk, tk in zip(q, target):
             out = self._floats(qk)
-            T = (out[n6:n6 + 4], out[n6 + 4:n6 + 8], out[n6 + 8:n6 + 12])
-            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
-            e, res = task_error(FLOATS, self.kind, T, tk, E, self.rows)
+            e, res = self._error(out[n6:n6 + 12], tk)
             Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
             es.append(e)
             rs.append(res)
@@ -395,14 +393,17 @@ class Floats(Batch):
     def residuals(self, q, target):
         out = []
         for qk, tk in zip(q.tolist(), target.tolist()):
-            p = self._pose(qk)
-            T = (p[0:4], p[4:8], p[8:12])
-            E = [[_dot(tk[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
-            out.append(task_error(FLOATS, self.kind, T, tk, E, self.rows)[1])
+            out.append(self._error(self._pose(qk), tk)[1])
         return np.array(out)
 
     def bounds(self, lo, hi):
         return lo.tolist(), hi.tolist()
+
+    def _error(self, pose, t):
+        """:func:`task_error` on floats of one pose (its first 12 entries, row by row) against target ``t``."""
+        T = (pose[0:4], pose[4:8], pose[8:12])
+        E = [[_dot(t[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+        return task_error(FLOATS, self.kind, T, t, E, self.rows)
 
     def converged(self, res, tol):
         done = [r < tol for r in res]
