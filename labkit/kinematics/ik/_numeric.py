@@ -203,7 +203,7 @@ def analytic_seeds(robot, kind, target, rng):
         # and its flip, a solution of the copy, only one is near a solution once a5 != 0)
         N, _, n = seeds.shape
         head = seeds[:, :2]
-        ops = arithmetic(robot)[Floats if N <= FLOAT_TARGETS else Batch, kind, task_rows(kind)]
+        ops = _evaluator(robot, kind, task_rows(kind), N)
         res = ops.residuals(np.nan_to_num(head.reshape(-1, n)), np.repeat(target, head.shape[1], axis=0)).reshape(N, -1)
         swap = rank[:, 1:2] + res[:, 1:2] < rank[:, :1] + res[:, :1]  # (NaN: no swap)
         seeds[:, :2] = np.where(swap[:, :, None], head[:, ::-1], head)
@@ -320,10 +320,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     residual = np.full(N, np.inf)
     best_q = q.copy()
     # a few active targets one by one on floats, more on numpy rows: the same loop below
-    evaluators, rows = arithmetic(robot), tuple(rows)
+    rows = tuple(rows)
 
     def evaluator(active):
-        return evaluators[Floats if active <= FLOAT_TARGETS and group == 1 else Batch, kind, rows]
+        return _evaluator(robot, kind, rows, active, group)
 
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
@@ -424,6 +424,11 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         fail = ~success
         q[fail] = np.clip(best_q[fail], lo, hi)
     return q, success, iterations, residual
+
+
+def _evaluator(robot, kind, rows, active, group=1):
+    """The LM arithmetic for ``active`` targets: on floats for at most :data:`FLOAT_TARGETS` (not multi-start copies)."""
+    return arithmetic(robot)[Floats if active <= FLOAT_TARGETS and group == 1 else Batch, kind, tuple(rows)]
 
 
 @dataclasses.dataclass(frozen=True)
