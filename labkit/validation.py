@@ -40,7 +40,7 @@ def as_batch(x, last, name, *, finite=True):
     if arr.ndim < k or arr.shape[arr.ndim - k:] != last:
         want = "(..., " + ", ".join(str(v) for v in last) + ")"
         raise ShapeError(f"expected {name} with shape {want}, got {arr.shape}")
-    if finite and not np.all(np.isfinite(arr)):
+    if finite and not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ShapeError(
             f"expected finite {name}, got a non-finite value at index {tuple(int(i) for i in bad)}"

@@ -25,7 +25,6 @@ import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
-from labkit.kinematics.ik._geometry import _dot
 from labkit.kinematics.ik._targets import task_rows
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
@@ -59,24 +58,30 @@ def task_error(xp, kind, T, t, E, rows):
         ``2 sin(angle / 2)`` (robust near pi; otherwise the orientation
         components' norm) [m, rad].
     """
-    whole = False
+    slots, squared, whole = _plan(kind, tuple(rows))
     if kind == "pose":
         comp, ang = _pose_error(xp, E, T, t)
-        whole = sum(r >= 3 for r in rows) == 3
     elif kind == "position":
         comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
     else:  # planar: x, y and the heading
-        comp = dict(zip(task_rows("planar"), (t[0] - T[0][3], t[1] - T[1][3],
-                                              wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))))
-    e = [comp[r] for r in rows]
+        comp = (t[0] - T[0][3], t[1] - T[1][3], wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))
+    e = [comp[i] for i in slots]
     res2 = 0.0
-    for r, v in zip(rows, e):
-        if not (whole and r >= 3):
-            res2 = res2 + v * v
+    for i in squared:
+        res2 = res2 + e[i] * e[i]
     if whole:
         o = 2.0 * xp.sin(0.5 * ang)  # = |R - R_target|_F / sqrt(2), ~ angle
         res2 = res2 + o * o
     return e, xp.sqrt(res2)
+
+
+@functools.cache
+def _plan(kind, rows):
+    """How :func:`task_error` reads a kind's components for ``rows``: which component each row is, which
+    rows' squares make the residual, and whether the whole orientation enters it as an angle instead."""
+    slots = tuple(task_rows(kind).index(r) for r in rows)
+    whole = kind == "pose" and sum(r >= 3 for r in rows) == 3
+    return slots, tuple(i for i, r in enumerate(rows) if not (whole and r >= 3)), whole
 
 
 def error(kind, T, target, rows):
@@ -131,14 +136,16 @@ def step(J, e, lam, eye, solve=np.linalg.solve):
         Joint step [rad, m].
     """
     Jt = J.swapaxes(-1, -2)
-    damping = np.asarray(lam)[..., None, None] * eye
+    # (one target: matrix products as ndarray.dot, which costs half of @ on a small matrix)
+    mul = np.matmul if J.ndim > 2 else np.ndarray.dot
+    damping = (lam[..., None, None] if isinstance(lam, np.ndarray) else lam) * eye
     if J.shape[-2] < J.shape[-1]:
-        A = J @ Jt
+        A = mul(J, Jt)
         A += damping
-        return (Jt @ solve(A, e[..., None]))[..., 0]
-    A = Jt @ J
+        return mul(Jt, solve(A, e[..., None]))[..., 0]
+    A = mul(Jt, J)
     A += damping
-    return solve(A, Jt @ e[..., None])[..., 0]
+    return solve(A, mul(Jt, e[..., None]))[..., 0]
 
 
 def _solve_spd(A, b):
@@ -362,6 +369,7 @@ class Floats(Batch):
         self._pose = fk_floats(robot)
         n = self.n
         self._spans = [(r * n, (r + 1) * n) for r in self.rows]
+        self._n6 = 6 * n
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -379,15 +387,18 @@ class Floats(Batch):
                 E.tolist(), E_check.tolist())
 
     def evaluate(self, q, target):
-        n6 = 6 * self.n
+        n6 = self._n6
         Js, es, rs, Es = [], [], [], []
         for qk, tk in zip(q, target):
             out = self._floats(qk)
-            e, res = self._error(out[n6:n6 + 12], tk)
+            e, res = self._error(out[n6:], tk)
             Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
             es.append(e)
             rs.append(res)
-            Es.append(0.5 * sum(v * v for v in e))
+            E = 0.0
+            for v in e:
+                E += v * v
+            Es.append(0.5 * E)
         return Js, es, rs, Es
 
     def residuals(self, q, target):
@@ -402,7 +413,11 @@ class Floats(Batch):
     def _error(self, pose, t):
         """:func:`task_error` on floats of one pose (its first 12 entries, row by row) against target ``t``."""
         T = (pose[0:4], pose[4:8], pose[8:12])
-        E = [[_dot(t[i], T[j]) for j in range(3)] for i in range(3)] if self.kind == "pose" else None
+        E = None
+        if self.kind == "pose":  # R_t R^T: E[i][j] = t[i] . T[j] (rotation parts)
+            p0, p1, p2, _, p4, p5, p6, _, p8, p9, p10 = pose[:11]
+            E = [(a * p0 + b * p1 + c * p2, a * p4 + b * p5 + c * p6, a * p8 + b * p9 + c * p10)
+                 for a, b, c, _ in t[:3]]
         return task_error(FLOATS, self.kind, T, t, E, self.rows)
 
     def converged(self, res, tol):
@@ -410,21 +425,20 @@ class Floats(Batch):
         return done, any(done), all(done)
 
     def moved(self, q, J, e, lam, lo, hi):
-        m, n = len(self.rows), self.n
+        shape = (len(self.rows), self.n)
         out = []
         for qk, Jk, ek, lk in zip(q, J, e, lam):
-            dq = step(np.array(Jk).reshape(m, n), np.array(ek), lk, self.eye, _solve_spd).tolist()
+            dq = step(np.array(Jk).reshape(shape), np.array(ek), lk, self.eye, _solve_spd).tolist()
             out.append([min(max(v + d, a), b) for v, d, a, b in zip(qk, dq, lo, hi)])
         return out
 
     def accept(self, old, new):
-        rows = []
-        for k, lk in enumerate(old[5]):
-            if new[4][k] < old[4][k]:
-                rows.append((*(x[k] for x in new), max(lk * 0.1, 1e-12)))
-            else:
-                rows.append((*(x[k] for x in old[:5]), min(lk * 10.0, 1e8)))
-        return tuple(list(col) for col in zip(*rows))
+        qa, J, e, res, E, lam = old
+        better = [a < b for a, b in zip(new[4], E)]
+        if all(better):
+            return (*new, [max(lk * 0.1, 1e-12) for lk in lam])
+        return (*([x if g else y for g, x, y in zip(better, a, b)] for a, b in zip(new, old)),
+                [max(lk * 0.1, 1e-12) if g else min(lk * 10.0, 1e8) for g, lk in zip(better, lam)])
 
 
 for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "converged", "moved", "accept"):

@@ -192,21 +192,21 @@ def analytic_seeds(robot, kind, target, rng):
     if ideal is robot:
         rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
     else:
-        rank = rank + np.where(reach, 0.0, 1e3)
-    order = np.argsort(rank, axis=1, kind="stable")
+        rank[~reach] += 1e3
+    order = rank.argsort(axis=1, kind="stable")
     rows = np.arange(q.shape[0])[:, None]
     seeds = inside[rows, order]
-    rank = rank[rows, order]
-    seeds[np.isinf(rank)] = np.nan
-    if ideal is not robot and seeds.shape[1] > 1:
+    if ideal is robot:
+        seeds[np.isinf(rank[rows, order])] = np.nan
+    elif seeds.shape[1] > 1:
         # of the copy's two best branches, the one nearer to solving the real arm first (e.g. of a wrist
-        # and its flip, a solution of the copy, only one is near a solution once a5 != 0)
+        # and its flip, a solution of the copy, only one is near a solution once a5 != 0); every rank is finite
         N, _, n = seeds.shape
-        head = seeds[:, :2]
         ops = _evaluator(robot, kind, task_rows(kind), N)
-        res = ops.residuals(np.nan_to_num(head.reshape(-1, n)), np.repeat(target, head.shape[1], axis=0)).reshape(N, -1)
-        swap = rank[:, 1:2] + res[:, 1:2] < rank[:, :1] + res[:, :1]  # (NaN: no swap)
-        seeds[:, :2] = np.where(swap[:, :, None], head[:, ::-1], head)
+        res = ops.residuals(seeds[:, :2].reshape(-1, n), target.repeat(2, axis=0)).reshape(N, 2)
+        res += rank[rows, order[:, :2]]
+        swap = res[:, 1] < res[:, 0]
+        seeds[swap, :2] = seeds[swap, 1::-1]
     return seeds
 
 
@@ -256,18 +256,19 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     if q0 is None:
         starts = analytic_seeds(robot, kind, target, rng)
         if starts is not None:
-            q0 = starts[:, 0].copy()
+            q0 = starts[:, 0]  # (_attempts copies it)
             none = np.isnan(q0[:, 0])
             if none.any():
+                q0 = q0.copy()
                 q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng, starts=starts
     )
     n = robot.n
     for _ in range(restarts if multistart > 1 else 0):
-        fail = np.flatnonzero(~success)
-        if fail.size == 0:
+        if success.all():
             break
+        fail = (~success).nonzero()[0]
         K = int(min(multistart, max(1, 8192 // fail.size)))
         if K < 2:
             break
@@ -313,11 +314,13 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     n = robot.n
     lim = _limits(robot)
     lo, hi = lim.lo, lim.hi
-    q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.clip(np.array(q0, dtype=float), lo, hi)
-    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts[:, 0, 0])  # started from a closed form
+    # (minimum of maximum: np.clip's result, with fewer calls; a new array either way)
+    q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.minimum(np.maximum(q0, lo), hi)
+    near = np.zeros(N, dtype=bool) if starts is None else starts[:, 0, 0] == starts[:, 0, 0]  # from a closed form
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
-    residual = np.full(N, np.inf)
+    residual = np.empty(N)
+    residual.fill(np.inf)
     best_q = q.copy()
     # a few active targets one by one on floats, more on numpy rows: the same loop below
     rows = tuple(rows)
@@ -329,7 +332,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
         alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
-        act = np.flatnonzero(~success)
+        act = (~success).nonzero()[0]
         if group > 1:
             act = act[~group_done[act // group]]
         if act.size == 0:

@@ -129,12 +129,12 @@ def validate_targets(target, kind):
         T = T.reshape(-1, 4, 4)
         if T.shape[0] <= SMALL_TARGETS:  # the same test on floats, pose by pose
             defects = [_rigid_defects(FLOATS, t) for t in T.tolist()]
-            bad = np.array([_is_bad(*d) for d in defects], dtype=bool)
+            bad = [i for i, d in enumerate(defects) if _is_bad(*d)]
         else:
             defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
-            bad = _is_bad(*defects)
-        if np.any(bad):
-            i = int(np.flatnonzero(bad)[0])
+            bad = _is_bad(*defects).nonzero()[0]
+        if len(bad):
+            i = int(bad[0])
             err, det, _ = defects[i] if T.shape[0] <= SMALL_TARGETS else (d[i] for d in defects)
             which = "the target" if not lead else f"target {batch_index(i, lead)}"
             raise ShapeError(
