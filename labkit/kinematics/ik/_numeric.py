@@ -316,11 +316,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     lo, hi = lim.lo, lim.hi
     # (minimum of maximum: np.clip's result, with fewer calls; a new array either way)
     q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.minimum(np.maximum(q0, lo), hi)
-    near = np.zeros(N, dtype=bool) if starts is None else starts[:, 0, 0] == starts[:, 0, 0]  # from a closed form
+    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts[:, 0, 0])  # started from a closed form
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
-    residual = np.empty(N)
-    residual.fill(np.inf)
+    residual = np.full(N, np.inf)
     best_q = q.copy()
     # a few active targets one by one on floats, more on numpy rows: the same loop below
     rows = tuple(rows)
