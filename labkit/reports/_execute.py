@@ -41,6 +41,9 @@ __all__ = ["CELL_TIMEOUT", "kernel_manager_class", "chapter_of",
 ROOT_ENV = "LABKIT_NOTEBOOKS"
 #: seconds one cell may run before the execution is abandoned
 CELL_TIMEOUT = 600
+#: most kernels started for one notebook when a kernel dies before its first reply (seen with several
+#: kernels starting at once on a loaded 2-core machine); no cell has run in such a kernel
+KERNEL_STARTS = 3
 
 
 @dataclass(frozen=True)
@@ -421,28 +424,41 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
     output.parent.mkdir(parents=True, exist_ok=True)
     _quiet_papermill()
     t0 = time.perf_counter()
-    try:
-        papermill.execute_notebook(
-            str(notebook), str(output), parameters=parameters, kernel_name=kernel_name,
-            cwd=str(cwd or notebook.parent), progress_bar=False, log_output=False,
-            request_save_on_cell_execute=False, execution_timeout=timeout,
-            kernel_manager_class=kernel_manager_class(),
-        )
-    except PapermillExecutionError:
-        pass  # the executed notebook (with the traceback) was written; described below
-    except Exception as exc:  # kernel died, timeout, ...: still report, never stop the batch
-        seconds = time.perf_counter() - t0
-        if not output.exists():
-            nb = nbformat.read(str(notebook), as_version=4)
-            nbformat.write(nb, str(output))
-        return ExecutionResult(notebook, output, False, seconds, f"{notebook.name}: {type(exc).__name__}: {exc}",
-                               None, parameters)
+    for start in range(1, KERNEL_STARTS + 1):
+        try:
+            papermill.execute_notebook(
+                str(notebook), str(output), parameters=parameters, kernel_name=kernel_name,
+                cwd=str(cwd or notebook.parent), progress_bar=False, log_output=False,
+                request_save_on_cell_execute=False, execution_timeout=timeout,
+                kernel_manager_class=kernel_manager_class(),
+            )
+        except PapermillExecutionError:
+            pass  # the executed notebook (with the traceback) was written; described below
+        except Exception as exc:  # kernel died, timeout, ...: still report, never stop the batch
+            if start < KERNEL_STARTS and _kernel_never_started(exc):
+                logging.getLogger(__name__).warning("%s: %s; starting a new kernel (no cell had run)",
+                                                    notebook.name, exc)
+                continue
+            seconds = time.perf_counter() - t0
+            if not output.exists():
+                nb = nbformat.read(str(notebook), as_version=4)
+                nbformat.write(nb, str(output))
+            return ExecutionResult(notebook, output, False, seconds, f"{notebook.name}: {type(exc).__name__}: {exc}",
+                                   None, parameters)
+        break
     seconds = time.perf_counter() - t0
     from labkit.reports._portable import portable_notebook
 
     portable_notebook(output, notebook)  # no absolute path of this machine in the executed notebook
     cell, error = _first_error(nbformat.read(str(output), as_version=4), notebook.name)
     return ExecutionResult(notebook, output, cell is None, seconds, error, cell, parameters)
+
+
+def _kernel_never_started(exc) -> bool:
+    """Whether ``exc`` is jupyter_client's report of a kernel that died or stayed silent before its first
+    reply (``wait_for_ready``): it never ran a cell, so a new kernel may run the notebook from the start."""
+    text = str(exc)
+    return isinstance(exc, RuntimeError) and ("before replying to kernel_info" in text or "didn't respond in" in text)
 
 
 def chapter_of(notebook) -> int:

@@ -336,3 +336,54 @@ def test_widget_cells_do_not_wait_for_the_cell_timeout(tmp_path):
         result = execute_notebook(nb, tmp_path / f"out{k}.ipynb", timeout=30)
         assert result.ok, result.error
         assert result.seconds < 25, f"run {k} took {result.seconds:.1f} s: a reply was read only at the timeout"
+
+
+def _kernel_that_dies_at_start(tmp_path, monkeypatch, deaths):
+    """A kernelspec ``dying`` whose first ``deaths`` kernels exit before replying to kernel_info; then ipykernel."""
+    import json
+    import sys
+
+    count = tmp_path / "starts"
+    script = tmp_path / "dying_kernel.py"
+    script.write_text(
+        "import sys\nfrom pathlib import Path\n"
+        f"count = Path({str(count)!r})\n"
+        "n = int(count.read_text()) + 1 if count.exists() else 1\ncount.write_text(str(n))\n"
+        f"if n <= {deaths}:\n    sys.exit(1)  # dies while starting: no cell has run\n"
+        "from ipykernel import kernelapp\nkernelapp.launch_new_instance()\n")
+    spec = tmp_path / "jupyter" / "kernels" / "dying"
+    spec.mkdir(parents=True)
+    (spec / "kernel.json").write_text(json.dumps({
+        "argv": [sys.executable, str(script), "-f", "{connection_file}"], "display_name": "dying", "language": "python"}))
+    monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
+    return count
+
+
+@pytest.mark.slow
+def test_a_kernel_that_dies_while_starting_is_started_again(tmp_path, monkeypatch):
+    """A kernel that dies before its first reply (seen once in a CI-sized run: several kernels starting at
+    once on a loaded machine) has run no cell: the notebook runs from the start in a new kernel."""
+    require("papermill")
+    from labkit.reports import execute_notebook
+
+    count = _kernel_that_dies_at_start(tmp_path, monkeypatch, deaths=1)
+    nb = make_notebook(tmp_path / "lab" / "k.ipynb", ["x = 6 * 7", "assert x == 42"])
+    result = execute_notebook(nb, tmp_path / "out.ipynb", kernel_name="dying", timeout=60)
+    assert result.ok, result.error
+    assert count.read_text() == "2"  # one death, one kernel that ran the notebook
+
+
+@pytest.mark.slow
+def test_a_kernel_that_never_starts_is_reported_after_a_few_starts(tmp_path, monkeypatch):
+    """Kernels that keep dying at start: a few tries (labkit.reports._execute.KERNEL_STARTS), then the
+    notebook is reported as failed with jupyter_client's reason, the batch goes on."""
+    require("papermill")
+    from labkit.reports import execute_notebook
+    from labkit.reports._execute import KERNEL_STARTS
+
+    count = _kernel_that_dies_at_start(tmp_path, monkeypatch, deaths=99)
+    nb = make_notebook(tmp_path / "lab" / "k.ipynb", ["x = 1"])
+    result = execute_notebook(nb, tmp_path / "out.ipynb", kernel_name="dying", timeout=60)
+    assert not result.ok and "Kernel died before replying to kernel_info" in result.error
+    assert count.read_text() == str(KERNEL_STARTS)
+    assert (tmp_path / "out.ipynb").is_file()
