@@ -20,6 +20,7 @@ written once, for both.
 from __future__ import annotations
 
 import functools
+import operator
 
 import numpy as np
 
@@ -46,7 +47,7 @@ def task_error(xp, kind, T, t, E, rows):
         Target: ``t[i]`` for a point or ``(x, y, phi)``, ``t[i][j]`` for a pose.
     E : nested components or None
         ``R_t R^T`` for a pose target.
-    rows : sequence of int
+    rows : tuple of int
         Rows of ``[vx, vy, vz, wx, wy, wz]`` the task constrains.
 
     Returns
@@ -58,14 +59,14 @@ def task_error(xp, kind, T, t, E, rows):
         ``2 sin(angle / 2)`` (robust near pi; otherwise the orientation
         components' norm) [m, rad].
     """
-    slots, squared, whole = _plan(kind, tuple(rows))
+    slots, squared, whole = _plan(kind, rows)
     if kind == "pose":
         comp, ang = _pose_error(xp, E, T, t)
     elif kind == "position":
         comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
     else:  # planar: x, y and the heading
         comp = (t[0] - T[0][3], t[1] - T[1][3], wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))
-    e = [comp[i] for i in slots]
+    e = list(comp) if slots is None else [comp[i] for i in slots]
     res2 = 0.0
     for i in squared:
         res2 = res2 + e[i] * e[i]
@@ -77,9 +78,11 @@ def task_error(xp, kind, T, t, E, rows):
 
 @functools.cache
 def _plan(kind, rows):
-    """How :func:`task_error` reads a kind's components for ``rows``: which component each row is, which
-    rows' squares make the residual, and whether the whole orientation enters it as an angle instead."""
+    """How :func:`task_error` reads a kind's components for ``rows`` (a tuple): which component each row is
+    (None: all, in order), which rows' squares make the residual, and whether the whole orientation enters it
+    as an angle instead."""
     slots = tuple(task_rows(kind).index(r) for r in rows)
+    slots = None if slots == tuple(range(len(task_rows(kind)))) else slots  # (None: every component, in order)
     whole = kind == "pose" and sum(r >= 3 for r in rows) == 3
     return slots, tuple(i for i, r in enumerate(rows) if not (whole and r >= 3)), whole
 
@@ -108,7 +111,7 @@ def error(kind, T, target, rows):
     E = None
     if kind == "pose":
         E = (target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)).transpose(1, 2, 0)
-    e, res = task_error(NUMPY, kind, T.transpose(1, 2, 0), target.transpose((*range(1, target.ndim), 0)), E, rows)
+    e, res = task_error(NUMPY, kind, T.transpose(1, 2, 0), target.transpose((*range(1, target.ndim), 0)), E, tuple(rows))
     return np.stack(e, axis=1), res
 
 
@@ -428,15 +431,18 @@ class Floats(Batch):
         shape = (len(self.rows), self.n)
         out = []
         for qk, Jk, ek, lk in zip(q, J, e, lam):
-            dq = step(np.array(Jk).reshape(shape), np.array(ek), lk, self.eye, _solve_spd).tolist()
-            out.append([min(max(v + d, a), b) for v, d, a, b in zip(qk, dq, lo, hi)])
+            Jk = np.array(Jk)
+            Jk.shape = shape
+            dq = step(Jk, np.array(ek), lk, self.eye, _solve_spd).tolist()
+            # clipped as np.minimum(np.maximum(v, a), b) (conditionals: a fifth of min(max()) on floats)
+            out.append([a if v < a else b if v > b else v for v, a, b in zip(map(operator.add, qk, dq), lo, hi)])
         return out
 
     def accept(self, old, new):
-        qa, J, e, res, E, lam = old
-        better = [a < b for a, b in zip(new[4], E)]
-        if all(better):
+        lam = old[5]
+        if all(map(operator.lt, new[4], old[4])):
             return (*new, [max(lk * 0.1, 1e-12) for lk in lam])
+        better = list(map(operator.lt, new[4], old[4]))
         return (*([x if g else y for g, x, y in zip(better, a, b)] for a, b in zip(new, old)),
                 [max(lk * 0.1, 1e-12) if g else min(lk * 10.0, 1e8) for g, lk in zip(better, lam)])
 
