@@ -2,9 +2,9 @@
 
 :func:`solve` runs a family's formulas on the validated targets: a few targets
 of a family with ``scalar = True`` on Python floats
-(:data:`~labkit.kinematics.ik._xp.FLOATS`, through the family's formulas
-compiled per solver into straight-line code, :mod:`labkit.kinematics.ik._trace`), anything else on numpy rows in
-cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
+(:data:`~labkit.kinematics.ik._xp.FLOATS`; the formulas compiled per solver
+into straight-line code by :mod:`labkit.kinematics.ik._trace`), anything else
+on numpy rows in cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
 joint value then goes through :func:`finish`: flipped joints negated, revolute
 angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
 shifted by a turn where that enters the limits, and the limit test.
