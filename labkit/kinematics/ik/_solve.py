@@ -2,8 +2,9 @@
 
 :func:`solve` runs a family's formulas on the validated targets: a few targets
 of a family with ``scalar = True`` on Python floats
-(:data:`~labkit.kinematics.ik._xp.FLOATS`), anything else on numpy rows in
-cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
+(:data:`~labkit.kinematics.ik._xp.FLOATS`; the formulas compiled per solver
+into straight-line code by :mod:`labkit.kinematics.ik._trace`), anything else
+on numpy rows in cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
 joint value then goes through :func:`finish`: flipped joints negated, revolute
 angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
 shifted by a turn where that enters the limits, and the limit test.
@@ -22,6 +23,7 @@ import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik import _targets
+from labkit.kinematics.ik._trace import floats_solver
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
 
@@ -207,10 +209,10 @@ def solve_floats(robot, family, targets):
     distance : list of float, shape (N,)
         As :func:`solve`.
     """
-    js = joints(robot)
+    js, solve_one = joints(robot), floats_solver(family)
     Q, R, V, D = [], [], [], []
     for t in targets:
-        qb, rb, d = family.solve(FLOATS, t)
+        qb, rb, d = solve_one(t)
         last = _memo(len(js))
         rows = [_finish_floats(js, branch, ok, last) for branch, ok in zip(qb, rb)]
         Q.append([row for row, _ in rows])
@@ -247,11 +249,11 @@ def pick_floats(robot, family, targets, idx, q_near):
         None when a target has no valid solution on the branch asked for (the
         batched path then says why).
     """
-    js = joints(robot)
+    js, solve_one = joints(robot), floats_solver(family)
     rev = [j[0] for j in js]
     out = []
     for t in targets:
-        qb, rb, _ = family.solve(FLOATS, t)
+        qb, rb, _ = solve_one(t)
         last = _memo(len(js))
         if idx is not None:
             row, ok = _finish_floats(js, qb[idx], rb[idx], last)

@@ -1,0 +1,274 @@
+"""A closed-form family's float formulas compiled per robot into straight-line Python (private).
+
+A family's ``solve(xp, t)`` (:mod:`labkit.kinematics.ik._family`) is written
+once against an array namespace. On :data:`~labkit.kinematics.ik._xp.FLOATS`
+most of one target's time goes to interpreting it (attribute look-ups, calls of
+small helpers, tuples built and unpacked, loops over branches), not to the
+arithmetic. :func:`floats_solver` runs the formulas once on :data:`TRACE`,
+whose values are symbols recording every operation on them, and turns the
+record into one generated Python function of the target, one line per
+operation (``v12 = v3 * v7``, ``v13 = _atan2(v12, v9)``,
+``v14 = v5 if v13 else v6``), returning the structure ``solve`` returns. It is
+compiled lazily, once per family solver (the registry caches one per robot).
+
+The function computes bit for bit what ``solve(FLOATS, t)`` computes: the same
+functions (``math.sqrt`` ..., raising where they raise) on the same operands in
+the association the formulas wrote. The only rewrites are those that cannot
+change a bit: an operation on constants is computed while tracing (as FLOATS
+computes it), ``x * 1.0``, ``x / 1.0``, ``x - 0.0``, ``x + -0.0`` and
+``-(-x)`` are ``x``, an operation repeated on the same operands is computed
+once, and a value nothing uses is dropped unless its operation can raise.
+``x + 0.0`` and ``x * 0.0`` stay (``-0.0 + 0.0`` is ``+0.0``, ``inf * 0.0``
+NaN).
+
+Family code never branches on a value (it also runs on numpy rows). If one does
+(a symbol's ``__bool__``) or uses anything :data:`TRACE` lacks, tracing stops
+and that family keeps the interpretive FLOATS path: never a wrong answer.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import weakref
+from types import SimpleNamespace
+
+from labkit.kinematics.ik._targets import COMPONENTS
+from labkit.kinematics.ik._xp import FLOATS
+
+__all__ = ["TRACE", "floats_solver"]
+
+#: the functions the generated code calls (bound as default arguments: local look-ups)
+_FUNCTIONS = {"_sqrt": math.sqrt, "_atan2": math.atan2, "_acos": math.acos, "_cos": math.cos, "_sin": math.sin,
+              "_abs": abs, "_hypot": math.hypot, "_isfinite": math.isfinite}
+#: those that raise on some floats (kept even where nothing uses their value)
+_RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(")
+
+#: compiled functions per family solver (None: the family is not traceable)
+_COMPILED = weakref.WeakKeyDictionary()
+#: the kind of a constant operand, by type
+_CONSTANT_KINDS = {float: "float", int: "float", bool: "bool"}
+
+
+class _Untraceable(Exception):
+    """Tracing met something straight-line code cannot express (internal: the FLOATS path is kept)."""
+
+
+def _kind(v):
+    """``"float"``, ``"bool"`` or ``"other"``: what a value is at run time (identities hold for floats only)."""
+    if isinstance(v, _Sym):
+        return v.kind
+    return _CONSTANT_KINDS.get(type(v), "other")
+
+
+def _refuse(self, *args):
+    raise _Untraceable("the family converts or branches on a traced value")
+
+
+class _Sym:
+    """A value of the traced target: the ``i``-th of its tape, of kind ``"float"``, ``"bool"`` or ``"other"``."""
+
+    __slots__ = ("tape", "i", "kind")
+    __array_ufunc__ = None  # numpy scalars defer to the reflected operators
+    __hash__ = object.__hash__
+    __bool__ = __float__ = __int__ = __index__ = __complex__ = _refuse
+
+    def __init__(self, tape, i, kind):
+        self.tape, self.i, self.kind = tape, i, kind
+
+    def __neg__(self):
+        template, args = self.tape.defs.get(self.i, (None, ()))
+        if template == "-{0}":  # -(-x) is x
+            return args[0]
+        return self.tape.record("other" if self.kind == "bool" else self.kind, "-{0}", self)
+
+    def __abs__(self):
+        return TRACE.abs(self)
+
+
+def _identity(symbol, a, b):
+    """``a`` or ``b`` where ``a symbol b`` is it bit for bit (``x * 1.0``, ``x / 1.0``, ``x - 0.0``, ``x + -0.0``)."""
+    for x, c, left in ((a, b, True), (b, a, False)):
+        if not isinstance(x, _Sym) or x.kind != "float" or isinstance(c, _Sym) or _kind(c) != "float":
+            continue
+        if symbol == "*" and c == 1 or symbol == "/" and left and c == 1:
+            return x
+        if symbol == "-" and left and c == 0 and math.copysign(1.0, c) > 0:
+            return x
+        if symbol == "+" and c == 0 and math.copysign(1.0, c) < 0:
+            return x
+    return None
+
+
+def _operator(symbol, result):
+    """The method and the reflected method of a binary operator (``result``: kinds -> kind of the result)."""
+    template = f"{{0}} {symbol} {{1}}"
+
+    def apply(a, b):
+        same = _identity(symbol, a, b)
+        if same is not None:
+            return same
+        tape = (a if isinstance(a, _Sym) else b).tape
+        return tape.record(result(_kind(a), _kind(b)), template, a, b, raises=symbol == "/" and (
+            isinstance(b, _Sym) or b == 0))
+
+    return apply, lambda self, other: apply(other, self)
+
+
+def _arithmetic(x, y):
+    return "float" if x == y == "float" else "other"
+
+
+def _logic(x, y):
+    return "bool" if x == y == "bool" else "other"
+
+
+for _symbol, _names, _result in (("+", "add", _arithmetic), ("-", "sub", _arithmetic), ("*", "mul", _arithmetic),
+                                 ("/", "truediv", _arithmetic), ("&", "and", _logic), ("|", "or", _logic)):
+    _method, _reflected = _operator(_symbol, _result)
+    setattr(_Sym, f"__{_names}__", _method)
+    setattr(_Sym, f"__r{_names}__", _reflected)
+for _symbol, _name in (("<", "lt"), ("<=", "le"), (">", "gt"), (">=", "ge"), ("==", "eq"), ("!=", "ne")):
+    setattr(_Sym, f"__{_name}__", _operator(_symbol, lambda x, y: "bool")[0])
+
+
+class _Tape:
+    """The operations of one trace, in order: ``ops`` holds ``(symbol, template, args, raises)``."""
+
+    def __init__(self):
+        self.n, self.ops, self.defs, self.memo = 0, [], {}, {}
+
+    def symbol(self, kind):
+        """A new value: an input, or what an operation computes."""
+        self.n += 1
+        return _Sym(self, self.n - 1, kind)
+
+    def record(self, kind, template, *args, raises=False):
+        """The value of ``template`` formatted with ``args`` (the same operation on the same operands: once)."""
+        key = (template, *((a.i,) if isinstance(a, _Sym) else (type(a), repr(a)) for a in args))
+        out = self.memo.get(key)
+        if out is None:
+            out = self.memo[key] = self.symbol(kind)
+            self.ops.append((out, template, args, raises or template.startswith(_RAISING)))
+            self.defs[out.i] = (template, args)
+        return out
+
+
+def _function(name, template, result):
+    """A member of :data:`TRACE`: the FLOATS function on constants, else a recorded operation."""
+    floats = getattr(FLOATS, name)
+
+    def traced(*args):
+        sym = next((a for a in args if isinstance(a, _Sym)), None)
+        if sym is None or name == "where" and not isinstance(args[0], _Sym):
+            return floats(*args)
+        return sym.tape.record(result(*map(_kind, args)), template, *args)
+
+    return traced
+
+
+def _choice(*kinds):
+    """The kind of a value chosen among values of ``kinds``."""
+    return kinds[0] if len(set(kinds)) == 1 else "other"
+
+
+#: the FLOATS members on symbols (the same formulas recorded instead of evaluated)
+TRACE = SimpleNamespace(
+    sqrt=_function("sqrt", "_sqrt({0})", lambda x: "float"),
+    arctan2=_function("arctan2", "_atan2({0}, {1})", lambda y, x: "float"),
+    arccos=_function("arccos", "_acos({0})", lambda x: "float"),
+    cos=_function("cos", "_cos({0})", lambda x: "float"),
+    sin=_function("sin", "_sin({0})", lambda x: "float"),
+    abs=_function("abs", "_abs({0})", lambda x: "float" if x == "float" else "other"),
+    hypot=_function("hypot", "_hypot({0}, {1})", lambda x, y: "float"),
+    where=_function("where", "{1} if {0} else {2}", lambda c, a, b: _choice(a, b)),
+    clip=_function("clip", "{1} if {0} < {1} else {2} if {0} > {2} else {0}", _choice),
+    maximum=_function("maximum", "{0} if {0} >= {1} else {1}", _choice),
+    minimum=_function("minimum", "{0} if {0} <= {1} else {1}", _choice),
+    logical_not=_function("logical_not", "not {0}", lambda c: "bool"),
+    isfinite=_function("isfinite", "_isfinite({0})", lambda x: "bool"),
+    per_branch=FLOATS.per_branch, batch=False,
+)
+
+
+def _generate(family):
+    """Trace ``family.solve`` and compile it: ``(function, source)``; raises when it cannot be traced."""
+    tape = _Tape()
+    if family.kind == "pose":
+        t = [[tape.symbol("float") for _ in range(4)] for _ in range(4)]
+        unpack = ", ".join("(" + ", ".join(f"v{s.i}" for s in row) + ")" for row in t)
+    else:
+        t = [tape.symbol("float") for _ in COMPONENTS[family.kind]]
+        unpack = ", ".join(f"v{s.i}" for s in t) + ","
+    result = family.solve(TRACE, t)
+    bound, live = {}, set()
+
+    def name(v):
+        if isinstance(v, _Sym):
+            return f"v{v.i}"
+        if type(v) in (float, int, bool) and math.isfinite(v):
+            return repr(v) if v >= 0 or type(v) is bool else f"({v!r})"
+        bound[f"_k{len(bound)}"] = v  # inf, nan, numpy scalars: as they are
+        return f"_k{len(bound) - 1}"
+
+    def render(v):
+        if isinstance(v, (list, tuple)):
+            inner = ", ".join(render(x) for x in v) + ("," if type(v) is tuple and len(v) == 1 else "")
+            return f"[{inner}]" if type(v) is list else f"({inner})"
+        if isinstance(v, _Sym):
+            live.add(v.i)
+        elif _kind(v) == "other":
+            raise _Untraceable(f"solve returns a {type(v).__name__}")
+        return name(v)
+
+    returned = render(result)
+    ops, uses = [], dict.fromkeys(live, 2)  # (a returned value keeps its name)
+    for op in reversed(tape.ops):  # drop what neither the result nor a raise needs
+        sym, template, args, raises = op
+        if sym.i in uses or raises:
+            ops.append(op)
+            for k, a in enumerate(args):
+                if isinstance(a, _Sym):
+                    uses[a.i] = uses.get(a.i, 0) + template.count(f"{{{k}}}")
+    body, inline = [], {}
+    for sym, template, args, raises in reversed(ops):
+        text = template.format(*(f"({inline.pop(a.i)})" if isinstance(a, _Sym) and a.i in inline else name(a)
+                                 for a in args))
+        if not raises and uses.get(sym.i) == 1:
+            inline[sym.i] = text  # a value read once, by an operation that cannot raise: written where it is read
+        else:
+            body.append(f"    v{sym.i} = {text}")
+    used = [f for f in _FUNCTIONS if any(f + "(" in line for line in body)]
+    bound.update({f: _FUNCTIONS[f] for f in used})
+    defaults = "".join(f", {k}={k}" for k in bound)
+    source = "\n".join([f"def solve(t{defaults}):", f"    {unpack} = t", *body, f"    return {returned}"])
+    namespace = dict(bound)
+    exec(compile(source, f"<labkit ik {family.name}, {len(ops)} operations>", "exec"), namespace)
+    return namespace["solve"], source
+
+
+def floats_solver(family):
+    """``t -> family.solve(FLOATS, t)`` for one target, compiled on first use (cached per solver object).
+
+    Parameters
+    ----------
+    family : Family
+        A closed-form solver with ``scalar = True``.
+
+    Returns
+    -------
+    callable
+        The generated function of one target (nested lists of floats, as
+        :func:`labkit.kinematics.ik._targets.small_targets` gives them), or
+        ``family.solve`` on :data:`~labkit.kinematics.ik._xp.FLOATS` where the
+        family cannot be traced; either returns what ``family.solve(FLOATS, t)`` returns.
+    """
+    try:
+        f = _COMPILED[family]
+    except KeyError:
+        try:
+            f, _ = _generate(family)
+        except Exception:  # anything tracing cannot record: the interpretive path computes (or raises) it
+            f = None
+        _COMPILED[family] = f
+    return functools.partial(family.solve, FLOATS) if f is None else f

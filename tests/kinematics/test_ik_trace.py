@@ -1,0 +1,146 @@
+"""The closed-form families compiled to straight-line Python (``ik/_trace.py``) return bit for bit what the
+interpretive float path returns, raise where it raises, and fall back to it where a family cannot be traced."""
+
+import math
+import zlib
+
+import numpy as np
+import pytest
+
+from labkit.kinematics import fk, target_from_pose
+from labkit.kinematics.ik._geometry import joint_axes
+from labkit.kinematics.ik._registry import detect
+from labkit.kinematics.ik._solve import solve_floats
+from labkit.kinematics.ik._trace import floats_solver
+from labkit.kinematics.ik._xp import FLOATS
+from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
+from labkit.robot import Robot
+from labkit.robot._files import bundled_robots
+from tests.kinematics.test_ik_families import ROBOTS
+
+
+def _variants():
+    """Every bundled robot, the extra robots of test_ik_families, and copies with a shoulder and a lateral offset."""
+    out = {name: Robot.load(name) for name in bundled_robots()}
+    out.update({name: make() for name, (make, _) in ROBOTS.items() if name not in out})
+    for name, robot in list(out.items()):
+        out[f"{name}+a1"] = robot.with_link(0, a=robot.links[0].a + 0.013)
+        if robot.n > 2:
+            out[f"{name}+d2"] = robot.with_link(1, d=robot.links[1].d + 0.011)
+    return {name: robot for name, robot in out.items() if getattr(detect(robot)[0], "scalar", False)}
+
+
+VARIANTS = _variants()
+
+
+def _outcome(f, t):
+    """``repr`` of what ``f(t)`` returns or raises: equal only for the same structure, types and float bits."""
+    try:
+        return repr(f(t))
+    except (ValueError, ZeroDivisionError, OverflowError) as exc:
+        return f"raises {type(exc).__name__}: {exc}"
+
+
+def _targets(robot, family, rng):
+    """Targets as solve_floats takes them: in the limits, singular, on the axes, signed zeros, out of reach."""
+    lim = np.clip(robot.joint_limits, -4.0, 4.0)
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(300, robot.n))
+    grid = rng.choice([0.0, math.pi / 2, -math.pi / 2, math.pi, -math.pi], size=(100, robot.n))
+    q = np.concatenate([q, np.clip(grid, lim[:, 0], lim[:, 1]), np.zeros((1, robot.n))])
+    if robot.n == 6:
+        q[:60, 4] = 0.0  # wrist singularity
+    T = fk(robot, q)
+    if family.kind == "pose":
+        far = T.copy()
+        far[:50, :3, 3] *= 4.0
+        far[50:100, :3, 3] *= 0.0  # -0.0 where a component was negative
+        return np.concatenate([T, far[:100]]).tolist()
+    t = target_from_pose(robot, T)
+    far = t[:150].copy()
+    far[:50, :3] *= 4.0
+    far[50:100, :3] *= 0.0
+    far[100:, :3] *= rng.uniform(0.99, 1.01, size=(50, 1))  # around a fully stretched / folded arm
+    return np.concatenate([t, far]).tolist()
+
+
+def test_variants_cover_every_float_family():
+    assert {detect(r)[0].name for r in VARIANTS.values()} == {
+        "planar_2r", "planar_3r", "yaw_pitch_pitch", "yaw_pitch_pitch_pitch", "yaw_pitch_pitch_pitch_roll",
+        "spherical_wrist"}
+
+
+@pytest.mark.parametrize("name", sorted(VARIANTS))
+def test_compiled_equals_interpretive_bit_for_bit(name):
+    robot = VARIANTS[name]
+    family, _ = detect(robot)
+    f = floats_solver(family)
+    assert f.__code__.co_filename.startswith(f"<labkit ik {family.name},")  # compiled, not the fallback
+    assert floats_solver(family) is f  # once per solver
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    targets = _targets(robot, family, rng)
+    diff = [t for t in targets if _outcome(f, t) != _outcome(lambda t: family.solve(FLOATS, t), t)]
+    assert not diff, f"{len(diff)} of {len(targets)} targets differ, first {diff[0]}"
+    # the targets reach both the reachable and the unreachable branches
+    reach = [r for t in targets for r in f(t)[1]]
+    assert any(reach) and not all(reach)
+
+
+def test_outcome_tells_signed_zeros_and_types_apart():
+    assert _outcome(lambda t: [(0.0,)], None) != _outcome(lambda t: [(-0.0,)], None)
+    assert _outcome(lambda t: [(1.0,)], None) != _outcome(lambda t: [[1.0]], None)
+    assert _outcome(lambda t: True, None) != _outcome(lambda t: 1.0, None)
+
+
+def _axes():
+    return joint_axes(Robot.load("arduino_arm_3dof"))
+
+
+class _Raising(YawPitchPitch):
+    """Formulas that raise on some targets, one of them on a value nothing uses."""
+
+    def solve(self, xp, t):
+        xp.arccos(t[1])  # unused, but FLOATS raises here for |y| > 1
+        q = (xp.sqrt(t[0] - 0.5), t[2] / t[0], -(-t[2]) * 1.0 + -0.0)
+        return [q], [t[0] > 0.0], xp.maximum(t[0] - 0.0, 0.0)
+
+
+def test_the_compiled_code_raises_where_floats_raises():
+    family = _Raising(Robot.load("arduino_arm_3dof"), *_axes())
+    f = floats_solver(family)
+    assert f.__code__.co_filename.startswith("<labkit ik")
+    cases = [[1.0, 0.5, -0.0], [0.2, 0.5, 1.0], [1.0, 2.0, 1.0], [0.0, 0.5, 1.0], [0.7, -1.0, 3.0]]
+    outcomes = [_outcome(f, t) for t in cases]
+    assert outcomes == [_outcome(lambda t: family.solve(FLOATS, t), t) for t in cases]
+    assert sum(o.startswith("raises ValueError") for o in outcomes) == 3  # sqrt, the unused arccos, sqrt(-0.5)
+
+
+class _Branchy(YawPitchPitch):
+    """A family with a data-dependent ``if`` (not allowed, but it must still answer right)."""
+
+    def solve(self, xp, t):
+        if t[2] < 0.0:
+            t = [t[0], t[1], -t[2]]
+        return super().solve(xp, t)
+
+
+class _Converting(YawPitchPitch):
+    """A family calling ``math`` directly on a component."""
+
+    def solve(self, xp, t):
+        return super().solve(xp, [math.copysign(t[0], 1.0), t[1], t[2]])
+
+
+@pytest.mark.parametrize("cls", [_Branchy, _Converting])
+def test_an_untraceable_family_keeps_the_interpretive_path(cls):
+    robot = Robot.load("arduino_arm_3dof")
+    family = cls(robot, *_axes())
+    f = floats_solver(family)
+    assert not hasattr(f, "__code__") and f.func == family.solve and f.args == (FLOATS,)
+    rng = np.random.default_rng(3)
+    T = fk(robot, rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(50, 3)))
+    targets = T[:, :3, 3].tolist()
+    targets += [[x, y, -z] for x, y, z in targets]
+    assert [_outcome(f, t) for t in targets] == [_outcome(lambda t: family.solve(FLOATS, t), t) for t in targets]
+    q, reach, _, _ = solve_floats(robot, family, targets)
+    expected = [family.solve(FLOATS, t) for t in targets]
+    assert reach == [r for _, r, _ in expected]
