@@ -266,13 +266,12 @@ class Batch:
 
         Parameters
         ----------
-        q, target : ndarray
-            Joint values (N, n) [rad, m] and targets (N, 3) or (N, 4, 4)
-            [m, rad], as :meth:`enter` takes them.
+        q : state form of joint values, N rows [rad, m]
+        target : state form of the targets, N rows [m, rad]
 
         Returns
         -------
-        ndarray, shape (N,)
+        state form of the residuals, N entries
             As :meth:`evaluate`'s ``res`` [m, rad].
         """
         return error(self.kind, fk(self._robot, q), target, self.rows)[1]
@@ -405,10 +404,7 @@ class Floats(Batch):
         return Js, es, rs, Es
 
     def residuals(self, q, target):
-        out = []
-        for qk, tk in zip(q.tolist(), target.tolist()):
-            out.append(self._error(self._pose(qk), tk)[1])
-        return np.array(out)
+        return [self._error(self._pose(qk), tk)[1] for qk, tk in zip(q, target)]
 
     def bounds(self, lo, hi):
         return lo.tolist(), hi.tolist()

@@ -30,14 +30,18 @@ first restarts (:func:`analytic_seeds`).
 from __future__ import annotations
 
 import dataclasses
+import functools
+import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._solve import finish_all, solve as solve_family
-from labkit.kinematics.ik._targets import task_rows
+from labkit.kinematics.ik._solve import finish_all, finished_solver, solve as solve_family
+from labkit.kinematics.ik._targets import SMALL_TARGETS, task_rows
+from labkit.kinematics.ik._trace import compiled
+from labkit.kinematics.ik._xp import FLOATS, NUMPY
 
 
 class LazyGenerator:
@@ -180,34 +184,120 @@ def analytic_seeds(robot, kind, target, rng):
         random one). None when no closed form applies.
     """
     found, _ = detect(robot)
-    ideal = robot
-    if found is None:
-        ideal, found = near_family(robot)
+    exact = found is not None  # the robot's own family (else its idealised copy's)
+    if not exact:
+        _, found = near_family(robot)
     if found is None or found.kind != kind:
         return None
+    if found.scalar and target.shape[0] <= SMALL_TARGETS:  # (as solve_family runs them on floats)
+        return _seeds_floats(robot, found, kind, target, exact)
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
+    N, m, n = q.shape
     lim = _limits(robot)
-    inside = np.minimum(np.maximum(q, lim.lo), lim.hi)  # (finite: a family's fills are finite too)
-    rank = np.abs(q - inside).sum(axis=-1)  # how far each branch leaves the limits
-    if ideal is robot:
-        rank = np.where(reach & (rank == 0.0), 0.0, np.inf)
-    else:
-        rank[~reach] += 1e3
+    starts, ranks = _ranked(NUMPY, lim.lo.tolist(), lim.hi.tolist(), exact,
+                            [[q[:, k, j] for j in range(n)] for k in range(m)], [reach[:, k] for k in range(m)])
+    inside = np.stack([np.stack(branch, axis=-1) for branch in starts], axis=1)
+    rank = np.stack(ranks, axis=1)
     order = rank.argsort(axis=1, kind="stable")
-    rows = np.arange(q.shape[0])[:, None]
+    rows = np.arange(N)[:, None]
     seeds = inside[rows, order]
-    if ideal is robot:
+    if exact:
         seeds[np.isinf(rank[rows, order])] = np.nan
-    elif seeds.shape[1] > 1:
-        # of the copy's two best branches, the one nearer to solving the real arm first (e.g. of a wrist
-        # and its flip, a solution of the copy, only one is near a solution once a5 != 0); every rank is finite
-        N, _, n = seeds.shape
-        ops = _evaluator(robot, kind, task_rows(kind), N)
+    elif m > 1:
+        ops = arithmetic(robot)[Batch, kind, task_rows(kind)]
         res = ops.residuals(seeds[:, :2].reshape(-1, n), target.repeat(2, axis=0)).reshape(N, 2)
-        res += rank[rows, order[:, :2]]
-        swap = res[:, 1] < res[:, 0]
+        top = rank[rows, order[:, :2]]
+        swap = _second_first(res[:, 0], res[:, 1], top[:, 0], top[:, 1])
         seeds[swap, :2] = seeds[swap, 1::-1]
     return seeds
+
+
+def _ranked(xp, lo, hi, exact, rows, reach):
+    """Every branch as a start, and its rank (lower first; written once, for numpy rows and for floats).
+
+    A start is the branch's joint values clipped into the limits; its rank is
+    how far the branch leaves them (the sum over the joints). Of the robot's
+    own family (``exact``) only reachable branches inside the limits rank 0,
+    every other one infinity (no start); of an idealised copy's, branches out
+    of reach rank 1000 more.
+
+    Parameters
+    ----------
+    xp : namespace
+        :data:`~labkit.kinematics.ik._xp.NUMPY` (components ``(N,)``) or
+        :data:`~labkit.kinematics.ik._xp.FLOATS` (floats; compiled by
+        :func:`_ranking`).
+    lo, hi : list of float
+        Joint limits [rad, m].
+    exact : bool
+        The branches are the robot's own.
+    rows : list of list, shape (m, n)
+        Per branch its finished joint values [rad, m].
+    reach : list, shape (m,)
+        Per branch whether it reaches the target.
+
+    Returns
+    -------
+    starts : list of list, shape (m, n)
+        The clipped joint values [rad, m].
+    ranks : list, shape (m,)
+    """
+    starts, ranks = [], []
+    for row, ok in zip(rows, reach):
+        inside = [xp.minimum(xp.maximum(v, a), b) for v, a, b in zip(row, lo, hi)]
+        rank = 0.0
+        for v, c in zip(row, inside):
+            rank = rank + xp.abs(v - c)
+        starts.append(inside)
+        ranks.append(xp.where(ok & (rank == 0.0), 0.0, math.inf) if exact else xp.where(ok, rank, rank + 1e3))
+    return starts, ranks
+
+
+def _second_first(res0, res1, rank0, rank1):
+    """Whether the second of an idealised copy's two best starts goes first: its residual on the real arm plus
+    its rank is lower (e.g. of a wrist and its flip, a solution of the copy, only one is near a solution once
+    a5 != 0)."""
+    return res1 + rank1 < res0 + rank0
+
+
+@per_robot
+def _rankings(robot):
+    """``{(exact, m): compiled ranking}`` of :func:`_ranking` for ``robot`` (filled when asked)."""
+    return {}
+
+
+def _ranking(robot, exact, m):
+    """:func:`_ranked` of ``m`` branches of ``robot`` on floats, compiled: ``(rows, reach) -> (starts, ranks)``."""
+    cache = _rankings(robot)
+    f = cache.get((exact, m))
+    if f is None:
+        lim = _limits(robot)
+        ranked = functools.partial(_ranked, lo=lim.lo.tolist(), hi=lim.hi.tolist(), exact=exact)
+        f = compiled(lambda xp, rows, reach: ranked(xp, rows=rows, reach=reach), ((m, robot.n), (m,)),
+                     f"ik starts of {robot.name}")
+        f = cache[exact, m] = f or (lambda rows, reach: ranked(FLOATS, rows=rows, reach=reach))
+    return f
+
+
+def _seeds_floats(robot, family, kind, target, exact):
+    """:func:`analytic_seeds` of a few targets on floats: the family's finished branches, their ranks and the
+    swap of the two best starts, each compiled or on lists (no array until the seeds)."""
+    solve_one = finished_solver(robot, family)
+    rank = _ranking(robot, exact, len(family.branches))
+    ops = arithmetic(robot)[Floats, kind, task_rows(kind)]
+    nan_row = [math.nan] * robot.n
+    out = []
+    for t in target.tolist():
+        rows, reach, _, _ = solve_one(t)
+        starts, ranks = rank(rows, reach)
+        order = sorted(range(len(ranks)), key=ranks.__getitem__)  # (stable, as argsort(kind="stable"))
+        seeds = [starts[i] if ranks[i] != math.inf else nan_row for i in order] if exact else [starts[i] for i in order]
+        if not exact and len(seeds) > 1:
+            res = ops.residuals(seeds[:2], [t, t])
+            if _second_first(*res, ranks[order[0]], ranks[order[1]]):
+                seeds[:2] = seeds[1::-1]
+        out.append(seeds)
+    return np.array(out, dtype=float)
 
 
 def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):

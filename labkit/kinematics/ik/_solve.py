@@ -17,13 +17,14 @@ towards the target), a fill, not a solution.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik import _targets
-from labkit.kinematics.ik._trace import floats_solver
+from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.rotations import wrap_angle
 
@@ -85,9 +86,10 @@ def finish(xp, v, joint):
     if flip:
         v = -v
     if rev:
-        v = wrap_angle(v)
-        # a turn can only apply outside the limits: one float inside them skips it (a batch takes it per element)
-        if (turn_up or turn_down) and (xp.batch or not lo <= v <= hi):
+        v = xp.wrap(v)
+        # a turn can only apply outside the limits: one float inside them skips it (a batch, or a traced value,
+        # takes it per element)
+        if (turn_up or turn_down) and (type(v) is not float or not lo <= v <= hi):
             if turn_up:
                 up = v + _TURN
                 v = xp.where((v < lo) & (up <= hi), up, v)
@@ -171,24 +173,62 @@ def solve(robot, family, flat):
     return q, reach, reach & inside, distance
 
 
-def _finish_floats(js, branch, ok, last):
-    """One branch of a family's float solution finished: ``(q, valid)``.
+@per_robot
+def _finished_solvers(robot):
+    """``{family: compiled function}`` of :func:`finished_solver` for ``robot`` (filled when asked)."""
+    return {}
 
-    ``last`` holds per joint the value finished last and its result (lists
-    ``(values, finished, inside)`` from :func:`_memo`): consecutive branches
-    share values (q1 of a shoulder side ...), which are then finished once.
+
+def finished_solver(robot, family):
+    """``t -> (q, reachable, valid, distance)`` of one target: every branch of ``family``, finished for ``robot``.
+
+    The family's formulas and :func:`finish` of every joint value of every
+    branch, compiled together into one straight-line function
+    (:func:`labkit.kinematics.ik._trace.compiled`; cached per robot and
+    family; where tracing fails the same code runs on
+    :data:`~labkit.kinematics.ik._xp.FLOATS`). ``family`` may be the solver
+    of an idealised copy of ``robot`` (the same joints and limits).
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm whose joints finish the values.
+    family : Family
+        A closed-form solver with ``scalar = True``.
+
+    Returns
+    -------
+    callable
+        Of one target (nested lists of floats,
+        :func:`labkit.kinematics.ik._targets.small_targets`), returning per
+        branch the finished joint values (lists of floats), whether it
+        reaches the target, whether it also lies inside the limits, and the
+        family's distance out of reach [m].
     """
-    values, finished, inside = last
-    for j, v in enumerate(branch):
-        if v is not values[j]:
-            values[j] = v
-            finished[j], inside[j] = finish(FLOATS, v, js[j])
-    return finished[:], ok and all(inside)
+    cache = _finished_solvers(robot)
+    try:
+        return cache[family]
+    except KeyError:
+        pass
+    js = joints(robot)
 
+    def solve_finished(xp, t):
+        qb, rb, d = family.solve(xp, t)
+        rows, valid = [], []
+        for branch, ok in zip(qb, rb):
+            row = []
+            for v, joint in zip(branch, js):
+                v, inside = finish(xp, v, joint)
+                row.append(v)
+                ok = ok & inside
+            rows.append(row)
+            valid.append(ok)
+        return rows, list(rb), valid, d
 
-def _memo(n):
-    """An empty ``last`` of :func:`_finish_floats` for ``n`` joints."""
-    return [None] * n, [None] * n, [None] * n
+    shape = (4, 4) if family.kind == "pose" else (len(_targets.COMPONENTS[family.kind]),)
+    f = compiled(solve_finished, (shape,), f"ik {family.name}, finished for {robot.name}")
+    f = cache[family] = f if f is not None else functools.partial(solve_finished, FLOATS)
+    return f
 
 
 def solve_floats(robot, family, targets):
@@ -209,15 +249,13 @@ def solve_floats(robot, family, targets):
     distance : list of float, shape (N,)
         As :func:`solve`.
     """
-    js, solve_one = joints(robot), floats_solver(family)
+    solve_one = finished_solver(robot, family)
     Q, R, V, D = [], [], [], []
     for t in targets:
-        qb, rb, d = solve_one(t)
-        last = _memo(len(js))
-        rows = [_finish_floats(js, branch, ok, last) for branch, ok in zip(qb, rb)]
-        Q.append([row for row, _ in rows])
+        rows, rb, valid, d = solve_one(t)
+        Q.append(rows)
         R.append(rb)
-        V.append([ok for _, ok in rows])
+        V.append(valid)
         D.append(0.0 if any(rb) else d)
     return Q, R, V, D
 
@@ -225,8 +263,9 @@ def solve_floats(robot, family, targets):
 def pick_floats(robot, family, targets, idx, q_near):
     """One solution per target on Python floats, as :func:`labkit.kinematics.ik` picks it, or None.
 
-    Only the branches the choice needs are finished: the one asked for, the
-    first valid one, or every one when the nearest to ``q_near`` is wanted.
+    Every branch is solved and finished by one compiled function
+    (:func:`finished_solver`), then the one asked for, the first valid one,
+    or the valid one nearest to ``q_near`` is taken.
 
     Parameters
     ----------
@@ -249,23 +288,18 @@ def pick_floats(robot, family, targets, idx, q_near):
         None when a target has no valid solution on the branch asked for (the
         batched path then says why).
     """
-    js, solve_one = joints(robot), floats_solver(family)
-    rev = [j[0] for j in js]
+    rev = [j[0] for j in joints(robot)]
+    solve_one = finished_solver(robot, family)
     out = []
     for t in targets:
-        qb, rb, _ = solve_one(t)
-        last = _memo(len(js))
+        rows, _, valid, _ = solve_one(t)
         if idx is not None:
-            row, ok = _finish_floats(js, qb[idx], rb[idx], last)
-            if not ok:
+            if not valid[idx]:
                 return None
-            out.append(row)
+            out.append(rows[idx])
             continue
         best, best_d = None, math.inf
-        for branch, reach in zip(qb, rb):
-            if not reach:
-                continue
-            row, ok = _finish_floats(js, branch, reach, last)
+        for row, ok in zip(rows, valid):  # (valid: reachable and inside the limits)
             if not ok:
                 continue
             if q_near is None:

@@ -36,13 +36,13 @@ from types import SimpleNamespace
 from labkit.kinematics.ik._targets import COMPONENTS
 from labkit.kinematics.ik._xp import FLOATS
 
-__all__ = ["TRACE", "floats_solver"]
+__all__ = ["TRACE", "compiled", "floats_solver"]
 
 #: the functions the generated code calls (bound as default arguments: local look-ups)
 _FUNCTIONS = {"_sqrt": math.sqrt, "_atan2": math.atan2, "_acos": math.acos, "_cos": math.cos, "_sin": math.sin,
-              "_abs": abs, "_hypot": math.hypot, "_isfinite": math.isfinite}
+              "_abs": abs, "_hypot": math.hypot, "_isfinite": math.isfinite, "_wrap": FLOATS.wrap}
 #: those that raise on some floats (kept even where nothing uses their value)
-_RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(")
+_RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(", "_wrap(")
 
 #: compiled functions per family solver (None: the family is not traceable)
 _COMPILED = weakref.WeakKeyDictionary()
@@ -187,20 +187,27 @@ TRACE = SimpleNamespace(
     minimum=_function("minimum", "{0} if {0} <= {1} else {1}", _choice),
     logical_not=_function("logical_not", "not {0}", lambda c: "bool"),
     isfinite=_function("isfinite", "_isfinite({0})", lambda x: "bool"),
+    wrap=_function("wrap", "_wrap({0})", lambda x: "float"),
     per_branch=FLOATS.per_branch, batch=False,
 )
 
 
-def _generate(family):
-    """Trace ``family.solve`` and compile it: ``(function, source)``; raises when it cannot be traced."""
+def _inputs(tape, shape):
+    """Symbols for one argument of ``shape`` (``()``: a float, ``(k,)``: a list, ``(k, l)``: nested lists) and the
+    generated code's name or unpacking target for it."""
+    if not shape:
+        s = tape.symbol("float")
+        return s, f"v{s.i}"
+    inner = [_inputs(tape, shape[1:]) for _ in range(shape[0])]
+    return [sym for sym, _ in inner], "(" + ", ".join(text for _, text in inner) + ",)"
+
+
+def _generate(fn, shapes, label):
+    """Trace ``fn(TRACE, *args)`` for arguments of ``shapes`` and compile it: ``(function, source)``; raises when
+    it cannot be traced."""
     tape = _Tape()
-    if family.kind == "pose":
-        t = [[tape.symbol("float") for _ in range(4)] for _ in range(4)]
-        unpack = ", ".join("(" + ", ".join(f"v{s.i}" for s in row) + ")" for row in t)
-    else:
-        t = [tape.symbol("float") for _ in COMPONENTS[family.kind]]
-        unpack = ", ".join(f"v{s.i}" for s in t) + ","
-    result = family.solve(TRACE, t)
+    inputs = [_inputs(tape, shape) for shape in shapes]
+    result = fn(TRACE, *(sym for sym, _ in inputs))
     bound, live = {}, set()
 
     def name(v):
@@ -218,7 +225,7 @@ def _generate(family):
         if isinstance(v, _Sym):
             live.add(v.i)
         elif _kind(v) == "other":
-            raise _Untraceable(f"solve returns a {type(v).__name__}")
+            raise _Untraceable(f"{label} returns a {type(v).__name__}")
         return name(v)
 
     returned = render(result)
@@ -240,11 +247,37 @@ def _generate(family):
             body.append(f"    v{sym.i} = {text}")
     used = [f for f in _FUNCTIONS if any(f + "(" in line for line in body)]
     bound.update({f: _FUNCTIONS[f] for f in used})
-    defaults = "".join(f", {k}={k}" for k in bound)
-    source = "\n".join([f"def solve(t{defaults}):", f"    {unpack} = t", *body, f"    return {returned}"])
+    params = [text if not shape else f"a{k}" for k, ((_, text), shape) in enumerate(zip(inputs, shapes))]
+    unpack = [f"    {text} = a{k}" for k, ((_, text), shape) in enumerate(zip(inputs, shapes)) if shape]
+    signature = ", ".join(params + [f"{k}={k}" for k in bound])
+    source = "\n".join([f"def compiled({signature}):", *unpack, *body, f"    return {returned}"])
     namespace = dict(bound)
-    exec(compile(source, f"<labkit ik {family.name}, {len(ops)} operations>", "exec"), namespace)
-    return namespace["solve"], source
+    exec(compile(source, f"<labkit {label}, {len(ops)} operations>", "exec"), namespace)
+    return namespace["compiled"], source
+
+
+def compiled(fn, shapes, label):
+    """``fn(FLOATS, *args)`` as one generated straight-line function of ``args``, or None where it cannot be traced.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(xp, *args)``, formulas written against an array namespace.
+    shapes : tuple of tuple
+        Per argument its nesting: ``()`` a float, ``(3,)`` a list of 3, ``(4, 4)`` 4 lists of 4.
+    label : str
+        Names the generated code (``<labkit {label}, N operations>``).
+
+    Returns
+    -------
+    callable or None
+        Taking the arguments as floats / nested lists of floats, returning
+        bit for bit what ``fn(FLOATS, *args)`` returns (raising where it raises).
+    """
+    try:
+        return _generate(fn, shapes, label)[0]
+    except Exception:  # anything tracing cannot record: the interpretive path computes (or raises) it
+        return None
 
 
 def floats_solver(family):
@@ -266,9 +299,6 @@ def floats_solver(family):
     try:
         f = _COMPILED[family]
     except KeyError:
-        try:
-            f, _ = _generate(family)
-        except Exception:  # anything tracing cannot record: the interpretive path computes (or raises) it
-            f = None
-        _COMPILED[family] = f
+        shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
+        f = _COMPILED[family] = compiled(family.solve, (shape,), f"ik {family.name}")
     return functools.partial(family.solve, FLOATS) if f is None else f
