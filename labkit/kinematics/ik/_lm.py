@@ -27,8 +27,8 @@ import numpy as np
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
 from labkit.kinematics.ik._targets import task_rows
+from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
-from labkit.rotations import wrap_angle
 
 
 def task_error(xp, kind, T, t, E, rows):
@@ -65,7 +65,7 @@ def task_error(xp, kind, T, t, E, rows):
     elif kind == "position":
         comp = (t[0] - T[0][3], t[1] - T[1][3], t[2] - T[2][3])
     else:  # planar: x, y and the heading
-        comp = (t[0] - T[0][3], t[1] - T[1][3], wrap_angle(t[2] - xp.arctan2(T[1][0], T[0][0])))
+        comp = (t[0] - T[0][3], t[1] - T[1][3], xp.wrap(t[2] - xp.arctan2(T[1][0], T[0][0])))
     e = list(comp) if slots is None else [comp[i] for i in slots]
     res2 = 0.0
     for i in squared:
@@ -372,6 +372,11 @@ class Floats(Batch):
         n = self.n
         self._spans = [(r * n, (r + 1) * n) for r in self.rows]
         self._n6 = 6 * n
+        # the task error of one pose, compiled into straight-line code (else the same on FLOATS)
+        target = (4, 4) if kind == "pose" else (len(task_rows(kind)),)
+        error = functools.partial(_one_error, kind=kind, rows=self.rows)
+        self._error = (compiled(lambda xp, pose, t: error(xp, pose, t), ((16,), target), f"ik {kind} error")
+                       or functools.partial(error, FLOATS))
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -409,16 +414,6 @@ class Floats(Batch):
     def bounds(self, lo, hi):
         return lo.tolist(), hi.tolist()
 
-    def _error(self, pose, t):
-        """:func:`task_error` on floats of one pose (its first 12 entries, row by row) against target ``t``."""
-        T = (pose[0:4], pose[4:8], pose[8:12])
-        E = None
-        if self.kind == "pose":  # R_t R^T: E[i][j] = t[i] . T[j] (rotation parts)
-            p0, p1, p2, _, p4, p5, p6, _, p8, p9, p10 = pose[:11]
-            E = [(a * p0 + b * p1 + c * p2, a * p4 + b * p5 + c * p6, a * p8 + b * p9 + c * p10)
-                 for a, b, c, _ in t[:3]]
-        return task_error(FLOATS, self.kind, T, t, E, self.rows)
-
     def converged(self, res, tol):
         done = [r < tol for r in res]
         return done, any(done), all(done)
@@ -446,6 +441,17 @@ class Floats(Batch):
 for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "converged", "moved", "accept"):
     getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
 del _name
+
+
+def _one_error(xp, pose, t, kind, rows):
+    """:func:`task_error` of one pose ``pose`` (its 16 entries row by row, as the per-robot programs give it)
+    against target ``t``, on components."""
+    T = (pose[0:4], pose[4:8], pose[8:12])
+    E = None
+    if kind == "pose":  # R_t R^T: E[i][j] = t[i] . T[j] (rotation parts)
+        p0, p1, p2, _, p4, p5, p6, _, p8, p9, p10 = pose[:11]
+        E = [(a * p0 + b * p1 + c * p2, a * p4 + b * p5 + c * p6, a * p8 + b * p9 + c * p10) for a, b, c, _ in t[:3]]
+    return task_error(xp, kind, T, t, E, rows)
 
 
 def _pose_error(xp, E, T, t):
