@@ -1,5 +1,6 @@
-"""The closed-form families compiled to straight-line Python (``ik/_trace.py``) return bit for bit what the
-interpretive float path returns, raise where it raises, and fall back to it where a family cannot be traced."""
+"""Formulas compiled to straight-line Python (``ik/_trace.py``): the closed-form families, finished, return bit
+for bit what the interpretive float path returns, raise where it raises, and fall back to it where a family cannot
+be traced; so do the task error and the ranking of numeric IK's starts."""
 
 import math
 import zlib
@@ -10,8 +11,9 @@ import pytest
 from labkit.kinematics import fk, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._solve import solve_floats
-from labkit.kinematics.ik._trace import floats_solver
+from labkit.kinematics.ik._targets import COMPONENTS
+from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
+from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS
 from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
 from labkit.robot import Robot
@@ -69,20 +71,33 @@ def test_variants_cover_every_float_family():
         "spherical_wrist"}
 
 
+def _family_compiled(family):
+    """The family's formulas alone, compiled (or None)."""
+    shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
+    return compiled(family.solve, (shape,), f"ik {family.name}")
+
+
 @pytest.mark.parametrize("name", sorted(VARIANTS))
 def test_compiled_equals_interpretive_bit_for_bit(name):
     robot = VARIANTS[name]
     family, _ = detect(robot)
-    f = floats_solver(family)
+    f = _family_compiled(family)
     assert f.__code__.co_filename.startswith(f"<labkit ik {family.name},")  # compiled, not the fallback
-    assert floats_solver(family) is f  # once per solver
+    done = finished_solver(robot, family)
+    assert done.__code__.co_filename.startswith(f"<labkit ik {family.name}, finished for")
+    assert finished_solver(robot, family) is done  # once per robot and solver
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     targets = _targets(robot, family, rng)
     diff = [t for t in targets if _outcome(f, t) != _outcome(lambda t: family.solve(FLOATS, t), t)]
     assert not diff, f"{len(diff)} of {len(targets)} targets differ, first {diff[0]}"
-    # the targets reach both the reachable and the unreachable branches
+    js = joints(robot)
+    diff = [t for t in targets if _outcome(done, t) != _outcome(lambda t: solve_finished(FLOATS, t, family, js), t)]
+    assert not diff, f"finished: {len(diff)} of {len(targets)} targets differ, first {diff[0]}"
+    # the targets reach both the reachable and the unreachable branches, inside and outside the limits
     reach = [r for t in targets for r in f(t)[1]]
     assert any(reach) and not all(reach)
+    valid = [v for t in targets for v in done(t)[2]]
+    assert any(valid) and not all(valid)
 
 
 def test_outcome_tells_signed_zeros_and_types_apart():
@@ -106,7 +121,7 @@ class _Raising(YawPitchPitch):
 
 def test_the_compiled_code_raises_where_floats_raises():
     family = _Raising(Robot.load("arduino_arm_3dof"), *_axes())
-    f = floats_solver(family)
+    f = _family_compiled(family)
     assert f.__code__.co_filename.startswith("<labkit ik")
     cases = [[1.0, 0.5, -0.0], [0.2, 0.5, 1.0], [1.0, 2.0, 1.0], [0.0, 0.5, 1.0], [0.7, -1.0, 3.0]]
     outcomes = [_outcome(f, t) for t in cases]
@@ -134,13 +149,16 @@ class _Converting(YawPitchPitch):
 def test_an_untraceable_family_keeps_the_interpretive_path(cls):
     robot = Robot.load("arduino_arm_3dof")
     family = cls(robot, *_axes())
-    f = floats_solver(family)
-    assert not hasattr(f, "__code__") and f.func == family.solve and f.args == (FLOATS,)
+    assert _family_compiled(family) is None
+    f = finished_solver(robot, family)
+    assert not hasattr(f, "__code__") and f.args == (FLOATS,)  # the interpretive path
     rng = np.random.default_rng(3)
     T = fk(robot, rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(50, 3)))
     targets = T[:, :3, 3].tolist()
     targets += [[x, y, -z] for x, y, z in targets]
-    assert [_outcome(f, t) for t in targets] == [_outcome(lambda t: family.solve(FLOATS, t), t) for t in targets]
+    js = joints(robot)
+    assert [_outcome(f, t) for t in targets] == [_outcome(lambda t: solve_finished(FLOATS, t, family, js), t)
+                                                 for t in targets]
     q, reach, _, _ = solve_floats(robot, family, targets)
     expected = [family.solve(FLOATS, t) for t in targets]
     assert reach == [r for _, r, _ in expected]

@@ -130,29 +130,31 @@ def step(J, e, lam, eye, solve=np.linalg.solve):
         The identity of the smaller side ``k = min(m, n)``.
     solve : callable
         ``solve(A, b)`` for ``A`` (..., k, k), ``b`` (..., k, 1):
-        ``numpy.linalg.solve`` for a batch, :func:`_solve_spd` for one target
-        (no leading axes).
+        ``numpy.linalg.solve`` for a batch; :func:`_solve_spd` for one target
+        (no leading axes, ``b`` (k,)).
 
     Returns
     -------
     ndarray, shape (..., n)
         Joint step [rad, m].
     """
-    Jt = J.swapaxes(-1, -2)
-    # (one target: matrix products as ndarray.dot, which costs half of @ on a small matrix)
-    mul = np.matmul if J.ndim > 2 else np.ndarray.dot
-    damping = (lam[..., None, None] if isinstance(lam, np.ndarray) else lam) * eye
+    if J.ndim == 2:  # one target: ndarray.dot (half the cost of @ on a small matrix), vectors as they are
+        mul, Jt, e, damping = np.ndarray.dot, J.T, e, lam * eye
+    else:
+        mul, Jt, e, damping = np.matmul, J.swapaxes(-1, -2), e[..., None], lam[..., None, None] * eye
     if J.shape[-2] < J.shape[-1]:
         A = mul(J, Jt)
         A += damping
-        return mul(Jt, solve(A, e[..., None]))[..., 0]
-    A = mul(Jt, J)
-    A += damping
-    return solve(A, mul(Jt, e[..., None]))[..., 0]
+        x = mul(Jt, solve(A, e))
+    else:
+        A = mul(Jt, J)
+        A += damping
+        x = solve(A, mul(Jt, e))
+    return x if J.ndim == 2 else x[..., 0]
 
 
 def _solve_spd(A, b):
-    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m, k): LAPACK's Cholesky solve.
+    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m,): LAPACK's Cholesky solve.
 
     ``numpy.linalg.solve`` costs several times more than the arithmetic on a
     6 x 6 system; LAPACK ``dposv`` (through scipy) is called directly, and

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 
 import numpy as np
@@ -296,8 +297,9 @@ def _seeds_floats(robot, family, kind, target, exact):
             res = ops.residuals(seeds[:2], [t, t])
             if _second_first(*res, ranks[order[0]], ranks[order[1]]):
                 seeds[:2] = seeds[1::-1]
-        out.append(seeds)
-    return np.array(out, dtype=float)
+        out.extend(seeds)
+    # (from the rows' floats in order: less than half the cost of numpy.array on nested lists)
+    return np.fromiter(itertools.chain.from_iterable(out), float, len(out) * robot.n).reshape(-1, len(ranks), robot.n)
 
 
 def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):

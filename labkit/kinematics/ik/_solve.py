@@ -206,29 +206,50 @@ def finished_solver(robot, family):
         family's distance out of reach [m].
     """
     cache = _finished_solvers(robot)
-    try:
-        return cache[family]
-    except KeyError:
-        pass
-    js = joints(robot)
-
-    def solve_finished(xp, t):
-        qb, rb, d = family.solve(xp, t)
-        rows, valid = [], []
-        for branch, ok in zip(qb, rb):
-            row = []
-            for v, joint in zip(branch, js):
-                v, inside = finish(xp, v, joint)
-                row.append(v)
-                ok = ok & inside
-            rows.append(row)
-            valid.append(ok)
-        return rows, list(rb), valid, d
-
-    shape = (4, 4) if family.kind == "pose" else (len(_targets.COMPONENTS[family.kind]),)
-    f = compiled(solve_finished, (shape,), f"ik {family.name}, finished for {robot.name}")
-    f = cache[family] = f if f is not None else functools.partial(solve_finished, FLOATS)
+    f = cache.get(family)
+    if f is None:
+        shape = (4, 4) if family.kind == "pose" else (len(_targets.COMPONENTS[family.kind]),)
+        finished = functools.partial(solve_finished, family=family, js=joints(robot))
+        f = (compiled(lambda xp, t: finished(xp, t), (shape,), f"ik {family.name}, finished for {robot.name}")
+             or functools.partial(finished, FLOATS))
+        cache[family] = f
     return f
+
+
+def solve_finished(xp, t, family, js):
+    """Every branch of ``family`` for target ``t``, finished (the function :func:`finished_solver` compiles).
+
+    Parameters
+    ----------
+    xp : namespace
+        Array namespace of the target's components.
+    t : sequence
+        The target's components (``t[i]``, or ``t[i][j]`` for a pose).
+    family : Family
+        The closed-form solver.
+    js : tuple
+        :func:`joints` of the robot.
+
+    Returns
+    -------
+    q : list of list
+        Per branch the finished joint values [rad, m].
+    reachable, valid : list
+        Per branch whether it reaches the target, and also lies inside the limits.
+    distance : float or ndarray
+        The family's distance out of reach [m].
+    """
+    qb, rb, d = family.solve(xp, t)
+    rows, valid = [], []
+    for branch, ok in zip(qb, rb):
+        row = []
+        for v, joint in zip(branch, js):
+            v, inside = finish(xp, v, joint)
+            row.append(v)
+            ok = ok & inside
+        rows.append(row)
+        valid.append(ok)
+    return rows, list(rb), valid, d
 
 
 def solve_floats(robot, family, targets):

@@ -8,12 +8,14 @@ Every solver, closed-form or numeric, takes its targets through
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics.ik._geometry import _cross, _dot
+from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 from labkit.validation import as_batch
 
@@ -127,8 +129,8 @@ def validate_targets(target, kind):
         T = as_batch(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        if T.shape[0] <= SMALL_TARGETS:  # the same test on floats, pose by pose
-            defects = [_rigid_defects(FLOATS, t) for t in T.tolist()]
+        if T.shape[0] <= SMALL_TARGETS:  # the same test on floats, pose by pose (compiled)
+            defects = list(map(_rigid_defects_floats(), T.tolist()))
             bad = [i for i, d in enumerate(defects) if _is_bad(*d)]
         else:
             defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
@@ -175,6 +177,12 @@ def _rigid_defects(xp, t):
     for e in t[3][:3]:
         last = xp.maximum(last, xp.abs(e))
     return err, _dot(_cross(c0, c1), c2), last
+
+
+@functools.cache
+def _rigid_defects_floats():
+    """:func:`_rigid_defects` of one pose (4 lists of 4 floats), compiled into straight-line code when first used."""
+    return compiled(_rigid_defects, ((4, 4),), "ik rigid-transform test") or functools.partial(_rigid_defects, FLOATS)
 
 
 def _is_bad(err, det, last):

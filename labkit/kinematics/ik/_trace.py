@@ -1,17 +1,18 @@
-"""A closed-form family's float formulas compiled per robot into straight-line Python (private).
+"""Formulas written against an array namespace, compiled into straight-line Python for floats (private).
 
-A family's ``solve(xp, t)`` (:mod:`labkit.kinematics.ik._family`) is written
-once against an array namespace. On :data:`~labkit.kinematics.ik._xp.FLOATS`
-most of one target's time goes to interpreting it (attribute look-ups, calls of
-small helpers, tuples built and unpacked, loops over branches), not to the
-arithmetic. :func:`floats_solver` runs the formulas once on :data:`TRACE`,
-whose values are symbols recording every operation on them, and turns the
-record into one generated Python function of the target, one line per
-operation (``v12 = v3 * v7``, ``v13 = _atan2(v12, v9)``,
-``v14 = v5 if v13 else v6``), returning the structure ``solve`` returns. It is
-compiled lazily, once per family solver (the registry caches one per robot).
+The closed-form families (:mod:`labkit.kinematics.ik._family`), the finishing
+step, the ranking of numeric IK's starts and the task error are written once
+against an array namespace ``xp``. On :data:`~labkit.kinematics.ik._xp.FLOATS`
+most of one target's time goes to interpreting them (attribute look-ups, calls
+of small helpers, tuples built and unpacked, loops over branches and joints),
+not to the arithmetic. :func:`compiled` runs such a function once on
+:data:`TRACE`, whose values are symbols recording every operation on them, and
+turns the record into one generated Python function of the same arguments, one
+line per operation (``v12 = v3 * v7``, ``v13 = _atan2(v12, v9)``,
+``v14 = v5 if v13 else v6``), returning the structure the function returns.
+Callers compile once per robot (or solver) and keep the result.
 
-The function computes bit for bit what ``solve(FLOATS, t)`` computes: the same
+The function computes bit for bit what ``fn(FLOATS, ...)`` computes: the same
 functions (``math.sqrt`` ..., raising where they raise) on the same operands in
 the association the formulas wrote. The only rewrites are those that cannot
 change a bit: an operation on constants is computed while tracing (as FLOATS
@@ -21,22 +22,20 @@ once, and a value nothing uses is dropped unless its operation can raise.
 ``x + 0.0`` and ``x * 0.0`` stay (``-0.0 + 0.0`` is ``+0.0``, ``inf * 0.0``
 NaN).
 
-Family code never branches on a value (it also runs on numpy rows). If one does
+Such code never branches on a value (it also runs on numpy rows). If it does
 (a symbol's ``__bool__``) or uses anything :data:`TRACE` lacks, tracing stops
-and that family keeps the interpretive FLOATS path: never a wrong answer.
+and :func:`compiled` returns None: the caller keeps the interpretive FLOATS
+path, never a wrong answer.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-import weakref
 from types import SimpleNamespace
 
-from labkit.kinematics.ik._targets import COMPONENTS
 from labkit.kinematics.ik._xp import FLOATS
 
-__all__ = ["TRACE", "compiled", "floats_solver"]
+__all__ = ["TRACE", "compiled"]
 
 #: the functions the generated code calls (bound as default arguments: local look-ups)
 _FUNCTIONS = {"_sqrt": math.sqrt, "_atan2": math.atan2, "_acos": math.acos, "_cos": math.cos, "_sin": math.sin,
@@ -44,8 +43,6 @@ _FUNCTIONS = {"_sqrt": math.sqrt, "_atan2": math.atan2, "_acos": math.acos, "_co
 #: those that raise on some floats (kept even where nothing uses their value)
 _RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(", "_wrap(")
 
-#: compiled functions per family solver (None: the family is not traceable)
-_COMPILED = weakref.WeakKeyDictionary()
 #: the kind of a constant operand, by type
 _CONSTANT_KINDS = {float: "float", int: "float", bool: "bool"}
 
@@ -278,27 +275,3 @@ def compiled(fn, shapes, label):
         return _generate(fn, shapes, label)[0]
     except Exception:  # anything tracing cannot record: the interpretive path computes (or raises) it
         return None
-
-
-def floats_solver(family):
-    """``t -> family.solve(FLOATS, t)`` for one target, compiled on first use (cached per solver object).
-
-    Parameters
-    ----------
-    family : Family
-        A closed-form solver with ``scalar = True``.
-
-    Returns
-    -------
-    callable
-        The generated function of one target (nested lists of floats, as
-        :func:`labkit.kinematics.ik._targets.small_targets` gives them), or
-        ``family.solve`` on :data:`~labkit.kinematics.ik._xp.FLOATS` where the
-        family cannot be traced; either returns what ``family.solve(FLOATS, t)`` returns.
-    """
-    try:
-        f = _COMPILED[family]
-    except KeyError:
-        shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
-        f = _COMPILED[family] = compiled(family.solve, (shape,), f"ik {family.name}")
-    return functools.partial(family.solve, FLOATS) if f is None else f
