@@ -11,7 +11,10 @@ import pytest
 from labkit.kinematics import fk, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._targets import COMPONENTS
+from labkit.kinematics._forward import fk_floats
+from labkit.kinematics.ik._lm import Floats, _one_error, arithmetic
+from labkit.kinematics.ik._numeric import _ranked, _ranking
+from labkit.kinematics.ik._targets import COMPONENTS, _rigid_defects, _rigid_defects_floats
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS
@@ -162,3 +165,74 @@ def test_an_untraceable_family_keeps_the_interpretive_path(cls):
     q, reach, _, _ = solve_floats(robot, family, targets)
     expected = [family.solve(FLOATS, t) for t in targets]
     assert reach == [r for _, r, _ in expected]
+
+
+def _rotation(axis, angle):
+    """A rotation matrix about a unit axis."""
+    k = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+@pytest.mark.parametrize("name, kind, rows", [
+    ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
+    ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
+def test_compiled_task_error_equals_interpretive(name, kind, rows):
+    robot = Robot.load(name)
+    ops = arithmetic(robot)[Floats, kind, rows]
+    assert ops._error.__code__.co_filename.startswith(f"<labkit ik {kind} error")  # compiled
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    q = rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(60, robot.n))
+    T = fk(robot, q)
+    poses = [fk_floats(robot)(qk) for qk in q.tolist()]
+    # targets: the pose itself (no error, no rotation), moved, turned a little, turned by pi (the robust angle)
+    goal = T.copy()
+    goal[20:, :3, 3] += rng.normal(0.0, 0.01, size=(40, 3))
+    for k in range(20, 60):
+        goal[k, :3, :3] = _rotation(rng.normal(size=3), 0.3 if k < 40 else math.pi - 1e-9 * (k - 40)) @ T[k, :3, :3]
+    if kind == "pose":
+        targets = goal.tolist()
+    elif kind == "position":
+        targets = goal[:, :3, 3].tolist()
+    else:
+        targets = np.stack([goal[:, 0, 3], goal[:, 1, 3], np.arctan2(goal[:, 1, 0], goal[:, 0, 0]) + 7.0], 1).tolist()
+    got = [_outcome(lambda a: ops._error(*a), (p, t)) for p, t in zip(poses, targets)]
+    assert got == [_outcome(lambda a: _one_error(FLOATS, *a, kind, rows), (p, t)) for p, t in zip(poses, targets)]
+    assert len(set(got[20:])) == 40  # (distinct errors where the target differs: the comparison sees them)
+
+
+@pytest.mark.parametrize("name", ["puma560", "arduino_arm_3dof", "planar3r_seed003"])
+@pytest.mark.parametrize("exact", [True, False])
+def test_compiled_ranking_of_starts_equals_interpretive(name, exact):
+    robot = Robot.load(name)
+    m = 8
+    rank = _ranking(robot, exact, m)
+    assert rank.__code__.co_filename.startswith("<labkit ik starts")
+    lim = robot.joint_limits
+    rng = np.random.default_rng(5)
+    cases = []
+    for _ in range(50):
+        rows = rng.uniform(lim[:, 0] - 0.5, lim[:, 1] + 0.5, size=(m, robot.n))
+        rows[rng.random(size=rows.shape) < 0.5] = 0.0  # many inside the limits
+        cases.append((rows.tolist(), (rng.random(m) < 0.7).tolist()))
+    lo, hi = lim[:, 0].tolist(), lim[:, 1].tolist()
+    got = [_outcome(lambda a: rank(*a), c) for c in cases]
+    assert got == [_outcome(lambda a: _ranked(FLOATS, lo, hi, exact, *a), c) for c in cases]
+    ranks = [r for c in cases for r in rank(*c)[1]]
+    if exact:  # a start or none
+        assert set(ranks) == {0.0, math.inf}
+    else:  # inside the limits, how far outside, out of reach
+        assert 0.0 in ranks and any(0.0 < r < 1e3 for r in ranks) and any(r >= 1e3 for r in ranks)
+
+
+def test_compiled_rigid_transform_test_equals_interpretive():
+    rng = np.random.default_rng(11)
+    T = fk(Robot.load("puma560"), rng.uniform(-2, 2, size=(40, 6)))
+    T[10:20, :3, :3] *= 1.0 + 1e-5  # not orthonormal
+    T[20:30, :3, 0] *= -1.0  # a reflection
+    T[30:, 3, :3] = 1e-9  # last row off
+    f = _rigid_defects_floats()
+    assert f.__code__.co_filename.startswith("<labkit ik rigid-transform test")
+    got = [_outcome(f, t) for t in T.tolist()]
+    assert got == [_outcome(lambda t: _rigid_defects(FLOATS, t), t) for t in T.tolist()]
+    assert len(set(got)) > 30  # (the comparison sees the defects)
