@@ -417,7 +417,7 @@ class Floats(Batch):
         return lo.tolist(), hi.tolist()
 
     def converged(self, res, tol):
-        done = [r < tol for r in res]
+        done = list(map(float(tol).__gt__, res))  # (r < tol for each float residual r)
         return done, any(done), all(done)
 
     def moved(self, q, J, e, lam, lo, hi):

@@ -441,7 +441,8 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
-        qa, tg, lam = ops.enter(q[act], target[act], np.where(near[act], lam_near, lam0))
+        sel = slice(None) if act.size == N else act  # (every target: views of the targets, not copies)
+        qa, tg, lam = ops.enter(q[act], target[sel], np.where(near[sel], lam_near, lam0))
         J, e, res, E = ops.evaluate(qa, tg)
         E_check = E.copy()
         it = 0
@@ -450,10 +451,11 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             check = it % check_every == 0
             early = it == check_every // 2  # a closed-form start converges in a few steps, or is the wrong branch
             if all_done and not free:  # every active row converged (one target: the usual end)
-                q[act] = qa
-                success[act] = True
-                residual[act] = res
-                iterations[act] += it - 1
+                sel = slice(None) if act.size == N else act
+                q[sel] = qa
+                success[sel] = True
+                residual[sel] = res
+                iterations[sel] += it - 1
                 if group > 1:
                     group_done[act // group] = True
                 act = act[:0]
