@@ -73,7 +73,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
     rng = np.random.default_rng(31)
     lim = robot.joint_limits
     T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
-    starts = _ik_numeric.analytic_seeds(robot, "pose", T, rng)
+    starts = _ik_numeric.analytic_seeds(robot, "pose", T, rng).all
     assert starts.shape == (300, 8, 6)
     assert (~np.isnan(starts[:, 0, 0])).mean() > 0.9  # nearly every target has a start
     off = np.abs(fk(robot, np.nan_to_num(starts[:, 0]))[:, :3, 3] - T[:, :3, 3]).max(axis=1)
@@ -174,3 +174,27 @@ def test_a_batch_down_to_a_few_targets_finishes_on_floats(bent, monkeypatch):
     res = ik_numeric(bent, T)
     assert res.success.all() and np.abs(fk(bent, res.q) - T).max() < 1e-9
     assert calls and max(calls) <= _ik_numeric.FLOAT_TARGETS  # the tail only, never the whole batch
+
+
+@pytest.mark.parametrize("make", [lambda: Robot.load("puma560").with_link(4, a=0.002), lambda: Robot.load("puma560"),
+                                  lambda: Robot.load("arduino_arm_3dof").with_link(1, d=0.004)])
+def test_starts_of_one_target_on_floats_are_those_of_the_batch(make):
+    # one target solves only the branches its first start needs (lazily, the rest when a restart asks):
+    # the same starts, in the same order, as a batch ranks them on numpy rows
+    robot = make()
+    kind = "pose" if robot.n == 6 else "position"
+    rng = np.random.default_rng(17)
+    lim = robot.joint_limits
+    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(120, robot.n)))
+    T[100:, :3, 3] *= 2.5  # out of reach: every branch solved and ranked
+    target = T if kind == "pose" else T[:, :3, 3]
+    batch = _ik_numeric.analytic_seeds(robot, kind, target, rng)
+    ones = [_ik_numeric.analytic_seeds(robot, kind, target[k:k + 1], rng) for k in range(len(target))]
+    first = np.concatenate([s.first for s in ones])
+    assert np.array_equal(first, batch.first, equal_nan=True)
+    assert np.array_equal(np.concatenate([s.all for s in ones]), batch.all, equal_nan=True)
+    assert np.array_equal(batch.all[:, 0], batch.first, equal_nan=True)
+    if _ik_numeric.detect(robot)[0] is not None:  # its own closed form: out of reach, no start
+        assert np.isnan(first[100:]).any() and np.isfinite(first[:100]).all()
+    else:  # an idealised copy's: every branch is a start
+        assert np.isfinite(first).all()

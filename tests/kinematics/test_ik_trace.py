@@ -2,6 +2,7 @@
 for bit what the interpretive float path returns, raise where it raises, and fall back to it where a family cannot
 be traced; so do the task error and the ranking of numeric IK's starts."""
 
+import inspect
 import math
 import zlib
 
@@ -13,7 +14,7 @@ from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics._forward import fk_floats
 from labkit.kinematics.ik._lm import Floats, _one_error, arithmetic
-from labkit.kinematics.ik._numeric import _ranked, _ranking
+from labkit.kinematics.ik._numeric import _branch_starts, _ranked, _seeder, near_family
 from labkit.kinematics.ik._targets import COMPONENTS, _rigid_defects, _rigid_defects_floats
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
 from labkit.kinematics.ik._trace import compiled
@@ -206,16 +207,16 @@ def test_compiled_task_error_equals_interpretive(name, kind, rows):
 def test_compiled_ranking_of_starts_equals_interpretive(name, exact):
     robot = Robot.load(name)
     m = 8
-    rank = _ranking(robot, exact, m)
-    assert rank.__code__.co_filename.startswith("<labkit ik starts")
     lim = robot.joint_limits
+    lo, hi = lim[:, 0].tolist(), lim[:, 1].tolist()
+    rank = compiled(lambda xp, rows, reach: _ranked(xp, lo, hi, exact, rows, reach), ((m, robot.n), (m,)), "ranks")
+    assert rank.__code__.co_filename.startswith("<labkit ranks")
     rng = np.random.default_rng(5)
     cases = []
     for _ in range(50):
         rows = rng.uniform(lim[:, 0] - 0.5, lim[:, 1] + 0.5, size=(m, robot.n))
         rows[rng.random(size=rows.shape) < 0.5] = 0.0  # many inside the limits
         cases.append((rows.tolist(), (rng.random(m) < 0.7).tolist()))
-    lo, hi = lim[:, 0].tolist(), lim[:, 1].tolist()
     got = [_outcome(lambda a: rank(*a), c) for c in cases]
     assert got == [_outcome(lambda a: _ranked(FLOATS, lo, hi, exact, *a), c) for c in cases]
     ranks = [r for c in cases for r in rank(*c)[1]]
@@ -223,6 +224,47 @@ def test_compiled_ranking_of_starts_equals_interpretive(name, exact):
         assert set(ranks) == {0.0, math.inf}
     else:  # inside the limits, how far outside, out of reach
         assert 0.0 in ranks and any(0.0 < r < 1e3 for r in ranks) and any(r >= 1e3 for r in ranks)
+
+
+@pytest.mark.parametrize("name", ["puma560", "puma560+a5", "arduino_arm_3dof+d2", "planar3r_seed003"])
+def test_staged_starts_yield_the_branches_in_turn_bit_for_bit(name):
+    robot = Robot.load(name.split("+")[0])
+    if name.endswith("+a5"):
+        robot = robot.with_link(4, a=0.002)
+    elif name.endswith("+d2"):
+        robot = robot.with_link(1, d=robot.links[1].d + 0.004)
+    family, _ = detect(robot)
+    exact = family is not None
+    if not exact:
+        _, family = near_family(robot)
+    seeder = _seeder(robot, family, exact)
+    code = seeder.__code__
+    assert code.co_filename.startswith("<labkit ik starts") and code.co_flags & inspect.CO_GENERATOR
+    lim = np.clip(robot.joint_limits, -4.0, 4.0)
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(60, robot.n)))
+    T[40:, :3, 3] *= 3.0  # out of reach
+    targets = T.tolist() if family.kind == "pose" else target_from_pose(robot, T).tolist()
+    lo, hi = robot.joint_limits[:, 0].tolist(), robot.joint_limits[:, 1].tolist()
+    for t in targets:
+        branches = seeder(t)
+        first = next(branches)  # one branch computed
+        expected = _branch_starts(FLOATS, t, family, joints(robot), lo, hi, exact)
+        assert repr([first, *branches]) == repr(expected)
+    assert any(r == 0.0 for t in targets for _, r in seeder(t)) and any(r != 0.0 for t in targets for _, r in seeder(t))
+
+
+def test_a_stage_not_asked_for_is_not_computed():
+    def fn(xp, x):
+        return [x + 1.0, xp.sqrt(x) * 2.0, xp.cos(x) - 1.0]
+
+    gen = compiled(fn, ((),), "stages", stages=True)
+    it = gen(4.0)
+    assert next(it) == 5.0 and list(it) == [4.0, math.cos(4.0) - 1.0]
+    it = gen(-1.0)
+    assert next(it) == 0.0  # the square root of -1 (raising) is the second stage's: not computed yet
+    with pytest.raises(ValueError):
+        next(it)
 
 
 def test_compiled_rigid_transform_test_equals_interpretive():

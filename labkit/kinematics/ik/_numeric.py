@@ -39,8 +39,8 @@ import numpy as np
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._solve import finish_all, finished_solver, solve as solve_family
-from labkit.kinematics.ik._targets import SMALL_TARGETS, task_rows
+from labkit.kinematics.ik._solve import finish_all, joints, solve as solve_family, solve_finished
+from labkit.kinematics.ik._targets import COMPONENTS, SMALL_TARGETS, task_rows
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 
@@ -179,10 +179,13 @@ def analytic_seeds(robot, kind, target, rng):
 
     Returns
     -------
-    ndarray, shape (N, m, n), or None
-        Starting configurations [rad, m], best first; rows of NaN after a
+    Starts or None
+        Starting configurations [rad, m]: ``first`` (N, n) each target's best
+        and ``all`` (N, m, n) every one, best first, with rows of NaN after a
         target's last usable start (all NaN: no start, :func:`solve` draws a
-        random one). None when no closed form applies.
+        random one). A few targets on floats solve only the branches their
+        first start needs, the rest when ``all`` is read
+        (:func:`_seeds_floats`). None when no closed form applies.
     """
     found, _ = detect(robot)
     exact = found is not None  # the robot's own family (else its idealised copy's)
@@ -210,7 +213,7 @@ def analytic_seeds(robot, kind, target, rng):
         top = rank[rows, order[:, :2]]
         swap = _second_first(res[:, 0], res[:, 1], top[:, 0], top[:, 1])
         seeds[swap, :2] = seeds[swap, 1::-1]
-    return seeds
+    return Starts(seeds[:, 0], lambda: seeds)
 
 
 def _ranked(xp, lo, hi, exact, rows, reach):
@@ -261,45 +264,113 @@ def _second_first(res0, res1, rank0, rank1):
     return res1 + rank1 < res0 + rank0
 
 
+class Starts:
+    """Ranked starting configurations of targets (:func:`analytic_seeds`): the best at once, the others when asked.
+
+    Parameters
+    ----------
+    first : ndarray, shape (N, n)
+        Each target's best start [rad, m] (NaN: none).
+    complete : callable
+        ``complete() -> ndarray (N, m, n)``, every start, best first (``first``
+        is ``[:, 0]``); called once, when a restart first needs them.
+    """
+
+    def __init__(self, first, complete):
+        self.first = first
+        self._complete = complete
+        self._all = None
+
+    @property
+    def all(self):
+        """ndarray, shape (N, m, n): every start [rad, m], best first; rows of NaN after a target's last one."""
+        if self._all is None:
+            self._all = self._complete()
+        return self._all
+
+
+def _branch_starts(xp, t, family, js, lo, hi, exact):
+    """Per branch of ``family`` for target ``t``: its start and rank (:func:`_ranked` of the finished branches).
+
+    Compiled by :func:`_seeder` into a generator of the branches in turn.
+    """
+    rows, reach, _, _ = solve_finished(xp, t, family, js)
+    starts, ranks = _ranked(xp, lo, hi, exact, rows, reach)
+    return list(zip(starts, ranks))
+
+
 @per_robot
-def _rankings(robot):
-    """``{(exact, m): compiled ranking}`` of :func:`_ranking` for ``robot`` (filled when asked)."""
+def _seeders(robot):
+    """``{(family, exact): seeder}`` of :func:`_seeder` for ``robot`` (filled when asked)."""
     return {}
 
 
-def _ranking(robot, exact, m):
-    """:func:`_ranked` of ``m`` branches of ``robot`` on floats, compiled: ``(rows, reach) -> (starts, ranks)``."""
-    cache = _rankings(robot)
-    f = cache.get((exact, m))
+def _seeder(robot, family, exact):
+    """``t -> iterator of (start, rank)``, branch by branch: :func:`_branch_starts` compiled in stages (a branch's
+    formulas run when it is asked for), else on FLOATS."""
+    cache = _seeders(robot)
+    f = cache.get((family, exact))
     if f is None:
         lim = _limits(robot)
-        ranked = functools.partial(_ranked, lo=lim.lo.tolist(), hi=lim.hi.tolist(), exact=exact)
-        f = compiled(lambda xp, rows, reach: ranked(xp, rows=rows, reach=reach), ((m, robot.n), (m,)),
-                     f"ik starts of {robot.name}")
-        f = cache[exact, m] = f or (lambda rows, reach: ranked(FLOATS, rows=rows, reach=reach))
+        starts = functools.partial(_branch_starts, family=family, js=joints(robot), lo=lim.lo.tolist(),
+                                   hi=lim.hi.tolist(), exact=exact)
+        shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
+        f = (compiled(lambda xp, t: starts(xp, t), (shape,), f"ik starts of {robot.name}", stages=True)
+             or (lambda t: iter(starts(FLOATS, t))))
+        cache[family, exact] = f
     return f
 
 
 def _seeds_floats(robot, family, kind, target, exact):
-    """:func:`analytic_seeds` of a few targets on floats: the family's finished branches, their ranks and the
-    swap of the two best starts, each compiled or on lists (no array until the seeds)."""
-    solve_one = finished_solver(robot, family)
-    rank = _ranking(robot, exact, len(family.branches))
+    """:func:`analytic_seeds` of a few targets on floats, lazily: the first start of each target from as few
+    branches as decide it, the rest when a restart asks for them.
+
+    The best start is a branch of rank 0 (reachable, inside the limits); the
+    first such branches in order are the best ones (the ranking is stable),
+    so a target's branches are solved until one of them (the robot's own
+    family) or two (an idealised copy's: the real arm's residuals order
+    those two) are found, and all of them only where fewer exist.
+    """
+    seeder = _seeder(robot, family, exact)
+    m, n = len(family.branches), robot.n
     ops = arithmetic(robot)[Floats, kind, task_rows(kind)]
-    nan_row = [math.nan] * robot.n
-    out = []
+    wanted = 1 if exact or m == 1 else 2
+    firsts, pending = [], []
     for t in target.tolist():
-        rows, reach, _, _ = solve_one(t)
-        starts, ranks = rank(rows, reach)
-        order = sorted(range(len(ranks)), key=ranks.__getitem__)  # (stable, as argsort(kind="stable"))
-        seeds = [starts[i] if ranks[i] != math.inf else nan_row for i in order] if exact else [starts[i] for i in order]
-        if not exact and len(seeds) > 1:
-            res = ops.residuals(seeds[:2], [t, t])
-            if _second_first(*res, ranks[order[0]], ranks[order[1]]):
-                seeds[:2] = seeds[1::-1]
-        out.extend(seeds)
-    # (from the rows' floats in order: less than half the cost of numpy.array on nested lists)
-    return np.fromiter(itertools.chain.from_iterable(out), float, len(out) * robot.n).reshape(-1, len(ranks), robot.n)
+        branches = seeder(t)
+        got, zeros = [], []
+        for start, rank in branches:
+            got.append((start, rank))
+            if rank == 0.0:
+                zeros.append(len(got) - 1)
+                if len(zeros) == wanted:
+                    break
+        top = zeros if len(zeros) == wanted else None  # (else every branch is solved: sorted below)
+        if top is None:
+            top = sorted(range(len(got)), key=lambda i: got[i][1])[:wanted]  # (stable, as argsort(kind="stable"))
+        swap = (not exact and len(top) == 2
+                and _second_first(*ops.residuals([got[i][0] for i in top], [t, t]), got[top[0]][1], got[top[1]][1]))
+        best = got[top[1] if swap else top[0]]
+        firsts.append(best[0] if best[1] != math.inf else [math.nan] * n)
+        pending.append((branches, got, swap))
+
+    def complete():
+        rows = []
+        for branches, got, swap in pending:
+            got += branches  # (the branches not solved yet)
+            order = sorted(range(m), key=lambda i: got[i][1])
+            if swap:
+                order[:2] = order[1::-1]
+            rows += [got[i][0] if got[i][1] != math.inf else [math.nan] * n for i in order]
+        return _floats_array(rows, (-1, m, n))
+
+    return Starts(_floats_array(firsts, (-1, n)), complete)
+
+
+def _floats_array(rows, shape):
+    """Lists of floats as one array of ``shape`` (from the floats in order: less than half the cost of
+    ``numpy.array`` on nested lists)."""
+    return np.fromiter(itertools.chain.from_iterable(rows), float, sum(map(len, rows))).reshape(shape)
 
 
 def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
@@ -348,7 +419,7 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     if q0 is None:
         starts = analytic_seeds(robot, kind, target, rng)
         if starts is not None:
-            q0 = starts[:, 0]  # (_attempts copies it)
+            q0 = starts.first  # (_attempts copies it)
             none = np.isnan(q0[:, 0])
             if none.any():
                 q0 = q0.copy()
@@ -396,9 +467,9 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     ``robot``, ``kind``, ``target``, ``rows``, ``tol``, ``max_iter``,
     ``restarts`` and ``rng`` are those of :func:`solve`; ``q0`` (N, n) or None
     (random in-limit starts); ``group`` is the size of the groups of copies of
-    one target (1: every row its own); ``starts`` (N, m, n), optional, the
-    ranked starts of :func:`analytic_seeds`: attempt ``k < m`` restarts a
-    target from ``starts[:, k]`` where that is not NaN, else randomly.
+    one target (1: every row its own); ``starts`` (:class:`Starts`), optional,
+    the ranked starts of :func:`analytic_seeds`: attempt ``k < m`` restarts a
+    target from ``starts.all[:, k]`` where that is not NaN, else randomly.
     Returns ``(q, success, iterations, residual)`` as :func:`solve`.
     """
     N = target.shape[0]
@@ -408,7 +479,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     lo, hi = lim.lo, lim.hi
     # (minimum of maximum: np.clip's result, with fewer calls; a new array either way)
     q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.minimum(np.maximum(q0, lo), hi)
-    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts[:, 0, 0])  # started from a closed form
+    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts.first[:, 0])  # from a closed form
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
@@ -433,10 +504,10 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         if attempt > 0:
             q[act] = _random_q(rng, robot.joint_limits, act.size)
             near[act] = False
-            if starts is not None and attempt < 2 * starts.shape[1]:
+            if starts is not None and attempt < 2 * starts.all.shape[1]:
                 # the next closed-form start, jittered by a few degrees (two starts of an idealised copy can
                 # coincide, and one on the far side of a stretched elbow crawls): no luck twice round, random
-                nxt = starts[act, (attempt - 1) // 2 if attempt % 2 else attempt // 2]
+                nxt = starts.all[act, (attempt - 1) // 2 if attempt % 2 else attempt // 2]
                 ok = ~np.isnan(nxt[:, 0])
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)

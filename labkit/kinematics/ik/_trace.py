@@ -199,12 +199,14 @@ def _inputs(tape, shape):
     return [sym for sym, _ in inner], "(" + ", ".join(text for _, text in inner) + ",)"
 
 
-def _generate(fn, shapes, label):
+def _generate(fn, shapes, label, stages=False):
     """Trace ``fn(TRACE, *args)`` for arguments of ``shapes`` and compile it: ``(function, source)``; raises when
-    it cannot be traced."""
+    it cannot be traced. With ``stages``, ``fn`` returns a list and the function is a generator yielding its
+    items in turn, each computed when asked for (see :func:`compiled`)."""
     tape = _Tape()
     inputs = [_inputs(tape, shape) for shape in shapes]
     result = fn(TRACE, *(sym for sym, _ in inputs))
+    outputs = list(result) if stages else [result]
     bound, live = {}, set()
 
     def name(v):
@@ -225,7 +227,10 @@ def _generate(fn, shapes, label):
             raise _Untraceable(f"{label} returns a {type(v).__name__}")
         return name(v)
 
-    returned = render(result)
+    returned = []
+    for out in outputs:
+        before = set(live)
+        returned.append((render(out), live - before))
     ops, uses = [], dict.fromkeys(live, 2)  # (a returned value keeps its name)
     for op in reversed(tape.ops):  # drop what neither the result nor a raise needs
         sym, template, args, raises = op
@@ -234,26 +239,61 @@ def _generate(fn, shapes, label):
             for k, a in enumerate(args):
                 if isinstance(a, _Sym):
                     uses[a.i] = uses.get(a.i, 0) + template.count(f"{{{k}}}")
-    body, inline = [], {}
-    for sym, template, args, raises in reversed(ops):
+    ops.reverse()
+    stage = _stages(ops, [roots for _, roots in returned])
+    ops.sort(key=lambda op: (stage[op[0].i], op[0].i))  # (tape order within a stage: operands first)
+    body, inline, k = [], {}, 0
+    for sym, template, args, raises in ops:
+        while stages and stage[sym.i] > k:
+            body.append(f"    yield {returned[k][0]}")
+            k += 1
         text = template.format(*(f"({inline.pop(a.i)})" if isinstance(a, _Sym) and a.i in inline else name(a)
                                  for a in args))
         if not raises and uses.get(sym.i) == 1:
             inline[sym.i] = text  # a value read once, by an operation that cannot raise: written where it is read
         else:
             body.append(f"    v{sym.i} = {text}")
+    if stages:
+        body += [f"    yield {text}" for text, _ in returned[k:]]
+    else:
+        body.append(f"    return {returned[0][0]}")
     used = [f for f in _FUNCTIONS if any(f + "(" in line for line in body)]
     bound.update({f: _FUNCTIONS[f] for f in used})
     params = [text if not shape else f"a{k}" for k, ((_, text), shape) in enumerate(zip(inputs, shapes))]
     unpack = [f"    {text} = a{k}" for k, ((_, text), shape) in enumerate(zip(inputs, shapes)) if shape]
     signature = ", ".join(params + [f"{k}={k}" for k in bound])
-    source = "\n".join([f"def compiled({signature}):", *unpack, *body, f"    return {returned}"])
+    source = "\n".join([f"def compiled({signature}):", *unpack, *body])
     namespace = dict(bound)
     exec(compile(source, f"<labkit {label}, {len(ops)} operations>", "exec"), namespace)
     return namespace["compiled"], source
 
 
-def compiled(fn, shapes, label):
+def _stages(ops, roots):
+    """Per operation the first output that needs it (``{symbol index: stage}``): operations of output ``k``'s
+    values not already computed for an earlier one; those nothing needs (kept because they can raise) in the
+    first."""
+    deps = {sym.i: [a.i for a in args if isinstance(a, _Sym)] for sym, _, args, _ in ops}
+    needed = set()
+    stack = [i for r in roots for i in r]
+    while stack:
+        i = stack.pop()
+        if i in deps and i not in needed:
+            needed.add(i)
+            stack += deps[i]
+    roots = [set(r) for r in roots] or [set()]
+    roots[0] |= {i for i in deps if i not in needed}
+    stage = {}
+    for k, r in enumerate(roots):
+        stack = list(r)
+        while stack:
+            i = stack.pop()
+            if i in deps and i not in stage:
+                stage[i] = k
+                stack += deps[i]
+    return stage
+
+
+def compiled(fn, shapes, label, stages=False):
     """``fn(FLOATS, *args)`` as one generated straight-line function of ``args``, or None where it cannot be traced.
 
     Parameters
@@ -265,13 +305,22 @@ def compiled(fn, shapes, label):
     label : str
         Names the generated code (``<labkit {label}, N operations>``).
 
+    stages : bool
+        ``fn`` returns a list whose items can be computed one by one (the
+        branches of a family ...): the function is then a generator yielding
+        them in turn, each item's operations run only when it is asked for
+        (those of an earlier item first; operations nothing needs but that can
+        raise, first of all).
+
     Returns
     -------
     callable or None
         Taking the arguments as floats / nested lists of floats, returning
-        bit for bit what ``fn(FLOATS, *args)`` returns (raising where it raises).
+        bit for bit what ``fn(FLOATS, *args)`` returns (raising where it
+        raises), or with ``stages`` yielding its items so (an item not asked
+        for is not computed, nor does it raise).
     """
     try:
-        return _generate(fn, shapes, label)[0]
+        return _generate(fn, shapes, label, stages)[0]
     except Exception:  # anything tracing cannot record: the interpretive path computes (or raises) it
         return None
