@@ -229,8 +229,8 @@ def _ranked(xp, lo, hi, exact, rows, reach):
     ----------
     xp : namespace
         :data:`~labkit.kinematics.ik._xp.NUMPY` (components ``(N,)``) or
-        :data:`~labkit.kinematics.ik._xp.FLOATS` (floats; compiled by
-        :func:`_ranking`).
+        :data:`~labkit.kinematics.ik._xp.FLOATS` (floats; compiled with the
+        family's formulas by :func:`_seeder`).
     lo, hi : list of float
         Joint limits [rad, m].
     exact : bool

@@ -2,8 +2,9 @@
 
 :func:`solve` runs a family's formulas on the validated targets: a few targets
 of a family with ``scalar = True`` on Python floats
-(:data:`~labkit.kinematics.ik._xp.FLOATS`; the formulas compiled per solver
-into straight-line code by :mod:`labkit.kinematics.ik._trace`), anything else
+(:data:`~labkit.kinematics.ik._xp.FLOATS`; the formulas and the finishing of
+every branch compiled per robot and solver into straight-line code by
+:mod:`labkit.kinematics.ik._trace`, :func:`finished_solver`), anything else
 on numpy rows in cache-sized chunks (:data:`~labkit.kinematics.ik._xp.NUMPY`). Either way every
 joint value then goes through :func:`finish`: flipped joints negated, revolute
 angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
