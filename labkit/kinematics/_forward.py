@@ -268,7 +268,7 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     return T, J
 
 
-def fk_jacobian_kernel(robot, floats=False):
+def fk_jacobian_kernel(robot, floats=False, tan=None):
     """``f(q)``: :func:`fk_jacobian` of validated configurations, without the checks.
 
     For a solver that calls it many times on values it made itself (numeric
@@ -281,6 +281,9 @@ def fk_jacobian_kernel(robot, floats=False):
     floats : bool
         One configuration on Python floats (the program's generated Python
         code) instead of a batch of arrays.
+    tan : callable, optional
+        With ``floats``, the tangent the generated code calls (:meth:`Program.scalar
+        <labkit.kinematics._program.Program.scalar>`), default ``math.tan``.
 
     Returns
     -------
@@ -295,7 +298,7 @@ def fk_jacobian_kernel(robot, floats=False):
     prog = _default_program(c, _program.JACOBIAN, False, True)
     n = c.n
     if floats:
-        return _on_floats(c, prog)
+        return _on_floats(c, prog, tan)
     if c.flipped.size:  # the joint values need negating: the checked path does it
         return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
 
@@ -311,13 +314,16 @@ def fk_jacobian_kernel(robot, floats=False):
     return f
 
 
-def fk_floats(robot):
+def fk_floats(robot, tan=None):
     """``f(q) -> list``: :func:`fk` of one configuration on Python floats, without the checks.
 
     Parameters
     ----------
     robot : Robot
         The arm.
+    tan : callable, optional
+        The tangent the generated code calls (:meth:`Program.scalar
+        <labkit.kinematics._program.Program.scalar>`), default ``math.tan``.
 
     Returns
     -------
@@ -326,12 +332,12 @@ def fk_floats(robot):
         entries of the tool pose, row by row [m].
     """
     c = chain(robot)
-    return _on_floats(c, _default_program(c, _program.POSE))
+    return _on_floats(c, _default_program(c, _program.POSE), tan)
 
 
-def _on_floats(c, prog):
+def _on_floats(c, prog, tan=None):
     """The program's generated Python code as a function of the joint values (flipped joints negated first)."""
-    f = prog.scalar()
+    f = prog.scalar(tan)
     if not c.flipped.size:
         return f
     flipped = set(c.flipped.tolist())

@@ -196,8 +196,15 @@ class Program:
 
         self.ops = [(f, at(a), at(b), at(o)) for f, a, b, o in ops]
 
-    def scalar(self):
+    def scalar(self, tan=None):
         """The program as a Python function of joint values (generated once, kept on the program).
+
+        Parameters
+        ----------
+        tan : callable, optional
+            The tangent the code calls, instead of ``math.tan``: e.g. one
+            recording it on symbols (:mod:`labkit.kinematics.ik._trace`); the
+            function is then compiled anew and not kept.
 
         Returns
         -------
@@ -209,6 +216,8 @@ class Program:
             trigonometry of :func:`labkit.kinematics._chain.half_angle_trig`
             included.
         """
+        if tan is not None and tan is not math.tan:
+            return _python_function(self, tan)
         f = getattr(self, "_scalar", None)
         if f is None:
             f = self._scalar = _python_function(self)
@@ -240,8 +249,8 @@ class Program:
 _OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
 
 
-def _python_function(prog):
-    """Generate and compile the straight-line Python code of a :class:`Program` on joint values."""
+def _python_function(prog, tan=math.tan):
+    """Generate and compile the straight-line Python code of a :class:`Program` on joint values (calling ``tan``)."""
     n_in, n_out = prog.n_inputs, prog.n_rows
     r = sum(half is not None for _, half in prog.joints)
 
@@ -268,7 +277,7 @@ def _python_function(prog):
     lines += [f"    o{row} = {value!r}" for row, value in prog.constants]
     lines += [f"    {name(o)} = {name(a)} {_OPERATOR[func]} {name(b)}" for func, a, b, o in prog.ops]
     lines.append("    return [" + ", ".join(f"o{k}" for k in range(n_out)) + "]")
-    namespace = {"tan": math.tan}
+    namespace = {"tan": tan}
     exec(compile("\n".join(lines), f"<labkit kinematics program, {len(prog.ops)} operations>", "exec"), namespace)
     return namespace["f"]
 

@@ -9,11 +9,10 @@ import zlib
 import numpy as np
 import pytest
 
-from labkit.kinematics import fk, target_from_pose
+from labkit.kinematics import fk, jacobian, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics._forward import fk_floats
-from labkit.kinematics.ik._lm import Floats, _one_error, arithmetic
+from labkit.kinematics.ik._lm import Floats, _evaluate_one, _residual_one, arithmetic, error
 from labkit.kinematics.ik._numeric import _branch_starts, _ranked, _seeder, near_family
 from labkit.kinematics.ik._targets import COMPONENTS, _rigid_defects, _rigid_defects_floats
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
@@ -178,14 +177,15 @@ def _rotation(axis, angle):
 @pytest.mark.parametrize("name, kind, rows", [
     ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
     ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
-def test_compiled_task_error_equals_interpretive(name, kind, rows):
+def test_compiled_evaluation_and_residual_equal_interpretive(name, kind, rows):
+    # the per-robot program's generated code and the task error, compiled together
     robot = Robot.load(name)
     ops = arithmetic(robot)[Floats, kind, rows]
-    assert ops._error.__code__.co_filename.startswith(f"<labkit ik {kind} error")  # compiled
+    assert ops._one.__code__.co_filename.startswith(f"<labkit ik {kind} evaluation")  # compiled
+    assert ops._residual.__code__.co_filename.startswith(f"<labkit ik {kind} residual")
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     q = rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(60, robot.n))
     T = fk(robot, q)
-    poses = [fk_floats(robot)(qk) for qk in q.tolist()]
     # targets: the pose itself (no error, no rotation), moved, turned a little, turned by pi (the robust angle)
     goal = T.copy()
     goal[20:, :3, 3] += rng.normal(0.0, 0.01, size=(40, 3))
@@ -197,9 +197,21 @@ def test_compiled_task_error_equals_interpretive(name, kind, rows):
         targets = goal[:, :3, 3].tolist()
     else:
         targets = np.stack([goal[:, 0, 3], goal[:, 1, 3], np.arctan2(goal[:, 1, 0], goal[:, 0, 0]) + 7.0], 1).tolist()
-    got = [_outcome(lambda a: ops._error(*a), (p, t)) for p, t in zip(poses, targets)]
-    assert got == [_outcome(lambda a: _one_error(FLOATS, *a, kind, rows), (p, t)) for p, t in zip(poses, targets)]
-    assert len(set(got[20:])) == 40  # (distinct errors where the target differs: the comparison sees them)
+    cases = list(zip(q.tolist(), targets))
+    jac = None if len(rows) == 6 else rows
+    got = [_outcome(lambda a: ops._one(*a), c) for c in cases]
+    assert got == [_outcome(lambda a: _evaluate_one(FLOATS, *a, robot, kind, rows, jac), c) for c in cases]
+    assert len(set(got[20:])) == 40  # (distinct where the target differs: the comparison sees them)
+    got = [_outcome(lambda a: ops._residual(*a), c) for c in cases]
+    assert got == [_outcome(lambda a: _residual_one(FLOATS, *a, robot, kind, rows), c) for c in cases]
+    # and what they compute is the batch path's task error (away from a half turn, where the rotation
+    # vector's direction hangs on the last bits of R_t R^T)
+    J, e, res, E = ops.evaluate(*map(list, zip(*cases[:40])))
+    eb, rb = error(kind, T[:40], goal[:40] if kind == "pose" else np.array(targets[:40]), rows)
+    assert np.allclose(e, eb, rtol=0, atol=1e-12) and np.allclose(res, rb, rtol=0, atol=1e-12)
+    assert np.allclose(E, 0.5 * (eb * eb).sum(axis=1), rtol=1e-12, atol=1e-15)
+    Jb = jacobian(robot, q[:40])[:, list(rows)]
+    assert np.allclose(np.reshape(J, Jb.shape), Jb, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("name", ["puma560", "arduino_arm_3dof", "planar3r_seed003"])

@@ -8,10 +8,10 @@ evaluators with the same methods:
   per-robot fk + Jacobian program (:func:`labkit.kinematics._forward.fk_jacobian_kernel`)
   and one batched linear solve per iteration for them all;
 * :class:`Floats` - a few targets (at most ``FLOAT_TARGETS`` of the loop, also a
-  batch's last few), each on Python floats: the program's
-  generated Python code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``),
-  the pose error on components and one LAPACK Cholesky solve, so one target
-  costs few array calls per iteration.
+  batch's last few), each on Python floats: the program's generated Python
+  code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``)
+  and the task error compiled together into one straight-line function, and
+  one LAPACK Cholesky solve, so one target costs few array calls per iteration.
 
 The task error (:func:`task_error`) and the damped step (:func:`step`) are
 written once, for both.
@@ -358,9 +358,10 @@ class Batch:
 class Floats(Batch):
     """The arithmetic of the LM loop on Python floats, target by target: a few targets.
 
-    The per-robot program runs as generated Python code, the pose error is
-    :func:`task_error` on floats, and the step is :func:`step` on one
-    target's ``m x n`` Jacobian. The state is lists with one entry per
+    One target's evaluation is one straight-line function, compiled per
+    robot (:mod:`labkit.kinematics.ik._trace`) from the per-robot program's
+    generated code and :func:`task_error`; the step is :func:`step` on its
+    ``m x n`` Jacobian. The state is lists with one entry per
     target (joint values, targets and errors as lists of floats, a
     Jacobian as its ``m * n`` entries row by row). Parameters and methods
     as :class:`Batch`.
@@ -368,17 +369,18 @@ class Floats(Batch):
 
     def __init__(self, robot, kind, rows):
         super().__init__(robot, kind, rows)
-        self.n = robot.n
-        self._floats = fk_jacobian_kernel(robot, floats=True)
-        self._pose = fk_floats(robot)
-        n = self.n
-        self._spans = [(r * n, (r + 1) * n) for r in self.rows]
-        self._n6 = 6 * n
-        # the task error of one pose, compiled into straight-line code (else the same on FLOATS)
+        self.n = n = robot.n
+        # one target's evaluation and residual, each compiled into one straight-line function: the
+        # per-robot program's generated code run on symbols (its tangent recorded) and the task error
+        # (else the same on FLOATS)
         target = (4, 4) if kind == "pose" else (len(task_rows(kind)),)
-        error = functools.partial(_one_error, kind=kind, rows=self.rows)
-        self._error = (compiled(lambda xp, pose, t: error(xp, pose, t), ((16,), target), f"ik {kind} error")
-                       or functools.partial(error, FLOATS))
+        rows_ = None if self.all_rows else self.rows
+        one = functools.partial(_evaluate_one, robot=robot, kind=kind, rows=self.rows, jacobian_rows=rows_)
+        self._one = (compiled(lambda xp, q, t: one(xp, q, t), ((n,), target), f"ik {kind} evaluation")
+                     or functools.partial(one, FLOATS))
+        res = functools.partial(_residual_one, robot=robot, kind=kind, rows=self.rows)
+        self._residual = (compiled(lambda xp, q, t: res(xp, q, t), ((n,), target), f"ik {kind} residual")
+                          or functools.partial(res, FLOATS))
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -396,22 +398,17 @@ class Floats(Batch):
                 E.tolist(), E_check.tolist())
 
     def evaluate(self, q, target):
-        n6 = self._n6
         Js, es, rs, Es = [], [], [], []
         for qk, tk in zip(q, target):
-            out = self._floats(qk)
-            e, res = self._error(out[n6:], tk)
-            Js.append(out[:n6] if self.all_rows else [x for a, b in self._spans for x in out[a:b]])
+            J, e, res, E = self._one(qk, tk)
+            Js.append(J)
             es.append(e)
             rs.append(res)
-            E = 0.0
-            for v in e:
-                E += v * v
-            Es.append(0.5 * E)
+            Es.append(E)
         return Js, es, rs, Es
 
     def residuals(self, q, target):
-        return [self._error(self._pose(qk), tk)[1] for qk, tk in zip(q, target)]
+        return list(map(self._residual, q, target))
 
     def bounds(self, lo, hi):
         return lo.tolist(), hi.tolist()
@@ -443,6 +440,24 @@ class Floats(Batch):
 for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "converged", "moved", "accept"):
     getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
 del _name
+
+
+def _evaluate_one(xp, q, t, robot, kind, rows, jacobian_rows):
+    """One target's Jacobian task rows (their ``m * n`` entries row by row), task error, residual and
+    ``e.e / 2`` at joint values ``q`` (:meth:`Floats.evaluate`, compiled)."""
+    out = fk_jacobian_kernel(robot, floats=True, tan=xp.tan)(q)
+    n = robot.n
+    J = out[:6 * n] if jacobian_rows is None else [x for r in jacobian_rows for x in out[r * n:(r + 1) * n]]
+    e, res = _one_error(xp, out[6 * n:], t, kind, rows)
+    E = 0.0
+    for v in e:
+        E = E + v * v
+    return J, e, res, 0.5 * E
+
+
+def _residual_one(xp, q, t, robot, kind, rows):
+    """One target's residual at joint values ``q`` (:meth:`Floats.residuals`, compiled)."""
+    return _one_error(xp, fk_floats(robot, tan=xp.tan)(q), t, kind, rows)[1]
 
 
 def _one_error(xp, pose, t, kind, rows):

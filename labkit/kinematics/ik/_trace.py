@@ -39,9 +39,10 @@ __all__ = ["TRACE", "compiled"]
 
 #: the functions the generated code calls (bound as default arguments: local look-ups)
 _FUNCTIONS = {"_sqrt": math.sqrt, "_atan2": math.atan2, "_acos": math.acos, "_cos": math.cos, "_sin": math.sin,
+              "_tan": math.tan,
               "_abs": abs, "_hypot": math.hypot, "_isfinite": math.isfinite, "_wrap": FLOATS.wrap}
 #: those that raise on some floats (kept even where nothing uses their value)
-_RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(", "_wrap(")
+_RAISING = ("_sqrt(", "_acos(", "_cos(", "_sin(", "_tan(", "_wrap(")
 
 #: the kind of a constant operand, by type
 _CONSTANT_KINDS = {float: "float", int: "float", bool: "bool"}
@@ -176,6 +177,7 @@ TRACE = SimpleNamespace(
     arccos=_function("arccos", "_acos({0})", lambda x: "float"),
     cos=_function("cos", "_cos({0})", lambda x: "float"),
     sin=_function("sin", "_sin({0})", lambda x: "float"),
+    tan=_function("tan", "_tan({0})", lambda x: "float"),
     abs=_function("abs", "_abs({0})", lambda x: "float" if x == "float" else "other"),
     hypot=_function("hypot", "_hypot({0}, {1})", lambda x, y: "float"),
     where=_function("where", "{1} if {0} else {2}", lambda c, a, b: _choice(a, b)),

@@ -60,14 +60,16 @@ def _minimum(a, b):
 
 #: numpy ufuncs on (N,) components
 NUMPY = SimpleNamespace(
-    sqrt=np.sqrt, arctan2=np.arctan2, arccos=np.arccos, cos=np.cos, sin=np.sin, abs=np.abs, hypot=np.hypot,
+    sqrt=np.sqrt, arctan2=np.arctan2, arccos=np.arccos, cos=np.cos, sin=np.sin, tan=np.tan, abs=np.abs,
+    hypot=np.hypot,
     where=np.where, clip=np.clip, maximum=np.maximum, minimum=np.minimum, logical_not=np.logical_not,
     isfinite=np.isfinite, wrap=wrap_angle, per_branch=_per_branch_numpy, batch=True,
 )
 
 #: the same functions on Python floats
 FLOATS = SimpleNamespace(
-    sqrt=math.sqrt, arctan2=math.atan2, arccos=math.acos, cos=math.cos, sin=math.sin, abs=abs, hypot=math.hypot,
+    sqrt=math.sqrt, arctan2=math.atan2, arccos=math.acos, cos=math.cos, sin=math.sin, tan=math.tan, abs=abs,
+    hypot=math.hypot,
     where=_where, clip=_clip, maximum=_maximum, minimum=_minimum, logical_not=lambda c: not c,
     isfinite=math.isfinite, wrap=wrap_angle, per_branch=_per_branch_floats, batch=False,
 )
