@@ -5,6 +5,7 @@ import pytest
 
 from labkit.kinematics import fk, ik_all, ik_numeric
 from labkit.kinematics.ik import _numeric as _ik_numeric
+from labkit.kinematics.ik import _starts
 from labkit.robot import Robot
 
 
@@ -65,15 +66,15 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
 
     robot = make()
     assert solver_for(robot).value == "numeric"
-    ideal, solver = _ik_numeric.near_family(robot)
+    ideal, solver = _starts.near_family(robot)
     assert solver is not None and solver.name == "spherical_wrist"
     assert ideal.links[4].a == 0.0 and ideal.links[2].a == robot.links[2].a  # a3 = 20 mm is not "small"
     assert all(abs(link.alpha / (np.pi / 2) - round(link.alpha / (np.pi / 2))) < 1e-12 for link in ideal.links)
-    assert _ik_numeric.near_family(robot)[1] is solver  # cached per robot
+    assert _starts.near_family(robot)[1] is solver  # cached per robot
     rng = np.random.default_rng(31)
     lim = robot.joint_limits
     T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
-    starts = _ik_numeric.analytic_seeds(robot, "pose", T, rng).all
+    starts = _starts.analytic_seeds(robot, "pose", T, rng).all
     assert starts.shape == (300, 8, 6)
     assert (~np.isnan(starts[:, 0, 0])).mean() > 0.9  # nearly every target has a start
     off = np.abs(fk(robot, np.nan_to_num(starts[:, 0]))[:, :3, 3] - T[:, :3, 3]).max(axis=1)
@@ -89,8 +90,8 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
 
 def test_no_idealised_copy_for_an_arm_far_from_every_family():
     far = Robot.load("puma560").with_link(4, a=0.1)  # 10 % of the arm's length: not a calibration error
-    assert _ik_numeric.near_family(far) == (None, None)
-    assert _ik_numeric.analytic_seeds(far, "pose", fk(far, np.zeros((2, 6))), np.random.default_rng(0)) is None
+    assert _starts.near_family(far) == (None, None)
+    assert _starts.analytic_seeds(far, "pose", fk(far, np.zeros((2, 6))), np.random.default_rng(0)) is None
     rng = np.random.default_rng(9)
     lim = far.joint_limits
     T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
@@ -188,13 +189,13 @@ def test_starts_of_one_target_on_floats_are_those_of_the_batch(make):
     T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(120, robot.n)))
     T[100:, :3, 3] *= 2.5  # out of reach: every branch solved and ranked
     target = T if kind == "pose" else T[:, :3, 3]
-    batch = _ik_numeric.analytic_seeds(robot, kind, target, rng)
-    ones = [_ik_numeric.analytic_seeds(robot, kind, target[k:k + 1], rng) for k in range(len(target))]
+    batch = _starts.analytic_seeds(robot, kind, target, rng)
+    ones = [_starts.analytic_seeds(robot, kind, target[k:k + 1], rng) for k in range(len(target))]
     first = np.concatenate([s.first for s in ones])
     assert np.array_equal(first, batch.first, equal_nan=True)
     assert np.array_equal(np.concatenate([s.all for s in ones]), batch.all, equal_nan=True)
     assert np.array_equal(batch.all[:, 0], batch.first, equal_nan=True)
-    if _ik_numeric.detect(robot)[0] is not None:  # its own closed form: out of reach, no start
+    if _starts.detect(robot)[0] is not None:  # its own closed form: out of reach, no start
         assert np.isnan(first[100:]).any() and np.isfinite(first[:100]).all()
     else:  # an idealised copy's: every branch is a start
         assert np.isfinite(first).all()

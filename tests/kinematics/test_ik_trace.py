@@ -13,7 +13,7 @@ from labkit.kinematics import fk, jacobian, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._lm import Floats, _evaluate_one, _residual_one, arithmetic, error
-from labkit.kinematics.ik._numeric import _branch_starts, _ranked, _seeder, near_family
+from labkit.kinematics.ik._starts import _branch_starts, _ranked, _seeder, near_family
 from labkit.kinematics.ik._targets import COMPONENTS, _rigid_defects, _rigid_defects_floats
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
 from labkit.kinematics.ik._trace import compiled
