@@ -14,7 +14,7 @@ from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._lm import Floats, _evaluate_one, _residual_one, arithmetic, error
 from labkit.kinematics.ik._starts import _branch_starts, _ranked, _seeder, near_family
-from labkit.kinematics.ik._targets import COMPONENTS, _rigid_defects, _rigid_defects_floats
+from labkit.kinematics.ik._targets import _rigid_defects, _rigid_defects_floats, target_shape
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS
@@ -76,8 +76,7 @@ def test_variants_cover_every_float_family():
 
 def _family_compiled(family):
     """The family's formulas alone, compiled (or None)."""
-    shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
-    return compiled(family.solve, (shape,), f"ik {family.name}")
+    return compiled(family.solve, (target_shape(family.kind),), f"ik {family.name}")
 
 
 @pytest.mark.parametrize("name", sorted(VARIANTS))
@@ -198,9 +197,8 @@ def test_compiled_evaluation_and_residual_equal_interpretive(name, kind, rows):
     else:
         targets = np.stack([goal[:, 0, 3], goal[:, 1, 3], np.arctan2(goal[:, 1, 0], goal[:, 0, 0]) + 7.0], 1).tolist()
     cases = list(zip(q.tolist(), targets))
-    jac = None if len(rows) == 6 else rows
     got = [_outcome(lambda a: ops._one(*a), c) for c in cases]
-    assert got == [_outcome(lambda a: _evaluate_one(FLOATS, *a, robot, kind, rows, jac), c) for c in cases]
+    assert got == [_outcome(lambda a: _evaluate_one(FLOATS, *a, robot, kind, rows), c) for c in cases]
     assert len(set(got[20:])) == 40  # (distinct where the target differs: the comparison sees them)
     got = [_outcome(lambda a: ops._residual(*a), c) for c in cases]
     assert got == [_outcome(lambda a: _residual_one(FLOATS, *a, robot, kind, rows), c) for c in cases]

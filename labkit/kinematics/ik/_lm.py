@@ -26,7 +26,7 @@ import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
-from labkit.kinematics.ik._targets import task_rows
+from labkit.kinematics.ik._targets import target_shape, task_rows
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 
@@ -111,7 +111,8 @@ def error(kind, T, target, rows):
     E = None
     if kind == "pose":
         E = (target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)).transpose(1, 2, 0)
-    e, res = task_error(NUMPY, kind, T.transpose(1, 2, 0), target.transpose((*range(1, target.ndim), 0)), E, tuple(rows))
+    t = target.transpose((*range(1, target.ndim), 0))
+    e, res = task_error(NUMPY, kind, T.transpose(1, 2, 0), t, E, tuple(rows))
     return np.stack(e, axis=1), res
 
 
@@ -373,14 +374,11 @@ class Floats(Batch):
         # one target's evaluation and residual, each compiled into one straight-line function: the
         # per-robot program's generated code run on symbols (its tangent recorded) and the task error
         # (else the same on FLOATS)
-        target = (4, 4) if kind == "pose" else (len(task_rows(kind)),)
-        rows_ = None if self.all_rows else self.rows
-        one = functools.partial(_evaluate_one, robot=robot, kind=kind, rows=self.rows, jacobian_rows=rows_)
-        self._one = (compiled(lambda xp, q, t: one(xp, q, t), ((n,), target), f"ik {kind} evaluation")
-                     or functools.partial(one, FLOATS))
+        shapes = ((n,), target_shape(kind))
+        one = functools.partial(_evaluate_one, robot=robot, kind=kind, rows=self.rows)
+        self._one = compiled(one, shapes, f"ik {kind} evaluation") or functools.partial(one, FLOATS)
         res = functools.partial(_residual_one, robot=robot, kind=kind, rows=self.rows)
-        self._residual = (compiled(lambda xp, q, t: res(xp, q, t), ((n,), target), f"ik {kind} residual")
-                          or functools.partial(res, FLOATS))
+        self._residual = compiled(res, shapes, f"ik {kind} residual") or functools.partial(res, FLOATS)
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -442,12 +440,12 @@ for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "co
 del _name
 
 
-def _evaluate_one(xp, q, t, robot, kind, rows, jacobian_rows):
+def _evaluate_one(xp, q, t, robot, kind, rows):
     """One target's Jacobian task rows (their ``m * n`` entries row by row), task error, residual and
     ``e.e / 2`` at joint values ``q`` (:meth:`Floats.evaluate`, compiled)."""
     out = fk_jacobian_kernel(robot, floats=True, tan=xp.tan)(q)
     n = robot.n
-    J = out[:6 * n] if jacobian_rows is None else [x for r in jacobian_rows for x in out[r * n:(r + 1) * n]]
+    J = out[:6 * n] if len(rows) == 6 else [x for r in rows for x in out[r * n:(r + 1) * n]]
     e, res = _one_error(xp, out[6 * n:], t, kind, rows)
     E = 0.0
     for v in e:

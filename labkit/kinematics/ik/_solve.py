@@ -209,9 +209,8 @@ def finished_solver(robot, family):
     cache = _finished_solvers(robot)
     f = cache.get(family)
     if f is None:
-        shape = (4, 4) if family.kind == "pose" else (len(_targets.COMPONENTS[family.kind]),)
         finished = functools.partial(solve_finished, family=family, js=joints(robot))
-        f = (compiled(lambda xp, t: finished(xp, t), (shape,), f"ik {family.name}, finished for {robot.name}")
+        f = (compiled(finished, (_targets.target_shape(family.kind),), f"ik {family.name}, finished for {robot.name}")
              or functools.partial(finished, FLOATS))
         cache[family] = f
     return f

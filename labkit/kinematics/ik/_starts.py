@@ -24,7 +24,7 @@ from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import joints, solve as solve_family, solve_finished
-from labkit.kinematics.ik._targets import COMPONENTS, SMALL_TARGETS, task_rows
+from labkit.kinematics.ik._targets import SMALL_TARGETS, target_shape, task_rows
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 
@@ -262,8 +262,7 @@ def _seeder(robot, family, exact):
     if f is None:
         lo, hi = _bounds(robot)
         starts = functools.partial(_branch_starts, family=family, js=joints(robot), lo=lo, hi=hi, exact=exact)
-        shape = (4, 4) if family.kind == "pose" else (len(COMPONENTS[family.kind]),)
-        f = (compiled(lambda xp, t: starts(xp, t), (shape,), f"ik starts of {robot.name}", stages=True)
+        f = (compiled(starts, (target_shape(family.kind),), f"ik starts of {robot.name}", stages=True)
              or (lambda t: iter(starts(FLOATS, t))))
         cache[family, exact] = f
     return f

@@ -233,6 +233,21 @@ def describe_target(kind, t):
     return "({:.4g}, {:.4g}, {:.4g}) m".format(*t)
 
 
+def target_shape(kind):
+    """The shape of one target of ``kind`` as floats: ``(4, 4)`` for a pose, else ``(k,)`` of its :data:`COMPONENTS`.
+
+    Parameters
+    ----------
+    kind : {"position", "planar", "position_pitch", "position_pitch_roll", "pose"}
+        What the target fixes.
+
+    Returns
+    -------
+    tuple of int
+    """
+    return (4, 4) if kind == "pose" else (len(COMPONENTS[kind]),)
+
+
 def small_targets(target, kind):
     """A few valid targets as Python floats, or None (then :func:`validate_targets` raises or batches).
 
@@ -258,7 +273,7 @@ def small_targets(target, kind):
         arr = target if type(target) is np.ndarray and target.dtype == np.float64 else np.asarray(target, dtype=float)
     except (TypeError, ValueError):
         return None, ()
-    tail = (4, 4) if kind == "pose" else (len(COMPONENTS[kind]),)
+    tail = target_shape(kind)
     shape, k = arr.shape, len(tail)
     if kind in REDUCED and shape[-2:] == (4, 4):
         return None, ()  # a pose (validate_targets reads a trailing 4 x 4 as one on these arms)

@@ -306,7 +306,6 @@ def compiled(fn, shapes, label, stages=False):
         Per argument its nesting: ``()`` a float, ``(3,)`` a list of 3, ``(4, 4)`` 4 lists of 4.
     label : str
         Names the generated code (``<labkit {label}, N operations>``).
-
     stages : bool
         ``fn`` returns a list whose items can be computed one by one (the
         branches of a family ...): the function is then a generator yielding
