@@ -211,9 +211,9 @@ class Batch:
         Returns
         -------
         tuple
-            ``(q, target, lam)`` in the evaluator's form (here unchanged).
+            ``(q, target, lam)`` in the evaluator's form (here ``q`` copied, the rest unchanged).
         """
-        return q, target, lam
+        return q.copy(), target, lam
 
     def arrays(self, q, target, J, e, res, lam, E, E_check):
         """The state as numpy arrays.
@@ -279,20 +279,22 @@ class Batch:
         """
         return error(self.kind, fk(self._robot, q), target, self.rows)[1]
 
-    def bounds(self, lo, hi):
-        """Joint bounds in the form :meth:`moved` takes them.
+    def bounds(self, limits, free):
+        """An attempt's joint bounds in the form :meth:`moved` takes them.
 
         Parameters
         ----------
-        lo, hi : ndarray, shape (n,)
-            Lower and upper bounds of an attempt [rad, m].
+        limits : labkit.kinematics.ik._numeric._Limits
+            The robot's limits as the LM loop keeps them.
+        free : bool
+            The attempt ignores the revolute joints' limits.
 
         Returns
         -------
         tuple
-            ``(lo, hi)`` (here unchanged).
+            ``(lo, hi)``, arrays (n,) [rad, m].
         """
-        return lo, hi
+        return (limits.free_lo, limits.free_hi) if free else (limits.lo, limits.hi)
 
     def converged(self, res, tol):
         """Which residuals are below ``tol``.
@@ -408,8 +410,8 @@ class Floats(Batch):
     def residuals(self, q, target):
         return list(map(self._residual, q, target))
 
-    def bounds(self, lo, hi):
-        return lo.tolist(), hi.tolist()
+    def bounds(self, limits, free):
+        return limits.lists[free]
 
     def converged(self, res, tol):
         done = list(map(float(tol).__gt__, res))  # (r < tol for each float residual r)

@@ -119,17 +119,19 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     if q0 is None:
         starts = analytic_seeds(robot, kind, target, rng)
         if starts is not None:
-            q0 = starts.first  # (_attempts copies it)
-            none = np.isnan(q0[:, 0])
-            if none.any():
+            q0 = starts.first  # (inside the limits; _attempts copies it)
+            if not starts.every:
                 q0 = q0.copy()
-                q0[none] = _random_q(rng, robot.joint_limits, int(none.sum()))
+                q0[~starts.found] = _random_q(rng, robot.joint_limits, int((~starts.found).sum()))
+    else:
+        lim = _limits(robot)
+        q0 = np.minimum(np.maximum(q0, lim.lo), lim.hi)  # (np.clip's result, with fewer calls)
     q, success, iterations, residual = _attempts(
         robot, kind, target, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng, starts=starts
     )
     n = robot.n
     for _ in range(restarts if multistart > 1 else 0):
-        if success.all():
+        if _every(success):
             break
         fail = (~success).nonzero()[0]
         K = int(min(multistart, max(1, 8192 // fail.size)))
@@ -165,8 +167,8 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     multi-start): once a copy converges, its siblings stop iterating.
 
     ``robot``, ``kind``, ``target``, ``rows``, ``tol``, ``max_iter``,
-    ``restarts`` and ``rng`` are those of :func:`solve`; ``q0`` (N, n) or None
-    (random in-limit starts); ``group`` is the size of the groups of copies of
+    ``restarts`` and ``rng`` are those of :func:`solve`; ``q0`` (N, n) inside
+    the limits, or None (random in-limit starts); ``group`` is the size of the groups of copies of
     one target (1: every row its own); ``starts``
     (:class:`~labkit.kinematics.ik._starts.Starts`), optional, the ranked
     starts of :func:`~labkit.kinematics.ik._starts.analytic_seeds`: attempt ``k < m`` restarts a
@@ -174,13 +176,12 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     Returns ``(q, success, iterations, residual)`` as :func:`solve`.
     """
     N = target.shape[0]
-    group_done = np.zeros(-(-N // group), dtype=bool)
+    group_done = np.zeros(-(-N // group), dtype=bool) if group > 1 else None
     n = robot.n
     lim = _limits(robot)
     lo, hi = lim.lo, lim.hi
-    # (minimum of maximum: np.clip's result, with fewer calls; a new array either way)
-    q = _random_q(rng, robot.joint_limits, N) if q0 is None else np.minimum(np.maximum(q0, lo), hi)
-    near = np.zeros(N, dtype=bool) if starts is None else ~np.isnan(starts.first[:, 0])  # from a closed form
+    q = _random_q(rng, robot.joint_limits, N) if q0 is None else q0.copy()
+    near = np.zeros(N, dtype=bool) if starts is None else starts.found  # from a closed form (copied before a restart)
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
     residual = np.full(N, np.inf)
@@ -194,16 +195,16 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     for attempt in range(restarts + 1):
         # odd attempts ignore revolute limits and wrap the solution by 2 pi afterwards
         free = attempt % 2 == 1
-        alo, ahi = (lim.free_lo, lim.free_hi) if free else (lo, hi)
-        act = (~success).nonzero()[0]
+        act = np.arange(N) if attempt == 0 else (~success).nonzero()[0]
         if group > 1:
             act = act[~group_done[act // group]]
         if act.size == 0:
             break
         ops = evaluator(act.size)
-        bounds = ops.bounds(alo, ahi)
+        bounds = ops.bounds(lim, free)
         if attempt > 0:
             q[act] = _random_q(rng, robot.joint_limits, act.size)
+            near = near.copy() if attempt == 1 else near
             near[act] = False
             if starts is not None and attempt < 2 * starts.all.shape[1]:
                 # the next closed-form start, jittered by a few degrees (two starts of an idealised copy can
@@ -214,7 +215,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                 q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
                 near[act[ok]] = True
         sel = slice(None) if act.size == N else act  # (every target: views of the targets, not copies)
-        qa, tg, lam = ops.enter(q[act], target[sel], np.where(near[sel], lam_near, lam0))
+        qa, tg, lam = ops.enter(q[sel], target[sel], np.where(near[sel], lam_near, lam0))
         J, e, res, E = ops.evaluate(qa, tg)
         E_check = E.copy()
         it = 0
@@ -223,11 +224,16 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
             check = it % check_every == 0
             early = it == check_every // 2  # a closed-form start converges in a few steps, or is the wrong branch
             if all_done and not free:  # every active row converged (one target: the usual end)
-                sel = slice(None) if act.size == N else act
-                q[sel] = qa
-                success[sel] = True
-                residual[sel] = res
-                iterations[sel] += it - 1
+                if act.size == N:  # every target at once: nothing else to do
+                    q[:] = qa
+                    success.fill(True)
+                    residual[:] = res
+                    iterations += it - 1
+                    return q, success, iterations, residual
+                q[act] = qa
+                success[act] = True
+                residual[act] = res
+                iterations[act] += it - 1
                 if group > 1:
                     group_done[act // group] = True
                 act = act[:0]
@@ -272,7 +278,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                         break
                     if evaluator(act.size) is not ops:  # the batch is down to a few targets: on floats
                         ops = evaluator(act.size)
-                        bounds = ops.bounds(alo, ahi)
+                        bounds = ops.bounds(lim, free)
                 qa, tg, J, e, res, lam, E, E_check = ops.state(qa, tg, J, e, res, lam, E, E_check)
             qn = ops.moved(qa, J, e, lam, *bounds)
             qa, J, e, res, E, lam = ops.accept((qa, J, e, res, E, lam), (qn, *ops.evaluate(qn, tg)))
@@ -294,6 +300,11 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     return q, success, iterations, residual
 
 
+def _every(mask):
+    """``mask.all()`` as a bool (for a few entries through a list: a third of a numpy reduction's cost)."""
+    return all(mask.tolist()) if mask.size <= FLOAT_TARGETS else bool(mask.all())
+
+
 def _evaluator(robot, kind, rows, active, group=1):
     """The LM arithmetic for ``active`` targets: on floats for at most :data:`FLOAT_TARGETS` (not multi-start copies)."""
     return arithmetic(robot)[Floats if active <= FLOAT_TARGETS and group == 1 else Batch, kind, tuple(rows)]
@@ -309,6 +320,7 @@ class _Limits:
     free_hi: np.ndarray
     lo_tol: np.ndarray  # with the slack of Robot.within_limits
     hi_tol: np.ndarray
+    lists: tuple  # (lo, hi) and (free_lo, free_hi) as lists of floats, by ``free`` (Floats.bounds)
 
     def inside(self, q):
         """``Robot.within_limits(q)`` (slack 1e-9) of ``q`` (k, n)."""
@@ -320,4 +332,6 @@ def _limits(robot):
     lim = robot.joint_limits
     lo, hi = lim[:, 0].copy(), lim[:, 1].copy()
     rev = robot.is_revolute
-    return _Limits(lo, hi, np.where(rev, -np.inf, lo), np.where(rev, np.inf, hi), lo - 1e-9, hi + 1e-9)
+    free_lo, free_hi = np.where(rev, -np.inf, lo), np.where(rev, np.inf, hi)
+    lists = ((lo.tolist(), hi.tolist()), (free_lo.tolist(), free_hi.tolist()))
+    return _Limits(lo, hi, free_lo, free_hi, lo - 1e-9, hi + 1e-9, lists)

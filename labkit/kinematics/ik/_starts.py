@@ -162,7 +162,8 @@ def analytic_seeds(robot, kind, target, rng):
         top = rank[rows, order[:, :2]]
         swap = _second_first(res[:, 0], res[:, 1], top[:, 0], top[:, 1])
         seeds[swap, :2] = seeds[swap, 1::-1]
-    return Starts(seeds[:, 0], lambda: seeds)
+    found = ~np.isnan(seeds[:, 0, 0])
+    return Starts(seeds[:, 0], lambda: seeds, found, bool(found.all()))
 
 
 def _ranked(xp, lo, hi, exact, rows, reach):
@@ -223,10 +224,16 @@ class Starts:
     complete : callable
         ``complete() -> ndarray (N, m, n)``, every start, best first (``first``
         is ``[:, 0]``); called once, when a restart first needs them.
+    found : ndarray of bool, shape (N,)
+        Which targets have a start (``first`` not NaN).
+    every : bool
+        Every target has one (``found.all()``, as its maker knows it).
     """
 
-    def __init__(self, first, complete):
+    def __init__(self, first, complete, found, every):
         self.first = first
+        self.found = found
+        self.every = every
         self._complete = complete
         self._all = None
 
@@ -282,7 +289,7 @@ def _seeds_floats(robot, family, kind, target, exact):
     m, n = len(family.branches), robot.n
     ops = arithmetic(robot)[Floats, kind, task_rows(kind)]
     wanted = 1 if exact or m == 1 else 2
-    firsts, pending = [], []
+    firsts, found, pending = [], [], []
     for t in target.tolist():
         branches = seeder(t)
         got, zeros = [], []
@@ -299,6 +306,7 @@ def _seeds_floats(robot, family, kind, target, exact):
                 and _second_first(*ops.residuals([got[i][0] for i in top], [t, t]), got[top[0]][1], got[top[1]][1]))
         best = got[top[1] if swap else top[0]]
         firsts.append(best[0] if best[1] != math.inf else [math.nan] * n)
+        found.append(firsts[-1][0] == firsts[-1][0])  # (not NaN)
         pending.append((branches, got, swap))
 
     def complete():
@@ -311,7 +319,7 @@ def _seeds_floats(robot, family, kind, target, exact):
             rows += [got[i][0] if got[i][1] != math.inf else [math.nan] * n for i in order]
         return _floats_array(rows, (-1, m, n))
 
-    return Starts(_floats_array(firsts, (-1, n)), complete)
+    return Starts(_floats_array(firsts, (-1, n)), complete, np.array(found), all(found))
 
 
 def _floats_array(rows, shape):
