@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import operator
+import struct
 
 import numpy as np
 
@@ -381,6 +382,7 @@ class Floats(Batch):
         self._one = compiled(one, shapes, f"ik {kind} evaluation") or functools.partial(one, FLOATS)
         res = functools.partial(_residual_one, robot=robot, kind=kind, rows=self.rows)
         self._residual = compiled(res, shapes, f"ik {kind} residual") or functools.partial(res, FLOATS)
+        self._pack = struct.Struct(f"={len(self.rows) * (n + 1)}d").pack  # (J and e as doubles: moved)
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -418,12 +420,16 @@ class Floats(Batch):
         return done, any(done), all(done)
 
     def moved(self, q, J, e, lam, lo, hi):
-        shape = (len(self.rows), self.n)
+        m, n = len(self.rows), self.n
+        pack = self._pack
         out = []
         for qk, Jk, ek, lk in zip(q, J, e, lam):
-            Jk = np.array(Jk)
-            Jk.shape = shape
-            dq = step(Jk, np.array(ek), lk, self.eye, _solve_spd).tolist()
+            # J and e as one array, through their bytes (numpy.array would first discover each list's shape and
+            # type: twice the cost)
+            both = np.frombuffer(pack(*Jk, *ek))
+            Jk = both[:m * n]
+            Jk.shape = (m, n)
+            dq = step(Jk, both[m * n:], lk, self.eye, _solve_spd).tolist()
             # clipped as np.minimum(np.maximum(v, a), b) (conditionals: a fifth of min(max()) on floats)
             out.append([a if v < a else b if v > b else v for v, a, b in zip(map(operator.add, qk, dq), lo, hi)])
         return out
