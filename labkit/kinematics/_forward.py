@@ -314,27 +314,6 @@ def fk_jacobian_kernel(robot, floats=False, tan=None):
     return f
 
 
-def fk_floats(robot, tan=None):
-    """``f(q) -> list``: :func:`fk` of one configuration on Python floats, without the checks.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm.
-    tan : callable, optional
-        The tangent the generated code calls (:meth:`Program.scalar
-        <labkit.kinematics._program.Program.scalar>`), default ``math.tan``.
-
-    Returns
-    -------
-    callable
-        ``f(q)`` for a sequence of ``n`` finite floats [rad, m]: the 16
-        entries of the tool pose, row by row [m].
-    """
-    c = chain(robot)
-    return _on_floats(c, _default_program(c, _program.POSE), tan)
-
-
 def _on_floats(c, prog, tan=None):
     """The program's generated Python code as a function of the joint values (flipped joints negated first)."""
     f = prog.scalar(tan)

@@ -128,8 +128,6 @@ def test_both_evaluators_compute_the_same_iteration(bent, kind, rows, flips):
     f = floats.arrays(qs, ts, *floats.evaluate(qs, ts), ls, [0.0] * 3)
     for x, y in zip(b, f[:6]):  # q, target, J, e, res, E
         assert np.asarray(x).shape == y.shape and np.abs(np.asarray(x) - y).max() < 1e-12
-    for ops in (batch, floats):  # the residual alone, from the pose alone
-        assert np.abs(ops.residuals(q, target) - b[4]).max() < 1e-12
     lo, hi = lim[:, 0], lim[:, 1]
     qn_b = batch.moved(q, b[2], b[3], lam, lo, hi)
     qn_f = floats.moved(qs, floats.evaluate(qs, ts)[0], floats.evaluate(qs, ts)[1], ls, lo.tolist(), hi.tolist())

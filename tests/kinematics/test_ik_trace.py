@@ -12,7 +12,7 @@ import pytest
 from labkit.kinematics import fk, jacobian, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._lm import Floats, _evaluate_one, _residual_one, arithmetic, error
+from labkit.kinematics.ik._lm import Floats, _evaluate_one, arithmetic, error
 from labkit.kinematics.ik._starts import _branch_starts, _ranked, _seeder, near_family
 from labkit.kinematics.ik._targets import _rigid_defects, _rigid_defects_floats, target_shape
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
@@ -176,12 +176,11 @@ def _rotation(axis, angle):
 @pytest.mark.parametrize("name, kind, rows", [
     ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
     ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
-def test_compiled_evaluation_and_residual_equal_interpretive(name, kind, rows):
+def test_compiled_evaluation_equals_interpretive(name, kind, rows):
     # the per-robot program's generated code and the task error, compiled together
     robot = Robot.load(name)
     ops = arithmetic(robot)[Floats, kind, rows]
     assert ops._one.__code__.co_filename.startswith(f"<labkit ik {kind} evaluation")  # compiled
-    assert ops._residual.__code__.co_filename.startswith(f"<labkit ik {kind} residual")
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     q = rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(60, robot.n))
     T = fk(robot, q)
@@ -200,8 +199,6 @@ def test_compiled_evaluation_and_residual_equal_interpretive(name, kind, rows):
     got = [_outcome(lambda a: ops._one(*a), c) for c in cases]
     assert got == [_outcome(lambda a: _evaluate_one(FLOATS, *a, robot, kind, rows), c) for c in cases]
     assert len(set(got[20:])) == 40  # (distinct where the target differs: the comparison sees them)
-    got = [_outcome(lambda a: ops._residual(*a), c) for c in cases]
-    assert got == [_outcome(lambda a: _residual_one(FLOATS, *a, robot, kind, rows), c) for c in cases]
     # and what they compute is the batch path's task error (away from a half turn, where the rotation
     # vector's direction hangs on the last bits of R_t R^T)
     J, e, res, E = ops.evaluate(*map(list, zip(*cases[:40])))

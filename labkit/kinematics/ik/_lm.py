@@ -26,7 +26,7 @@ import struct
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics._forward import fk, fk_floats, fk_jacobian_kernel
+from labkit.kinematics._forward import fk_jacobian_kernel
 from labkit.kinematics.ik._targets import target_shape, task_rows
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
@@ -195,7 +195,6 @@ class Batch:
         self.all_rows = len(rows) == 6
         self.eye = np.eye(min(len(rows), robot.n))
         self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
-        self._robot = robot
 
     def enter(self, q, target, lam):
         """The state's form of joint values, targets and damping.
@@ -264,21 +263,6 @@ class Batch:
         J = J if self.all_rows else J[:, self.rows]
         e, res = error(self.kind, T, target, self.rows)
         return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
-
-    def residuals(self, q, target):
-        """The residuals alone at ``q`` (no Jacobian).
-
-        Parameters
-        ----------
-        q : state form of joint values, N rows [rad, m]
-        target : state form of the targets, N rows [m, rad]
-
-        Returns
-        -------
-        state form of the residuals, N entries
-            As :meth:`evaluate`'s ``res`` [m, rad].
-        """
-        return error(self.kind, fk(self._robot, q), target, self.rows)[1]
 
     def bounds(self, limits, free):
         """An attempt's joint bounds in the form :meth:`moved` takes them.
@@ -374,14 +358,11 @@ class Floats(Batch):
     def __init__(self, robot, kind, rows):
         super().__init__(robot, kind, rows)
         self.n = n = robot.n
-        # one target's evaluation and residual, each compiled into one straight-line function: the
-        # per-robot program's generated code run on symbols (its tangent recorded) and the task error
-        # (else the same on FLOATS)
+        # one target's evaluation compiled into one straight-line function: the per-robot program's
+        # generated code run on symbols (its tangent recorded) and the task error (else the same on FLOATS)
         shapes = ((n,), target_shape(kind))
         one = functools.partial(_evaluate_one, robot=robot, kind=kind, rows=self.rows)
         self._one = compiled(one, shapes, f"ik {kind} evaluation") or functools.partial(one, FLOATS)
-        res = functools.partial(_residual_one, robot=robot, kind=kind, rows=self.rows)
-        self._residual = compiled(res, shapes, f"ik {kind} residual") or functools.partial(res, FLOATS)
         self._pack = struct.Struct(f"={len(self.rows) * (n + 1)}d").pack  # (J and e as doubles: moved)
 
     def enter(self, q, target, lam):
@@ -408,9 +389,6 @@ class Floats(Batch):
             rs.append(res)
             Es.append(E)
         return Js, es, rs, Es
-
-    def residuals(self, q, target):
-        return list(map(self._residual, q, target))
 
     def bounds(self, limits, free):
         return limits.lists[free]
@@ -443,7 +421,7 @@ class Floats(Batch):
                 [max(lk * 0.1, 1e-12) if g else min(lk * 10.0, 1e8) for g, lk in zip(better, lam)])
 
 
-for _name in ("enter", "arrays", "state", "evaluate", "residuals", "bounds", "converged", "moved", "accept"):
+for _name in ("enter", "arrays", "state", "evaluate", "bounds", "converged", "moved", "accept"):
     getattr(Floats, _name).__doc__ = getattr(Batch, _name).__doc__  # the same contract on lists
 del _name
 
@@ -459,11 +437,6 @@ def _evaluate_one(xp, q, t, robot, kind, rows):
     for v in e:
         E = E + v * v
     return J, e, res, 0.5 * E
-
-
-def _residual_one(xp, q, t, robot, kind, rows):
-    """One target's residual at joint values ``q`` (:meth:`Floats.residuals`, compiled)."""
-    return _one_error(xp, fk_floats(robot, tan=xp.tan)(q), t, kind, rows)[1]
 
 
 def _one_error(xp, pose, t, kind, rows):

@@ -36,7 +36,7 @@ import numpy as np
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._solve import finish_all
-from labkit.kinematics.ik._starts import analytic_seeds
+from labkit.kinematics.ik._starts import _bounds, analytic_seeds
 
 
 class LazyGenerator:
@@ -333,5 +333,5 @@ def _limits(robot):
     lo, hi = lim[:, 0].copy(), lim[:, 1].copy()
     rev = robot.is_revolute
     free_lo, free_hi = np.where(rev, -np.inf, lo), np.where(rev, np.inf, hi)
-    lists = ((lo.tolist(), hi.tolist()), (free_lo.tolist(), free_hi.tolist()))
+    lists = (_bounds(robot), (free_lo.tolist(), free_hi.tolist()))
     return _Limits(lo, hi, free_lo, free_hi, lo - 1e-9, hi + 1e-9, lists)

@@ -17,14 +17,14 @@ import dataclasses
 import functools
 import itertools
 import math
+import operator
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics.ik._lm import Batch, Floats, arithmetic
 from labkit.kinematics.ik._registry import detect
 from labkit.kinematics.ik._solve import joints, solve as solve_family, solve_finished
-from labkit.kinematics.ik._targets import SMALL_TARGETS, target_shape, task_rows
+from labkit.kinematics.ik._targets import SMALL_TARGETS, target_shape
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
 
@@ -143,7 +143,7 @@ def analytic_seeds(robot, kind, target, rng):
     if found is None or found.kind != kind:
         return None
     if found.scalar and target.shape[0] <= SMALL_TARGETS:  # (as solve_family runs them on floats)
-        return _seeds_floats(robot, found, kind, target, exact)
+        return _seeds_floats(robot, found, target, exact)
     q, reach, _, _ = solve_family(robot, found, target)  # the idealised copy has the robot's joints and limits
     N, m, n = q.shape
     lo, hi = _bounds(robot)
@@ -156,14 +156,8 @@ def analytic_seeds(robot, kind, target, rng):
     seeds = inside[rows, order]
     if exact:
         seeds[np.isinf(rank[rows, order])] = np.nan
-    elif m > 1:
-        ops = arithmetic(robot)[Batch, kind, task_rows(kind)]
-        res = ops.residuals(seeds[:, :2].reshape(-1, n), target.repeat(2, axis=0)).reshape(N, 2)
-        top = rank[rows, order[:, :2]]
-        swap = _second_first(res[:, 0], res[:, 1], top[:, 0], top[:, 1])
-        seeds[swap, :2] = seeds[swap, 1::-1]
-    found = ~np.isnan(seeds[:, 0, 0])
-    return Starts(seeds[:, 0], lambda: seeds, found, bool(found.all()))
+    some = ~np.isnan(seeds[:, 0, 0])
+    return Starts(seeds[:, 0], lambda: seeds, some, bool(some.all()))
 
 
 def _ranked(xp, lo, hi, exact, rows, reach):
@@ -205,13 +199,6 @@ def _ranked(xp, lo, hi, exact, rows, reach):
         starts.append(inside)
         ranks.append(xp.where(ok & (rank == 0.0), 0.0, math.inf) if exact else xp.where(ok, rank, rank + 1e3))
     return starts, ranks
-
-
-def _second_first(res0, res1, rank0, rank1):
-    """Whether the second of an idealised copy's two best starts goes first: its residual on the real arm plus
-    its rank is lower (e.g. of a wrist and its flip, a solution of the copy, only one is near a solution once
-    a5 != 0)."""
-    return res1 + rank1 < res0 + rank0
 
 
 class Starts:
@@ -275,47 +262,35 @@ def _seeder(robot, family, exact):
     return f
 
 
-def _seeds_floats(robot, family, kind, target, exact):
+def _seeds_floats(robot, family, target, exact):
     """:func:`analytic_seeds` of a few targets on floats, lazily: the first start of each target from as few
     branches as decide it, the rest when a restart asks for them.
 
-    The best start is a branch of rank 0 (reachable, inside the limits); the
-    first such branches in order are the best ones (the ranking is stable),
-    so a target's branches are solved until one of them (the robot's own
-    family) or two (an idealised copy's: the real arm's residuals order
-    those two) are found, and all of them only where fewer exist.
+    The best start is a branch of rank 0 (reachable, inside the limits), the
+    first in order if there are several (the ranking is stable), so a
+    target's branches are solved until the first one of rank 0, and all of
+    them only where there is none.
     """
     seeder = _seeder(robot, family, exact)
     m, n = len(family.branches), robot.n
-    ops = arithmetic(robot)[Floats, kind, task_rows(kind)]
-    wanted = 1 if exact or m == 1 else 2
     firsts, found, pending = [], [], []
     for t in target.tolist():
         branches = seeder(t)
-        got, zeros = [], []
+        got = []
         for start, rank in branches:
             got.append((start, rank))
             if rank == 0.0:
-                zeros.append(len(got) - 1)
-                if len(zeros) == wanted:
-                    break
-        top = zeros if len(zeros) == wanted else None  # (else every branch is solved: sorted below)
-        if top is None:
-            top = sorted(range(len(got)), key=lambda i: got[i][1])[:wanted]  # (stable, as argsort(kind="stable"))
-        swap = (not exact and len(top) == 2
-                and _second_first(*ops.residuals([got[i][0] for i in top], [t, t]), got[top[0]][1], got[top[1]][1]))
-        best = got[top[1] if swap else top[0]]
+                break
+        best = min(got, key=operator.itemgetter(1))  # (the first of the lowest rank, as argsort(kind="stable"))
         firsts.append(best[0] if best[1] != math.inf else [math.nan] * n)
         found.append(firsts[-1][0] == firsts[-1][0])  # (not NaN)
-        pending.append((branches, got, swap))
+        pending.append((branches, got))
 
     def complete():
         rows = []
-        for branches, got, swap in pending:
+        for branches, got in pending:
             got += branches  # (the branches not solved yet)
             order = sorted(range(m), key=lambda i: got[i][1])
-            if swap:
-                order[:2] = order[1::-1]
             rows += [got[i][0] if got[i][1] != math.inf else [math.nan] * n for i in order]
         return _floats_array(rows, (-1, m, n))
 
