@@ -7,8 +7,9 @@ task rows ``m`` than joints). Each target keeps its own damping ``lambda``
 (divided by 10 after an accepted step, multiplied by 10 after a rejected one)
 and steps are projected onto the joint limits. Converged targets leave the
 active set at once; a target that stalls (squared error not down 100x in 8
-iterations) or runs out of iterations restarts from a random configuration
-inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
+iterations; from a closed-form start, in each of its first two spans of 4)
+or runs out of iterations restarts from the next closed-form start (jittered)
+or a random configuration inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
 the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent starts.
@@ -160,9 +161,11 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     """Run batched LM; target (N, ...) flattened, q0 (N, n) or None.
 
     An attempt ends for a target when it converges, after ``max_iter``
-    iterations, or when its squared error has not dropped by 10x over the last
-    ``check_every`` iterations (stalled, typically against a joint limit);
-    it then restarts from a random configuration, up to ``restarts`` times.
+    iterations, or when its squared error has not dropped by 100x over the last
+    ``check_every`` iterations (stalled, typically against a joint limit), nor,
+    from a closed-form start, over the first ``check_every / 2`` and the
+    next ``check_every / 2`` (the wrong branch, or a crawl near a singularity);
+    it then restarts, up to ``restarts`` times.
     Rows come in consecutive groups of ``group`` copies of one target (the
     multi-start): once a copy converges, its siblings stop iterating.
 
@@ -254,6 +257,9 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
                     E_check = E.copy()
                 elif early:
                     stalled |= (~done) & (E > 0.01 * E_check) & near[act]
+                    # and the next test measures a closed-form start's progress from here: a restart's start is
+                    # jittered far off its branch, so against the attempt's first error a crawl passed at 8
+                    E_check = np.where(near[act], E, E_check)
                 leave = done | stalled
                 if leave.any():
                     idx = act[done]
