@@ -397,8 +397,14 @@ def test_non_finite_and_malformed_targets(arm, puma):
     T[0, 0] = 2.0
     with pytest.raises(ShapeError, match="rigid transform"):
         ik_all(puma, T)
-    with pytest.raises(ShapeError, match="finite"):
+    with pytest.raises(ShapeError, match=r"finite target pose.*index \(0, 0\)"):
         ik_numeric(puma, np.full((4, 4), np.nan))
+    # a few poses are checked on floats, a batch on arrays: the same message, naming the entry
+    for count in (2, 40):
+        Ts = np.repeat(fk(puma, np.zeros(6))[None], count, axis=0)
+        Ts[1, 2, 3] = np.inf
+        with pytest.raises(ShapeError, match=r"finite target pose.*index \(1, 2, 3\)"):
+            ik_numeric(puma, Ts)
 
 
 # -- choosing one solution ---------------------------------------------------------------

@@ -82,7 +82,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
     seeded = ik_numeric(robot, T)
     assert seeded.success.all() and seeded.residual.max() < 1e-10
     assert robot.within_limits(seeded.q).all() and np.abs(fk(robot, seeded.q) - T).max() < 1e-9
-    plain = ik_numeric(robot, T, q0=_ik_numeric._random_q(np.random.default_rng(2), lim, 300))
+    plain = ik_numeric(robot, T, q0=_ik_numeric._random_q(np.random.default_rng(2), _ik_numeric._limits(robot), 300))
     assert plain.success.all()
     assert np.median(seeded.iterations) <= 6 < np.median(plain.iterations)
     assert seeded.iterations.mean() < 0.5 * plain.iterations.mean()

@@ -63,12 +63,11 @@ class LazyGenerator:
 
 
 def _random_q(rng, limits, size):
-    """Uniform inside the limits (infinite limits replaced by +-2 pi); no draw for ``size = 0``."""
+    """``(size, n)`` uniform inside ``limits`` (:class:`_Limits`; infinite ones replaced by +-2 pi); no draw for
+    ``size = 0``."""
     if size == 0:
-        return np.empty((0, limits.shape[0]))
-    lo = np.where(np.isfinite(limits[:, 0]), limits[:, 0], -2 * np.pi)
-    hi = np.where(np.isfinite(limits[:, 1]), limits[:, 1], 2 * np.pi)
-    return lo + (hi - lo) * rng.random((size, limits.shape[0]))
+        return np.empty((0, limits.lo.size))
+    return limits.draw_lo + limits.draw_span * rng.random((size, limits.lo.size))
 
 
 #: most active targets :func:`_attempts` iterates on Python floats, one by one (beyond: numpy rows)
@@ -123,7 +122,7 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
             q0 = starts.first  # (inside the limits; _attempts copies it)
             if not starts.every:
                 q0 = q0.copy()
-                q0[~starts.found] = _random_q(rng, robot.joint_limits, int((~starts.found).sum()))
+                q0[~starts.found] = _random_q(rng, _limits(robot), int((~starts.found).sum()))
     else:
         lim = _limits(robot)
         q0 = np.minimum(np.maximum(q0, lim.lo), lim.hi)  # (np.clip's result, with fewer calls)
@@ -183,7 +182,7 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
     n = robot.n
     lim = _limits(robot)
     lo, hi = lim.lo, lim.hi
-    q = _random_q(rng, robot.joint_limits, N) if q0 is None else q0.copy()
+    q = _random_q(rng, lim, N) if q0 is None else q0.copy()
     near = np.zeros(N, dtype=bool) if starts is None else starts.found  # from a closed form (copied before a restart)
     success = np.zeros(N, dtype=bool)
     iterations = np.zeros(N, dtype=np.int64)
@@ -206,17 +205,19 @@ def _attempts(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, la
         ops = evaluator(act.size)
         bounds = ops.bounds(lim, free)
         if attempt > 0:
-            q[act] = _random_q(rng, robot.joint_limits, act.size)
             near = near.copy() if attempt == 1 else near
             near[act] = False
+            fresh = act  # (restarting from a random configuration)
             if starts is not None and attempt < 2 * starts.all.shape[1]:
                 # the next closed-form start, jittered by a few degrees (two starts of an idealised copy can
                 # coincide, and one on the far side of a stretched elbow crawls): no luck twice round, random
                 nxt = starts.all[act, (attempt - 1) // 2 if attempt % 2 else attempt // 2]
                 ok = ~np.isnan(nxt[:, 0])
                 jitter = rng.normal(0.0, 0.05, size=(int(ok.sum()), n))
-                q[act[ok]] = np.clip(nxt[ok] + jitter, lo, hi)
+                q[act[ok]] = np.minimum(np.maximum(nxt[ok] + jitter, lo), hi)
                 near[act[ok]] = True
+                fresh = act[~ok]
+            q[fresh] = _random_q(rng, lim, fresh.size)
         sel = slice(None) if act.size == N else act  # (every target: views of the targets, not copies)
         qa, tg, lam = ops.enter(q[sel], target[sel], np.where(near[sel], lam_near, lam0))
         J, e, res, E = ops.evaluate(qa, tg)
@@ -327,6 +328,8 @@ class _Limits:
     lo_tol: np.ndarray  # with the slack of Robot.within_limits
     hi_tol: np.ndarray
     lists: tuple  # (lo, hi) and (free_lo, free_hi) as lists of floats, by ``free`` (Floats.bounds)
+    draw_lo: np.ndarray  # where random starts are drawn from (_random_q): infinite limits as +-2 pi
+    draw_span: np.ndarray
 
     def inside(self, q):
         """``Robot.within_limits(q)`` (slack 1e-9) of ``q`` (k, n)."""
@@ -340,4 +343,6 @@ def _limits(robot):
     rev = robot.is_revolute
     free_lo, free_hi = np.where(rev, -np.inf, lo), np.where(rev, np.inf, hi)
     lists = (_bounds(robot), (free_lo.tolist(), free_hi.tolist()))
-    return _Limits(lo, hi, free_lo, free_hi, lo - 1e-9, hi + 1e-9, lists)
+    draw_lo = np.where(np.isfinite(lo), lo, -2 * np.pi)
+    draw_span = np.where(np.isfinite(hi), hi, 2 * np.pi) - draw_lo
+    return _Limits(lo, hi, free_lo, free_hi, lo - 1e-9, hi + 1e-9, lists, draw_lo, draw_span)

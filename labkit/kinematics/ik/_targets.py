@@ -9,6 +9,7 @@ Every solver, closed-form or numeric, takes its targets through
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 
 import numpy as np
@@ -126,13 +127,18 @@ def validate_targets(target, kind):
     if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
         return _vector_targets(target, kind)
     if kind in ("pose", *REDUCED):
-        T = as_batch(target, (4, 4), "target pose")
+        T = as_batch(target, (4, 4), "target pose", finite=False)
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        if T.shape[0] <= SMALL_TARGETS:  # the same test on floats, pose by pose (compiled)
-            defects = list(map(_rigid_defects_floats(), T.tolist()))
+        if T.shape[0] <= SMALL_TARGETS:  # the same tests on floats, pose by pose (the rigid one compiled)
+            poses = T.tolist()
+            if not all(map(math.isfinite, itertools.chain.from_iterable(itertools.chain.from_iterable(poses)))):
+                as_batch(target, (4, 4), "target pose")  # (raises, naming the entry)
+            defects = list(map(_rigid_defects_floats(), poses))
             bad = [i for i, d in enumerate(defects) if _is_bad(*d)]
         else:
+            if not np.isfinite(T).all():
+                as_batch(target, (4, 4), "target pose")  # (raises, naming the entry)
             defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
             bad = _is_bad(*defects).nonzero()[0]
         if len(bad):
