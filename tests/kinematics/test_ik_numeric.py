@@ -197,3 +197,21 @@ def test_starts_of_one_target_on_floats_are_those_of_the_batch(make):
         assert np.isnan(first[100:]).any() and np.isfinite(first[:100]).all()
     else:  # an idealised copy's: every branch is a start
         assert np.isfinite(first).all()
+
+
+def test_one_targets_step_falls_back_to_lu_where_cholesky_meets_a_negative_pivot():
+    """The float path's step solves the normal equations by Cholesky; where rounding (here a negative damping)
+    leaves them not positive definite, it solves them by LU, as the batch path does."""
+    from labkit.kinematics.ik._lm import Floats, arithmetic
+    from labkit.kinematics.ik._step import MATRICES, step
+
+    robot = Robot.load("arduino_arm_3dof")
+    ops = arithmetic(robot)[Floats, "position", (0, 1, 2)]
+    J = np.diag([1.0, 1e-3, 0.5])
+    e = np.array([0.01, -0.02, 0.03])
+    lam = -2e-6  # J^T J + lam I: one eigenvalue 1e-6 - 2e-6 < 0
+    q = [0.1, 0.2, 0.3]
+    got = ops.moved([q], [J.ravel().tolist()], [e.tolist()], [lam], [-100.0] * 3, [100.0] * 3)[0]
+    want = np.array(q) + np.linalg.solve(J.T @ J + lam * np.eye(3), J.T @ e)
+    assert np.allclose(got, want, rtol=1e-12, atol=0) and abs(want[1] - 0.1) > 1.0  # (the negative pivot's row)
+    assert np.allclose(step(MATRICES, J, e, lam), want - q, rtol=1e-12, atol=0)

@@ -1,6 +1,6 @@
 """Formulas compiled to straight-line Python (``ik/_trace.py``): the closed-form families, finished, return bit
 for bit what the interpretive float path returns, raise where it raises, and fall back to it where a family cannot
-be traced; so do the task error and the ranking of numeric IK's starts."""
+be traced; so do the task error, the damped step and the ranking of numeric IK's starts."""
 
 import inspect
 import math
@@ -12,7 +12,8 @@ import pytest
 from labkit.kinematics import fk, jacobian, target_from_pose
 from labkit.kinematics.ik._geometry import joint_axes
 from labkit.kinematics.ik._registry import detect
-from labkit.kinematics.ik._lm import Floats, _evaluate_one, arithmetic, error
+from labkit.kinematics.ik._lm import Floats, _evaluate_one, _moved_one, arithmetic, error
+from labkit.kinematics.ik._step import MATRICES, step
 from labkit.kinematics.ik._starts import _branch_starts, _ranked, _seeder, near_family
 from labkit.kinematics.ik._targets import _rigid_defects, _rigid_defects_floats, target_shape
 from labkit.kinematics.ik._solve import finished_solver, joints, solve_finished, solve_floats
@@ -285,3 +286,27 @@ def test_compiled_rigid_transform_test_equals_interpretive():
     got = [_outcome(f, t) for t in T.tolist()]
     assert got == [_outcome(lambda t: _rigid_defects(FLOATS, t), t) for t in T.tolist()]
     assert len(set(got)) > 30  # (the comparison sees the defects)
+
+
+@pytest.mark.parametrize("name, kind, rows", [
+    ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
+    ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
+def test_compiled_damped_step_equals_interpretive(name, kind, rows):
+    # one target's step (the normal equations by Cholesky) and the clip, compiled: tall, square and wide Jacobians
+    robot = Robot.load(name)
+    ops = arithmetic(robot)[Floats, kind, rows]
+    assert ops._moved.__code__.co_filename.startswith("<labkit ik damped step")
+    rng = np.random.default_rng(zlib.crc32(name.encode()) + len(rows))
+    lim = robot.joint_limits
+    q = rng.uniform(lim[:, 0], lim[:, 1], size=(40, robot.n))
+    J = jacobian(robot, q)[:, list(rows)] * rng.uniform(0.5, 2.0, size=(40, 1, 1))
+    e = rng.normal(0.0, 0.01, size=(40, len(rows)))
+    lam = 10.0 ** rng.uniform(-12, 0, size=40)
+    lo, hi = (lim[:, 0] + 0.5).tolist(), (lim[:, 1] - 0.5).tolist()  # (some steps clipped)
+    cases = [(q[k].tolist(), J[k].ravel().tolist(), e[k].tolist(), float(lam[k]), lo, hi) for k in range(40)]
+    got = [_outcome(lambda a: ops._moved(*a), c) for c in cases]
+    assert got == [_outcome(lambda a: _moved_one(FLOATS, *a, rows, robot.n), c) for c in cases]
+    assert len(set(got)) > 30  # (distinct but where the clip took every joint to its bound)
+    # what it computes is the damped least-squares step of the batch path (numpy, LU)
+    step_b = step(MATRICES, J, e, lam)
+    assert np.allclose(np.array([ops._moved(*c) for c in cases]), np.clip(q + step_b, lo, hi), rtol=0, atol=1e-9)

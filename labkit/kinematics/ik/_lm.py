@@ -10,23 +10,25 @@ evaluators with the same methods:
 * :class:`Floats` - a few targets (at most ``FLOAT_TARGETS`` of the loop, also a
   batch's last few), each on Python floats: the program's generated Python
   code (:func:`labkit.kinematics._forward.fk_jacobian_kernel` with ``floats``)
-  and the task error compiled together into one straight-line function, and
-  one LAPACK Cholesky solve, so one target costs few array calls per iteration.
+  and the task error compiled together into one straight-line function, the
+  damped step into another (a Cholesky solve of the normal equations), so one
+  target makes no array call per iteration.
 
 The task error (:func:`task_error`) and the damped step (:func:`step`) are
-written once, for both.
+written once, for both: the step against a small linear algebra, numpy's
+batched matrices (:data:`MATRICES`) or nested lists (:class:`Lists`).
 """
 
 from __future__ import annotations
 
 import functools
 import operator
-import struct
 
 import numpy as np
 
 from labkit.kinematics._chain import per_robot
 from labkit.kinematics._forward import fk_jacobian_kernel
+from labkit.kinematics.ik._step import MATRICES, Lists, step
 from labkit.kinematics.ik._targets import target_shape, task_rows
 from labkit.kinematics.ik._trace import compiled
 from labkit.kinematics.ik._xp import FLOATS, NUMPY
@@ -117,65 +119,6 @@ def error(kind, T, target, rows):
     return np.stack(e, axis=1), res
 
 
-def step(J, e, lam, eye, solve=np.linalg.solve):
-    """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
-
-    Parameters
-    ----------
-    J : ndarray, shape (..., m, n)
-        Task rows of the Jacobian.
-    e : ndarray, shape (..., m)
-        Task error [m, rad].
-    lam : ndarray, shape (...), or float
-        Damping.
-    eye : ndarray, shape (k, k)
-        The identity of the smaller side ``k = min(m, n)``.
-    solve : callable
-        ``solve(A, b)`` for ``A`` (..., k, k), ``b`` (..., k, 1):
-        ``numpy.linalg.solve`` for a batch; :func:`_solve_spd` for one target
-        (no leading axes, ``b`` (k,)).
-
-    Returns
-    -------
-    ndarray, shape (..., n)
-        Joint step [rad, m].
-    """
-    if J.ndim == 2:  # one target: ndarray.dot (half the cost of @ on a small matrix), vectors as they are
-        mul, Jt, e, damping = np.ndarray.dot, J.T, e, lam * eye
-    else:
-        mul, Jt, e, damping = np.matmul, J.swapaxes(-1, -2), e[..., None], lam[..., None, None] * eye
-    if J.shape[-2] < J.shape[-1]:
-        A = mul(J, Jt)
-        A += damping
-        x = mul(Jt, solve(A, e))
-    else:
-        A = mul(Jt, J)
-        A += damping
-        x = solve(A, mul(Jt, e))
-    return x if J.ndim == 2 else x[..., 0]
-
-
-def _solve_spd(A, b):
-    """``A^-1 b`` for one symmetric positive definite ``A`` (m, m) and ``b`` (m,): LAPACK's Cholesky solve.
-
-    ``numpy.linalg.solve`` costs several times more than the arithmetic on a
-    6 x 6 system; LAPACK ``dposv`` (through scipy) is called directly, and
-    ``dgesv`` (LU) where rounding left ``A`` not positive definite.
-    """
-    _, x, info = _lapack().dposv(A, b)
-    if info:
-        _, _, x, info = _lapack().dgesv(A, b)
-    return x
-
-
-@functools.cache
-def _lapack():
-    """``scipy.linalg.lapack``, imported when a first target is solved on floats (it takes a few hundred ms)."""
-    from scipy.linalg import lapack
-
-    return lapack
-
-
 class Batch:
     """The arithmetic of the LM loop on numpy rows: a batch of targets.
 
@@ -193,7 +136,6 @@ class Batch:
     def __init__(self, robot, kind, rows):
         self.kind, self.rows = kind, tuple(rows)
         self.all_rows = len(rows) == 6
-        self.eye = np.eye(min(len(rows), robot.n))
         self._kernel = fk_jacobian_kernel(robot)  # (no checks: q is made here)
 
     def enter(self, q, target, lam):
@@ -313,7 +255,7 @@ class Batch:
         -------
         state form of joint values, N rows [rad, m]
         """
-        qn = q + step(J, e, lam, self.eye)
+        qn = q + step(MATRICES, J, e, lam)
         np.maximum(qn, lo, out=qn)
         return np.minimum(qn, hi, out=qn)
 
@@ -348,8 +290,10 @@ class Floats(Batch):
 
     One target's evaluation is one straight-line function, compiled per
     robot (:mod:`labkit.kinematics.ik._trace`) from the per-robot program's
-    generated code and :func:`task_error`; the step is :func:`step` on its
-    ``m x n`` Jacobian. The state is lists with one entry per
+    generated code and :func:`task_error`; its step is another, :func:`step`
+    on :class:`Lists` and the clip into the bounds (should rounding leave the
+    normal matrix not positive definite, that target's step is solved on
+    :data:`MATRICES`). The state is lists with one entry per
     target (joint values, targets and errors as lists of floats, a
     Jacobian as its ``m * n`` entries row by row). Parameters and methods
     as :class:`Batch`.
@@ -363,7 +307,10 @@ class Floats(Batch):
         shapes = ((n,), target_shape(kind))
         one = functools.partial(_evaluate_one, robot=robot, kind=kind, rows=self.rows)
         self._one = compiled(one, shapes, f"ik {kind} evaluation") or functools.partial(one, FLOATS)
-        self._pack = struct.Struct(f"={len(self.rows) * (n + 1)}d").pack  # (J and e as doubles: moved)
+        # and one target's clipped damped step, the same way (the normal equations solved by Cholesky)
+        shapes = ((n,), (len(self.rows) * n,), (len(self.rows),), (), (n,), (n,))
+        moved = functools.partial(_moved_one, rows=self.rows, n=n)
+        self._moved = compiled(moved, shapes, "ik damped step") or functools.partial(moved, FLOATS)
 
     def enter(self, q, target, lam):
         return q.tolist(), target.tolist(), lam.tolist()
@@ -398,18 +345,12 @@ class Floats(Batch):
         return done, any(done), all(done)
 
     def moved(self, q, J, e, lam, lo, hi):
-        m, n = len(self.rows), self.n
-        pack = self._pack
         out = []
         for qk, Jk, ek, lk in zip(q, J, e, lam):
-            # J and e as one array, through their bytes (numpy.array would first discover each list's shape and
-            # type: twice the cost)
-            both = np.frombuffer(pack(*Jk, *ek))
-            Jk = both[:m * n]
-            Jk.shape = (m, n)
-            dq = step(Jk, both[m * n:], lk, self.eye, _solve_spd).tolist()
-            # clipped as np.minimum(np.maximum(v, a), b) (conditionals: a fifth of min(max()) on floats)
-            out.append([a if v < a else b if v > b else v for v, a, b in zip(map(operator.add, qk, dq), lo, hi)])
+            try:
+                out.append(self._moved(qk, Jk, ek, lk, lo, hi))
+            except (ValueError, ZeroDivisionError):  # rounding left J^T J + lam I not positive definite: LU
+                out.append(_moved_one(FLOATS, qk, Jk, ek, lk, lo, hi, self.rows, self.n, MATRICES))
         return out
 
     def accept(self, old, new):
@@ -437,6 +378,18 @@ def _evaluate_one(xp, q, t, robot, kind, rows):
     for v in e:
         E = E + v * v
     return J, e, res, 0.5 * E
+
+
+def _moved_one(xp, q, J, e, lam, lo, hi, rows, n, la=None):
+    """One target's damped step (:func:`step`) from ``q``, clipped to ``[lo, hi]`` (:meth:`Floats.moved`,
+    compiled): ``J`` its ``m * n`` entries row by row; ``la`` the linear algebra (default :class:`Lists` on
+    ``xp``; :data:`MATRICES` solves by LU)."""
+    m = len(rows)
+    if la is MATRICES:
+        dq = step(la, np.reshape(J, (m, n)), np.asarray(e), lam).tolist()
+    else:
+        dq = step(la or Lists(xp), [J[r * n:(r + 1) * n] for r in range(m)], e, lam)
+    return [xp.clip(v + d, a, b) for v, d, a, b in zip(q, dq, lo, hi)]
 
 
 def _one_error(xp, pose, t, kind, rows):

@@ -17,10 +17,10 @@ to 64 times and the copies iterate together from independent starts.
 One target is a batch of one: the same loop, whose arithmetic for at most
 :data:`FLOAT_TARGETS` active targets (one target, or a batch's last few)
 runs on Python floats (:class:`~labkit.kinematics.ik._lm.Floats`: the
-per-robot program's generated Python code, the pose error on components, one
-LAPACK solve per step) instead of numpy rows
-(:class:`~labkit.kinematics.ik._lm.Batch`), so a single target costs few
-array calls per iteration.
+per-robot program's generated Python code, the pose error on components and
+the damped step compiled into straight-line code) instead of numpy rows
+(:class:`~labkit.kinematics.ik._lm.Batch`), so a single target makes no
+array call per iteration.
 
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (for an arm a little off a
