@@ -420,6 +420,23 @@ def numeric_ik(args):
               f"(its own measure: E = e^T W e)")
         print(f"one target (same {n1} targets, taking turns): labkit {one * 1e3:.3f} ms, ik_LM {same * 1e3:.3f} ms: "
               f"{one / same:.2f}x slower (target <= 2.5x: {verdict(one <= 2.5 * same)})")
+        # ik_LM's tol bounds its own E (half the squared error): at 1e-10 its solutions miss by up to ~1e-5 m,
+        # labkit's by at most 1e-10 (its tol bounds the residual); for information, ik_LM to labkit's accuracy
+        tight = 5e-21
+        _, res_t = _targets_error(bent, np.array([ets_b.ik_LM(Tb[k], tol=tight).q for k in range(n1)]), Tb[:n1])
+        _, res_d = _targets_error(bent, np.array([ets_b.ik_LM(Tb[k], tol=1e-10).q for k in range(n1)]), Tb[:n1])
+        one_t, same_t = (t / n1 for t in paired_seconds(
+            [labkit_one, lambda: [ets_b.ik_LM(Tb[k], tol=tight) for k in range(n1)]], rounds))
+        print(f"  (information) labkit's residual of ik_LM's solutions: up to {res_d.max():.1e} at tol 1e-10, "
+              f"{res_t.max():.1e} at tol {tight:g}; at that equal accuracy ik_LM takes {same_t * 1e3:.3f} ms, "
+              f"labkit {one_t * 1e3:.3f} ms: {one_t / same_t:.2f}x")
+
+
+def _targets_error(robot, q, target):
+    """labkit's task error and residual of configurations ``q`` (N, n) against pose targets (N, 4, 4)."""
+    from labkit.kinematics.ik._lm import error
+
+    return error("pose", fk(robot, q), target, range(6))
 
 
 def peak_memory(args):

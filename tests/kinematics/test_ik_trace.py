@@ -174,9 +174,12 @@ def _rotation(axis, angle):
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-@pytest.mark.parametrize("name, kind, rows", [
-    ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
-    ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
+#: robots, target kinds and task rows of the LM's compiled functions: square, tall and wide Jacobians
+TASKS = [("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
+         ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))]
+
+
+@pytest.mark.parametrize("name, kind, rows", TASKS)
 def test_compiled_evaluation_equals_interpretive(name, kind, rows):
     # the per-robot program's generated code and the task error, compiled together
     robot = Robot.load(name)
@@ -288,9 +291,7 @@ def test_compiled_rigid_transform_test_equals_interpretive():
     assert len(set(got)) > 30  # (the comparison sees the defects)
 
 
-@pytest.mark.parametrize("name, kind, rows", [
-    ("puma560", "pose", (0, 1, 2, 3, 4, 5)), ("puma560", "pose", (0, 1, 2, 5)), ("puma560", "position", (0, 1, 2)),
-    ("arduino_arm_3dof", "position", (0, 1, 2)), ("planar3r_seed003", "planar", (0, 1, 5))])
+@pytest.mark.parametrize("name, kind, rows", TASKS)
 def test_compiled_damped_step_equals_interpretive(name, kind, rows):
     # one target's step (the normal equations by Cholesky) and the clip, compiled: tall, square and wide Jacobians
     robot = Robot.load(name)
