@@ -261,7 +261,25 @@ def wrap_angle(angle):
 
 
 def _wrap(a, ceil):
-    """``a`` less its whole turns above (-pi, pi] (``ceil``: math.ceil for a float, np.ceil for arrays)."""
-    return a - _TWO_PI * ceil((a - math.pi) * _INV_TWO_PI)
+    """``a`` less its whole turns above (-pi, pi] (``ceil``: math.ceil for a float, np.ceil for arrays).
 
-
+    The turns are ``ceil((a - pi) / 2 pi)``. Where rounding made that one too few or one too many (a float
+    just above -pi came out just above pi; one next to a far odd multiple of pi, at or below -pi), one turn
+    is added or taken back: from ``a`` (so an angle already inside stays bit for bit), or, where that rounds
+    outside again, from the first result (``w -+ 2 pi``, exact there: it lies between pi and 2 pi).
+    """
+    if ceil is math.ceil:
+        k = ceil((a - _PI) * _INV_TWO_PI)
+        w = a - _TWO_PI * k
+        if -_PI < w <= _PI:
+            return w
+        v = a - _TWO_PI * (k + 1 if w > _PI else k - 1)
+        return v if -_PI < v <= _PI else (w - _TWO_PI if w > _PI else w + _TWO_PI)
+    w = a - _TWO_PI * ceil((a - _PI) * _INV_TWO_PI)
+    if w.size == 0 or (w.max() <= _PI and w.min() > -_PI):  # (the usual case: two reductions, no temporaries)
+        return w
+    k = ceil((a - _PI) * _INV_TWO_PI)
+    over, under = w > _PI, w <= -_PI
+    v = a - _TWO_PI * (k + over - under)
+    v = np.where((v > -_PI) & (v <= _PI), v, np.where(over, w - _TWO_PI, w + _TWO_PI))
+    return np.where(over | under, v, w)

@@ -195,6 +195,21 @@ def test_wrap_angle():
     assert np.allclose(wrap_angle([3 * np.pi, -np.pi, np.pi, 0.5 - 2 * np.pi]), [np.pi, np.pi, np.pi, 0.5])
 
 
+def test_wrap_angle_lands_in_the_half_open_interval_at_every_edge():
+    # floats next to odd multiples of pi (where a turn is decided by the last bits), and random ones
+    edges = np.array([k * np.pi for k in range(-41, 42, 2)] + [-np.pi, np.pi])
+    near = np.concatenate([edges + d * np.spacing(edges) for d in range(-4, 5)] + [
+        np.random.default_rng(3).uniform(-1e3, 1e3, size=20000)])
+    w = wrap_angle(near)
+    assert np.all((w > -np.pi) & (w <= np.pi))
+    assert w.tobytes() == np.array([wrap_angle(float(x)) for x in near]).tobytes()  # one formula, arrays and floats
+    inside = near[(near > -np.pi) & (near <= np.pi)]
+    assert inside.size > 10 and wrap_angle(inside).tobytes() == inside.tobytes()  # already wrapped: unchanged
+    assert wrap_angle(float(np.nextafter(-np.pi, 0.0))) == float(np.nextafter(-np.pi, 0.0))  # (was pi + 1 ulp)
+    # the wrapped angle is the angle less whole turns (to rounding)
+    assert np.allclose(np.cos(w), np.cos(near), atol=1e-12) and np.allclose(np.sin(w), np.sin(near), atol=1e-12)
+
+
 def test_wrap_angle_of_one_float_is_the_array_result():
     # the float path returns most angles as they are; near -pi and outside (-pi, pi] it applies the formula
     rng = np.random.default_rng(3)
