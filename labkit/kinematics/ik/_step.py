@@ -19,8 +19,9 @@ def step(la, J, e, lam):
     """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
 
     Written once, against a small linear algebra ``la``: :data:`MATRICES`
-    (numpy, a batch) or :class:`Lists` (nested lists, one target; compiled
-    into straight-line code with the task error by :class:`Floats`).
+    (numpy, a batch) or :class:`Lists` (nested lists, one target; traced
+    with the clip into straight-line code by
+    :class:`~labkit.kinematics.ik._lm.Floats`).
 
     Parameters
     ----------
@@ -68,7 +69,8 @@ class Lists:
     """:func:`step`'s linear algebra on nested lists: a matrix is a list of rows, a vector a list.
 
     The entries are floats, or symbols of :data:`~labkit.kinematics.ik._trace.TRACE`
-    (so :class:`Floats` compiles a target's whole step into straight-line code);
+    (so :class:`~labkit.kinematics.ik._lm.Floats` compiles a target's whole
+    step into straight-line code);
     ``xp`` gives the square root. The solve is a Cholesky factorisation: the
     damped normal matrix is symmetric positive definite, and only its lower
     triangle is read (what nothing reads, compiled code does not compute). It
