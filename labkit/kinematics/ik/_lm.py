@@ -292,8 +292,8 @@ class Floats(Batch):
     robot (:mod:`labkit.kinematics.ik._trace`) from the per-robot program's
     generated code and :func:`task_error`; its step is another, :func:`step`
     on :class:`Lists` and the clip into the bounds (should rounding leave the
-    normal matrix not positive definite, that target's step is solved on
-    :data:`MATRICES`). The state is lists with one entry per
+    normal matrix not positive definite, that target's step is :class:`Batch`'s,
+    LU). The state is lists with one entry per
     target (joint values, targets and errors as lists of floats, a
     Jacobian as its ``m * n`` entries row by row). Parameters and methods
     as :class:`Batch`.
@@ -349,8 +349,10 @@ class Floats(Batch):
         for qk, Jk, ek, lk in zip(q, J, e, lam):
             try:
                 out.append(self._moved(qk, Jk, ek, lk, lo, hi))
-            except (ValueError, ZeroDivisionError):  # rounding left J^T J + lam I not positive definite: LU
-                out.append(_moved_one(FLOATS, qk, Jk, ek, lk, lo, hi, self.rows, self.n, MATRICES))
+            except (ValueError, ZeroDivisionError):  # rounding left J^T J + lam I not positive definite:
+                out.append(super().moved(  # the batch path's step (LU) on this one target
+                    np.array([qk]), np.reshape(Jk, (1, len(self.rows), self.n)), np.array([ek]), np.array([lk]),
+                    np.asarray(lo), np.asarray(hi))[0].tolist())
         return out
 
     def accept(self, old, new):
@@ -380,15 +382,10 @@ def _evaluate_one(xp, q, t, robot, kind, rows):
     return J, e, res, 0.5 * E
 
 
-def _moved_one(xp, q, J, e, lam, lo, hi, rows, n, la=None):
-    """One target's damped step (:func:`step`) from ``q``, clipped to ``[lo, hi]`` (:meth:`Floats.moved`,
-    compiled): ``J`` its ``m * n`` entries row by row; ``la`` the linear algebra (default :class:`Lists` on
-    ``xp``; :data:`MATRICES` solves by LU)."""
-    m = len(rows)
-    if la is MATRICES:
-        dq = step(la, np.reshape(J, (m, n)), np.asarray(e), lam).tolist()
-    else:
-        dq = step(la or Lists(xp), [J[r * n:(r + 1) * n] for r in range(m)], e, lam)
+def _moved_one(xp, q, J, e, lam, lo, hi, rows, n):
+    """One target's damped step (:func:`step` on :class:`Lists`) from ``q``, clipped to ``[lo, hi]``
+    (:meth:`Floats.moved`, compiled): ``J`` its ``m * n`` entries row by row."""
+    dq = step(Lists(xp), [J[r * n:(r + 1) * n] for r in range(len(rows))], e, lam)
     return [xp.clip(v + d, a, b) for v, d, a, b in zip(q, dq, lo, hi)]
 
 

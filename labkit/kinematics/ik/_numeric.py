@@ -11,8 +11,9 @@ iterations; from a closed-form start, in each of its first two spans of 4)
 or runs out of iterations restarts from the next closed-form start (jittered)
 or a random configuration inside the limits. Odd-numbered attempts ignore the
 revolute limits and wrap the solution by 2 pi afterwards (accepted only if it
-then lies inside), which escapes minima pinned against a limit. Finally the stragglers are copied up
-to 64 times and the copies iterate together from independent starts.
+then lies inside), which escapes minima pinned against a limit. Finally the
+stragglers are copied up to 64 times and the copies iterate together from
+independent starts.
 
 One target is a batch of one: the same loop, whose arithmetic for at most
 :data:`FLOAT_TARGETS` active targets (one target, or a batch's last few)

@@ -137,8 +137,7 @@ def validate_targets(target, kind):
             defects = list(map(_rigid_defects_floats(), poses))
             bad = [i for i, d in enumerate(defects) if _is_bad(*d)]
         else:
-            if not np.isfinite(T).all():
-                as_batch(target, (4, 4), "target pose")  # (raises, naming the entry)
+            as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
             defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
             bad = _is_bad(*defects).nonzero()[0]
         if len(bad):

@@ -1,8 +1,9 @@
 """Formulas written against an array namespace, compiled into straight-line Python for floats (private).
 
 The closed-form families (:mod:`labkit.kinematics.ik._family`), the finishing
-step, the ranking of numeric IK's starts and the task error are written once
-against an array namespace ``xp``. On :data:`~labkit.kinematics.ik._xp.FLOATS`
+step, the ranking of numeric IK's starts, the task error, the damped step
+(on nested lists) and the rigid-transform test are written once against an
+array namespace ``xp``. On :data:`~labkit.kinematics.ik._xp.FLOATS`
 most of one target's time goes to interpreting them (attribute look-ups, calls
 of small helpers, tuples built and unpacked, loops over branches and joints),
 not to the arithmetic. :func:`compiled` runs such a function once on
