@@ -243,7 +243,7 @@ def wire_speed_limits(robot):
     Parameters
     ----------
     robot : labkit.Robot
-        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``inf``: none).
+        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``None``: none).
 
     Returns
     -------
@@ -251,7 +251,7 @@ def wire_speed_limits(robot):
         [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
     """
     def wire(value, largest):
-        return 0 if not math.isfinite(value) else min(int(math.floor(math.degrees(value) * 100)), largest)
+        return 0 if value is None else min(int(math.floor(math.degrees(value) * 100)), largest)
 
     return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
             [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])

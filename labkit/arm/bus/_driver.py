@@ -231,9 +231,9 @@ class BusDriver:
         """
         velocity, acceleration = self.profile
         for lk in self.robot.links:
-            if math.isfinite(lk.max_velocity):
+            if lk.max_velocity is not None:
                 self.write(lk.bus.id, velocity, self._velocity_value(lk.max_velocity))
-            if math.isfinite(lk.max_acceleration):
+            if lk.max_acceleration is not None:
                 self.write(lk.bus.id, acceleration, self._acceleration_value(lk.max_acceleration))
 
     def write_goals(self, ticks):
