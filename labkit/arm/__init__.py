@@ -13,7 +13,7 @@ from labkit.arm._protocol import checksum, CommandRejected, PROTOCOL_VERSION, MA
 from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, PortInfo, list_ports, find_ports, Arm
 from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, VirtualBoard, make_board, serve_pty
 from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
-from labkit.arm._port_errors import PortURLError, PortError, PortClosedError
+from labkit.exceptions import PortURLError, PortError, PortClosedError
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
 
 __all__ = [

@@ -30,7 +30,7 @@ import math
 import re
 import zlib
 
-from labkit.exceptions import DeviceError, ProtocolError
+from labkit.exceptions import CommandRejected, ProtocolError
 
 __all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
 
@@ -220,22 +220,6 @@ def cdeg(q):
     """
     return int(round(math.degrees(float(q)) * 100))
 
-
-class CommandRejected(DeviceError):
-    """The board answered ``ERR``: the request had no effect.
-
-    Attributes
-    ----------
-    code : int
-        Error code (key of :data:`ERRORS`).
-    name : str
-        Its name as the board sent it (``"LIMIT"``, ``"QFULL"`` ...).
-    """
-
-    def __init__(self, message, code, name):
-        self.code = code
-        self.name = name
-        super().__init__(message)
 
 def wire_speed_limits(robot):
     """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).

@@ -279,7 +279,7 @@ def lab_defaults(robot) -> LabDefaults:
     for radius in (0.1, 0.06, 0.03):
         r = radius * reach
         for normal in arc_normals:
-            u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).axes  # the plane's in-plane axes
+            u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).plane_axes  # the plane's in-plane axes
             for start in (0.0, 90.0, 180.0, 270.0):
                 th = math.radians(start)
                 center = p0 - r * (math.cos(th) * u + math.sin(th) * v)

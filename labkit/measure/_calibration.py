@@ -449,7 +449,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
     ----------
     robot : Robot or str or None
         Nominal model (or its name or file); ``None``: the robot named in the
-        measurements (not with a tuple of synthetic data).
+        measurements (a tuple of synthetic data needs a robot).
     measurements : pandas.DataFrame or str or os.PathLike, or tuple
         Readings with commanded joints (see :mod:`labkit.measure`); or a
         tuple ``(q (P, n) [rad, m], positions (P, 3) [m])`` of synthetic data
@@ -497,22 +497,19 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
     from labkit.robot import Robot
 
     if isinstance(measurements, tuple):
-        q, measured = (np.asarray(v, dtype=float) for v in measurements)
         if robot is None:
             raise OptionError("expected a robot with synthetic (q, positions) data, got None")
-        robot = Robot.load(robot)
+        q, measured, robot = *(np.asarray(v, dtype=float) for v in measurements), Robot.load(robot)
         pose_ids = tuple(f"pose{i + 1}" for i in range(len(q)))
         sigma = np.ones_like(measured)
     else:
-        if robot is None:
-            from labkit.measure._calculated import _robot
-            from labkit.measure._csv import load_measurements
-            import pandas as pd
+        from labkit.measure._calculated import _robot
+        from labkit.measure._csv import load_measurements
+        import pandas as pd
 
-            if not isinstance(measurements, pd.DataFrame):
-                measurements = load_measurements(measurements)
-            robot = _robot(None, measurements)
-        robot = Robot.load(robot)
+        if not isinstance(measurements, pd.DataFrame):
+            measurements = load_measurements(measurements)
+        robot = _robot(robot, measurements)
         pose_ids, q, measured, sigma = _pose_data(measurements, robot)
     if q.ndim != 2 or q.shape[1] != robot.n or measured.shape != (len(q), 3):
         raise MeasurementError(f"expected q (P, {robot.n}) and positions (P, 3), got {q.shape} and {measured.shape}")

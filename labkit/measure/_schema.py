@@ -36,7 +36,7 @@ import zlib
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError
+from labkit.exceptions import MeasurementError, MeasurementWarning
 
 try:  # advisory lock against a second writer (POSIX only)
     import fcntl
@@ -78,10 +78,6 @@ _QUANTITY_PATTERNS = (
     (re.compile(r"^d[1-9][0-9]?$"), "length"),
 )
 _QUANTITY_HELP = "x, y, z (tool point [length]), theta<i> (joint i [angle]), d<i> (prismatic joint i [length])"
-
-
-class MeasurementWarning(UserWarning):
-    """A torn (crash-truncated) line was skipped while loading."""
 
 
 def quantity_dimension(quantity):

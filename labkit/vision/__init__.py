@@ -4,7 +4,7 @@
 See ``docs/camera.md``. Lengths in m, angles in rad, image coordinates in px.
 """
 
-from labkit.vision._errors import (
+from labkit.exceptions import (
     VisionError,
     MarkerNotFoundError,
     WrongMarkerError,

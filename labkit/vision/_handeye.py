@@ -27,7 +27,7 @@ import warnings
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.vision._errors import HandEyeWarning, VisionError
+from labkit.exceptions import HandEyeWarning, VisionError
 
 __all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "METHODS", "MIN_ROTATION_SPREAD"]
 

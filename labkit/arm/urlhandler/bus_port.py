@@ -24,7 +24,7 @@ import time
 import urllib.parse
 from dataclasses import replace
 
-from labkit.arm._port_errors import PortURLError
+from labkit.exceptions import PortURLError
 from labkit.arm.urlhandler.protocol_sim import Serial as SimSerial
 
 __all__ = ["parse_bus_url", "BusSerial"]

@@ -42,7 +42,7 @@ import urllib.parse
 
 from serial.serialutil import SerialBase, to_bytes
 
-from labkit.arm._port_errors import PortClosedError, PortError, PortURLError
+from labkit.exceptions import PortClosedError, PortError, PortURLError
 
 CLOCKS = ("realtime", "lockstep")
 #: the adapter latency [ms] the SDK's status timeouts assume on a virtual bus (a loaded host answers late)
