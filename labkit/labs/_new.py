@@ -17,7 +17,7 @@ Example
 -------
 >>> from labkit.labs import lab_defaults
 >>> d = lab_defaults("planar3r_seed003")
->>> d.kind, d.target, round(d.reach, 3)
+>>> d.description, d.target, round(d.reach, 3)
 ('planar 3-DOF', 'planar', 0.335)
 """
 
@@ -66,7 +66,7 @@ class LabDefaults:
 
     Attributes
     ----------
-    kind : str
+    description : str
         ``"spatial 3-DOF"``, ``"planar 3-DOF"``, ``"4-DOF"``, ``"6-DOF pose"``, ... with
         ``", prismatic"`` when a joint slides.
     target : str
@@ -78,7 +78,7 @@ class LabDefaults:
         Parameter name -> value (lists of numbers in deg / mm) for the templates.
     """
 
-    kind: str
+    description: str
     target: str
     reach: float
     parameters: dict = field(default_factory=dict)
@@ -94,8 +94,8 @@ class NewLab:
     robot_file : Path
         The user's robot file, copied unchanged (``robot.toml``).
     notebooks : tuple of Path
-    kind : str
-        :attr:`LabDefaults.kind`.
+    description : str
+        :attr:`LabDefaults.description`.
     lab_robot_file : Path
         The robot file the notebooks use: ``robot_file``, or ``robot_with_servos.toml``
         where the lab added servo calibrations.
@@ -107,7 +107,7 @@ class NewLab:
     folder: Path
     robot_file: Path
     notebooks: tuple
-    kind: str
+    description: str
     lab_robot_file: Path = None
     notes: tuple = ()
 
@@ -146,7 +146,7 @@ def with_servos(robot):
     return robot
 
 
-def _kind(robot, target):
+def _description(robot, target):
     n = robot.n
     label = {"planar": f"planar {n}-DOF", "pose": f"{n}-DOF pose" if n >= 6 else None}.get(target)
     if label is None:
@@ -314,7 +314,7 @@ def lab_defaults(robot) -> LabDefaults:
         "duration": 2.0,
         "readings": 2,
     }
-    return LabDefaults(_kind(robot, kind), kind, reach, params)
+    return LabDefaults(_description(robot, kind), kind, reach, params)
 
 
 def _parameters_source(values, names, docs=_PARAM_DOC):
@@ -500,7 +500,7 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     else:
         where, real = "virtual arm, `sim://`", "On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`"
     (folder / "README.md").write_text(
-        f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.kind}, target kind "
+        f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.description}, target kind "
         f"`{defaults.target}`), made with `labkit new`.{added}\n\n"
         + "".join(f"* `{p.name}`\n" for p in written)
         + f"\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
@@ -509,5 +509,5 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     from labkit.reports import LabInfo, write_lab_info
 
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
-    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind,
+    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.description,
                   lab_file.resolve(), notes)
