@@ -420,7 +420,7 @@ def _servo_notes(user, model):
     return tuple(notes)
 
 
-def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
+def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     """Create a lab folder for ``robot`` from the generic template notebooks.
 
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
@@ -437,10 +437,10 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
 
     Parameters
     ----------
-    lab_dir : str or os.PathLike
-        The folder to create.
     robot : str or os.PathLike
         Robot file or bundled robot name.
+    lab_dir : str or os.PathLike
+        The folder to create.
     title : str, optional
         Lab title (default ``"<robot title> lab"``).
     force : bool

@@ -14,7 +14,7 @@ Examples
 >>> import tempfile, pathlib
 >>> from labkit.measure import MeasurementLog, load_measurements
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "fk_joint1.csv"
->>> with MeasurementLog(path, robot="arduino_arm_3dof", operator="AB") as log:
+>>> with MeasurementLog("arduino_arm_3dof", path, operator="AB") as log:
 ...     rec = log.record("j1_45", "x", 18.2, unit="cm", instrument="ruler",
 ...                      resolution=0.05, commanded=[0.785398, 0.0, 0.0])
 >>> rec.repeat, rec.record

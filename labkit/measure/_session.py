@@ -193,7 +193,7 @@ class MeasurementSession:
             raise OptionError(f"expected unit one of mm, cm, m, got {unit!r}")
         self.arm = arm
         self.robot = arm.robot
-        self.log = log if isinstance(log, MeasurementLog) else MeasurementLog(log, robot=arm.robot,
+        self.log = log if isinstance(log, MeasurementLog) else MeasurementLog(arm.robot, log,
                                                                                operator=operator)
         self.readings = int(readings)
         if self.readings < 1:

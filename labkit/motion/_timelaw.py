@@ -102,7 +102,7 @@ class TimeLaw:
     """
 
     ppoly: PPoly
-    name: LawName = LawName.CUBIC
+    name: LawName
 
     # -- description ---------------------------------------------------------
     @property

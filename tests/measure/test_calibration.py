@@ -200,7 +200,7 @@ def test_calibrates_the_virtual_arm_from_a_logged_session(tmp_path):
     sim = ArmModel("arduino_arm_3dof", PhysicsConfig(seed=4, zero_offsets=tuple(offsets), deadband=0.0))
     q_all = np.random.default_rng(7).uniform(np.radians(10), np.radians(170), (25, 3))
     path = tmp_path / "session.csv"
-    with MeasurementLog(path, robot="arduino_arm_3dof") as log:
+    with MeasurementLog("arduino_arm_3dof", path) as log:
         for i, q in enumerate(q_all):
             sim.servos.reset(q)  # at rest at the commanded pose
             for reading in sim.ruler(3):

@@ -109,7 +109,7 @@ def test_raw_readings_spread_and_fk_of_logged_session(tmp_path, arm):
     q = [0.3, 0.4, 0.5]
     x_model = arm.fk(q)[0, 3]
     readings = [1000 * x_model + d for d in (-1.0, 0.5, 2.0)]
-    with MeasurementLog(path, robot=arm) as log:
+    with MeasurementLog(arm, path) as log:
         for v in readings:
             log.record("p", "x", v, unit="mm", instrument="ruler", resolution=0.5, commanded=q)
         log.record("p", "theta2", 23.0, unit="deg", instrument="protractor", resolution=0.5, commanded=q)
@@ -126,7 +126,7 @@ def test_raw_readings_spread_and_fk_of_logged_session(tmp_path, arm):
 
 def test_angle_error_wraps(tmp_path, arm):
     path = tmp_path / "w.csv"
-    with MeasurementLog(path, robot=arm) as log:
+    with MeasurementLog(arm, path) as log:
         log.record("p", "theta1", -179.0, unit="deg", instrument="protractor", resolution=0.5,
                    commanded=[math.radians(179), 0, 0])
     t = error_table(None, path).table
