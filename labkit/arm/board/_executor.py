@@ -14,7 +14,7 @@ replies and segment execution run on every board.
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from labkit.arm._protocol import MAX_LINE, PROTOCOL_VERSION, seal
 from labkit.arm.board._commands import FW_VERSION, BoardCommands, read_eeprom
@@ -25,6 +25,7 @@ FRAME_S = 0.020  # servo frame period [s]
 BOOT_S = 0.1  # reset to READY [s]
 
 
+@runtime_checkable
 class Servos(Protocol):
     """What an :class:`Executor` asks of the servos its board drives (the board implements it).
 
