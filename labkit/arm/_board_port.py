@@ -74,13 +74,40 @@ class BoardPort(Protocol):
     def virtual_model(self): ...
 
     def write(self, data) -> int:
-        """Send ``data`` (a sealed request line, ``docs/protocol.md``) to the board; returns ``len(data)``."""
+        """Send bytes to the board.
+
+        Parameters
+        ----------
+        data : bytes-like
+            A sealed request line (``docs/protocol.md``).
+
+        Returns
+        -------
+        int
+            ``len(data)``.
+        """
 
     def read(self, size=1) -> bytes:
-        """Up to ``size`` bytes the board sent (its reply lines), waiting up to ``timeout``."""
+        """Bytes the board sent (its reply, event and ``FB`` lines), waiting up to ``timeout``.
+
+        Parameters
+        ----------
+        size : int
+            Largest number of bytes.
+
+        Returns
+        -------
+        bytes
+        """
 
     def sleep(self, seconds) -> None:
-        """Let ``seconds`` of board time pass (lockstep: the board runs them; else the host sleeps)."""
+        """Let board time pass (lockstep: the board runs it; else the host sleeps).
+
+        Parameters
+        ----------
+        seconds : float
+            Board time [s].
+        """
 
     def read_servos(self):
         """Joint feedback read from the servos themselves, or ``None`` when the board has no such path.

@@ -348,7 +348,13 @@ class VirtualBoard:
         return adc
 
     def stream_rate(self, hz):
-        """Nothing to prepare: frames are sent as ``FB`` lines."""
+        """Nothing to prepare: frames are sent as ``FB`` lines.
+
+        Parameters
+        ----------
+        hz : int
+            Frame rate [Hz], 0: off.
+        """
 
 
 def _pulse(cal, servo_cdeg):

@@ -42,13 +42,55 @@ class Servos(Protocol):
     grip_refused: str
 
     def joint_range(self, j, cal):
-        """Joint ``j``'s feasible range ``(lo, hi)`` [cdeg] under calibration row ``cal`` (what ``SEG`` checks)."""
+        """Joint ``j``'s feasible range (what ``SEG`` checks).
+
+        Parameters
+        ----------
+        j : int
+            Joint index.
+        cal : sequence of int
+            The channel's calibration row.
+
+        Returns
+        -------
+        tuple of int
+            ``(lo, hi)`` [cdeg].
+        """
 
     def valid(self, j, q, cal):
-        """Whether joint ``j`` may be commanded to ``q`` [cdeg] under ``cal`` (what ``MOVE`` and ``CAL`` check)."""
+        """Whether joint ``j`` may be commanded to ``q`` (what ``MOVE`` and ``CAL`` check).
+
+        Parameters
+        ----------
+        j : int
+            Joint index.
+        q : float
+            Joint value [cdeg].
+        cal : sequence of int
+            The channel's calibration row.
+
+        Returns
+        -------
+        bool
+        """
 
     def clamp(self, j, q, cal):
-        """``q`` [cdeg] brought into joint ``j``'s range under ``cal`` (the executor's last safety net)."""
+        """``q`` brought into joint ``j``'s range (the executor's last safety net).
+
+        Parameters
+        ----------
+        j : int
+            Joint index.
+        q : float
+            Joint value [cdeg].
+        cal : sequence of int
+            The channel's calibration row.
+
+        Returns
+        -------
+        float
+            Joint value [cdeg].
+        """
 
     def power_up(self):
         """Called at every boot once the executor's state is set: start where the servos are (may set ``q``)."""
@@ -63,10 +105,29 @@ class Servos(Protocol):
         """``READ``'s counts now: one per joint (0..1023), then the user pot, as a list of int."""
 
     def stream_frame(self, counter, t_ms):
-        """Stream frame ``counter`` at board clock ``t_ms``: the counts for its ``FB`` line, or ``None`` (no line)."""
+        """A stream frame is due.
+
+        Parameters
+        ----------
+        counter : int
+            Frame counter (0..65535).
+        t_ms : int
+            Board clock [ms].
+
+        Returns
+        -------
+        list of int or None
+            The counts of its ``FB`` line, or ``None``: no line is sent.
+        """
 
     def stream_rate(self, hz):
-        """``STREAM hz`` was accepted (0: off)."""
+        """``STREAM hz`` was accepted.
+
+        Parameters
+        ----------
+        hz : int
+            Frame rate [Hz], 0: off.
+        """
 
 
 class Executor(BoardCommands):
