@@ -38,8 +38,6 @@ PENDING = {
                                   "interface (issue 35, item 5)",
     ("labkit.arm.Arm", "robot"): "Arm(port, robot='arduino_arm_3dof'): robot second with the course arm as "
                                  "default; reworked with the board interface (issue 35, item 5)",
-    ("labkit.arm.VirtualBoard", "robot"): "default robot 'arduino_arm_3dof' (issue 35, item 5)",
-    ("labkit.arm.make_board", "robot"): "default robot 'arduino_arm_3dof' (issue 35, item 5)",
     ("labkit.arm.bus.bus_module", "kind"): "bus kind (issue 35, item 5)",
     ("labkit.arm.bus.open_bus_board", "kind"): "bus kind (issue 35, item 5)",
     ("labkit.arm.bus.open_bus_board", "robot"): "robot third (issue 35, item 5)",

@@ -82,8 +82,10 @@ def test_bad_api_input_is_a_labkit_error_never_a_silent_nan(name, value):
 
 
 @pytest.mark.parametrize("argv, option", [
-    (["sim", "--time-scale", "-1"], "--time-scale"), (["sim", "--time-scale", "0"], "--time-scale"),
-    (["sim", "--time-scale", "nan"], "--time-scale"), (["sim", "--time-scale", "inf"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "-1"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "0"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "nan"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "inf"], "--time-scale"),
     (["render", "--timeout", "-1"], "--timeout"), (["render", "--scheduler", "garbage"], "--scheduler"),
     (["render", "-j", "0"], "--jobs"),
     (["grade", "subs", "--lab", "lab", "--cpu", "inf"], "--cpu"),
