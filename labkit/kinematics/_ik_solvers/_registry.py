@@ -3,20 +3,20 @@
 A robot's family is the first of :data:`FAMILIES` that fits its geometry (joint
 axes at ``q = 0``), cached per robot object in a keyed cache (``Robot`` stays
 plain frozen data). Adding a family: one module with a
-:class:`~labkit.kinematics.ik._family.Family` subclass and one line here; the
+:class:`~labkit.kinematics._ik_solvers._family.Family` subclass and one line here; the
 ``Solver`` enum of :mod:`labkit.kinematics` is built from this tuple.
 """
 
 from __future__ import annotations
 
 from labkit.kinematics._chain import per_robot
-from labkit.kinematics.ik._planar_2r import Planar2R
-from labkit.kinematics.ik._planar_3r import Planar3R
-from labkit.kinematics.ik._spherical_wrist import SphericalWrist
-from labkit.kinematics.ik._three_parallel import ThreeParallel
-from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
-from labkit.kinematics.ik._yaw_pitch_pitch_pitch import YawPitchPitchPitch
-from labkit.kinematics.ik._yaw_pitch_pitch_pitch_roll import YawPitchPitchPitchRoll
+from labkit.kinematics._ik_solvers._planar_2r import Planar2R
+from labkit.kinematics._ik_solvers._planar_3r import Planar3R
+from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
+from labkit.kinematics._ik_solvers._three_parallel import ThreeParallel
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import YawPitchPitch
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch_roll import YawPitchPitchPitchRoll
 
 #: the families, in the order they are tried
 FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitchPitchRoll, SphericalWrist,
