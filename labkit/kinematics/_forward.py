@@ -308,7 +308,8 @@ def _default_program(c, output, tool_frame=False, want_T=False):
     key = (output, tool_frame, want_T)
     prog = c.programs.get(key)
     if prog is None:
-        prog = c.programs[key] = _program.program(c, output, _tool_offset(c, None), tool_frame, want_T)
+        prog = c.programs[key] = _program.program(c, output, _tool_offset(c, None), tool_frame, want_T,
+                                                  structure=c.structure)
     return prog
 
 

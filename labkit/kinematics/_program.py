@@ -1,19 +1,26 @@
-"""The DH recursion, written once, compiled per robot into straight-line programs (private).
+"""The DH recursion, written once, compiled per robot *structure* into straight-line programs (private).
 
 :func:`walk` is the one place the Denavit-Hartenberg chain is written (both
 conventions, prismatic and revolute joints, base and tool). It runs on an
 *algebra*: :class:`_Builder` records it on *symbols*, where every vector
-component is either a Python float known when the robot is loaded (the
-base's columns, ``cos alpha = 0``, ``a = 0`` ...) or a signed reference to a
-row of per-chunk scratch. Arithmetic on two constants is folded,
-multiplications by 0 and +-1 and additions of 0 vanish, negations are carried
-as a sign instead of computed, repeated products are shared, and whatever the
-outputs do not need (the last joint's rotation when only the Jacobian is
-asked for ...) is dropped. :mod:`labkit.kinematics.symbolic` runs the same
-walk on sympy expressions.
+component is a literal ``0``, ``+1`` or ``-1`` (``cos alpha = 0``, ``a = 0``,
+the base's columns ...), a robot *number* (a length, a twist's cosine: an
+input of the program, :class:`_Number`) or a signed reference to a row of
+per-chunk scratch. Arithmetic on literals is folded, multiplications by 0 and
++-1 and additions of 0 vanish, negations are carried as a sign instead of
+computed, repeated products are shared, arithmetic on numbers alone becomes a
+short prologue evaluated once per robot, and whatever the outputs do not need
+(the last joint's rotation when only the Jacobian is asked for ...) is
+dropped. :mod:`labkit.kinematics.symbolic` runs the same walk on sympy
+expressions.
 
-What is left, a :class:`Program` per robot and output (pose, position, every
-frame, Jacobian with or without the pose), is evaluated two ways:
+What is left, a :class:`Program`, depends only on the robot's structure
+(convention, joint types, flips, which numbers are 0 or +-1) and on the
+output asked for (pose, position, every frame, Jacobian with or without the
+pose). Programs are kept in one cache keyed by that structure, so a freshly
+loaded robot, a ``with_link`` copy or the robots of a calibration with other
+numbers compile nothing; a robot's numbers are bound to the program
+(:meth:`Program.bound`, microseconds). A bound program is evaluated two ways:
 
 * on numpy: a list of ufunc calls on ``(m,)`` rows with ``out=`` (no
   temporaries), scratch rows reused as soon as a value is dead so a chunk's
@@ -30,15 +37,45 @@ from __future__ import annotations
 
 import itertools
 import math
-import weakref
+import operator
 
 import numpy as np
 
-#: compiled programs per chain: {(point, frame, want_T): Program}; a few entries per robot at most
-_PROGRAMS = weakref.WeakKeyDictionary()
-_MAX_PER_CHAIN = 16
+#: compiled programs by structure and output: {key: Program} (see :func:`program`); cleared when full
+_PROGRAMS = {}
+_MAX_PROGRAMS = 256
 
 _COMMUTATIVE = (np.multiply, np.add)
+#: literals folded into a program's structure; any other number is an input
+_LITERALS = (0.0, 1.0, -1.0)
+
+
+class _Number:
+    """A robot number (entry ``k`` of the values a program is bound to), times ``sign`` (+1.0 or -1.0)."""
+
+    __slots__ = ("k", "sign")
+
+    def __init__(self, k, sign=1.0):
+        self.k = k
+        self.sign = sign
+
+    def __neg__(self):
+        return _Number(self.k, -self.sign)
+
+    def scaled(self, sign):
+        return self if sign == 1.0 else _Number(self.k, -self.sign)
+
+    def __eq__(self, other):  # (never equal to a literal: a number is neither 0 nor +-1)
+        return isinstance(other, _Number) and self.k == other.k and self.sign == other.sign
+
+    def __ne__(self, other):
+        return not self == other
+
+    def __hash__(self):
+        return hash((self.k, self.sign))
+
+    def __repr__(self):
+        return f"{'-' if self.sign < 0 else ''}n{self.k}"
 
 
 class _Sym:
@@ -55,17 +92,34 @@ class _Sym:
 
 
 def _neg(x):
-    return -x if isinstance(x, _Sym) else -float(x)
+    return -x if isinstance(x, (_Sym, _Number)) else -float(x)
+
+
+def _is_literal(x):
+    return not isinstance(x, (_Sym, _Number))
 
 
 class _Builder:
     """Records the ufunc calls of a symbolic walk, folding constants and signs."""
 
-    def __init__(self, n_inputs):
+    def __init__(self, n_inputs, n_numbers):
         self.n_inputs = n_inputs  # registers 0 .. n_inputs - 1 are the inputs
         self.n_regs = n_inputs
-        self.ops = []  # (ufunc, a, b, out): a, b a register (int) or a constant (float)
+        self.ops = []  # (ufunc, a, b, out): a, b a register (int), a literal (float) or a _Number
         self.memo = {}
+        self.n_numbers = n_numbers  # the robot's numbers are values 0 .. n_numbers - 1
+        self.prologue = []  # (operator, a, b): value n_numbers + k from numbers and literals
+
+    def number_op(self, func, x, y):
+        """``func(x, y)`` of literals and numbers: a literal, or a number made by the prologue."""
+        if _is_literal(x) and _is_literal(y):
+            return float(func(float(x), float(y)))
+        key = (func, x, y)
+        k = self.memo.get(key)
+        if k is None:
+            k = self.memo[key] = self.n_numbers + len(self.prologue)
+            self.prologue.append(key)
+        return _Number(k)
 
     def emit(self, func, a, b):
         if func in _COMMUTATIVE and isinstance(b, int) and (not isinstance(a, int) or b < a):
@@ -79,29 +133,39 @@ class _Builder:
         return reg
 
     def mul(self, x, y):
+        if _is_literal(y):
+            x, y = y, x
+        if _is_literal(x):  # fold 0 and +-1
+            x = float(x)
+            if x == 0.0:
+                return 0.0
+            if x == 1.0 or x == -1.0:
+                return y.scaled(x) if isinstance(y, _Number) else (_Sym(y.reg, y.sign * x)
+                                                                    if isinstance(y, _Sym) else x * float(y))
         if not isinstance(x, _Sym):
             if not isinstance(y, _Sym):
-                return float(x) * float(y)
+                return self.number_op(operator.mul, x, y)
             x, y = y, x
         if not isinstance(y, _Sym):
-            y = float(y)
-            if y == 0.0:
-                return 0.0
-            if y == 1.0 or y == -1.0:
-                return _Sym(x.reg, x.sign * y)
-            return _Sym(self.emit(np.multiply, x.reg, y * x.sign))
+            return _Sym(self.emit(np.multiply, x.reg, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign))
         return _Sym(self.emit(np.multiply, x.reg, y.reg), x.sign * y.sign)
 
     def add(self, x, y):
         if not isinstance(x, _Sym):
             if not isinstance(y, _Sym):
-                return float(x) + float(y)
+                if _is_literal(x) and float(x) == 0.0:
+                    return y
+                if _is_literal(y) and float(y) == 0.0:
+                    return x
+                return self.number_op(operator.add, x, y)
             x, y = y, x
         if not isinstance(y, _Sym):
-            y = float(y)
-            if y == 0.0:
-                return x
-            return _Sym(self.emit(np.add, x.reg, y * x.sign), x.sign)
+            if _is_literal(y):
+                y = float(y)
+                if y == 0.0:
+                    return x
+            return _Sym(self.emit(np.add, x.reg, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign),
+                        x.sign)
         if x.sign == y.sign:
             return _Sym(self.emit(np.add, x.reg, y.reg), x.sign)
         if x.sign > 0:
@@ -128,7 +192,7 @@ class _Builder:
         """``p + sum_k cols[k] * w[k]`` (``p`` may be None), skipping zero weights, left to right."""
         for col, v in zip(cols, w):
             if v != 0.0:
-                term = tuple(self.mul(col[k], float(v)) for k in range(3))
+                term = tuple(self.mul(col[k], v) for k in range(3))
                 p = term if p is None else tuple(self.add(p[k], term[k]) for k in range(3))
         return p if p is not None else (0.0, 0.0, 0.0)
 
@@ -162,7 +226,7 @@ def _cross_lever(b, z, p, o):
 
 
 class Program:
-    """A compiled chunk kernel: inputs (trig rows, prismatic values) -> output rows.
+    """A compiled chunk kernel of one robot structure: inputs (trig rows, prismatic values) -> output rows.
 
     Attributes
     ----------
@@ -172,56 +236,107 @@ class Program:
         coordinates of a position program.
     n_scratch : int
         Scratch rows needed.
+    n_inputs : int
+        Input rows.
     """
 
-    def __init__(self, ops, constants, n_rows, n_scratch, n_inputs, joints=None):
-        self.joints = joints  # per joint (input row, half theta) or (input row, None): see _build
-        self.constants = constants  # (output row, value) filled once per buffer
+    def __init__(self, ops, constants, n_rows, n_scratch, n_inputs, joints, prologue):
         self.n_rows = n_rows
         self.n_scratch = n_scratch
         self.n_inputs = n_inputs
-        # each call as (ufunc, a, b, out), all four indices into the list bind() makes: the input,
-        # output and scratch rows, then the constant operands
+        self.prologue = prologue  # (operator, a, b) making the values after the robot's numbers
+        # the operands that are not rows: literals and numbers, each once; ops index into the list bind() makes
+        # (input, output and scratch rows, then these operands)
         start = {"i": 0, "o": n_inputs, "s": n_inputs + n_rows}
-        self.constant_args = []
+        self.operands = []
         index = {}
 
         def at(loc):
-            if isinstance(loc, float):
+            if isinstance(loc, (float, _Number)):
                 if loc not in index:
-                    index[loc] = n_inputs + n_rows + n_scratch + len(self.constant_args)
-                    self.constant_args.append(loc)
+                    index[loc] = n_inputs + n_rows + n_scratch + len(self.operands)
+                    self.operands.append(loc)
                 return index[loc]
             return start[loc[0]] + loc[1]
 
         self.ops = [(f, at(a), at(b), at(o)) for f, a, b, o in ops]
+        self.constants = [(row, at(v) - n_inputs - n_rows - n_scratch) for row, v in constants]  # (row, operand)
+        # per joint (input row, operand index of half its theta offset, or None) or (input row, False): prismatic
+        self.joints = tuple((row, False) if half is False else
+                            (row, None if half == 0.0 else at(half) - n_inputs - n_rows - n_scratch)
+                            for row, half in joints)
+        self._operands = [(v.k, v.sign) if isinstance(v, _Number) else (None, v) for v in self.operands]
+        self._scalar = None
 
-    def scalar(self, tan=None):
-        """The program as a Python function of joint values (generated once, kept on the program).
+    def bound(self, numbers):
+        """The program with a robot's numbers: a :class:`Bound` (evaluates the prologue once).
 
         Parameters
         ----------
-        tan : callable, optional
-            The tangent the code calls, instead of ``math.tan``: e.g. one
-            recording it on symbols (:mod:`labkit.kinematics.ik._trace`); the
-            function is then compiled anew and not kept.
+        numbers : sequence of float
+            The robot's numbers in the order :func:`program` found them.
+
+        Returns
+        -------
+        Bound
+        """
+        values = list(numbers)
+        for func, a, b in self.prologue:
+            values.append(func(_value(a, values), _value(b, values)))
+        return Bound(self, [v if k is None else v * values[k] for k, v in self._operands])
+
+    def scalar(self):
+        """The program as generated Python code ``f(q, c) -> list of float`` (generated once, kept).
 
         Returns
         -------
         callable
-            ``f(q) -> list of float``: the ``n_rows`` outputs of one
-            configuration from its ``n`` effective joint values ``q`` (a
-            sequence of floats, flipped joints already negated), by the same
-            operations in the same order as the ufunc calls, the half-angle
-            trigonometry of :func:`labkit.kinematics._chain.half_angle_trig`
-            included.
+            ``f(q, c)``: the ``n_rows`` outputs of one configuration from its
+            ``n`` effective joint values ``q`` (a sequence of floats, flipped
+            joints already negated) and the bound operands ``c``
+            (:attr:`Bound.operands`), by the same operations in the same
+            order as the ufunc calls, the half-angle trigonometry of
+            :func:`labkit.kinematics._chain.half_angle_trig` included.
         """
-        if tan is not None and tan is not math.tan:
-            return _python_function(self, tan)
-        f = getattr(self, "_scalar", None)
-        if f is None:
-            f = self._scalar = _python_function(self)
-        return f
+        if self._scalar is None:
+            self._scalar = _python_function(self)
+        return self._scalar
+
+
+def _value(v, values):
+    """A literal, or a robot number's value from ``values``."""
+    return v.sign * values[v.k] if isinstance(v, _Number) else v
+
+
+class Bound:
+    """A :class:`Program` bound to one robot's numbers (kept per robot on its chain).
+
+    Parameters
+    ----------
+    program : Program
+        The structure's program.
+    operands : list of float
+        Its operands with this robot's values.
+    """
+
+    def __init__(self, program, operands):
+        self.program = program
+        self.operands = operands
+        self.n_rows, self.n_scratch, self.n_inputs = program.n_rows, program.n_scratch, program.n_inputs
+        self.ops = program.ops
+        self.constants = [(row, operands[k]) for row, k in program.constants]  # (output row, value)
+        f = program.scalar()
+        self._scalar = lambda q: f(q, operands)
+
+    def scalar(self):
+        """The program's Python code with this robot's numbers.
+
+        Returns
+        -------
+        callable
+            ``f(q) -> list of float`` (see :meth:`Program.scalar`).
+        """
+        return self._scalar
 
     def bind(self, inputs, out_rows, scratch):
         """The calls for one buffer set: a list of ``(ufunc, a, b, out)`` with arrays bound.
@@ -240,7 +355,7 @@ class Program:
         list of tuple
             The calls in order; run each as ``ufunc(a, b, out)``.
         """
-        rows = list(inputs) + list(out_rows) + list(scratch) + self.constant_args
+        rows = list(inputs) + list(out_rows) + list(scratch) + self.operands
         for row, value in self.constants:
             out_rows[row][...] = value
         return [(f, rows[a], rows[b], rows[o]) for f, a, b, o in self.ops]
@@ -249,35 +364,37 @@ class Program:
 _OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
 
 
-def _python_function(prog, tan=math.tan):
-    """Generate and compile the straight-line Python code of a :class:`Program` on joint values (calling ``tan``)."""
-    n_in, n_out = prog.n_inputs, prog.n_rows
-    r = sum(half is not None for _, half in prog.joints)
+def _python_function(prog):
+    """Generate and compile the straight-line Python code ``f(q, c)`` of a :class:`Program`."""
+    n_in, n_out, n_s = prog.n_inputs, prog.n_rows, prog.n_scratch
+    r = sum(half is not False for _, half in prog.joints)
 
     def name(k):
         if k < n_in:
             return f"x{k}"
         if k < n_in + n_out:
             return f"o{k - n_in}"
-        if k < n_in + n_out + prog.n_scratch:
+        if k < n_in + n_out + n_s:
             return f"s{k - n_in - n_out}"
-        return repr(prog.constant_args[k - n_in - n_out - prog.n_scratch])
+        return f"c{k - n_in - n_out - n_s}"
 
-    lines = ["def f(q):"]
+    lines = ["def f(q, c):"]
+    if prog.operands:
+        lines.append("    " + "".join(f"c{k}, " for k in range(len(prog.operands))) + "= c")
     if prog.joints:
         lines.append("    " + "".join(f"q{i}, " for i in range(len(prog.joints))) + "= q")
     for i, (row, half) in enumerate(prog.joints):
-        if half is None:  # prismatic: the joint value itself
+        if half is False:  # prismatic: the joint value itself
             lines.append(f"    x{row} = q{i}")
             continue
         # cos and sin from the half-angle tangent, as half_angle_trig does on rows
-        arg = f"q{i} * 0.5" + (f" + {half!r}" if half else "")
+        arg = f"q{i} * 0.5" + (f" + c{half}" if half is not None else "")
         lines += [f"    t = tan({arg})", "    w = 2.0 / (t * t + 1.0)", f"    x{row} = w - 1.0",
                   f"    x{row + r} = t * w"]
-    lines += [f"    o{row} = {value!r}" for row, value in prog.constants]
+    lines += [f"    o{row} = c{k}" for row, k in prog.constants]
     lines += [f"    {name(o)} = {name(a)} {_OPERATOR[func]} {name(b)}" for func, a, b, o in prog.ops]
     lines.append("    return [" + ", ".join(f"o{k}" for k in range(n_out)) + "]")
-    namespace = {"tan": tan}
+    namespace = {"tan": math.tan}
     exec(compile("\n".join(lines), f"<labkit kinematics program, {len(prog.ops)} operations>", "exec"), namespace)
     return namespace["f"]
 
@@ -345,7 +462,7 @@ def _compile(b, outputs, n_rows, joints):
     constants, tail = [], []
     for row, v in outputs:
         if not isinstance(v, _Sym):
-            constants.append((row, float(v)))
+            constants.append((row, v if isinstance(v, _Number) else float(v)))
             continue
         if v.reg not in loc and v.sign < 0 and _negate(ops, producer, used, v.reg):
             v = _Sym(v.reg)
@@ -375,15 +492,15 @@ def _compile(b, outputs, n_rows, joints):
                     n_scratch += 1
             o = loc[o]
         program.append((f, args[0], args[1], o))
-    return Program(program, constants, n_rows, n_scratch, b.n_inputs, joints)
+    return Program(program, constants, n_rows, n_scratch, b.n_inputs, joints, tuple(b.prologue))
 
 
 #: what a program computes
 POSE, POSITION, FRAMES, JACOBIAN = "pose", "position", "frames", "jacobian"
 
 
-def program(c, output, point_offset=None, tool_frame=False, want_T=False):
-    """The compiled program of chain ``c`` for one output (cached per chain and options).
+def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, structure=None):
+    """The program of chain ``c`` for one output, bound to its numbers (compiled once per structure).
 
     Parameters
     ----------
@@ -401,26 +518,80 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False):
         Jacobian only: express the velocities in the tool frame (``R^T J``).
     want_T : bool
         Jacobian only: also write the pose.
+    structure : tuple, optional
+        :func:`chain_structure` of the chain and ``point_offset``, if known.
 
     Returns
     -------
-    Program
+    Bound
         Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (rows
         ``r .. 2r-1``), then the prismatic joints' values (rows ``2r ..``), in
         joint order. Flipped joints' Jacobian columns are already negated.
     """
     if output != JACOBIAN:
         tool_frame = want_T = None
-    key = (output, None if point_offset is None else tuple(float(v) for v in point_offset), tool_frame, want_T)
-    per_chain = _PROGRAMS.get(c)
-    if per_chain is None:
-        per_chain = _PROGRAMS[c] = {}
-    prog = per_chain.get(key)
+    skeleton, numbers = structure or chain_structure(c.steps, c.base, c.tool, point_offset)
+    key = (output, tool_frame, want_T, c.modified, tuple(c.flipped.tolist()), skeleton)
+    prog = _PROGRAMS.get(key)
     if prog is None:
-        if len(per_chain) >= _MAX_PER_CHAIN:
-            per_chain.clear()
-        prog = per_chain[key] = _build(c, output, point_offset, tool_frame, want_T)
-    return prog
+        if len(_PROGRAMS) >= _MAX_PROGRAMS:
+            _PROGRAMS.clear()
+        prog = _PROGRAMS[key] = _build(c, _numbered(skeleton), len(numbers), output, tool_frame, want_T)
+    return prog.bound(numbers)
+
+
+#: where a skeleton has a robot number (see :func:`chain_structure`)
+NUMBER = "#"
+
+
+def chain_structure(steps, base, tool, off):
+    """A chain as a structure (the key of its programs), and its numbers.
+
+    Parameters
+    ----------
+    steps : tuple of tuple
+        :attr:`labkit.kinematics._chain.Chain.steps`.
+    base, tool : ndarray, shape (4, 4) or None
+        World-from-base and frame-n-from-tool transforms (None: identity).
+    off : ndarray, shape (3,) or None
+        The output point in frame-n coordinates [m] (None: frame n's origin).
+
+    Returns
+    -------
+    skeleton : tuple
+        ``(steps, base columns, tool rotation columns or None, point or None)``
+        with every number other than 0 and +-1 replaced by :data:`NUMBER`.
+    numbers : list of float
+        Those numbers, in order.
+    """
+    numbers = []
+
+    def v(x):
+        x = float(x)
+        if x in _LITERALS:
+            return x + 0.0  # (-0.0 as 0.0)
+        numbers.append(x)
+        return NUMBER
+
+    # per link (revolute, a, cos alpha, sin alpha, d, half theta of a revolute joint (False: prismatic), cos and
+    # sin theta of a prismatic one)
+    steps = tuple((rev, v(a), v(ca), v(sa), v(d), v(0.5 * th) if rev else False,
+                   0.0 if rev else v(cth), 0.0 if rev else v(sth)) for rev, a, ca, sa, d, th, cth, sth in steps)
+    base_cols = tuple(tuple(v(x) for x in base[:3, k]) if base is not None else _EYE_COLUMNS[k] for k in range(4))
+    rotated = tool is not None and not np.array_equal(tool[:3, :3], np.eye(3))
+    tool = tuple(tuple(v(x) for x in tool[:3, k]) for k in range(3)) if rotated else None
+    return (steps, base_cols, tool, None if off is None else tuple(v(x) for x in off)), numbers
+
+
+_EYE_COLUMNS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+
+
+def _numbered(x, counter=None):
+    """The skeleton with its :data:`NUMBER` marks replaced by :class:`_Number` 0, 1, ... in order."""
+    counter = itertools.count() if counter is None else counter
+    if isinstance(x, tuple):
+        return tuple(_numbered(v, counter) for v in x)
+    return _Number(next(counter)) if x == NUMBER else x
 
 
 def walk(b, modified, base, steps, trig, joint_value):
@@ -485,18 +656,17 @@ def _pose_rows(first, cols):
     return rows + [(first + 12 + k, v) for k, v in enumerate((0.0, 0.0, 0.0, 1.0))]
 
 
-def _build(c, output, off, tool_frame, want_T):
+def _build(c, skeleton, n_numbers, output, tool_frame, want_T):
+    steps, base_cols, tool, off = skeleton
     n, r = c.n, c.revolute.size
-    b = _Builder(2 * r + (n - r))
-    base = np.eye(4) if c.base is None else c.base
-    base_cols = tuple(tuple(float(v) for v in base[:3, k]) for k in range(4))
-    prismatic = {i: 2 * r + k for k, i in enumerate(i for i, step in enumerate(c.steps) if not step[0])}
+    b = _Builder(2 * r + (n - r), n_numbers)
+    prismatic = {i: 2 * r + k for k, i in enumerate(i for i, step in enumerate(steps) if not step[0])}
     # where each joint's value enters: the cosine row (sine r rows on) and half the theta offset of a
-    # revolute joint, the row of a prismatic one (None)
+    # revolute joint, the row of a prismatic one (False)
     rev_row = {int(i): j for j, i in enumerate(c.revolute)}
-    joints = tuple((rev_row[i], 0.5 * step[5]) if step[0] else (prismatic[i], None) for i, step in enumerate(c.steps))
+    joints = tuple((rev_row[i], step[5]) if step[0] else (prismatic[i], False) for i, step in enumerate(steps))
     frames, axes = walk(b, c.modified, base_cols, [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth
-                                                   in c.steps],
+                                                   in steps],
                         lambda j: (_Sym(j), _Sym(r + j)), lambda i, d: b.add(_Sym(prismatic[i]), d))
     c0, c1, c2, p = frames[-1] if frames else base_cols
     cols = (c0, c1, c2)
@@ -504,8 +674,8 @@ def _build(c, output, off, tool_frame, want_T):
         p = b.lincomb(p, cols, off)
     if output == POSITION:
         return _compile(b, list(enumerate(p)), 3, joints)
-    if c.tool is not None and not np.array_equal(c.tool[:3, :3], np.eye(3)):
-        cols = tuple(b.lincomb(None, cols, c.tool[:3, k]) for k in range(3))
+    if tool is not None:
+        cols = tuple(b.lincomb(None, cols, tool[k]) for k in range(3))
     if output == POSE:
         return _compile(b, _pose_rows(0, cols + (p,)), 16, joints)
     if output == FRAMES:
@@ -515,7 +685,7 @@ def _build(c, output, off, tool_frame, want_T):
         return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2), joints)
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)
     lin, ang = [], []
-    for (z, o), step in zip(axes, c.steps):
+    for (z, o), step in zip(axes, steps):
         if not step[0]:
             lin.append(z)
             ang.append((0.0, 0.0, 0.0))
