@@ -59,6 +59,43 @@ def per_robot(func):
     return cached
 
 
+def by_content(func, size=64):
+    """Cache ``func(robot)`` by what the robot is (its links, convention, base, tool and up direction).
+
+    A freshly loaded robot or a copy with the same content finds the value of
+    an earlier one; the most recent ``size`` contents are kept. Each robot
+    object also remembers its own value (:func:`per_robot`).
+
+    Parameters
+    ----------
+    func : callable
+        ``func(robot)``, a pure function of that content.
+    size : int
+        Contents kept.
+
+    Returns
+    -------
+    callable
+        The cached ``func``.
+    """
+    cache = {}
+
+    @per_robot
+    @functools.wraps(func)
+    def cached(robot):
+        key = (robot.convention, robot.links, robot.base.tobytes(), robot.tool.tobytes(),
+               np.asarray(robot.up, dtype=float).tobytes())
+        try:
+            return cache[key]
+        except KeyError:
+            if len(cache) >= size:
+                cache.pop(next(iter(cache)))
+            value = cache[key] = func(robot)
+            return value
+
+    return cached
+
+
 def _clean(v):
     """cos/sin of DH constants with exact zeros and ones (cos(pi/2) -> 0)."""
     return 0.0 if abs(v) < 1e-15 else (1.0 if abs(v - 1) < 1e-15 else (-1.0 if abs(v + 1) < 1e-15 else v))

@@ -74,7 +74,9 @@ class _Problem:
     hi: np.ndarray
 
     def random_q(self, size):
-        """``(size, n)`` uniform inside the limits (infinite ones as +-2 pi)."""
+        """``(size, n)`` uniform inside the limits (infinite ones as +-2 pi); no draw for ``size = 0``."""
+        if size == 0:
+            return np.empty((0, self.lo.size))
         lo = np.where(np.isfinite(self.lo), self.lo, -2 * np.pi)
         hi = np.where(np.isfinite(self.hi), self.hi, 2 * np.pi)
         return lo + (hi - lo) * self.rng.random((size, lo.size))

@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from labkit.kinematics._chain import per_robot
+from labkit.kinematics._chain import by_content
 from labkit.kinematics._ik_solvers._registry import detect
 from labkit.kinematics._ik_solvers._solve import solve as solve_family
 
@@ -55,9 +55,9 @@ def snapped(robot, fraction):
     return robot.replace(links=tuple(links)) if changed else None
 
 
-@per_robot
+@by_content
 def near_family(robot):
-    """The closed-form solver of the nearest idealised copy of ``robot`` (kept per robot), or ``(None, None)``.
+    """The closed-form solver of the nearest idealised copy of ``robot`` (cached by content), or ``(None, None)``.
 
     A calibrated arm (small link offsets, twists a fraction of a degree off 90)
     has no closed form, but its idealised copy (:func:`snapped`, the smallest

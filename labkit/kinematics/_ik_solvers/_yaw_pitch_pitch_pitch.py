@@ -25,8 +25,7 @@ joint limits is the finishing step's ``valid``.
 The solution, per side: ``q1`` from the target point (as ``yaw_pitch_pitch``),
 the total rotation ``theta = q2 + q3 + q4`` (signs of parallel axes included)
 from the pitch, the wrist point on axis 4 from the tool point and ``theta``,
-joints 2-3 from the cosine law, ``q4`` from ``theta``. Written once on the
-array namespace: a batch on numpy rows, one target on Python floats.
+joints 2-3 from the cosine law, ``q4`` from ``theta``, on numpy rows.
 """
 
 from __future__ import annotations
