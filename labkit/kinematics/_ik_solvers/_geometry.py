@@ -15,6 +15,7 @@ targets); constant vectors (axes of the robot) are tuples of floats.
 
 from __future__ import annotations
 
+import functools
 
 import numpy as np
 
@@ -226,14 +227,17 @@ def rotate(k, angle, *vectors):
     list of tuple
         The rotated vectors, 3 components each, in order.
     """
+    K = _cross_matrix(k)
+    V = np.array(vectors)  # (vectors, 3, N)
+    U = K @ V  # k x v
+    return [tuple(x) for x in V + np.sin(angle) * U + (1.0 - np.cos(angle)) * (K @ U)]
+
+
+@functools.lru_cache(maxsize=256)
+def _cross_matrix(k):
+    """The matrix of ``v -> k x v`` for a constant axis ``k`` (a tuple of floats)."""
     k0, k1, k2 = k
-    s, c1 = np.sin(angle), 1.0 - np.cos(angle)
-    out = []
-    for v0, v1, v2 in vectors:
-        u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
-        w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
-        out.append((v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2))
-    return out
+    return np.array([[0.0, -k2, k1], [k2, 0.0, -k0], [-k1, k0, 0.0]])
 
 
 def _matvec(M, v):
@@ -422,9 +426,11 @@ def per_branch(f, branches, shared):
     """
     k = len(branches)
     n = max(np.size(v) for v in (*branches[0], *shared))
-    args = [np.concatenate([np.broadcast_to(b[i], (n,)) for b in branches]) for i in range(len(branches[0]))]
-    args += [np.tile(np.broadcast_to(v, (n,)), k) for v in shared]
-    out = f(*args)
+    args = np.empty((len(branches[0]) + len(shared), k, n))
+    for j, branch in enumerate(branches):
+        for i, v in enumerate((*branch, *shared)):
+            args[i, j] = v
+    out = f(*args.reshape(len(args), k * n))
     return [tuple(o[j * n:(j + 1) * n] for o in out) for j in range(k)]
 
 

@@ -50,19 +50,23 @@ def finish(robot, q, *, flipped=True):
         that enters the joint's limits; non-finite values replaced by 0.
     """
     q = np.array(q, dtype=float)
-    for j, lk in enumerate(robot.links):
-        v = q[..., j]
-        if flipped and lk.flip:
-            np.negative(v, out=v)
-        if lk.is_revolute:
-            lo, hi = lk.limits[0] - _SLACK, lk.limits[1] + _SLACK
-            v[...] = wrap_angle(v)
-            if hi > math.pi:  # a value below the limits may enter them one turn up
-                np.copyto(v, v + _TURN, where=(v < lo) & (v + _TURN <= hi))
-            if lo < -math.pi:  # or one turn down above them (pi itself, when the range starts at -pi)
-                np.copyto(v, v - _TURN, where=(v > hi) & (v - _TURN >= lo))
+    flip, rev, lo, hi = _joints(robot)
+    if flipped and flip.any():
+        q[..., flip] *= -1.0
+    v = wrap_angle(q[..., rev])
+    lo, hi = lo[rev] - _SLACK, hi[rev] + _SLACK
+    # a value below the limits may enter them one turn up, one above them one turn down (pi itself, when the
+    # range starts at -pi); either only where the limits reach beyond (-pi, pi]
+    v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
+    q[..., rev] = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
     q[~np.isfinite(q)] = 0.0
     return q
+
+
+def _joints(robot):
+    """Which joints are flipped and revolute, and the limits [rad, m], as arrays (n,)."""
+    lim = robot.joint_limits
+    return np.array([lk.flip for lk in robot.links]), robot.is_revolute, lim[:, 0], lim[:, 1]
 
 
 def solve(robot, family, flat):
