@@ -41,9 +41,6 @@ class _Number:
     def __eq__(self, other):  # (never equal to a literal: a number is neither 0 nor +-1)
         return isinstance(other, _Number) and self.k == other.k and self.sign == other.sign
 
-    def __ne__(self, other):
-        return not self == other
-
     def __hash__(self):
         return hash((self.k, self.sign))
 

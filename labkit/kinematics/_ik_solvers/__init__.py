@@ -28,19 +28,7 @@ from labkit.kinematics._ik_solvers._targets import (
 )
 
 __all__ = [
-    "FAMILIES",
-    "detect",
-    "build",
-    "solve_closed_form",
-    "nearest",
-    "solve_numeric",
-    "LazyGenerator",
-    "validate_targets",
-    "task_rows",
-    "target_components",
-    "batch_index",
-    "describe_target",
-    "target_words",
-    "COMPONENTS",
-    "REDUCED",
+    "FAMILIES", "detect", "build", "solve_closed_form", "nearest", "solve_numeric", "LazyGenerator",
+    "validate_targets", "task_rows", "target_components", "batch_index", "describe_target", "target_words",
+    "COMPONENTS", "REDUCED",
 ]

@@ -228,9 +228,9 @@ def rotate(k, angle, *vectors):
         The rotated vectors, 3 components each, in order.
     """
     K = _cross_matrix(k)
-    V = np.array(vectors)  # (vectors, 3, N)
-    U = K @ V  # k x v
-    return [tuple(x) for x in V + np.sin(angle) * U + (1.0 - np.cos(angle)) * (K @ U)]
+    V = np.array(vectors)  # (vectors, 3, N), or (vectors, 3) for one target's scalars
+    U = np.einsum("ij,vj...->vi...", K, V)  # k x v
+    return [tuple(x) for x in V + np.sin(angle) * U + (1.0 - np.cos(angle)) * np.einsum("ij,vj...->vi...", K, U)]
 
 
 @functools.lru_cache(maxsize=256)
@@ -241,10 +241,8 @@ def _cross_matrix(k):
 
 
 def _matvec(M, v):
-    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples (three :func:`_dot` in one call)."""
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = M
-    v0, v1, v2 = v
-    return (m00 * v0 + m01 * v1 + m02 * v2, m10 * v0 + m11 * v1 + m12 * v2, m20 * v0 + m21 * v1 + m22 * v2)
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples, as a component 3-tuple."""
+    return tuple(np.einsum("ij...,j...->i...", np.asarray(M, dtype=float), np.asarray(v, dtype=float)))
 
 
 # -- the shared subproblems -----------------------------------------------------------------

@@ -27,11 +27,16 @@ LAMBDA_MIN, LAMBDA_MAX = 1e-12, 1e8
 
 @functools.cache
 def _plan(kind, rows):
-    """Which error components ``rows`` (a tuple) are, and whether the whole orientation enters the residual
-    as an angle (a pose target with its three rotation rows)."""
+    """Which error components ``rows`` (a tuple) are, and for a pose with its three rotation rows (the whole
+    orientation enters the residual as an angle) which of them are positions (else None)."""
     slots = [task_rows(kind).index(r) for r in rows]
     whole = kind == "pose" and sum(r >= 3 for r in rows) == 3
-    return (slice(None) if slots == list(range(len(task_rows(kind)))) else slots), whole
+    return (slice(None) if slots == list(range(len(task_rows(kind)))) else slots), \
+        ([i for i, r in enumerate(rows) if r < 3] if whole else None)
+
+
+def _norm(e):
+    return np.sqrt(np.einsum("ij,ij->i", e, e))
 
 
 def task_error(kind, T, target, rows):
@@ -58,24 +63,25 @@ def task_error(kind, T, target, rows):
         Norm of the position error and, for a whole orientation,
         ``2 sin(angle / 2)`` (robust near pi) [m, rad]; else the norm of ``e``.
     """
-    slots, whole = _plan(kind, tuple(rows))
+    slots, position = _plan(kind, tuple(rows))
     if kind == "position":
-        return (target - T[:, :3, 3])[:, slots], np.linalg.norm((target - T[:, :3, 3])[:, slots], axis=1)
+        e = (target - T[:, :3, 3])[:, slots]
+        return e, _norm(e)
     if kind == "planar":
         heading = wrap_angle(target[:, 2] - np.arctan2(T[:, 1, 0], T[:, 0, 0]))
         e = np.column_stack((target[:, :2] - T[:, :2, 3], heading))[:, slots]
-        return e, np.linalg.norm(e, axis=1)
+        return e, _norm(e)
     R = target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)  # from the pose's orientation to the target's
-    v = 0.5 * np.column_stack((R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]))
-    sv = np.linalg.norm(v, axis=1)
-    angle = np.arctan2(sv, 0.5 * (R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0))
+    v = 0.5 * (R[:, (2, 0, 1), (1, 2, 0)] - R[:, (1, 2, 0), (2, 0, 1)])
+    sv = _norm(v)
+    angle = np.arctan2(sv, 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0))
     big = sv > 1e-12
     v *= np.where(big, angle / np.where(big, sv, 1.0), 1.0)[:, None]  # the rotation vector, axis * angle
-    e = np.column_stack((target[:, :3, 3] - T[:, :3, 3], v))[:, slots]
-    if not whole:
-        return e, np.linalg.norm(e, axis=1)
-    position = e[:, [i for i, r in enumerate(rows) if r < 3]]
-    return e, np.sqrt((position * position).sum(axis=1) + (2.0 * np.sin(0.5 * angle)) ** 2)
+    e = np.concatenate((target[:, :3, 3] - T[:, :3, 3], v), axis=1)[:, slots]
+    if position is None:
+        return e, _norm(e)
+    p = e[:, position]
+    return e, np.sqrt(np.einsum("ij,ij->i", p, p) + (2.0 * np.sin(0.5 * angle)) ** 2)
 
 
 def damped_step(J, e, lam):

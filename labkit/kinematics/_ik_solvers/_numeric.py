@@ -321,7 +321,8 @@ def _leave(p, out, a, done, it, free):
         return a
     out.converged(a.rows[done], a.q[done], a.res[done])
     out.iterations[a.rows[leave]] += it - 1
-    out.keep_best(a.rows[stalled], a.q[stalled], a.res[stalled], p.robot.within_limits(a.q[stalled]))
+    if stalled.any():
+        out.keep_best(a.rows[stalled], a.q[stalled], a.res[stalled], p.robot.within_limits(a.q[stalled]))
     keep = ~leave & ~out.group_done[a.rows // out.group]  # (a converged copy stops its siblings)
     out.iterations[a.rows[~leave & ~keep]] += it - 1
     return a.keep(keep)

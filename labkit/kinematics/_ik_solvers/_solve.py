@@ -97,7 +97,9 @@ def solve(robot, family, flat):
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         part = slice(s, s + _CHUNK)
-        qb, rb, d = family.solve(np.ascontiguousarray(np.moveaxis(flat[part], 0, -1)))
+        # a batch's components are (N,) rows; one target's are numpy scalars (the same formulas, without
+        # the bookkeeping of arrays of one element)
+        qb, rb, d = family.solve(flat[0] if N == 1 else np.ascontiguousarray(np.moveaxis(flat[part], 0, -1)))
         for k, (branch, ok) in enumerate(zip(qb, rb)):
             for j, v in enumerate(branch):
                 q[part, k, j] = v

@@ -101,7 +101,7 @@ class ThreeParallel(Family):
 
     @documented
     def solve(self, t):
-        T = np.moveaxis(np.asarray(t), -1, 0)
+        T = np.moveaxis(np.atleast_3d(t), -1, 0)  # (one target's components are scalars)
         N = T.shape[0]
         w, o, n = self.w, self.o, self.n
         w6, nf, uf = floats(w[5]), floats(n), floats(self.u)
