@@ -15,8 +15,6 @@ targets); constant vectors (axes of the robot) are tuples of floats.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from labkit.kinematics._forward import fk_frames
@@ -227,22 +225,21 @@ def rotate(k, angle, *vectors):
     list of tuple
         The rotated vectors, 3 components each, in order.
     """
-    K = _cross_matrix(k)
-    V = np.array(vectors)  # (vectors, 3, N), or (vectors, 3) for one target's scalars
-    U = np.einsum("ij,vj...->vi...", K, V)  # k x v
-    return [tuple(x) for x in V + np.sin(angle) * U + (1.0 - np.cos(angle)) * np.einsum("ij,vj...->vi...", K, U)]
-
-
-@functools.lru_cache(maxsize=256)
-def _cross_matrix(k):
-    """The matrix of ``v -> k x v`` for a constant axis ``k`` (a tuple of floats)."""
     k0, k1, k2 = k
-    return np.array([[0.0, -k2, k1], [k2, 0.0, -k0], [-k1, k0, 0.0]])
+    s, c1 = np.sin(angle), 1.0 - np.cos(angle)
+    out = []
+    for v0, v1, v2 in vectors:
+        u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
+        w0, w1, w2 = k1 * u2 - k2 * u1, k2 * u0 - k0 * u2, k0 * u1 - k1 * u0
+        out.append((v0 + s * u0 + c1 * w0, v1 + s * u1 + c1 * w1, v2 + s * u2 + c1 * w2))
+    return out
 
 
 def _matvec(M, v):
-    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples, as a component 3-tuple."""
-    return tuple(np.einsum("ij...,j...->i...", np.asarray(M, dtype=float), np.asarray(v, dtype=float)))
+    """``M v`` for a 3 x 3 ``M`` given as rows of component 3-tuples (three :func:`_dot` in one call)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = M
+    v0, v1, v2 = v
+    return (m00 * v0 + m01 * v1 + m02 * v2, m10 * v0 + m11 * v1 + m12 * v2, m20 * v0 + m21 * v1 + m22 * v2)
 
 
 # -- the shared subproblems -----------------------------------------------------------------

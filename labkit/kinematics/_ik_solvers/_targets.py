@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
+from labkit.kinematics._ik_solvers._geometry import _cross, _dot
 from labkit.validation import as_batch
 
 __all__ = ["task_rows", "target_components", "batch_index", "describe_target", "validate_targets", "COMPONENTS",
@@ -175,11 +176,14 @@ def _vector_targets(target, kind):
 
 
 def _rigid_defects(T):
-    """How far poses ``T`` (N, 4, 4) are from rigid transforms: the largest deviation of the rotation from
-    orthonormal, its determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]`` (each (N,))."""
-    R = T[:, :3, :3]
-    err = np.abs(R.swapaxes(1, 2) @ R - np.eye(3)).max(axis=(1, 2))
-    return err, np.linalg.det(R), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
+    """How far poses ``T`` (N, 4, 4) are from rigid transforms: the largest deviation of the rotation columns
+    from orthonormal, the determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``."""
+    t = np.moveaxis(T, 0, -1)
+    c0, c1, c2 = ((t[0, k], t[1, k], t[2, k]) for k in range(3))
+    err = np.abs(_dot(c0, c0) - 1.0)
+    for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
+        err = np.maximum(err, np.abs(e))
+    return err, _dot(_cross(c0, c1), c2), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
 
 
 def _is_bad(err, det, last):
