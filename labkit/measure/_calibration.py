@@ -163,8 +163,7 @@ def apply_parameters(robot, names, values):
     -------
     Robot
     """
-    links = list(robot.links)
-    changes = {}  # per link the fields to set (one copy of each link)
+    links, changes = list(robot.links), {}  # (changes: per link the fields to set, one copy of each link)
     tool = np.array(robot.tool)
     base = np.array(robot.base)
     for name, v in zip(names, values):
