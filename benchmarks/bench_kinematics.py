@@ -528,7 +528,7 @@ def calibration(args):
 
     arm = Robot.load("arduino_arm_3dof")
     path = measurement_file("seed000_fk_tables1-3.csv")
-    t = seconds(lambda: calibrate(path, arm, params=("joint_offsets", "link_lengths")), 1, 1 if args.smoke else 3)
+    t = seconds(lambda: calibrate(arm, path, params=("joint_offsets", "link_lengths")), 1, 1 if args.smoke else 3)
     print(f"\n7. calibrate, seed 000's FK tables (joint offsets and link lengths, leave-one-out): {t * 1e3:.0f} ms")
 
 

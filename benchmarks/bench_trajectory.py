@@ -171,7 +171,7 @@ def main(argv=None):
     lim = puma.joint_limits
     pts = rng.uniform(0.5 * lim[:, 0], 0.5 * lim[:, 1], size=(6, 6))
     tv = np.linspace(0.0, 5.0, 10_000)
-    lab = seconds(lambda: via_trajectory(pts, durations=1.0, robot=puma, t=tv), rep)
+    lab = seconds(lambda: via_trajectory(puma, pts, durations=1.0, t=tv), rep)
     peer = None
     if peers:
         peer = seconds(lambda: rtb.mstraj(pts, dt=5.0 / 10_000, tacc=0.2, tsegment=[1.0] * 5), 3)

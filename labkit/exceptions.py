@@ -3,10 +3,13 @@
 Every error labkit raises derives from :class:`LabkitError` and also from the
 builtin type callers already catch (``ValueError`` for bad input,
 ``OSError`` for the device link), the way ``control.exception`` and
-``serial.serialutil`` do it.
+``serial.serialutil`` do it. Every exception and warning class of labkit is
+defined here; the subpackages that raise them re-export them by name.
 """
 
 from __future__ import annotations
+
+from serial.serialutil import PortNotOpenError, SerialException
 
 __all__ = [
     "LabkitError",
@@ -22,8 +25,21 @@ __all__ = [
     "MeasurementError",
     "DeviceError",
     "ProtocolError",
+    "CommandRejected",
+    "BusFault",
+    "PortURLError",
+    "PortError",
+    "PortClosedError",
     "StorageError",
     "CheckFailed",
+    "InvalidSubmission",
+    "VisionError",
+    "MarkerNotFoundError",
+    "WrongMarkerError",
+    "AmbiguousPoseError",
+    "CalibrationImageError",
+    "MeasurementWarning",
+    "HandEyeWarning",
 ]
 
 
@@ -160,6 +176,66 @@ class ProtocolError(DeviceError):
     """The board answered, but not with a valid protocol reply."""
 
 
+class CommandRejected(DeviceError):
+    """The board answered ``ERR``: the request had no effect.
+
+    Parameters
+    ----------
+    message : str
+        What was asked and why the board refused.
+    code : int
+        Error code (key of :data:`labkit.arm.ERRORS`).
+    name : str
+        Its name as the board sent it (``"LIMIT"``, ``"QFULL"`` ...).
+
+    Attributes
+    ----------
+    code : int
+    name : str
+    """
+
+    def __init__(self, message, code, name):
+        self.code = code
+        self.name = name
+        super().__init__(message)
+
+
+class BusFault(DeviceError):
+    """A servo bus failed: a servo silent or its status packet corrupt, or a servo in hardware error.
+
+    The arm is stopped and every servo's torque turned off before it is raised.
+    """
+
+
+class PortURLError(OptionError, SerialException):
+    """A ``sim://`` or ``simavr://`` URL that cannot be opened: another scheme, an unknown option, a bad value.
+
+    An :class:`OptionError` (the message names the option, what was expected and what
+    was received) that is also pyserial's ``SerialException``, which callers of
+    ``serial.serial_for_url`` catch.
+    """
+
+
+class PortError(DeviceError, SerialException):
+    """A simulated port failed: its board or simulator could not be started, or a read cannot return.
+
+    A :class:`DeviceError` that is also pyserial's ``SerialException``.
+    """
+
+
+class PortClosedError(PortError, PortNotOpenError):
+    """A closed ``sim://`` port was used (also pyserial's ``PortNotOpenError``).
+
+    Parameters
+    ----------
+    port : str
+        The port's URL.
+    """
+
+    def __init__(self, port):
+        SerialException.__init__(self, f"{port}: expected an open port, got a closed one (open it first)")
+
+
 class StorageError(LabkitError, OSError):
     """Writing a file failed (disk full, I/O error); the message says which file and what to do."""
 
@@ -170,3 +246,39 @@ class CheckFailed(LabkitError, AssertionError):
     Derives from ``AssertionError``: a failed check fails the notebook the way a
     failed ``assert`` does.
     """
+
+
+class InvalidSubmission(LabkitError, ValueError):
+    """A student's notebook is not one labkit can grade (not a file, not a notebook, a malformed cell)."""
+
+
+class VisionError(LabkitError, ValueError):
+    """An image, a camera model or a calibration input is not what was expected."""
+
+
+class MarkerNotFoundError(VisionError):
+    """No marker of the expected family was detected in an image."""
+
+
+class WrongMarkerError(VisionError):
+    """Markers were detected, but not the one (or ones) asked for."""
+
+
+class AmbiguousPoseError(VisionError):
+    """The two pose solutions of a square marker (IPPE) fit the corners about equally well.
+
+    The marker is seen too nearly face-on, too small or too blurred for its tilt to be
+    known; tilt the marker (or the camera) by 20 deg or more, or move closer.
+    """
+
+
+class CalibrationImageError(VisionError):
+    """A calibration board was found in too few images to calibrate the camera."""
+
+
+class MeasurementWarning(UserWarning):
+    """A torn (crash-truncated) line was skipped while loading measurements."""
+
+
+class HandEyeWarning(UserWarning):
+    """The views of a hand-eye calibration are too alike for a trustworthy result."""

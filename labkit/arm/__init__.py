@@ -15,7 +15,7 @@ from labkit.arm._board_port import BoardPort
 from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, ArduinoPort, PortInfo, list_ports, find_ports, Arm
 from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, Executor, Servos, VirtualBoard, make_board, serve_pty
 from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
-from labkit.arm._port_errors import PortURLError, PortError, PortClosedError
+from labkit.exceptions import PortURLError, PortError, PortClosedError
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
 
 __all__ = [

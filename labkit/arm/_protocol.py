@@ -30,7 +30,7 @@ import math
 import re
 import zlib
 
-from labkit.exceptions import DeviceError, ProtocolError
+from labkit.exceptions import CommandRejected, ProtocolError
 
 __all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
 
@@ -221,29 +221,13 @@ def cdeg(q):
     return int(round(math.degrees(float(q)) * 100))
 
 
-class CommandRejected(DeviceError):
-    """The board answered ``ERR``: the request had no effect.
-
-    Attributes
-    ----------
-    code : int
-        Error code (key of :data:`ERRORS`).
-    name : str
-        Its name as the board sent it (``"LIMIT"``, ``"QFULL"`` ...).
-    """
-
-    def __init__(self, message, code, name):
-        self.code = code
-        self.name = name
-        super().__init__(message)
-
 def wire_speed_limits(robot):
     """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).
 
     Parameters
     ----------
     robot : labkit.Robot
-        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``inf``: none).
+        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``None``: none).
 
     Returns
     -------
@@ -251,7 +235,7 @@ def wire_speed_limits(robot):
         [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
     """
     def wire(value, largest):
-        return 0 if not math.isfinite(value) else min(int(math.floor(math.degrees(value) * 100)), largest)
+        return 0 if value is None else min(int(math.floor(math.degrees(value) * 100)), largest)
 
     return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
             [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])

@@ -16,7 +16,7 @@ def add_commands(sub):
         The subcommand collection of the ``labkit`` parser.
     """
     sp = sub.add_parser("sim", help="serve the virtual arm on a pseudo-terminal (prints the port path)")
-    sp.add_argument("robot", nargs="?", default="arduino_arm_3dof", help="bundled robot name or robot file")
+    sp.add_argument("robot", help="bundled robot name or robot file (e.g. arduino_arm_3dof)")
     sp.add_argument("--seed", type=int, default=0, help="physics seed (offsets, noise)")
     sp.add_argument("--time-scale", type=positive_float, default=1.0, help="board seconds per wall-clock second")
     sp.set_defaults(func=_cmd_sim)

@@ -39,8 +39,8 @@ def _cmd_lab(args):
 def _cmd_new(args):
     from labkit.labs import new_lab
 
-    lab = new_lab(args.lab_dir, args.robot, title=args.title, force=args.force)
-    print(f"lab created: {lab.folder} ({lab.kind}; {len(lab.notebooks)} notebooks, robot file {lab.robot_file.name})")
+    lab = new_lab(args.robot, args.lab_dir, title=args.title, force=args.force)
+    print(f"lab created: {lab.folder} ({lab.description}; {len(lab.notebooks)} notebooks, robot file {lab.robot_file.name})")
     for line in lab.notes:  # what the lab added to the robot, and the joint ranges that result
         print(f"  {line}")
     for nb in lab.notebooks:

@@ -17,8 +17,8 @@ def add_commands(sub):
 
     sp = sub.add_parser("audit", help="recompute published calculated values; exit 1 if any disagree")
     sp.add_argument("file", help="published-values CSV (docs/measurements.md section 5)")
-    sp.add_argument("--robot", help="robot name or file (default arduino_arm_3dof)")
-    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows")
+    sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
+    sp.add_argument("--branch", help="IK branch for target rows (default: the first branch that reaches each target)")
     sp.set_defaults(func=_cmd_audit)
 
     sub.add_parser("calibrate", help="fit robot parameters to measured positions", build=_calibrate_arguments)
@@ -29,7 +29,7 @@ def _errors_arguments(sp):
 
     sp.add_argument("file", help="measurement CSV (docs/measurements.md)")
     sp.add_argument("--robot", help="robot name or file (default: the file's robot column)")
-    sp.add_argument("--branch", default="elbow_up", help="IK branch for target rows (default elbow_up)")
+    sp.add_argument("--branch", help="IK branch for target rows (default: the first branch that reaches each target)")
     sp.add_argument("--combine", default="quadrature", choices=COMBINE_RULES, help="uncertainty rule")
     sp.add_argument("--html", help="also write the styled table as HTML")
     sp.add_argument("--latex", help="also write the styled table as LaTeX")
@@ -55,7 +55,7 @@ def _cmd_errors(args):
 
     from labkit.measure import error_table
 
-    result = error_table(args.file, args.robot, branch=args.branch, combine=args.combine)
+    result = error_table(args.robot, args.file, branch=args.branch, combine=args.combine)
     with pd.option_context("display.width", 200, "display.max_columns", 50):
         print(result.wide().to_string(float_format=lambda v: f"{v:.4g}"))
     if args.html:
@@ -68,7 +68,7 @@ def _cmd_errors(args):
 def _cmd_audit(args):
     from labkit.measure import audit_published
 
-    audit = audit_published(args.file, args.robot, branch=args.branch)
+    audit = audit_published(args.robot, args.file, branch=args.branch)
     flagged = audit.flagged
     print(f"{len(audit.cells) - len(flagged)} of {len(audit.cells)} published values agree with the model")
     if len(flagged):
@@ -79,7 +79,7 @@ def _cmd_audit(args):
 def _cmd_calibrate(args):
     from labkit.measure import calibrate
 
-    result = calibrate(args.file, args.robot, params=tuple(args.params), weighted=args.weighted,
+    result = calibrate(args.robot, args.file, params=tuple(args.params), weighted=args.weighted,
                        gravity=None if args.gravity is None else tuple(args.gravity))
     print(result.parameters().to_string(float_format=lambda v: f"{v:.3f}"))
     print(result.summary())

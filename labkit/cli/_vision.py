@@ -25,7 +25,7 @@ def _vision_arguments(sp):
     m.add_argument("-o", "--output", default="markers.pdf", help="PDF to write")
     m.set_defaults(func=_cmd_marker)
     b = vs.add_parser("board", help="PDF of a calibration board at true size")
-    b.add_argument("--kind", default="charuco", choices=("charuco", "checkerboard"))
+    b.add_argument("--pattern", default="charuco", choices=("charuco", "checkerboard"), help="board pattern")
     b.add_argument("--columns", type=int, default=7, help="squares (ChArUco) or inner corners (checkerboard) along x")
     b.add_argument("--rows", type=int, default=5, help="the same along y")
     b.add_argument("--square", type=float, default=30.0, help="square side [mm]")
@@ -35,7 +35,7 @@ def _vision_arguments(sp):
     b.set_defaults(func=_cmd_board)
     c = vs.add_parser("calibrate", help="calibrate a camera from board images; writes a camera file")
     c.add_argument("images", nargs="+", help="image files of the board")
-    c.add_argument("--kind", default="charuco", choices=("charuco", "checkerboard"))
+    c.add_argument("--pattern", default="charuco", choices=("charuco", "checkerboard"), help="board pattern")
     c.add_argument("--columns", type=int, default=7)
     c.add_argument("--rows", type=int, default=5)
     c.add_argument("--square", type=float, default=30.0, help="square side [mm]")
@@ -53,7 +53,7 @@ def _vision_arguments(sp):
 def _board(args):
     from labkit.vision import CharucoBoard, Checkerboard
 
-    if args.kind == "checkerboard":
+    if args.pattern == "checkerboard":
         return Checkerboard(args.columns, args.rows, args.square / 1e3)
     return CharucoBoard(args.columns, args.rows, args.square / 1e3, args.marker / 1e3)
 

@@ -17,16 +17,12 @@ import shutil
 import stat
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import InvalidSubmission, LabkitError
 
 __all__ = ["MAX_SUBMISSION_BYTES", "InvalidSubmission", "copy_regular_files", "read_student_notebook", "error_detail"]
 
 #: largest submission folder accepted [bytes]
 MAX_SUBMISSION_BYTES = 50 * 2**20
-
-
-class InvalidSubmission(LabkitError, ValueError):
-    """A student's notebook is not one labkit can grade (not a file, not a notebook, a malformed cell)."""
 
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")

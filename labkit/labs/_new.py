@@ -17,7 +17,7 @@ Example
 -------
 >>> from labkit.labs import lab_defaults
 >>> d = lab_defaults("planar3r_seed003")
->>> d.kind, d.target, round(d.reach, 3)
+>>> d.description, d.target, round(d.reach, 3)
 ('planar 3-DOF', 'planar', 0.335)
 """
 
@@ -67,7 +67,7 @@ class LabDefaults:
 
     Attributes
     ----------
-    kind : str
+    description : str
         ``"spatial 3-DOF"``, ``"planar 3-DOF"``, ``"4-DOF"``, ``"6-DOF pose"``, ... with
         ``", prismatic"`` when a joint slides.
     target : str
@@ -79,7 +79,7 @@ class LabDefaults:
         Parameter name -> value (lists of numbers in deg / mm) for the templates.
     """
 
-    kind: str
+    description: str
     target: str
     reach: float
     parameters: dict = field(default_factory=dict)
@@ -95,8 +95,8 @@ class NewLab:
     robot_file : Path
         The user's robot file, copied unchanged (``robot.toml``).
     notebooks : tuple of Path
-    kind : str
-        :attr:`LabDefaults.kind`.
+    description : str
+        :attr:`LabDefaults.description`.
     lab_robot_file : Path
         The robot file the notebooks use: ``robot_file``, or ``robot_with_servos.toml``
         where the lab added servo calibrations.
@@ -108,7 +108,7 @@ class NewLab:
     folder: Path
     robot_file: Path
     notebooks: tuple
-    kind: str
+    description: str
     lab_robot_file: Path = None
     notes: tuple = ()
 
@@ -147,7 +147,7 @@ def with_servos(robot):
     return robot
 
 
-def _kind(robot, target):
+def _description(robot, target):
     n = robot.n
     label = {"planar": f"planar {n}-DOF", "pose": f"{n}-DOF pose" if n >= 6 else None}.get(target)
     if label is None:
@@ -280,7 +280,7 @@ def lab_defaults(robot) -> LabDefaults:
     for radius in (0.1, 0.06, 0.03):
         r = radius * reach
         for normal in arc_normals:
-            u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).axes  # the plane's in-plane axes
+            u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).plane_axes  # the plane's in-plane axes
             for start in (0.0, 90.0, 180.0, 270.0):
                 th = math.radians(start)
                 center = p0 - r * (math.cos(th) * u + math.sin(th) * v)
@@ -315,7 +315,7 @@ def lab_defaults(robot) -> LabDefaults:
         "duration": 2.0,
         "readings": 2,
     }
-    return LabDefaults(_kind(robot, kind), kind, reach, params)
+    return LabDefaults(_description(robot, kind), kind, reach, params)
 
 
 def _parameters_source(values, names, docs=_PARAM_DOC):
@@ -421,7 +421,7 @@ def _servo_notes(user, model):
     return tuple(notes)
 
 
-def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
+def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     """Create a lab folder for ``robot`` from the generic template notebooks.
 
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
@@ -438,10 +438,10 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
 
     Parameters
     ----------
-    lab_dir : str or os.PathLike
-        The folder to create.
     robot : str or os.PathLike
         Robot file or bundled robot name.
+    lab_dir : str or os.PathLike
+        The folder to create.
     title : str, optional
         Lab title (default ``"<robot title> lab"``).
     force : bool
@@ -501,7 +501,7 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     else:
         where, real = "virtual arm, `sim://`", "On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`"
     (folder / "README.md").write_text(
-        f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.kind}, target kind "
+        f"# {title}\n\nRobot: `{ROBOT_FILE}` ({model.title or model.name}; {defaults.description}, target kind "
         f"`{defaults.target}`), made with `labkit new`.{added}\n\n"
         + "".join(f"* `{p.name}`\n" for p in written)
         + f"\nOpen in JupyterLab: `labkit lab .`; render the reports: `labkit render .` (defaults run on the "
@@ -510,5 +510,5 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     from labkit.reports import LabInfo, write_lab_info
 
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
-    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.kind,
+    return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.description,
                   lab_file.resolve(), notes)

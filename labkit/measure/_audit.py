@@ -13,7 +13,7 @@ The names are also importable from :mod:`labkit.measure`.
 Examples
 --------
 >>> from labkit.data import measurement_file
->>> audit = audit_published(measurement_file("seed000_published_calculated.csv"), "arduino_arm_3dof")
+>>> audit = audit_published("arduino_arm_3dof", measurement_file("seed000_published_calculated.csv"))
 >>> len(audit.cells), len(audit.flagged)
 (63, 6)
 """
@@ -174,7 +174,7 @@ class AuditResult:
         ).format({"recomputed": "{:.4g}", "difference": "{:.2g}", "tolerance": "{:.2g}"})
 
 
-def audit_published(published, robot=None, *, branch="elbow_up", default_robot="arduino_arm_3dof"):
+def audit_published(robot, published, *, branch=None):
     """Recompute published "calculated" values and flag disagreements.
 
     A published value stated to a given precision claims the model value
@@ -185,14 +185,14 @@ def audit_published(published, robot=None, *, branch="elbow_up", default_robot="
 
     Parameters
     ----------
+    robot : Robot or str or None
+        The model (or its name or file); ``None``: the one named in the
+        table's ``robot`` column.
     published : pandas.DataFrame or str or os.PathLike
         Table as returned by :func:`load_published` (or its path).
-    robot : Robot or str, optional
-        Default: the ``robot`` column, else ``default_robot``.
-    branch : str
-        IK branch for target rows.
-    default_robot : str
-        Bundled robot used when neither ``robot`` nor a ``robot`` column names one.
+    branch : str, optional
+        IK branch for target rows; default the first branch that reaches
+        each target (:func:`labkit.kinematics.ik`).
 
     Returns
     -------
@@ -201,15 +201,14 @@ def audit_published(published, robot=None, *, branch="elbow_up", default_robot="
     Examples
     --------
     >>> from labkit.data import measurement_file
-    >>> audit = audit_published(measurement_file("seed000_published_calculated.csv"), "arduino_arm_3dof")
+    >>> audit = audit_published("arduino_arm_3dof", measurement_file("seed000_published_calculated.csv"),
+    ...                         branch="elbow_up")
     >>> sorted(audit.flagged_rows())[0]
     ('table 3', 't3_j3_20deg')
     """
     import pandas as pd
 
     df = _frame(published, load_published, _AUDIT_REQUIRED)
-    if robot is None and not any(isinstance(r, str) and r for r in df.get("robot", [])):
-        robot = default_robot
     robot = _robot(robot, df)
     for col in ("unit",):
         for u, line in zip(df[col], df["line"]):

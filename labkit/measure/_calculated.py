@@ -24,7 +24,7 @@ Examples
 >>> from labkit.data import measurement_file
 >>> from labkit.measure import error_table, load_measurements
 >>> df = load_measurements(measurement_file("seed000_fk_tables1-3.csv"))
->>> table = error_table(df, "arduino_arm_3dof")
+>>> table = error_table("arduino_arm_3dof", df)
 >>> row = table.table.query("pose_id == 't1_j1_5deg' and quantity == 'x'").iloc[0]
 >>> round(float(row["calculated"]), 4), float(row["mean"]), float(row["half_range"])
 (0.273, 0.28, 0.02)
@@ -134,7 +134,7 @@ def _joint_index(quantity, robot, line):
     return i
 
 
-def calculated_si(df, robot, *, mode="auto", branch="elbow_up"):
+def calculated_si(df, robot, *, mode="auto", branch=None):
     """Model value [m, rad] of every row's quantity at its pose.
 
     Rows with ``commanded`` joints use forward kinematics (x, y, z from FK;
@@ -152,8 +152,9 @@ def calculated_si(df, robot, *, mode="auto", branch="elbow_up"):
     mode : {"auto", "fk", "ik"}
         ``"auto"``: FK where a row has commanded joints, else IK; ``"fk"``
         requires commanded joints; ``"ik"`` uses the targets.
-    branch : str
-        IK branch for target rows.
+    branch : str, optional
+        IK branch for target rows; default the first branch that reaches
+        the target (:func:`labkit.kinematics.ik`).
 
     Returns
     -------
@@ -223,6 +224,9 @@ def _ik_ignoring_limits(robot, target, branch, line):
         return np.asarray(ik(robot, target, branch=branch), dtype=float)
     except JointLimitError as exc:
         sols = ik_all(robot, target)
+        if branch is None:  # the first branch that reaches the target, limits ignored
+            reaching = [b for b, ok in zip(sols.branches, np.asarray(sols.reachable).reshape(-1)) if ok]
+            branch = reaching[0] if reaching else None
         if branch not in sols.branches:
             raise MeasurementError(f"IK of target {tuple(float(v) for v in target.reshape(-1))} failed: {exc}", line=line, column="target") from None
         k = sols.branches.index(branch)

@@ -31,7 +31,7 @@ Groups: ``"joint_offsets"`` (every joint), ``"link_lengths"`` (every non-zero
 Examples
 --------
 >>> from labkit.data import measurement_file
->>> result = calibrate(measurement_file("seed000_fk_tables1-3.csv"), "arduino_arm_3dof",
+>>> result = calibrate("arduino_arm_3dof", measurement_file("seed000_fk_tables1-3.csv"),
 ...                    params=("joint_offsets",))
 >>> bool(result.rms_after < result.rms_before)
 True
@@ -46,7 +46,7 @@ import warnings
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError
+from labkit.exceptions import MeasurementError, OptionError
 from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
 
 __all__ = ["GROUPS",
@@ -426,7 +426,7 @@ def _pose_data(measurements, robot):
     df = df[df["quantity"].isin(["x", "y", "z"])]
     if not len(df):
         raise MeasurementError("expected position readings (quantities x, y, z) to calibrate against, got none")
-    table = error_table(df, robot, mode="fk").table
+    table = error_table(robot, df, mode="fk").table
     pose_ids = tuple(dict.fromkeys(table["pose_id"]))
     commanded = df.drop_duplicates("pose_id").set_index("pose_id")["commanded"]
     q = np.array([commanded[p] for p in pose_ids], dtype=float)
@@ -441,18 +441,19 @@ def _pose_data(measurements, robot):
     return pose_ids, q, measured, sigma
 
 
-def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_lengths"),
+def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
               weighted=False, gravity=None, confidence=0.95, leave_one_out=True, errors="per_pose"):
     """Least-squares fit of robot parameters to measured tool positions.
 
     Parameters
     ----------
+    robot : Robot or str or None
+        Nominal model (or its name or file); ``None``: the robot named in the
+        measurements (a tuple of synthetic data needs a robot).
     measurements : pandas.DataFrame or str or os.PathLike, or tuple
         Readings with commanded joints (see :mod:`labkit.measure`); or a
         tuple ``(q (P, n) [rad, m], positions (P, 3) [m])`` of synthetic data
         (NaN marks an axis not measured).
-    robot : Robot or str, optional
-        Nominal model; default: the robot named in the measurements.
     params : sequence of str
         Groups and/or parameter names (see module docstring).
     weighted : bool
@@ -496,20 +497,19 @@ def calibrate(measurements, robot=None, *, params=("joint_offsets", "link_length
     from labkit.robot import Robot
 
     if isinstance(measurements, tuple):
-        q, measured = (np.asarray(v, dtype=float) for v in measurements)
-        robot = Robot.load(robot)
+        if robot is None:
+            raise OptionError("expected a robot with synthetic (q, positions) data, got None")
+        q, measured, robot = *(np.asarray(v, dtype=float) for v in measurements), Robot.load(robot)
         pose_ids = tuple(f"pose{i + 1}" for i in range(len(q)))
         sigma = np.ones_like(measured)
     else:
-        if robot is None:
-            from labkit.measure._calculated import _robot
-            from labkit.measure._csv import load_measurements
-            import pandas as pd
+        from labkit.measure._calculated import _robot
+        from labkit.measure._csv import load_measurements
+        import pandas as pd
 
-            if not isinstance(measurements, pd.DataFrame):
-                measurements = load_measurements(measurements)
-            robot = _robot(None, measurements)
-        robot = Robot.load(robot)
+        if not isinstance(measurements, pd.DataFrame):
+            measurements = load_measurements(measurements)
+        robot = _robot(robot, measurements)
         pose_ids, q, measured, sigma = _pose_data(measurements, robot)
     if q.ndim != 2 or q.shape[1] != robot.n or measured.shape != (len(q), 3):
         raise MeasurementError(f"expected q (P, {robot.n}) and positions (P, 3), got {q.shape} and {measured.shape}")

@@ -192,20 +192,23 @@ class ErrorTable:
         return tex
 
 
-def error_table(measurements, robot=None, *, mode="auto", branch="elbow_up", combine="quadrature"):
+def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadrature"):
     """Measured-versus-calculated error table.
 
     Parameters
     ----------
+    robot : Robot or str or None
+        Robot model (or its name or file); ``None``: the one named in the
+        measurements' ``robot`` column.
     measurements : pandas.DataFrame or str or os.PathLike
         Readings (:func:`labkit.measure.load_measurements` or its path).
-    robot : Robot or str, optional
-        Robot model; default: the one named in the measurements.
     mode : {"auto", "fk", "ik"}
         "fk" needs commanded joints on every row, "ik" uses targets, "auto"
         uses commanded joints where present, else the target.
-    branch : str
-        IK branch for targets (default ``"elbow_up"``, as in seed 000).
+    branch : str, optional
+        IK branch for target rows (e.g. ``"elbow_up"``, as in seed 000);
+        default the first branch that reaches each target, as
+        :func:`labkit.kinematics.ik` picks it.
     combine : {"quadrature", "sum"}
         How resolution and half range combine into the uncertainty.
 
@@ -279,16 +282,17 @@ def error_table(measurements, robot=None, *, mode="auto", branch="elbow_up", com
     return ErrorTable(table=table, summary=summary, combine=combine)
 
 
-def fk_error_table(measurements, robot=None, **kwargs):
+def fk_error_table(robot, measurements, **kwargs):
     """:func:`error_table` for commanded joints (poses -> positions by FK).
 
     Parameters
     ----------
+    robot : Robot or str or None
+        Robot model (or its name or file); ``None``: the one named in the
+        measurements' ``robot`` column.
     measurements : pandas.DataFrame or str or os.PathLike
         Readings (:func:`labkit.measure.load_measurements` or its path),
         with commanded joints on every row.
-    robot : Robot or str, optional
-        Robot model; default: the one named in the measurements.
     **kwargs
         Passed to :func:`error_table` (e.g. ``combine``).
 
@@ -301,21 +305,22 @@ def fk_error_table(measurements, robot=None, **kwargs):
     MeasurementError
         As for :func:`error_table` (e.g. a row without commanded joints).
     """
-    return error_table(measurements, robot, mode="fk", **kwargs)
+    return error_table(robot, measurements, mode="fk", **kwargs)
 
 
-def ik_error_table(measurements, robot=None, *, branch="elbow_up", **kwargs):
+def ik_error_table(robot, measurements, *, branch=None, **kwargs):
     """:func:`error_table` for Cartesian targets (targets -> joint angles by IK).
 
     Parameters
     ----------
+    robot : Robot or str or None
+        Robot model (or its name or file); ``None``: the one named in the
+        measurements' ``robot`` column.
     measurements : pandas.DataFrame or str or os.PathLike
         Readings (:func:`labkit.measure.load_measurements` or its path),
         with a target [m] on every row.
-    robot : Robot or str, optional
-        Robot model; default: the one named in the measurements.
-    branch : str
-        IK branch for the targets.
+    branch : str, optional
+        IK branch for the targets; default as :func:`error_table`.
     **kwargs
         Passed to :func:`error_table` (e.g. ``combine``).
 
@@ -328,4 +333,4 @@ def ik_error_table(measurements, robot=None, *, branch="elbow_up", **kwargs):
     MeasurementError
         As for :func:`error_table` (e.g. an unreachable target).
     """
-    return error_table(measurements, robot, mode="ik", branch=branch, **kwargs)
+    return error_table(robot, measurements, mode="ik", branch=branch, **kwargs)

@@ -59,14 +59,14 @@ class MeasurementLog:
 
     Parameters
     ----------
+    robot : Robot or str or None
+        Robot (or its name) the readings refer to; ``None``: the resumed
+        session's robot, else "".
     path : str or os.PathLike
         CSV file; created (with its header) if missing, else resumed.
     session : str, optional
         Session id. Default: the last session in an existing file (resume),
         or a new id ``YYYYmmddTHHMMSSZ-xxxx`` for a new file.
-    robot : Robot or str, optional
-        Robot (or its name) the readings refer to. Default: the resumed
-        session's robot, else "".
     operator : str, optional
         Who takes the readings. Default: the resumed session's operator, else "".
     poses : mapping, optional
@@ -85,15 +85,15 @@ class MeasurementLog:
     --------
     >>> import tempfile, pathlib
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "log.csv"
-    >>> log = MeasurementLog(path, session="s1", robot="arduino_arm_3dof")
+    >>> log = MeasurementLog("arduino_arm_3dof", path, session="s1")
     >>> _ = log.record("p1", "theta1", 45.0, unit="deg", instrument="protractor", resolution=0.5)
     >>> log.close()
-    >>> MeasurementLog(path).record("p1", "theta1", 46.0, unit="deg",
-    ...                             instrument="protractor", resolution=0.5).repeat
+    >>> MeasurementLog(None, path).record("p1", "theta1", 46.0, unit="deg",
+    ...                                   instrument="protractor", resolution=0.5).repeat
     2
     """
 
-    def __init__(self, path, *, session=None, robot=None, operator=None, poses=None):
+    def __init__(self, robot, path, *, session=None, operator=None, poses=None):
         self.path = Path(path)
         self._lock = threading.Lock()
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
@@ -358,7 +358,7 @@ class MeasurementLog:
             pass
 
     def __repr__(self):
-        return f"MeasurementLog({str(self.path)!r}, session={self.session!r}, robot={self.robot!r})"
+        return f"MeasurementLog({self.robot!r}, {str(self.path)!r}, session={self.session!r})"
 
 
 def _int_or_none(text):

@@ -14,7 +14,7 @@ Examples
 >>> import tempfile, pathlib
 >>> from labkit.measure import MeasurementLog, load_measurements
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "fk_joint1.csv"
->>> with MeasurementLog(path, robot="arduino_arm_3dof", operator="AB") as log:
+>>> with MeasurementLog("arduino_arm_3dof", path, operator="AB") as log:
 ...     rec = log.record("j1_45", "x", 18.2, unit="cm", instrument="ruler",
 ...                      resolution=0.05, commanded=[0.785398, 0.0, 0.0])
 >>> rec.repeat, rec.record
@@ -36,7 +36,7 @@ import zlib
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError
+from labkit.exceptions import MeasurementError, MeasurementWarning
 
 try:  # advisory lock against a second writer (POSIX only)
     import fcntl
@@ -78,10 +78,6 @@ _QUANTITY_PATTERNS = (
     (re.compile(r"^d[1-9][0-9]?$"), "length"),
 )
 _QUANTITY_HELP = "x, y, z (tool point [length]), theta<i> (joint i [angle]), d<i> (prismatic joint i [length])"
-
-
-class MeasurementWarning(UserWarning):
-    """A torn (crash-truncated) line was skipped while loading."""
 
 
 def quantity_dimension(quantity):

@@ -70,15 +70,15 @@ class PlannedPose:
     q: tuple
 
 
-def joint_sweep_plan(robot, sweeps=SEED000_SWEEPS, *, rest=None):
+def joint_sweep_plan(robot, sweeps, *, rest=None):
     """Poses that sweep one joint at a time (the others at ``rest``).
 
     Parameters
     ----------
     robot : Robot or str
     sweeps : mapping
-        ``{joint number (1-based): angles in degrees}`` (default: seed 000's
-        tables 1-3).
+        ``{joint number (1-based): angles in degrees}`` (seed 000's tables
+        1-3: :data:`SEED000_SWEEPS`).
     rest : array_like, shape (n,), optional
         Joint values of the joints not swept [rad] (default zeros).
 
@@ -193,7 +193,7 @@ class MeasurementSession:
             raise OptionError(f"expected unit one of mm, cm, m, got {unit!r}")
         self.arm = arm
         self.robot = arm.robot
-        self.log = log if isinstance(log, MeasurementLog) else MeasurementLog(log, robot=arm.robot,
+        self.log = log if isinstance(log, MeasurementLog) else MeasurementLog(arm.robot, log,
                                                                                operator=operator)
         self.readings = int(readings)
         if self.readings < 1:

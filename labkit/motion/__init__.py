@@ -17,11 +17,11 @@ Naming: a constructor's name ends with what it returns.
   :func:`cartesian_trajectory`, ..., and :func:`law_trajectory` (samples a
   ready joint law).
 
-The law names given as strings (``law="cubic"``, :class:`LawKind`) stay the
-bare kinds: ``"cubic"``, ``"quintic"``, ``"lspb"``, ``"linear"``.
+The law names given as strings (``law="cubic"``, :class:`LawName`) stay the
+bare names: ``"cubic"``, ``"quintic"``, ``"lspb"``, ``"linear"``.
 """
 
-from labkit.motion._timelaw import LawKind, TimeLaw
+from labkit.motion._timelaw import LawName, TimeLaw
 from labkit.motion._laws import cubic_law, quintic_law, lspb_law, linear_law, make_law, minimum_duration, time_grid
 from labkit.motion._trajectory import Trajectory, joint_trajectory, law_trajectory
 from labkit.motion._via import SplineEnds, via_law, via_trajectory, heuristic_velocities
@@ -32,7 +32,7 @@ from labkit.motion._approach import height_above, approach_point, PickPlaceLeg, 
 from labkit.motion._blend import blended_law, blended_trajectory, cartesian_blended_trajectory
 
 __all__ = [
-    "LawKind",
+    "LawName",
     "TimeLaw",
     "cubic_law",
     "quintic_law",

@@ -21,13 +21,13 @@ import numpy as np
 from scipy.interpolate import PPoly
 
 from labkit.exceptions import ShapeError, TrajectoryError
-from labkit.motion._timelaw import LawKind, TimeLaw
+from labkit.motion._timelaw import LawName, TimeLaw
 from labkit.motion._checks import _checked, _robot_bounds
 from labkit.motion._trajectory import Trajectory, _robot_info, law_trajectory
 from labkit.motion._paths import waypoint_path
 from labkit.motion._cartesian import _choose_branch, _solve
 from labkit.motion._rates import joint_rates_and_accelerations
-from labkit.motion._laws import time_grid
+from labkit.motion._laws import _bounds, time_grid
 from labkit import kinematics
 
 __all__ = ["blended_law", "blended_trajectory", "cartesian_blended_trajectory"]
@@ -42,15 +42,6 @@ def _points(points):
     if not np.all(np.isfinite(P)):
         raise ShapeError("expected finite via points")
     return P
-
-
-def _bound(value, n, name):
-    if value is None:
-        return np.full(n, np.inf)
-    v = np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
-    if np.any(np.isnan(v)) or np.any(v <= 0):
-        raise TrajectoryError(f"expected {name} > 0 per coordinate, got {np.asarray(value).tolist()}")
-    return v
 
 
 def _velocities(P, d):
@@ -93,27 +84,28 @@ def _timing(P, v_max, a_max, durations, blend_time):
     return d, max(new_tau, 1e-9)
 
 
-def blended_law(points, *, durations=None, v_max=None, a_max=None, blend_time=None, robot=None):
+def blended_law(robot, points, *, durations=None, v_max=None, a_max=None, blend_time=None):
     """Straight segments between via points with parabolic blends around them (``mstraj``).
 
     Parameters
     ----------
+    robot : Robot or None
+        Supplies the bounds of joint-space points; ``None`` for other
+        coordinates (Cartesian, or joints with the bounds given here).
     points : array_like, shape (m, n)
         Via points [rad, m or any unit], ``m >= 2``; the first and last are reached at rest.
     durations : float or array_like, shape (m - 1,), optional
         Time between consecutive via times [s]; default from ``v_max`` (slowest coordinate).
     v_max, a_max : float or array_like, shape (n,), optional
         Speed [unit/s] and acceleration [unit/s^2] bounds; default the robot's
-        ``max_velocity`` / ``max_acceleration``.
+        ``max_velocity`` / ``max_acceleration`` (``None`` with no robot: unbounded).
     blend_time : float, optional
         Blend duration ``tau`` [s]; default the shortest within ``a_max``.
-    robot : Robot, optional
-        Supplies the bounds of joint-space points.
 
     Returns
     -------
     TimeLaw
-        Piecewise quadratic (kind ``"blended"``) from 0 to ``sum(durations) + tau``;
+        Piecewise quadratic (law ``"blended"``) from 0 to ``sum(durations) + tau``;
         via point ``k`` is passed (nearest) at ``t = tau / 2 + sum(durations[:k])``.
 
     Raises
@@ -124,7 +116,7 @@ def blended_law(points, *, durations=None, v_max=None, a_max=None, blend_time=No
 
     Examples
     --------
-    >>> law = blended_law([[0.0], [1.0], [1.0]], durations=1.0, blend_time=0.5)
+    >>> law = blended_law(None, [[0.0], [1.0], [1.0]], durations=1.0, blend_time=0.5)
     >>> float(law.duration), law.degree
     (2.5, 2)
     >>> float(law.position(0.25 + 1.0)[0])  # misses the corner at 1.0 by |dv| tau / 8
@@ -136,7 +128,7 @@ def blended_law(points, *, durations=None, v_max=None, a_max=None, blend_time=No
         rv, ra = _robot_bounds(robot)
         v_max = rv if v_max is None else v_max
         a_max = ra if a_max is None else a_max
-    vb, ab = _bound(v_max, n, "v_max"), _bound(a_max, n, "a_max")
+    vb, ab = _bounds(v_max, "v_max", (n,)), _bounds(a_max, "a_max", (n,))
     d, tau = _timing(P, vb, ab, durations, blend_time)
     if np.any(d < tau * (1 - 1e-12)):
         k = int(np.argmin(d))
@@ -168,21 +160,22 @@ def blended_law(points, *, durations=None, v_max=None, a_max=None, blend_time=No
             coeffs.append(np.stack([np.zeros(n), v[k + 1], P[k] + v[k + 1] * tau / 2]))
             breaks.append(T[k + 1] - tau / 2)
     c = np.stack(coeffs, axis=1)  # (3, pieces, n)
-    return TimeLaw(PPoly(c, np.array(breaks)), LawKind.BLENDED)
+    return TimeLaw(PPoly(c, np.array(breaks)), LawName.BLENDED)
 
 
-def blended_trajectory(points, *, durations=None, v_max=None, a_max=None, blend_time=None, robot=None,
+def blended_trajectory(robot, points, *, durations=None, v_max=None, a_max=None, blend_time=None,
                        dt=0.01, t=None, check_limits=True, check_speed_limits=False):
     """A joint trajectory passing near via points with parabolic blends, sampled.
 
     Parameters
     ----------
+    robot : Robot or None
+        Joint names, limits and speed bounds; ``None`` for bare joint values
+        (nothing checked).
     points : array_like, shape (m, n)
         Via configurations [rad, m]; the first and last are reached at rest.
     durations, v_max, a_max, blend_time
         As :func:`blended_law` (bounds default to the robot's).
-    robot : Robot, optional
-        Joint names, limits and speed bounds.
     dt : float
         Sample step [s].
     t : array_like, shape (N,), optional
@@ -193,15 +186,15 @@ def blended_trajectory(points, *, durations=None, v_max=None, a_max=None, blend_
     Returns
     -------
     Trajectory
-        With ``law`` (kind ``"blended"``).
+        With ``law`` (named ``"blended"``).
 
     Examples
     --------
-    >>> traj = blended_trajectory([[0.0, 0.0], [0.5, 1.0], [1.0, 0.0]], v_max=1.0, a_max=4.0, dt=0.05)
+    >>> traj = blended_trajectory(None, [[0.0, 0.0], [0.5, 1.0], [1.0, 0.0]], v_max=1.0, a_max=4.0, dt=0.05)
     >>> bool(np.abs(traj.qd).max() <= 1.0 + 1e-12), bool(np.abs(traj.qdd).max() <= 4.0 + 1e-12)
     (True, True)
     """
-    law = blended_law(points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time, robot=robot)
+    law = blended_law(robot, points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time)
     names, rev = _robot_info(robot, law.shape[0])
     traj = law_trajectory(law, t, dt=dt, joint_names=names, revolute=rev)
     return _checked(traj, robot, check_limits, check_speed_limits)
@@ -256,7 +249,7 @@ def cartesian_blended_trajectory(robot, points, *, durations=None, v_max=None, a
     kind = kinematics.target_kind(robot)
     if kind == "pose":
         raise ShapeError(f"{robot.name}: blended Cartesian paths take position or planar targets, not poses")
-    law = blended_law(points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time)
+    law = blended_law(None, points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time)
     if law.shape != (3,):
         raise ShapeError(f"expected via targets with shape (m, 3), got {np.shape(points)}")
     ts = time_grid(law.t0, law.tf, dt) if t is None else np.asarray(t, dtype=float)

@@ -79,7 +79,7 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
             raise TrajectoryError(f"expected a scalar time law from s = 0 to s = {path.s_max:g}, got {law!r}")
         return law
     m = int(round(path.s_max))
-    if path.kind != "waypoints" or m == 1:
+    if path.shape != "waypoints" or m == 1:
         return make_law(law, 0.0, path.s_max, float(np.sum(duration)), t0=t0, **options)
     d = np.asarray(duration, dtype=float)
     if d.ndim == 0:
@@ -92,7 +92,7 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
     kmax = max(lw.degree for lw in laws)
     cs = [np.concatenate([np.zeros((kmax - lw.degree,) + lw.ppoly.c.shape[1:]), lw.ppoly.c]) for lw in laws]
     x = np.concatenate([laws[0].breaks] + [lw.breaks[1:] for lw in laws[1:]])
-    return TimeLaw(PPoly(np.concatenate(cs, axis=1), x), laws[0].kind)
+    return TimeLaw(PPoly(np.concatenate(cs, axis=1), x), laws[0].name)
 
 
 # -- orientation ----------------------------------------------------------------
@@ -190,7 +190,7 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         i += offset[0]
         xi = targets[i][:3, 3] if np.ndim(targets[i]) == 2 else targets[i]
         raise UnreachableError(
-            f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}, "
+            f"{robot.name}: {path.shape} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}, "
             f"is unreachable: {exc.distance * 1e3:.3g} mm outside the workspace ({exc})",
             distance=exc.distance,
             index=i,
@@ -202,7 +202,7 @@ def _solve(robot, kind, targets, t, branch, path, q_start=None):
         i += offset[0]
         xi = targets[i][:3, 3] if np.ndim(targets[i]) == 2 else targets[i]
         raise JointLimitError(
-            f"{robot.name}: {path.kind} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}: {exc}",
+            f"{robot.name}: {path.shape} sample {i} at t = {t[i]:.4g} s, point {_fmt_point(xi, kind)}: {exc}",
             joint=exc.joint,
             index=i,
         ) from exc
@@ -326,9 +326,9 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     traj = Trajectory(t, q, qd, qdd, x, xd, xdd=xdd, joint_names=robot.joint_names,
                       axis_names=axis_names, revolute=tuple(bool(r) for r in rev), resampler=resampler)
     if check_limits:
-        check_joint_limits(traj, robot)
+        check_joint_limits(robot, traj)
     if check_speed_limits:
-        check_speed(traj, robot)
+        check_speed(robot, traj)
     return traj
 
 
@@ -360,7 +360,7 @@ def _cartesian_view(robot, kind, traj):
                       axis_names=axes, revolute=traj.revolute, law=traj.law, resampler=resampler)
 
 
-def cartesian_via_trajectory(robot, points, times=None, *, durations=None, method="spline",
+def cartesian_via_trajectory(robot, points, times=None, *, durations=None, law="spline",
                              ends="clamped", branch=None, q_start=None, dt=0.01, t=None,
                              check_limits=True, check_speed_limits=False):
     """A joint-space trajectory through Cartesian via points (seed 003, task 5).
@@ -375,7 +375,7 @@ def cartesian_via_trajectory(robot, points, times=None, *, durations=None, metho
     points : array_like, shape (m, 3) or (m, 4, 4)
         Via targets as :func:`labkit.kinematics.ik` takes them: positions [m],
         planar ``(x, y, phi)`` [m, rad], or poses.
-    times, durations, method, ends
+    times, durations, law, ends
         As :func:`labkit.motion.via_law` (``durations`` may be omitted
         when the robot has speed limits).
     branch, q_start
@@ -417,6 +417,6 @@ def cartesian_via_trajectory(robot, points, times=None, *, durations=None, metho
     q = np.asarray(_solve(robot, kind, targets, tv, branch, where, q_start), dtype=float)
     rev = robot.is_revolute
     q[:, rev] = np.unwrap(q[:, rev], axis=0)
-    traj = via_trajectory(q, times, durations=durations, method=method, ends=ends, robot=robot, dt=dt, t=t,
+    traj = via_trajectory(robot, q, times, durations=durations, law=law, ends=ends, dt=dt, t=t,
                           check_limits=check_limits, check_speed_limits=check_speed_limits)
     return _cartesian_view(robot, kind, traj)

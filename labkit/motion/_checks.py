@@ -14,8 +14,9 @@ __all__ = ["check_joint_limits", "check_speed", "speed_scale"]
 
 
 def _robot_bounds(robot):
-    v = np.array([lk.max_velocity for lk in robot.links], dtype=float)
-    a = np.array([lk.max_acceleration for lk in robot.links], dtype=float)
+    """Per-joint ``max_velocity`` and ``max_acceleration`` as arrays, ``inf`` where a joint has none."""
+    v = np.array([math.inf if lk.max_velocity is None else lk.max_velocity for lk in robot.links], dtype=float)
+    a = np.array([math.inf if lk.max_acceleration is None else lk.max_acceleration for lk in robot.links], dtype=float)
     return v, a
 
 
@@ -25,21 +26,21 @@ def _checked(traj, robot, limits, speed):
     """``traj`` after the requested joint-limit and speed checks against ``robot``."""
     if robot is not None:
         if limits:
-            check_joint_limits(traj, robot)
+            check_joint_limits(robot, traj)
         if speed:
-            check_speed(traj, robot)
+            check_speed(robot, traj)
     return traj
 
 
-def check_joint_limits(traj, robot):
+def check_joint_limits(robot, traj):
     """Raise at the first sample outside the robot's joint limits.
 
     Parameters
     ----------
-    traj : Trajectory
-        Samples ``q`` of shape (N, n) [rad, m].
     robot : Robot
         Gives the joint limits.
+    traj : Trajectory
+        Samples ``q`` of shape (N, n) [rad, m].
 
     Raises
     ------
@@ -58,7 +59,7 @@ def check_joint_limits(traj, robot):
         ) from None
 
 
-def speed_scale(traj, robot):
+def speed_scale(robot, traj):
     """Factor by which the trajectory must be slowed to respect speed bounds.
 
     Uniform time scaling by ``k`` divides velocities by ``k`` and
@@ -67,11 +68,11 @@ def speed_scale(traj, robot):
 
     Parameters
     ----------
+    robot : Robot
+        Gives ``max_velocity`` / ``max_acceleration`` per joint.
     traj : Trajectory
         Samples ``qd``/``qdd`` [rad/s, m/s; rad/s^2, m/s^2]; the peaks of its
         law when it has one.
-    robot : Robot
-        Gives ``max_velocity`` / ``max_acceleration`` per joint.
 
     Returns
     -------
@@ -102,15 +103,15 @@ def speed_scale(traj, robot):
     return float(ra[ja]), ja, "acceleration"
 
 
-def check_speed(traj, robot, *, tol=1e-9):
+def check_speed(robot, traj, *, tol=1e-9):
     """Raise if a joint exceeds its ``max_velocity`` or ``max_acceleration``.
 
     Parameters
     ----------
-    traj : Trajectory
-        Samples ``qd``/``qdd`` [rad/s, m/s; rad/s^2, m/s^2] (or its law).
     robot : Robot
         Gives the speed bounds (unbounded joints are skipped).
+    traj : Trajectory
+        Samples ``qd``/``qdd`` [rad/s, m/s; rad/s^2, m/s^2] (or its law).
     tol : float
         Accepted excess of the slow-down factor over 1 [-].
 
@@ -124,7 +125,7 @@ def check_speed(traj, robot, *, tol=1e-9):
     ShapeError
         The trajectory and the robot differ in the number of joints.
     """
-    k, j, what = speed_scale(traj, robot)
+    k, j, what = speed_scale(robot, traj)
     if k <= 1.0 + tol:
         return
     rev = robot.links[j].is_revolute

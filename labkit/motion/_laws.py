@@ -8,7 +8,7 @@ import numpy as np
 from scipy.interpolate import BPoly, CubicHermiteSpline, PPoly
 
 from labkit.exceptions import ShapeError, TrajectoryError
-from labkit.motion._timelaw import LawKind, TimeLaw, _ALIASES, _POINT_LAWS
+from labkit.motion._timelaw import LawName, TimeLaw, _ALIASES, _POINT_LAWS
 
 __all__ = ["cubic_law", "quintic_law", "lspb_law", "linear_law", "make_law", "minimum_duration", "time_grid"]
 
@@ -65,14 +65,19 @@ def _values(*arrays, names):
 
 
 def _bounds(value, name, shape):
-    """A speed or acceleration bound broadcast to ``shape``: positive numbers (``inf``: unbounded), never NaN."""
+    """A speed or acceleration bound broadcast to ``shape``: positive numbers, never NaN.
+
+    ``None`` means unbounded (``inf`` inside; a per-coordinate ``inf``, as a
+    robot without a limit on one joint gives, is unbounded too)."""
+    if value is None:
+        return np.full(shape, math.inf)
     try:
         arr = np.broadcast_to(np.asarray(value, dtype=float), shape)
     except (TypeError, ValueError):
-        raise TrajectoryError(f"expected {name} as positive numbers (inf: unbounded) of shape {shape}, "
+        raise TrajectoryError(f"expected {name} as positive numbers (None: unbounded) of shape {shape}, "
                               f"got {value!r}") from None
     if np.any(np.isnan(arr)) or np.any(arr <= 0):
-        raise TrajectoryError(f"expected positive {name} (inf: unbounded), got {value!r}")
+        raise TrajectoryError(f"expected positive {name} (None: unbounded), got {value!r}")
     return arr
 
 
@@ -107,7 +112,7 @@ def cubic_law(q0, qf, duration, *, v0=0.0, vf=0.0, t0=0.0):
     T = _check_duration(duration, t0)
     q0, qf, v0, vf = _values(q0, qf, v0, vf, names=("q0", "qf", "v0", "vf"))
     spl = CubicHermiteSpline([t0, t0 + T], np.stack([q0, qf]), np.stack([v0, vf]), axis=0)
-    return TimeLaw(PPoly(spl.c, spl.x), LawKind.CUBIC)
+    return TimeLaw(PPoly(spl.c, spl.x), LawName.CUBIC)
 
 
 def quintic_law(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
@@ -148,7 +153,7 @@ def quintic_law(q0, qf, duration, *, v0=0.0, vf=0.0, a0=0.0, af=0.0, t0=0.0):
         )
         cols.append(PPoly.from_bernstein_basis(b).c[:, 0])
     c = np.stack(cols, axis=-1).reshape((6, 1) + shape)
-    return TimeLaw(PPoly(c, [t0, t0 + T]), LawKind.QUINTIC)
+    return TimeLaw(PPoly(c, [t0, t0 + T]), LawName.QUINTIC)
 
 
 def linear_law(q0, qf, duration, *, t0=0.0):
@@ -183,7 +188,7 @@ def linear_law(q0, qf, duration, *, t0=0.0):
     T = _check_duration(duration, t0)
     q0, qf = _values(q0, qf, names=("q0", "qf"))
     c = np.stack([(qf - q0) / T, q0])[:, None]
-    return TimeLaw(PPoly(c, [t0, t0 + T]), LawKind.LINEAR)
+    return TimeLaw(PPoly(c, [t0, t0 + T]), LawName.LINEAR)
 
 
 def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
@@ -294,15 +299,15 @@ def lspb_law(q0, qf, duration, *, v_max=None, a_max=None, blend_time=None, t0=0.
         x = [t0, t0 + tb, t0 + T]
     c = sc.reshape(sc.shape + (1,) * D.ndim) * D
     c[2] += q0
-    return TimeLaw(PPoly(c, x), LawKind.LSPB)
+    return TimeLaw(PPoly(c, x), LawName.LSPB)
 
 
-def make_law(kind, q0, qf, duration, **options):
+def make_law(law, q0, qf, duration, **options):
     """Build a point-to-point law by name.
 
     Parameters
     ----------
-    kind : {"cubic", "quintic", "lspb", "linear"} or LawKind
+    law : {"cubic", "quintic", "lspb", "linear"} or LawName
         ``"trapezoid"`` is accepted for ``"lspb"``.
     q0, qf, duration, **options
         As for :func:`cubic_law`, :func:`quintic_law`, :func:`lspb_law`, :func:`linear_law`.
@@ -316,31 +321,35 @@ def make_law(kind, q0, qf, duration, **options):
     >>> make_law("quintic", 0.0, 1.0, 2.0).degree
     5
     """
-    if isinstance(kind, str):
-        kind = _ALIASES.get(kind, kind)
-    kind = LawKind.parse(kind, _POINT_LAWS)
-    fn = {LawKind.CUBIC: cubic_law, LawKind.QUINTIC: quintic_law, LawKind.LSPB: lspb_law, LawKind.LINEAR: linear_law}
-    return fn[kind](q0, qf, duration, **options)
+    name = _law_name(law, _POINT_LAWS)
+    fn = {LawName.CUBIC: cubic_law, LawName.QUINTIC: quintic_law, LawName.LSPB: lspb_law, LawName.LINEAR: linear_law}
+    return fn[name](q0, qf, duration, **options)
+
+
+def _law_name(law, allowed):
+    """The :class:`LawName` of ``law`` (a name, an alias such as ``"trapezoid"``, or a member) among ``allowed``."""
+    return LawName.parse(_ALIASES.get(law, law) if isinstance(law, str) else law, allowed)
 
 
 # Peak speed and acceleration of the rest-to-rest laws per unit distance and
 # unit duration: v_peak = cv D / T, a_peak = ca D / T^2.
 _PEAKS = {
-    LawKind.CUBIC: (1.5, 6.0),
-    LawKind.QUINTIC: (15.0 / 8.0, 10.0 / math.sqrt(3.0)),
+    LawName.CUBIC: (1.5, 6.0),
+    LawName.QUINTIC: (15.0 / 8.0, 10.0 / math.sqrt(3.0)),
 }
 
 
-def minimum_duration(distance, *, v_max=math.inf, a_max=math.inf, kind="cubic"):
+def minimum_duration(distance, *, v_max=None, a_max=None, law="cubic"):
     """Shortest rest-to-rest duration that respects speed/acceleration bounds.
 
     Parameters
     ----------
     distance : array_like, shape (...)
         ``|qf - q0|`` per value [units].
-    v_max, a_max : float or array_like, shape (...)
-        Bounds [units/s, units/s^2]; ``inf`` means unbounded.
-    kind : {"cubic", "quintic", "lspb"}
+    v_max, a_max : float or array_like, shape (...), optional
+        Bounds [units/s, units/s^2]; ``None`` (default) means unbounded.
+    law : {"cubic", "quintic", "lspb"} or LawName
+        The time law whose peaks are bounded.
 
     Returns
     -------
@@ -352,18 +361,17 @@ def minimum_duration(distance, *, v_max=math.inf, a_max=math.inf, kind="cubic"):
     >>> minimum_duration(0.1487, v_max=0.0446)  # seed 000: 1.5 D / v
     5.001121076233184
     """
-    kind = LawKind.parse(_ALIASES.get(kind, kind) if isinstance(kind, str) else kind,
-                         (LawKind.CUBIC, LawKind.QUINTIC, LawKind.LSPB))
+    name = _law_name(law, (LawName.CUBIC, LawName.QUINTIC, LawName.LSPB))
     (D,) = _values(distance, names=["distance"])
     D = np.abs(D)
     v = _bounds(v_max, "v_max", D.shape)
     a = _bounds(a_max, "a_max", D.shape)
     with np.errstate(divide="ignore", invalid="ignore"):
-        if kind is LawKind.LSPB:
+        if name is LawName.LSPB:
             tri = D <= v**2 / a  # never reaches v: triangular profile
             T = np.where(tri, 2 * np.sqrt(D / a), D / v + v / a)
         else:
-            cv, ca = _PEAKS[kind]
+            cv, ca = _PEAKS[name]
             T = np.maximum(cv * D / v, np.where(np.isinf(a), 0.0, np.sqrt(ca * D / a)))
     T = np.where(D > 0, T, 0.0)
     if not np.all(np.isfinite(T)):

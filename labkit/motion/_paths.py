@@ -37,7 +37,7 @@ class CartesianPath:
 
     Attributes
     ----------
-    kind : str
+    shape : str
         ``"line"``, ``"arc"``, ``"circle"`` or ``"waypoints"``.
     points : ndarray, shape (m, 3)
         Line ends or waypoints [m]; for arcs, the start and end points.
@@ -45,39 +45,39 @@ class CartesianPath:
         Arc centre [m].
     radius : float
         Arc radius [m] (0 for lines).
-    axes : ndarray, shape (2, 3) or None
+    plane_axes : ndarray, shape (2, 3) or None
         Orthonormal in-plane axes ``u, v`` of an arc;
         ``p = c + r (cos(theta) u + sin(theta) v)``.
     start_angle, sweep : float
         Arc angles [rad]: ``theta = start_angle + s sweep``.
     """
 
-    kind: str
+    shape: str
     points: np.ndarray
     center: np.ndarray | None = None
     radius: float = 0.0
-    axes: np.ndarray | None = None
+    plane_axes: np.ndarray | None = None
     start_angle: float = 0.0
     sweep: float = 0.0
 
     @property
     def s_max(self):
         """End value of the path parameter (1, or the number of segments)."""
-        return float(self.points.shape[0] - 1) if self.kind == "waypoints" else 1.0
+        return float(self.points.shape[0] - 1) if self.shape == "waypoints" else 1.0
 
     @property
     def length(self):
         """Path length [m]."""
-        if self.kind in ("arc", "circle"):
+        if self.shape in ("arc", "circle"):
             return abs(self.sweep) * self.radius
         return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=-1)))
 
     @property
     def normal(self):
         """Unit normal of an arc's plane (``u x v``; sweep > 0 turns about it)."""
-        if self.axes is None:
+        if self.plane_axes is None:
             return None
-        return np.cross(self.axes[0], self.axes[1])
+        return np.cross(self.plane_axes[0], self.plane_axes[1])
 
     def evaluate(self, s):
         """Point and its first two derivatives with respect to ``s``.
@@ -92,8 +92,8 @@ class CartesianPath:
             ``p(s)`` [m], ``dp/ds`` and ``d2p/ds2`` [m].
         """
         s = np.asarray(s, dtype=float).reshape(-1)
-        if self.kind in ("arc", "circle"):
-            u, v = self.axes
+        if self.shape in ("arc", "circle"):
+            u, v = self.plane_axes
             th = self.start_angle + s * self.sweep
             c, sn = np.cos(th)[:, None], np.sin(th)[:, None]
             radial = c * u + sn * v
@@ -142,7 +142,7 @@ class CartesianPath:
             Shortest distance of each point from the path [m].
         """
         x = np.asarray(x, dtype=float).reshape(-1, 3)
-        if self.kind in ("arc", "circle"):
+        if self.shape in ("arc", "circle"):
             rel = x - self.center
             n = self.normal
             off = rel @ n
@@ -177,14 +177,14 @@ def line_path(start, end):
     return CartesianPath("line", np.stack([_point3(start, "start"), _point3(end, "end")]))
 
 
-def _plane_axes(normal, axes):
-    if axes is not None:
+def _plane_axes(normal, plane_axes):
+    if plane_axes is not None:
         if normal is not None:
-            raise ShapeError("give the arc plane by normal or by axes, not both")
-        A = np.asarray(axes, dtype=float)
+            raise ShapeError("give the arc plane by normal or by plane_axes, not both")
+        A = np.asarray(plane_axes, dtype=float)
         if A.shape == (2, 2):
             A = np.concatenate([A, np.zeros((2, 1))], axis=1)
-        A = as_batch(A, (2, 3), "axes")
+        A = as_batch(A, (2, 3), "plane_axes")
         u = A[0] / np.linalg.norm(A[0])
         v = A[1] - (A[1] @ u) * u  # Gram-Schmidt: v orthogonal to u
         nv = np.linalg.norm(v)
@@ -202,7 +202,7 @@ def _plane_axes(normal, axes):
     return np.stack([u, np.cross(n, u)])
 
 
-def arc_path(center, radius, start_angle, sweep, *, normal=None, axes=None):
+def arc_path(center, radius, start_angle, sweep, *, normal=None, plane_axes=None):
     """Circular arc.
 
     ``p(s) = center + radius (cos(theta) u + sin(theta) v)`` with
@@ -220,7 +220,7 @@ def arc_path(center, radius, start_angle, sweep, *, normal=None, axes=None):
         Plane normal (default +z: the x-y plane, ``u = x``, ``v = y``). The
         in-plane axis ``u`` is the world x axis projected on the plane (y if
         the normal is close to x), and ``v = normal x u``.
-    axes : array_like, shape (2, 3), optional
+    plane_axes : array_like, shape (2, 3), optional
         In-plane axes ``u, v`` instead of a normal (``v`` is orthogonalised).
 
     Returns
@@ -241,13 +241,13 @@ def arc_path(center, radius, start_angle, sweep, *, normal=None, axes=None):
     th0, sw = float(start_angle), float(sweep)
     if not (math.isfinite(th0) and math.isfinite(sw)) or sw == 0:
         raise ShapeError(f"expected finite angles and a non-zero sweep [rad], got {start_angle!r}, {sweep!r}")
-    A = _plane_axes(normal, axes)
-    kind = "circle" if abs(abs(sw) - 2 * math.pi) < 1e-12 else "arc"
+    A = _plane_axes(normal, plane_axes)
+    shape = "circle" if abs(abs(sw) - 2 * math.pi) < 1e-12 else "arc"
     ends = c + r * np.stack([math.cos(t) * A[0] + math.sin(t) * A[1] for t in (th0, th0 + sw)])
-    return CartesianPath(kind, ends, c, r, A, th0, sw)
+    return CartesianPath(shape, ends, c, r, A, th0, sw)
 
 
-def circle_path(center, radius, *, start_angle=0.0, normal=None, axes=None, clockwise=False):
+def circle_path(center, radius, *, start_angle=0.0, normal=None, plane_axes=None, clockwise=False):
     """Full circle (an arc sweeping 2 pi) starting at ``start_angle``.
 
     Parameters
@@ -260,7 +260,7 @@ def circle_path(center, radius, *, start_angle=0.0, normal=None, axes=None, cloc
         Angle of the start point in the plane [rad], measured from ``u``.
     normal : array_like, shape (3,), optional
         Plane normal (default +z), as for :func:`arc_path`.
-    axes : array_like, shape (2, 3), optional
+    plane_axes : array_like, shape (2, 3), optional
         In-plane axes ``u, v`` instead of a normal, as for :func:`arc_path`.
     clockwise : bool
         Sweep ``-2 pi`` (clockwise about the normal) instead of ``+2 pi``.
@@ -272,7 +272,7 @@ def circle_path(center, radius, *, start_angle=0.0, normal=None, axes=None, cloc
     Raises
     ------
     ShapeError
-        A non-positive radius or a malformed centre, normal or axes.
+        A non-positive radius or a malformed centre, normal or plane_axes.
 
     Examples
     --------
@@ -280,7 +280,7 @@ def circle_path(center, radius, *, start_angle=0.0, normal=None, axes=None, cloc
     0.628319
     """
     return arc_path(center, radius, start_angle, -2 * math.pi if clockwise else 2 * math.pi,
-               normal=normal, axes=axes)
+               normal=normal, plane_axes=plane_axes)
 
 
 def waypoint_path(points):

@@ -26,12 +26,13 @@ from scipy.interpolate import PPoly
 
 from labkit.exceptions import OptionError, ShapeError
 
-__all__ = ["LawKind", "TimeLaw"]
+__all__ = ["LawName", "TimeLaw"]
 
 
-class LawKind(str, Enum):
-    """Kinds of time law (``"cubic"``, ``"quintic"``, ``"lspb"``, ``"linear"``,
-    and the via-point laws built in :mod:`labkit.motion`)."""
+class LawName(str, Enum):
+    """Names of time laws (``"cubic"``, ``"quintic"``, ``"lspb"``, ``"linear"``,
+    and the via-point laws built in :mod:`labkit.motion`): what ``law=``
+    takes as a string."""
 
     CUBIC = "cubic"
     QUINTIC = "quintic"
@@ -47,14 +48,14 @@ class LawKind(str, Enum):
 
         Parameters
         ----------
-        value : str or LawKind
+        value : str or LawName
             Law name (e.g. ``"quintic"``) or member.
-        allowed : iterable of LawKind, optional
+        allowed : iterable of LawName, optional
             The members accepted here; default all.
 
         Returns
         -------
-        LawKind
+        LawName
 
         Raises
         ------
@@ -63,19 +64,19 @@ class LawKind(str, Enum):
         """
         allowed = tuple(allowed or cls)
         try:
-            kind = cls(value)
+            name = cls(value)
         except ValueError:
-            kind = None
-        if kind is None or kind not in allowed:
+            name = None
+        if name is None or name not in allowed:
             names = ", ".join(repr(k.value) for k in allowed)
             raise OptionError(f"expected a time law in {{{names}}}, got {value!r}") from None
-        return kind
+        return name
 
 
 # "trapezoid" is the name many courses use for LSPB
 _ALIASES = {"trapezoid": "lspb", "trapezoidal": "lspb"}
 
-_POINT_LAWS = (LawKind.CUBIC, LawKind.QUINTIC, LawKind.LSPB, LawKind.LINEAR)
+_POINT_LAWS = (LawName.CUBIC, LawName.QUINTIC, LawName.LSPB, LawName.LINEAR)
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,8 +88,8 @@ class TimeLaw:
     ppoly : scipy.interpolate.PPoly
         The engine; ``ppoly.c`` has shape ``(k + 1, m, *shape)`` (descending
         powers, local variable ``t - t_i``).
-    kind : LawKind
-        How the law was built.
+    name : LawName
+        Which law this is (how it was built).
 
     Examples
     --------
@@ -101,7 +102,7 @@ class TimeLaw:
     """
 
     ppoly: PPoly
-    kind: LawKind = LawKind.CUBIC
+    name: LawName
 
     # -- description ---------------------------------------------------------
     @property
@@ -292,7 +293,7 @@ class TimeLaw:
 
     def __repr__(self):
         return (
-            f"TimeLaw(kind={self.kind.value!r}, t=[{self.t0:g}, {self.tf:g}] s, "
+            f"TimeLaw(name={self.name.value!r}, t=[{self.t0:g}, {self.tf:g}] s, "
             f"segments={self.n_segments}, degree={self.degree}, shape={self.shape})"
         )
 

@@ -28,7 +28,7 @@ from scipy.interpolate import CubicHermiteSpline
 
 from labkit.validation import as_batch, readonly
 from labkit.exceptions import ShapeError, TrajectoryError
-from labkit.motion._timelaw import LawKind, TimeLaw
+from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import _number, make_law, minimum_duration, time_grid
 from labkit.motion._checks import _checked, _robot_bounds
 
@@ -65,7 +65,7 @@ class Trajectory:
 
     Examples
     --------
-    >>> traj = joint_trajectory([0.0, 0.0], [1.0, -1.0], 2.0, dt=0.5)
+    >>> traj = joint_trajectory(None, [0.0, 0.0], [1.0, -1.0], 2.0, dt=0.5)
     >>> traj.q.shape
     (5, 2)
     >>> traj.resample(0.25).t.size
@@ -231,12 +231,12 @@ class Trajectory:
         return Trajectory(t, q, qd, qdd, x, xd, xdd, joint_names=self.joint_names,
                           axis_names=self.axis_names, revolute=self.revolute)
 
-    def plot(self, axes=None, **kwargs):
+    def plot(self, ax=None, **kwargs):
         """Position, velocity and acceleration against time (:func:`labkit.plotting.plot_trajectory`).
 
         Parameters
         ----------
-        axes : sequence of 3 matplotlib Axes, optional
+        ax : sequence of 3 matplotlib Axes, optional
             Where to draw; a new figure if omitted.
         **kwargs
             Passed to :func:`labkit.plotting.plot_trajectory` (``space``,
@@ -248,7 +248,7 @@ class Trajectory:
         """
         from labkit.plotting import plot_trajectory
 
-        return plot_trajectory(self, axes, **kwargs)
+        return plot_trajectory(self, ax, **kwargs)
 
     def __repr__(self):
         extra = f", axes={self.axis_names}" if self.x is not None else ""
@@ -311,21 +311,22 @@ def _round_up(T, dt):
     return max(k, 1) * dt
 
 
-def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01, t=None,
+def joint_trajectory(robot, q0, qf, duration=None, *, law="cubic", dt=0.01, t=None,
                      check_limits=True, check_speed_limits=False, **law_options):
     """A point-to-point joint move.
 
     Parameters
     ----------
+    robot : Robot or None
+        Gives joint names, limits and speed bounds; ``None`` for bare joint
+        values (no names, nothing checked).
     q0, qf : array_like, shape (n,)
         Start and end configurations [rad, m].
     duration : float, optional
         Move time [s]. If omitted, the shortest duration that respects the
         robot's ``max_velocity`` / ``max_acceleration`` for this law, rounded
         up to a whole number of steps ``dt``.
-    robot : Robot, optional
-        Gives joint names, limits and speed bounds.
-    law : {"cubic", "quintic", "lspb", "linear"}
+    law : {"cubic", "quintic", "lspb", "linear"} or LawName
         Time law (rest to rest unless ``v0``/``vf``... are passed in
         ``law_options``).
     dt : float
@@ -348,7 +349,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
 
     Examples
     --------
-    >>> traj = joint_trajectory([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0, dt=0.1)
+    >>> traj = joint_trajectory(None, [0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0, dt=0.1)
     >>> traj.law.coefficients[0, :, 2]  # a0..a3 of joint 3 (seed 003, task 2)
     array([ 1.57   ,  0.     , -0.0924 ,  0.01232])
     """
@@ -371,8 +372,7 @@ def joint_trajectory(q0, qf, duration=None, *, robot=None, law="cubic", dt=0.01,
         if robot is None:
             raise TrajectoryError("give a duration, or a robot whose joints have max_velocity/max_acceleration: expected one of them, got neither")
         v, a = _robot_bounds(robot)
-        kind = law if isinstance(law, str) else LawKind(law).value
-        T = minimum_duration(qf - q0, v_max=v, a_max=a, kind=kind)
+        T = minimum_duration(qf - q0, v_max=v, a_max=a, law=law)
         if T == 0.0 and np.any(qf != q0):
             raise TrajectoryError(
                 f"{robot.name} gives no max_velocity/max_acceleration: cannot choose a duration, give one"

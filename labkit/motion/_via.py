@@ -9,8 +9,8 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline, PPoly
 
 from labkit.exceptions import OptionError, ShapeError, TrajectoryError
-from labkit.motion._timelaw import LawKind, TimeLaw
-from labkit.motion._laws import minimum_duration
+from labkit.motion._timelaw import LawName, TimeLaw
+from labkit.motion._laws import _law_name, minimum_duration
 from labkit.motion._checks import _checked, _robot_bounds
 from labkit.motion._trajectory import _robot_info, law_trajectory
 
@@ -73,7 +73,7 @@ def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
     return V
 
 
-def _via_times(points, times, durations, robot, law_kind):
+def _via_times(points, times, durations, robot):
     m = points.shape[0]
     if times is not None and durations is not None:
         raise TrajectoryError("give either times or durations, not both")
@@ -86,7 +86,7 @@ def _via_times(points, times, durations, robot, law_kind):
             if robot is None:
                 raise TrajectoryError("give times or durations, or a robot with speed limits")
             v, a = _robot_bounds(robot)
-            d = np.array([minimum_duration(points[i + 1] - points[i], v_max=v, a_max=a, kind="cubic")
+            d = np.array([minimum_duration(points[i + 1] - points[i], v_max=v, a_max=a, law="cubic")
                           for i in range(m - 1)])
             if np.any(d == 0) and np.any(np.diff(points, axis=0) != 0):
                 raise TrajectoryError(f"{robot.name} gives no speed limits: give times or durations")
@@ -99,12 +99,15 @@ def _via_times(points, times, durations, robot, law_kind):
     return t
 
 
-def via_law(points, times=None, *, durations=None, method="via_cubic", velocities=None,
-            ends="clamped", v0=0.0, vf=0.0, robot=None):
+def via_law(robot, points, times=None, *, durations=None, law="via_cubic", velocities=None,
+            ends="clamped", v0=0.0, vf=0.0):
     """A piecewise-cubic law through via points.
 
     Parameters
     ----------
+    robot : Robot or None
+        Speed bounds for automatic durations; ``None`` when times or
+        durations are given.
     points : array_like, shape (m, n)
         Configurations to pass through [rad, m], ``m >= 2``.
     times : array_like, shape (m,), optional
@@ -113,7 +116,7 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
         Segment durations [s] (times start at 0). With neither times nor
         durations, each segment gets the shortest rest-to-rest cubic duration
         allowed by the robot's speed/acceleration bounds.
-    method : {"via_cubic", "spline"}
+    law : {"via_cubic", "spline"} or LawName
         ``"via_cubic"``: cubic segments (``CubicHermiteSpline``) with
         continuous velocity; via velocities given or heuristic. ``"spline"``:
         a cubic spline (``CubicSpline``) with continuous acceleration.
@@ -123,8 +126,6 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
         Spline end conditions (``"spline"`` only).
     v0, vf : float or array_like, shape (n,)
         End velocities ("via_cubic" heuristic and clamped spline).
-    robot : Robot, optional
-        Speed bounds for automatic durations.
 
     Returns
     -------
@@ -133,7 +134,7 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
 
     Examples
     --------
-    >>> law = via_law([[0.0], [1.0], [0.5]], durations=1.0, method="spline", ends="natural")
+    >>> law = via_law(None, [[0.0], [1.0], [0.5]], durations=1.0, law="spline", ends="natural")
     >>> law.n_segments, law.degree
     (2, 3)
     """
@@ -144,12 +145,12 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
         raise ShapeError(f"expected via points with shape (m, n), m >= 2, got {np.shape(points)}")
     if not np.all(np.isfinite(P)):
         raise ShapeError("expected finite via points")
-    kind = LawKind.parse(method, (LawKind.VIA_CUBIC, LawKind.SPLINE))
-    t = _via_times(P, times, durations, robot, kind)
+    name = _law_name(law, (LawName.VIA_CUBIC, LawName.SPLINE))
+    t = _via_times(P, times, durations, robot)
     n = P.shape[1]
     v0 = np.broadcast_to(_floats(v0, "v0"), (n,))
     vf = np.broadcast_to(_floats(vf, "vf"), (n,))
-    if kind is LawKind.VIA_CUBIC:
+    if name is LawName.VIA_CUBIC:
         if velocities is None:
             V = heuristic_velocities(P, t, v0=v0, vf=vf)
         else:
@@ -164,16 +165,19 @@ def via_law(points, times=None, *, durations=None, method="via_cubic", velocitie
             raise OptionError(f"expected ends in {{'clamped', 'natural'}}, got {ends!r}") from None
         bc = ((1, v0), (1, vf)) if end is SplineEnds.CLAMPED else "natural"
         spl = CubicSpline(t, P, axis=0, bc_type=bc)
-    return TimeLaw(PPoly(spl.c, spl.x), kind)
+    return TimeLaw(PPoly(spl.c, spl.x), name)
 
 
-def via_trajectory(points, times=None, *, durations=None, method="via_cubic", velocities=None,
-                   ends="clamped", v0=0.0, vf=0.0, robot=None, dt=0.01, t=None,
+def via_trajectory(robot, points, times=None, *, durations=None, law="via_cubic", velocities=None,
+                   ends="clamped", v0=0.0, vf=0.0, dt=0.01, t=None,
                    check_limits=True, check_speed_limits=False):
     """A joint trajectory through via points, sampled.
 
     Parameters
     ----------
+    robot : Robot or None
+        Joint names, limits and speed bounds; ``None`` for bare joint values
+        (times or durations needed, nothing checked).
     points : array_like, shape (m, n)
         Configurations to pass through [rad, m], ``m >= 2``.
     times : array_like, shape (m,), optional
@@ -182,7 +186,7 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
         Segment durations [s] (times start at 0). With neither times nor
         durations, each segment gets the shortest rest-to-rest cubic duration
         allowed by the robot's speed/acceleration bounds.
-    method : {"via_cubic", "spline"}
+    law : {"via_cubic", "spline"} or LawName
         Cubic segments with continuous velocity, or a cubic spline with
         continuous acceleration (see :func:`via_law`).
     velocities : array_like, shape (m, n), optional
@@ -191,8 +195,6 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
         Spline end conditions (``"spline"`` only).
     v0, vf : float or array_like, shape (n,)
         End velocities [rad/s, m/s] ("via_cubic" heuristic and clamped spline).
-    robot : Robot, optional
-        Joint names, limits and speed bounds.
     dt : float
         Sample step [s].
     t : array_like, shape (N,), optional
@@ -218,14 +220,14 @@ def via_trajectory(points, times=None, *, durations=None, method="via_cubic", ve
     Examples
     --------
     >>> P = np.radians([[0, 0, 0], [20, 30, -10], [40, 45, -30], [30, 60, -45], [10, 70, -60]])
-    >>> traj = via_trajectory(P, durations=1.0, method="spline", dt=0.1)
+    >>> traj = via_trajectory(None, P, durations=1.0, law="spline", dt=0.1)
     >>> traj.t[-1], traj.law.n_segments
     (np.float64(4.0), 4)
     """
-    law = via_law(points, times, durations=durations, method=method, velocities=velocities,
-                  ends=ends, v0=v0, vf=vf, robot=robot)
-    names, rev = _robot_info(robot, law.shape[0])
-    traj = law_trajectory(law, t, dt=dt, joint_names=names, revolute=rev)
+    tl = via_law(robot, points, times, durations=durations, law=law, velocities=velocities,
+                 ends=ends, v0=v0, vf=vf)
+    names, rev = _robot_info(robot, tl.shape[0])
+    traj = law_trajectory(tl, t, dt=dt, joint_names=names, revolute=rev)
     return _checked(traj, robot, check_limits, check_speed_limits)
 
 

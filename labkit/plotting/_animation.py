@@ -65,7 +65,7 @@ def animate_arm(robot, traj, ax=None, *, t=None, max_frames=80, interval=None, d
     >>> from labkit.robot import Robot
     >>> from labkit.motion import joint_trajectory
     >>> arm = Robot.load("planar3r_seed003")
-    >>> anim = animate_arm(arm, joint_trajectory([0, 0, 0], [0.8, -0.5, 0.3], 2.0, dt=0.1), max_frames=3)
+    >>> anim = animate_arm(arm, joint_trajectory(None, [0, 0, 0], [0.8, -0.5, 0.3], 2.0, dt=0.1), max_frames=3)
     >>> anim._labkit_frames
     3
     >>> "<img" in anim.to_jshtml()

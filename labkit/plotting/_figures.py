@@ -272,7 +272,7 @@ def _filled_region(pts2, bins):
     return xe, ye, H.T > 0
 
 
-def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter", dims="auto",
+def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, style="scatter", dims="auto",
                    color="tab:gray", seed=0, units="mm", bins=None, label=None, plane="xy"):
     """The reachable workspace for given joint ranges, as points or a filled region.
 
@@ -285,7 +285,7 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
     ax : matplotlib Axes, optional
     n : int
         Number of random joint samples (:func:`labkit.kinematics.workspace_points`).
-    kind : {"scatter", "filled"}
+    style : {"scatter", "filled"}
         Dots, or the occupied region as a filled area (2-D only) with its outline.
     dims : {"auto", 2, 3}
         ``"auto"``: 2-D for planar arms.
@@ -298,7 +298,7 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
     units : {"mm", "m"}
         Axis units (the robot itself is in m).
     bins : int, optional
-        Grid cells along the longer side for ``kind="filled"`` (see
+        Grid cells along the longer side for ``style="filled"`` (see
         :func:`labkit.kinematics.planar_region`).
     label : str, optional
         Legend label (default ``"workspace"``).
@@ -310,7 +310,7 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
     Raises
     ------
     ValueError
-        An unknown ``kind`` or ``plane``, or ``kind="filled"`` in 3-D.
+        An unknown ``style`` or ``plane``, or ``style="filled"`` in 3-D.
 
     Examples
     --------
@@ -319,14 +319,14 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
     >>> ax.collections[0].get_offsets().shape
     (2000, 2)
     """
-    if kind not in ("scatter", "filled"):
-        raise OptionError(f"expected kind in {{'scatter', 'filled'}}, got {kind!r}")
+    if style not in ("scatter", "filled"):
+        raise OptionError(f"expected style in {{'scatter', 'filled'}}, got {style!r}")
     planes = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
     if plane not in planes:
         raise OptionError(f"expected plane in {sorted(planes)}, got {plane!r}")
     d = _dims(robot, None, dims)
-    if kind == "filled" and d == 3:
-        raise OptionError("kind='filled' draws a 2-D region: use dims=2 (a projection) or kind='scatter'")
+    if style == "filled" and d == 3:
+        raise OptionError("style='filled' draws a 2-D region: use dims=2 (a projection) or style='scatter'")
     s = _scale(units)
     pts = _workspace_samples(robot, joint_ranges, int(n), seed) * s
     ax = _new_axes(ax, d == 3)
@@ -338,7 +338,7 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, kind="scatter
         return ax
     i, j = planes[plane]
     p2 = pts[:, [i, j]]
-    if kind == "scatter":
+    if style == "scatter":
         ax.scatter(p2[:, 0], p2[:, 1], s=1, color=color, alpha=0.35, linewidths=0, gid="workspace",
                    label=label or "workspace", rasterized=True)
     else:
@@ -395,7 +395,7 @@ def plot_time_series(traj, quantity="q", ax=None, *, degrees=True, units="mm", n
     Examples
     --------
     >>> from labkit.motion import joint_trajectory
-    >>> ax = plot_time_series(joint_trajectory([0, 0, 1.57], [-0.8, 0.8, 0.8], 5.0), "qd")
+    >>> ax = plot_time_series(joint_trajectory(None, [0, 0, 1.57], [-0.8, 0.8, 0.8], 5.0), "qd")
     >>> len(ax.lines), ax.get_ylabel()
     (3, 'joint velocity [deg/s]')
     """
@@ -438,18 +438,19 @@ def plot_time_series(traj, quantity="q", ax=None, *, degrees=True, units="mm", n
     return ax
 
 
-def plot_trajectory(traj, axes=None, *, space="joint", degrees=True, units="mm", title=None):
+def plot_trajectory(traj, ax=None, *, space="joint", degrees=True, units="mm", title=None):
     """Position, velocity and acceleration against time, stacked.
 
     Parameters
     ----------
     traj : Trajectory
-    axes : sequence of 3 matplotlib Axes, optional
+    ax : sequence of 3 matplotlib Axes, optional
+        Where to draw (top to bottom); a new figure if omitted.
     space : {"joint", "cartesian"}
     degrees, units
         As :func:`plot_time_series`.
     title : str, optional
-        Figure title when the figure is made here; with ``axes`` given, the
+        Figure title when the figure is made here; with ``ax`` given, the
         title of the top axes (so that side-by-side columns keep their own).
 
     Returns
@@ -459,18 +460,18 @@ def plot_trajectory(traj, axes=None, *, space="joint", degrees=True, units="mm",
     Examples
     --------
     >>> from labkit.motion import joint_trajectory
-    >>> axes = plot_trajectory(joint_trajectory([0.0], [1.0], 2.0))
+    >>> axes = plot_trajectory(joint_trajectory(None, [0.0], [1.0], 2.0))
     >>> [len(a.lines) for a in axes]
     [1, 1, 1]
     """
     if space not in ("joint", "cartesian"):
         raise OptionError(f"expected space in {{'joint', 'cartesian'}}, got {space!r}")
-    own = axes is None
+    own = ax is None
     if own:
         import matplotlib.pyplot as plt
 
-        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(6.4, 7.2), layout="constrained")
-    axes = np.asarray(axes).reshape(-1)
+        fig, ax = plt.subplots(3, 1, sharex=True, figsize=(6.4, 7.2), layout="constrained")
+    axes = np.asarray(ax).reshape(-1)
     if axes.size != 3:
         raise ShapeError(f"expected 3 axes, got {axes.size}")
     qs = ("q", "qd", "qdd") if space == "joint" else ("x", "xd", "xdd")

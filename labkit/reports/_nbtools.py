@@ -156,8 +156,8 @@ def show_table(df, caption=None, floatfmt="{:.4g}"):
 class Comparison:
     """One reproduced-vs-published comparison.
 
-    ``kind`` is ``"check"`` (must agree within ``tol``) or ``"typo"`` (published value is
-    wrong: documented, never failing). ``error`` is the largest absolute difference.
+    A check must agree within ``tol``; a ``typo`` row records a published value that is
+    wrong (documented, never failing). ``error`` is the largest absolute difference.
     """
 
     name: str
@@ -167,7 +167,7 @@ class Comparison:
     error: float
     passed: bool
     note: str = ""
-    kind: str = "check"
+    typo: bool = False
     relative: bool = False
 
 
@@ -209,7 +209,7 @@ def _row_cells(r) -> dict:
     published = np.asarray(r.published, dtype=float)
     scale = float(np.max(np.abs(published))) if published.size and np.all(np.isfinite(published)) else 1.0
     zero = _roundoff(None, None, scale)
-    if r.kind == "check":
+    if not r.typo:
         zero = _roundoff(None, r.tol, scale)
         tol = _num(r.tol, 3) + (" (rel.)" if getattr(r, "relative", False) else "")
         result = "pass" if r.passed else "FAIL"
@@ -300,13 +300,13 @@ class Checks:
         Returns
         -------
         Comparison
-            The recorded row (``kind="typo"``, never failing; ``error`` is NaN if the
+            The recorded row (``typo=True``, never failing; ``error`` is NaN if the
             shapes differ).
         """
         published = np.asarray(published, dtype=float)
         correct = np.asarray(correct, dtype=float)
         err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
-        row = Comparison(name, correct, published, 0.0, err, True, note, kind="typo")
+        row = Comparison(name, correct, published, 0.0, err, True, note, typo=True)
         self.rows.append(row)
         if self.display:
             print(f"TYPO  {name}: published {_fmt(published)}, correct {_fmt(correct)}. {note}")

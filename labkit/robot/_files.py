@@ -55,12 +55,12 @@ def _num(path, field, value, *, default=None):
 _MIN_LIMIT = 1e-6
 
 
-def _positive(path, field, value):
-    """An optional positive limit (speed, acceleration) of at least ``_MIN_LIMIT``; inf when absent."""
+def _positive(path, field, value, scale=1.0):
+    """An optional positive limit (speed, acceleration) of at least ``_MIN_LIMIT``, times ``scale``; None when absent."""
     v = _num(path, field, value, default=math.inf)
     if not v >= _MIN_LIMIT:
         raise RobotFileError(path, field, f"expected a positive number >= {_MIN_LIMIT:g}, got {value!r}")
-    return v
+    return None if v == math.inf else v * scale
 
 
 def _text(path, field, value, *, empty=True):
@@ -277,8 +277,8 @@ def parse(data, path):
                 limits=limits,
                 name=str(j.get("name", f"q{i}")),
                 servo=servo,
-                max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity")) * qscale,
-                max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration")) * qscale,
+                max_velocity=_positive(path, f"{where}.max_velocity", j.get("max_velocity"), qscale),
+                max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration"), qscale),
                 flip=flip,
                 bus=bus_servo,
             )
@@ -380,9 +380,9 @@ def dump(robot, length_unit="m", angle_unit="rad"):
         ]
         if lk.flip:
             out.append("flip = true")
-        if math.isfinite(lk.max_velocity):
+        if lk.max_velocity is not None:
             out.append(f"max_velocity = {_fmt(lk.max_velocity / qs)}")
-        if math.isfinite(lk.max_acceleration):
+        if lk.max_acceleration is not None:
             out.append(f"max_acceleration = {_fmt(lk.max_acceleration / qs)}")
         if lk.servo:
             s = lk.servo

@@ -388,8 +388,9 @@ class Link:
         The hobby servo behind an Arduino board, or None.
     bus : BusServo or None
         The smart servo on a bus (robot-file ``bus = {...}``), or None.
-    max_velocity, max_acceleration : float
-        Joint speed [rad/s or m/s] and acceleration limits (> 0); ``inf`` if unknown.
+    max_velocity, max_acceleration : float or None
+        Joint speed [rad/s or m/s] and acceleration limits (> 0); ``None`` if
+        unknown (``inf`` is taken as ``None``).
     flip : bool
         The joint variable enters the chain negated (roboticstoolbox's ``flip``):
         ``theta_i = -q_i + theta`` (revolute) or ``d_i = -q_i + d`` (prismatic).
@@ -414,8 +415,8 @@ class Link:
     limits: tuple = (-math.pi, math.pi)
     name: str = ""
     servo: ServoCalibration | None = None
-    max_velocity: float = math.inf
-    max_acceleration: float = math.inf
+    max_velocity: float | None = None
+    max_acceleration: float | None = None
     flip: bool = False
     bus: BusServo | None = None
 
@@ -433,6 +434,9 @@ class Link:
         object.__setattr__(self, "limits", _limit_pair(owner, "limits", self.limits))
         for field in ("max_velocity", "max_acceleration"):
             v = getattr(self, field)
+            if v is None or v == math.inf:  # no limit: one meaning, None
+                object.__setattr__(self, field, None)
+                continue
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
                     or math.isnan(v) or v == -math.inf:
                 raise RobotError(f"{owner}: field '{field}': expected a finite number, got {v!r}", field)

@@ -280,7 +280,7 @@ def urdf_fields(path, *, base_link=None, tip_link=None, name=None, parallel_tol=
                     f"joint {j.name}",
                 )
             limits = (float(lo), float(hi))
-        v = float(lim.velocity) if lim is not None and lim.velocity is not None and lim.velocity > 0 else math.inf
+        v = float(lim.velocity) if lim is not None and lim.velocity is not None and lim.velocity > 0 else None
         links.append(Link(a=a, alpha=alpha, d=d, theta=theta, joint_type=jt, limits=limits, name=j.name,
                           max_velocity=v))
     base = _frame_matrix(*frames[0])

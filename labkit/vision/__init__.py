@@ -4,7 +4,7 @@
 See ``docs/camera.md``. Lengths in m, angles in rad, image coordinates in px.
 """
 
-from labkit.vision._errors import (
+from labkit.exceptions import (
     VisionError,
     MarkerNotFoundError,
     WrongMarkerError,
@@ -20,7 +20,7 @@ from labkit.vision._render import Plane
 from labkit.vision._virtual import VirtualCamera
 from labkit.vision._locate import CameraLocation, locate_camera
 from labkit.vision._rig import CameraRig, look_at, face_marker
-from labkit.vision._handeye import HandEyeResult, hand_eye, rotation_spread, METHODS
+from labkit.vision._handeye import HandEyeResult, hand_eye, rotation_spread, STARTS
 from labkit.vision._sheets import marker_sheet, board_sheet
 from labkit.vision._session import CameraSession, VideoSource, FolderSource, tool_point_in_base
 
@@ -54,7 +54,7 @@ __all__ = [
     "HandEyeResult",
     "hand_eye",
     "rotation_spread",
-    "METHODS",
+    "STARTS",
     "marker_sheet",
     "board_sheet",
     "CameraSession",

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import ShapeError
-from labkit.vision._errors import CalibrationImageError, VisionError
+from labkit.exceptions import CalibrationImageError, VisionError
 from labkit.vision._images import as_gray
 
 __all__ = ["Camera", "CameraCalibration", "calibrate_camera", "MIN_IMAGES"]

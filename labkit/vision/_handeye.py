@@ -27,14 +27,14 @@ import warnings
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.vision._errors import HandEyeWarning, VisionError
+from labkit.exceptions import HandEyeWarning, VisionError
 
-__all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "METHODS", "MIN_ROTATION_SPREAD"]
+__all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "STARTS", "MIN_ROTATION_SPREAD"]
 
 SETUPS = ("eye_to_hand", "eye_in_hand")
-#: starting solvers: OpenCV's hand-eye methods (``cv2.calibrateHandEye``) and its robot-world/hand-eye
-#: methods (``cv2.calibrateRobotWorldHandEye``, both unknowns at once)
-METHODS = {"park": ("hand_eye", "CALIB_HAND_EYE_PARK"), "tsai": ("hand_eye", "CALIB_HAND_EYE_TSAI"),
+#: starting solvers (``hand_eye(start=...)``): OpenCV's hand-eye methods (``cv2.calibrateHandEye``)
+#: and its robot-world/hand-eye methods (``cv2.calibrateRobotWorldHandEye``, both unknowns at once)
+STARTS = {"park": ("hand_eye", "CALIB_HAND_EYE_PARK"), "tsai": ("hand_eye", "CALIB_HAND_EYE_TSAI"),
            "horaud": ("hand_eye", "CALIB_HAND_EYE_HORAUD"), "andreff": ("hand_eye", "CALIB_HAND_EYE_ANDREFF"),
            "daniilidis": ("hand_eye", "CALIB_HAND_EYE_DANIILIDIS"),
            "shah": ("robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_SHAH"),
@@ -180,15 +180,15 @@ def _refine(setup, X, Y, A, B):
     return _matrix(sol.x[:6]), _matrix(sol.x[6:])
 
 
-def _start(setup, method, A, B):
+def _start(setup, start, A, B):
     """OpenCV's closed-form start: (X, Y) = (camera pose, marker pose) of the setup."""
     import cv2
 
     from scipy.spatial.transform import Rotation
 
-    kind, flag = METHODS[method]
+    family, flag = STARTS[start]
     tool_from_base = np.linalg.inv(A)
-    if kind == "robot_world":
+    if family == "robot_world":
         # OpenCV: world2cam @ base2world = gripper2cam @ base2gripper
         world2cam = np.linalg.inv(B) if setup == "eye_to_hand" else B
         R_bw, t_bw, R_gc, t_gc = cv2.calibrateRobotWorldHandEye(
@@ -212,7 +212,7 @@ def _start(setup, method, A, B):
     return X, Y
 
 
-def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method="park",
+def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", start="park",
              min_spread=MIN_ROTATION_SPREAD, leave_one_out=True):
     """Camera-to-robot calibration from paired robot poses and marker detections.
 
@@ -225,8 +225,8 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method=
         ``{pose_id: camera_from_marker}``: the marker poses measured at the same pose ids
         (:attr:`MarkerDetection.pose`) [m]. Pose ids missing on either side are dropped.
     setup : {"eye_to_hand", "eye_in_hand"}
-    method : str
-        The starting solver, a key of :data:`METHODS` (``"park"``; ``"shah"`` and ``"li"`` solve
+    start : str
+        The starting solver, a key of :data:`STARTS` (``"park"``; ``"shah"`` and ``"li"`` solve
         both unknowns at once); the least-squares fit that follows is the same for all.
     min_spread : float
         Warn (:class:`HandEyeWarning`) when the second principal spread of the tool
@@ -241,7 +241,7 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method=
     Raises
     ------
     OptionError
-        Unknown setup or method.
+        Unknown setup or start.
     VisionError
         Fewer than 3 paired views.
 
@@ -252,8 +252,8 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method=
     """
     if setup not in SETUPS:
         raise OptionError(f"expected setup one of {SETUPS}, got {setup!r}")
-    if method not in METHODS:
-        raise OptionError(f"expected method one of {sorted(METHODS)}, got {method!r}")
+    if start not in STARTS:
+        raise OptionError(f"expected start one of {sorted(STARTS)}, got {start!r}")
     robot = _as_mapping(base_from_tool, "base_from_tool")
     seen = _as_mapping(camera_from_marker, "camera_from_marker")
     ids = [k for k in robot if k in seen]
@@ -268,7 +268,7 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", method=
                       f"{np.degrees(spread[0]):.0f} / {np.degrees(spread[1]):.0f} deg about the two main axes, expected "
                       f"at least {np.degrees(min_spread):.0f} deg about two different axes; tilt the gripper "
                       "more between the views", HandEyeWarning, stacklevel=2)
-    X, Y = _start(setup, method, A, B)
+    X, Y = _start(setup, start, A, B)
     X, Y = _refine(setup, X, Y, A, B)
     P = _predict(setup, X, Y, A)
     pos = np.linalg.norm(P[:, :3, 3] - B[:, :3, 3], axis=1)

@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from labkit.vision._errors import MarkerNotFoundError
+from labkit.exceptions import MarkerNotFoundError
 from labkit.vision._markers import DEFAULT_CORNER_SIGMA, marker_corners
 
 __all__ = ["CameraLocation", "locate_camera", "transform_covariance"]

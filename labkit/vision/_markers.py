@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.vision._errors import AmbiguousPoseError, MarkerNotFoundError, WrongMarkerError
+from labkit.exceptions import AmbiguousPoseError, MarkerNotFoundError, WrongMarkerError
 from labkit.vision._families import dictionary, family_info
 from labkit.vision._images import as_gray as _gray
 

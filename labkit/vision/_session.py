@@ -25,7 +25,7 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
 from labkit.measure import MeasurementSession
-from labkit.vision._errors import MarkerNotFoundError, VisionError, WrongMarkerError
+from labkit.exceptions import MarkerNotFoundError, VisionError, WrongMarkerError
 from labkit.vision._locate import locate_camera
 from labkit.vision._markers import marker_poses
 

@@ -63,7 +63,7 @@ def move(board, q, dur_ms=250):
 
 
 def test_ready_line_and_hello_match_the_protocol_examples():
-    b = VirtualBoard()
+    b = VirtualBoard("arduino_arm_3dof")
     b.advance_to(0.05)
     assert b.take_output() == b""
     b.advance_to(0.2)
@@ -277,7 +277,7 @@ def test_realtime_clock_runs_scaled():
 
 @pytest.mark.slow
 def test_labkit_sim_serves_a_pty():
-    proc = subprocess.Popen([sys.executable, "-m", "labkit", "sim", "--seed", "2"], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-m", "labkit", "sim", "arduino_arm_3dof", "--seed", "2"], stdout=subprocess.PIPE,
                             stderr=subprocess.DEVNULL, text=True)
     try:
         path = proc.stdout.readline().strip()

@@ -129,7 +129,7 @@ def test_run_trajectory_streams_segments_and_tracks(arm):
     from labkit.motion import joint_trajectory
 
     arm.move_joints(np.radians([30.0, 40.0, 50.0]), wait=True)
-    traj = joint_trajectory(np.radians([30.0, 40.0, 50.0]), np.radians([120.0, 80.0, 20.0]), 3.0, dt=0.05)
+    traj = joint_trajectory(None, np.radians([30.0, 40.0, 50.0]), np.radians([120.0, 80.0, 20.0]), 3.0, dt=0.05)
     seen = []
     report = arm.run_trajectory(traj, progress=lambda k, n: seen.append((k, n)), min_duration=0.05)
     assert report.segments == len(seen) == seen[-1][1] == 60
@@ -142,7 +142,7 @@ def test_run_trajectory_streams_segments_and_tracks(arm):
 def test_segments_are_continuous_and_exact_at_the_ends():
     from labkit.motion import joint_trajectory
 
-    traj = joint_trajectory(np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 2.0, law="quintic",
+    traj = joint_trajectory(None, np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 2.0, law="quintic",
                             dt=0.01)
     for order in (3, 5):
         segs = segments_from_trajectory(traj, order=order, min_duration=0.1)
@@ -166,7 +166,7 @@ def test_segments_are_continuous_and_exact_at_the_ends():
 def test_trajectory_limits_checked_before_sending(arm):
     from labkit.motion import joint_trajectory
 
-    traj = joint_trajectory(np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 1.0)
+    traj = joint_trajectory(None, np.radians([10.0, 20.0, 30.0]), np.radians([100.0, 50.0, 0.0]), 1.0)
     bad = type(traj)(t=traj.t, q=traj.q - math.radians(20.0), qd=traj.qd, qdd=traj.qdd)
     with pytest.raises(JointLimitError):
         arm.run_trajectory(bad)

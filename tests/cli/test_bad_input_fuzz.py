@@ -39,9 +39,9 @@ CALLS = {
     "minimum_duration a_max": lambda b: motion.minimum_duration(1.0, a_max=b),
     "time_grid dt": lambda b: motion.time_grid(0.0, 1.0, b),
     "time_grid tf": lambda b: motion.time_grid(0.0, b, 0.1),
-    "joint_trajectory duration": lambda b: motion.joint_trajectory([0.0], [1.0], b),
-    "joint_trajectory dt": lambda b: motion.joint_trajectory([0.0], [1.0], 1.0, dt=b),
-    "via_law times": lambda b: motion.via_law([0.0, 1.0, 2.0], [0.0, 1.0, b]),
+    "joint_trajectory duration": lambda b: motion.joint_trajectory(None, [0.0], [1.0], b),
+    "joint_trajectory dt": lambda b: motion.joint_trajectory(None, [0.0], [1.0], 1.0, dt=b),
+    "via_law times": lambda b: motion.via_law(None, [0.0, 1.0, 2.0], [0.0, 1.0, b]),
     "joint_torques wrench": lambda b: kin.joint_torques(J6, b),
     "joint_torques J": lambda b: kin.joint_torques(b, np.zeros(6)),
     "manipulability J": lambda b: kin.manipulability(b),
@@ -82,8 +82,10 @@ def test_bad_api_input_is_a_labkit_error_never_a_silent_nan(name, value):
 
 
 @pytest.mark.parametrize("argv, option", [
-    (["sim", "--time-scale", "-1"], "--time-scale"), (["sim", "--time-scale", "0"], "--time-scale"),
-    (["sim", "--time-scale", "nan"], "--time-scale"), (["sim", "--time-scale", "inf"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "-1"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "0"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "nan"], "--time-scale"),
+    (["sim", "arduino_arm_3dof", "--time-scale", "inf"], "--time-scale"),
     (["render", "--timeout", "-1"], "--timeout"), (["render", "--scheduler", "garbage"], "--scheduler"),
     (["render", "-j", "0"], "--jobs"),
     (["grade", "subs", "--lab", "lab", "--cpu", "inf"], "--cpu"),

@@ -233,8 +233,8 @@ def test_calibration_compiles_a_few_programs_not_one_per_residual(monkeypatch):
 
     arm = Robot.load("arduino_arm_3dof")
     builds = _counting_builds(monkeypatch)
-    calibrate(measurement_file("seed000_fk_tables1-3.csv"), arm, params=("joint_offsets", "link_lengths"))
+    calibrate(arm, measurement_file("seed000_fk_tables1-3.csv"), params=("joint_offsets", "link_lengths"))
     first = len(builds)
     assert first <= 8  # a few structures (offsets 0 or not; frames, positions), not one per residual (hundreds)
-    calibrate(measurement_file("seed000_fk_tables1-3.csv"), Robot.load("arduino_arm_3dof"), params=("joint_offsets",))
+    calibrate(Robot.load("arduino_arm_3dof"), measurement_file("seed000_fk_tables1-3.csv"), params=("joint_offsets",))
     assert len(builds) == first

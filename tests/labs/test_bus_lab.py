@@ -44,7 +44,7 @@ def test_a_bus_arm_lab_runs_on_its_virtual_bus(tmp_path, robot):
     from labkit.labs import new_lab
     from labkit.reports import notebook_parameters
 
-    lab = new_lab(tmp_path / robot, robot)
+    lab = new_lab(robot, tmp_path / robot)
     assert lab.notes == () and lab.lab_robot_file == lab.robot_file, "nothing added to a bus arm's robot file"
     assert not (lab.folder / "robot_with_servos.toml").exists()
     for nb in lab.notebooks[1:]:  # 02..06 drive the arm
@@ -107,7 +107,7 @@ def test_both_bus_labs_render_with_every_check_passing_on_checked_sdk_packets(tm
     log = tmp_path / "buses.jsonl"
     monkeypatch.setenv("IPYTHONDIR", str(tmp_path / "ipython"))
     monkeypatch.setenv("LABKIT_TEST_BUS_LOG", str(log))
-    labs = [new_lab(tmp_path / "labs" / robot, robot) for robot in sorted(BUS_ARMS)]
+    labs = [new_lab(robot, tmp_path / "labs" / robot) for robot in sorted(BUS_ARMS)]
     results, _ = render([str(lab.folder) for lab in labs], tmp_path / "reports", jobs=2, pdf=False, progress=None,
                         timeout=600)
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]

@@ -72,7 +72,7 @@ type = "prismatic"
 limits = [20, 120]
 """
 
-KINDS = {"arduino_arm_3dof": "spatial 3-DOF", "planar3r_seed003": "planar 3-DOF", "puma560": "6-DOF pose",
+DESCRIPTIONS = {"arduino_arm_3dof": "spatial 3-DOF", "planar3r_seed003": "planar 3-DOF", "puma560": "6-DOF pose",
          "rpp_seed002": "spatial 3-DOF, prismatic", "ypp4": "4-DOF", "scara": "spatial 3-DOF, prismatic"}
 
 
@@ -113,7 +113,7 @@ def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
     for key, ref in robot_files.items():
         robot = with_servos(Robot.load(ref))
         d = lab_defaults(robot)
-        assert d.kind == KINDS[key], key
+        assert d.description == DESCRIPTIONS[key], key
         window = servo_window(robot)
         for q in joints_from_display(robot, d.parameters["poses"]):
             assert np.all(q >= window[:, 0] - 1e-9) and np.all(q <= window[:, 1] + 1e-9), key
@@ -131,9 +131,9 @@ def test_new_lab_refuses_a_non_empty_folder_and_rejects_a_missing_robot(tmp_path
     (tmp_path / "lab").mkdir()
     (tmp_path / "lab" / "notes.txt").write_text("mine")
     with pytest.raises(LabkitError, match="not empty"):
-        new_lab(tmp_path / "lab", "arduino_arm_3dof")
+        new_lab("arduino_arm_3dof", tmp_path / "lab")
     with pytest.raises(LabkitError):
-        new_lab(tmp_path / "other", tmp_path / "no_such_robot.toml")
+        new_lab(tmp_path / "no_such_robot.toml", tmp_path / "other")
 
 
 def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
@@ -235,8 +235,8 @@ def test_six_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_f
     from labkit.labs import new_lab
     from labkit.reports import render
 
-    labs = [new_lab(tmp_path / "labs" / key, ref) for key, ref in robot_files.items()]
-    assert [lab.kind for lab in labs] == [KINDS[k] for k in robot_files]
+    labs = [new_lab(ref, tmp_path / "labs" / key) for key, ref in robot_files.items()]
+    assert [lab.description for lab in labs] == [DESCRIPTIONS[k] for k in robot_files]
     t0 = time.perf_counter()
     results, wall = render([str(lab.folder) for lab in labs], tmp_path / "reports", jobs=2, pdf=False, progress=None,
                            timeout=300)

@@ -31,7 +31,7 @@ def test_recovers_known_offsets_and_lengths(arm, rng):
     names, true, q, x = _synthetic(arm, rng)
     # a 95 % interval misses 1 time in 20 per parameter (coverage is tested below);
     # for this single seeded draw use 99 % intervals
-    result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), confidence=0.99)
+    result = calibrate(arm, (q, x), params=("joint_offsets", "link_lengths"), confidence=0.99)
     assert result.names == names
     assert result.success
     inside = (result.ci_low <= true) & (true <= result.ci_high)
@@ -57,7 +57,7 @@ def test_confidence_interval_coverage(arm):
     for seed in range(60):
         rng = np.random.default_rng(seed)
         names, true, q, x = _synthetic(arm, rng, n_poses=15, noise=0.001)
-        r = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), leave_one_out=False)
+        r = calibrate(arm, (q, x), params=("joint_offsets", "link_lengths"), leave_one_out=False)
         hits += int(np.sum((r.ci_low <= true) & (true <= r.ci_high)))
         total += len(true)
     assert 0.88 <= hits / total <= 0.995
@@ -89,22 +89,22 @@ def test_intervals_hold_when_the_readings_of_a_pose_share_an_error(arm):
         hits = 0
         for seed in range(n):
             df = _shared_error_readings(np.random.default_rng(seed), truth)
-            r = calibrate(df, arm, params=("joint_offsets",), weighted=True, leave_one_out=False, errors=errors)
+            r = calibrate(arm, df, params=("joint_offsets",), weighted=True, leave_one_out=False, errors=errors)
             hits += int(np.sum((r.ci_low <= offsets) & (offsets <= r.ci_high)))
         coverage[errors] = hits / (3 * n)
     assert 0.88 <= coverage["per_pose"] <= 0.99, coverage
     assert coverage["independent"] < 0.86, coverage  # the old model's intervals are too narrow here
     assert r.errors == "independent" and r.interval_dof == r.dof == 12 * 3 - 3
-    fit = calibrate(df, arm, params=("joint_offsets",), weighted=True, leave_one_out=False)
+    fit = calibrate(arm, df, params=("joint_offsets",), weighted=True, leave_one_out=False)
     assert fit.interval_dof == 12 - 3 and 0.3e-3 < fit.shared_std < 3e-3  # ~0.3 deg at ~0.2 m, in m
     with pytest.raises(MeasurementError, match="per_pose"):
-        calibrate(df, arm, errors="clustered")
+        calibrate(arm, df, errors="clustered")
 
 
 def test_too_few_poses_for_a_per_pose_error_warn(arm, rng):
     names, true, q, x = _synthetic(arm, rng, n_poses=4, noise=0.001)
     with pytest.warns(UserWarning, match="too few to estimate a per-pose error"):
-        r = calibrate((q, x), arm, params=("joint_offsets",), leave_one_out=False)
+        r = calibrate(arm, (q, x), params=("joint_offsets",), leave_one_out=False)
     assert r.errors == "independent" and r.interval_dof == 12 - 3
 
 
@@ -112,13 +112,13 @@ def test_gravity_sag_recovered(arm, rng):
     sag = np.array([0.0, math.radians(-1.5), math.radians(2.0)])
     _, _, q, x = _synthetic(arm, rng, n_poses=60, noise=0.0002, sag=sag)
     truth_names = ("offset[1]", "offset[2]", "offset[3]", "a[3]", "tool_x", "sag[2]", "sag[3]")
-    result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths", "gravity_sag"), gravity=(0, 0, 1))
+    result = calibrate(arm, (q, x), params=("joint_offsets", "link_lengths", "gravity_sag"), gravity=(0, 0, 1))
     assert result.names == truth_names
     k2, k3 = truth_names.index("sag[2]"), truth_names.index("sag[3]")
     for k, true in ((k2, sag[1]), (k3, sag[2])):
         assert result.ci_low[k] <= true <= result.ci_high[k]
     np.testing.assert_allclose(result.sag, sag, atol=math.radians(0.3))
-    without = calibrate((q, x), arm, params=("joint_offsets", "link_lengths"), leave_one_out=False)
+    without = calibrate(arm, (q, x), params=("joint_offsets", "link_lengths"), leave_one_out=False)
     assert result.rms_after < 0.5 * without.rms_after
 
 
@@ -126,13 +126,13 @@ def test_leave_one_out_exposes_overfitting(arm, rng):
     # 4 poses, 7 parameters, 12 components: fits the noise, predicts badly
     names, true, q, x = _synthetic(arm, rng, n_poses=4, noise=0.003)
     with pytest.warns(UserWarning, match="too few"):
-        result = calibrate((q, x), arm, params=("joint_offsets", "link_lengths", "base_offset"))
+        result = calibrate(arm, (q, x), params=("joint_offsets", "link_lengths", "base_offset"))
     assert result.dof == 12 - 8
     assert result.loo_rms > 2 * result.rms_after
 
 
 def test_seed_tables_rms_reduced_and_loo_reported(arm):
-    result = calibrate(FK_SEED, arm, params=("joint_offsets", "link_lengths"))
+    result = calibrate(arm, FK_SEED, params=("joint_offsets", "link_lengths"))
     assert result.rms_before == pytest.approx(0.01455, abs=5e-5)
     assert result.rms_after < result.rms_before
     assert np.isfinite(result.loo_rms) and result.loo_rms > result.rms_after
@@ -148,7 +148,7 @@ def test_seed_tables_rms_reduced_and_loo_reported(arm):
 
 def test_write_calibrated_robot(arm, rng, tmp_path):
     names, true, q, x = _synthetic(arm, rng)
-    result = calibrate((q, x), arm, leave_one_out=False)
+    result = calibrate(arm, (q, x), leave_one_out=False)
     path = tmp_path / "cal.toml"
     text = result.write_robot(path)
     assert text.startswith("# Calibrated by labkit.measure")
@@ -165,7 +165,7 @@ def test_unidentifiable_parameters_warn(arm):
     q = np.column_stack([np.linspace(0, 3, 8), np.zeros(8), np.zeros(8)])
     x = predict_positions(arm, q)
     with pytest.warns(UserWarning, match="not identifiable"):
-        result = calibrate((q, x), arm, params=("a[3]", "tool_x"), leave_one_out=False)
+        result = calibrate(arm, (q, x), params=("a[3]", "tool_x"), leave_one_out=False)
     assert np.all(np.isinf(result.std_error))
 
 
@@ -178,7 +178,7 @@ def test_parameter_names_and_errors(arm):
         parameter_names(arm, ("offset[4]",))
     q = np.zeros((1, 3))
     with pytest.raises(MeasurementError, match="more measured components"):
-        calibrate((q, predict_positions(arm, q)), arm)
+        calibrate(arm, (q, predict_positions(arm, q)))
 
 
 def test_cli_calibrate(tmp_path, capsys):
@@ -200,15 +200,15 @@ def test_calibrates_the_virtual_arm_from_a_logged_session(tmp_path):
     sim = ArmModel("arduino_arm_3dof", PhysicsConfig(seed=4, zero_offsets=tuple(offsets), deadband=0.0))
     q_all = np.random.default_rng(7).uniform(np.radians(10), np.radians(170), (25, 3))
     path = tmp_path / "session.csv"
-    with MeasurementLog(path, robot="arduino_arm_3dof") as log:
+    with MeasurementLog("arduino_arm_3dof", path) as log:
         for i, q in enumerate(q_all):
             sim.servos.reset(q)  # at rest at the commanded pose
             for reading in sim.ruler(3):
                 for k, axis in enumerate("xyz"):
                     log.record(f"p{i}", axis, reading[k], unit="m", instrument="ruler (sim)",
                                resolution=0.0005, commanded=q)
-    plain = calibrate(path, params=("joint_offsets",), leave_one_out=False)
-    sag = calibrate(path, params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
+    plain = calibrate(None, path, params=("joint_offsets",), leave_one_out=False)
+    sag = calibrate(None, path, params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
     assert sag.rms_before > 0.005 and sag.rms_after < 0.0005 < plain.rms_after
     assert sag.loo_rms < 1.3 * sag.rms_after  # five parameters, 75 components: no overfit
     for k in range(3):
@@ -221,10 +221,10 @@ def test_default_gravity_is_minus_robot_up(arm, rng):
     assert np.array_equal(arm.up, [0.0, 0.0, -1.0])
     _, _, q, x = _synthetic(arm, rng, n_poses=30, noise=0.0002, sag=np.array([0.0, 0.02, 0.01]))
     fit = dict(params=("joint_offsets", "gravity_sag"), leave_one_out=False)
-    default = calibrate((q, x), arm, **fit)
-    explicit = calibrate((q, x), arm, gravity=(0, 0, 1), **fit)
-    flipped = calibrate((q, x), arm, gravity=(0, 0, -1), **fit)
+    default = calibrate(arm, (q, x), **fit)
+    explicit = calibrate(arm, (q, x), gravity=(0, 0, 1), **fit)
+    flipped = calibrate(arm, (q, x), gravity=(0, 0, -1), **fit)
     assert np.allclose(default.sag, explicit.sag) and np.all(default.sag[1:] > 0)
     assert np.allclose(flipped.sag, -explicit.sag, atol=1e-9)
     with pytest.raises(MeasurementError, match="gravity"):
-        calibrate((q, x), arm, params=("gravity_sag",), gravity=(0, 0, 0))
+        calibrate(arm, (q, x), params=("gravity_sag",), gravity=(0, 0, 0))

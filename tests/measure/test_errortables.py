@@ -37,7 +37,7 @@ def arm():
 
 
 def test_fk_table_reproduces_seed_means_and_ranges(arm):
-    table = fk_error_table(FK_SEED, arm).table
+    table = fk_error_table(arm, FK_SEED).table
     assert len(table) == 45
     assert set(table["n"]) == {3}
     for pose, axes in SEED_MEASURED.items():
@@ -49,7 +49,7 @@ def test_fk_table_reproduces_seed_means_and_ranges(arm):
 
 
 def test_fk_table_errors_against_model(arm):
-    table = fk_error_table(FK_SEED, arm).table.set_index(["pose_id", "quantity"])
+    table = fk_error_table(arm, FK_SEED).table.set_index(["pose_id", "quantity"])
     # model: x = cos(q1) (L1 cos q2 + L2 cos(q2 - q3)) ... at q1 = 5 deg: 0.274 cos 5deg
     row = table.loc[("t1_j1_5deg", "x")]
     assert row["calculated"] == pytest.approx(0.274 * math.cos(math.radians(5)), abs=1e-12)
@@ -66,7 +66,7 @@ def test_fk_table_errors_against_model(arm):
 
 
 def test_summary_rows(arm):
-    result = error_table(FK_SEED, arm)
+    result = error_table(arm, FK_SEED)
     t = result.table
     for ax in "xyz":
         e = t.loc[t["quantity"] == ax, "error"].to_numpy()
@@ -81,16 +81,16 @@ def test_summary_rows(arm):
 
 
 def test_combine_rule_sum_is_wider(arm):
-    q = error_table(FK_SEED, arm, combine="quadrature").table
-    s = error_table(FK_SEED, arm, combine="sum").table
+    q = error_table(arm, FK_SEED, combine="quadrature").table
+    s = error_table(arm, FK_SEED, combine="sum").table
     assert np.all(s["uncertainty"] >= q["uncertainty"])
     assert s["inside"].sum() >= q["inside"].sum()
     with pytest.raises(MeasurementError, match="quadrature"):
-        error_table(FK_SEED, arm, combine="max")
+        error_table(arm, FK_SEED, combine="max")
 
 
 def test_ik_table_seed_table4(arm):
-    result = ik_error_table(IK_SEED, arm)
+    result = ik_error_table(arm, IK_SEED)
     t = result.table.set_index(["pose_id", "quantity"])
     assert t.loc[("t4_row1", "theta2"), "calculated"] == pytest.approx(113.86, abs=0.01)
     assert t.loc[("t4_row5", "theta1"), "calculated"] == pytest.approx(
@@ -109,11 +109,11 @@ def test_raw_readings_spread_and_fk_of_logged_session(tmp_path, arm):
     q = [0.3, 0.4, 0.5]
     x_model = arm.fk(q)[0, 3]
     readings = [1000 * x_model + d for d in (-1.0, 0.5, 2.0)]
-    with MeasurementLog(path, robot=arm) as log:
+    with MeasurementLog(arm, path) as log:
         for v in readings:
             log.record("p", "x", v, unit="mm", instrument="ruler", resolution=0.5, commanded=q)
         log.record("p", "theta2", 23.0, unit="deg", instrument="protractor", resolution=0.5, commanded=q)
-    t = error_table(path).table.set_index("quantity")
+    t = error_table(None, path).table.set_index("quantity")
     assert t.loc["x", "unit"] == "mm"
     assert t.loc["x", "calculated"] == pytest.approx(1000 * x_model)
     assert t.loc["x", "mean"] == pytest.approx(np.mean(readings))
@@ -126,10 +126,10 @@ def test_raw_readings_spread_and_fk_of_logged_session(tmp_path, arm):
 
 def test_angle_error_wraps(tmp_path, arm):
     path = tmp_path / "w.csv"
-    with MeasurementLog(path, robot=arm) as log:
+    with MeasurementLog(arm, path) as log:
         log.record("p", "theta1", -179.0, unit="deg", instrument="protractor", resolution=0.5,
                    commanded=[math.radians(179), 0, 0])
-    t = error_table(path).table
+    t = error_table(None, path).table
     assert t.loc[0, "error"] == pytest.approx(2.0)
 
 
@@ -139,11 +139,11 @@ def test_pose_without_command_names_row(tmp_path, arm):
                     "p1,x,0.27,m,0.0005,0.1 0 0\n"
                     "p2,x,0.27,m,0.0005,\n")
     with pytest.raises(MeasurementError, match="row 3, column 'commanded'"):
-        error_table(path, arm)
+        error_table(arm, path)
     path.write_text("pose_id,quantity,value,unit,resolution,commanded\n"
                     "p1,theta4,0.27,rad,0.0005,0.1 0 0\n")
     with pytest.raises(MeasurementError, match="row 2, column 'quantity'"):
-        error_table(path, arm)
+        error_table(arm, path)
 
 
 def test_summary_row_mixed_with_readings_is_rejected(tmp_path, arm):
@@ -152,7 +152,7 @@ def test_summary_row_mixed_with_readings_is_rejected(tmp_path, arm):
                     "p1,x,0.27,m,0.0005,0.01,3,0.1 0 0\n"
                     "p1,x,0.26,m,0.0005,,,0.1 0 0\n")
     with pytest.raises(MeasurementError, match="column 'half_range'"):
-        error_table(path, arm)
+        error_table(arm, path)
 
 
 def test_decimals_from_resolution():
@@ -166,7 +166,7 @@ def test_decimals_from_resolution():
 
 
 def test_styled_output_html_and_latex(arm):
-    result = error_table(IK_SEED, arm)
+    result = error_table(arm, IK_SEED)
     html = result.to_html()
     assert "109.4" in html and "113.9" in html  # 1 decimal from the 0.5 deg protractor
     assert "113.86" not in html
@@ -186,7 +186,7 @@ def test_styled_output_html_and_latex(arm):
 
 
 def test_style_with_explicit_tolerance(arm):
-    result = error_table(FK_SEED, arm)
+    result = error_table(arm, FK_SEED)
     styler = result.style(tolerance=0.03)  # 30 mm
     styler._compute()
     n_bad = int((result.table["abs_error"] > 0.03).sum())
@@ -195,7 +195,7 @@ def test_style_with_explicit_tolerance(arm):
 
 
 def test_no_negative_zero_in_report(arm):
-    html = error_table(FK_SEED, arm).to_html()
+    html = error_table(arm, FK_SEED).to_html()
     assert "-0.0000" not in html
 
 
@@ -208,7 +208,7 @@ EXPECTED_FLAGS = {
 
 
 def test_audit_flags_exactly_the_wrong_rows(arm):
-    audit = audit_published(PUBLISHED, arm)
+    audit = audit_published(arm, PUBLISHED)
     assert len(audit.cells) == 63
     assert audit.flagged_rows() == EXPECTED_FLAGS
     cells = audit.cells.set_index(["pose_id", "quantity"])
@@ -224,7 +224,7 @@ def test_audit_flags_exactly_the_wrong_rows(arm):
 def test_audit_table4_against_cosine_rule(arm):
     """Every row of table 4 recomputed with the seed's own elbow-up formulas."""
     L1, L2 = 0.094, 0.180
-    audit = audit_published(PUBLISHED, arm).cells
+    audit = audit_published(arm, PUBLISHED).cells
     t4 = audit[audit["table"] == "table 4"].set_index(["pose_id", "quantity"])
     published = load_published(PUBLISHED).set_index(["pose_id", "quantity"])
     for i in range(1, 7):
@@ -250,7 +250,7 @@ def test_audit_precision_rules(tmp_path, arm):
                     f"e,z,62,mm,1,{q}\n"
                     f"f,z,0.0616,m,,{q}\n"
                     f"g,z,0.0615,m,,{q}\n")
-    agrees = audit_published(path, arm).cells.set_index("pose_id")["agrees"].to_dict()
+    agrees = audit_published(arm, path).cells.set_index("pose_id")["agrees"].to_dict()
     assert agrees == {"a": True, "b": True, "c": False, "d": True, "e": True, "f": True, "g": False}
 
 
@@ -258,7 +258,7 @@ def test_audit_bad_published_value(tmp_path, arm):
     path = tmp_path / "pub.csv"
     path.write_text("pose_id,quantity,published,unit,commanded\na,z,zero,m,0 0 0\n")
     with pytest.raises(MeasurementError, match="row 2, column 'published'"):
-        audit_published(path, arm)
+        audit_published(arm, path)
 
 
 def test_cli_errors_and_audit(tmp_path, capsys):
@@ -269,10 +269,13 @@ def test_cli_errors_and_audit(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "t4_row5" in out and "RMS" in out
     assert html.read_text().startswith("<style")
-    assert main(["audit", str(PUBLISHED)]) == 1
+    assert main(["audit", str(PUBLISHED), "--robot", "arduino_arm_3dof"]) == 1
     out = capsys.readouterr().out
     assert out.startswith("57 of 63 published values agree")
     assert "t3_j3_20deg" in out
+    # the published table names no robot: no course arm is assumed, the command says what it needs
+    assert main(["audit", str(PUBLISHED)]) == 2
+    assert "expected one robot name in the measurements (or a robot argument), got []" in capsys.readouterr().err
 
 
 def test_ik_table_for_planar_and_6r_targets():
@@ -282,17 +285,17 @@ def test_ik_table_for_planar_and_6r_targets():
     df = pd.DataFrame({"pose_id": ["a"] * 3, "quantity": ["theta1", "theta2", "theta3"],
                        "value": np.degrees(q), "unit": ["deg"] * 3, "resolution": [0.5] * 3,
                        "target": [np.array([T[0, 3], T[1, 3], 0.4])] * 3})
-    table = error_table(df, planar, mode="ik", branch=None).table
+    table = error_table(planar, df, mode="ik", branch=None).table
     # whichever branch IK picks, it reaches the target
     q_ik = np.radians(table["calculated"].to_numpy())
     np.testing.assert_allclose(planar.fk(q_ik)[:2, 3], T[:2, 3], atol=1e-9)
     with pytest.raises(MeasurementError, match="has no z component"):
-        error_table(df.assign(quantity=["z", "x", "y"], unit="m", resolution=0.001), planar, mode="ik")
+        error_table(planar, df.assign(quantity=["z", "x", "y"], unit="m", resolution=0.001), mode="ik")
     puma = Robot.load("puma560")
     q6 = np.array([0.1, -0.4, 0.3, 0.2, 0.5, 0.1])
     T6 = puma.fk(q6)
     df = pd.DataFrame({"pose_id": ["a", "a"], "quantity": ["x", "theta1"], "value": [T6[0, 3], 5.0],
                        "unit": ["m", "deg"], "resolution": [0.001, 0.5], "target": [T6, T6]})
-    table = error_table(df, puma, mode="ik", branch=None).table.set_index("quantity")
+    table = error_table(puma, df, mode="ik", branch=None).table.set_index("quantity")
     assert table.loc["x", "calculated"] == pytest.approx(T6[0, 3])
     assert np.isfinite(table.loc["theta1", "calculated"])

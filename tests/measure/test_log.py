@@ -23,7 +23,7 @@ from labkit.measure import (
 
 
 def _log_three(path, **kwargs):
-    with MeasurementLog(path, robot="arduino_arm_3dof", operator="AB", **kwargs) as log:
+    with MeasurementLog("arduino_arm_3dof", path, operator="AB", **kwargs) as log:
         recs = [
             log.record("j1_45", "x", v, unit="cm", instrument="ruler", resolution=0.05,
                        commanded=[np.pi / 4, 0.0, 0.0])
@@ -51,7 +51,7 @@ def test_record_round_trip(tmp_path):
 def test_resume_continues_numbering(tmp_path):
     path = tmp_path / "log.csv"
     first = _log_three(path)
-    with MeasurementLog(path) as log:
+    with MeasurementLog(None, path) as log:
         assert log.session == first[0].session
         assert log.robot == "arduino_arm_3dof"
         assert log.operator == "AB"
@@ -60,7 +60,7 @@ def test_resume_continues_numbering(tmp_path):
     assert (rec.record, rec.repeat) == (4, 4)
     assert (other.record, other.repeat) == (5, 1)
     # a new session in the same file restarts repeats but not record numbers
-    with MeasurementLog(path, session="second") as log:
+    with MeasurementLog(None, path, session="second") as log:
         rec = log.record("j1_45", "x", 18.0, unit="cm", instrument="ruler", resolution=0.05)
     assert (rec.record, rec.repeat) == (6, 1)
     assert len(load_measurements(path)) == 6
@@ -82,7 +82,7 @@ def test_torn_last_line_is_skipped_and_terminated(tmp_path):
         f.write(full.splitlines(keepends=True)[-1][:37])
     with pytest.warns(MeasurementWarning, match="row 5"):
         assert len(load_measurements(path)) == 3
-    with MeasurementLog(path) as log:
+    with MeasurementLog(None, path) as log:
         rec = log.record("j1_45", "x", 18.4, unit="cm", instrument="ruler", resolution=0.05)
     assert rec.record == 4
     with pytest.warns(MeasurementWarning, match="torn record"):
@@ -93,13 +93,13 @@ def test_torn_last_line_is_skipped_and_terminated(tmp_path):
 
 def test_torn_line_cut_inside_quoted_note(tmp_path):
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         log.record("p", "theta1", 45, unit="deg", instrument="protractor", resolution=0.5,
                    note='hard to read, "wobbly"\nsecond line')
     line = path.read_bytes().splitlines(keepends=True)[-1]
     with open(path, "ab") as f:
         f.write(line[: line.index(b"wobbly")])
-    with MeasurementLog(path) as log:
+    with MeasurementLog(None, path) as log:
         log.record("p", "theta1", 46, unit="deg", instrument="protractor", resolution=0.5)
     with pytest.warns(MeasurementWarning):
         df = load_measurements(path)
@@ -109,9 +109,9 @@ def test_torn_line_cut_inside_quoted_note(tmp_path):
 
 def test_second_writer_is_refused(tmp_path):
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s"):
+    with MeasurementLog(None, path, session="s"):
         with pytest.raises(MeasurementError, match="already open"):
-            MeasurementLog(path)
+            MeasurementLog(None, path)
 
 
 @pytest.mark.parametrize(
@@ -132,7 +132,7 @@ def test_record_rejects_bad_input_and_keeps_log(tmp_path, kwargs, column):
     before = path.read_bytes()
     args = dict(pose_id="j1_45", quantity="x", value=1.0, unit="cm", instrument="ruler", resolution=0.05)
     args.update(kwargs)
-    with MeasurementLog(path, poses={"j1_45": {"commanded": [0.7, 0, 0]}}) as log:
+    with MeasurementLog(None, path, poses={"j1_45": {"commanded": [0.7, 0, 0]}}) as log:
         with pytest.raises(MeasurementError, match=f"column '{column}'") as info:
             log.record(args.pop("pose_id"), args.pop("quantity"), args.pop("value"), **args)
     assert info.value.column == column
@@ -142,7 +142,7 @@ def test_record_rejects_bad_input_and_keeps_log(tmp_path, kwargs, column):
 
 def test_poses_fill_commanded(tmp_path):
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, poses={"home": {"commanded": [0.0, 0.1, 0.2]}}) as log:
+    with MeasurementLog(None, path, poses={"home": {"commanded": [0.0, 0.1, 0.2]}}) as log:
         rec = log.record("home", "z", 1.0, unit="mm", instrument="caliper", resolution=0.02)
     assert rec.commanded == (0.0, 0.1, 0.2)
 
@@ -206,7 +206,7 @@ WRITER = textwrap.dedent(
     """
     import sys
     from labkit.measure import MeasurementLog
-    log = MeasurementLog(sys.argv[1], robot="arduino_arm_3dof")
+    log = MeasurementLog("arduino_arm_3dof", sys.argv[1])
     i = 0
     while True:
         rec = log.record("p%d" % (i % 5), "x", 0.001 * i, unit="m", instrument="sim",
@@ -253,7 +253,7 @@ def test_sigkill_loses_no_acknowledged_record(tmp_path):
         assert df["session"].nunique() == 1
     # a resumed session in this process continues after the last record on disk
     last = len(df)
-    with MeasurementLog(path) as log:
+    with MeasurementLog(None, path) as log:
         rec = log.record("p0", "x", 1.0, unit="m", instrument="sim", resolution=0.0005)
     assert rec.record == last + 1
     assert rec.repeat == int(df.loc[df["pose_id"] == "p0", "repeat"].max()) + 1
@@ -284,7 +284,7 @@ def test_cut_inside_checksum_is_torn(tmp_path):
     last = path.read_bytes().splitlines(keepends=True)[-1]
     with open(path, "ab") as f:
         f.write(last[:-4])  # everything but the last 3 hex digits and the newline
-    with MeasurementLog(path) as log:
+    with MeasurementLog(None, path) as log:
         rec = log.record("j1_45", "x", 18.4, unit="cm", instrument="ruler", resolution=0.05)
     assert rec.record == 4
     with pytest.warns(MeasurementWarning, match="row 5"):
@@ -324,7 +324,7 @@ def test_hand_made_file_without_final_newline_keeps_last_row(tmp_path):
 def test_torn_header_is_repaired(tmp_path):
     path = tmp_path / "log.csv"
     path.write_text(",".join(COLUMNS)[:20])  # crash while writing the header
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
     with pytest.warns(MeasurementWarning, match="torn header"):
         df = load_measurements(path)
@@ -335,7 +335,7 @@ def test_concurrent_threads_get_unique_numbers(tmp_path):
     import threading
 
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         def work(k):
             for _ in range(25):
                 log.record(f"p{k}", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
@@ -363,7 +363,7 @@ def test_failed_write_is_not_glued_to_the_next_record(tmp_path, monkeypatch):
 
     path = tmp_path / "log.csv"
     real_write = os.write
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
 
         def half_then_fail(fd, data):  # disk full after half a line
@@ -399,7 +399,7 @@ def test_a_full_disk_is_a_clear_labkit_error(tmp_path, monkeypatch):
     from labkit.exceptions import LabkitError, StorageError
 
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
 
         def full(fd, data):
@@ -432,12 +432,12 @@ def test_a_retry_after_a_full_disk_never_duplicates_a_record(tmp_path, monkeypat
     from labkit.measure._schema import _encode_line
 
     args = dict(unit="m", instrument="tape", resolution=0.001)
-    with MeasurementLog(tmp_path / "probe.csv", session="s") as log:
+    with MeasurementLog(None, tmp_path / "probe.csv", session="s") as log:
         log.record("p", "x", 1.0, **args)
         size = len(_encode_line(log.record("p", "x", 2.0, **args).to_row()).encode())
     for landed in sorted({0, 1, size // 2, size - 10, size - 9, size - 8, size - 2, size - 1, size}):
         path = tmp_path / f"cut{landed}.csv"
-        with MeasurementLog(path, session="s") as log:
+        with MeasurementLog(None, path, session="s") as log:
             log.record("p", "x", 1.0, **args)
             _fail_after(monkeypatch, landed)
             with pytest.raises(StorageError):
@@ -453,7 +453,7 @@ def test_a_retry_after_a_full_disk_never_duplicates_a_record(tmp_path, monkeypat
         # resumed, the file goes on with the next number
         with warnings.catch_warnings():
             warnings.simplefilter("error", MeasurementWarning)
-            assert MeasurementLog(path).record("p", "x", 4.0, **args).record == 4
+            assert MeasurementLog(None, path).record("p", "x", 4.0, **args).record == 4
 
 
 def test_a_retry_with_another_reading_keeps_the_one_on_disk(tmp_path, monkeypatch):
@@ -461,7 +461,7 @@ def test_a_retry_with_another_reading_keeps_the_one_on_disk(tmp_path, monkeypatc
     from labkit.measure._schema import _encode_line
 
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         rec = log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001)
         _fail_after(monkeypatch, len(_encode_line(rec.to_row()).encode()) - 1)  # only the newline lost
         with pytest.raises(StorageError):
@@ -474,7 +474,7 @@ def test_a_retry_with_another_reading_keeps_the_one_on_disk(tmp_path, monkeypatc
 @pytest.mark.parametrize("cut", ["after_last_comma", "inside_check", "inside_note"])
 def test_a_torn_tail_is_reported_and_never_loaded(tmp_path, cut):
     path = tmp_path / "log.csv"
-    with MeasurementLog(path, session="s") as log:
+    with MeasurementLog(None, path, session="s") as log:
         log.record("p", "x", 1.0, unit="m", instrument="tape", resolution=0.001, note="a, b")
         log.record("p", "x", 2.0, unit="m", instrument="tape", resolution=0.001, note="a, b")
     text = path.read_text()
@@ -483,7 +483,7 @@ def test_a_torn_tail_is_reported_and_never_loaded(tmp_path, cut):
             "inside_note": last.index('"a,') + 3}[cut]
     path.write_text(text[: len(text) - len(last) - 1] + last[:keep])
     with pytest.warns(MeasurementWarning, match="last line was torn"):
-        log = MeasurementLog(path)
+        log = MeasurementLog(None, path)
     rec = log.record("p", "x", 3.0, unit="m", instrument="tape", resolution=0.001)
     log.close()
     assert rec.record == 2

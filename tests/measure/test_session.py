@@ -25,7 +25,7 @@ SIM = "sim://?clock=lockstep&seed=0"
 
 
 def test_seed000_plan():
-    plan = joint_sweep_plan("arduino_arm_3dof")
+    plan = joint_sweep_plan("arduino_arm_3dof", SEED000_SWEEPS)
     assert len(plan) == 15
     assert [p.pose_id for p in plan[:5]] == ["j1_5", "j1_45", "j1_60", "j1_90", "j1_120"]
     assert [p.pose_id for p in plan[10:]] == ["j3_5", "j3_20", "j3_45", "j3_60", "j3_80"]  # the seed's table 3
@@ -42,10 +42,10 @@ def test_seed000_section_II4_sweeps_error_tables_and_calibration(tmp_path):
     path = tmp_path / "sweep.csv"
     with Arm(SIM) as arm:
         offsets = arm.port.board.model.zero_offsets.copy()
-        df = MeasurementSession(arm, path, source="ruler", readings=3).run(joint_sweep_plan(arm.robot))
+        df = MeasurementSession(arm, path, source="ruler", readings=3).run(joint_sweep_plan(arm.robot, SEED000_SWEEPS))
     assert len(df) == 15 * 3 * 3
     assert set(df["unit"]) == {"mm"} and set(df["resolution"]) == {0.5}
-    result = error_table(path, "arduino_arm_3dof")
+    result = error_table("arduino_arm_3dof", path)
     table = result.table
     assert len(table) == 45
     # size: errors of a few millimetres, like the seed's (which adds a hand-held ruler's scatter)
@@ -57,7 +57,7 @@ def test_seed000_section_II4_sweeps_error_tables_and_calibration(tmp_path):
     assert (z > 0).mean() > 0.8
     assert z["j2_45"] > 0 and z["j3_5"] > 0 and z["j3_20"] > 0
     # calibration recovers the injected zero offsets (with the sag modelled)
-    cal = calibrate(path, "arduino_arm_3dof", params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
+    cal = calibrate("arduino_arm_3dof", path, params=("joint_offsets", "gravity_sag"), gravity=(0, 0, 1))
     par = cal.parameters()
     for j in range(3):
         row = par.loc[f"offset[{j + 1}]"]
@@ -146,7 +146,7 @@ def test_no_acknowledged_measurement_is_lost_when_the_link_dies(tmp_path):
     with Arm(port, timeout=0.02) as arm:
         session = MeasurementSession(arm, path, source="ruler", readings=3)
         with pytest.raises(DeviceError, match="vanished"):
-            for pose in joint_sweep_plan(arm.robot):
+            for pose in joint_sweep_plan(arm.robot, SEED000_SWEEPS):
                 acknowledged += session.measure(pose)
         session.log.close()
     assert 0 < len(acknowledged) < 135

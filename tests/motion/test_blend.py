@@ -15,12 +15,12 @@ def _via_times(durations, tau):
 
 
 def test_hand_example_and_corner_formula():
-    law = blended_law([[0.0], [1.0], [1.0]], durations=1.0, blend_time=0.5)
+    law = blended_law(None, [[0.0], [1.0], [1.0]], durations=1.0, blend_time=0.5)
     assert law.duration == pytest.approx(2.5) and law.degree == 2
     # v goes 0 -> 1 -> 0; at the via time the blend misses the corner by |dv| tau / 8
     assert float(law.position(1.25)[0]) == pytest.approx(1.0 - 0.5 / 8, abs=1e-15)
     d, tau = np.array([1.0, 1.5, 0.8]), 0.3
-    law = blended_law(P, durations=d, blend_time=tau)
+    law = blended_law(None, P, durations=d, blend_time=tau)
     T = _via_times(d, tau)
     v = np.vstack([np.zeros(3), np.diff(P, axis=0) / d[:, None], np.zeros(3)])
     miss = np.asarray(law.position(T)) - P
@@ -30,7 +30,7 @@ def test_hand_example_and_corner_formula():
 
 def test_straight_at_constant_speed_between_blends_and_c1_everywhere():
     d, tau = np.array([1.0, 1.5, 0.8]), 0.3
-    law = blended_law(P, durations=d, blend_time=tau)
+    law = blended_law(None, P, durations=d, blend_time=tau)
     T = _via_times(d, tau)
     for k in range(len(d)):
         t = np.linspace(T[k] + tau / 2, T[k + 1] - tau / 2, 7)
@@ -48,7 +48,7 @@ def test_straight_at_constant_speed_between_blends_and_c1_everywhere():
 
 def test_automatic_timing_respects_and_reaches_the_bounds():
     v_max, a_max = np.array([1.0, 2.0, 0.5]), np.array([4.0, 4.0, 3.0])
-    traj = blended_trajectory(P, v_max=v_max, a_max=a_max, dt=0.001)
+    traj = blended_trajectory(None, P, v_max=v_max, a_max=a_max, dt=0.001)
     assert np.all(np.abs(traj.qd) <= v_max * (1 + 1e-9))
     assert np.all(np.abs(traj.qdd) <= a_max * (1 + 1e-9))
     # time-optimal in this scheme: some coordinate at v_max on every segment, some blend at a_max
@@ -60,11 +60,11 @@ def test_automatic_timing_respects_and_reaches_the_bounds():
 def test_robot_bounds_limits_and_beside_the_through_points_trajectory():
     arm = Robot.load("arduino_arm_3dof")
     Q = np.radians([[20, 40, 60], [60, 80, 100], [120, 70, 90], [160, 30, 50]])
-    blended = blended_trajectory(Q, robot=arm, dt=0.01)
-    assert blended.law.kind.value == "blended"
+    blended = blended_trajectory(arm, Q, dt=0.01)
+    assert blended.law.name.value == "blended"
     v, a = np.radians(300), np.radians(1500)
     assert np.abs(blended.qd).max() <= v * (1 + 1e-9) and np.abs(blended.qdd).max() <= a * (1 + 1e-6)
-    through = via_trajectory(Q, durations=np.diff(blended.law.breaks).sum() / 3, robot=arm)
+    through = via_trajectory(arm, Q, durations=np.diff(blended.law.breaks).sum() / 3)
     assert through.q.shape[1] == blended.q.shape[1] == 3
     from labkit.plotting import plot_time_series
 
@@ -79,13 +79,13 @@ def test_robot_bounds_limits_and_beside_the_through_points_trajectory():
     assert miss[1:-1].min() > 1e-4  # interior via points are passed near, not through
     assert np.abs(np.asarray(blended.law.position([0.0, blended.law.tf])) - Q[[0, -1]]).max() < 1e-12
     with pytest.raises(TrajectoryError, match="overlap"):
-        blended_law(Q, durations=[1.0, 0.1, 1.0], blend_time=0.5)
+        blended_law(None, Q, durations=[1.0, 0.1, 1.0], blend_time=0.5)
     with pytest.raises(TrajectoryError, match=r"blend at via point 1 coordinate \d needs .* > a_max"):
-        blended_law(Q, durations=1.0, blend_time=0.01, robot=arm)
+        blended_law(arm, Q, durations=1.0, blend_time=0.01)
     with pytest.raises(TrajectoryError, match="give durations, or v_max"):
-        blended_law(Q)
+        blended_law(None, Q)
     with pytest.raises(ShapeError, match="m >= 2"):
-        blended_law([[0.0, 1.0]], durations=1.0, blend_time=0.1)
+        blended_law(None, [[0.0, 1.0]], durations=1.0, blend_time=0.1)
 
 
 def test_cartesian_blend_is_straight_between_blends_and_solved_by_ik():

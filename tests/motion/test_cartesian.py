@@ -198,16 +198,16 @@ def test_path_errors():
     with pytest.raises(ShapeError, match="positive radius"):
         arc_path([0, 0], -1.0, 0.0, 1.0)
     with pytest.raises(ShapeError, match="not both"):
-        arc_path([0, 0, 0], 1.0, 0.0, 1.0, normal=[0, 0, 1], axes=[[1, 0, 0], [0, 1, 0]])
+        arc_path([0, 0, 0], 1.0, 0.0, 1.0, normal=[0, 0, 1], plane_axes=[[1, 0, 0], [0, 1, 0]])
     with pytest.raises(ShapeError, match="non-zero sweep"):
         arc_path([0, 0, 0], 1.0, 0.0, 0.0)
     with pytest.raises(ShapeError, match=r"shape \(..., 3\)"):
         line_path([0, 0, 0, 0], [1, 1, 1])
-    a = arc_path([0, 0, 1.0], 0.2, 0.0, np.pi, axes=[[0, 1, 0], [0, 0, 1]])
+    a = arc_path([0, 0, 1.0], 0.2, 0.0, np.pi, plane_axes=[[0, 1, 0], [0, 0, 1]])
     np.testing.assert_allclose(a.normal, [1, 0, 0])
     np.testing.assert_allclose(a.point([0.5]), [[0, 0, 1.2]], atol=1e-15)
     c = circle_path([0, 0, 0], 1.0, normal=[0, 0, -1])
-    assert c.kind == "circle" and c.distance_from(c.point(np.linspace(0, 1, 9))).max() < 1e-15
+    assert c.shape == "circle" and c.distance_from(c.point(np.linspace(0, 1, 9))).max() < 1e-15
 
 
 def test_planar_needs_orientation(planar004):

@@ -7,7 +7,7 @@ import pytest
 
 from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion import (
-    LawKind,
+    LawName,
     TimeLaw,
     cubic_law,
     linear_law,
@@ -119,7 +119,7 @@ def test_holds_end_values_outside_the_interval():
 
 def test_lspb_default_blend_is_a_third():
     law = lspb_law([0.0, 1.0], [3.0, -2.0], 3.0)
-    assert law.kind is LawKind.LSPB
+    assert law.name is LawName.LSPB
     np.testing.assert_allclose(law.breaks, [0.0, 1.0, 2.0, 3.0])
     np.testing.assert_allclose(law.velocity(1.5), [1.5, -1.5])  # 1.5 x the mean speed
     np.testing.assert_allclose(law.position(3.0), [3.0, -2.0], atol=1e-12)
@@ -149,8 +149,8 @@ def test_lspb_bounds_and_errors():
 
 
 def test_make_law_names_and_errors():
-    assert make_law("trapezoid", 0.0, 1.0, 3.0).kind is LawKind.LSPB
-    assert make_law(LawKind.QUINTIC, 0.0, 1.0, 3.0).degree == 5
+    assert make_law("trapezoid", 0.0, 1.0, 3.0).name is LawName.LSPB
+    assert make_law(LawName.QUINTIC, 0.0, 1.0, 3.0).degree == 5
     assert make_law("linear", 0.0, 2.0, 4.0).velocity(1.0) == pytest.approx(0.5)
     with pytest.raises(ValueError, match="'cubic', 'quintic', 'lspb', 'linear'"):
         make_law("septic", 0.0, 1.0, 1.0)
@@ -164,15 +164,15 @@ def test_make_law_names_and_errors():
 
 def test_minimum_duration_matches_peaks():
     D, v, a = 0.8, 0.5, 2.0
-    T = minimum_duration(D, v_max=v, a_max=a, kind="cubic")
+    T = minimum_duration(D, v_max=v, a_max=a, law="cubic")
     law = cubic_law(0.0, D, T)
     assert max(law.peak(1) / v, law.peak(2) / a) == pytest.approx(1.0, rel=1e-6)
-    T = minimum_duration(D, v_max=v, a_max=a, kind="quintic")
+    T = minimum_duration(D, v_max=v, a_max=a, law="quintic")
     law = quintic_law(0.0, D, T)
     assert max(law.peak(1) / v, law.peak(2) / a) == pytest.approx(1.0, rel=1e-5)
-    T = minimum_duration(D, v_max=v, a_max=a, kind="lspb")
+    T = minimum_duration(D, v_max=v, a_max=a, law="lspb")
     assert T == pytest.approx(D / v + v / a)
-    assert minimum_duration(0.1, v_max=1.0, a_max=1.0, kind="lspb") == pytest.approx(2 * math.sqrt(0.1))
+    assert minimum_duration(0.1, v_max=1.0, a_max=1.0, law="lspb") == pytest.approx(2 * math.sqrt(0.1))
     assert minimum_duration([0.0, 0.0], v_max=1.0) == 0.0
     assert minimum_duration(1.0) == 0.0  # unbounded
 

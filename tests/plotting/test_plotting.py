@@ -97,13 +97,13 @@ def test_workspace_scatter_and_filled(planar003):
     pts45 = narrow.collections[0].get_offsets()
     assert np.linalg.norm(pts45, axis=1).min() > np.linalg.norm(pts90, axis=1).min()  # +-45 deg: no folding back
     assert np.linalg.norm(pts90, axis=1).max() <= 335.0 + 1e-9
-    filled = plot_workspace(planar003, np.radians([[-45, 45]] * 3), n=20000, kind="filled")
+    filled = plot_workspace(planar003, np.radians([[-45, 45]] * 3), n=20000, style="filled")
     mesh = _gid(filled.collections, "workspace")
     assert len(mesh) == 1 and isinstance(mesh[0], matplotlib.collections.QuadMesh)
     ax3 = plot_workspace(Robot.load("arduino_arm_3dof"), n=1000)
     assert ax3.name == "3d" and len(_gid(ax3.collections, "workspace")) == 1
     with pytest.raises(ValueError, match="'scatter', 'filled'"):
-        plot_workspace(planar003, kind="hexbin")
+        plot_workspace(planar003, style="hexbin")
 
 
 def test_workspace_overlay_with_arm(planar003):
@@ -113,7 +113,7 @@ def test_workspace_overlay_with_arm(planar003):
 
 
 def test_time_series_joint_units():
-    traj = joint_trajectory([0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0, dt=0.1)
+    traj = joint_trajectory(None, [0.0, 0.0, 1.57], [-0.8, 0.8, 0.8], 5.0, dt=0.1)
     ax = plot_time_series(traj, "q")
     assert len(ax.lines) == 3
     assert ax.get_ylabel() == "joint position [deg]" and ax.get_xlabel() == "t [s]"
@@ -153,7 +153,7 @@ def test_cartesian_plots_seed000(arduino):
 def test_no_global_state_changes(planar003):
     before = dict(matplotlib.rcParams)
     plot_arm(planar003, [0.1, 0.2, 0.3], frames=True)
-    plot_workspace(planar003, n=200, kind="filled")
+    plot_workspace(planar003, n=200, style="filled")
     after = dict(matplotlib.rcParams)
     assert before == after
 
@@ -187,7 +187,7 @@ def test_animation_jshtml_gif_mp4(tmp_path):
 
 
 def test_animation_3d(arduino):
-    traj = joint_trajectory(np.radians([90, 90, 90]), np.radians([45, 60, 100]), 1.0, dt=0.1)
+    traj = joint_trajectory(None, np.radians([90, 90, 90]), np.radians([45, 60, 100]), 1.0, dt=0.1)
     anim = animate_arm(arduino, traj, max_frames=3)
     assert anim._labkit_frames == 3
     assert anim._fig.axes[0].name == "3d"

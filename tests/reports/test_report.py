@@ -368,7 +368,7 @@ def test_lab_info_and_labkit_new_writes_it(tmp_path):
     assert info.title == 'The "arm" lab' and info.authors == ("A", "B") and info.course == "ROBO 1"
     from labkit.labs import new_lab
 
-    made = new_lab(tmp_path / "puma", "puma560", title="PUMA lab")
+    made = new_lab("puma560", tmp_path / "puma", title="PUMA lab")
     assert lab_info(made.folder).title == "PUMA lab" and (made.folder / "lab.toml").is_file()
     for lab in sorted((REPO / "notebooks").iterdir()):
         if any(lab.glob("*.ipynb")):

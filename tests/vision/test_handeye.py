@@ -82,7 +82,7 @@ def test_robot_world_start_gives_the_same_calibration(setup):
     tools, seen = _views(20, 0.8, seed=6, noise_m=0.0, noise_rad=0.0)
     if setup == "eye_in_hand":  # the same views read as a camera on the gripper looking at a fixed marker
         tools = {k: np.linalg.inv(T) for k, T in tools.items()}
-    start = {m: hand_eye(tools, seen, setup=setup, method=m, leave_one_out=False) for m in ("park", "shah", "li")}
+    start = {m: hand_eye(tools, seen, setup=setup, start=m, leave_one_out=False) for m in ("park", "shah", "li")}
     for m in ("shah", "li"):
         np.testing.assert_allclose(start[m].camera_pose, start["park"].camera_pose, atol=1e-6)
     assert np.median(start["park"].position_residual) < 1e-6
@@ -92,5 +92,5 @@ def test_unknown_setup_and_method_are_rejected():
     tools, seen = _views(5, 0.8, seed=7)
     with pytest.raises(LabkitError, match="setup one of"):
         hand_eye(tools, seen, setup="eye_on_hand")
-    with pytest.raises(LabkitError, match="method one of"):
-        hand_eye(tools, seen, method="guess")
+    with pytest.raises(LabkitError, match="start one of"):
+        hand_eye(tools, seen, start="guess")

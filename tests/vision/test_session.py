@@ -38,7 +38,7 @@ def test_camera_readings_agree_with_the_true_gripper_within_their_uncertainty(tm
     assert np.mean(ratio <= 1.0) >= 0.95 and ratio.max() <= 1.5
     assert df.resolution.max() < 3.0  # mm: a camera, not a ruler
     # the log is the ruler's schema: the error table reads it unchanged
-    table = error_table(df, "arduino_arm_3dof")
+    table = error_table("arduino_arm_3dof", df)
     assert len(table.table) == len(PLAN) * 3
 
 
@@ -48,7 +48,7 @@ def test_calibration_from_camera_readings_recovers_the_offsets(tmp_path):
     plan = [PlannedPose(f"r{k}", tuple(v)) for k, v in enumerate(q)]
     df, truth = _run(url, tmp_path / "camera.csv", plan=plan)
     assert len(truth) >= 10
-    fit = calibrate(df, "arduino_arm_3dof", params=("joint_offsets",), weighted=True, leave_one_out=False)
+    fit = calibrate("arduino_arm_3dof", df, params=("joint_offsets",), weighted=True, leave_one_out=False)
     np.testing.assert_allclose(fit.fitted, OFFSETS, atol=np.radians(0.25))
     assert fit.rms_after < 0.3 * fit.rms_before
     # a pose's frames share its joints' error (the servo's deadband, settling): with the per-pose

@@ -97,7 +97,7 @@ class VirtualBoard:
     #: the gripper servo is driven (``GRIP`` checked against its pulse range)
     grip_refused = ""
 
-    def __init__(self, robot="arduino_arm_3dof", config=PhysicsConfig(), *, queue=6, user_pot=512,
+    def __init__(self, robot, config=PhysicsConfig(), *, queue=6, user_pot=512,
                  saved_calibration=False):
         self.robot = Robot.load(robot)
         self.user_pot = int(user_pot)

@@ -241,7 +241,7 @@ class ServoBank:
         self._D = float(np.asarray(ss.D).ravel()[0])
         self._dc = self._dc_state()
         if config.rate_limit is None:
-            rl = [lk.max_velocity if math.isfinite(lk.max_velocity) else math.radians(300) for lk in robot.links]
+            rl = [math.radians(300) if lk.max_velocity is None else lk.max_velocity for lk in robot.links]
         else:
             rl = [config.rate_limit] * n
         self._max_step = [r * config.dt for r in rl]

@@ -10,7 +10,7 @@ from labkit.arm.board._board import VirtualBoard
 __all__ = ["make_board", "serve_pty"]
 
 
-def make_board(robot="arduino_arm_3dof", *, seed=0, **physics):
+def make_board(robot, *, seed=0, **physics):
     """A :class:`VirtualBoard` with ``PhysicsConfig(seed=seed, **physics)``.
 
     Parameters

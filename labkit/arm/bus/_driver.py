@@ -9,12 +9,11 @@ retries a write (a sync write has no status packet) and retries a state read ``r
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.exceptions import DeviceError
+from labkit.exceptions import BusFault, DeviceError
 
 __all__ = ["BusFault", "BusReading"]
 
@@ -28,13 +27,6 @@ def _with_latency(port_class, latency):
             self.packet_timeout = self.tx_time_per_byte * packet_length + latency * 2.0 + 2.0
 
     return Port
-
-
-class BusFault(DeviceError):
-    """A servo bus failed: a servo silent or its status packet corrupt, or a servo in hardware error.
-
-    The arm is stopped and every servo's torque turned off before it is raised.
-    """
 
 
 @dataclass(frozen=True)
@@ -231,9 +223,9 @@ class BusDriver:
         """
         velocity, acceleration = self.profile
         for lk in self.robot.links:
-            if math.isfinite(lk.max_velocity):
+            if lk.max_velocity is not None:
                 self.write(lk.bus.id, velocity, self._velocity_value(lk.max_velocity))
-            if math.isfinite(lk.max_acceleration):
+            if lk.max_acceleration is not None:
                 self.write(lk.bus.id, acceleration, self._acceleration_value(lk.max_acceleration))
 
     def write_goals(self, ticks):

@@ -39,7 +39,7 @@ def adc_slew(robot):
         ``inf`` for joints without a servo.
     """
     return np.array([
-        1.5 * (lk.max_velocity if math.isfinite(lk.max_velocity) else math.radians(600))
+        1.5 * (math.radians(600) if lk.max_velocity is None else lk.max_velocity)
         * abs(float(lk.servo.adc_from_joint(1.0) - lk.servo.adc_from_joint(0.0))) if lk.servo else np.inf
         for lk in robot.links])
 

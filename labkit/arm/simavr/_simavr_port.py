@@ -26,7 +26,7 @@ import time
 from serial import serialposix
 from serial.serialutil import to_bytes
 
-from labkit.arm._port_errors import PortError
+from labkit.exceptions import PortError
 from labkit.exceptions import OptionError
 
 __all__ = ["CLOCKS", "SimavrPort"]

@@ -22,7 +22,7 @@ import time
 
 from serial.serialutil import SerialBase, to_bytes
 
-from labkit.arm._port_errors import PortClosedError, PortError
+from labkit.exceptions import PortClosedError, PortError
 
 __all__ = ["BoardSerial"]
 

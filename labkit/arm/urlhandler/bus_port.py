@@ -25,7 +25,7 @@ import time
 import urllib.parse
 from dataclasses import replace
 
-from labkit.arm._port_errors import PortURLError
+from labkit.exceptions import PortURLError
 from labkit.arm.urlhandler.board_serial import BoardSerial
 
 __all__ = ["parse_bus_url", "BusSerial", "Serial"]

@@ -39,7 +39,7 @@ import dataclasses
 import time
 import urllib.parse
 
-from labkit.arm._port_errors import PortError, PortURLError
+from labkit.exceptions import PortError, PortURLError
 from labkit.arm.urlhandler.board_serial import BoardSerial
 
 CLOCKS = ("realtime", "lockstep")

@@ -53,7 +53,7 @@ from __future__ import annotations
 import urllib.parse
 
 from labkit.arm.simavr import CLOCKS, FirmwareSim, SimavrPort
-from labkit.arm._port_errors import PortError, PortURLError
+from labkit.exceptions import PortError, PortURLError
 
 SCHEME = "simavr://"
 

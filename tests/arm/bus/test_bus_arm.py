@@ -57,7 +57,7 @@ def test_move_joints_then_read_back_through_the_bus(arm):
 def test_trajectory_and_stream_with_the_load_signal(arm):
     start = arm.commanded_joints()
     goal = start + np.radians([20.0, -15.0, 10.0, 5.0])
-    traj = joint_trajectory(start, goal, 1.0)
+    traj = joint_trajectory(None, start, goal, 1.0)
     report = arm.run_trajectory(traj)
     assert report.segments >= 10
     assert np.allclose(arm.commanded_joints(), goal, atol=math.radians(0.02))
@@ -75,7 +75,7 @@ def test_limits_refused_before_anything_is_sent(arm):
     with pytest.raises(JointLimitError, match="shoulder"):
         arm.move_joints(np.radians([0.0, 95.0, 0.0, 0.0]))
     start = arm.commanded_joints()
-    fast = joint_trajectory(start, start + np.radians([90.0, 0, 0, 0]), 0.2)  # 120 deg/s allowed
+    fast = joint_trajectory(None, start, start + np.radians([90.0, 0, 0, 0]), 0.2)  # 120 deg/s allowed
     with pytest.raises(TrajectoryError):
         arm.run_trajectory(fast)
     assert (len(emu.packets), emu.sync_writes) == before
