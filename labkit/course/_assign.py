@@ -40,11 +40,11 @@ Example
 from __future__ import annotations
 
 import copy
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
+from labkit.course._safefs import read_tree, write_tree
 
 __all__ = ["SOLUTION_TAG", "TESTS_TAG", "HIDDEN_TESTS_TAG", "PARAMETERS_TAG", "CODE_STUB",
            "GradedCell", "AssignResult", "cell_role", "graded_cells", "student_notebook", "assign"]
@@ -268,11 +268,7 @@ def assign(lab_dir, out_dir) -> AssignResult:
     for name, nb in students.items():
         nbformat.write(nb, str(out / name))
         written.append(out / name)
-    others = []
-    for p in sorted(lab.rglob("*")):
-        rel = p.relative_to(lab)
-        if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts:
-            (out / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(p, out / rel)
-            others.append(out / rel)
+    data = {rel: content for rel, content in read_tree(lab).items() if not rel.endswith(".ipynb")}
+    write_tree(data, out, replace=True)
+    others = [out / rel for rel in data]
     return AssignResult(tuple(written), tuple(others), checks)

@@ -32,6 +32,8 @@ from pathlib import Path
 
 __all__ = ["check_cell", "run_checker", "main"]
 
+#: largest result document read back from the checker [bytes]
+_MAX_RESULT_BYTES = 64 * 2**20
 _NO_DATA = "the notebook stopped before this check (no values were handed out)"
 
 
@@ -214,8 +216,10 @@ def run_checker(job, private, *, limits, sandbox_args=None) -> dict:
                               timeout=max(60.0, limits.wall_seconds))
     except subprocess.TimeoutExpired:
         return {"error": f"the checks ran over {max(60.0, limits.wall_seconds):g} s"}
-    try:
-        return json.loads(result_path.read_text(encoding="utf-8"))
+    from labkit.course._safefs import read_file
+
+    try:  # the checker's folder is writable in its sandbox: read it as any such file
+        return json.loads(read_file(private, result_path.name, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
     except (OSError, ValueError):
         tail = proc.stderr.decode(errors="replace").strip().splitlines()[-3:]
         return {"error": f"the checker failed (exit status {proc.returncode}): {' '.join(tail)}"[:500]}

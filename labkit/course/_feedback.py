@@ -19,11 +19,44 @@ True
 
 from __future__ import annotations
 
+import hashlib
 import html
 from pathlib import Path
 from urllib.parse import quote
 
-__all__ = ["MAX_PAGE_BYTES", "write_feedback", "write_class_index"]
+from labkit.course._submission import clean_text
+
+__all__ = ["MAX_PAGE_BYTES", "STUDENTS_FOLDER", "student_folder", "write_feedback", "write_class_index"]
+
+#: the feedback folder's sub-folder holding one folder per student (the class index is beside it)
+STUDENTS_FOLDER = "students"
+
+
+def student_folder(student) -> str:
+    """The folder of a student's page, relative to the feedback folder: never one of the grader's own files.
+
+    Parameters
+    ----------
+    student : str
+        The gradebook's name of the student (:func:`labkit.course._submission.student_label`).
+
+    Returns
+    -------
+    str
+        ``students/<name percent-encoded>`` (a leading dot encoded too; a very long name shortened
+        with a hash of it): distinct names give distinct folders, and no name reaches ``index.html``.
+
+    Examples
+    --------
+    >>> student_folder("index.html"), student_folder("../x y")
+    ('students/index.html', 'students/%2E%2E%2Fx%20y')
+    """
+    name = quote(str(student), safe="")
+    if name.startswith("."):
+        name = "%2E" + name[1:].replace(".", "%2E", 1) if name.startswith("..") else "%2E" + name[1:]
+    if len(name.encode()) > 200:
+        name = name[:150] + "-" + hashlib.sha256(str(student).encode("utf-8", "backslashreplace")).hexdigest()[:16]
+    return f"{STUDENTS_FOLDER}/{name}"
 
 #: largest feedback page [bytes]
 MAX_PAGE_BYTES = 256 * 2**10
@@ -34,7 +67,7 @@ _STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 
 
 
 def _e(text, limit=600) -> str:
-    text = str(text)
+    text = clean_text(text)
     if len(text) > limit:
         text = text[:limit] + " [...]"
     return html.escape(text, quote=True)
@@ -139,8 +172,9 @@ def write_class_index(results, folder, *, title="Gradebook") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     rows = []
     for r in results:
-        link = f"<a href=\"{_e(quote(r.student))}/index.html\">{_e(r.student)}</a>" \
-            if (folder / r.student / "index.html").is_file() else _e(r.student)
+        where = student_folder(r.student)
+        link = f"<a href=\"{_e(quote(where))}/index.html\">{_e(r.student)}</a>" \
+            if (folder / where / "index.html").is_file() else _e(r.student)
         rows.append(f"<tr><td>{link}</td><td>{_e(r.status)}</td><td>{r.points:g} / {r.max_points:g}</td>"
                     f"<td>{_e(r.detail, 300)}</td></tr>")
     mean = sum(r.points for r in results) / len(results) if results else 0.0

@@ -36,8 +36,6 @@ Example
 from __future__ import annotations
 
 import copy
-import os
-import shutil
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -48,7 +46,8 @@ from labkit.course._assign import HIDDEN_TESTS_TAG, SOLUTION_TAG, TESTS_TAG, cel
 from labkit.course._checker import run_checker
 from labkit.course._plan import plan_check, prelude_source
 from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
-from labkit.course._submission import copy_regular_files, error_detail, read_student_notebook
+from labkit.course._safefs import read_tree, remove_tree, write_tree
+from labkit.course._submission import clean_text, copy_regular_files, error_detail, read_student_notebook, student_label
 from labkit.course._wire import MIME, export_source
 from labkit.reports import notebook_parameters
 
@@ -264,7 +263,7 @@ def _scrub(text, *paths) -> str:
     return text
 
 
-def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True, free=None) \
+def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True, free=None, student=None) \
         -> SubmissionResult:
     """Grade one submission folder against the instructor's lab folder.
 
@@ -275,7 +274,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     lab_dir : str or os.PathLike
         The instructor's lab folder (tagged notebooks with solutions and hidden tests).
     output_dir : str or os.PathLike
-        Feedback goes to ``output_dir/<student>/index.html``.
+        Feedback goes to ``output_dir/students/<student, percent-encoded>/index.html``
+        (:func:`labkit.course._feedback.student_folder`).
     limits : Limits, optional
         Per-notebook CPU, memory and wall-clock limits.
     hide : sequence of path-like
@@ -286,6 +286,9 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     free : dict, optional
         ``{(notebook, cell id): set of row indices}`` that pass untouched (:func:`baseline`);
         default: computed now (one more run of the lab's student version).
+    student : str, optional
+        The student's name in the gradebook (default the folder's name, its undecodable bytes
+        and control characters escaped: :func:`labkit.course._submission.student_label`).
 
     Returns
     -------
@@ -299,7 +302,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     """
     import nbformat
 
-    from labkit.course._feedback import write_feedback
+    from labkit.course._feedback import student_folder, write_feedback
 
     t0 = time.perf_counter()
     submission, lab, out = Path(submission), Path(lab_dir).resolve(), Path(output_dir).resolve()
@@ -313,39 +316,38 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     limits = limits or Limits()
     if free is None:
         free = baseline(lab, limits=limits).free
-    student = submission.name
+    student = student_label(submission.name) if student is None else clean_text(student)
     if submission.is_symlink() or not submission.is_dir():
         return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
     hide = [submission.resolve().parent, lab, out, *hide]
     root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
     statuses, details, scores, pages, mechanisms = [], [], [], [], []
     try:
-        work, private = root / "home", root / "kernel"
+        work = root / "home"
         work.mkdir()
-        private.mkdir()
         try:
             copy_regular_files(submission, work)
         except (LabkitError, OSError) as exc:
             return _invalid(student, sources, free, str(exc), t0)
-        for p in lab.rglob("*"):  # the lab's data files the student did not bring
-            rel = p.relative_to(lab)
-            if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts \
-                    and not os.path.lexists(work / rel):
-                (work / rel).parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(p, work / rel)
+        lab_data = {rel: data for rel, data in read_tree(lab).items() if not rel.endswith(".ipynb")}
+        write_tree(lab_data, work)  # the lab's data files the student did not bring
+        theirs_all = {}
+        for name in sources:  # every notebook read before any kernel runs on the working copy
+            try:
+                theirs_all[name] = read_student_notebook(work, name)
+            except FileNotFoundError:
+                theirs_all[name] = ("missing", f"{name} is not in the submission")
+            except Exception as exc:  # noqa: BLE001 - whatever is wrong with the student's file
+                first = str(exc).splitlines()[0][:200] if str(exc) else ""
+                theirs_all[name] = ("invalid", f"{name} is not a valid notebook: {type(exc).__name__}: {first}")
         runs, job = [], {"notebooks": []}
         for name, source in sources.items():
-            try:
-                theirs = read_student_notebook(work / name)
-            except FileNotFoundError:
-                runs.append((name, "missing", f"{name} is not in the submission", None))
-                continue
-            except Exception as exc:  # noqa: BLE001 - whatever is wrong with the student's file
-                runs.append((name, "invalid", f"{name} is not a valid notebook: {type(exc).__name__}: "
-                                              f"{str(exc).splitlines()[0][:200] if str(exc) else ''}", None))
+            theirs = theirs_all[name]
+            if isinstance(theirs, tuple):
+                runs.append((name, *theirs, None))
                 continue
             status, detail, checks, plans, data, _, mechanism = _run_one(source, theirs, name, work, limits, hide,
-                                                                        private, notebook_parameters(lab / name))
+                                                                        root, notebook_parameters(lab / name))
             mechanisms.append(mechanism)
             runs.append((name, status, detail, (checks, plans)))
             roles = [(c.source, cell_role(c) == SOLUTION_TAG) for c in source.cells if c.cell_type == "code"]
@@ -377,17 +379,17 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
             failing = [f"{r.name if r.name.startswith(s.name) else s.name + ' / ' + r.name}: {r.error} (line {r.line})"
                        for s in nb_scores for r in s.rows
                        if not r.passed and not r.free and r.error]
-            if status != "ok" or failing:
-                parts = [f"{status}: {detail}"] if status != "ok" else []
+            if status != "ok" or failing or detail:
+                parts = [f"{status}: {detail}"] if status != "ok" or detail else []
                 details.append(f"{name}: " + "; ".join(parts + failing[:4] + (["..."] if len(failing) > 4 else [])))
             pages.append((name, status, _scrub(detail, work, root), nb_scores))
     finally:
-        shutil.rmtree(root, ignore_errors=True)
+        remove_tree(root)
     worst = max(statuses, key=_SEVERITY.index) if statuses else "missing"
-    result = SubmissionResult(student, worst, " | ".join(details)[:2000], tuple(scores), time.perf_counter() - t0,
-                              memory_limit=", ".join(sorted(set(mechanisms))))
+    result = SubmissionResult(student, worst, clean_text(" | ".join(details), 2000), tuple(scores),
+                              time.perf_counter() - t0, memory_limit=", ".join(sorted(set(mechanisms))))
     if html:
-        write_feedback(result, pages, out / student)
+        write_feedback(result, pages, out / student_folder(student))
     return result
 
 
@@ -404,7 +406,7 @@ def _score(chk, plan, results, free_rows) -> CellScore:
         is_free = r.index in free_rows
         passed = bool(res.get("passed"))
         rows.append(RowScore(r.name, share if passed and not is_free else 0.0, 0.0 if is_free else share, passed,
-                             is_free, str(res.get("error", ""))[:500], int(res.get("line", r.line))))
+                             is_free, clean_text(res.get("error", ""), 500), int(res.get("line", r.line))))
     return CellScore(chk.notebook, chk.name, round(sum(r.points for r in rows), 9),
                      round(sum(r.max_points for r in rows), 9), chk.hidden, all(r.passed for r in rows),
                      tuple(rows), chk.cell_id)
@@ -437,6 +439,7 @@ def _unscored(sources, free, why="not graded") -> tuple:
 
 
 def _invalid(student, sources, free, why, t0, status="invalid") -> SubmissionResult:
+    why = clean_text(why)
     return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), time.perf_counter() - t0)
 
 

@@ -139,7 +139,7 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     feedback = tmp_path / "grades" / "gradebook_feedback"
     assert "correct/index.html" in (feedback / "index.html").read_text()
     for name in cl.EXPECTED:
-        page = (feedback / name / "index.html").read_text()
+        page = (feedback / "students" / name / "index.html").read_text()
         assert REMOTE.search(page) is None and "Score" in page and len(page.encode()) < 2**20
         assert "SECRET-HIDDEN-MARKER" not in page and "fk(arm, q)[0, 3]" not in page  # hidden: names and results
         assert "tool y [m]" in page and "x value" in page
@@ -247,7 +247,7 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     assert [r.student for r in results] == sorted(codes)  # every submission once, none lost or twice
     for r in results:
         assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
-        assert (tmp_path / "feedback" / r.student / "index.html").is_file()
+        assert (tmp_path / "feedback" / "students" / r.student / "index.html").is_file()
     assert sorted(p.name for p in (tmp_path / "feedback").iterdir() if p.is_dir()) == sorted(codes)
 
 
