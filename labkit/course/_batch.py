@@ -310,17 +310,20 @@ def gradebook_frame(results):
     -------
     pandas.DataFrame
         Index ``student``; columns ``status``, ``points``, ``max_points``, then
-        ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``),
+        ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``; none for a
+        check worth 0, whose rows are all free, such as a notebook without student work),
         ``seconds``, ``memory_limit`` (how memory was limited: ``cgroup v2``, ``cgroup v1``
         or ``watchdog``) and ``detail``.
     """
     import pandas as pd
 
     rows = []
+    worth = {(s.notebook, s.cell_id) for r in results for s in r.scores if s.max_points > 0}
     for r in results:
         row = {"student": r.student, "status": r.status, "points": r.points, "max_points": r.max_points}
         for s in r.scores:
-            row[clean_text(f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else ""))] = s.points
+            if (s.notebook, s.cell_id) in worth:  # a check all of whose rows are free is worth 0: no column
+                row[clean_text(f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else ""))] = s.points
         row.update(seconds=round(r.seconds, 2), memory_limit=r.memory_limit, detail=clean_text(r.detail))
         rows.append(row)
     return pd.DataFrame(rows).set_index("student")

@@ -42,9 +42,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.course._assign import HIDDEN_TESTS_TAG, SOLUTION_TAG, TESTS_TAG, cell_role, graded_cells, student_notebook
+from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG, SOLUTION_TAG, TESTS_TAG, cell_role,
+                                   graded_cells, student_notebook)
 from labkit.course._checker import run_checker
-from labkit.course._plan import plan_check, prelude_source
+from labkit.course._plan import plan_check, prelude_source, python_source
 from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
 from labkit.course._safefs import read_tree, remove_tree, write_tree
 from labkit.course._submission import clean_text, copy_regular_files, error_detail, read_student_notebook, student_label
@@ -236,9 +237,7 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
         if cid in plans:
             cell.source = export_source(plans[cid].free_names, cid)
             cell.metadata = {"labkit": {"export": cid}}
-    home = SANDBOX_HOME if limits.sandbox else str(work)
-    params = {"port": GRADING_PORT, "output_dir": f"{home}/{Path(name).stem}_files"}
-    params = {k: v for k, v in params.items() if k in declared}
+    params = _grading_parameters(work, limits, name, declared)
     if params:
         nb = _inject_parameters(nb, params)
     status, detail, mechanism = run_untrusted(nb, work, limits=limits, hide=hide, private=private)
@@ -252,8 +251,49 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
     errors = [(i, c) for i, c in enumerate(nb.cells) if c.cell_type == "code" and c.get("metadata", {}).get(
         "labkit", {}).get("export") is None and any(o.get("output_type") == "error" for o in c.get("outputs", []))]
     if status == "error":
-        status, detail = ("error", error_detail(errors[0][1], errors[0][0])) if errors else ("ok", "")
+        mine = {str(c.get("id")): i for i, c in enumerate(theirs.cells)}  # cell numbers as the student sees them
+        first = errors[0] if errors else None
+        status, detail = ("error", error_detail(first[1], mine.get(str(first[1].get("id")), first[0]))) if first \
+            else ("ok", "")
     return status, detail, checks, plans, data, nb, mechanism
+
+
+def _grading_parameters(work, limits, name, declared) -> dict:
+    """The parameters grading injects (``port``, ``output_dir``), those the notebook declares."""
+    home = SANDBOX_HOME if limits.sandbox else str(work)
+    params = {"port": GRADING_PORT, "output_dir": f"{home}/{Path(name).stem}_files"}
+    return {k: v for k, v in params.items() if k in declared}
+
+
+def trusted_sources(source, params) -> list:
+    """The instructor's cells the checker runs whole, after the prelude: trusted parameters and references.
+
+    The ``parameters`` cell (then the values grading injects) and every ``reference`` cell, in
+    order. They run in the checker's process only (a ``reference`` cell is not in the student
+    version and never runs in the student's kernel), so the names they assign (the target, the
+    robot, a reference solution) are the instructor's, never the values the student's kernel hands out.
+
+    Parameters
+    ----------
+    source : nbformat.NotebookNode
+        The instructor's notebook.
+    params : dict
+        The injected parameters.
+
+    Returns
+    -------
+    list of str
+    """
+    out = []
+    for cell in source.cells:
+        role = cell_role(cell)
+        if role == PARAMETERS_TAG:
+            out.append(python_source(cell.source))
+            if params:
+                out.append("\n".join(f"{k} = {v!r}" for k, v in params.items()))
+        elif role == REFERENCE_TAG:
+            out.append(python_source(cell.source))
+    return out
 
 
 def _scrub(text, *paths) -> str:
@@ -351,7 +391,9 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
             mechanisms.append(mechanism)
             runs.append((name, status, detail, (checks, plans)))
             roles = [(c.source, cell_role(c) == SOLUTION_TAG) for c in source.cells if c.cell_type == "code"]
-            job["notebooks"].append({"name": name, "prelude": list(prelude_source(roles)), "cells": [
+            trusted = list(prelude_source(roles)) + trusted_sources(source, _grading_parameters(work, limits, name,
+                                                                                              notebook_parameters(lab / name)))
+            job["notebooks"].append({"name": name, "prelude": trusted, "cells": [
                 {"cell_id": p.cell_id, "name": p.name, "free_names": list(p.free_names),
                  "statements": [list(s) for s in p.statements], "rows": [list(_row_list(r)) for r in p.rows],
                  "error": p.error, "data": data.get(cid)} for cid, p in plans.items()]})
@@ -455,11 +497,16 @@ class Baseline:
         The untouched version's grading (every row counted).
     reasons : tuple of str
         One line per free row: which check, and why it passes untouched.
+    max_points : float
+        The most a submission can earn [points]: every check's points, shared by its rows that
+        are not free (a check whose rows are all free is worth 0). The one maximum ``labkit
+        assign`` reports and ``labkit grade``, the gradebook and the feedback pages use.
     """
 
     free: dict
     result: SubmissionResult
     reasons: tuple
+    max_points: float = 0.0
 
     @property
     def free_points(self) -> float:
@@ -521,7 +568,8 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
             why = (f"the stub's values of {', '.join(mine)} already pass it" if mine else
                    "it reads no value a solution cell assigns" + (f" (only {', '.join(sorted(reads))})" if reads else ""))
             reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched: {why}")
-    return Baseline(free, result, tuple(reasons))
+    earnable = sum(s.max_points for s in _unscored(sources, free))  # the grading's own scoring of the rows
+    return Baseline(free, result, tuple(reasons), round(earnable, 9))
 
 
 def _assigned(text) -> set:

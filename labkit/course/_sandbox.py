@@ -446,10 +446,10 @@ def _execute(nb, work, limits, hide, private, cgroup):
         def dropped():
             if not client.dropped:
                 return ""
-            cells = sorted({i for i, _ in client.dropped})
+            ids = list(dict.fromkeys(str(nb.cells[i].get("id")) for i, _ in client.dropped))
             return (f"output over the limit of {limits.output_bytes} bytes per cell dropped: "
                     f"{len(client.dropped)} message(s) (largest {max(n for _, n in client.dropped)} characters) "
-                    f"in cell(s) {', '.join(str(i + 1) for i in cells[:5])}{' ...' if len(cells) > 5 else ''}")
+                    f"in the cell(s) with id {', '.join(ids[:5])}{' ...' if len(ids) > 5 else ''}")
 
         timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
         t0 = time.monotonic()
