@@ -32,7 +32,7 @@ from labkit.course._grade import grade_submission
 from labkit.course._feedback import student_folder
 from labkit.course._safefs import read_tree, remove_tree, write_tree
 from labkit.course._submission import MAX_DEPTH, MAX_ENTRIES, MAX_SUBMISSION_BYTES, clean_text, student_label
-from labkit.course._sandbox import Limits
+from labkit.course._sandbox import Limits, check_sandbox
 from labkit.reports import find_chromium, find_notebooks, lab_of, render_one, write_index
 
 __all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]
@@ -166,6 +166,10 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     return results
 
 
+#: set once this process has checked that bubblewrap starts here (a pool or dask worker)
+_WORKER_CHECKED = []
+
+
 def _grade_task(student, submission_files, lab_files, limits, html, free):
     """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``.
 
@@ -175,6 +179,9 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
 
     t0 = time.perf_counter()
     try:
+        if limits.sandbox and not _WORKER_CHECKED:  # a worker on another machine: its bubblewrap, once
+            check_sandbox()
+            _WORKER_CHECKED.append(True)
         with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
             sub = unpack_dir(submission_files, Path(tmp) / "submissions" / "submission")  # a name of ours
             lab = unpack_dir(lab_files, Path(tmp) / "lab")
@@ -267,6 +274,8 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
         raise LabkitError(f"expected one folder per student in {subs}, found none")
     out = Path(output_dir).resolve()
     limits = limits or Limits()
+    if limits.sandbox and scheduler is None:  # here, before anything runs (dask workers check their own)
+        check_sandbox()
     lab_files = pack_dir(lab)
     free = {} if count_free else baseline(lab, limits=limits).free
     argsets, early, seen = [], {}, set()

@@ -46,7 +46,7 @@ from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_T
                                    graded_cells, student_notebook)
 from labkit.course._checker import run_checker
 from labkit.course._plan import plan_check, prelude_source, python_source
-from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
+from labkit.course._sandbox import SANDBOX_HOME, Limits, check_sandbox, run_untrusted, sandbox_args
 from labkit.course._safefs import read_tree, remove_tree, write_tree
 from labkit.course._submission import clean_text, copy_regular_files, error_detail, read_student_notebook, student_label
 from labkit.course._wire import MIME, export_source
@@ -531,13 +531,15 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
     ------
     LabkitError
         If the untouched version does not run to its end (a limit, a crash): then it cannot
-        tell which rows are free.
+        tell which rows are free; or if the sandbox cannot start here (:func:`check_sandbox`).
     """
     import nbformat
 
     from labkit.course._plan import python_source
 
     lab = Path(lab_dir).resolve()
+    if (limits or Limits()).sandbox:
+        check_sandbox()  # a refused user namespace is the machine's, not the lab's: say so before grading
     with tempfile.TemporaryDirectory(prefix="labkit-baseline-") as tmp:
         sub = Path(tmp) / "untouched"
         sub.mkdir()

@@ -60,7 +60,7 @@ from labkit.course._watchdog import Watchdog, kill_tree
 from labkit.course._wire import MAX_EXPORT_BYTES
 from labkit.reports import kernel_manager_class
 
-__all__ = ["Limits", "RunResult", "RunStatus", "SANDBOX_HOME", "run_untrusted", "sandbox_args"]
+__all__ = ["Limits", "RunResult", "RunStatus", "SANDBOX_HOME", "check_sandbox", "run_untrusted", "sandbox_args"]
 
 #: outcomes of one execution (RunStatus values)
 RunStatus = ("ok", "error", "timeout", "cpu-time", "memory", "crash")
@@ -248,6 +248,59 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
     for key, value in env.items():
         args += ["--setenv", key, value]
     return args + ["--"]
+
+
+def check_sandbox() -> None:
+    """Stop before grading if bubblewrap cannot make its namespaces here, saying how to fix it.
+
+    Starts ``bwrap --unshare-all ... /bin/true`` once. Ubuntu 24.04 and later restrict
+    unprivileged user namespaces through AppArmor (``kernel.apparmor_restrict_unprivileged_userns
+    = 1``): bubblewrap then fails (``setting up uid map: Permission denied``) unless an AppArmor
+    profile allows it; some kernels turn them off (``kernel.unprivileged_userns_clone = 0``,
+    ``user.max_user_namespaces = 0``).
+
+    Raises
+    ------
+    LabkitError
+        If bubblewrap is missing or cannot start a sandbox; the message names the setting and the fix.
+    """
+    bwrap = shutil.which("bwrap")
+    if bwrap is None:
+        raise LabkitError("the grading sandbox needs bubblewrap (Debian package 'bubblewrap', command 'bwrap'); "
+                          "install it or grade with sandbox=False (--no-sandbox)")
+    try:
+        probe = subprocess.run([bwrap, "--unshare-all", "--die-with-parent", "--ro-bind", "/", "/", "--", "/bin/true"],
+                               capture_output=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise LabkitError(f"expected bubblewrap to start a sandbox, got {type(exc).__name__}: {exc}") from None
+    if probe.returncode == 0:
+        return
+    said = " ".join(probe.stderr.decode("utf-8", "replace").split())[:300]
+    settings = {name: _sysctl(path) for name, path in (
+        ("kernel.apparmor_restrict_unprivileged_userns", "/proc/sys/kernel/apparmor_restrict_unprivileged_userns"),
+        ("kernel.unprivileged_userns_clone", "/proc/sys/kernel/unprivileged_userns_clone"),
+        ("user.max_user_namespaces", "/proc/sys/user/max_user_namespaces"))}
+    if settings["kernel.apparmor_restrict_unprivileged_userns"] == "1":
+        fix = ("AppArmor restricts unprivileged user namespaces here (kernel.apparmor_restrict_unprivileged_userns = 1, "
+               "Ubuntu 24.04 and later): allow bubblewrap with an AppArmor profile (/etc/apparmor.d/bwrap: "
+               "'abi <abi/4.0>, include <tunables/global> profile bwrap /usr/bin/bwrap flags=(unconfined) "
+               "{ userns, }', then 'sudo apparmor_parser -r /etc/apparmor.d/bwrap'), or "
+               "'sudo sysctl kernel.apparmor_restrict_unprivileged_userns=0' for the whole machine")
+    elif settings["kernel.unprivileged_userns_clone"] == "0":
+        fix = "unprivileged user namespaces are off: 'sudo sysctl kernel.unprivileged_userns_clone=1'"
+    elif settings["user.max_user_namespaces"] == "0":
+        fix = "user namespaces are off: 'sudo sysctl user.max_user_namespaces=15000'"
+    else:
+        fix = "check that unprivileged user namespaces are allowed (AppArmor, SELinux, a container's seccomp profile)"
+    raise LabkitError(f"expected bubblewrap to start the grading sandbox, got exit status {probe.returncode}: "
+                      f"{said or '(no message)'}; {fix}; or grade without the sandbox (--no-sandbox, see docs/course.md)")
+
+
+def _sysctl(path) -> str:
+    try:
+        return Path(path).read_text().strip()
+    except OSError:
+        return ""
 
 
 def _font_lists() -> list:

@@ -18,6 +18,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import uuid
 from pathlib import Path
@@ -466,3 +467,120 @@ def test_huge_outputs_keep_the_grader_small(tmp_path):
     (big / cl.NOTEBOOK).write_bytes(b" " * (17 * 2**20) + b"{}")
     r = grade_submission(big, lab, tmp_path / "fb", limits=limits, free={}, html=False)
     assert r.status == "invalid" and "expected at most 16777216 bytes" in r.detail, r.detail
+
+
+def test_a_refused_user_namespace_stops_grading_with_the_fix(tmp_path, monkeypatch, capsys):
+    """Ubuntu 24.04's AppArmor refuses bubblewrap's user namespace: labkit grade stops before grading, naming the
+    setting and the fix (a bwrap that fails the way it fails there, and the sysctl as Ubuntu sets it)."""
+    from labkit.cli import main
+    from labkit.course import _sandbox
+
+    fake = tmp_path / "bin" / "bwrap"
+    fake.parent.mkdir()
+    fake.write_text("#!/bin/sh\necho 'bwrap: setting up uid map: Permission denied' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{fake.parent}:{os.environ['PATH']}")
+    real = _sandbox._sysctl
+    monkeypatch.setattr(_sandbox, "_sysctl", lambda path: "1" if "apparmor_restrict" in str(path) else real(path))
+    lab = cl.write_lab(tmp_path / "lab")
+    cl.write_submission(lab, tmp_path / "subs" / "someone", cl.SOLUTION)
+    code = main(["grade", str(tmp_path / "subs"), "--lab", str(lab), "-o", str(tmp_path / "g.csv")])
+    err = capsys.readouterr().err
+    assert code != 0 and not (tmp_path / "g.csv").exists()
+    assert "setting up uid map: Permission denied" in err and "kernel.apparmor_restrict_unprivileged_userns" in err
+    assert "/etc/apparmor.d/bwrap" in err and "--no-sandbox" in err, err
+
+
+GRADER_USER = "labkit-grader"
+
+
+def _as_grader_user(argv, env, cwd) -> subprocess.CompletedProcess:
+    """Run ``argv`` as an unprivileged user: as root, the user ``labkit-grader`` (made with useradd if missing),
+    in a mount namespace where the Python installation is reachable (a folder above it that only root may enter,
+    such as ``/root`` of a pyenv, is replaced by a tmpfs holding just the installation); otherwise as oneself."""
+    if os.geteuid() != 0:
+        return subprocess.run(argv, env=env, cwd=cwd, capture_output=True, text=True, timeout=900)
+    if subprocess.run(["id", "-u", GRADER_USER], capture_output=True).returncode != 0:
+        subprocess.run(["useradd", "--system", "--no-create-home", "--shell", "/usr/sbin/nologin", GRADER_USER],
+                       check=True)
+    prefix = Path(sys.base_prefix).resolve()
+    closed = [p for p in reversed(prefix.parents) if p != Path("/") and not os.stat(p).st_mode & 0o001]
+    script = "set -e\n"
+    if closed:
+        top, keep = closed[0], prefix.relative_to(closed[0]).parts[0]
+        view = Path(cwd) / "python-view"
+        view.mkdir(exist_ok=True)
+        script += (f"mount --bind {top / keep} {view}\nmount -t tmpfs -o mode=755 tmpfs {top}\n"
+                   f"mkdir {top / keep}\nmount --bind {view} {top / keep}\n")
+    script += 'exec runuser -u "$0" -- "$@"\n'
+    return subprocess.run(["unshare", "--mount", "--propagation", "private", "sh", "-c", script, GRADER_USER, *argv],
+                          env=env, cwd=cwd, capture_output=True, text=True, timeout=900)
+
+
+def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
+    """Issue 37: graded as a normal user (as root the test makes one and drops to it), the honest submissions keep
+    their points, the attacks score nothing and touch none of that user's files, nothing of the user outlives the
+    batch, and the gradebook says how memory was limited for that user (here: what memory_mechanism says as them)."""
+    require("nbgrader")
+    import json
+
+    from labkit.course import assign
+
+    base = Path(tempfile.mkdtemp(prefix="labkit-user-batch-", dir="/var/tmp"))
+    try:
+        base.chmod(0o755)
+        lab = cl.write_lab(base / "lab")
+        assign(lab, base / "student")
+        mine = base / "mine"  # the grading user's own files: the attacks aim at them
+        mine.mkdir()
+        append_to, overwrite, secret = mine / "append.txt", mine / "fontlist.json", mine / "secret.txt"
+        append_to.write_text("untouched\n")
+        overwrite.write_text("{}")
+        secret.write_text("TOP-SECRET-CANARY\n")
+        subs = base / "subs"
+        codes = {"honest_a": cl.SOLUTION, "honest_b": cl.SOLUTION, "untouched": "raise NotImplementedError()",
+                 "runtime_escape": at.runtime_escape_code(append_to, overwrite, secret)}
+        for name in ("patch_assert_all", "write_outside", "orphan_process", "process_flood", "baseline_values"):
+            codes[name] = at.CHECKS_ATTACKS[name]
+        for name, code in codes.items():
+            cl.write_submission(base / "student", subs / name, code)
+        home = base / "home"
+        home.mkdir()
+        if os.geteuid() == 0:
+            subprocess.run(["chown", "-R", f"{GRADER_USER}:", str(base)] if subprocess.run(
+                ["id", "-u", GRADER_USER], capture_output=True).returncode == 0 else ["true"], check=True)
+        env = {"PATH": f"{os.path.dirname(sys.executable)}:/usr/sbin:/usr/bin:/bin", "HOME": str(home),
+               "LANG": "C.UTF-8", "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+        probe = _as_grader_user([sys.executable, "-c", "import os, json; from labkit.course import memory_mechanism; "
+                                 "print(json.dumps([os.geteuid(), memory_mechanism()]))"], env, base)
+        assert probe.returncode == 0, probe.stderr[-2000:]
+        if os.geteuid() == 0:  # the user now exists: give it its files
+            subprocess.run(["chown", "-R", f"{GRADER_USER}:", str(base)], check=True)
+            probe = _as_grader_user([sys.executable, "-c", "import os, json; from labkit.course import memory_mechanism; "
+                                     "print(json.dumps([os.geteuid(), memory_mechanism()]))"], env, base)
+        uid, mechanism = json.loads(probe.stdout.strip().splitlines()[-1])
+        assert uid != 0
+        memory = "0.5" if mechanism != "watchdog" else "1.5"
+        run = _as_grader_user([sys.executable, "-m", "labkit", "grade", str(subs), "--lab", str(lab), "-o",
+                               str(base / "out" / "gradebook.csv"), "--jobs", "2", "--cpu", "10", "--memory", memory,
+                               "--wall", "25"], env, base)
+        assert run.returncode == 0, (run.stdout[-2000:], run.stderr[-3000:])
+        assert f"memory limited per notebook run by: {mechanism}" in run.stdout, run.stdout
+        pd = require("pandas")
+        table = pd.read_csv(base / "out" / "gradebook.csv", index_col="student")
+        assert set(table.index) == set(codes)
+        for name in ("honest_a", "honest_b"):
+            assert (table.loc[name, "points"], table.loc[name, "status"]) == (4, "ok"), table.loc[name, "detail"]
+        cheats = {n: table.loc[n, "detail"] for n in codes if not n.startswith("honest") and table.loc[n, "points"] != 0}
+        assert not cheats, cheats
+        assert table.loc["process_flood", "status"] == "crash"
+        assert set(table["memory_limit"]) == {mechanism}
+        assert append_to.read_text() == "untouched\n" and overwrite.read_text() == "{}"
+        assert "TOP-SECRET-CANARY" not in (base / "out" / "gradebook.csv").read_text()
+        if os.geteuid() == 0:
+            rows = subprocess.run(["ps", "-o", "stat=,pid=,args=", "-u", GRADER_USER], capture_output=True,
+                                  text=True).stdout.splitlines()
+            alive = [r for r in rows if not r.strip().startswith("Z")]  # a zombie has exited (init reaps it)
+            assert not alive, f"a process of the grading user outlived the batch: {alive}"
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
