@@ -106,15 +106,21 @@ def student_page(result, pages) -> str:
             parts.append(f"<pre>{_e(detail, 1500)}</pre>")
         parts.append("<table><tr><th>check</th><th>kind</th><th>row</th><th>result</th><th>points</th>"
                      "<th>what failed</th></tr>")
+        hidden_count = 0
         for s in scores:
             kind = "hidden" if s.hidden else "public"
             rows = s.rows or ()
-            parts.append(f"<tr><td rowspan=\"{max(1, len(rows)) + 1}\">{_e(s.name)}</td>"
+            shown = s.name
+            if s.hidden:  # an unnamed hidden check is named after its cell id: never show the id
+                hidden_count += 1
+                shown = f"hidden check {hidden_count}" if s.name == s.cell_id else s.name
+            parts.append(f"<tr><td rowspan=\"{max(1, len(rows)) + 1}\">{_e(shown)}</td>"
                          f"<td rowspan=\"{max(1, len(rows)) + 1}\">{kind}</td><td><i>total</i></td>"
                          f"<td>{_result(s.passed, s.free)}</td><td>{s.points:.3g} / {s.max_points:.3g}</td><td></td></tr>")
             for r in rows:
                 why = "" if s.hidden or r.passed else _e(r.error, 400)
-                parts.append(f"<tr><td>{_e(r.name, 200)}</td><td>{_result(r.passed, r.free)}</td>"
+                row_name = r.name.replace(s.cell_id, shown) if s.hidden and s.cell_id else r.name
+                parts.append(f"<tr><td>{_e(row_name, 200)}</td><td>{_result(r.passed, r.free)}</td>"
                              f"<td>{r.points:.3g} / {r.max_points:.3g}</td><td>{why}</td></tr>")
             if not rows:
                 parts.append("<tr><td colspan=\"4\">not graded</td></tr>")

@@ -211,6 +211,7 @@ def test_attacks_score_nothing_and_disturb_no_one(spread_lab, tmp_path, capsys):
         assert "SECRET-HIDDEN-MARKER" not in text and "fk(arm, q)[0, 3]" not in text, page
         assert "<script>alert" not in text and "<img src=x" not in text, page
         assert "labkit-grade-" not in text and "labkit-kernel-" not in text, page
+        assert "hidden-y" not in text, page  # an unnamed hidden check's cell id (issue 37)
     assert "&lt;script&gt;alert(&quot;in detail&quot;)" in (feedback / "students" / "html_injection" / "index.html").read_text()
     assert not any((subs / n / "planted.txt").exists() for n in HONEST)
     assert sorted(p.name for p in (subs / HONEST[0]).iterdir()) == [cl.NOTEBOOK, "private_notes.txt"]
