@@ -1,15 +1,19 @@
 """Executing an untrusted notebook: a Jupyter kernel in an allow-list bubblewrap sandbox with limits.
 
 The notebook client (nbclient) runs in the grading process; the kernel, where the
-student's code runs, is started as ``prlimit --cpu --as --fsize -- bwrap ... -- python -m
-ipykernel_launcher``. The sandbox shows **only what the kernel needs**:
+student's code runs, is started as ``prlimit --cpu --as --fsize -- bwrap ... -- python -s -P -c
+<launcher>`` (:data:`labkit.course._client.KERNEL_MAIN`: nothing of the submission runs before the
+kernel's sockets are bound). The sandbox shows **only what the kernel needs**:
 
 * read-only: ``/usr`` (and the ``/bin``, ``/lib`` links into it), a few files of ``/etc``
   (loader cache, time zone, fonts, alternatives, passwd), the Python installation
   (``sys.prefix``, ``sys.base_prefix``, the site-packages folders) and the labkit package;
 * read-write: its own copy of the submission, at :data:`SANDBOX_HOME` (also ``$HOME`` and
-  the working directory), and a private folder holding the kernel's connection file and
-  its Unix sockets (jupyter_client's ``ipc`` transport: no TCP port at all);
+  the working directory), and the ``sockets/`` folder of the run's own new runtime folder (its
+  Unix sockets: jupyter_client's ``ipc`` transport, no TCP port at all); read-only: its
+  connection file; ``MPLCONFIGDIR`` and ``IPYTHONDIR`` on its own RAM disk. The grader reads
+  nothing there by name (:mod:`labkit.course._safefs`), never reconnects, and keeps the
+  kernel's stderr in an unnamed file;
 * RAM disks ``/tmp`` and ``/dev/shm`` of a bounded size, a private ``/proc`` and ``/dev``;
 * nothing else: not the lab folder, other submissions, the feedback folder, ``/tmp``,
   ``/var``, ``/srv``, ``/opt``, ``/run`` or ``$HOME`` of the host, wherever they are;
