@@ -248,7 +248,7 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     for r in results:
         assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
         assert (tmp_path / "feedback" / "students" / r.student / "index.html").is_file()
-    assert sorted(p.name for p in (tmp_path / "feedback").iterdir() if p.is_dir()) == sorted(codes)
+    assert sorted(p.name for p in (tmp_path / "feedback" / "students").iterdir() if p.is_dir()) == sorted(codes)
 
 
 def test_run_tasks_local_pool_keeps_input_order():
