@@ -33,7 +33,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from labkit.kinematics import fk, ik_all, ik_numeric, jacobian, target_from_pose, target_kind  # noqa: E402
-from labkit.kinematics.ik import REDUCED  # noqa: E402
+from labkit.kinematics import REDUCED_KINDS as REDUCED  # noqa: E402
 from labkit.robot import Link, Robot  # noqa: E402
 from labkit.rotations import matrix_from_rpy, wrap_angle  # noqa: E402
 

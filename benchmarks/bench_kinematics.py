@@ -23,7 +23,13 @@ numba-jitted DH chain (``benchmarks/_numba_chain.py``). Prints
    labkit's and ``ik_LM``'s passes over the same targets take turns);
 4. the peak memory of a 1M-configuration Jacobian against its output;
 5. start-up: ``import labkit, labkit.kinematics`` and ``labkit --help`` (wall
-   time of a fresh interpreter, beside a bare one and ``import numpy``).
+   time of a fresh interpreter, beside a bare one and ``import numpy``);
+6. cold first calls: ``fk``, ``jacobian``, ``ik`` and ``ik_numeric`` on a
+   freshly loaded robot (3-DOF arm, PUMA 560, the PUMA with a5 = 2 mm), in a
+   fresh interpreter (nothing compiled yet) and after other robots of the
+   same structure were used [ms];
+7. ``measure.calibrate`` on seed 000's FK tables (joint offsets and link
+   lengths, leave-one-out) [ms].
 
 Times are process CPU time, best of several repeats (other jobs on a shared
 machine do not inflate them); threads are pinned to one. The issue's targets
@@ -45,7 +51,6 @@ import warnings  # noqa: E402
 import numpy as np  # noqa: E402
 
 from labkit.kinematics import fk, ik, ik_all, ik_numeric, jacobian  # noqa: E402
-from labkit.kinematics.ik import _targets  # noqa: E402
 from labkit.robot import Convention, Robot  # noqa: E402
 
 
@@ -217,23 +222,16 @@ def single_calls(args):
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
-            try:
-                r["ik 1 br. batched"] = (seconds(lambda: ik(robot, tgt, branch="elbow_up"), None),
-                                         seconds(lm, None) if ets else None, None)
-                r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            finally:
-                _targets.SMALL_TARGETS = small
+            # one target is a batch of one: the rows that once forced the batched path time the same call
+            r["ik 1 br. batched"] = (seconds(lambda: ik(robot, tgt[None], branch="elbow_up"), None),
+                                     seconds(lm, None) if ets else None, None)
+            r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt[None]), None), None, None)
         else:
             r["ik one branch"] = (seconds(lambda: ik(robot, tgt), None),
                                   seconds(lm, None) if ets else None, None)
             r["ik_all (8)"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            small, _targets.SMALL_TARGETS = _targets.SMALL_TARGETS, 0  # before: the batched path
-            try:
-                r["ik batched"] = (seconds(lambda: ik(robot, tgt), None), seconds(lm, None) if ets else None, None)
-                r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt), None), None, None)
-            finally:
-                _targets.SMALL_TARGETS = small
+            r["ik batched"] = (seconds(lambda: ik(robot, tgt[None]), None), seconds(lm, None) if ets else None, None)
+            r["ik_all batched"] = (seconds(lambda: ik_all(robot, tgt[None]), None), None, None)
         rows.append((name, r))
     targets = {("3-DOF arm", "fk"): 25, ("3-DOF arm", "jacobian"): 40, ("3-DOF arm", "ik one branch"): 40,
                ("3-DOF arm", "ik_all"): 60, ("PUMA 560", "fk"): 40}
@@ -252,7 +250,7 @@ def single_calls(args):
                   f"{(f'{ev:.1f}' if ev else ''):>10}{(f'{pn:.1f}' if pn else ''):>8}{(f'{lk / pn:.2f}' if pn else ''):>7}")
     print("rtb C: ETS.fkine / jacob0 / ik_LM (C++, tol 1e-10; for the 3-DOF arm masked to the position);"
           " rtb eval: ETS.eval (no SE3 wrapper); pin: pinocchio frame placement / frame Jacobian;"
-          " 'batched': the same call forced through the batched IK path (before the small-target path)")
+          " 'batched': the target as a batch of one (one path for one target and a batch)")
 
 
 def floor_rate(shape_tail, N, args):
@@ -434,9 +432,9 @@ def numeric_ik(args):
 
 def _targets_error(robot, q, target):
     """labkit's task error and residual of configurations ``q`` (N, n) against pose targets (N, 4, 4)."""
-    from labkit.kinematics.ik._lm import error
+    from labkit.kinematics._ik_solvers._lm import task_error
 
-    return error("pose", fk(robot, q), target, range(6))
+    return task_error("pose", fk(robot, q), target, tuple(range(6)))
 
 
 def peak_memory(args):
@@ -474,12 +472,73 @@ def startup(args):
           f"labkit --help {cli:.3f} s (target <= 0.3 s: {verdict(cli <= 0.3)})")
 
 
+#: the cold calls, run in a fresh interpreter: ``first`` (nothing used before) or ``again`` (robots of the same
+#: structures used once, then loaded afresh); prints one line per robot: name and ms per call
+_COLD = """
+import sys, time
+import numpy as np
+from labkit.kinematics import fk, jacobian, ik, ik_numeric
+from labkit.robot import Robot
+
+def robots():
+    puma = Robot.load("puma560")
+    return [("3-DOF arm", Robot.load("arduino_arm_3dof")), ("PUMA 560", puma), ("bent PUMA", puma.with_link(4, a=0.002))]
+
+def once(robot):
+    q, out = np.full(robot.n, 0.3), []
+    for call in (lambda: fk(robot, q), lambda: jacobian(robot, q), lambda: ik(robot, target),
+                 lambda: ik_numeric(robot, target)):
+        t0 = time.process_time()
+        T = call()
+        out.append(time.process_time() - t0)
+        if len(out) == 1:
+            target = T[:3, 3] if robot.n == 3 else T
+    return out
+
+if sys.argv[1] == "again":
+    for _, robot in robots():
+        once(robot)
+for name, robot in robots():
+    print(name, *once(robot))
+"""
+
+
+def cold(args):
+    import subprocess
+    import sys
+
+    print("\n6. cold first calls on a freshly loaded robot [ms, CPU time; target <= 5 ms each]")
+    calls = ("fk", "jacobian", "ik", "ik_numeric")
+    print(f"{'':<28}" + "".join(f"{c:>12}" for c in calls))
+    repeat = 1 if args.smoke else 3
+    for mode, words in (("first", "fresh interpreter"), ("again", "same structure used before")):
+        best = {}
+        for _ in range(repeat):
+            out = subprocess.run([sys.executable, "-c", _COLD, mode], check=True, capture_output=True, text=True).stdout
+            for line in out.splitlines():
+                name, *vals = line.rsplit(" ", 4)
+                best[name] = [min(a, float(b)) for a, b in zip(best.get(name, [np.inf] * 4), vals)]
+        for name, vals in best.items():
+            print(f"{name + ', ' + words:<28}" + "".join(f"{v * 1e3:>8.2f} {verdict(v <= 5e-3):<3}" for v in vals))
+
+
+def calibration(args):
+    from labkit.data import measurement_file
+    from labkit.measure import calibrate
+
+    arm = Robot.load("arduino_arm_3dof")
+    path = measurement_file("seed000_fk_tables1-3.csv")
+    t = seconds(lambda: calibrate(path, arm, params=("joint_offsets", "link_lengths")), 1, 1 if args.smoke else 3)
+    print(f"\n7. calibrate, seed 000's FK tables (joint offsets and link lengths, leave-one-out): {t * 1e3:.0f} ms")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller batches and repeats")
     ap.add_argument("--smoke", action="store_true",
                     help="tiny batches, one repeat: checks that every row prints (the test suite runs this)")
-    ap.add_argument("--only", choices=("single", "batched", "ik", "memory", "startup"), help="run one section")
+    ap.add_argument("--only", choices=("single", "batched", "ik", "memory", "startup", "cold", "calibrate"),
+                    help="run one section")
     args = ap.parse_args(argv)
     args.quick = args.quick or args.smoke
     if args.smoke:
@@ -489,7 +548,7 @@ def main(argv=None):
     print(f"labkit kinematics benchmark (labkit from {os.path.dirname(labkit.__file__)}); numpy {np.__version__}; "
           "one core, process CPU time, best of repeats")
     sections = {"single": single_calls, "batched": batched, "ik": numeric_ik, "memory": peak_memory,
-                "startup": startup}
+                "startup": startup, "cold": cold, "calibrate": calibration}
     for name, func in sections.items():
         if args.only in (None, name):
             func(args)

@@ -114,7 +114,6 @@ def _cmd_ik(args):
     import numpy as np
 
     from labkit import kinematics
-    from labkit.kinematics.ik import COMPONENTS
     from labkit.robot import Robot
 
     robot = Robot.load(args.robot)
@@ -122,7 +121,7 @@ def _cmd_ik(args):
     lunit = "mm" if args.mm else "m"
     target = np.array(args.target, dtype=float)
     kind = kinematics.target_kind(robot)
-    names = ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
+    names = kinematics.target_components(kind)
     if target.size != len(names):
         missing = f": {' '.join(names[target.size:])} missing" if target.size < len(names) else ""
         raise LabkitError(f"{robot.name}: this arm takes {' '.join(names)} ({kind} targets), got {target.size} "

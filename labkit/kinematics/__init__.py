@@ -17,7 +17,7 @@ from labkit.kinematics._ik import (
     ik_numeric,
     pose_from_position_pitch,
 )
-from labkit.kinematics.ik import task_rows
+from labkit.kinematics._ik_solvers import REDUCED as REDUCED_KINDS, target_components, task_rows
 from labkit.kinematics._statics import (
     joint_torques,
     wrench_transform_matrix,
@@ -36,6 +36,8 @@ __all__ = [
     *_forward.__all__,
     *_ik.__all__,
     "task_rows",
+    "target_components",
+    "REDUCED_KINDS",
     *_statics.__all__,
     *_display.__all__,
     *_workspace.__all__,

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from labkit.exceptions import ShapeError
+from labkit.kinematics._program import chain_structure
 from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
@@ -58,15 +59,55 @@ def per_robot(func):
     return cached
 
 
+def by_content(func, size=64):
+    """Cache ``func(robot)`` by what the robot is (its links, convention, base, tool and up direction).
+
+    A freshly loaded robot or a copy with the same content finds the value of
+    an earlier one; the most recent ``size`` contents are kept. Each robot
+    object also remembers its own value (:func:`per_robot`).
+
+    Parameters
+    ----------
+    func : callable
+        ``func(robot)``, a pure function of that content.
+    size : int
+        Contents kept.
+
+    Returns
+    -------
+    callable
+        The cached ``func``.
+    """
+    cache = {}
+
+    @per_robot
+    @functools.wraps(func)
+    def cached(robot):
+        key = (robot.convention, robot.links, robot.base.tobytes(), robot.tool.tobytes(),
+               np.asarray(robot.up, dtype=float).tobytes())
+        try:
+            return cache[key]
+        except KeyError:
+            if len(cache) >= size:
+                cache.pop(next(iter(cache)))
+            value = cache[key] = func(robot)
+            return value
+
+    return cached
+
+
 def _clean(v):
     """cos/sin of DH constants with exact zeros and ones (cos(pi/2) -> 0)."""
     return 0.0 if abs(v) < 1e-15 else (1.0 if abs(v - 1) < 1e-15 else (-1.0 if abs(v + 1) < 1e-15 else v))
 
 
+_EYE = np.eye(4)
+
+
 def _frame_or_none(T):
     """``None`` for the identity transform, else the matrix as a float array."""
     T = np.asarray(T, dtype=float)
-    return None if np.array_equal(T, np.eye(4)) else T
+    return None if (T == _EYE).all() else T
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,9 +136,13 @@ class Chain:
     base, tool : ndarray, shape (4, 4) or None
         World-from-base and frame-n-from-tool transforms [m]; ``None`` when
         the identity (skipped).
+    structure : tuple
+        The chain's structure and numbers for the tool point
+        (:func:`labkit.kinematics._program.chain_structure`).
     programs : dict
-        The compiled programs of the tool point, by output and options
-        (filled by :mod:`labkit.kinematics._forward` on first use).
+        The programs of the tool point bound to the chain's numbers, by
+        output and options (filled by :mod:`labkit.kinematics._forward` on
+        first use).
     """
 
     modified: bool
@@ -109,6 +154,7 @@ class Chain:
     half_theta: np.ndarray
     base: np.ndarray
     tool: np.ndarray
+    structure: tuple = field(repr=False)
     programs: dict = field(default_factory=dict, repr=False)
 
 
@@ -135,18 +181,19 @@ def chain(robot):
         ))
     rev = np.array([k for k, s in enumerate(steps) if s[0]], dtype=np.intp)
     half = np.array([[0.5 * steps[k][5]] for k in rev]).reshape(-1, 1)
-    result = Chain(
+    base, tool = _frame_or_none(robot.base), _frame_or_none(robot.tool)
+    return Chain(
         modified=robot.convention is Convention.MODIFIED,
         n=len(steps),
         steps=tuple(steps),
         revolute=rev,
         all_revolute=rev.size == len(steps),
         flipped=np.array([k for k, lk in enumerate(robot.links) if lk.flip], dtype=np.intp),
-        half_theta=half if np.any(half) else None,
-        base=_frame_or_none(robot.base),
-        tool=_frame_or_none(robot.tool),
+        half_theta=half if half.any() else None,
+        base=base,
+        tool=tool,
+        structure=chain_structure(tuple(steps), base, tool, None if tool is None else tool[:3, 3]),
     )
-    return result
 
 
 def prepare(robot, q):

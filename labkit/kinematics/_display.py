@@ -24,7 +24,7 @@ import numpy as np
 from labkit.exceptions import LabkitError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik import target_kind
-from labkit.kinematics.ik import COMPONENTS, REDUCED, detect
+from labkit.kinematics._ik_solvers import COMPONENTS, REDUCED, detect, target_components
 
 __all__ = ["target_from_display", "target_to_display", "target_error", "target_from_pose"]
 
@@ -85,7 +85,7 @@ def target_from_display(robot, row):
 
     kind = target_kind(robot)
     row = np.asarray(row, dtype=float)
-    names = ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
+    names = target_components(kind)
     if row.shape != (len(names),):
         raise LabkitError(f"{robot.name} takes {' '.join(names)} ({len(names)} numbers), got shape {row.shape}")
     if kind == "position":

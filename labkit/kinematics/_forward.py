@@ -268,7 +268,7 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     return T, J
 
 
-def fk_jacobian_kernel(robot, floats=False, tan=None):
+def fk_jacobian_kernel(robot):
     """``f(q)``: :func:`fk_jacobian` of validated configurations, without the checks.
 
     For a solver that calls it many times on values it made itself (numeric
@@ -278,29 +278,18 @@ def fk_jacobian_kernel(robot, floats=False, tan=None):
     ----------
     robot : Robot
         The arm.
-    floats : bool
-        One configuration on Python floats (the program's generated Python
-        code) instead of a batch of arrays.
-    tan : callable, optional
-        With ``floats``, the tangent the generated code calls (:meth:`Program.scalar
-        <labkit.kinematics._program.Program.scalar>`), default ``math.tan``.
 
     Returns
     -------
     callable
         ``f(q)`` for a finite float64 array ``q`` of shape (N, n) [rad, m]:
         poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n).
-        With ``floats``, ``f(q)`` for a sequence of ``n`` finite floats: a
-        list of ``6 n + 16`` floats, the Jacobian row by row (``J[r][i]`` at
-        ``r * n + i``), then the pose row by row.
     """
     c = chain(robot)
-    prog = _default_program(c, _program.JACOBIAN, False, True)
-    n = c.n
-    if floats:
-        return _on_floats(c, prog, tan)
     if c.flipped.size:  # the joint values need negating: the checked path does it
         return lambda q: _jacobian_call(robot, q, None, "base", True, None, None)
+    prog = _default_program(c, _program.JACOBIAN, False, True)
+    n = c.n
 
     def f(q):
         N = q.shape[0]
@@ -314,22 +303,13 @@ def fk_jacobian_kernel(robot, floats=False, tan=None):
     return f
 
 
-def _on_floats(c, prog, tan=None):
-    """The program's generated Python code as a function of the joint values (flipped joints negated first)."""
-    f = prog.scalar(tan)
-    if not c.flipped.size:
-        return f
-    flipped = set(c.flipped.tolist())
-    signs = [-1.0 if i in flipped else 1.0 for i in range(c.n)]  # effective joint values
-    return lambda q: f([s * v for s, v in zip(signs, q)])
-
-
 def _default_program(c, output, tool_frame=False, want_T=False):
     """The program of ``output`` for the tool point (no ``point`` argument), kept on the chain."""
     key = (output, tool_frame, want_T)
     prog = c.programs.get(key)
     if prog is None:
-        prog = c.programs[key] = _program.program(c, output, _tool_offset(c, None), tool_frame, want_T)
+        prog = c.programs[key] = _program.program(c, output, _tool_offset(c, None), tool_frame, want_T,
+                                                  structure=c.structure)
     return prog
 
 

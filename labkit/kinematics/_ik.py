@@ -11,14 +11,12 @@ Targets, by :func:`target_kind`:
 * ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
   5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D); both also take
   ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch and
-  roll are defined in :mod:`labkit.kinematics.ik._yaw_pitch_pitch_pitch` and
-  ``_yaw_pitch_pitch_pitch_roll``, and in ``docs/ik.md``);
+  roll are defined in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
-``docs/ik.md``): the first of :data:`labkit.kinematics.ik.FAMILIES` that fits
-(``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
+``docs/ik.md``): the first family of the registry that fits (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
 ``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
@@ -37,11 +35,10 @@ import numpy as np
 from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics._forward import fk
-from labkit.kinematics.ik import (
-    FAMILIES, REDUCED, LazyGenerator, batch_index, build, describe_target, detect, pick_floats, small_targets,
-    solve_closed_form, solve_floats, solve_numeric, target_words, task_rows, validate_targets,
+from labkit.kinematics._ik_solvers import (
+    FAMILIES, REDUCED, LazyGenerator, batch_index, build, describe_target, detect, nearest, solve_closed_form,
+    solve_numeric, target_words, task_rows, validate_targets,
 )
-from labkit.rotations import wrap_angle
 
 __all__ = [
     "Solver",
@@ -325,16 +322,7 @@ def ik_all(robot, target, *, solver="auto"):
     """
     kind = target_kind(robot)
     family = _family(robot, solver)
-    m, n = (0 if family is None else len(family.branches)), robot.n
-    if family is not None and family.scalar:  # a few targets: on Python floats
-        small, lead = small_targets(target, kind)
-        if small is not None:
-            q, reach, valid, distance = solve_floats(robot, family, small)
-            return IKSolutions(
-                np.array(q).reshape(lead + (m, n)), np.array(reach, dtype=bool).reshape(lead + (m,)),
-                np.array(valid, dtype=bool).reshape(lead + (m,)), family.branches,
-                np.array(distance, dtype=float).reshape(lead), family.name,
-            )
+    n = robot.n
     flat, lead = validate_targets(target, kind)
     q, reach, valid, distance, branches = _solutions(robot, family, kind, flat)
     m = len(branches)
@@ -350,12 +338,6 @@ def _branch_index(impl_branches, aliases, branch):
         extra = f" (aliases: {', '.join(sorted(aliases))})" if aliases else ""
         raise OptionError(f"unknown branch {branch!r}; expected one of {', '.join(impl_branches)}{extra}")
     return impl_branches.index(name)
-
-
-def _angle_distance(q, q_near, rev):
-    d = q - q_near
-    d = np.where(rev, wrap_angle(d), d)
-    return (d * d).sum(axis=-1)
 
 
 def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
@@ -408,12 +390,6 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
         idx = None
     else:
         idx = None if branch is None else _branch_index(family.branches, family.aliases, branch)
-        small, lead = small_targets(target, kind) if family.scalar else (None, ())
-        qn = None if q_near is None else as_batch(q_near, (n,), "q_near")
-        if small is not None and (qn is None or qn.ndim == 1):  # a few targets: on Python floats
-            out = pick_floats(robot, family, small, idx, None if qn is None else qn.tolist())
-            if out is not None:  # else the path below says why not
-                return np.array(out).reshape(lead + (n,))
     flat, lead = validate_targets(target, kind)
     qn = None if q_near is None else np.broadcast_to(as_batch(q_near, (n,), "q_near"), lead + (n,)).reshape(-1, n)
     q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)
@@ -464,14 +440,7 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             f"joint limits: " + "; ".join(reasons),
             joint=joint, index=batch_index(i, lead),
         )
-    rows = np.arange(q.shape[0])
-    if idx is not None:
-        out = q[:, idx]
-    elif qn is not None and len(branches) > 1:
-        dd = np.where(valid, _angle_distance(q, qn[:, None, :], robot.is_revolute), np.inf)
-        out = q[rows, np.argmin(dd, axis=1)]
-    else:
-        out = q[rows, np.argmax(valid, axis=1)]
+    out = q[:, idx] if idx is not None else q[np.arange(q.shape[0]), nearest(robot, q, valid, qn)]
     return out.reshape(lead + (n,))
 
 

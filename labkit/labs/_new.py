@@ -31,8 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import LabkitError
-from labkit.kinematics import fk, ik_all, jacobian, target_error, target_from_pose, target_kind, target_to_display
-from labkit.kinematics.ik import REDUCED
+from labkit.kinematics import (
+    REDUCED_KINDS as REDUCED, fk, ik_all, jacobian, target_error, target_from_pose, target_kind, target_to_display,
+)
 from labkit.robot import Robot, ServoCalibration, joints_from_display, joints_to_display, robot_reach, servo_window
 
 __all__ = ["TEMPLATE_DIR", "LabDefaults", "NewLab", "lab_defaults", "with_servos", "template_values", "new_lab"]

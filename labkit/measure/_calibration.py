@@ -163,21 +163,21 @@ def apply_parameters(robot, names, values):
     -------
     Robot
     """
-    links = list(robot.links)
+    links, changes = list(robot.links), {}  # (changes: per link the fields to set, one copy of each link)
     tool = np.array(robot.tool)
     base = np.array(robot.base)
     for name, v in zip(names, values):
         m = _NAME.match(name)
         if m.group(1) == "offset":
             j = int(m.group(2)) - 1
-            field = "theta" if links[j].is_revolute else "d"
-            links[j] = dataclasses.replace(links[j], **{field: float(v)})
+            changes.setdefault(j, {})["theta" if links[j].is_revolute else "d"] = float(v)
         elif m.group(1) in ("a", "d"):
-            i = int(m.group(2)) - 1
-            links[i] = dataclasses.replace(links[i], **{m.group(1): float(v)})
+            changes.setdefault(int(m.group(2)) - 1, {})[m.group(1)] = float(v)
         elif m.group(3):
             T = tool if m.group(3) == "tool" else base
             T["xyz".index(m.group(4)), 3] = float(v)
+    for i, fields in changes.items():
+        links[i] = dataclasses.replace(links[i], **fields)
     return robot.replace(links=tuple(links), tool=tool, base=base)
 
 

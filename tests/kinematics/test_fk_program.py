@@ -174,12 +174,67 @@ def test_puma_program_folds_the_constant_work():
     assert prog.scalar() is prog.scalar()
 
 
-def test_program_cache_is_keyed_by_options_and_bounded():
+def test_program_cache_is_keyed_by_structure_and_options_and_bounded():
     c = chain(Robot.load("arduino_arm_3dof"))
     a = _program.program(c, _program.JACOBIAN)
-    assert _program.program(c, _program.JACOBIAN) is a
-    assert _program.program(c, _program.JACOBIAN, None, True, False) is not a
+    assert _program.program(c, _program.JACOBIAN).program is a.program
+    assert _program.program(chain(Robot.load("arduino_arm_3dof")), _program.JACOBIAN).program is a.program
+    assert _program.program(c, _program.JACOBIAN, None, True, False).program is not a.program
     assert _program.program(c, _program.JACOBIAN, np.array([0.0, 0.0, 0.1]), False, True).n_rows == 18 + 16
-    for k in range(3 * _program._MAX_PER_CHAIN):
-        _program.program(c, _program.POSITION, np.array([0.0, 0.0, 0.01 * k]))
-    assert len(_program._PROGRAMS[c]) <= _program._MAX_PER_CHAIN
+    for k in range(3 * _program._MAX_PROGRAMS):  # structures: where the zeros are
+        _program.program(c, _program.POSITION, np.array([0.0, 0.0, 0.01]) * [k % 2, k % 3, 1 + k])
+    assert len(_program._PROGRAMS) <= _program._MAX_PROGRAMS
+
+
+def _counting_builds(monkeypatch):
+    """A list that grows by the output of every program compiled from now on."""
+    builds, build = [], _program._build
+    monkeypatch.setattr(_program, "_build", lambda c, *args: builds.append(args[2]) or build(c, *args))
+    monkeypatch.setattr(_program, "_PROGRAMS", {})  # (a cache filled by other tests could be cleared mid-test)
+    return builds
+
+
+def test_fresh_robots_and_copies_with_other_numbers_compile_nothing(monkeypatch):
+    """Programs depend on a robot's structure, its numbers are inputs: a freshly loaded robot or a copy with
+    other lengths reuses them, and still computes its own kinematics."""
+    from labkit.kinematics import ik, ik_numeric
+
+    builds = _counting_builds(monkeypatch)
+    rng = np.random.default_rng(4)
+    for name in ("arduino_arm_3dof", "puma560"):
+        first = Robot.load(name)
+        bent = first.with_link(first.n - 2, a=0.002)  # (a new structure: a zero length becomes a number)
+        for robot in (first, bent):
+            q = rng.uniform(*robot.joint_limits.T, size=(3, robot.n))
+            fk(robot, q[0]), fk(robot, q), jacobian(robot, q[0]), fk_jacobian(robot, q), fk_position(robot, q[0])
+            fk_frames(robot, q)  # (as IK's family detection does, unless it knows the robot's content)
+            T = fk(robot, q[0])
+            target = T[:3, 3] if robot.n == 3 else T
+            ik(robot, target), ik_numeric(robot, target)
+        compiled = len(builds)
+        assert compiled > 0
+        longer = first
+        for i, link in enumerate(first.links):  # every length 1 % longer (the zeros stay zeros)
+            longer = longer.with_link(i, a=1.01 * link.a, d=1.01 * link.d)
+        for robot in (Robot.load(name), longer, bent.with_link(first.n - 2, a=-0.003)):
+            q = rng.uniform(*robot.joint_limits.T, size=(20, robot.n))
+            for k in (0, 7):
+                assert np.abs(fk(robot, q[k]) - _reference_frames(robot, q[k])[-1]).max() < 1e-12
+            jacobian(robot, q[0]), fk_jacobian(robot, q), fk_position(robot, q[0])
+            T = fk(robot, q[0])
+            target = T[:3, 3] if robot.n == 3 else T
+            ik(robot, target), ik_numeric(robot, target)
+        assert len(builds) == compiled, builds[compiled:]
+
+
+def test_calibration_compiles_a_few_programs_not_one_per_residual(monkeypatch):
+    from labkit.data import measurement_file
+    from labkit.measure import calibrate
+
+    arm = Robot.load("arduino_arm_3dof")
+    builds = _counting_builds(monkeypatch)
+    calibrate(measurement_file("seed000_fk_tables1-3.csv"), arm, params=("joint_offsets", "link_lengths"))
+    first = len(builds)
+    assert first <= 8  # a few structures (offsets 0 or not; frames, positions), not one per residual (hundreds)
+    calibrate(measurement_file("seed000_fk_tables1-3.csv"), Robot.load("arduino_arm_3dof"), params=("joint_offsets",))
+    assert len(builds) == first

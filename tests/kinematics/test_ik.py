@@ -702,3 +702,22 @@ def test_flipped_joints_keep_closed_form_ik_exact_and_branches_geometric(name):
     # the configuration we started from (in the flipped robot's terms) is among the branches
     found = _wrapped(mirrored.q - (q * sign)[:, None]).max(axis=-1).min(axis=-1)
     assert np.quantile(found, 0.99) < 1e-6
+
+
+def test_ik_is_the_function_and_no_package_hides_behind_it():
+    """``labkit.kinematics.ik`` is the public function; no subpackage of that name is shadowed by it (or
+    cited through it), and no module of ``labkit.kinematics`` shares a name with a public attribute."""
+    import importlib
+    import pkgutil
+    from pathlib import Path
+
+    import labkit.kinematics as kin
+
+    assert callable(kin.ik) and kin.ik.__module__ == "labkit.kinematics._ik"
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module("labkit.kinematics.ik")
+    modules = {info.name for info in pkgutil.iter_modules(kin.__path__)}
+    assert not modules & set(kin.__all__), modules & set(kin.__all__)
+    root = Path(kin.__file__).resolve().parents[1]
+    cited = [str(p) for p in root.rglob("*.py") if "labkit.kinematics.ik." in p.read_text(encoding="utf-8")]
+    assert not cited, cited

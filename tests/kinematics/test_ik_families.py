@@ -1,4 +1,4 @@
-"""Every closed-form IK family of the registry, on both evaluators (numpy rows and Python floats).
+"""Every closed-form IK family of the registry, on big batches and on a few targets per call.
 
 For each family: FK of every returned branch hits the target, the configuration the target was
 made from is among the branches, and the branch set is complete: numeric IK started from many
@@ -12,8 +12,7 @@ from labkit.exceptions import OptionError, ShapeError, UnreachableError
 from labkit.kinematics import (
     fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_from_pose, target_kind,
 )
-from labkit.kinematics.ik import FAMILIES, REDUCED
-from labkit.kinematics.ik._targets import SMALL_TARGETS
+from labkit.kinematics._ik_solvers import FAMILIES, REDUCED
 from labkit.robot import Link, Robot
 from labkit.rotations import matrix_from_rpy, wrap_angle
 
@@ -50,9 +49,10 @@ ROBOTS = {
 }
 
 
-#: (calls, targets per call) that take each evaluator: a few targets run on floats (families with
-#: ``scalar = True``; the others solve them as a numpy batch), a big batch on numpy rows
-EVALUATORS = {"floats": (60, SMALL_TARGETS), "numpy": (1, 3000)}
+#: targets per call of a "few" (one target is a batch of one, a few a small batch)
+FEW = 8
+#: (calls, targets per call): many calls of a few targets, one call of a big batch
+EVALUATORS = {"few": (60, FEW), "batch": (1, 3000)}
 
 
 def _target(robot, q):
@@ -258,7 +258,7 @@ def test_5dof_targets_say_roll_is_missing_and_numeric_ik_says_why_not():
 COURSE_ARMS = ("openmanipulator_x", "so101", "al5d")
 
 
-@pytest.mark.parametrize("evaluator", ["numpy", "floats"])
+@pytest.mark.parametrize("evaluator", ["batch", "few"])
 @pytest.mark.parametrize("name", COURSE_ARMS)
 def test_course_arm_solves_10000_random_targets_on_every_branch(name, evaluator):
     """Random joints in the limits -> FK -> target -> IK: the start is always a valid branch, every
@@ -267,11 +267,11 @@ def test_course_arm_solves_10000_random_targets_on_every_branch(name, evaluator)
     rng = np.random.default_rng(25)
     q = _in_limits(robot, rng, 10_000)
     target = _target(robot, q)
-    if evaluator == "numpy":
+    if evaluator == "batch":
         sols = ik_all(robot, target)
         sq, reach, valid = sols.q, sols.reachable, sols.valid
-    else:  # a few targets per call: the formulas on Python floats
-        parts = [ik_all(robot, target[k:k + SMALL_TARGETS]) for k in range(0, len(target), SMALL_TARGETS)]
+    else:  # a few targets per call
+        parts = [ik_all(robot, target[k:k + FEW]) for k in range(0, len(target), FEW)]
         sq, reach, valid = (np.concatenate([getattr(p, f) for p in parts]) for f in ("q", "reachable", "valid"))
     err = np.abs(_difference(robot, _target(robot, sq), target[:, None])).max(axis=-1)
     assert err[reach].max() < 1e-9
@@ -284,7 +284,7 @@ def test_course_arm_solves_10000_random_targets_on_every_branch(name, evaluator)
 def test_course_arm_pitch_is_the_elevation_and_roll_turns_about_the_approach():
     """pitch = elevation of the approach above the world horizontal (up = +z for all three files);
     a change of roll turns the tool about the approach and leaves point and approach in place."""
-    from labkit.kinematics.ik import detect
+    from labkit.kinematics._ik_solvers import detect
 
     rng = np.random.default_rng(7)
     for name in COURSE_ARMS:

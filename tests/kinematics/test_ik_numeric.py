@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from labkit.kinematics import fk, ik_all, ik_numeric
-from labkit.kinematics.ik import _numeric as _ik_numeric
-from labkit.kinematics.ik import _starts
+from labkit.kinematics._ik_solvers import _lm, _starts
 from labkit.robot import Robot
 
 
@@ -74,7 +73,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
     rng = np.random.default_rng(31)
     lim = robot.joint_limits
     T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
-    starts = _starts.analytic_seeds(robot, "pose", T, rng).all
+    starts = _starts.analytic_seeds(robot, "pose", T).all
     assert starts.shape == (300, 8, 6)
     assert (~np.isnan(starts[:, 0, 0])).mean() > 0.9  # nearly every target has a start
     off = np.abs(fk(robot, np.nan_to_num(starts[:, 0]))[:, :3, 3] - T[:, :3, 3]).max(axis=1)
@@ -82,7 +81,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
     seeded = ik_numeric(robot, T)
     assert seeded.success.all() and seeded.residual.max() < 1e-10
     assert robot.within_limits(seeded.q).all() and np.abs(fk(robot, seeded.q) - T).max() < 1e-9
-    plain = ik_numeric(robot, T, q0=_ik_numeric._random_q(np.random.default_rng(2), _ik_numeric._limits(robot), 300))
+    plain = ik_numeric(robot, T, q0=np.random.default_rng(2).uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
     assert plain.success.all()
     assert np.median(seeded.iterations) <= 6 < np.median(plain.iterations)
     assert seeded.iterations.mean() < 0.5 * plain.iterations.mean()
@@ -91,7 +90,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
 def test_no_idealised_copy_for_an_arm_far_from_every_family():
     far = Robot.load("puma560").with_link(4, a=0.1)  # 10 % of the arm's length: not a calibration error
     assert _starts.near_family(far) == (None, None)
-    assert _starts.analytic_seeds(far, "pose", fk(far, np.zeros((2, 6))), np.random.default_rng(0)) is None
+    assert _starts.analytic_seeds(far, "pose", fk(far, np.zeros((2, 6)))) is None
     rng = np.random.default_rng(9)
     lim = far.joint_limits
     T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
@@ -110,42 +109,45 @@ def _flipped(robot, joints):
 
 @pytest.mark.parametrize("kind, rows", [("pose", (0, 1, 2, 3, 4, 5)), ("pose", (0, 1, 2, 5)), ("position", (0, 1, 2)),
                                         ("position", (0, 2))])
-@pytest.mark.parametrize("flips", [(), (0, 3)])
-def test_both_evaluators_compute_the_same_iteration(bent, kind, rows, flips):
-    """The LM arithmetic on floats (one target) and on numpy rows (a batch): the same numbers, step by step."""
-    from labkit.kinematics.ik._lm import Batch, Floats
-
-    robot = _flipped(bent, flips)
+def test_the_step_solves_the_damped_normal_equations(bent, kind, rows):
     rng = np.random.default_rng(5)
-    lim = robot.joint_limits
+    lim = bent.joint_limits
     q = rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6))
-    T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
+    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(3, 6)))
     target = T if kind == "pose" else T[:, :3, 3]
+    from labkit.kinematics import fk_jacobian
+
+    pose, J = fk_jacobian(bent, q)
+    J = J[:, list(rows)]
+    e, res = _lm.task_error(kind, pose, target, rows)
     lam = np.array([1e-2, 1e-6, 1.0])
-    batch, floats = Batch(robot, kind, rows), Floats(robot, kind, rows)
-    b = (q, target, *batch.evaluate(q, target))
-    qs, ts, ls = floats.enter(q, target, lam)
-    f = floats.arrays(qs, ts, *floats.evaluate(qs, ts), ls, [0.0] * 3)
-    for x, y in zip(b, f[:6]):  # q, target, J, e, res, E
-        assert np.asarray(x).shape == y.shape and np.abs(np.asarray(x) - y).max() < 1e-12
-    lo, hi = lim[:, 0], lim[:, 1]
-    qn_b = batch.moved(q, b[2], b[3], lam, lo, hi)
-    qn_f = floats.moved(qs, floats.evaluate(qs, ts)[0], floats.evaluate(qs, ts)[1], ls, lo.tolist(), hi.tolist())
-    assert np.abs(qn_b - np.array(qn_f)).max() < 1e-10
-    assert (qn_b >= lo).all() and (qn_b <= hi).all() and not np.allclose(qn_b, q)
-    # the step solves the damped normal equations
-    Jb, eb = b[2], b[3]
+    dq = _lm.damped_step(J, e, lam)
     for k in range(3):
         if len(rows) < 6:
-            dq = Jb[k].T @ np.linalg.solve(Jb[k] @ Jb[k].T + lam[k] * np.eye(len(rows)), eb[k])
+            want = J[k].T @ np.linalg.solve(J[k] @ J[k].T + lam[k] * np.eye(len(rows)), e[k])
         else:
-            dq = np.linalg.solve(Jb[k].T @ Jb[k] + lam[k] * np.eye(6), Jb[k].T @ eb[k])
-        assert np.abs(np.clip(q[k] + dq, lo, hi) - qn_b[k]).max() < 1e-9
+            want = np.linalg.solve(J[k].T @ J[k] + lam[k] * np.eye(6), J[k].T @ e[k])
+        assert np.abs(dq[k] - want).max() < 1e-9
+    assert np.allclose(_lm.damping(lam, np.array([True, False, True])), [1e-3, 1e-5, 0.1], rtol=1e-15)
+
+
+def test_task_error_is_the_position_error_and_the_rotation_vector(bent):
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(6)
+    lim = bent.joint_limits
+    T, target = (fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(50, 6))) for _ in range(2))
+    e, res = _lm.task_error("pose", T, target, (0, 1, 2, 3, 4, 5))
+    rotvec = Rotation.from_matrix(target[:, :3, :3] @ T[:, :3, :3].swapaxes(1, 2)).as_rotvec()
+    assert np.abs(e[:, :3] - (target[:, :3, 3] - T[:, :3, 3])).max() < 1e-15
+    assert np.abs(e[:, 3:] - rotvec).max() < 1e-9
+    angle = np.linalg.norm(rotvec, axis=1)
+    assert np.allclose(res, np.sqrt((e[:, :3] ** 2).sum(axis=1) + (2 * np.sin(angle / 2)) ** 2), rtol=1e-12)
 
 
 @pytest.mark.parametrize("flips", [(), (1, 4)])
 def test_one_target_at_a_time_solves_as_the_batch_does(bent, flips):
-    """ik_numeric on single targets (the float evaluator) and on the batch (numpy rows) reach every target."""
+    """ik_numeric on single targets (batches of one) and on the batch reach every target."""
     robot = _flipped(bent, flips)
     rng = np.random.default_rng(11)
     lim = robot.joint_limits
@@ -160,26 +162,9 @@ def test_one_target_at_a_time_solves_as_the_batch_does(bent, flips):
     assert np.mean(np.array([r.iterations for r in single]) == batch.iterations) > 0.8
 
 
-def test_a_batch_down_to_a_few_targets_finishes_on_floats(bent, monkeypatch):
-    """The stragglers of a batch iterate on the float evaluator, and still reach their targets."""
-    from labkit.kinematics.ik._lm import Floats
-
-    calls = []
-    evaluate = Floats.evaluate
-    monkeypatch.setattr(Floats, "evaluate", lambda self, q, t: calls.append(len(q)) or evaluate(self, q, t))
-    rng = np.random.default_rng(3)
-    lim = bent.joint_limits
-    T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(200, 6)))
-    res = ik_numeric(bent, T)
-    assert res.success.all() and np.abs(fk(bent, res.q) - T).max() < 1e-9
-    assert calls and max(calls) <= _ik_numeric.FLOAT_TARGETS  # the tail only, never the whole batch
-
-
 @pytest.mark.parametrize("make", [lambda: Robot.load("puma560").with_link(4, a=0.002), lambda: Robot.load("puma560"),
                                   lambda: Robot.load("arduino_arm_3dof").with_link(1, d=0.004)])
-def test_starts_of_one_target_on_floats_are_those_of_the_batch(make):
-    # one target solves only the branches its first start needs (lazily, the rest when a restart asks):
-    # the same starts, in the same order, as a batch ranks them on numpy rows
+def test_starts_of_one_target_are_those_of_the_batch(make):
     robot = make()
     kind = "pose" if robot.n == 6 else "position"
     rng = np.random.default_rng(17)
@@ -187,31 +172,11 @@ def test_starts_of_one_target_on_floats_are_those_of_the_batch(make):
     T = fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(120, robot.n)))
     T[100:, :3, 3] *= 2.5  # out of reach: every branch solved and ranked
     target = T if kind == "pose" else T[:, :3, 3]
-    batch = _starts.analytic_seeds(robot, kind, target, rng)
-    ones = [_starts.analytic_seeds(robot, kind, target[k:k + 1], rng) for k in range(len(target))]
-    first = np.concatenate([s.first for s in ones])
-    assert np.array_equal(first, batch.first, equal_nan=True)
+    batch = _starts.analytic_seeds(robot, kind, target)
+    ones = [_starts.analytic_seeds(robot, kind, target[k:k + 1]) for k in range(len(target))]
+    first = np.concatenate([s.all[:, 0] for s in ones])
     assert np.array_equal(np.concatenate([s.all for s in ones]), batch.all, equal_nan=True)
-    assert np.array_equal(batch.all[:, 0], batch.first, equal_nan=True)
     if _starts.detect(robot)[0] is not None:  # its own closed form: out of reach, no start
         assert np.isnan(first[100:]).any() and np.isfinite(first[:100]).all()
     else:  # an idealised copy's: every branch is a start
         assert np.isfinite(first).all()
-
-
-def test_one_targets_step_falls_back_to_lu_where_cholesky_meets_a_negative_pivot():
-    """The float path's step solves the normal equations by Cholesky; where rounding (here a negative damping)
-    leaves them not positive definite, it solves them by LU, as the batch path does."""
-    from labkit.kinematics.ik._lm import Floats, arithmetic
-    from labkit.kinematics.ik._step import MATRICES, step
-
-    robot = Robot.load("arduino_arm_3dof")
-    ops = arithmetic(robot)[Floats, "position", (0, 1, 2)]
-    J = np.diag([1.0, 1e-3, 0.5])
-    e = np.array([0.01, -0.02, 0.03])
-    lam = -2e-6  # J^T J + lam I: one eigenvalue 1e-6 - 2e-6 < 0
-    q = [0.1, 0.2, 0.3]
-    got = ops.moved([q], [J.ravel().tolist()], [e.tolist()], [lam], [-100.0] * 3, [100.0] * 3)[0]
-    want = np.array(q) + np.linalg.solve(J.T @ J + lam * np.eye(3), J.T @ e)
-    assert np.allclose(got, want, rtol=1e-12, atol=0) and abs(want[1] - 0.1) > 1.0  # (the negative pivot's row)
-    assert np.allclose(step(MATRICES, J, e, lam), want - q, rtol=1e-12, atol=0)

@@ -30,12 +30,11 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
-from labkit.kinematics.ik._geometry import (
+from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, CosineLaw, NotThisFamily, angle_about, feet, floats, length_scale, need_parallel,
     perpendicular, rotation_matrices, unit, wrist_branches,
 )
-from labkit.kinematics.ik._xp import NUMPY
 
 
 def _screw(axis, point, angle):
@@ -63,7 +62,6 @@ class ThreeParallel(Family):
     name = "three_parallel"
     kind = "pose"
     joints = 6
-    scalar = False
 
     def __init__(self, robot, z, o, tool):
         w = [unit(v) for v in z]
@@ -102,8 +100,8 @@ class ThreeParallel(Family):
         self.branches, self.aliases = wrist_branches(("left", "right"))
 
     @documented
-    def solve(self, xp, t):
-        T = np.moveaxis(np.asarray(t), -1, 0)
+    def solve(self, t):
+        T = np.moveaxis(np.atleast_3d(t), -1, 0)  # (one target's components are scalars)
         N = T.shape[0]
         w, o, n = self.w, self.o, self.n
         w6, nf, uf = floats(w[5]), floats(n), floats(self.u)
@@ -135,14 +133,14 @@ class ThreeParallel(Family):
                     # q6: Rot(w6, q6) v = Rot(w5, -q5) n with v = R^T n(q1)
                     v = (np.swapaxes(X[:, :3, :3], -1, -2) @ nq[:, :, None])[:, :, 0]
                     m = rotation_matrices(w[4], -q5) @ n
-                    q6 = angle_about(NUMPY, w6, tuple(v.T), tuple(m.T))
+                    q6 = angle_about(w6, tuple(v.T), tuple(m.T))
                     vp = v - np.outer(v @ w[5], w[5])
                     q6 = np.where(np.sqrt((vp * vp).sum(axis=1)) < 1e-12, 0.0, q6)  # wrist singularity
                     G = E1inv @ X @ _inverse(_screw(w[5], o[5], q6)) @ _inverse(_screw(w[4], o[4], q5))
                     # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
-                    phi = angle_about(NUMPY, nf, uf, tuple((G[:, :3, :3] @ self.u).T))
+                    phi = angle_about(nf, uf, tuple((G[:, :3, :3] @ self.u).T))
                     p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
-                    ok, dist, bend, shoulder, direction = self.law.solve(NUMPY, p4 @ self.u, p4 @ self.v)
+                    ok, dist, bend, shoulder, direction = self.law.solve(p4 @ self.u, p4 @ self.v)
                     distance = np.minimum(distance, np.maximum(dist1, dist))
                     r2_ = direction - elbow * shoulder - self.g1  # rotations about n
                     r3_ = elbow * bend - (self.g2 - self.g1)

@@ -6,36 +6,32 @@ A family is a class with
     its :class:`labkit.kinematics.Solver` value (``"planar_3r"`` ...);
 ``kind``
     the target it takes: ``"position"``, ``"planar"``, ``"position_pitch"``,
-    ``"position_pitch_roll"`` or ``"pose"`` (:data:`labkit.kinematics.ik._targets.COMPONENTS`);
+    ``"position_pitch_roll"`` or ``"pose"`` (:data:`labkit.kinematics._ik_solvers._targets.COMPONENTS`);
 ``branches``, ``aliases``
     the names of its solutions, in order, and accepted other names;
-``scalar``
-    whether :meth:`Family.solve` also runs on Python floats (one target
-    without array bookkeeping); a family without it solves one target as a
-    batch of one;
 ``joints``
     how many revolute joints it needs;
 ``__init__(robot, z, o, tool)``
     reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
     tool frame at ``q = 0``, from
-    :func:`~labkit.kinematics.ik._geometry.joint_axes`) and raises
-    :class:`~labkit.kinematics.ik._geometry.NotThisFamily` with the reason when
+    :func:`~labkit.kinematics._ik_solvers._geometry.joint_axes`) and raises
+    :class:`~labkit.kinematics._ik_solvers._geometry.NotThisFamily` with the reason when
     the robot lacks the structure (:meth:`Family.fits` checks the joints, reads
     the axes and turns that into an answer);
-``solve(xp, t)``
+``solve(t)``
     every branch of the targets ``t``, in the chain's sense (flipped joints
-    not yet negated, angles not yet wrapped: :mod:`labkit.kinematics.ik._finish`
+    not yet negated, angles not yet wrapped: :mod:`labkit.kinematics._ik_solvers._finish`
     does that for every family).
 
 A new family is one module with such a class and one line in
-:data:`labkit.kinematics.ik._registry.FAMILIES`.
+:data:`labkit.kinematics._ik_solvers._registry.FAMILIES`.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from labkit.kinematics.ik._geometry import NotThisFamily, joint_axes, need_revolute
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, need_revolute
 
 
 #: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
@@ -50,7 +46,6 @@ class Family(ABC):
     kind = ""
     branches = ()
     aliases = {}
-    scalar = True
     joints = 0
 
     @classmethod
@@ -76,17 +71,14 @@ class Family(ABC):
             return None, str(exc)
 
     @abstractmethod
-    def solve(self, xp, t):
+    def solve(self, t):
         """Every branch of targets ``t``.
 
         Parameters
         ----------
-        xp : namespace
-            :data:`~labkit.kinematics.ik._xp.NUMPY` (``t`` holds ``(N,)`` rows)
-            or :data:`~labkit.kinematics.ik._xp.FLOATS` (``t`` holds floats).
         t : sequence
-            The target's components: ``t[i]`` for a position or planar target,
-            ``t[i][j]`` for a pose.
+            The targets' components as ``(N,)`` rows: ``t[i]`` for a position
+            or planar target, ``t[i][j]`` for a pose.
 
         Returns
         -------
@@ -94,7 +86,7 @@ class Family(ABC):
             Per branch, the ``n`` joint values [rad] in the chain's sense.
         reachable : list
             Per branch, whether it reaches the target.
-        distance : ndarray or float
+        distance : ndarray, shape (N,)
             How far the target lies out of reach [m].
         """
 

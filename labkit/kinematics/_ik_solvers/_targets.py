@@ -8,22 +8,16 @@ Every solver, closed-form or numeric, takes its targets through
 
 from __future__ import annotations
 
-import functools
-import itertools
 import math
 
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.kinematics.ik._geometry import _cross, _dot
-from labkit.kinematics.ik._trace import compiled
-from labkit.kinematics.ik._xp import FLOATS, NUMPY
+from labkit.kinematics._ik_solvers._geometry import _cross, _dot
 from labkit.validation import as_batch
 
-#: at most this many targets run on Python floats (closed-form families with ``scalar = True``)
-SMALL_TARGETS = 8
-
-__all__ = ["task_rows", "batch_index", "describe_target", "validate_targets", "COMPONENTS", "REDUCED", "target_words", "small_targets"]
+__all__ = ["task_rows", "target_components", "batch_index", "describe_target", "validate_targets", "COMPONENTS",
+           "REDUCED", "target_words"]
 
 #: the components of each vector target kind, in order (a ``"pose"`` is a 4 x 4 transform)
 COMPONENTS = {
@@ -33,7 +27,7 @@ COMPONENTS = {
     "position_pitch_roll": ("x", "y", "z", "pitch", "roll"),
 }
 #: target kinds of arms with fewer than 6 joints that fix an orientation too (4-DOF pitch, 5-DOF pitch and
-#: roll, see :mod:`labkit.kinematics.ik._yaw_pitch_pitch_pitch`); they also take poses (checked by FK)
+#: roll, see :mod:`labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch`); they also take poses (checked by FK)
 REDUCED = ("position_pitch", "position_pitch_roll")
 
 #: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind;
@@ -62,6 +56,27 @@ def target_words(kind):
     if kind == "pose":
         return "a 4 x 4 pose (at the command line: x y z roll pitch yaw)"
     return " ".join(COMPONENTS[kind])
+
+
+def target_components(kind):
+    """The components of a target of ``kind`` in order, as the command line takes them.
+
+    Parameters
+    ----------
+    kind : {"position", "planar", "position_pitch", "position_pitch_roll", "pose"}
+        A target kind (:func:`labkit.kinematics.target_kind`).
+
+    Returns
+    -------
+    tuple of str
+        ``("x", "y", "z")`` ...; a pose as ``("x", "y", "z", "roll", "pitch", "yaw")``.
+
+    Examples
+    --------
+    >>> target_components("planar")
+    ('x', 'y', 'phi')
+    """
+    return ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
 
 
 def task_rows(kind):
@@ -127,22 +142,14 @@ def validate_targets(target, kind):
     if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
         return _vector_targets(target, kind)
     if kind in ("pose", *REDUCED):
-        T = as_batch(target, (4, 4), "target pose", finite=False)
+        T = as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        if T.shape[0] <= SMALL_TARGETS:  # the same tests on floats, pose by pose (the rigid one compiled)
-            poses = T.tolist()
-            if not all(map(math.isfinite, itertools.chain.from_iterable(itertools.chain.from_iterable(poses)))):
-                as_batch(target, (4, 4), "target pose")  # (raises, naming the entry)
-            defects = list(map(_rigid_defects_floats(), poses))
-            bad = [i for i, d in enumerate(defects) if _is_bad(*d)]
-        else:
-            as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
-            defects = _rigid_defects(NUMPY, np.moveaxis(T, 0, -1))
-            bad = _is_bad(*defects).nonzero()[0]
+        defects = _rigid_defects(T)
+        bad = _is_bad(*defects).nonzero()[0]
         if len(bad):
             i = int(bad[0])
-            err, det, _ = defects[i] if T.shape[0] <= SMALL_TARGETS else (d[i] for d in defects)
+            err, det, _ = (d[i] for d in defects)
             which = "the target" if not lead else f"target {batch_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
@@ -168,26 +175,15 @@ def _vector_targets(target, kind):
     return p.reshape(-1, len(names)), p.shape[:-1]
 
 
-def _rigid_defects(xp, t):
-    """How far pose components ``t[i][j]`` are from a rigid transform.
-
-    Returns the largest deviation of the rotation columns from orthonormal, the
-    determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``.
-    """
-    c0, c1, c2 = ((t[0][k], t[1][k], t[2][k]) for k in range(3))
-    err = xp.abs(_dot(c0, c0) - 1.0)
+def _rigid_defects(T):
+    """How far poses ``T`` (N, 4, 4) are from rigid transforms: the largest deviation of the rotation columns
+    from orthonormal, the determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``."""
+    t = np.moveaxis(T, 0, -1)
+    c0, c1, c2 = ((t[0, k], t[1, k], t[2, k]) for k in range(3))
+    err = np.abs(_dot(c0, c0) - 1.0)
     for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
-        err = xp.maximum(err, xp.abs(e))
-    last = xp.abs(t[3][3] - 1.0)
-    for e in t[3][:3]:
-        last = xp.maximum(last, xp.abs(e))
-    return err, _dot(_cross(c0, c1), c2), last
-
-
-@functools.cache
-def _rigid_defects_floats():
-    """:func:`_rigid_defects` of one pose (4 lists of 4 floats), compiled into straight-line code when first used."""
-    return compiled(_rigid_defects, ((4, 4),), "ik rigid-transform test") or functools.partial(_rigid_defects, FLOATS)
+        err = np.maximum(err, np.abs(e))
+    return err, _dot(_cross(c0, c1), c2), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
 
 
 def _is_bad(err, det, last):
@@ -236,60 +232,3 @@ def describe_target(kind, t):
     if kind == "planar":
         return "(x, y, phi) = ({:.4g} m, {:.4g} m, {:.4g} deg)".format(t[0], t[1], math.degrees(t[2]))
     return "({:.4g}, {:.4g}, {:.4g}) m".format(*t)
-
-
-def target_shape(kind):
-    """The shape of one target of ``kind`` as floats: ``(4, 4)`` for a pose, else ``(k,)`` of its :data:`COMPONENTS`.
-
-    Parameters
-    ----------
-    kind : {"position", "planar", "position_pitch", "position_pitch_roll", "pose"}
-        What the target fixes.
-
-    Returns
-    -------
-    tuple of int
-    """
-    return (4, 4) if kind == "pose" else (len(COMPONENTS[kind]),)
-
-
-def small_targets(target, kind):
-    """A few valid targets as Python floats, or None (then :func:`validate_targets` raises or batches).
-
-    Accepts exactly what :func:`validate_targets` accepts, for at most
-    :data:`SMALL_TARGETS` targets, without building arrays of the components.
-
-    Parameters
-    ----------
-    target : array_like, shape (..., n) or (..., 4, 4)
-        As :func:`validate_targets` (n components of ``kind``, :data:`COMPONENTS`).
-    kind : {"position", "planar", "position_pitch", "position_pitch_roll", "pose"}
-        What the targets fix.
-
-    Returns
-    -------
-    flat : list or None
-        One ``[x, y, z]`` (or nested 4 x 4 list) per target; None for anything
-        else (more targets, a bad shape or value, not a rigid transform).
-    lead : tuple of int
-        The batch shape.
-    """
-    try:
-        arr = target if type(target) is np.ndarray and target.dtype == np.float64 else np.asarray(target, dtype=float)
-    except (TypeError, ValueError):
-        return None, ()
-    tail = target_shape(kind)
-    shape, k = arr.shape, len(tail)
-    if kind in REDUCED and shape[-2:] == (4, 4):
-        return None, ()  # a pose (validate_targets reads a trailing 4 x 4 as one on these arms)
-    if len(shape) < k or shape[len(shape) - k:] != tail or arr.size > SMALL_TARGETS * (16 if k == 2 else tail[0]):
-        return None, ()
-    flat = arr.reshape((-1,) + tail).tolist()
-    isfinite = math.isfinite
-    for t in flat:
-        for v in (t[0] + t[1] + t[2] + t[3] if k == 2 else t):
-            if not isfinite(v):
-                return None, ()
-        if k == 2 and _is_bad(*_rigid_defects(FLOATS, t)):
-            return None, ()
-    return flat, shape[:len(shape) - k]

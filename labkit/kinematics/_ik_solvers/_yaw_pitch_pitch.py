@@ -25,8 +25,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
-from labkit.kinematics.ik._geometry import (
+from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
 )
 
@@ -85,13 +85,11 @@ class Arm:
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
-    def planes(self, xp, P):
+    def planes(self, P):
         """The two arm planes through the point ``P`` (components): front side, then back side.
 
         Parameters
         ----------
-        xp : namespace
-            Array namespace.
         P : tuple
             3 components of a point at the lateral offset of ``W`` [m].
 
@@ -113,23 +111,21 @@ class Arm:
         hr, hn, w = _matvec(self.planes_frame, d)
         off = self.off
         rho2 = hr * hr + hn * hn
-        u0 = xp.sqrt(xp.maximum(rho2 - off * off, 0.0))
+        u0 = np.sqrt(np.maximum(rho2 - off * off, 0.0))
         shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
-        lateral = xp.maximum(abs(off) - xp.sqrt(rho2), 0.0)
-        az = xp.arctan2(hn, hr)
+        lateral = np.maximum(abs(off) - np.sqrt(rho2), 0.0)
+        az = np.arctan2(hn, hr)
         sides = []
         for side in (self.front, -self.front):
             u = side * u0
-            sides.append((side, az - xp.arctan2(off, u), u))
+            sides.append((side, az - np.arctan2(off, u), u))
         return sides, w, shoulder_ok, lateral
 
-    def elbows(self, xp, side, ur, w):
+    def elbows(self, side, ur, w):
         """Joints 2-3 placing ``W`` at ``(ur, w)`` in an arm plane, seen from the shoulder: both elbows.
 
         Parameters
         ----------
-        xp : namespace
-            Array namespace.
         side : float
             The plane's side (``planes``), for a point straight above the shoulder.
         ur, w : ndarray or float
@@ -144,16 +140,16 @@ class Arm:
         pairs : list of tuple
             ``(q2, q3)`` [rad], elbow up then elbow down.
         """
-        ok, dist, elbow, shoulder, direction = self.law.solve(xp, ur, w)
+        ok, dist, elbow, shoulder, direction = self.law.solve(ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
-        forward = xp.where(xp.abs(ur) > 1e-12, ur > 0, side > 0)
+        forward = np.where(np.abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
-        sign = xp.where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
+        sign = np.where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
         ss, se = sign * shoulder, sign * elbow
         g1, g21, s3 = self.g1, self.g21, self.s3
         return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
-    def solve(self, xp, W):
+    def solve(self, W):
         """Joints 1-3 placing ``W`` (components), four branches.
 
         Returns
@@ -168,18 +164,16 @@ class Arm:
 
         Parameters
         ----------
-        xp : namespace
-            Array namespace.
         W : tuple
             3 components of the point to place [m].
         """
-        sides, w, shoulder_ok, lateral = self.planes(xp, W)
+        sides, w, shoulder_ok, lateral = self.planes(W)
         q, reach, distance = [], [], None
         for side, q1, u in sides:
-            ok, dist, pairs = self.elbows(xp, side, u - self.Sr, w)
+            ok, dist, pairs = self.elbows(side, u - self.Sr, w)
             ok = shoulder_ok & ok
-            dist = xp.maximum(dist, lateral)
-            distance = dist if distance is None else xp.minimum(distance, dist)
+            dist = np.maximum(dist, lateral)
+            distance = dist if distance is None else np.minimum(distance, dist)
             for q2, q3 in pairs:
                 q.append((q1, q2, q3))
                 reach.append(ok)
@@ -199,5 +193,5 @@ class YawPitchPitch(Family):
         self.arm = Arm(robot, z, o, tool[:3, 3])
 
     @documented
-    def solve(self, xp, t):
-        return self.arm.solve(xp, t)
+    def solve(self, t):
+        return self.arm.solve(t)

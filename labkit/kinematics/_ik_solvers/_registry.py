@@ -1,22 +1,22 @@
 """The one ordered registry of closed-form IK families (private).
 
 A robot's family is the first of :data:`FAMILIES` that fits its geometry (joint
-axes at ``q = 0``), cached per robot object in a keyed cache (``Robot`` stays
+axes at ``q = 0``), cached by the robot's content (``Robot`` stays
 plain frozen data). Adding a family: one module with a
-:class:`~labkit.kinematics.ik._family.Family` subclass and one line here; the
+:class:`~labkit.kinematics._ik_solvers._family.Family` subclass and one line here; the
 ``Solver`` enum of :mod:`labkit.kinematics` is built from this tuple.
 """
 
 from __future__ import annotations
 
-from labkit.kinematics._chain import per_robot
-from labkit.kinematics.ik._planar_2r import Planar2R
-from labkit.kinematics.ik._planar_3r import Planar3R
-from labkit.kinematics.ik._spherical_wrist import SphericalWrist
-from labkit.kinematics.ik._three_parallel import ThreeParallel
-from labkit.kinematics.ik._yaw_pitch_pitch import YawPitchPitch
-from labkit.kinematics.ik._yaw_pitch_pitch_pitch import YawPitchPitchPitch
-from labkit.kinematics.ik._yaw_pitch_pitch_pitch_roll import YawPitchPitchPitchRoll
+from labkit.kinematics._chain import by_content
+from labkit.kinematics._ik_solvers._planar_2r import Planar2R
+from labkit.kinematics._ik_solvers._planar_3r import Planar3R
+from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
+from labkit.kinematics._ik_solvers._three_parallel import ThreeParallel
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import YawPitchPitch
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch_roll import YawPitchPitchPitchRoll
 
 #: the families, in the order they are tried
 FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitchPitchRoll, SphericalWrist,
@@ -24,9 +24,9 @@ FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitch
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 
-@per_robot
+@by_content
 def detect(robot):
-    """The closed-form solver for ``robot`` (the first family that fits) or None, cached per robot.
+    """The closed-form solver for ``robot`` (the first family that fits) or None, cached by content.
 
     Parameters
     ----------

@@ -9,13 +9,11 @@
   intersecting axes (:func:`subproblem2`);
 * Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
 
-Vectors are 3-tuples of components, each an ``(N,)`` array or a float (see
-:mod:`labkit.kinematics.ik._xp`); constant vectors (axes of the robot) are
-tuples of floats.
+Vectors are 3-tuples of components, each an ``(N,)`` array (a batch of
+targets); constant vectors (axes of the robot) are tuples of floats.
 """
 
 from __future__ import annotations
-
 
 import numpy as np
 
@@ -208,15 +206,13 @@ def _reject(k, v):
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
 
-def rotate(xp, k, angle, *vectors):
+def rotate(k, angle, *vectors):
     """Rodrigues: vectors rotated by ``angle`` about the unit axis ``k`` (its sine and cosine taken once).
 
     ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
 
     Parameters
     ----------
-    xp : namespace
-        Array namespace of ``angle`` and the vectors.
     k : tuple of float
         The rotation axis (unit).
     angle : ndarray or float
@@ -230,7 +226,7 @@ def rotate(xp, k, angle, *vectors):
         The rotated vectors, 3 components each, in order.
     """
     k0, k1, k2 = k
-    s, c1 = xp.sin(angle), 1.0 - xp.cos(angle)
+    s, c1 = np.sin(angle), 1.0 - np.cos(angle)
     out = []
     for v0, v1, v2 in vectors:
         u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
@@ -263,13 +259,11 @@ class CosineLaw:
         self.longest, self.shortest = L1 + L2, abs(L1 - L2)
         self.ok_below = 1.0 + REACH_TOL
 
-    def solve(self, xp, x, y):
+    def solve(self, x, y):
         """The chain reaching the point ``(x, y)`` of its plane.
 
         Parameters
         ----------
-        xp : namespace
-            :data:`~labkit.kinematics.ik._xp.NUMPY` or :data:`~labkit.kinematics.ik._xp.FLOATS`.
         x, y : ndarray or float
             The point, relative to the first joint [m].
 
@@ -293,16 +287,16 @@ class CosineLaw:
         """
         L1, L2 = self.L1, self.L2
         r2 = x * x + y * y
-        r = xp.sqrt(r2)
+        r = np.sqrt(r2)
         cb = (r2 - self.L1L1 - self.L2L2) / self.den
-        ok = xp.abs(cb) <= self.ok_below
-        distance = xp.maximum(xp.maximum(r - self.longest, self.shortest - r), 0.0)
-        cb = xp.clip(cb, -1.0, 1.0)
-        sb = xp.sqrt(1.0 - cb * cb)
-        return ok, distance, xp.arctan2(sb, cb), xp.arctan2(L2 * sb, L1 + L2 * cb), xp.arctan2(y, x)
+        ok = np.abs(cb) <= self.ok_below
+        distance = np.maximum(np.maximum(r - self.longest, self.shortest - r), 0.0)
+        cb = np.clip(cb, -1.0, 1.0)
+        sb = np.sqrt(1.0 - cb * cb)
+        return ok, distance, np.arctan2(sb, cb), np.arctan2(L2 * sb, L1 + L2 * cb), np.arctan2(y, x)
 
 
-def angle_about(xp, k, v, w):
+def angle_about(k, v, w):
     """Paden-Kahan subproblem 1: the angle rotating ``v`` onto ``w`` about the constant unit axis ``k``.
 
     Both vectors are projected perpendicular to ``k`` first (explicitly, so the
@@ -310,8 +304,6 @@ def angle_about(xp, k, v, w):
 
     Parameters
     ----------
-    xp : namespace
-        Array namespace.
     k : tuple of float
         Unit axis.
     v, w : tuple
@@ -323,16 +315,14 @@ def angle_about(xp, k, v, w):
         The angle [rad] in (-pi, pi].
     """
     vp, wp = _reject(k, v), _reject(k, w)
-    return angle_between(xp, _cross(k, vp), vp, wp)
+    return angle_between(_cross(k, vp), vp, wp)
 
 
-def angle_between(xp, n, vp, wp):
+def angle_between(n, vp, wp):
     """:func:`angle_about` from the projections (computed once where they are used again).
 
     Parameters
     ----------
-    xp : namespace
-        Array namespace.
     n : tuple
         ``k x vp``, 3 components (a constant where ``vp`` is one).
     vp, wp : tuple
@@ -344,7 +334,7 @@ def angle_between(xp, n, vp, wp):
         The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
     """
     w0, w1, w2 = wp
-    return xp.arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
+    return np.arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
 class Subproblem2:
@@ -366,7 +356,7 @@ class Subproblem2:
         self.den = self.k12 * self.k12 - 1.0
         self.k12a5p = self.k12 * self.a5p
 
-    def solve(self, xp, m):
+    def solve(self, m):
         """Both solutions for the target direction ``m`` (components).
 
         Returns
@@ -376,8 +366,6 @@ class Subproblem2:
 
         Parameters
         ----------
-        xp : namespace
-            Array namespace.
         m : tuple
             3 components of the target direction (unit).
         """
@@ -393,25 +381,52 @@ class Subproblem2:
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
-            s45 = xp.sqrt(_dot(mp, mp))
-            b = xp.abs(beta)
-            g = xp.sqrt(xp.maximum((s45 - b) * (s45 + b), 0.0))
+            s45 = np.sqrt(_dot(mp, mp))
+            b = np.abs(beta)
+            g = np.sqrt(np.maximum((s45 - b) * (s45 + b), 0.0))
         else:
-            g = xp.sqrt(xp.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
+            g = np.sqrt(np.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
         # C = alpha a4 + beta a5 +- g (a4 x a5)
         b0, b1, b2 = alpha * a40 + beta * a50, alpha * a41 + beta * a51, alpha * a42 + beta * a52
         g0, g1, g2 = g * c0, g * c1, g * c2
         (d0, d1, d2), (p0, p1, p2) = self.c5, self.p
         out = []
         for C0, C1, C2 in ((b0 + g0, b1 + g1, b2 + g2), (b0 - g0, b1 - g1, b2 - g2)):
-            t5 = xp.arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
+            t5 = np.arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
                             - a5p * (a50 * C0 + a51 * C1 + a52 * C2))
             # t4: subproblem 1 about a4 from C's part perpendicular to a4 (v) to m's
             a4C = a40 * C0 + a41 * C1 + a42 * C2
             v0, v1, v2 = C0 - a40 * a4C, C1 - a41 * a4C, C2 - a42 * a4C
             n = (a41 * v2 - a42 * v1, a42 * v0 - a40 * v2, a40 * v1 - a41 * v0)  # a4 x v
-            out.append((angle_between(xp, n, (v0, v1, v2), mp), t5))
+            out.append((angle_between(n, (v0, v1, v2), mp), t5))
         return out
+
+
+def per_branch(f, branches, shared):
+    """``f(*branch, *shared)`` for every branch in one call, on the branches' rows end to end.
+
+    Parameters
+    ----------
+    f : callable
+        The formulas of one branch, on ``(N,)`` rows.
+    branches : list of tuple
+        Per branch its arguments, ``(N,)`` rows or scalars.
+    shared : tuple
+        Arguments common to every branch.
+
+    Returns
+    -------
+    list of tuple
+        Per branch the outputs of ``f``, ``(N,)`` rows each.
+    """
+    k = len(branches)
+    n = max(np.size(v) for v in (*branches[0], *shared))
+    args = np.empty((len(branches[0]) + len(shared), k, n))
+    for j, branch in enumerate(branches):
+        for i, v in enumerate((*branch, *shared)):
+            args[i, j] = v
+    out = f(*args.reshape(len(args), k * n))
+    return [tuple(o[j * n:(j + 1) * n] for o in out) for j in range(k)]
 
 
 def rotation_matrices(axis, angle):

@@ -25,8 +25,7 @@ joint limits is the finishing step's ``valid``.
 The solution, per side: ``q1`` from the target point (as ``yaw_pitch_pitch``),
 the total rotation ``theta = q2 + q3 + q4`` (signs of parallel axes included)
 from the pitch, the wrist point on axis 4 from the tool point and ``theta``,
-joints 2-3 from the cosine law, ``q4`` from ``theta``. Written once on the
-array namespace: a batch on numpy rows, one target on Python floats.
+joints 2-3 from the cosine law, ``q4`` from ``theta``, on numpy rows.
 """
 
 from __future__ import annotations
@@ -35,10 +34,9 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
-from labkit.kinematics.ik._geometry import TOL, NotThisFamily, angle_about, need_parallel, rotation_matrices, unit
-from labkit.kinematics.ik._xp import NUMPY
-from labkit.kinematics.ik._yaw_pitch_pitch import Arm, YawPitchPitch
+from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, angle_about, need_parallel, rotation_matrices, unit
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
 
 
@@ -75,22 +73,22 @@ class YawPitchPitchPitch(Family):
         """The approach direction at ``q = 0`` (world): the tool x axis."""
         return unit(tool[:3, 0])
 
-    def _arm_joints(self, xp, x, y, z, pitch):
+    def _arm_joints(self, x, y, z, pitch):
         """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
         arm = self.arm
-        sides, w, shoulder_ok, lateral = arm.planes(xp, (x, y, z))
+        sides, w, shoulder_ok, lateral = arm.planes((x, y, z))
         pitch = self.sign * pitch  # the elevation towards +axis 1
         q, reach, signs, distance = [], [], [], None
         for side, q1, u in sides:
             # the arm-relative elevation: the target lies along +er' (side > 0) or -er' of this plane
             theta = self.psi0 - (pitch if side > 0 else math.pi - pitch)
-            c, s = xp.cos(theta), xp.sin(theta)
+            c, s = np.cos(theta), np.sin(theta)
             wr = u - (self.dr0 * c + self.dv0 * s)  # the wrist point in this plane
             wv = w - (self.dv0 * c - self.dr0 * s)
-            ok, dist, pairs = arm.elbows(xp, side, wr - arm.Sr, wv)
+            ok, dist, pairs = arm.elbows(side, wr - arm.Sr, wv)
             ok = shoulder_ok & ok
-            dist = xp.maximum(dist, lateral)
-            distance = dist if distance is None else xp.minimum(distance, dist)
+            dist = np.maximum(dist, lateral)
+            distance = dist if distance is None else np.minimum(distance, dist)
             for q2, q3 in pairs:
                 q.append((q1, q2, q3, self.s4 * (theta - q2 - arm.s3 * q3)))
                 reach.append(ok)
@@ -98,15 +96,15 @@ class YawPitchPitchPitch(Family):
         return q, reach, signs, distance
 
     @documented
-    def solve(self, xp, t):
-        q, reach, _, distance = self._arm_joints(xp, t[0], t[1], t[2], t[3])
+    def solve(self, t):
+        q, reach, _, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         return q, reach, distance
 
     # -- poses <-> targets (numpy; for display, target errors and pose targets) --------------------
 
     def _front(self, p):
         """``q1`` of the plane with the target along its +er (side > 0) for points ``p`` (N, 3)."""
-        sides, _, _, _ = self.arm.planes(NUMPY, tuple(p.T))
+        sides, _, _, _ = self.arm.planes(tuple(p.T))
         return next(q1 for side, q1, _ in sides if side > 0)
 
     def _rest(self, target):
@@ -148,7 +146,7 @@ class YawPitchPitchPitch(Family):
         """
         p = T[:, :3, 3]
         app = T[:, :3, :3] @ self.approach_tool
-        sides, _, _, _ = self.arm.planes(NUMPY, tuple(p.T))
+        sides, _, _, _ = self.arm.planes(tuple(p.T))
         (s_a, q1_a, _), (_, q1_b, _) = sides
         normals = [rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
         first = np.abs((app * normals[0]).sum(-1)) <= np.abs((app * normals[1]).sum(-1)) + 1e-12
@@ -180,4 +178,4 @@ def roll_about(app, reference, actual):
     -------
     ndarray, shape (N,)
     """
-    return angle_about(NUMPY, tuple(app.T), tuple(reference.T), tuple(actual.T))
+    return angle_about(tuple(app.T), tuple(reference.T), tuple(actual.T))

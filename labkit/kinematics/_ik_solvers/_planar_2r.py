@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
-from labkit.kinematics.ik._geometry import (
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics._ik_solvers._geometry import (
     TOL, CosineLaw, NotThisFamily, _dot, floats, length_scale, need_parallel,
     perpendicular, unit,
 )
@@ -49,13 +49,13 @@ class Planar2R(Family):
         self.height_tol = 1e-9 * scale
 
     @documented
-    def solve(self, xp, t):
+    def solve(self, t):
         d = tuple(t[k] - self.O[k] for k in range(3))
         dz = _dot(self.n, d) - self.h
-        ok, in_plane, elbow, shoulder, direction = self.law.solve(xp, _dot(self.u, d), _dot(self.v, d))
-        off_plane = xp.abs(dz) > self.height_tol
-        distance = xp.hypot(in_plane, xp.where(off_plane, dz, 0.0))
-        ok = ok & xp.logical_not(off_plane)
+        ok, in_plane, elbow, shoulder, direction = self.law.solve(_dot(self.u, d), _dot(self.v, d))
+        off_plane = np.abs(dz) > self.height_tol
+        distance = np.hypot(in_plane, np.where(off_plane, dz, 0.0))
+        ok = ok & np.logical_not(off_plane)
         q = []
         for sign in (-1.0, 1.0):  # elbow up: relative angle < 0
             q.append((direction - sign * shoulder - self.g1, self.s2 * (sign * elbow - (self.g2 - self.g1))))

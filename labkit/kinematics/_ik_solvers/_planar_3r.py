@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import ELBOW_ALIASES, ELBOWS, Family, documented
-from labkit.kinematics.ik._geometry import TOL, CosineLaw, NotThisFamily
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics._ik_solvers._geometry import TOL, CosineLaw, NotThisFamily
 
 
 class Planar3R(Family):
@@ -45,14 +45,14 @@ class Planar3R(Family):
         self.t0 = (float(t0[0]), float(t0[1]))
 
     @documented
-    def solve(self, xp, t):
+    def solve(self, t):
         x, y, phi = t[0], t[1], t[2]
         rot = phi - self.psi0  # q1 + q2 + q3
-        c, s = xp.cos(rot), xp.sin(rot)
+        c, s = np.cos(rot), np.sin(rot)
         t0x, t0y = self.t0
         wx = x - (c * t0x - s * t0y) - self.base[0]
         wy = y - (s * t0x + c * t0y) - self.base[1]
-        ok, distance, elbow, shoulder, direction = self.law.solve(xp, wx, wy)
+        ok, distance, elbow, shoulder, direction = self.law.solve(wx, wy)
         q = []
         for sign in (-1.0, 1.0):  # elbow up: theta_b < 0
             q1 = direction - sign * shoulder - self.g1

@@ -33,9 +33,9 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import documented
-from labkit.kinematics.ik._geometry import TOL, NotThisFamily, length_scale, rotation_matrices, unit
-from labkit.kinematics.ik._yaw_pitch_pitch_pitch import YawPitchPitchPitch, roll_about
+from labkit.kinematics._ik_solvers._family import documented
+from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, length_scale, rotation_matrices, unit
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch, roll_about
 from labkit.rotations import wrap_angle
 
 
@@ -58,8 +58,8 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
         return self.a5
 
     @documented
-    def solve(self, xp, t):
-        q, reach, signs, distance = self._arm_joints(xp, t[0], t[1], t[2], t[3])
+    def solve(self, t):
+        q, reach, signs, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         roll = self.s5 * t[4]  # q5 about +axis 5
         back = roll + math.pi  # the same tool orientation reached over the back
         return [(*qb, roll if side > 0 else back) for qb, side in zip(q, signs)], reach, distance

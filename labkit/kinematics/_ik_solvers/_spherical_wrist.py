@@ -4,7 +4,7 @@ Six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` (with or without a
 shoulder offset: PUMA 560/600, IRB140, KR5) and axes 4, 5, 6 meeting in one
 point (the wrist centre), 4 not parallel to 5 and 5 not parallel to 6.
 Target: tool pose. Joints 1-3 place the wrist centre
-(:class:`~labkit.kinematics.ik._yaw_pitch_pitch.Arm`), joints 4-6 are a
+(:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Arm`), joints 4-6 are a
 Paden-Kahan subproblem 2 and a subproblem 1. Eight branches
 ``{right|left}_{up|down}_{noflip|flip}`` ("no flip" as roboticstoolbox-python:
 ``sign(q5) = -sign(alpha_4)``).
@@ -16,12 +16,12 @@ import math
 
 import numpy as np
 
-from labkit.kinematics.ik._family import Family, documented
-from labkit.kinematics.ik._geometry import (
+from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, Subproblem2, angle_between, _cross, floats, length_scale, _matvec, perpendicular,
-    _reject, rotate, unit, wrist_branches,
+    _reject, per_branch, rotate, unit, wrist_branches,
 )
-from labkit.kinematics.ik._yaw_pitch_pitch import Arm
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm
 from labkit.robot.types import Convention
 
 
@@ -61,10 +61,10 @@ class SphericalWrist(Family):
         self.branches, self.aliases = wrist_branches(("right", "left"))
 
     @documented
-    def solve(self, xp, t):
+    def solve(self, t):
         R = (t[0][:3], t[1][:3], t[2][:3])
         Rw = _matvec(R, self.w_tool)
-        arm_q, arm_ok, distance = self.arm.solve(xp, (t[0][3] + Rw[0], t[1][3] + Rw[1], t[2][3] + Rw[2]))
+        arm_q, arm_ok, distance = self.arm.solve((t[0][3] + Rw[0], t[1][3] + Rw[1], t[2][3] + Rw[2]))
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
         RR0t = (_matvec(self.R0, R[0]), _matvec(self.R0, R[1]), _matvec(self.R0, R[2]))
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
@@ -73,19 +73,19 @@ class SphericalWrist(Family):
 
         def wrist(q23, m0, m1, m2, x0, x1, x2):
             """Joints 4-6 (noflip, then flip) for one arm branch, joint 1 undone on ``m`` and ``mx``."""
-            m6, MX = rotate(xp, a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3
-            (t4, t5), (u4, u5) = subproblem2(xp, m6)
-            Y, = rotate(xp, a5, -t5, *rotate(xp, a4, -t4, MX))
-            Z, = rotate(xp, a5, -u5, *rotate(xp, a4, -u4, MX))
-            t6, u6 = angle_between(xp, n6, x6p, _reject(a6, Y)), angle_between(xp, n6, x6p, _reject(a6, Z))
-            swap = (xp.sin(t5) * self.noflip_sign) < 0  # noflip first
-            return (xp.where(swap, u4, t4), xp.where(swap, u5, t5), xp.where(swap, u6, t6),
-                    xp.where(swap, t4, u4), xp.where(swap, t5, u5), xp.where(swap, t6, u6))
+            m6, MX = rotate(a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3
+            (t4, t5), (u4, u5) = subproblem2(m6)
+            Y, = rotate(a5, -t5, *rotate(a4, -t4, MX))
+            Z, = rotate(a5, -u5, *rotate(a4, -u4, MX))
+            t6, u6 = angle_between(n6, x6p, _reject(a6, Y)), angle_between(n6, x6p, _reject(a6, Z))
+            swap = (np.sin(t5) * self.noflip_sign) < 0  # noflip first
+            return (np.where(swap, u4, t4), np.where(swap, u5, t5), np.where(swap, u6, t6),
+                    np.where(swap, t4, u4), np.where(swap, t5, u5), np.where(swap, t6, u6))
 
         # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)
-        undone = [rotate(xp, self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
-        wrists = xp.per_branch(wrist, [(q2 + s3 * q3, *undone[b // 2][0], *undone[b // 2][1])
+        undone = [rotate(self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
+        wrists = per_branch(wrist, [(q2 + s3 * q3, *undone[b // 2][0], *undone[b // 2][1])
                                        for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
         for (q1, q2, q3), (t4, t5, t6, u4, u5, u6), ok in zip(arm_q, wrists, arm_ok):

@@ -1,0 +1,328 @@
+"""Batched Levenberg-Marquardt inverse kinematics (private; see :func:`labkit.kinematics.ik_numeric`).
+
+All targets iterate together on numpy rows; one target is a batch of one.
+Per iteration the targets still active make one
+:func:`labkit.kinematics._forward.fk_jacobian_kernel` call and one batched
+linear solve (:mod:`labkit.kinematics._ik_solvers._lm`: the task error, the
+damped step and the damping rule). Steps are clipped into the joint limits.
+
+A target leaves the active set when it converges, when it stalls (squared
+error not down 100x in 8 iterations; from a closed-form start, also in its
+first 4) or after ``max_iter`` iterations; it then restarts (an *attempt* per
+start) from the next closed-form start (jittered) or a random configuration
+inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
+the solution by 2 pi afterwards (accepted only if it then lies inside), which
+escapes minima pinned against a limit. Finally the stragglers are copied up
+to 64 times and the copies iterate together from independent random starts.
+
+Without a caller's ``q0``, targets start from closed-form branches: the
+robot's own family, or that of its idealised copy (for an arm a little off a
+family, e.g. after calibration), which also feed the first restarts
+(:func:`labkit.kinematics._ik_solvers._starts.analytic_seeds`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from labkit.kinematics._forward import fk_jacobian_kernel
+from labkit.kinematics._ik_solvers._lm import damped_step, damping, task_error
+from labkit.kinematics._ik_solvers._solve import finish
+from labkit.kinematics._ik_solvers._starts import analytic_seeds
+
+#: iterations between stall tests; damping of a random start and of a closed-form one
+CHECK_EVERY, LAMBDA_RANDOM, LAMBDA_NEAR = 8, 1e-2, 1e-6
+
+
+class LazyGenerator:
+    """``numpy.random.default_rng(seed)``, created when first drawn from.
+
+    Creating a generator costs more than polishing one target that starts on a
+    closed-form branch, which never draws.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the generator.
+    """
+
+    def __init__(self, seed):
+        self._seed = seed
+
+    def __getattr__(self, name):
+        rng = self.__dict__.get("_generator")
+        if rng is None:
+            rng = self._generator = np.random.default_rng(self._seed)
+        return getattr(rng, name)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Problem:
+    """What every attempt shares: the arm, its kernel and limits, the targets and the options."""
+
+    robot: object
+    kind: str
+    rows: tuple
+    target: np.ndarray
+    tol: float
+    max_iter: int
+    rng: object
+    kernel: object
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def random_q(self, size):
+        """``(size, n)`` uniform inside the limits (infinite ones as +-2 pi); no draw for ``size = 0``."""
+        if size == 0:
+            return np.empty((0, self.lo.size))
+        lo = np.where(np.isfinite(self.lo), self.lo, -2 * np.pi)
+        hi = np.where(np.isfinite(self.hi), self.hi, 2 * np.pi)
+        return lo + (hi - lo) * self.rng.random((size, lo.size))
+
+    def evaluate(self, q, target):
+        """Jacobian task rows (k, m, n), error (k, m), residual (k,) and ``e.e / 2`` (k,) at ``q`` (k, n)."""
+        T, J = self.kernel(q)
+        e, res = task_error(self.kind, T, target, self.rows)
+        return J[:, self.rows], e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+
+
+@dataclasses.dataclass
+class _Outcome:
+    """Per target of the batch: the best configuration so far, whether it converged, iterations, residual."""
+
+    q: np.ndarray
+    success: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    best_q: np.ndarray
+    group: int = 1
+    group_done: np.ndarray = None
+
+    @classmethod
+    def start(cls, q, group=1):
+        N = q.shape[0]
+        return cls(q.copy(), np.zeros(N, dtype=bool), np.zeros(N, dtype=np.int64), np.full(N, np.inf), q.copy(),
+                   group, np.zeros(-(-N // group), dtype=bool))
+
+    def pending(self, attempt):
+        """The rows an attempt runs on: all at first, then those not converged (nor a sibling copy)."""
+        rows = np.arange(self.q.shape[0]) if attempt == 0 else (~self.success).nonzero()[0]
+        return rows[~self.group_done[rows // self.group]]
+
+    def converged(self, rows, q, res):
+        self.q[rows], self.success[rows], self.residual[rows] = q, True, res
+        self.group_done[rows // self.group] = True
+
+    def keep_best(self, rows, q, res, inside):
+        better = (res < self.residual[rows]) & inside
+        self.residual[rows[better]] = res[better]
+        self.best_q[rows[better]] = q[better]
+
+
+@dataclasses.dataclass
+class _Active:
+    """The rows still iterating in an attempt, and their LM state."""
+
+    rows: np.ndarray
+    q: np.ndarray
+    target: np.ndarray
+    lam: np.ndarray
+    near: np.ndarray  # started on a closed-form branch
+    J: np.ndarray = None
+    e: np.ndarray = None
+    res: np.ndarray = None
+    E: np.ndarray = None
+    E_check: np.ndarray = None
+
+    def keep(self, mask):
+        return _Active(*(getattr(self, f.name)[mask] for f in dataclasses.fields(self)))
+
+
+def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
+    """Batched LM with restarts, then batched multi-start for the stragglers.
+
+    After ``restarts`` sequential restarts, every target still failing is
+    copied ``K`` times (``K <= multistart``, at most ~8192 copies in all) and
+    the copies iterate together from independent random starts, for up to
+    ``restarts`` more rounds; the first copy that succeeds wins.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    kind : {"position", "planar", "pose"}
+        What the targets fix.
+    target : ndarray, shape (N, 3) or (N, 4, 4)
+        Targets [m, rad].
+    q0 : ndarray, shape (N, n) or None
+        Starting configurations [rad, m]; None starts from closed-form
+        branches where a closed-form family fits the robot or its idealised
+        copy, else from random in-limit configurations.
+    rows : tuple of int
+        Rows of the 6 x n Jacobian the task constrains.
+    tol : float
+        Residual at which a target counts as solved [m, rad].
+    max_iter : int
+        Levenberg-Marquardt iterations per attempt.
+    restarts : int
+        Sequential restarts, then multi-start rounds, for failing targets.
+    rng : numpy.random.Generator
+        Draws the random starts (seeded by the caller).
+    multistart : int
+        Most copies per failing target in a multi-start round.
+
+    Returns
+    -------
+    q : ndarray, shape (N, n)
+        Joint values [rad, m].
+    success : ndarray of bool, shape (N,)
+    iterations : ndarray of int, shape (N,)
+    residual : ndarray, shape (N,)
+        Final task-space error norm [m, rad].
+    """
+    lim = robot.joint_limits
+    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, fk_jacobian_kernel(robot),
+                 lim[:, 0], lim[:, 1])
+    starts = analytic_seeds(robot, kind, target) if q0 is None else None
+    if starts is not None:
+        q0 = starts.all[:, 0].copy()
+        q0[~starts.found] = p.random_q(int((~starts.found).sum()))
+    elif q0 is None:
+        q0 = p.random_q(target.shape[0])
+    out = _attempts(p, np.clip(q0, p.lo, p.hi), restarts, starts)
+    for _ in range(restarts if multistart > 1 else 0):
+        if out.success.all() or not _multistart_round(p, out, multistart):
+            break
+    return out.q, out.success, out.iterations, out.residual
+
+
+def _multistart_round(p, out, multistart):
+    """One multi-start round for the failing targets (updates ``out``); False when there are too many."""
+    fail = (~out.success).nonzero()[0]
+    K = int(min(multistart, max(1, 8192 // fail.size)))
+    if K < 2:
+        return False
+    copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))
+    got = _attempts(copies, copies.random_q(fail.size * K), 1, None, group=K)
+    ok, res = got.success.reshape(-1, K), got.residual.reshape(-1, K)
+    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+    each = np.arange(fail.size)
+    q, res = got.q.reshape(-1, K, got.q.shape[1])[each, pick], res[each, pick]
+    out.iterations[fail] += got.iterations.reshape(-1, K)[each, pick]
+    improve = ok.any(axis=1) | (res < out.residual[fail])
+    out.q[fail[improve]], out.residual[fail[improve]] = q[improve], res[improve]
+    out.success[fail] = ok.any(axis=1)
+    return True
+
+
+def _attempts(p, q0, restarts, starts, group=1):
+    """Up to ``restarts + 1`` attempts of every target not yet converged; an :class:`_Outcome`.
+
+    Rows come in consecutive groups of ``group`` copies of one target (the
+    multi-start): once a copy converges, its siblings stop iterating.
+    """
+    out = _Outcome.start(q0, group)
+    near = np.zeros(q0.shape[0], dtype=bool) if starts is None else starts.found
+    q = q0
+    for attempt in range(restarts + 1):
+        rows = out.pending(attempt)
+        if rows.size == 0:
+            break
+        if attempt > 0:
+            q, near = _restart(p, rows, attempt, starts, out.q)
+        _attempt(p, out, _Active(rows, q[rows], p.target[rows], np.where(near[rows], LAMBDA_NEAR, LAMBDA_RANDOM),
+                                 near[rows]), free=attempt % 2 == 1)
+    fail = ~out.success
+    out.q[fail] = np.clip(out.best_q[fail], p.lo, p.hi)
+    return out
+
+
+def _restart(p, rows, attempt, starts, q):
+    """Starting configurations of attempt ``attempt > 0`` for ``rows`` (a copy of ``q``), and which are closed-form.
+
+    Attempts 1, 2 take the second closed-form start, 3, 4 the third ...
+    jittered by a few degrees (two starts of an idealised copy can coincide,
+    and one on the far side of a stretched elbow crawls); without one, a
+    random configuration.
+    """
+    q, near = q.copy(), np.zeros(q.shape[0], dtype=bool)
+    fresh = rows
+    if starts is not None and attempt < 2 * starts.all.shape[1]:
+        nxt = starts.all[rows, (attempt - 1) // 2 if attempt % 2 else attempt // 2]
+        ok = ~np.isnan(nxt[:, 0])
+        jitter = p.rng.normal(0.0, 0.05, size=(int(ok.sum()), q.shape[1]))
+        q[rows[ok]] = np.clip(nxt[ok] + jitter, p.lo, p.hi)
+        near[rows[ok]] = True
+        fresh = rows[~ok]
+    q[fresh] = p.random_q(fresh.size)
+    return q, near
+
+
+def _attempt(p, out, a, *, free):
+    """Iterate the active rows ``a`` until each converges, stalls or runs out of iterations (updates ``out``)."""
+    lo, hi = (np.where(p.robot.is_revolute, -np.inf, p.lo), np.where(p.robot.is_revolute, np.inf, p.hi)) if free \
+        else (p.lo, p.hi)
+    a.J, a.e, a.res, a.E = p.evaluate(a.q, a.target)
+    a.E_check = a.E.copy()
+    for it in range(1, p.max_iter + 1):
+        done = a.res < p.tol
+        if done.any() or it % CHECK_EVERY == 0 or it == CHECK_EVERY // 2:
+            a = _leave(p, out, a, done, it, free)
+            if a.rows.size == 0:
+                return
+        _step(p, a, lo, hi)
+    out.iterations[a.rows] += p.max_iter
+    inside = p.robot.within_limits(a.q)
+    done = (a.res < p.tol) & inside
+    out.converged(a.rows[done], a.q[done], a.res[done])
+    out.keep_best(a.rows, a.q, a.res, inside)
+    out.q[a.rows[~done]] = a.q[~done]
+
+
+def _step(p, a, lo, hi):
+    """One LM iteration of the active rows: the damped step, clipped, kept where it lowers the error."""
+    q = np.clip(a.q + damped_step(a.J, a.e, a.lam), lo, hi)
+    J, e, res, E = p.evaluate(q, a.target)
+    better = E < a.E
+    a.lam = damping(a.lam, better)
+    if better.all():
+        a.q, a.J, a.e, a.res, a.E = q, J, e, res, E
+        return
+    a.q[better], a.J[better], a.e[better], a.res[better], a.E[better] = q[better], J[better], e[better], \
+        res[better], E[better]
+
+
+def _leave(p, out, a, done, it, free):
+    """Record the rows that converged or stalled at iteration ``it``; the rows that go on.
+
+    A free attempt's solution is wrapped into the limits and counts only if
+    it then lies inside; a row stalls when its squared error has not dropped
+    100x since the last test (every :data:`CHECK_EVERY` iterations; a
+    closed-form start also at half of that, the test after measuring from
+    there).
+    """
+    stalled = np.zeros_like(done)
+    if free and done.any():
+        idx = np.flatnonzero(done)
+        a.q[idx] = finish(p.robot, a.q[idx], flipped=False)
+        outside = idx[~p.robot.within_limits(a.q[idx])]
+        done[outside], stalled[outside] = False, True  # converged outside the limits: restart
+    slow = ~done & (a.E > 0.01 * a.E_check)
+    if it % CHECK_EVERY == 0:
+        stalled |= slow
+        a.E_check = a.E.copy()
+    elif it == CHECK_EVERY // 2:  # a closed-form start converges in a few steps, or is the wrong branch
+        stalled |= slow & a.near
+        a.E_check = np.where(a.near, a.E, a.E_check)
+    leave = done | stalled
+    if not leave.any():
+        return a
+    out.converged(a.rows[done], a.q[done], a.res[done])
+    out.iterations[a.rows[leave]] += it - 1
+    if stalled.any():
+        out.keep_best(a.rows[stalled], a.q[stalled], a.res[stalled], p.robot.within_limits(a.q[stalled]))
+    keep = ~leave & ~out.group_done[a.rows // out.group]  # (a converged copy stops its siblings)
+    out.iterations[a.rows[~leave & ~keep]] += it - 1
+    return a.keep(keep)

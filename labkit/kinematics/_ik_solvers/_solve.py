@@ -1,0 +1,136 @@
+"""Running a closed-form family on targets, and the one finishing step (private).
+
+:func:`solve` runs a family's formulas on the validated targets as numpy rows
+(one target is a batch of one) in cache-sized chunks, then every joint value
+goes through :func:`finish`: flipped joints negated, revolute angles wrapped
+into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and shifted by a turn
+where that enters the limits. Whether a configuration lies inside the limits
+is :meth:`labkit.robot.Robot.within_limits`, and which valid branch is nearest
+a preferred configuration is :func:`nearest`, both for every solver.
+
+No NaN ever leaves: where a branch cannot reach a target its ``reachable``
+flag is False and its ``q`` holds the finite configuration obtained by
+clipping the cosine-law arguments to [-1, 1] (the arm stretched or folded
+towards the target), a fill, not a solution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.rotations import wrap_angle
+
+#: targets per numpy call of a family
+_CHUNK = 8192
+#: one turn [rad]
+_TURN = 2 * math.pi
+#: slack of the limits [rad] (as ``Robot.within_limits``)
+_SLACK = 1e-9
+
+
+def finish(robot, q, *, flipped=True):
+    """Joint values from a solver as the robot's joint values (a new array).
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    q : array_like, shape (..., n)
+        Joint values [rad, m], in the chain's sense with ``flipped`` (from a
+        closed-form family), else already the robot's (numeric IK).
+    flipped : bool
+        Negate the flipped joints (``Link.flip``).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Revolute angles wrapped into (-pi, pi], then a turn up or down where
+        that enters the joint's limits; non-finite values replaced by 0.
+    """
+    q = np.array(q, dtype=float)
+    flip, rev, lo, hi = _joints(robot)
+    if flipped and flip.any():
+        q[..., flip] *= -1.0
+    v = wrap_angle(q[..., rev])
+    lo, hi = lo[rev] - _SLACK, hi[rev] + _SLACK
+    # a value below the limits may enter them one turn up, one above them one turn down (pi itself, when the
+    # range starts at -pi); either only where the limits reach beyond (-pi, pi]
+    v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
+    q[..., rev] = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+    q[~np.isfinite(q)] = 0.0
+    return q
+
+
+def _joints(robot):
+    """Which joints are flipped and revolute, and the limits [rad, m], as arrays (n,)."""
+    lim = robot.joint_limits
+    return np.array([lk.flip for lk in robot.links]), robot.is_revolute, lim[:, 0], lim[:, 1]
+
+
+def solve(robot, family, flat):
+    """Every branch of validated targets, finished.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    family : Family
+        Its closed-form solver.
+    flat : ndarray, shape (N, k) or (N, 4, 4)
+        Validated targets (:func:`labkit.kinematics._ik_solvers._targets.validate_targets`).
+
+    Returns
+    -------
+    q : ndarray, shape (N, m, n)
+        Joint values [rad, m] per branch (unreachable: a finite fill).
+    reachable : ndarray of bool, shape (N, m)
+    valid : ndarray of bool, shape (N, m)
+        Reachable and inside the joint limits.
+    distance : ndarray, shape (N,)
+        How far each target lies out of reach [m] (0 if any branch reaches it).
+    """
+    N, m, n = flat.shape[0], len(family.branches), robot.n
+    q = np.empty((N, m, n))
+    reach = np.empty((N, m), dtype=bool)
+    distance = np.empty(N)
+    for s in range(0, N, _CHUNK):
+        part = slice(s, s + _CHUNK)
+        # a batch's components are (N,) rows; one target's are numpy scalars (the same formulas, without
+        # the bookkeeping of arrays of one element)
+        qb, rb, d = family.solve(flat[0] if N == 1 else np.ascontiguousarray(np.moveaxis(flat[part], 0, -1)))
+        for k, (branch, ok) in enumerate(zip(qb, rb)):
+            for j, v in enumerate(branch):
+                q[part, k, j] = v
+            reach[part, k] = ok
+        distance[part] = d
+    q = finish(robot, q)
+    distance[reach.any(axis=1)] = 0.0
+    return q, reach, reach & robot.within_limits(q), distance
+
+
+def nearest(robot, q, valid, q_near):
+    """Per target the valid branch nearest ``q_near`` (revolute differences wrapped), else the first valid one.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+    q : ndarray, shape (N, m, n)
+        Joint values of every branch [rad, m].
+    valid : ndarray of bool, shape (N, m)
+        Which branches may be picked.
+    q_near : ndarray, shape (N, n) or None
+        Preferred configurations [rad, m]; None: the first valid branch.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+        The branch picked per target (0 where none is valid).
+    """
+    if q_near is None or q.shape[1] == 1:
+        return np.argmax(valid, axis=1)
+    d = q - q_near[:, None, :]
+    d = np.where(robot.is_revolute, wrap_angle(d), d)
+    return np.argmin(np.where(valid, (d * d).sum(axis=-1), np.inf), axis=1)
