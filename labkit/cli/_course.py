@@ -69,9 +69,9 @@ def _cmd_assign(args):
         from labkit.course import baseline
 
         base = baseline(args.lab_dir)
-        print(f"the untouched student version passes {len(base.reasons)} check row(s) worth {base.free_points:g} of "
-              f"{base.result.max_points:g} points; at grading these rows are free (worth 0), so it scores 0 "
-              "(labkit grade --count-free counts them)")
+        print(f"the untouched student version passes {len(base.reasons)} check row(s); at grading these rows are "
+              f"free (worth 0), so it scores 0 and a submission can earn at most {base.max_points:g} points "
+              f"(of the {base.result.max_points:g} the checks declare; labkit grade --count-free counts free rows)")
         for line in base.reasons:
             print(f"  free: {line}")
     return 0

@@ -40,20 +40,23 @@ Example
 from __future__ import annotations
 
 import copy
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
+from labkit.course._safefs import read_tree, write_tree
 
-__all__ = ["SOLUTION_TAG", "TESTS_TAG", "HIDDEN_TESTS_TAG", "PARAMETERS_TAG", "CODE_STUB",
+__all__ = ["SOLUTION_TAG", "TESTS_TAG", "HIDDEN_TESTS_TAG", "PARAMETERS_TAG", "REFERENCE_TAG", "CODE_STUB",
            "GradedCell", "AssignResult", "cell_role", "graded_cells", "student_notebook", "assign"]
 
 SOLUTION_TAG = "solution"
 TESTS_TAG = "tests"
 HIDDEN_TESTS_TAG = "hidden-tests"
 PARAMETERS_TAG = "parameters"
-_ROLES = (SOLUTION_TAG, TESTS_TAG, HIDDEN_TESTS_TAG, PARAMETERS_TAG)
+#: the instructor's trusted references: removed from the student version, run only by the checker (never in the
+#: student's kernel), before the checks; the names they assign are never taken from the student's values
+REFERENCE_TAG = "reference"
+_ROLES = (SOLUTION_TAG, TESTS_TAG, HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG)
 #: what replaces a solution (nbgrader's stub; the cell's leading comments stay above it as the hint)
 CODE_STUB = "# YOUR CODE HERE\nraise NotImplementedError()"
 _BEGIN_SOLUTION, _END_SOLUTION = "### BEGIN SOLUTION", "### END SOLUTION"
@@ -105,7 +108,7 @@ class AssignResult:
 
 
 def cell_role(cell) -> str | None:
-    """The authoring role of a cell: one of the four tags, or None for an ordinary cell.
+    """The authoring role of a cell: one of the five tags, or None for an ordinary cell.
 
     Parameters
     ----------
@@ -115,7 +118,7 @@ def cell_role(cell) -> str | None:
     Returns
     -------
     str or None
-        ``"solution"``, ``"tests"``, ``"hidden-tests"``, ``"parameters"`` or None.
+        ``"solution"``, ``"tests"``, ``"hidden-tests"``, ``"parameters"``, ``"reference"`` or None.
 
     Raises
     ------
@@ -226,7 +229,7 @@ def student_notebook(nb):
         nb, resources = ClearHiddenTests().preprocess(nb, resources)
     except RuntimeError as exc:  # nbgrader's message for unbalanced delimiters
         raise LabkitError(f"cannot make the student version: {exc}") from exc
-    nb.cells = [c for c in nb.cells if cell_role(c) != HIDDEN_TESTS_TAG]
+    nb.cells = [c for c in nb.cells if cell_role(c) not in (HIDDEN_TESTS_TAG, REFERENCE_TAG)]
     nb, resources = LockCells(lock_grade_cells=True, lock_solution_cells=True).preprocess(nb, resources)
     nb, resources = ClearOutput().preprocess(nb, resources)
     return nb
@@ -268,11 +271,7 @@ def assign(lab_dir, out_dir) -> AssignResult:
     for name, nb in students.items():
         nbformat.write(nb, str(out / name))
         written.append(out / name)
-    others = []
-    for p in sorted(lab.rglob("*")):
-        rel = p.relative_to(lab)
-        if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts:
-            (out / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(p, out / rel)
-            others.append(out / rel)
+    data = {rel: content for rel, content in read_tree(lab).items() if not rel.endswith(".ipynb")}
+    write_tree(data, out, replace=True)
+    others = [out / rel for rel in data]
     return AssignResult(tuple(written), tuple(others), checks)

@@ -22,20 +22,26 @@ Example
 
 from __future__ import annotations
 
+import os
 import tempfile
 import time
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 from labkit.exceptions import LabkitError
 from labkit.course._grade import grade_submission
-from labkit.course._submission import MAX_SUBMISSION_BYTES
-from labkit.course._sandbox import Limits
+from labkit.course._feedback import student_folder
+from labkit.course._safefs import read_tree, remove_tree, write_tree
+from labkit.course._submission import MAX_DEPTH, MAX_ENTRIES, MAX_SUBMISSION_BYTES, clean_text, student_label
+from labkit.course._sandbox import Limits, check_sandbox
 from labkit.reports import find_chromium, find_notebooks, lab_of, render_one, write_index
 
 __all__ = ["pack_dir", "unpack_dir", "run_tasks", "grade", "gradebook_frame", "write_gradebook", "render_batch"]
 
-def pack_dir(path, *, limit=None) -> dict:
-    """The regular files under a folder as ``{relative posix path: bytes}`` (symlinks skipped).
+def pack_dir(path, *, limit=None, max_depth=64, max_entries=100_000) -> dict:
+    """The regular files under a folder as ``{relative posix path: bytes}`` (links and special files skipped).
+
+    The walk is :func:`labkit.course._safefs.read_tree`'s: iterative, under folder descriptors,
+    with caps.
 
     Parameters
     ----------
@@ -43,6 +49,8 @@ def pack_dir(path, *, limit=None) -> dict:
         The folder.
     limit : int, optional
         Largest total size accepted [bytes].
+    max_depth, max_entries : int
+        Deepest folder level and most entries accepted.
 
     Returns
     -------
@@ -51,23 +59,13 @@ def pack_dir(path, *, limit=None) -> dict:
     Raises
     ------
     LabkitError
-        If the folder is over ``limit``.
+        If the folder is over a cap (the message says which) or is not a folder.
     """
-    root, files, total = Path(path), {}, 0
-    for p in sorted(root.rglob("*")):
-        rel = p.relative_to(root)
-        if p.is_symlink() or not p.is_file() or ".ipynb_checkpoints" in rel.parts:
-            continue
-        data = p.read_bytes()
-        total += len(data)
-        if limit is not None and total > limit:
-            raise LabkitError(f"expected at most {limit} bytes in {root}, got more")
-        files[rel.as_posix()] = data
-    return files
+    return read_tree(path, max_depth=max_depth, max_entries=max_entries, max_bytes=limit)
 
 
 def unpack_dir(files, dest) -> Path:
-    """Write ``{relative path: bytes}`` under ``dest`` (paths escaping ``dest`` are rejected).
+    """Write ``{relative path: bytes}`` under ``dest`` (paths escaping ``dest`` are rejected; no link followed).
 
     Parameters
     ----------
@@ -86,16 +84,7 @@ def unpack_dir(files, dest) -> Path:
     LabkitError
         For an absolute path or one with ``..``.
     """
-    dest = Path(dest)
-    dest.mkdir(parents=True, exist_ok=True)
-    for rel, data in files.items():
-        pure = PurePosixPath(rel)
-        if pure.is_absolute() or ".." in pure.parts:
-            raise LabkitError(f"expected a relative path inside the folder, got {rel!r}")
-        target = dest.joinpath(*pure.parts)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(data)
-    return dest
+    return write_tree(files, dest, replace=True)
 
 
 def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None) -> list:
@@ -177,6 +166,10 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     return results
 
 
+#: set once this process has checked that bubblewrap starts here (a pool or dask worker)
+_WORKER_CHECKED = []
+
+
 def _grade_task(student, submission_files, lab_files, limits, html, free):
     """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``.
 
@@ -186,12 +179,16 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
 
     t0 = time.perf_counter()
     try:
+        if limits.sandbox and not _WORKER_CHECKED:  # a worker on another machine: its bubblewrap, once
+            check_sandbox()
+            _WORKER_CHECKED.append(True)
         with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
-            sub = unpack_dir(submission_files, Path(tmp) / "submissions" / student)
+            sub = unpack_dir(submission_files, Path(tmp) / "submissions" / "submission")  # a name of ours
             lab = unpack_dir(lab_files, Path(tmp) / "lab")
             out = Path(tmp) / "feedback"
-            result = grade_submission(sub, lab, out, limits=limits, html=html, free=free)
-            files = pack_dir(out / student) if (out / student).is_dir() else {}
+            result = grade_submission(sub, lab, out, limits=limits, html=html, free=free, student=student)
+            page = out / student_folder(student)
+            files = pack_dir(page) if page.is_dir() else {}
             return replace(result, files=files)
     except Exception as exc:  # noqa: BLE001 - one student's row, never the class's crash
         return _failed(student, lab_files, free, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
@@ -214,7 +211,8 @@ def _failed(student, lab_files, free, status, why, t0=None):
             if graded_cells(nb, rel):
                 sources[rel] = nb
     seconds = 0.0 if t0 is None else time.perf_counter() - t0
-    return SubmissionResult(student, status, str(why)[:500], _unscored(sources, free, str(why)[:200]), seconds)
+    why = clean_text(why)
+    return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), seconds)
 
 
 def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True,
@@ -232,7 +230,8 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     lab_dir : str or os.PathLike
         The instructor's lab folder.
     output_dir : str or os.PathLike
-        Feedback folder (created): ``<student>/index.html`` and the class's ``index.html``.
+        Feedback folder (created): ``students/<student>/index.html`` (:func:`labkit.course._feedback.student_folder`)
+        and the class's ``index.html``.
     limits : Limits, optional
         Per-notebook limits.
     scheduler : str, optional
@@ -249,14 +248,15 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     Returns
     -------
     list of SubmissionResult
-        One per entry of ``submissions_dir``, sorted by name (``files`` emptied once written).
+        Exactly one per entry of ``submissions_dir`` (a hidden ``.name`` aside), whatever it holds, sorted by
+        name (``files`` emptied once written). Names are carried as they are, bytes that are not UTF-8 and
+        control characters escaped visibly (:func:`labkit.course._submission.student_label`).
 
     Raises
     ------
     LabkitError
         If there is no entry in ``submissions_dir`` or the lab folder is not one.
     """
-    import shutil
     from dataclasses import replace
 
     from labkit.course._feedback import write_class_index
@@ -265,29 +265,40 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     subs, lab = Path(submissions_dir).resolve(), Path(lab_dir).resolve()
     if not lab.is_dir():
         raise LabkitError(f"expected the lab folder, got {lab}")
-    entries = sorted(p for p in subs.iterdir() if not p.name.startswith(".")) if subs.is_dir() else []
+    try:
+        with os.scandir(subs) as it:
+            entries = sorted((e for e in it if not e.name.startswith(".")), key=lambda e: os.fsencode(e.name))
+    except OSError:
+        entries = []
     if not entries:
         raise LabkitError(f"expected one folder per student in {subs}, found none")
     out = Path(output_dir).resolve()
     limits = limits or Limits()
+    if limits.sandbox and scheduler is None:  # here, before anything runs (dask workers check their own)
+        check_sandbox()
     lab_files = pack_dir(lab)
     free = {} if count_free else baseline(lab, limits=limits).free
-    argsets, early = [], {}
-    for p in entries:
-        if p.is_symlink() or not p.is_dir():
-            early[p.name] = _failed(p.name, lab_files, free, "invalid", "not a folder (a file or a symlink)")
-            continue
+    argsets, early, seen = [], {}, set()
+    for entry in entries:
+        student = student_label(entry.name)
+        while student in seen:  # two raw names shown alike: both keep a row
+            student += "~"
+        seen.add(student)
         try:
-            files = pack_dir(p, limit=MAX_SUBMISSION_BYTES)
-        except (LabkitError, OSError) as exc:
-            early[p.name] = _failed(p.name, lab_files, free, "invalid", str(exc))
+            if entry.is_symlink() or not entry.is_dir(follow_symlinks=False):
+                early[student] = _failed(student, lab_files, free, "invalid", "not a folder (a file or a symlink)")
+                continue
+            files = pack_dir(entry.path, limit=MAX_SUBMISSION_BYTES, max_depth=MAX_DEPTH, max_entries=MAX_ENTRIES)
+        except Exception as exc:  # noqa: BLE001 - whatever the entry holds, it is this student's row
+            early[student] = _failed(student, lab_files, free, "invalid", f"{type(exc).__name__}: {exc}")
             continue
-        argsets.append((p.name, files, lab_files, limits, html, free))
+        argsets.append((student, files, lab_files, limits, html, free))
 
     def write(i, result):
-        if (out / result.student).exists():
-            shutil.rmtree(out / result.student)
-        unpack_dir(result.files, out / result.student)
+        page = out / student_folder(result.student)
+        if page.exists():
+            remove_tree(page)
+        unpack_dir(result.files, page)
 
     results = run_tasks(_grade_task, argsets, scheduler=scheduler, jobs=jobs, desc="grading", progress=progress,
                         on_result=write) if argsets else []
@@ -308,24 +319,55 @@ def gradebook_frame(results):
     -------
     pandas.DataFrame
         Index ``student``; columns ``status``, ``points``, ``max_points``, then
-        ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``),
+        ``"<notebook>: <check>"`` (points earned, hidden checks marked ``(hidden)``; none for a
+        check worth 0, whose rows are all free, such as a notebook without student work),
         ``seconds``, ``memory_limit`` (how memory was limited: ``cgroup v2``, ``cgroup v1``
         or ``watchdog``) and ``detail``.
     """
     import pandas as pd
 
     rows = []
+    worth = {(s.notebook, s.cell_id) for r in results for s in r.scores if s.max_points > 0}
     for r in results:
         row = {"student": r.student, "status": r.status, "points": r.points, "max_points": r.max_points}
         for s in r.scores:
-            row[f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else "")] = s.points
-        row.update(seconds=round(r.seconds, 2), memory_limit=r.memory_limit, detail=r.detail)
+            if (s.notebook, s.cell_id) in worth:  # a check all of whose rows are free is worth 0: no column
+                row[clean_text(f"{s.notebook}: {s.name}" + (" (hidden)" if s.hidden else ""))] = s.points
+        row.update(seconds=round(r.seconds, 2), memory_limit=r.memory_limit, detail=clean_text(r.detail))
         rows.append(row)
     return pd.DataFrame(rows).set_index("student")
 
 
+#: what a spreadsheet reads as the start of a formula (OWASP's list for CSV injection)
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _inert(value):
+    """A cell value a spreadsheet shows as text: control characters gone, a formula's first character quoted."""
+    if not isinstance(value, str):
+        return value
+    text = clean_text(value) if not value.startswith(("\t", "\r")) else "'" + clean_text(value)
+    return "'" + text if text.startswith(_FORMULA_START) else text
+
+
+def _inert_frame(frame):
+    """``frame`` with every text cell, the index and the column names made :func:`_inert`."""
+    frame = frame.copy()
+    for column in frame.columns:
+        if frame[column].dtype == object:
+            frame[column] = frame[column].map(_inert)
+    frame.index = frame.index.map(_inert)
+    frame.index.name = _inert(frame.index.name)
+    frame.columns = [_inert(c) for c in frame.columns]
+    return frame
+
+
 def write_gradebook(frame, path) -> list:
     """Write the gradebook as CSV or Excel (by suffix); a ``.csv`` also gets its ``.xlsx`` twin.
+
+    Every text cell is made inert for a spreadsheet: control characters removed, and a cell that
+    starts with ``=``, ``+``, ``-``, ``@``, a tab or a CR gets a leading ``'`` (it is text, never a
+    formula), in the CSV and in the Excel file alike.
 
     Parameters
     ----------
@@ -348,6 +390,7 @@ def write_gradebook(frame, path) -> list:
     if path.suffix not in (".csv", ".xlsx"):
         raise LabkitError(f"expected a gradebook path ending .csv or .xlsx, got {path.name!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
+    frame = _inert_frame(frame)
     written = []
     if path.suffix == ".csv":
         frame.to_csv(path)

@@ -32,6 +32,8 @@ from pathlib import Path
 
 __all__ = ["check_cell", "run_checker", "main"]
 
+#: largest result document read back from the checker [bytes]
+_MAX_RESULT_BYTES = 64 * 2**20
 _NO_DATA = "the notebook stopped before this check (no values were handed out)"
 
 
@@ -101,9 +103,42 @@ def check_cell(plan, values, base) -> list:
             continue
         if error and setup_error and "NameError" in error:
             error += f"; earlier in the check: {setup_error}"
+        if error:
+            error += _values_read(source, ns, values, base)
         results[i] = {"passed": not error, "error": error[:500], "line": where}
     return [results.get(row.statement, {"passed": False, "error": "not run", "line": row.line})
             for row in rows.values()]
+
+
+def _shown(value) -> str:
+    """A short text of a value for a failing row (numbers to 4 significant digits)."""
+    try:
+        import numpy as np
+
+        if isinstance(value, (list, tuple, np.ndarray)) and np.asarray(value).dtype.kind in "biuf":
+            text = np.array2string(np.asarray(value), precision=4, threshold=8)
+        elif isinstance(value, float):
+            text = f"{value:.4g}"
+        else:
+            text = repr(value)
+    except Exception:  # noqa: BLE001 - a value that cannot be shown is named only
+        text = f"<{type(value).__name__}>"
+    text = " ".join(text.split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _values_read(source, ns, values, base) -> str:
+    """``" (t3 = 1.234, q = [0 0 0])"``: the submission's values a failing row reads, so the row names them."""
+    import ast
+
+    try:
+        names = [n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)]
+    except SyntaxError:
+        return ""
+    mine = list(dict.fromkeys(n for n in names if n in values and n not in base and n in ns))
+    if not mine:
+        return ""
+    return " (" + ", ".join(f"{n} = {_shown(ns[n])}" for n in mine[:4]) + (", ..." if len(mine) > 4 else "") + ")"
 
 
 def _prelude(statements):
@@ -214,8 +249,10 @@ def run_checker(job, private, *, limits, sandbox_args=None) -> dict:
                               timeout=max(60.0, limits.wall_seconds))
     except subprocess.TimeoutExpired:
         return {"error": f"the checks ran over {max(60.0, limits.wall_seconds):g} s"}
-    try:
-        return json.loads(result_path.read_text(encoding="utf-8"))
+    from labkit.course._safefs import read_file
+
+    try:  # the checker's folder is writable in its sandbox: read it as any such file
+        return json.loads(read_file(private, result_path.name, max_bytes=_MAX_RESULT_BYTES).decode("utf-8"))
     except (OSError, ValueError):
         tail = proc.stderr.decode(errors="replace").strip().splitlines()[-3:]
         return {"error": f"the checker failed (exit status {proc.returncode}): {' '.join(tail)}"[:500]}

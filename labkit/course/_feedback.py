@@ -19,11 +19,44 @@ True
 
 from __future__ import annotations
 
+import hashlib
 import html
 from pathlib import Path
 from urllib.parse import quote
 
-__all__ = ["MAX_PAGE_BYTES", "write_feedback", "write_class_index"]
+from labkit.course._submission import clean_text
+
+__all__ = ["MAX_PAGE_BYTES", "STUDENTS_FOLDER", "student_folder", "write_feedback", "write_class_index"]
+
+#: the feedback folder's sub-folder holding one folder per student (the class index is beside it)
+STUDENTS_FOLDER = "students"
+
+
+def student_folder(student) -> str:
+    """The folder of a student's page, relative to the feedback folder: never one of the grader's own files.
+
+    Parameters
+    ----------
+    student : str
+        The gradebook's name of the student (:func:`labkit.course._submission.student_label`).
+
+    Returns
+    -------
+    str
+        ``students/<name percent-encoded>`` (a leading dot encoded too; a very long name shortened
+        with a hash of it): distinct names give distinct folders, and no name reaches ``index.html``.
+
+    Examples
+    --------
+    >>> student_folder("index.html"), student_folder("../x y")
+    ('students/index.html', 'students/%2E%2E%2Fx%20y')
+    """
+    name = quote(str(student), safe="")
+    if name.startswith("."):
+        name = "%2E" + name[1:].replace(".", "%2E", 1) if name.startswith("..") else "%2E" + name[1:]
+    if len(name.encode()) > 200:
+        name = name[:150] + "-" + hashlib.sha256(str(student).encode("utf-8", "backslashreplace")).hexdigest()[:16]
+    return f"{STUDENTS_FOLDER}/{name}"
 
 #: largest feedback page [bytes]
 MAX_PAGE_BYTES = 256 * 2**10
@@ -34,7 +67,7 @@ _STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 
 
 
 def _e(text, limit=600) -> str:
-    text = str(text)
+    text = clean_text(text)
     if len(text) > limit:
         text = text[:limit] + " [...]"
     return html.escape(text, quote=True)
@@ -73,15 +106,21 @@ def student_page(result, pages) -> str:
             parts.append(f"<pre>{_e(detail, 1500)}</pre>")
         parts.append("<table><tr><th>check</th><th>kind</th><th>row</th><th>result</th><th>points</th>"
                      "<th>what failed</th></tr>")
+        hidden_count = 0
         for s in scores:
             kind = "hidden" if s.hidden else "public"
             rows = s.rows or ()
-            parts.append(f"<tr><td rowspan=\"{max(1, len(rows)) + 1}\">{_e(s.name)}</td>"
+            shown = s.name
+            if s.hidden:  # an unnamed hidden check is named after its cell id: never show the id
+                hidden_count += 1
+                shown = f"hidden check {hidden_count}" if s.name == s.cell_id else s.name
+            parts.append(f"<tr><td rowspan=\"{max(1, len(rows)) + 1}\">{_e(shown)}</td>"
                          f"<td rowspan=\"{max(1, len(rows)) + 1}\">{kind}</td><td><i>total</i></td>"
                          f"<td>{_result(s.passed, s.free)}</td><td>{s.points:.3g} / {s.max_points:.3g}</td><td></td></tr>")
             for r in rows:
                 why = "" if s.hidden or r.passed else _e(r.error, 400)
-                parts.append(f"<tr><td>{_e(r.name, 200)}</td><td>{_result(r.passed, r.free)}</td>"
+                row_name = r.name.replace(s.cell_id, shown) if s.hidden and s.cell_id else r.name
+                parts.append(f"<tr><td>{_e(row_name, 200)}</td><td>{_result(r.passed, r.free)}</td>"
                              f"<td>{r.points:.3g} / {r.max_points:.3g}</td><td>{why}</td></tr>")
             if not rows:
                 parts.append("<tr><td colspan=\"4\">not graded</td></tr>")
@@ -139,8 +178,9 @@ def write_class_index(results, folder, *, title="Gradebook") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     rows = []
     for r in results:
-        link = f"<a href=\"{_e(quote(r.student))}/index.html\">{_e(r.student)}</a>" \
-            if (folder / r.student / "index.html").is_file() else _e(r.student)
+        where = student_folder(r.student)
+        link = f"<a href=\"{_e(quote(where))}/index.html\">{_e(r.student)}</a>" \
+            if (folder / where / "index.html").is_file() else _e(r.student)
         rows.append(f"<tr><td>{link}</td><td>{_e(r.status)}</td><td>{r.points:g} / {r.max_points:g}</td>"
                     f"<td>{_e(r.detail, 300)}</td></tr>")
     mean = sum(r.points for r in results) / len(results) if results else 0.0

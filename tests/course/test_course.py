@@ -66,7 +66,7 @@ def test_assign_reports_the_free_rows(tmp_path, capsys):
     lab = cl.write_lab(tmp_path / "lab")
     assert main(["assign", str(lab), str(tmp_path / "student")]) == 0
     out = capsys.readouterr().out
-    assert "passes 1 check row(s) worth 0.5 of 4 points" in out, out
+    assert "passes 1 check row(s)" in out and "can earn at most 4 points (of the 4 the checks declare" in out, out
     assert "free: 01_fk.ipynb: x is a number, on sim://" in out and "assertion 2" in out
 
 
@@ -134,12 +134,12 @@ def test_round_trip_grade_on_the_local_pool(course, tmp_path):
     assert "CPU-time limit" in table.loc["infinite_loop", "detail"]
 
     assert "NotImplementedError" not in table.loc["raising", "detail"]
-    assert "ValueError: I gave up in cell 5 (id work), line 1" in table.loc["raising", "detail"]
+    assert "ValueError: I gave up in cell 4 (id work), line 1" in table.loc["raising", "detail"]  # as the student counts
 
     feedback = tmp_path / "grades" / "gradebook_feedback"
     assert "correct/index.html" in (feedback / "index.html").read_text()
     for name in cl.EXPECTED:
-        page = (feedback / name / "index.html").read_text()
+        page = (feedback / "students" / name / "index.html").read_text()
         assert REMOTE.search(page) is None and "Score" in page and len(page.encode()) < 2**20
         assert "SECRET-HIDDEN-MARKER" not in page and "fk(arm, q)[0, 3]" not in page  # hidden: names and results
         assert "tool y [m]" in page and "x value" in page
@@ -247,8 +247,8 @@ def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     assert [r.student for r in results] == sorted(codes)  # every submission once, none lost or twice
     for r in results:
         assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
-        assert (tmp_path / "feedback" / r.student / "index.html").is_file()
-    assert sorted(p.name for p in (tmp_path / "feedback").iterdir() if p.is_dir()) == sorted(codes)
+        assert (tmp_path / "feedback" / "students" / r.student / "index.html").is_file()
+    assert sorted(p.name for p in (tmp_path / "feedback" / "students").iterdir() if p.is_dir()) == sorted(codes)
 
 
 def test_run_tasks_local_pool_keeps_input_order():
@@ -275,7 +275,9 @@ def test_seed004_is_a_worked_assignment(tmp_path):
     original = nbformat.read(str(lab / "01_ik_elbow_minus.ipynb"), as_version=4)
     assert "np.linalg.solve(M, [x3, y3])" in "\n".join(c.source for c in original.cells)
     assert graded_cells(original)[1].name == "A.2 steps"
-    assert [c.id for c in student.cells] == [c.id for c in original.cells if "hidden-tests" not in tags(c)]
+    assert [c.id for c in student.cells] == [c.id for c in original.cells
+                                             if not {"hidden-tests", "reference"} & set(tags(c))]
+    assert "frames_ref = " not in text  # the reference cell (issue 37) is the checker's only
 
 
 @pytest.mark.parametrize("sandbox", [True, False])
@@ -360,13 +362,23 @@ def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
         if "solution" in tags(c):
             c.source = steps + "raise NotImplementedError()"
     nbformat.write(nb, str(subs / "half_done" / "01_ik_elbow_minus.ipynb"))
+    # issue 37: fake q, the target and trivial steps that agree with them; the checks read the instructor's
+    # target (parameters cell) and reference solution (reference cell), computed outside the student's kernel
+    shutil.copytree(student, subs / "faked")
+    nb = nbformat.read(str(subs / "faked" / "01_ik_elbow_minus.ipynb"), as_version=4)
+    for c in nb.cells:
+        if "solution" in tags(c):
+            c.source = ("q = np.zeros(3)\nxe, ye, phie = L1 + L2 + L3, 0.0, 0.0\nx3, y3 = L1 + L2, 0.0\ncos_t2 = 1.0\n"
+                        "c1, s1 = 1.0, 0.0\nt1 = t2 = t3 = 0.0\narm = arm")
+    nbformat.write(nb, str(subs / "faked" / "01_ik_elbow_minus.ipynb"))
     limits = Limits(cpu_seconds=60, memory_bytes=3 * 2**30, wall_seconds=180)
     results = {r.student: r for r in grade(subs, lab, tmp_path / "fb", limits=limits, jobs=2, progress=False)}
     solved, half = results["solved"], results["half_done"]
     assert solved.points == solved.max_points == 5, solved  # 3 public + 2 hidden; notebook 02's checks are free
     hidden = next(s for s in half.scores if s.name == "A.2 steps")
-    assert [r.passed for r in hidden.rows] == [True, True, False]  # steps 1 and 2, not step 3
-    assert half.points == pytest.approx(2 * 2 / 3), half
+    assert [r.passed for r in hidden.rows] == [True, True, False, False]  # steps 1 and 2, not steps 3 and 4
+    assert half.points == pytest.approx(2 * 2 / 4), half
+    assert results["faked"].points == 0, results["faked"]
     assert "NotImplementedError" in half.detail and "cell" in half.detail and "line" in half.detail
     free = [s for s in solved.scores if s.free]
     assert {s.notebook for s in free} == {"02_arc_trajectory_animation.ipynb"}

@@ -1,0 +1,129 @@
+"""The grader's side of a sandboxed kernel's channels: every message measured as it arrives.
+
+:func:`client_class` is nbclient's ``NotebookClient`` with three changes: an output message
+that would take its cell over ``Limits.output_bytes`` is dropped with a note (the export step's
+values excepted, up to ``Limits.message_bytes``); the heartbeat channel is not started (it would
+reconnect by name to a socket file the sandbox can replace); and once a channel was closed (a
+message over ``Limits.message_bytes``: ZeroMQ's ``ZMQ_MAXMSGSIZE`` drops the connection before
+the grader holds the message) the notebook stops. :data:`KERNEL_MAIN` is the kernel's launcher.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ChannelClosed", "KERNEL_MAIN", "client_class"]
+
+
+class ChannelClosed(Exception):
+    """The grader closed a kernel channel: a message over ``Limits.message_bytes`` arrived on it."""
+
+
+def _content_bytes(content) -> int:
+    """Characters of text in a message's content (iteratively; a message is at most ``message_bytes``)."""
+    total, stack = 0, [content]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, (str, bytes)):
+            total += len(item)
+        elif isinstance(item, dict):
+            stack.extend(item.keys())
+            stack.extend(item.values())
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+        else:
+            total += 8
+    return total
+
+
+#: the kernel's launcher: no user site and no working folder on the path until its sockets are bound (nothing
+#: of the submission's runs before that), then the working folder where IPython would put it
+KERNEL_MAIN = ("import sys\nfrom ipykernel import kernelapp\n"
+                "def init_path(self):\n"
+                "    at = next((i for i, p in enumerate(sys.path) if p.endswith(('site-packages', 'dist-packages'))), 0)\n"
+                "    sys.path.insert(at, '')\n"
+                "kernelapp.IPKernelApp.init_path = init_path\nkernelapp.launch_new_instance()\n")
+_OUTPUT_TYPES = ("stream", "display_data", "update_display_data", "execute_result", "error")
+
+
+def client_class():
+    """nbclient's ``NotebookClient`` with the caps described in this module (built when called).
+
+    Returns
+    -------
+    type
+        A subclass taking ``output_bytes`` [bytes] as a keyword; its ``dropped`` lists
+        ``(cell index, size)`` of every message dropped, ``closed()`` says whether a channel was closed.
+    """
+    from nbclient import NotebookClient
+    from nbclient.util import ensure_async
+
+    from labkit.course._wire import MIME
+
+    class CappedClient(NotebookClient):
+        """Measures every output message as it arrives: one that would take its cell over ``output_bytes`` is
+        dropped with a note (an export step's values may fill a message); no heartbeat channel (it would
+        reconnect by name); a closed channel (a message over ``message_bytes``) stops the notebook."""
+
+        def __init__(self, *args, output_bytes, **kw):
+            super().__init__(*args, **kw)
+            self.output_bytes, self.held, self.dropped, self.monitors = int(output_bytes), {}, [], []
+
+        async def async_start_new_kernel_client(self):
+            self.kc = self.km.client()
+            try:
+                await ensure_async(self.kc.start_channels(hb=False))
+                await ensure_async(self.kc.wait_for_ready(timeout=self.startup_timeout))
+            except Exception:
+                await self._async_cleanup_kernel()
+                raise
+            self.kc.allow_stdin = False
+            self.monitors = [_disconnect_monitor(ch.socket) for ch in (self.kc.iopub_channel, self.kc.shell_channel)]
+            return self.kc
+
+        def closed(self) -> bool:
+            return any(m.poll(0) for m in self.monitors)
+
+        async def async_execute_cell(self, cell, cell_index, *args, **kw):
+            if self.closed():
+                raise ChannelClosed(cell_index)
+            return await super().async_execute_cell(cell, cell_index, *args, **kw)
+
+        def process_message(self, msg, cell, cell_index):
+            if msg.get("msg_type") in _OUTPUT_TYPES:
+                content = msg.get("content") or {}
+                size = _content_bytes(content)
+                export = cell.get("metadata", {}).get("labkit", {}).get("export") is not None
+                if export and msg["msg_type"] == "display_data" and isinstance(content.get("data"), dict) \
+                        and MIME in content["data"]:
+                    return super().process_message(msg, cell, cell_index)  # the checks' values (within message_bytes)
+                if msg["msg_type"] == "error" and size > 4096:  # keep the error, not its size
+                    msg["content"] = content = {"ename": str(content.get("ename", "Error"))[:200],
+                                                "evalue": str(content.get("evalue", ""))[:1000], "traceback": []}
+                    size = _content_bytes(content)
+                held = self.held.get(cell_index, 0)
+                if held + size > self.output_bytes:
+                    self.dropped.append((cell_index, size))
+                    outs = cell.setdefault("outputs", [])
+                    if not any(o.get("name") == "labkit-truncated" for o in outs):
+                        from nbformat.v4 import new_output
+
+                        outs.append(new_output("stream", name="stderr", text="[labkit grade: further output dropped]\n"))
+                        outs[-1]["name"] = "labkit-truncated"
+                    return None
+                self.held[cell_index] = held + size
+            return super().process_message(msg, cell, cell_index)
+
+    return CappedClient
+
+
+def _disconnect_monitor(sock):
+    """A PAIR socket that becomes readable when ``sock`` loses its peer (checked with ``poll(0)``)."""
+    import uuid
+
+    import zmq
+
+    address = f"inproc://labkit-monitor-{uuid.uuid4().hex}"
+    sock.monitor(address, zmq.EVENT_DISCONNECTED)
+    pair = zmq.Context.shadow(sock.context.underlying).socket(zmq.PAIR)
+    pair.linger = 0
+    pair.connect(address)
+    return pair

@@ -1,0 +1,112 @@
+"""The sandbox's sampling watchdog: its processes' CPU time, count and memory, and its RAM disks.
+
+Every 0.1 s it adds up, over the sandbox's processes (the launched process's tree, or the memory
+cgroup's list), their CPU time and, without a memory cgroup, their proportional set size plus
+what the sandbox's ``/tmp`` and ``/dev/shm`` hold; over a limit it kills the whole sandbox and
+records why. See :mod:`labkit.course._sandbox`.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from pathlib import Path
+
+__all__ = ["Watchdog", "kill_tree"]
+
+
+def _tree(pid) -> list:
+    """``pid`` and all its descendants (psutil), [] once it is gone."""
+    import psutil
+
+    try:
+        return [pid] + [child.pid for child in psutil.Process(pid).children(recursive=True)]
+    except psutil.Error:
+        return []
+
+
+def _pss(pid) -> int:
+    try:
+        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+            if line.startswith("Pss:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def _cpu(pid) -> float:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return sum(int(f) for f in fields[11:15]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return 0.0
+
+
+def _ram_disks(pids) -> int:
+    for pid in pids[1:]:  # the first is bwrap outside the sandbox
+        try:
+            return sum((st.f_blocks - st.f_bfree) * st.f_frsize
+                       for st in (os.statvfs(f"/proc/{pid}/root/tmp"), os.statvfs(f"/proc/{pid}/root/dev/shm")))
+        except OSError:
+            continue
+    return 0
+
+
+class Watchdog(threading.Thread):
+    """Every ``period`` s: the sandbox's CPU time, processes, and memory (without ``cgroup``: the sum of its
+    processes' PSS and RAM disks; with it: the cgroup's OOM kills); kills the whole sandbox over a limit."""
+
+    def __init__(self, proc, limits, period=0.1, sandboxed=True, cgroup=None):
+        super().__init__(daemon=True)
+        self.proc, self.limits, self.period, self.sandboxed, self.cgroup = proc, limits, period, sandboxed, cgroup
+        self.reason, self.peak_memory, self.cpu, self.stop = None, 0, 0.0, threading.Event()
+
+    def run(self):
+        """Sample every ``period`` s until the sandbox ends, is killed over a limit, or ``stop`` is set."""
+        while not self.stop.is_set() and self.proc.poll() is None:
+            # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
+            pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
+                else _tree(self.proc.pid)
+            memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
+            kills = self.cgroup.oom_kills() if self.cgroup else 0
+            self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
+            self.peak_memory = max(self.peak_memory, memory)
+            reason = None
+            if kills:
+                reason = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
+                                    f"{self.limits.memory_bytes / 2**30:g} GiB: the kernel's OOM killer killed "
+                                    f"{kills} process(es) ({self.cgroup.mechanism}), then the whole sandbox")
+            elif memory > self.limits.memory_bytes:
+                reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
+                                    f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
+            elif self.cpu > self.limits.cpu_seconds:
+                reason = "cpu-time", f"killed at the CPU-time limit of {self.limits.cpu_seconds:g} s"
+            elif len(pids) - 1 > self.limits.max_processes:
+                reason = "crash", f"more than {self.limits.max_processes} processes at once"
+            if reason:
+                self.reason = reason
+                for p in reversed(pids):
+                    try:
+                        os.kill(p, signal.SIGKILL)
+                    except OSError:
+                        pass
+                if self.cgroup:
+                    self.cgroup.kill()
+                return
+            self.stop.wait(self.period)
+
+
+def kill_tree(pid) -> None:
+    """SIGKILL ``pid`` and all its descendants (deepest first).
+
+    Parameters
+    ----------
+    pid : int
+    """
+    for p in reversed(_tree(pid)):
+        try:
+            os.kill(p, signal.SIGKILL)
+        except OSError:
+            pass
