@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._cgroup import memory_cgroup
 from labkit.reports import kernel_manager_class
 
@@ -222,7 +222,8 @@ def sandbox_args(home, private, hide=(), *, limits=None, writable_home=True, tmp
 
 def _tree(pid) -> list:
     """``pid`` and all its descendants (psutil), [] once it is gone."""
-    import psutil
+    with needs_extra("course"):
+        import psutil
 
     try:
         return [pid] + [child.pid for child in psutil.Process(pid).children(recursive=True)]
@@ -302,7 +303,8 @@ class _Watchdog(threading.Thread):
 
 
 def _client_class():
-    from nbclient import NotebookClient
+    with needs_extra("course"):
+        from nbclient import NotebookClient
 
     class CappedClient(NotebookClient):
         """Keeps at most :data:`MAX_CELL_OUTPUT` bytes of output per cell (the rest is dropped, with a note)."""
@@ -311,7 +313,8 @@ def _client_class():
             size = sum(len(str(o)) for o in outs)
             if size > MAX_CELL_OUTPUT:
                 if not any(o.get("name") == "labkit-truncated" for o in outs):
-                    from nbformat.v4 import new_output
+                    with needs_extra("course"):
+                        from nbformat.v4 import new_output
 
                     outs.append(new_output("stream", name="stderr", text="[labkit grade: further output dropped]\n"))
                     outs[-1]["name"] = "labkit-truncated"
@@ -424,7 +427,8 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
 
 def _execute(nb, work, limits, hide, private, cgroup):
     """:func:`run_untrusted`'s run in ``cgroup`` (None: the watchdog limits memory); (status, detail)."""
-    from nbclient.exceptions import CellTimeoutError, DeadKernelError
+    with needs_extra("course"):
+        from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     work = Path(work).resolve()
     own = private is None

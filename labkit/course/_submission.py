@@ -17,7 +17,7 @@ import shutil
 import stat
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 
 __all__ = ["MAX_SUBMISSION_BYTES", "InvalidSubmission", "copy_regular_files", "read_student_notebook", "error_detail"]
 
@@ -87,7 +87,8 @@ def read_student_notebook(path: Path):
     ValueError
         If it is not a valid notebook (not JSON, a cell without ``cell_type``, a ``source`` that is not text, ...).
     """
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     st = os.lstat(path)
     if not stat.S_ISREG(st.st_mode):

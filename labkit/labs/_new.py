@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.kinematics import fk, ik_all, jacobian, target_error, target_from_pose, target_kind, target_to_display
 from labkit.kinematics.ik import REDUCED
 from labkit.robot import Robot, ServoCalibration, joints_from_display, joints_to_display, robot_reach, servo_window
@@ -458,7 +458,8 @@ def new_lab(lab_dir, robot, *, title=None, force=False) -> NewLab:
     """
     import shutil
 
-    import nbformat
+    with needs_extra("reports"):
+        import nbformat
 
     folder = Path(lab_dir)
     if folder.exists() and any(folder.iterdir()) and not force:

@@ -23,6 +23,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from labkit.exceptions import needs_extra
 from labkit.reports._nbtools import CHECKS_MIME
 from labkit.reports._numbering import cell_options, number_notebooks, resolve_references
 
@@ -110,7 +111,8 @@ def _default_roots(*folders):
 
 
 def _md(text: str) -> str:
-    from nbconvert.filters.markdown_mistune import markdown2html_mistune
+    with needs_extra("reports"):
+        from nbconvert.filters.markdown_mistune import markdown2html_mistune
 
     return markdown2html_mistune(text)
 

@@ -38,7 +38,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._images import compact_notebook, externalize
 from labkit.reports._portable import portable_text
@@ -138,9 +138,10 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
     ``#| tbl-cap:``, see :func:`number_notebook`), and absolute paths of this machine
     are written relative to the report's folder.
     """
-    import nbformat
-    from nbconvert import HTMLExporter
-    from nbconvert.preprocessors import TagRemovePreprocessor
+    with needs_extra("reports"):
+        import nbformat
+        from nbconvert import HTMLExporter
+        from nbconvert.preprocessors import TagRemovePreprocessor
 
     nb = notebook if not isinstance(notebook, (str, Path)) else nbformat.read(str(notebook), as_version=4)
     nb = nbformat.from_dict(json.loads(json.dumps(nb)))  # private copy: tags are added below
