@@ -336,6 +336,10 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
         files["html"] = html_path
     else:
         html_path.unlink()
+    if (base.parent / "index.json").is_file():  # a labkit render folder: its index links this report too
+        from labkit.reports._render import write_index
+
+        write_index([], base.parent)
     warnings = tuple(unresolved)
     for w in warnings:
         progress(f"  warning: {w}")
