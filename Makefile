@@ -27,10 +27,13 @@ $(VENV)/bin/python:
 
 venv: $(VENV)/bin/python
 
-# labkit with every extra: notebooks and reports, JupyterLab, the course tools, the camera, servo buses, URDF
+# labkit with every extra: notebooks and reports, JupyterLab, the course tools, the camera, servo buses, URDF.
+# Editable through a path entry (editable_mode=compat), not an import hook: from the clone's parent folder, where
+# Python sees the clone's own folder "labkit" as a namespace package, `from labkit import Robot` still works
+EDITABLE = --config-settings editable_mode=compat -e
 install: venv
 	tools/install-system-deps.sh reports
-	$(PIP) install -q -e '.[all]'
+	$(PIP) install -q $(EDITABLE) '.[all]'
 
 # every lab notebook executed against the simulated arm (sim://), its HTML + reports/index.html,
 # then one hand-in report per lab (reports/<lab>.pdf + .html) from the notebooks just executed;
@@ -48,7 +51,7 @@ firmware:
 
 install-test: venv
 	tools/install-system-deps.sh test
-	$(PIP) install -q -e '.[all,test,crosscheck]'
+	$(PIP) install -q $(EDITABLE) '.[all,test,crosscheck]'
 
 test: install-test
 	LABKIT_REQUIRE_ALL=1 $(PYTHON) -m pytest -n 2 --dist loadgroup

@@ -72,7 +72,19 @@ def _leftover_processes(marker, basetemp):
                 add(proc)
         except psutil.Error:  # gone, a zombie, or another user's process
             continue
-    return [p for p in found.values() if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+    return [p for p in found.values() if p.is_running() and p.status() != psutil.STATUS_ZOMBIE
+            and not _ends_with(me, p)]
+
+
+def _ends_with(me, proc):
+    """True for multiprocessing's helpers of this very process (resource tracker, forkserver): they exit with it."""
+    import psutil
+
+    try:
+        return proc.ppid() == me.pid and any(f"multiprocessing.{name} import main" in " ".join(proc.cmdline())
+                                             for name in ("resource_tracker", "forkserver"))
+    except psutil.Error:
+        return False
 
 
 def _describe(proc):

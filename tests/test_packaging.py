@@ -140,3 +140,15 @@ def test_extras_in_the_code_are_the_extras_of_pyproject():
     heavy = {"jupyterlab", "opencv-contrib-python-headless", "pypandoc-binary", "nbgrader", "dask", "nbconvert",
              "ipykernel", "yourdfpy", "dynamixel-sdk"}
     assert not heavy & CORE, heavy & CORE
+
+
+def test_labkit_imports_from_the_clones_parent_folder(tmp_path):
+    """From the folder that holds the clone (a folder named ``labkit`` without ``__init__.py`` in the working
+    directory: a namespace package to Python), `from labkit import Robot` still finds the real labkit. The
+    Makefile's editable install puts the checkout on sys.path (editable_mode=compat) instead of an import hook
+    that comes after the namespace package."""
+    (tmp_path / "labkit").mkdir()
+    run = subprocess.run([sys.executable, "-c", "from labkit import Robot, __file__ as f; print(f)"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == str(REPO / "labkit" / "__init__.py")
