@@ -554,6 +554,8 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
     paths = find_notebooks(notebooks)
     if not paths:
         raise LabkitError("no notebooks to render")
+    with needs_extra("reports"):  # fail early, not once per notebook in the workers
+        import nbconvert, papermill  # noqa: F401, E401
     if pdf:
         find_chromium()  # fail early, before executing anything
     progress = progress or (lambda line: None)
