@@ -41,7 +41,7 @@ SESSION_MARKER = "LABKIT_TEST_SESSION"
 if not (os.environ.get("PYTEST_XDIST_WORKER") and os.environ.get(SESSION_MARKER, "").split("-")[0] == str(os.getppid())):
     os.environ[SESSION_MARKER] = f"{os.getpid()}-{os.urandom(4).hex()}"  # a run of its own (also a pytest a test runs)
 #: seconds the processes get to finish stopping after the last test (a kernel shutting down, a worker exiting)
-LINGER_SECONDS = 15.0
+LINGER_SECONDS = float(os.environ.get("LABKIT_TEST_LINGER", "15"))
 
 
 def _leftover_processes(marker, basetemp):
