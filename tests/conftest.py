@@ -68,7 +68,8 @@ def _leftover_processes(marker, basetemp):
         if proc.pid in spared or proc.pid in found:
             continue
         try:
-            if proc.environ().get(SESSION_MARKER) == marker or (basetemp and basetemp in " ".join(proc.cmdline())):
+            if proc.environ().get(SESSION_MARKER) == marker or (basetemp and any(
+                    arg == basetemp or basetemp + "/" in arg for arg in proc.cmdline())):
                 add(proc)
         except psutil.Error:  # gone, a zombie, or another user's process
             continue
