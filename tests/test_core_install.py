@@ -8,6 +8,7 @@ virtual arm there, and checks that two commands needing a missing extra name the
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import venv
@@ -82,7 +83,12 @@ def test_core_install_is_light_and_runs_without_extras(tmp_path):
     python = str(env_dir / "bin" / "python")
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
     env["PATH"] = f"{env_dir / 'bin'}:/usr/bin:/bin"
-    subprocess.run([python, "-m", "pip", "install", "-q", str(REPO)], check=True, env=env, cwd=tmp_path,
+    source = tmp_path / "labkit-src"  # a copy: pip builds in the source tree, where another test builds a wheel too
+    for name in ("pyproject.toml", "README.md"):
+        source.mkdir(exist_ok=True)
+        shutil.copy2(REPO / name, source / name)
+    shutil.copytree(REPO / "labkit", source / "labkit", ignore=shutil.ignore_patterns("__pycache__"))
+    subprocess.run([python, "-m", "pip", "install", "-q", str(source)], check=True, env=env, cwd=tmp_path,
                    capture_output=True, timeout=1800)
     count = int(subprocess.run([python, "-c", "import importlib.metadata as m; print(len({d.metadata['Name'].lower() "
                                 "for d in m.distributions()}))"], check=True, env=env, capture_output=True,
