@@ -87,9 +87,10 @@ def _cmd_calibrate(args):
 
 
 def _cmd_detect(args):
+    import numpy as np
+
     with needs_extra("vision"):
         import cv2
-    import numpy as np
 
     from labkit.vision import Camera, marker_poses
 
