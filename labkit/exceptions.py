@@ -9,9 +9,14 @@ defined here; the subpackages that raise them re-export them by name.
 
 from __future__ import annotations
 
+import contextlib
+
 from serial.serialutil import PortNotOpenError, SerialException
 
 __all__ = [
+    "EXTRAS",
+    "needs_extra",
+    "MissingExtraError",
     "LabkitError",
     "ShapeError",
     "OptionError",
@@ -282,3 +287,57 @@ class MeasurementWarning(UserWarning):
 
 class HandEyeWarning(UserWarning):
     """The views of a hand-eye calibration are too alike for a trustworthy result."""
+class MissingExtraError(LabkitError, ImportError):
+    """A feature needs a module from one of labkit's extras, and that extra is not installed.
+
+    The message names the module and the command that installs it (``pip install 'labkit[reports]'``).
+    """
+
+
+#: labkit's extras (pyproject.toml's optional dependencies) that a feature can need: ``pip install 'labkit[NAME]'``
+EXTRAS = ("reports", "lab", "course", "vision", "bus", "urdf")
+
+
+@contextlib.contextmanager
+def needs_extra(extra):
+    """Import an extra's modules inside this block; a missing one raises :class:`MissingExtraError`.
+
+    The core (``pip install labkit``) brings what the math, motion, measurement tables, plots and
+    the serial link need; notebooks and reports, JupyterLab, the course tools, the camera, the
+    servo buses and URDF import come with extras. Every import of an extra's module in labkit
+    sits in such a block (``tests/test_packaging.py`` checks it, and that the extra declares the
+    module's distribution), so a missing one says which ``pip install`` to run instead of a bare
+    ``ModuleNotFoundError``.
+
+    Parameters
+    ----------
+    extra : str
+        One of :data:`EXTRAS`.
+
+    Yields
+    ------
+    None
+        The block runs once.
+
+    Raises
+    ------
+    MissingExtraError
+        A module imported in the block is not installed.
+    OptionError
+        ``extra`` is not one of :data:`EXTRAS`.
+
+    Examples
+    --------
+    >>> with needs_extra("vision"):
+    ...     import not_a_module_labkit_has  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    labkit.exceptions.MissingExtraError: this needs the module 'not_a_module_labkit_has', which labkit's 'vision' extra brings and which is not installed: pip install 'labkit[vision]'
+    """
+    if extra not in EXTRAS:
+        raise OptionError(f"unknown labkit extra {extra!r}; expected one of {', '.join(EXTRAS)}")
+    try:
+        yield
+    except ModuleNotFoundError as exc:
+        raise MissingExtraError(f"this needs the module {exc.name!r}, which labkit's {extra!r} extra brings and "
+                                f"which is not installed: pip install 'labkit[{extra}]'", name=exc.name) from exc

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from labkit.exceptions import needs_extra
+
 
 def add_commands(sub):
     """Add ``vision`` (with ``marker``, ``board``, ``calibrate``, ``detect``) to the ``labkit`` subcommands.
@@ -71,7 +73,8 @@ def _cmd_board(args):
 
 
 def _cmd_calibrate(args):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     from labkit.vision import Camera
 
@@ -84,8 +87,10 @@ def _cmd_calibrate(args):
 
 
 def _cmd_detect(args):
-    import cv2
     import numpy as np
+
+    with needs_extra("vision"):
+        import cv2
 
     from labkit.vision import Camera, marker_poses
 

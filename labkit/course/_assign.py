@@ -43,7 +43,7 @@ import copy
 from dataclasses import dataclass
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._safefs import read_tree, write_tree
 
 __all__ = ["SOLUTION_TAG", "TESTS_TAG", "HIDDEN_TESTS_TAG", "PARAMETERS_TAG", "REFERENCE_TAG", "CODE_STUB",
@@ -165,7 +165,8 @@ def graded_cells(notebook, name=None) -> list[GradedCell]:
 
 
 def _read(notebook, name=None):
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     if isinstance(notebook, (str, Path)):
         path = Path(notebook)
@@ -220,7 +221,8 @@ def student_notebook(nb):
     LabkitError
         For conflicting tags or misplaced nbgrader delimiters.
     """
-    from nbgrader.preprocessors import ClearHiddenTests, ClearOutput, ClearSolutions, LockCells
+    with needs_extra("course"):
+        from nbgrader.preprocessors import ClearHiddenTests, ClearOutput, ClearSolutions, LockCells
 
     nb = _to_nbgrader(nb)
     resources = {}
@@ -256,7 +258,8 @@ def assign(lab_dir, out_dir) -> AssignResult:
         If ``lab_dir`` holds no notebook, ``out_dir`` is inside ``lab_dir``, or a notebook's tags
         are inconsistent (nothing is written for a lab with a bad notebook).
     """
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     lab, out = Path(lab_dir).resolve(), Path(out_dir).resolve()
     notebooks = sorted(p for p in lab.glob("*.ipynb") if not p.name.startswith("_"))

@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._grade import grade_submission
 from labkit.course._feedback import student_folder
 from labkit.course._safefs import read_tree, remove_tree, write_tree
@@ -142,7 +142,8 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
                 for fut in as_completed(futures):
                     done(futures[fut], fut.result())
         else:
-            from distributed import Client, as_completed
+            with needs_extra("course"):
+                from distributed import Client, as_completed
 
             try:
                 client = Client(scheduler, timeout=30)
@@ -196,7 +197,8 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
 
 def _failed(student, lab_files, free, status, why, t0=None):
     """A row for a student whose submission could not be graded: every check 0."""
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     from labkit.course._assign import graded_cells
     from labkit.course._grade import SubmissionResult, _unscored

@@ -10,6 +10,8 @@ the grader holds the message) the notebook stops. :data:`KERNEL_MAIN` is the ker
 
 from __future__ import annotations
 
+from labkit.exceptions import needs_extra
+
 __all__ = ["ChannelClosed", "KERNEL_MAIN", "client_class"]
 
 
@@ -53,8 +55,9 @@ def client_class():
         A subclass taking ``output_bytes`` [bytes] as a keyword; its ``dropped`` lists
         ``(cell index, size)`` of every message dropped, ``closed()`` says whether a channel was closed.
     """
-    from nbclient import NotebookClient
-    from nbclient.util import ensure_async
+    with needs_extra("course"):
+        from nbclient import NotebookClient
+        from nbclient.util import ensure_async
 
     from labkit.course._wire import MIME
 
@@ -104,7 +107,8 @@ def client_class():
                     self.dropped.append((cell_index, size))
                     outs = cell.setdefault("outputs", [])
                     if not any(o.get("name") == "labkit-truncated" for o in outs):
-                        from nbformat.v4 import new_output
+                        with needs_extra("course"):
+                            from nbformat.v4 import new_output
 
                         outs.append(new_output("stream", name="stderr", text="[labkit grade: further output dropped]\n"))
                         outs[-1]["name"] = "labkit-truncated"
@@ -119,7 +123,8 @@ def _disconnect_monitor(sock):
     """A PAIR socket that becomes readable when ``sock`` loses its peer (checked with ``poll(0)``)."""
     import uuid
 
-    import zmq
+    with needs_extra("course"):
+        import zmq
 
     address = f"inproc://labkit-monitor-{uuid.uuid4().hex}"
     sock.monitor(address, zmq.EVENT_DISCONNECTED)

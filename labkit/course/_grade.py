@@ -41,7 +41,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG, SOLUTION_TAG, TESTS_TAG, cell_role,
                                    graded_cells, student_notebook)
 from labkit.course._checker import run_checker
@@ -217,7 +217,8 @@ def graded_notebook(source, student):
 
 def _inject_parameters(nb, params):
     """Insert papermill's ``injected-parameters`` cell after the ``parameters`` cell (else first)."""
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     text = "# Parameters (injected by labkit grade)\n" + "\n".join(f"{k} = {v!r}" for k, v in params.items())
     injected = nbformat.v4.new_code_cell(text, metadata={"tags": ["injected-parameters"]})
@@ -340,7 +341,8 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     LabkitError
         If ``lab_dir`` holds no notebook, or the sandbox cannot start.
     """
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     from labkit.course._feedback import student_folder, write_feedback
 
@@ -533,7 +535,8 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
         If the untouched version does not run to its end (a limit, a crash): then it cannot
         tell which rows are free; or if the sandbox cannot start here (:func:`check_sandbox`).
     """
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     from labkit.course._plan import python_source
 

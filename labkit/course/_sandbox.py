@@ -56,7 +56,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._cgroup import memory_cgroup
 from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class
 from labkit.course._safefs import remove_tree, socket_ready
@@ -318,8 +318,9 @@ def _kernel_manager(work: Path, runtime: Path, limits: Limits, hide, log, cgroup
     """The kernel manager of one run: its connection file in the grader's ``runtime`` folder (read-only in the
     sandbox), its sockets in ``runtime/sockets`` (the only folder of it the sandbox can write), stderr to
     ``log`` (a file of the grader's, not in any folder the sandbox sees)."""
-    import zmq
-    import zmq.asyncio
+    with needs_extra("course"):
+        import zmq
+        import zmq.asyncio
 
     base = kernel_manager_class()
     sockets, connection = runtime / "sockets", runtime / "kernel.json"
@@ -447,7 +448,8 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
 
 def _execute(nb, work, limits, hide, private, cgroup):
     """:func:`run_untrusted`'s run in ``cgroup`` (None: the watchdog limits memory); (status, detail)."""
-    from nbclient.exceptions import CellTimeoutError, DeadKernelError
+    with needs_extra("course"):
+        from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     work = Path(work).resolve()
     runtime = Path(tempfile.mkdtemp(prefix="labkit-run-", dir=private))  # new for every run, the grader's (0700)

@@ -15,7 +15,7 @@ import os
 import re
 from pathlib import Path
 
-from labkit.exceptions import InvalidSubmission, LabkitError
+from labkit.exceptions import InvalidSubmission, LabkitError, needs_extra
 from labkit.course._safefs import UnsafeFile, read_file, read_tree, write_tree
 
 __all__ = ["MAX_SUBMISSION_BYTES", "MAX_NOTEBOOK_BYTES", "MAX_CELLS", "MAX_DEPTH", "MAX_ENTRIES", "InvalidSubmission",
@@ -142,7 +142,8 @@ def read_student_notebook(folder: Path, name: str, *, max_bytes=MAX_NOTEBOOK_BYT
     """
     import json
 
-    import nbformat
+    with needs_extra("course"):
+        import nbformat
 
     try:
         data = read_file(folder, name, max_bytes=max_bytes)

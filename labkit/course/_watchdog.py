@@ -13,12 +13,15 @@ import signal
 import threading
 from pathlib import Path
 
+from labkit.exceptions import needs_extra
+
 __all__ = ["Watchdog", "kill_tree"]
 
 
 def _tree(pid) -> list:
     """``pid`` and all its descendants (psutil), [] once it is gone."""
-    import psutil
+    with needs_extra("course"):
+        import psutil
 
     try:
         return [pid] + [child.pid for child in psutil.Process(pid).children(recursive=True)]

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.kinematics import (
     REDUCED_KINDS as REDUCED, fk, ik_all, jacobian, target_error, target_from_pose, target_kind, target_to_display,
 )
@@ -459,7 +459,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     """
     import shutil
 
-    import nbformat
+    with needs_extra("reports"):
+        import nbformat
 
     folder = Path(lab_dir)
     if folder.exists() and any(folder.iterdir()) and not force:

@@ -36,7 +36,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from labkit.exceptions import LabkitError, OptionError
+from labkit.exceptions import LabkitError, OptionError, needs_extra
 from labkit.reports import notebooks_root
 
 __all__ = ["KERNEL_NAME", "NBGRADER_SERVER_EXTENSIONS", "lab_command", "write_kernel_spec", "serve_lab",
@@ -212,7 +212,8 @@ def lab_command(path=None, *, port=None, no_browser=False, data_dir=None, extra_
 
 def _descendants(pid) -> list:
     """The pids of all descendants of ``pid`` (psutil), [] once it is gone."""
-    import psutil
+    with needs_extra("lab"):
+        import psutil
 
     try:
         return [child.pid for child in psutil.Process(pid).children(recursive=True)]
@@ -244,16 +245,15 @@ def serve_lab(path=None, *, port=None, no_browser=False, extra_args=(), instruct
     Raises
     ------
     LabkitError
-        ``path`` does not exist, or JupyterLab is not installed.
+        ``path`` does not exist.
+    MissingExtraError
+        JupyterLab is not installed (``pip install 'labkit[lab]'``).
     """
     import signal
     import threading
 
-    try:
+    with needs_extra("lab"):
         import jupyterlab  # noqa: F401
-    except ImportError as exc:
-        raise LabkitError("JupyterLab is not installed: pip install 'jupyterlab>=4.2,<5' "
-                          "(it is a labkit dependency: pip install -e .)") from exc
     with tempfile.TemporaryDirectory(prefix="labkit-lab-") as data_dir:
         argv, env = lab_command(path, port=port, no_browser=no_browser, data_dir=data_dir, extra_args=extra_args,
                                 instructor=instructor)

@@ -37,7 +37,7 @@ from enum import Enum
 import numpy as np
 
 from labkit.robot import Robot
-from labkit.exceptions import DeviceError, MeasurementError, OptionError
+from labkit.exceptions import DeviceError, MeasurementError, OptionError, needs_extra
 
 __all__ = [
     "Source",
@@ -332,7 +332,8 @@ def manual_form(session, plan):
     -------
     ipywidgets.VBox
     """
-    import ipywidgets as w
+    with needs_extra("lab"):
+        import ipywidgets as w
 
     state = {"k": 0, "repeat": 0}
     scale = {"mm": 1e3, "cm": 1e2, "m": 1.0}[session.unit]

@@ -13,7 +13,7 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 
 STATIC = Path(__file__).resolve().parent / "static"
 _MATH = re.compile(r"(?<!\\)\$|\\\(|\\\[|\\begin\{|text/latex")
@@ -42,7 +42,8 @@ def _needs_math(nb) -> bool:
 
 def _lab_css() -> str:
     """JupyterLab's stylesheet as nbconvert's ``lab`` template inlines it (index + light theme)."""
-    from jupyter_core.paths import jupyter_path
+    with needs_extra("reports"):
+        from jupyter_core.paths import jupyter_path
 
     for root in jupyter_path("nbconvert", "templates", "lab", "static"):
         if (Path(root) / "index.css").is_file():

@@ -23,6 +23,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from labkit.exceptions import needs_extra
 from labkit.reports._nbtools import CHECKS_MIME
 from labkit.reports._numbering import cell_options, number_notebooks, resolve_references
 
@@ -90,11 +91,19 @@ def scrub_paths(text: str, roots) -> str:
     --------
     >>> scrub_paths("saved /tmp/x/reports/a.csv", [("/tmp/x/reports", ".")])
     'saved ./a.csv'
+    >>> scrub_paths("/usr/lib and iVBOR/usr/x data:image/png;base64,A/usr", [("/usr", "<python>")])
+    '<python>/lib and iVBOR/usr/x data:image/png;base64,A/usr'
     """
     pairs = sorted(((str(r), rep) for r, rep in roots if r and len(str(r)) > 1), key=lambda p: -len(p[0]))
-    for root, rep in pairs:
-        text = text.replace(root, rep)
-    return text
+    if not pairs:
+        return text
+    # a root is a whole path name (no letter, digit or [_+.-] before it or, unless it ends with "/", after it), and
+    # base64 data (data: URIs, figures) is left alone: "/usr" (Debian's Python) also occurs inside a PNG's base64
+    names = dict(reversed(pairs))
+    edge = "[A-Za-z0-9_+.-]"
+    alternatives = "|".join(re.escape(r) + ("" if r.endswith("/") else f"(?!{edge})") for r, _ in pairs)
+    pattern = re.compile(rf"(data:[\w/+.-]+;base64,[A-Za-z0-9+/=\\\n]+)|(?<!{edge})({alternatives})")
+    return pattern.sub(lambda m: m.group(1) or names[m.group(2)], text)
 
 
 def _default_roots(*folders):
@@ -110,7 +119,8 @@ def _default_roots(*folders):
 
 
 def _md(text: str) -> str:
-    from nbconvert.filters.markdown_mistune import markdown2html_mistune
+    with needs_extra("reports"):
+        from nbconvert.filters.markdown_mistune import markdown2html_mistune
 
     return markdown2html_mistune(text)
 

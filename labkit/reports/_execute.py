@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from labkit.exceptions import LabkitError, OptionError
+from labkit.exceptions import LabkitError, OptionError, needs_extra
 
 __all__ = ["CELL_TIMEOUT", "kernel_manager_class", "chapter_of",
     "ExecutionResult",
@@ -213,7 +213,8 @@ def notebook_parameters(notebook) -> dict:
     LabkitError
         If the notebook has no cell tagged ``parameters`` or the cell is not valid Python.
     """
-    import nbformat
+    with needs_extra("reports"):
+        import nbformat
 
     nb = nbformat.read(str(notebook), as_version=4)
     cells = [c for c in nb.cells if "parameters" in c.get("metadata", {}).get("tags", [])]
@@ -300,10 +301,11 @@ def kernel_manager_class():
         return _KERNEL_MANAGER
     from queue import Empty
 
-    from jupyter_client.asynchronous import AsyncKernelClient
-    from jupyter_client.channels import AsyncZMQSocketChannel
-    from jupyter_client.manager import AsyncKernelManager
-    from traitlets import Type
+    with needs_extra("reports"):
+        from jupyter_client.asynchronous import AsyncKernelClient
+        from jupyter_client.channels import AsyncZMQSocketChannel
+        from jupyter_client.manager import AsyncKernelManager
+        from traitlets import Type
 
     class SlicedPollChannel(AsyncZMQSocketChannel):
         async def get_msg(self, timeout=None):
@@ -406,9 +408,10 @@ def execute_notebook(notebook, output, parameters=None, *, cwd=None, kernel_name
     LabkitError
         For a missing notebook or an unknown parameter name (nothing is executed).
     """
-    import nbformat
-    import papermill
-    from papermill.exceptions import PapermillExecutionError
+    with needs_extra("reports"):
+        import nbformat
+        import papermill
+        from papermill.exceptions import PapermillExecutionError
 
     notebook, output = Path(notebook), Path(output)
     if not notebook.is_file():

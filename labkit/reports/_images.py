@@ -29,6 +29,8 @@ import io
 import re
 from pathlib import Path
 
+from labkit.exceptions import needs_extra
+
 __all__ = ["MAX_WIDTH_PX", "ASSET_KEY", "compact_image", "compact_frames", "compact_notebook", "compact_notebook_file",
            "externalize", "internalize"]
 
@@ -178,7 +180,8 @@ def compact_notebook_file(path) -> int:
     int
         Bytes saved.
     """
-    import nbformat
+    with needs_extra("reports"):
+        import nbformat
 
     nb = nbformat.read(str(path), as_version=4)
     saved = compact_notebook(nb)

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from labkit.exceptions import CheckFailed, ShapeError
+from labkit.exceptions import CheckFailed, ShapeError, needs_extra
 
 __all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
 
@@ -120,7 +120,8 @@ def show_latex(expr, prefix="", decimals=4):
 
         tex = sympy.latex(expr)
     tex = prefix + tex
-    from IPython.display import Math
+    with needs_extra("reports"):
+        from IPython.display import Math
 
     if not _display(Math(tex)):
         print(tex)

@@ -38,7 +38,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import LabkitError, needs_extra
 from labkit.reports._document import _default_roots, number_notebook, scrub_paths
 from labkit.reports._images import compact_notebook, externalize
 from labkit.reports._portable import portable_text
@@ -138,9 +138,10 @@ def export_html(notebook, html_path, *, no_input=False, title=None, status="", e
     ``#| tbl-cap:``, see :func:`number_notebook`), and absolute paths of this machine
     are written relative to the report's folder.
     """
-    import nbformat
-    from nbconvert import HTMLExporter
-    from nbconvert.preprocessors import TagRemovePreprocessor
+    with needs_extra("reports"):
+        import nbformat
+        from nbconvert import HTMLExporter
+        from nbconvert.preprocessors import TagRemovePreprocessor
 
     nb = notebook if not isinstance(notebook, (str, Path)) else nbformat.read(str(notebook), as_version=4)
     nb = nbformat.from_dict(json.loads(json.dumps(nb)))  # private copy: tags are added below
@@ -453,7 +454,7 @@ def _merge_previous(results, out):
 
 
 def write_index(results, output_dir, *, wall_seconds=None) -> Path:
-    """Write ``output_dir/index.html``: every report with its links and pass/fail.
+    """Write ``output_dir/index.html``: each lab's hand-in report, every notebook's report with pass/fail.
 
     Reports rendered earlier into the same folder (recorded in ``index.json``) stay listed
     when only some notebooks are re-rendered.
@@ -483,6 +484,11 @@ def write_index(results, output_dir, *, wall_seconds=None) -> Path:
         rows.append(f'<tr class="{status.lower()}"><td>{_html.escape(r.lab)}</td><td>{_html.escape(r.name)}</td>'
                     f"<td>{status}</td><td>{links}</td><td>{r.seconds:.1f}</td>"
                     f"<td><pre>{_html.escape(r.error)}</pre></td></tr>")
+    hand_in = []  # the one report per lab a student hands in (labkit report writes <lab>.pdf, .html, .docx here)
+    for lab in sorted({r.lab for r in results}):
+        links = " ".join(f'<a href="{_html.escape(lab)}.{ext}">{ext.upper()}</a>' for ext in ("pdf", "html", "docx")
+                         if (out / f"{lab}.{ext}").is_file()) or f"not written yet: <code>labkit report {lab}</code>"
+        hand_in.append(f"<tr><td>{_html.escape(lab)}</td><td>{links}</td></tr>")
     n_fail = sum(not r.ok for r in results)
     summary = f"{len(results)} notebooks, {len(results) - n_fail} passed, {n_fail} failed"
     if wall_seconds is not None:
@@ -499,6 +505,11 @@ pre {{ margin: 0; white-space: pre-wrap; max-width: 50em; }}
 </style></head><body>
 <h1>labkit lab reports</h1>
 <p>{_html.escape(summary)}. Generated {_dt.datetime.now().strftime("%Y-%m-%d %H:%M")}.</p>
+<h2>Hand-in reports, one per lab</h2>
+<table><thead><tr><th>lab</th><th>report</th></tr></thead><tbody>
+{chr(10).join(hand_in)}
+</tbody></table>
+<h2>Notebooks</h2>
 <table><thead><tr><th>lab</th><th>notebook</th><th>status</th><th>report</th><th>run [s]</th><th>error</th></tr></thead>
 <tbody>
 {chr(10).join(rows)}
@@ -543,6 +554,8 @@ def render(notebooks=None, output_dir="reports", *, jobs=2, no_input=False, pdf=
     paths = find_notebooks(notebooks)
     if not paths:
         raise LabkitError("no notebooks to render")
+    with needs_extra("reports"):  # fail early, not once per notebook in the workers
+        import nbconvert, papermill  # noqa: F401, E401
     if pdf:
         find_chromium()  # fail early, before executing anything
     progress = progress or (lambda line: None)

@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from labkit.exceptions import LabkitError, OptionError
+from labkit.exceptions import LabkitError, OptionError, needs_extra
 from labkit.reports._execute import execute_notebook, find_notebooks, notebook_parameters
 from labkit.reports._document import _chapter, _default_roots, fill_toc_pages, report_html, scrub_paths
 from labkit.reports._images import compact_notebook, compact_notebook_file, internalize
@@ -241,7 +241,8 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
     LabkitError
         The folder has no notebooks, a label is defined twice, or a tool is missing.
     """
-    import nbformat
+    with needs_extra("reports"):
+        import nbformat
 
     t0 = time.perf_counter()
     progress = progress or (lambda line: None)
@@ -335,6 +336,10 @@ def build_report(lab_dir, output=None, *, to=("pdf", "html"), show_code=False, e
         files["html"] = html_path
     else:
         html_path.unlink()
+    if (base.parent / "index.json").is_file():  # a labkit render folder: its index links this report too
+        from labkit.reports._render import write_index
+
+        write_index([], base.parent)
     warnings = tuple(unresolved)
     for w in warnings:
         progress(f"  warning: {w}")
@@ -360,7 +365,8 @@ def anchor_pages(pdf) -> dict:
     dict of str to int
         HTML id (``chapter-1``, ``sec-verification``, ...) -> page number, 1 = the first page.
     """
-    import pypdf
+    with needs_extra("reports"):
+        import pypdf
 
     reader = pypdf.PdfReader(str(pdf))
     return {str(name).lstrip("/"): reader.get_destination_page_number(dest) + 1

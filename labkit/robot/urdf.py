@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import RobotError
+from labkit.exceptions import RobotError, needs_extra
 from labkit.robot.types import Convention, JointType, Link
 
 __all__ = ["urdf_fields"]
@@ -35,10 +35,8 @@ _NEAR_PARALLEL = 1e-4
 
 
 def _read(path):
-    try:
+    with needs_extra("urdf"):
         import yourdfpy  # heavy (lxml, trimesh): only when a URDF is read
-    except ImportError as exc:  # pragma: no cover - yourdfpy is a dependency
-        raise RobotError(f"reading URDF files needs the yourdfpy package ({exc})") from None
     import logging
 
     p = Path(os.fspath(path))

@@ -17,7 +17,7 @@ import functools
 
 import numpy as np
 
-from labkit.exceptions import OptionError
+from labkit.exceptions import OptionError, needs_extra
 from labkit.vision._families import dictionary, family_info
 
 __all__ = ["Checkerboard", "CharucoBoard"]
@@ -95,7 +95,8 @@ class Checkerboard:
         image_points : ndarray, shape (k, 2) or None
             Their pixels [px].
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         small = cv2.resize(image, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
         ok, corners = cv2.findChessboardCorners(small, (self.columns, self.rows),
@@ -175,7 +176,8 @@ class CharucoBoard:
         image_points : ndarray, shape (k, 2) or None
             Their pixels [px].
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         detector = cv2.aruco.CharucoDetector(self._cv())
         corners, ids, _, _ = detector.detectBoard(image)
@@ -191,6 +193,7 @@ class CharucoBoard:
 
 @functools.lru_cache(maxsize=16)
 def _charuco(columns, rows, square, marker, family):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     return cv2.aruco.CharucoBoard((columns, rows), square, marker, dictionary(family))

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import ShapeError
+from labkit.exceptions import ShapeError, needs_extra
 from labkit.exceptions import CalibrationImageError, VisionError
 from labkit.vision._images import as_gray
 
@@ -130,7 +130,8 @@ class Camera:
         ndarray, shape (..., 2)
             Pixel coordinates ``(u, v)`` [px] (pixel centres at integers).
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         p = np.asarray(points, dtype=float)
         if p.shape[-1:] != (3,):
@@ -153,7 +154,8 @@ class Camera:
         ndarray, shape (..., 2)
             Ideal normalised coordinates [1] (rays ``(x, y, 1)`` in the camera frame).
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         uv = np.asarray(pixels, dtype=float)
         if uv.shape[-1:] != (2,):
@@ -319,7 +321,8 @@ class CameraCalibration:
 
 
 def _fit(obj, img, size, flags):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     rms, K, D, rvecs, tvecs = cv2.calibrateCamera([o.astype(np.float32) for o in obj],
                                                   [i.astype(np.float32) for i in img], size, None, None, flags=flags)
@@ -359,7 +362,8 @@ def calibrate_camera(images, board, *, image_size=None, flags=0, flag_factor=2.5
     CalibrationImageError
         The board was found in fewer than :data:`MIN_IMAGES` images.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     grays = [as_gray(im) for im in images]
     if image_size is None:

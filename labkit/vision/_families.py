@@ -17,7 +17,7 @@ import functools
 
 import numpy as np
 
-from labkit.exceptions import OptionError
+from labkit.exceptions import OptionError, needs_extra
 
 __all__ = ["FAMILIES", "MarkerFamily", "family_info", "marker_texture"]
 
@@ -92,7 +92,8 @@ def dictionary(family):
     -------
     cv2.aruco.Dictionary
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, family_info(family).opencv))
 
@@ -120,7 +121,8 @@ def marker_texture(family, marker_id, *, pixels_per_bit=16, quiet_zone=QUIET_ZON
     OptionError
         An id outside the family.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     info = family_info(family)
     if not 0 <= int(marker_id) < info.count:

@@ -26,7 +26,7 @@ import warnings
 
 import numpy as np
 
-from labkit.exceptions import OptionError, ShapeError
+from labkit.exceptions import OptionError, ShapeError, needs_extra
 from labkit.exceptions import HandEyeWarning, VisionError
 
 __all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "STARTS", "MIN_ROTATION_SPREAD"]
@@ -45,13 +45,15 @@ _ANGLE_SCALE = 0.1  # m per rad: weighs rotation residuals against position resi
 
 
 def _rotvec(R):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     return cv2.Rodrigues(np.asarray(R, float))[0].reshape(3)
 
 
 def _matrix(x):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     T = np.eye(4)
     T[:3, :3] = cv2.Rodrigues(np.asarray(x[:3], float))[0]
@@ -182,7 +184,8 @@ def _refine(setup, X, Y, A, B):
 
 def _start(setup, start, A, B):
     """OpenCV's closed-form start: (X, Y) = (camera pose, marker pose) of the setup."""
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     from scipy.spatial.transform import Rotation
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.exceptions import ShapeError
+from labkit.exceptions import ShapeError, needs_extra
 
 __all__ = ["as_gray"]
 
@@ -26,7 +26,8 @@ def as_gray(image):
     ShapeError
         Not an image shape.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     img = np.asarray(image)
     if img.ndim == 3 and img.shape[2] in (3, 4):

@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from labkit.exceptions import MarkerNotFoundError
+from labkit.exceptions import MarkerNotFoundError, needs_extra
 from labkit.vision._markers import DEFAULT_CORNER_SIGMA, marker_corners
 
 __all__ = ["CameraLocation", "locate_camera", "transform_covariance"]
@@ -83,7 +83,8 @@ def transform_covariance(T, covariance, point, *, inverse=False):
     ndarray, shape (3, 3)
         Covariance of the mapped point [m^2].
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     T = np.asarray(T, dtype=float)
     p = np.asarray(point, dtype=float).reshape(3)
@@ -125,7 +126,8 @@ def locate_camera(detections, base_markers, camera, *, corner_sigma=DEFAULT_CORN
     MarkerNotFoundError
         No reference marker among the detections.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     frames = detections if detections and not hasattr(detections[0], "id") else [detections]
     obj, img = [], []

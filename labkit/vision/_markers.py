@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from labkit.exceptions import OptionError, ShapeError
+from labkit.exceptions import OptionError, ShapeError, needs_extra
 from labkit.exceptions import AmbiguousPoseError, MarkerNotFoundError, WrongMarkerError
 from labkit.vision._families import dictionary, family_info
 from labkit.vision._images import as_gray as _gray
@@ -139,7 +139,8 @@ class MarkerDetection:
         covariance : ndarray, shape (3, 3)
             Its covariance [m^2] (from :attr:`covariance`).
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         p = np.asarray(point, dtype=float).reshape(3)
         rvec = cv2.Rodrigues(self.pose[:3, :3])[0].reshape(3)
@@ -157,7 +158,8 @@ class MarkerDetection:
 
 @functools.lru_cache(maxsize=None)
 def _detector(family):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE  # the edges are refined by _refine_edges
@@ -173,7 +175,8 @@ def _refine_edges(gray, quad, bits, camera):
     point (a symmetric blur does not move it, unlike a corner detector's saddle point on an
     L-shaped corner). The points are undistorted first, so the lines are straight.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     quad = np.asarray(quad, dtype=float)
     ends = np.roll(quad, -1, axis=0)
@@ -243,7 +246,8 @@ def detect_markers(image, family="tag36h11", camera=None):
     corners : ndarray, shape (m, 4, 2)
         Corners [px], OpenCV's order.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     info = family_info(family)
     gray = _gray(image)
@@ -270,7 +274,8 @@ def detect_markers(image, family="tag36h11", camera=None):
 
 
 def _pose_from_corners(corners, camera, size, corner_sigma):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     obj = marker_corners(size)
     n, rvecs, tvecs, errors = cv2.solvePnPGeneric(obj, corners.reshape(4, 1, 2), camera.matrix, camera.distortion,

@@ -15,7 +15,7 @@ import functools
 
 import numpy as np
 
-from labkit.exceptions import ShapeError
+from labkit.exceptions import ShapeError, needs_extra
 
 __all__ = ["Plane", "RayMap", "draw_planes", "expose", "GRAZING_COS"]
 
@@ -64,7 +64,8 @@ class RayMap:
 
 
 def _blurred(texture, sigma):
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     if sigma < 0.3:
         return texture
@@ -88,7 +89,8 @@ def draw_planes(canvas, raymap, planes):
     ndarray, shape (height, width)
         ``canvas``.
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     cam = raymap.camera
     h, w = canvas.shape
@@ -165,7 +167,8 @@ def expose(canvas, *, gain=0.85, offset=0.05, gradient=(0.0, 0.0), blur=0.0, noi
     -------
     ndarray, shape (height, width), uint8
     """
-    import cv2
+    with needs_extra("vision"):
+        import cv2
 
     h, w = canvas.shape
     gx, gy = gradient

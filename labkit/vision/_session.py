@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import DeviceError, OptionError
+from labkit.exceptions import DeviceError, OptionError, needs_extra
 from labkit.measure import MeasurementSession
 from labkit.exceptions import MarkerNotFoundError, VisionError, WrongMarkerError
 from labkit.vision._locate import locate_camera
@@ -71,7 +71,8 @@ class VideoSource:
     """
 
     def __init__(self, device=0, *, width=None, height=None, stale=None, warmup=3, retries=2):
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         if int(warmup) < 0 or int(retries) < 0 or (stale is not None and int(stale) < 0):
             raise OptionError(f"expected stale, warmup and retries >= 0, got {stale}, {warmup}, {retries}")
@@ -203,7 +204,8 @@ class FolderSource:
         VisionError
             No image of that pose.
         """
-        import cv2
+        with needs_extra("vision"):
+            import cv2
 
         paths = self.paths(pose_id)[: int(count)]
         if not paths:

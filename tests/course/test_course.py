@@ -8,6 +8,7 @@ import signal
 import socket
 import subprocess
 import sys
+import sysconfig
 import threading
 import time
 from pathlib import Path
@@ -395,6 +396,13 @@ def test_sandbox_works_from_a_virtualenv_under_tmp_or_home(tmp_path, where):
     venv = base / "venv"
     try:
         subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], check=True)
+        if sys.prefix != sys.base_prefix:
+            # the suite runs in a virtualenv itself (make test's .venv): the new one is made from the base
+            # interpreter, whose packages are not this venv's, so its site-packages becomes this venv's
+            purelib = Path(sysconfig.get_paths()["purelib"])
+            nested = venv / purelib.relative_to(sys.prefix)
+            shutil.rmtree(nested)
+            nested.symlink_to(purelib, target_is_directory=True)
         script = ("import nbformat\nfrom labkit.course import Limits, run_untrusted\n"
                   "nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("
                   "'import sys, labkit, numpy\\nprint(sys.prefix)')])\n"

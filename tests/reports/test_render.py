@@ -387,3 +387,25 @@ def test_a_kernel_that_never_starts_is_reported_after_a_few_starts(tmp_path, mon
     assert not result.ok and "Kernel died before replying to kernel_info" in result.error
     assert count.read_text() == str(KERNEL_STARTS)
     assert (tmp_path / "out.ipynb").is_file()
+
+
+def test_index_links_each_labs_hand_in_report(tmp_path):
+    """reports/index.html links <lab>.pdf and <lab>.html (labkit report's hand-in) beside the notebooks' reports."""
+    from labkit.reports import RenderResult, write_index
+
+    out = tmp_path / "reports"
+    (out / "demo").mkdir(parents=True)
+    (out / "demo" / "a.html").write_text("<p>a</p>")
+    (out / "other").mkdir()
+    (out / "other" / "b.html").write_text("<p>b</p>")
+    results = [RenderResult("demo", "a", True, "", None, out / "demo" / "a.html", None, 1.0),
+               RenderResult("other", "b", True, "", None, out / "other" / "b.html", None, 1.0)]
+    write_index(results, out)
+    index = (out / "index.html").read_text()
+    assert 'href="demo.pdf"' not in index and "not written yet: <code>labkit report demo</code>" in index
+    (out / "demo.pdf").write_bytes(b"%PDF-1.4")
+    (out / "demo.html").write_text("<p>report</p>")
+    write_index([], out)  # what labkit report does after writing into a render folder
+    index = (out / "index.html").read_text()
+    assert 'href="demo.pdf">PDF</a> <a href="demo.html">HTML</a>' in index
+    assert "not written yet: <code>labkit report other</code>" in index and 'href="demo/a.html"' in index

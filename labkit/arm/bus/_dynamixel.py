@@ -20,6 +20,7 @@ Examples
 from __future__ import annotations
 
 from labkit.arm.bus._driver import BusDriver
+from labkit.exceptions import needs_extra
 
 __all__ = []
 
@@ -234,7 +235,8 @@ class DynamixelDriver(BusDriver):
     profile = ("profile_velocity", "profile_acceleration")
 
     def _sdk(self):
-        import dynamixel_sdk as sdk
+        with needs_extra("bus"):
+            import dynamixel_sdk as sdk
 
         return sdk, sdk.PortHandler, sdk.PacketHandler(2.0)
 

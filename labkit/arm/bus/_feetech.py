@@ -18,6 +18,7 @@ Examples
 from __future__ import annotations
 
 from labkit.arm.bus._driver import BusDriver
+from labkit.exceptions import needs_extra
 
 __all__ = []
 
@@ -191,7 +192,8 @@ class FeetechDriver(BusDriver):
     profile = ("goal_velocity", "acceleration")
 
     def _sdk(self):
-        import scservo_sdk as sdk
+        with needs_extra("bus"):
+            import scservo_sdk as sdk
 
         return sdk, sdk.PortHandler, sdk.PacketHandler(0)
 

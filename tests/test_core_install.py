@@ -1,0 +1,117 @@
+"""`pip install labkit` without extras: a fresh virtualenv gets the light core, and the core does its job.
+
+The core is what the library's math, motion, measurement tables, plots and the serial link need; the
+test installs the checkout alone (no extras) in a new virtualenv, measures it against the targets
+(<= 400 MB of installed files, <= 45 distributions), runs FK, IK, a trajectory, an error table, a plot and a move on the
+virtual arm there, and checks that two commands needing a missing extra name the `pip install` to run.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: what the core venv may weigh and hold (issue 36: the full install was 1.3 GB, 158 distributions)
+MAX_MEGABYTES = 400
+MAX_DISTRIBUTIONS = 45
+
+SMOKE = r"""
+import importlib.util, json, os, sys
+import numpy as np
+import matplotlib
+matplotlib.use("Agg")
+from labkit import Robot
+from labkit.arm import Arm
+from labkit.data import measurement_file
+from labkit.kinematics import fk, ik_all
+from labkit.measure import error_table
+from labkit.motion import joint_trajectory
+from labkit.plotting import plot_arm, plot_trajectory
+
+assert labkit_file_ok(), None
+arm = Robot.load("arduino_arm_3dof")
+q = np.radians([45.0, 60.0, 30.0])
+T = fk(arm, q)
+sols = ik_all(arm, T[:3, 3])
+assert any(np.allclose(fk(arm, qi)[:3, 3], T[:3, 3], atol=1e-9) for qi in sols.q[sols.valid]), sols
+traj = joint_trajectory(np.zeros(3) + 0.5, q, robot=arm)
+assert np.allclose(traj.q[-1], q) and traj.q.shape[1] == 3
+errors = error_table(measurement_file("seed000_fk_tables1-3.csv"), arm)
+assert "<table" in errors.to_html() and len(errors.table) > 0
+ax = plot_arm(arm, q)
+ax.figure.savefig("arm.png")
+plot_trajectory(traj)[0].figure.savefig("trajectory.png")
+with Arm("sim://", robot=arm) as link:
+    link.move_joints(q, wait=True)
+    reached = np.asarray(link.read_joints())
+assert np.allclose(reached, q, atol=np.radians(3)), np.degrees(reached)
+print(json.dumps({
+    "extras_present": [m for m in ("nbformat", "nbconvert", "cv2", "jupyterlab", "nbgrader", "dynamixel_sdk",
+                                   "yourdfpy", "psutil", "IPython") if importlib.util.find_spec(m)],
+    "reached_deg": np.degrees(reached).round(2).tolist(),
+}))
+"""
+
+
+def _venv_bytes(root):
+    """(bytes of the venv's files, bytes of its bytecode caches): the caches are what pip compiles at install and
+    Python would write on first import; the bound is on the files installed, the report gives both."""
+    files = caches = 0
+    for dirpath, _, names in os.walk(root):
+        for name in names:
+            path = os.path.join(dirpath, name)
+            if not os.path.islink(path):
+                size = os.lstat(path).st_size
+                if "__pycache__" in Path(dirpath).parts:
+                    caches += size
+                else:
+                    files += size
+    return files, caches
+
+
+@pytest.mark.slow
+def test_core_install_is_light_and_runs_without_extras(tmp_path):
+    env_dir = tmp_path / "core"
+    venv.EnvBuilder(with_pip=True).create(env_dir)
+    python = str(env_dir / "bin" / "python")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
+    env["PATH"] = f"{env_dir / 'bin'}:/usr/bin:/bin"
+    source = tmp_path / "labkit-src"  # a copy: pip builds in the source tree, where another test builds a wheel too
+    for name in ("pyproject.toml", "README.md"):
+        source.mkdir(exist_ok=True)
+        shutil.copy2(REPO / name, source / name)
+    shutil.copytree(REPO / "labkit", source / "labkit", ignore=shutil.ignore_patterns("__pycache__"))
+    subprocess.run([python, "-m", "pip", "install", "-q", str(source)], check=True, env=env, cwd=tmp_path,
+                   capture_output=True, timeout=1800)
+    count = int(subprocess.run([python, "-c", "import importlib.metadata as m; print(len({d.metadata['Name'].lower() "
+                                "for d in m.distributions()}))"], check=True, env=env, capture_output=True,
+                               text=True).stdout)
+    files, caches = _venv_bytes(env_dir)
+    megabytes = files / 1e6
+    print(f"core venv: {megabytes:.0f} MB of files (+ {caches / 1e6:.0f} MB of bytecode caches), {count} distributions")
+    assert megabytes <= MAX_MEGABYTES and count <= MAX_DISTRIBUTIONS, (megabytes, caches / 1e6, count)
+
+    work = tmp_path / "work"
+    work.mkdir()
+    site = f"{env_dir}/lib/python{sys.version_info[0]}.{sys.version_info[1]}/site-packages/labkit"
+    script = SMOKE.replace("labkit_file_ok()", f"__import__('labkit').__file__.startswith({site!r})")
+    run = subprocess.run([python, "-c", script], env=env, cwd=work, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    result = json.loads(run.stdout.strip().splitlines()[-1])
+    assert result["extras_present"] == [], result  # truly the core alone
+    assert (work / "arm.png").stat().st_size > 1000 and (work / "trajectory.png").stat().st_size > 1000
+
+    labkit = str(env_dir / "bin" / "labkit")
+    for argv, extra in ((["render", "--no-pdf", str(REPO / "notebooks" / "servo_dynamics")], "reports"),
+                        (["vision", "marker", "1", "-o", "tag.pdf"], "vision")):
+        out = subprocess.run([labkit, *argv], env=env, cwd=work, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 2, (argv, out.returncode, out.stderr[-2000:])
+        assert f"pip install 'labkit[{extra}]'" in out.stderr, (argv, out.stderr[-2000:])
+        assert "Traceback" not in out.stderr, out.stderr
