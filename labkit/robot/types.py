@@ -16,6 +16,7 @@ from enum import Enum
 import numpy as np
 
 from labkit.exceptions import JointLimitError, RobotError
+from labkit.robot._inertia import LinkInertia, Motor
 
 __all__ = [
     "Convention",
@@ -26,6 +27,8 @@ __all__ = [
     "Bus",
     "BUS_KINDS",
     "Link",
+    "LinkInertia",
+    "Motor",
 ]
 
 #: servo buses a robot file's ``[bus]`` table may name (``kind``), each with its default resolution [ticks/turn]
@@ -394,6 +397,11 @@ class Link:
         The joint variable enters the chain negated (roboticstoolbox's ``flip``):
         ``theta_i = -q_i + theta`` (revolute) or ``d_i = -q_i + d`` (prismatic).
         Limits, speeds and servo calibration stay in terms of ``q``.
+    inertial : LinkInertia or None
+        Mass, centre of mass and inertia of the link this joint moves, in frame i
+        (robot-file keys ``mass``, ``com``, ``inertia``); None: a massless link.
+    motor : Motor or None
+        Rotor inertia, gear ratio and friction of the joint's drive (robot-file ``motor``); None: none.
 
     Raises
     ------
@@ -418,6 +426,8 @@ class Link:
     max_acceleration: float = math.inf
     flip: bool = False
     bus: BusServo | None = None
+    inertial: LinkInertia | None = None
+    motor: Motor | None = None
 
     def __post_init__(self):
         owner = f"Link {self.name!r}" if self.name else "Link"
@@ -451,6 +461,10 @@ class Link:
         if not isinstance(self.flip, (bool, np.bool_)):
             raise RobotError(f"{owner}: field 'flip': expected true or false, got {self.flip!r}", "flip")
         object.__setattr__(self, "flip", bool(self.flip))
+        for field, cls in (("inertial", LinkInertia), ("motor", Motor)):
+            if getattr(self, field) is not None and not isinstance(getattr(self, field), cls):
+                raise RobotError(f"{owner}: field '{field}': expected a {cls.__name__} or None, "
+                                 f"got {getattr(self, field)!r}", field)
 
     @property
     def is_revolute(self):

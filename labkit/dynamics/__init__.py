@@ -1,0 +1,25 @@
+"""Dynamics of serial arms: inverse dynamics (recursive Newton-Euler), the mass, Coriolis and
+gravity terms, friction, energies, forward dynamics and simulation.
+
+Batched over leading dimensions like :func:`labkit.kinematics.fk`; the robot's inertial
+parameters come from its robot file (``mass``, ``com``, ``inertia``, ``motor`` per joint,
+see ``docs/robot-files.md``). The Lagrangian derivation for small arms lives in
+:mod:`labkit.dynamics.symbolic` (imports sympy when used).
+"""
+
+from labkit.dynamics import _rne
+from labkit.dynamics._model import STANDARD_GRAVITY
+from labkit.dynamics._rne import (
+    inverse_dynamics,
+    mass_matrix,
+    coriolis_matrix,
+    gravity_torques,
+    friction_torques,
+    kinetic_energy,
+    potential_energy,
+)
+
+__all__ = [
+    "STANDARD_GRAVITY",
+    *_rne.__all__,
+]

@@ -1,0 +1,188 @@
+"""What the dynamics reads from a robot: its inertial data, joint axes and bodies in world coordinates.
+
+The one place where a :class:`~labkit.robot.Robot` becomes the arrays of the recursive
+Newton-Euler recursion (:mod:`labkit.dynamics._rne`): per joint the axis ``s`` (unit vector,
+signed by ``flip``) and a point ``p`` on it, per link its centre of mass ``c`` and inertia
+tensor about it, all in world coordinates (the frame :func:`~labkit.kinematics.fk` reports
+in), from :func:`~labkit.kinematics.fk_frames`. The DH convention only decides which frame
+carries joint i's axis: frame i - 1 (standard) or frame i (modified).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.exceptions import RobotError, ShapeError
+from labkit.kinematics import fk_frames
+from labkit.robot import Convention, Robot
+from labkit.validation import as_batch, as_vector
+
+__all__ = ["STANDARD_GRAVITY", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays"]
+
+#: standard acceleration of gravity [m/s^2] (the default magnitude along the robot's -up)
+STANDARD_GRAVITY = 9.81
+
+
+@dataclass(frozen=True)
+class Body:
+    """The robot's inertial data as arrays (massless links and absent motors are zeros).
+
+    Attributes
+    ----------
+    mass : ndarray, shape (n,)
+        Link masses [kg].
+    com : ndarray, shape (n, 3)
+        Centres of mass in each link's frame i [m].
+    inertia : ndarray, shape (n, 3, 3)
+        Inertia tensors about the centres of mass, axes of frame i [kg m^2].
+    armature : ndarray, shape (n,)
+        Reflected rotor inertia ``G^2 Jm`` [kg m^2 or kg].
+    viscous : ndarray, shape (n,)
+        Reflected viscous friction ``G^2 B`` [N m s/rad or N s/m].
+    coulomb : ndarray, shape (n, 2)
+        Reflected Coulomb friction ``|G| Tc`` (moving forwards, backwards) [N m or N].
+    """
+
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    armature: np.ndarray
+    viscous: np.ndarray
+    coulomb: np.ndarray
+
+
+def body(robot):
+    """The inertial arrays of ``robot``; a robot without any inertial data is an error.
+
+    Parameters
+    ----------
+    robot : Robot
+
+    Returns
+    -------
+    Body
+
+    Raises
+    ------
+    RobotError
+        No link carries ``mass``/``com``/``inertia`` (the dynamics of such a robot is zero).
+    """
+    if not isinstance(robot, Robot):
+        raise RobotError(f"expected a Robot (labkit.robot.Robot), got {type(robot).__name__}", "robot")
+    if all(lk.inertial is None for lk in robot.links):
+        raise RobotError(f"robot {robot.name!r} has no inertial parameters: expected mass, com and inertia on its "
+                         f"[[joint]] tables (docs/robot-files.md), got none", "inertial")
+    n = robot.n
+    mass, com, inertia = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3))
+    armature, viscous, coulomb = np.zeros(n), np.zeros(n), np.zeros((n, 2))
+    for i, lk in enumerate(robot.links):
+        if lk.inertial is not None:
+            mass[i], com[i], inertia[i] = lk.inertial.mass, lk.inertial.com, lk.inertial.matrix
+        if lk.motor is not None:
+            G = lk.motor.gear_ratio
+            armature[i] = G * G * lk.motor.inertia
+            viscous[i] = G * G * lk.motor.viscous
+            coulomb[i] = abs(G) * np.array(lk.motor.coulomb)
+    return Body(mass, com, inertia, armature, viscous, coulomb)
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Joint axes and link bodies of a batch of configurations, in world coordinates.
+
+    Attributes
+    ----------
+    axis : ndarray, shape (..., n, 3)
+        Unit vector of each joint's positive motion (negated for a flipped joint).
+    point : ndarray, shape (..., n, 3)
+        A point on each joint's axis [m] (for a prismatic joint any point of the link).
+    com : ndarray, shape (..., n, 3)
+        Each link's centre of mass [m].
+    inertia : ndarray, shape (..., n, 3, 3)
+        Each link's inertia tensor about its centre of mass, world axes [kg m^2].
+    revolute : tuple of bool
+        Whether each joint is revolute.
+    mass : ndarray, shape (n,)
+        Link masses [kg].
+    """
+
+    axis: np.ndarray
+    point: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    revolute: tuple
+    mass: np.ndarray
+
+
+def geometry(robot, q, parts):
+    """Axes, axis points, centres of mass and world inertias of ``robot`` at ``q``.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : ndarray, shape (..., n)
+        Joint values [rad, m] (checked).
+    parts : Body
+        The robot's inertial arrays (:func:`body`).
+
+    Returns
+    -------
+    Geometry
+    """
+    T = fk_frames(robot, q)
+    n = robot.n
+    first = 0 if robot.convention is Convention.STANDARD else 1
+    carrier = T[..., first:first + n, :3, :]  # the frame whose z is joint i's axis
+    sign = np.where(robot.flip, -1.0, 1.0)
+    R = T[..., 1:n + 1, :3, :3]
+    com = np.einsum("...ij,...j->...i", R, parts.com) + T[..., 1:n + 1, :3, 3]
+    inertia = R @ parts.inertia @ np.swapaxes(R, -1, -2)
+    return Geometry(carrier[..., :, 2] * sign[:, None], carrier[..., :, 3], com, inertia,
+                    tuple(bool(v) for v in robot.is_revolute), parts.mass)
+
+
+def default_gravity(robot, gravity):
+    """The gravity vector in world coordinates [m/s^2]: ``gravity`` checked, or 9.81 along ``-robot.up``.
+
+    Parameters
+    ----------
+    robot : Robot
+    gravity : array_like, shape (..., 3), or None
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    if gravity is None:
+        return -STANDARD_GRAVITY * np.asarray(robot.up, dtype=float)
+    return as_batch(gravity, (3,), "gravity (a vector in world coordinates, m/s^2)")
+
+
+def joint_arrays(robot, **arrays):
+    """Check joint arrays ``(..., n)`` and broadcast them to one batch shape.
+
+    Parameters
+    ----------
+    robot : Robot
+    **arrays : array_like, shape (..., n)
+        Named joint arrays (``q``, ``qd``, ``qdd``, ``tau``).
+
+    Returns
+    -------
+    list of ndarray, shape (..., n)
+        In the order given, broadcast against each other.
+
+    Raises
+    ------
+    ShapeError
+        An array does not end in ``n``, holds a non-finite value, or the batch shapes differ.
+    """
+    checked = {name: as_vector(value, robot.n, name) for name, value in arrays.items()}
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in checked.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in checked.items())
+        raise ShapeError(f"expected joint arrays with one batch shape (..., {robot.n}), got {shapes}") from None
+    return [np.broadcast_to(a, shape) for a in checked.values()]
