@@ -7,7 +7,7 @@ see ``docs/robot-files.md``). The Lagrangian derivation for small arms lives in
 :mod:`labkit.dynamics.symbolic` (imports sympy when used).
 """
 
-from labkit.dynamics import _rne
+from labkit.dynamics import _rne, _simulate
 from labkit.dynamics._model import STANDARD_GRAVITY
 from labkit.dynamics._rne import (
     inverse_dynamics,
@@ -18,8 +18,10 @@ from labkit.dynamics._rne import (
     kinetic_energy,
     potential_energy,
 )
+from labkit.dynamics._simulate import forward_dynamics, Simulation, simulate, INTEGRATORS
 
 __all__ = [
     "STANDARD_GRAVITY",
     *_rne.__all__,
+    *_simulate.__all__,
 ]

@@ -168,7 +168,7 @@ def gravity_torques(robot, q, *, gravity=None):
     --------
     >>> from labkit.robot import Robot
     >>> [round(float(t), 2) for t in gravity_torques(Robot.load("puma560"), [0, 0.5, 0, 0, 0, 0])[1:3]]
-    [28.21, -3.99]
+    [28.2, -3.99]
     """
     parts = body(robot)
     (q,) = joint_arrays(robot, q=q)
