@@ -15,6 +15,8 @@ __all__ = ["forward_dynamics", "Simulation", "simulate", "INTEGRATORS"]
 
 #: the integrators of scipy.integrate.solve_ivp that simulate accepts
 INTEGRATORS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+#: a Cholesky pivot below this fraction of the largest diagonal entry of M counts as singular
+_SINGULAR = 1e-12
 
 
 def forward_dynamics(robot, q, qd, tau, *, gravity=None, friction=True):
@@ -54,17 +56,23 @@ def forward_dynamics(robot, q, qd, tau, *, gravity=None, friction=True):
     q, qd, tau = joint_arrays(robot, q=q, qd=qd, tau=tau)
     bias = inverse_dynamics(robot, q, qd, np.zeros(robot.n), gravity=gravity, friction=friction)
     M = mass_matrix(robot, q)
+    _check_definite(robot, M)
+    return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
+
+
+def _check_definite(robot, M):
+    """A DynamicsError unless every M is numerically positive definite (Cholesky pivots above rounding)."""
+    scale = np.diagonal(M, axis1=-2, axis2=-1).max(axis=-1)
     try:
-        qdd = np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
+        pivots = np.diagonal(np.linalg.cholesky(M), axis1=-2, axis2=-1) ** 2
+        bad = pivots.min(axis=-1) <= _SINGULAR * scale
     except np.linalg.LinAlgError:
-        qdd = None
-    if qdd is None or not np.isfinite(qdd).all():
-        eig = np.linalg.eigvalsh(M)
-        bad = np.argwhere(eig[..., 0] <= 1e-12 * np.maximum(eig[..., -1], 1e-300))
-        where = f" at batch index {tuple(int(i) for i in bad[0])}" if bad.size and M.ndim > 2 else ""
+        bad = np.array([np.linalg.eigvalsh(m)[0] <= _SINGULAR * s for m, s in
+                        zip(M.reshape(-1, *M.shape[-2:]), scale.reshape(-1))]).reshape(scale.shape)
+    if np.any(bad):
+        where = f" at batch index {tuple(int(i) for i in np.argwhere(bad)[0])}" if M.ndim > 2 else ""
         raise DynamicsError(f"robot {robot.name!r}: expected a positive definite mass matrix, got a singular one"
                             f"{where} (a joint that moves no mass and has no rotor inertia)")
-    return qdd
 
 
 @dataclass(frozen=True)
