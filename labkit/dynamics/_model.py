@@ -19,7 +19,7 @@ from labkit.kinematics import fk_frames
 from labkit.robot import Convention, Robot
 from labkit.validation import as_batch, as_vector
 
-__all__ = ["STANDARD_GRAVITY", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays"]
+__all__ = ["STANDARD_GRAVITY", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays", "cross"]
 
 #: standard acceleration of gravity [m/s^2] (the default magnitude along the robot's -up)
 STANDARD_GRAVITY = 9.81
@@ -90,34 +90,54 @@ def body(robot):
 
 @dataclass(frozen=True)
 class Geometry:
-    """Joint axes and link bodies of a batch of configurations, in world coordinates.
+    """Joint axes and link inertias of a batch of configurations, as spatial vectors in world coordinates.
+
+    Spatial vectors are taken at the world origin, angular part first (Featherstone's
+    Plucker coordinates): a motion ``(w, v_O)``, ``v_O`` the velocity of the body point at
+    the origin; a force ``(n_O, f)``, ``n_O`` the moment about the origin.
 
     Attributes
     ----------
-    axis : ndarray, shape (..., n, 3)
-        Unit vector of each joint's positive motion (negated for a flipped joint).
-    point : ndarray, shape (..., n, 3)
-        A point on each joint's axis [m] (for a prismatic joint any point of the link).
+    axis : ndarray, shape (..., n, 6)
+        Each joint's unit motion: ``(s, p x s)`` for a revolute joint turning about the unit
+        vector ``s`` (negated for a flipped joint) through the point ``p``, ``(0, s)`` for a
+        prismatic one.
+    inertia : ndarray, shape (..., n, 6, 6)
+        Each link's spatial inertia at the world origin [kg m^2, kg m, kg].
     com : ndarray, shape (..., n, 3)
         Each link's centre of mass [m].
-    inertia : ndarray, shape (..., n, 3, 3)
-        Each link's inertia tensor about its centre of mass, world axes [kg m^2].
-    revolute : tuple of bool
-        Whether each joint is revolute.
-    mass : ndarray, shape (n,)
-        Link masses [kg].
     """
 
     axis: np.ndarray
-    point: np.ndarray
-    com: np.ndarray
     inertia: np.ndarray
-    revolute: tuple
-    mass: np.ndarray
+    com: np.ndarray
+
+
+def cross(a, b):
+    """Cross product over the last axis of broadcastable arrays (cheaper than ``np.cross`` on small ones).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _skew(v):
+    """``[v]x`` for (..., 3) vectors: (..., 3, 3)."""
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
 
 
 def geometry(robot, q, parts):
-    """Axes, axis points, centres of mass and world inertias of ``robot`` at ``q``.
+    """Spatial joint axes, spatial inertias and centres of mass of ``robot`` at ``q`` (world coordinates).
 
     Parameters
     ----------
@@ -135,12 +155,16 @@ def geometry(robot, q, parts):
     n = robot.n
     first = 0 if robot.convention is Convention.STANDARD else 1
     carrier = T[..., first:first + n, :3, :]  # the frame whose z is joint i's axis
-    sign = np.where(robot.flip, -1.0, 1.0)
+    s = carrier[..., :, 2] * np.where(robot.flip, -1.0, 1.0)[:, None]
+    revolute = robot.is_revolute[:, None]
+    axis = np.concatenate([np.where(revolute, s, 0.0), np.where(revolute, cross(carrier[..., :, 3], s), s)], -1)
     R = T[..., 1:n + 1, :3, :3]
     com = np.einsum("...ij,...j->...i", R, parts.com) + T[..., 1:n + 1, :3, 3]
-    inertia = R @ parts.inertia @ np.swapaxes(R, -1, -2)
-    return Geometry(carrier[..., :, 2] * sign[:, None], carrier[..., :, 3], com, inertia,
-                    tuple(bool(v) for v in robot.is_revolute), parts.mass)
+    C = _skew(com)
+    m = parts.mass[:, None, None]
+    top = np.concatenate([R @ parts.inertia @ np.swapaxes(R, -1, -2) - m * C @ C, m * C], -1)
+    bottom = np.concatenate([-m * C, np.broadcast_to(m * np.eye(3), C.shape)], -1)
+    return Geometry(axis, np.concatenate([top, bottom], -2), com)
 
 
 def default_gravity(robot, gravity):

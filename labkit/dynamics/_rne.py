@@ -1,97 +1,69 @@
 """Inverse dynamics by the recursive Newton-Euler algorithm, and what is built from it.
 
-One recursion, written once (:func:`newton_euler`), in world coordinates: outwards it carries
-each link's angular velocity and acceleration and the acceleration of a point on the next
-joint's axis, with the base accelerating at ``-gravity``; inwards the force and moment each
-link receives from the one before. The mass matrix is its columns at unit accelerations (no
-velocity, no gravity), the Coriolis matrix its bilinear form in the velocity (polarization),
-the gravity torques its value at rest. Batched over leading dimensions like
-:func:`~labkit.kinematics.fk`.
+One recursion, written once (:func:`newton_euler`), in spatial vectors at the world origin
+(:class:`~labkit.dynamics._model.Geometry`): there each joint's motion axis and each link's
+spatial inertia are plain arrays, so the outward pass (velocities and accelerations, the base
+accelerating at ``-gravity``) and the inward pass (forces) are running sums over the joints.
+The mass matrix comes from the composite rigid bodies (the same spatial inertias summed from
+the tip), the Coriolis matrix from the recursion's bilinear form in the velocity
+(polarization), the gravity torques from the recursion at rest. Batched over leading
+dimensions like :func:`~labkit.kinematics.fk`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from labkit.dynamics._model import body, default_gravity, geometry, joint_arrays
+from labkit.dynamics._model import body, cross, default_gravity, geometry, joint_arrays
 
 __all__ = ["inverse_dynamics", "mass_matrix", "coriolis_matrix", "gravity_torques", "friction_torques",
            "kinetic_energy", "potential_energy"]
 
 
-def _cross(a, b):
-    """Cross product over the last axis of broadcastable (..., 3) arrays."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+def _motion_cross(v, m):
+    """Spatial cross product of motions ``v x m`` (Featherstone's ``crm(v) m``), (..., 6)."""
+    w, vo = v[..., :3], v[..., 3:]
+    return np.concatenate([cross(w, m[..., :3]), cross(vo, m[..., :3]) + cross(w, m[..., 3:])], -1)
 
 
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
+def _force_cross(v, f):
+    """Spatial cross product of a motion and a force ``v x* f`` (``crf(v) f``), (..., 6)."""
+    w, vo = v[..., :3], v[..., 3:]
+    return np.concatenate([cross(w, f[..., :3]) + cross(vo, f[..., 3:]), cross(w, f[..., 3:])], -1)
 
 
 def _apply(I, v):
-    """``I @ v`` for (..., 3, 3) and (..., 3)."""
+    """``I @ v`` for (..., 6, 6) and (..., 6)."""
     return np.einsum("...ij,...j->...i", I, v)
 
 
-def newton_euler(geo, qd, qdd, base_acceleration):
+def newton_euler(axis, inertia, qd, qdd, base_acceleration):
     """Joint forces of the rigid links (no motor, no friction) by the Newton-Euler recursion.
 
     Parameters
     ----------
-    geo : Geometry
-        Axes, axis points, centres of mass and inertias, shape (..., n, ...) (:func:`geometry`).
+    axis : ndarray, shape (..., n, 6)
+        Spatial joint axes at the world origin (:class:`~labkit.dynamics._model.Geometry`).
+    inertia : ndarray, shape (..., n, 6, 6)
+        Spatial link inertias at the world origin.
     qd, qdd : ndarray, shape (..., n)
         Joint velocities [rad/s, m/s] and accelerations [rad/s^2, m/s^2], broadcastable
-        against ``geo``'s batch shape.
+        against the batch shape of ``axis``.
     base_acceleration : ndarray, shape (..., 3)
-        The base's acceleration in world coordinates (``-gravity``) [m/s^2].
+        The base's linear acceleration in world coordinates (``-gravity``) [m/s^2].
 
     Returns
     -------
     ndarray, shape (..., n)
         Joint torques [N m] and forces [N].
     """
-    n = len(geo.revolute)
-    lead = np.broadcast_shapes(geo.axis.shape[:-2], qd.shape[:-1], qdd.shape[:-1], base_acceleration.shape[:-1])
-    zero = np.zeros(lead + (3,))
-    w, dw, acc, p_prev = zero, zero, zero + base_acceleration, None
-    force, moment = [None] * n, [None] * n
-    for i in range(n):
-        s, p = geo.axis[..., i, :], geo.point[..., i, :]
-        if p_prev is not None:  # the point on joint i's axis, moving with link i - 1
-            r = p - p_prev
-            acc = acc + _cross(dw, r) + _cross(w, _cross(w, r))
-        v_joint = s * qd[..., i, None]
-        a_joint = s * qdd[..., i, None]
-        if geo.revolute[i]:
-            dw = dw + a_joint + _cross(w, v_joint)
-            w = w + v_joint
-        else:
-            acc = acc + a_joint + 2.0 * _cross(w, v_joint)
-        rc = geo.com[..., i, :] - p
-        a_com = acc + _cross(dw, rc) + _cross(w, _cross(w, rc))
-        I = geo.inertia[..., i, :, :]
-        force[i] = geo.mass[i] * a_com
-        moment[i] = _apply(I, dw) + _cross(w, _apply(I, w)) + _cross(rc, force[i])  # about p
-        p_prev = p
-    tau = np.empty(lead + (n,))
-    f, m = zero, zero  # from link i + 1, moment about its axis point
-    for i in range(n - 1, -1, -1):
-        p = geo.point[..., i, :]
-        if i < n - 1:
-            m = m + _cross(geo.point[..., i + 1, :] - p, f)
-        f = f + force[i]
-        m = m + moment[i]
-        tau[..., i] = _dot(m if geo.revolute[i] else f, geo.axis[..., i, :])
-    return tau
-
-
-def _one_more_axis(geo):
-    """``geo`` with a batch axis before the joint axis, to broadcast against several joint arrays per state."""
-    return type(geo)(geo.axis[..., None, :, :], geo.point[..., None, :, :], geo.com[..., None, :, :],
-                     geo.inertia[..., None, :, :, :], geo.revolute, geo.mass)
+    joint_velocity = axis * qd[..., None]
+    v = np.cumsum(joint_velocity, axis=-2)  # link i's spatial velocity: the joints' motions up to i
+    a0 = np.concatenate([np.zeros_like(base_acceleration), base_acceleration], -1)[..., None, :]
+    a = a0 + np.cumsum(axis * qdd[..., None] + _motion_cross(v, joint_velocity), axis=-2)
+    f = _apply(inertia, a) + _force_cross(v, _apply(inertia, v))  # net force on each link
+    carried = np.flip(np.cumsum(np.flip(f, -2), axis=-2), -2)  # joint i carries links i..n
+    return np.einsum("...i,...i->...", axis, carried)
 
 
 def _friction(parts, qd):
@@ -143,7 +115,31 @@ def inverse_dynamics(robot, q, qd, qdd, *, gravity=None, friction=True):
     parts = body(robot)
     q, qd, qdd = joint_arrays(robot, q=q, qd=qd, qdd=qdd)
     g = default_gravity(robot, gravity)
-    tau = newton_euler(geometry(robot, q, parts), qd, qdd, -g) + parts.armature * qdd
+    return inverse(parts, geometry(robot, q, parts), qd, qdd, g, friction)
+
+
+def inverse(parts, geo, qd, qdd, gravity, friction):
+    """:func:`inverse_dynamics` on the robot's arrays (shared with the forward dynamics).
+
+    Parameters
+    ----------
+    parts : Body
+        The robot's inertial arrays.
+    geo : Geometry
+        Its spatial axes and inertias at ``q``, batch shape (...).
+    qd, qdd : ndarray, shape (..., n)
+        Joint velocities and accelerations [rad/s, rad/s^2, m/s, m/s^2].
+    gravity : ndarray, shape (..., 3)
+        Gravity in world coordinates [m/s^2].
+    friction : bool
+        Add the motors' friction.
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Joint torques [N m] and forces [N].
+    """
+    tau = newton_euler(geo.axis, geo.inertia, qd, qdd, -gravity) + parts.armature * qdd
     return tau + _friction(parts, qd) if friction else tau
 
 
@@ -173,14 +169,15 @@ def gravity_torques(robot, q, *, gravity=None):
     parts = body(robot)
     (q,) = joint_arrays(robot, q=q)
     zero = np.zeros(robot.n)
-    return newton_euler(geometry(robot, q, parts), zero, zero, -default_gravity(robot, gravity))
+    geo = geometry(robot, q, parts)
+    return newton_euler(geo.axis, geo.inertia, zero, zero, -default_gravity(robot, gravity))
 
 
 def mass_matrix(robot, q):
     """The joint-space mass (inertia) matrix ``M(q)``, motors' reflected rotor inertia included.
 
-    Column j is the inverse dynamics at unit acceleration of joint j, without velocity and
-    gravity.
+    By the composite rigid bodies: ``M[i, j] = S_i . (I_j + ... + I_n) S_j`` for ``i <= j``,
+    with the spatial joint axes ``S`` and link inertias ``I`` of the Newton-Euler recursion.
 
     Parameters
     ----------
@@ -203,10 +200,29 @@ def mass_matrix(robot, q):
     """
     parts = body(robot)
     (q,) = joint_arrays(robot, q=q)
-    unit = np.eye(robot.n)
-    columns = newton_euler(_one_more_axis(geometry(robot, q, parts)), np.zeros(robot.n), unit, np.zeros(3))  # (..., j, i) = M[i, j]
-    M = np.swapaxes(columns, -1, -2) + np.diag(parts.armature)
-    return 0.5 * (M + np.swapaxes(M, -1, -2))
+    return composite_mass(parts, geometry(robot, q, parts))
+
+
+def composite_mass(parts, geo):
+    """:func:`mass_matrix` on the robot's arrays (shared with the forward dynamics).
+
+    Parameters
+    ----------
+    parts : Body
+        The robot's inertial arrays.
+    geo : Geometry
+        Its spatial axes and inertias at ``q``, batch shape (...).
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+        The mass matrix, rotor inertia on the diagonal.
+    """
+    composite = np.flip(np.cumsum(np.flip(geo.inertia, -3), axis=-3), -3)  # links j..n as one body
+    A = np.einsum("...ik,...jkl,...jl->...ij", geo.axis, composite, geo.axis)  # S_i . Ic_j S_j
+    n = parts.mass.size
+    M = np.where(np.triu(np.ones((n, n), dtype=bool)), A, np.swapaxes(A, -1, -2))
+    return M + np.diag(parts.armature)
 
 
 def coriolis_matrix(robot, q, qd):
@@ -245,7 +261,8 @@ def coriolis_matrix(robot, q, qd):
     scale = np.maximum(np.abs(qd).max(axis=-1, keepdims=True), 1.0)[..., None]  # (..., 1, 1)
     step = scale * np.eye(n)
     velocities = np.concatenate([qd[..., None, :] + step, qd[..., None, :] - step], axis=-2)  # (..., 2n, n)
-    h = newton_euler(_one_more_axis(geometry(robot, q, parts)), velocities, np.zeros(n), np.zeros(3))
+    geo = geometry(robot, q, parts)
+    h = newton_euler(geo.axis[..., None, :, :], geo.inertia[..., None, :, :, :], velocities, np.zeros(n), np.zeros(3))
     columns = (h[..., :n, :] - h[..., n:, :]) / (4.0 * scale)  # (..., j, i) = C[i, j]
     return np.swapaxes(columns, -1, -2)
 
@@ -326,4 +343,4 @@ def potential_energy(robot, q, *, gravity=None):
     (q,) = joint_arrays(robot, q=q)
     geo = geometry(robot, q, parts)
     g = default_gravity(robot, gravity)
-    return -np.einsum("i,...i->...", parts.mass, _dot(geo.com, g[..., None, :]))
+    return -np.einsum("i,...i->...", parts.mass, np.einsum("...ij,...j->...i", geo.com, g))

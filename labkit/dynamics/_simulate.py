@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.dynamics._model import joint_arrays
-from labkit.dynamics._rne import inverse_dynamics, mass_matrix
+from labkit.dynamics._model import body, default_gravity, geometry, joint_arrays
+from labkit.dynamics._rne import composite_mass, inverse
 from labkit.exceptions import DynamicsError, OptionError, ShapeError
 from labkit.validation import as_batch, readonly
 
@@ -53,9 +53,16 @@ def forward_dynamics(robot, q, qd, tau, *, gravity=None, friction=True):
     >>> bool(np.allclose(forward_dynamics(puma, q, np.zeros(6), gravity_torques(puma, q)), 0))
     True
     """
+    parts = body(robot)
     q, qd, tau = joint_arrays(robot, q=q, qd=qd, tau=tau)
-    bias = inverse_dynamics(robot, q, qd, np.zeros(robot.n), gravity=gravity, friction=friction)
-    M = mass_matrix(robot, q)
+    return _accelerations(robot, parts, q, qd, tau, default_gravity(robot, gravity), friction)
+
+
+def _accelerations(robot, parts, q, qd, tau, gravity, friction):
+    """:func:`forward_dynamics` on checked arrays (the simulation's right-hand side)."""
+    geo = geometry(robot, q, parts)
+    bias = inverse(parts, geo, qd, np.zeros(robot.n), gravity, friction)
+    M = composite_mass(parts, geo)
     _check_definite(robot, M)
     return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
 
@@ -200,10 +207,11 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, met
         raise ShapeError(f"expected t as increasing sample times of shape (m,) with m >= 2, got {np.asarray(t)!r}")
     shape = q0.shape
     drive = _torque_function(robot, torque, shape)
+    parts, g = body(robot), default_gravity(robot, gravity)
 
     def rhs(time, y):
         q, qd = y[:y.size // 2].reshape(shape), y[y.size // 2:].reshape(shape)
-        qdd = forward_dynamics(robot, q, qd, drive(time, q, qd), gravity=gravity, friction=friction)
+        qdd = _accelerations(robot, parts, q, qd, drive(time, q, qd), g, friction)
         return np.concatenate([qd.reshape(-1), qdd.reshape(-1)])
 
     y0 = np.concatenate([q0.reshape(-1), qd0.reshape(-1)])
