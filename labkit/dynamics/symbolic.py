@@ -19,6 +19,7 @@ Simplification is ``trigsimp`` entry by entry: quick for three joints, slow beyo
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -62,7 +63,8 @@ class SymbolicDynamics:
     g : sympy.Matrix, shape (n, 1)
         Gravity torques.
     values : dict
-        The robot's number for each parameter symbol (masses ``m_i`` [kg], ``g`` [m/s^2]).
+        The robot's number for each parameter symbol's name (masses ``m_i`` [kg], ``g``
+        [m/s^2], named lengths [m]).
     """
 
     q: tuple
@@ -101,7 +103,13 @@ class SymbolicDynamics:
             from labkit.exceptions import OptionError
 
             raise OptionError(f"expected term one of 'M', 'C', 'g', got {term!r}")
-        expr = getattr(self, term).subs(self.values)
+        expr = getattr(self, term)
+        state = set(self.q + self.qd)
+        unknown = sorted(str(x) for x in expr.free_symbols - state if str(x) not in self.values)
+        if unknown:
+            raise ShapeError(f"expected a value for every parameter of {term}, got none for {', '.join(unknown)} "
+                             f"(lengths='symbolic' has no numbers: pass a mapping)")
+        expr = expr.subs({x: self.values[str(x)] for x in expr.free_symbols - state})
         fn = sp.lambdify(self.q + self.qd, expr, "numpy")
         n = len(self.q)
 
@@ -180,6 +188,8 @@ def lagrangian_dynamics(robot, *, q=None, lengths=None, simplify=True):
     C = sp.Matrix(n, n, lambda k, j: tidy(sum(
         (M[k, j].diff(qs[i]) + M[k, i].diff(qs[j]) - M[i, j].diff(qs[k])) * qds[i] / 2 for i in range(n))))
     g = sp.Matrix(n, 1, lambda k, _: tidy(V.diff(qs[k])))
-    values = {m: lk.inertial.mass for m, lk in zip(masses, robot.links)}
-    values[gsym] = STANDARD_GRAVITY
+    values = {m.name: lk.inertial.mass for m, lk in zip(masses, robot.links)}
+    values[gsym.name] = STANDARD_GRAVITY
+    if isinstance(lengths, Mapping):
+        values.update({str(k): float(v) for k, v in lengths.items()})
     return SymbolicDynamics(qs, qds, M, C, g, values)
