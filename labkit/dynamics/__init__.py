@@ -1,5 +1,5 @@
 """Dynamics of serial arms: inverse dynamics (recursive Newton-Euler), the mass, Coriolis and
-gravity terms, friction, energies, forward dynamics and simulation.
+gravity terms, friction, energies, forward dynamics and simulation, and a servo torque budget.
 
 Batched over leading dimensions like :func:`labkit.kinematics.fk`; the robot's inertial
 parameters come from its robot file (``mass``, ``com``, ``inertia``, ``motor`` per joint,
@@ -7,7 +7,7 @@ see ``docs/robot-files.md``). The Lagrangian derivation for small arms lives in
 :mod:`labkit.dynamics.symbolic` (imports sympy when used).
 """
 
-from labkit.dynamics import _rne, _simulate
+from labkit.dynamics import _budget, _rne, _simulate
 from labkit.dynamics._model import STANDARD_GRAVITY
 from labkit.dynamics._rne import (
     inverse_dynamics,
@@ -19,9 +19,11 @@ from labkit.dynamics._rne import (
     potential_energy,
 )
 from labkit.dynamics._simulate import forward_dynamics, Simulation, simulate, INTEGRATORS
+from labkit.dynamics._budget import TorqueBudget, torque_budget, stall_torques
 
 __all__ = [
     "STANDARD_GRAVITY",
     *_rne.__all__,
     *_simulate.__all__,
+    *_budget.__all__,
 ]

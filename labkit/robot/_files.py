@@ -36,10 +36,10 @@ _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
                "flip", "bus", "mass", "com", "inertia", "motor"}
 _MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
-_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
+_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
 _FRAME_KEYS = {"translation", "rpy"}
 _BUS_KEYS = {"kind", "baudrate", "resolution"}
-_BUS_SERVO_KEYS = {"id", "zero", "direction"}
+_BUS_SERVO_KEYS = {"id", "zero", "direction", "stall_torque"}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
 
@@ -166,7 +166,17 @@ def _bus_servo(path, where, table, bus):
     direction = table.get("direction", 1)
     if isinstance(direction, bool) or direction not in (1, -1):
         raise RobotFileError(path, f"{where}.bus.direction", f"expected 1 or -1, got {direction!r}")
-    return BusServo(sid, zero, direction, bus.resolution)
+    return BusServo(sid, zero, direction, bus.resolution, _stall(path, f"{where}.bus", table))
+
+
+def _stall(path, where, table):
+    """A servo table's optional ``stall_torque`` [N m, SI whatever the file's units]."""
+    if "stall_torque" not in table:
+        return None
+    v = _num(path, f"{where}.stall_torque", table["stall_torque"])
+    if not v > 0:
+        raise RobotFileError(path, f"{where}.stall_torque", f"expected a torque > 0 N m, got {v:g}")
+    return v
 
 
 def _numbers(path, field, value, k):
@@ -299,6 +309,7 @@ def parse(data, path):
                 feedback_adc=_within(path, f"{where}.servo.feedback_adc",
                                      _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
                                      0, 1023, "ADC counts"),
+                stall_torque=_stall(path, f"{where}.servo", s),
             )
         bus_servo = _bus_servo(path, where, j["bus"], bus) if "bus" in j else None
         if bus_servo is not None and servo is not None:
@@ -443,10 +454,12 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                 f"servo = {{ channel = {s.channel}, zero = {_fmt(s.zero / qs)}, direction = {s.direction}, "
                 f"range = [{_fmt(s.angle_range[0] / qs)}, {_fmt(s.angle_range[1] / qs)}], "
                 f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
-                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}] }}"
+                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}]"
+                + (f", stall_torque = {_sig(s.stall_torque)}" if s.stall_torque is not None else "") + " }"
             )
         if lk.bus:
-            out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction} }}")
+            stall = f", stall_torque = {_sig(lk.bus.stall_torque)}" if lk.bus.stall_torque is not None else ""
+            out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction}{stall} }}")
         if lk.inertial:
             out += [f"mass = {_sig(lk.inertial.mass)}",
                     "com = [" + ", ".join(_sig(v / L) for v in lk.inertial.com) + "]",

@@ -95,6 +95,15 @@ def _check_direction(owner, direction):
         raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {direction!r}", "direction")
 
 
+def _check_stall_torque(owner, servo):
+    """A servo's ``stall_torque``: None or a positive finite number [N m] (stored as a float)."""
+    if servo.stall_torque is not None:
+        v = _finite(owner, "stall_torque", servo.stall_torque)
+        if not v > 0:
+            raise RobotError(f"{owner}: field 'stall_torque': expected a torque > 0 N m, got {v:g}", "stall_torque")
+        object.__setattr__(servo, "stall_torque", v)
+
+
 @dataclass(frozen=True)
 class ServoCalibration:
     """Map between a DH joint value and a hobby-servo command.
@@ -117,6 +126,8 @@ class ServoCalibration:
     feedback_adc : tuple of float
         ADC counts (0-1023 on a 5 V Uno) read on the servo's potentiometer tap
         at the two ends of ``angle_range`` (default 0.5 V -> 4.5 V).
+    stall_torque : float or None
+        The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
     """
 
     channel: int
@@ -125,9 +136,11 @@ class ServoCalibration:
     angle_range: tuple = (0.0, math.pi)
     pulse_range: tuple = (500.0, 2500.0)
     feedback_adc: tuple = (102.3, 920.7)
+    stall_torque: float | None = None
 
     def __post_init__(self):
         owner = "ServoCalibration"
+        _check_stall_torque(owner, self)
         _check_channel(owner, "channel", self.channel)
         _check_direction(owner, self.direction)
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
@@ -285,6 +298,8 @@ class BusServo:
         +1 or -1 (the servo's positive sense against the joint's).
     resolution : int
         Ticks per turn (the ``[bus]`` table's ``resolution``; 4096 on an XM430 and an STS3215).
+    stall_torque : float or None
+        The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
 
     Examples
     --------
@@ -299,9 +314,11 @@ class BusServo:
     zero: float = 2048.0
     direction: int = 1
     resolution: int = 4096
+    stall_torque: float | None = None
 
     def __post_init__(self):
         owner = "BusServo"
+        _check_stall_torque(owner, self)
         _check_integer(owner, "id", self.id, 0, 252)
         _check_direction(owner, self.direction)
         _check_integer(owner, "resolution", self.resolution, 16, 1_048_576, " ticks/turn")
