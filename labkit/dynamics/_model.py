@@ -19,10 +19,13 @@ from labkit.kinematics import fk_frames
 from labkit.robot import Convention, Robot
 from labkit.validation import as_batch, as_vector
 
-__all__ = ["STANDARD_GRAVITY", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays", "cross"]
+__all__ = ["STANDARD_GRAVITY", "CHUNK", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays",
+           "cross", "by_chunks"]
 
 #: standard acceleration of gravity [m/s^2] (the default magnitude along the robot's -up)
 STANDARD_GRAVITY = 9.81
+#: a batch is evaluated in chunks of this many states, whose temporaries stay in cache (2.5x at 100k)
+CHUNK = 2048
 
 
 @dataclass(frozen=True)
@@ -173,15 +176,45 @@ def default_gravity(robot, gravity):
     Parameters
     ----------
     robot : Robot
-    gravity : array_like, shape (..., 3), or None
+    gravity : array_like, shape (3,), or None
 
     Returns
     -------
-    ndarray, shape (..., 3)
+    ndarray, shape (3,)
     """
     if gravity is None:
         return -STANDARD_GRAVITY * np.asarray(robot.up, dtype=float)
-    return as_batch(gravity, (3,), "gravity (a vector in world coordinates, m/s^2)")
+    g = as_batch(gravity, (3,), "gravity (a vector in world coordinates, m/s^2)")
+    if g.ndim != 1:
+        raise ShapeError(f"expected gravity with shape (3,) (one vector in world coordinates, m/s^2), got {g.shape}")
+    return g
+
+
+def by_chunks(func, arrays, tail):
+    """``func`` over a batch in chunks of :data:`CHUNK` states (one call for a small batch).
+
+    Parameters
+    ----------
+    func : callable
+        ``func(*chunk)`` with arrays of shape (m, n) returns shape (m, *tail).
+    arrays : sequence of ndarray, shape (..., n)
+        Joint arrays of one batch shape.
+    tail : tuple of int
+        Trailing shape of ``func``'s result.
+
+    Returns
+    -------
+    ndarray, shape (..., *tail)
+    """
+    lead = arrays[0].shape[:-1]
+    flat = [a.reshape(-1, a.shape[-1]) for a in arrays]
+    total = flat[0].shape[0]
+    if total <= CHUNK:
+        return func(*flat).reshape(lead + tuple(tail))
+    out = np.empty((total,) + tuple(tail))
+    for start in range(0, total, CHUNK):
+        out[start:start + CHUNK] = func(*(a[start:start + CHUNK] for a in flat))
+    return out.reshape(lead + tuple(tail))
 
 
 def joint_arrays(robot, **arrays):

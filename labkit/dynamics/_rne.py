@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.dynamics._model import body, cross, default_gravity, geometry, joint_arrays
+from labkit.dynamics._model import body, by_chunks, cross, default_gravity, geometry, joint_arrays
 
 __all__ = ["inverse_dynamics", "mass_matrix", "coriolis_matrix", "gravity_torques", "friction_torques",
            "kinetic_energy", "potential_energy"]
@@ -88,7 +88,7 @@ def inverse_dynamics(robot, q, qd, qdd, *, gravity=None, friction=True):
         Joint velocities [rad/s, m/s].
     qdd : array_like, shape (..., n)
         Joint accelerations [rad/s^2, m/s^2].
-    gravity : array_like, shape (3,) or (..., 3), optional
+    gravity : array_like, shape (3,), optional
         Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
     friction : bool
         Add the motors' viscous and Coulomb friction.
@@ -115,7 +115,9 @@ def inverse_dynamics(robot, q, qd, qdd, *, gravity=None, friction=True):
     parts = body(robot)
     q, qd, qdd = joint_arrays(robot, q=q, qd=qd, qdd=qdd)
     g = default_gravity(robot, gravity)
-    return inverse(parts, geometry(robot, q, parts), qd, qdd, g, friction)
+    n = robot.n
+    return by_chunks(lambda q, qd, qdd: inverse(parts, geometry(robot, q, parts), qd, qdd, g, friction),
+                     (q, qd, qdd), (n,))
 
 
 def inverse(parts, geo, qd, qdd, gravity, friction):
@@ -129,7 +131,7 @@ def inverse(parts, geo, qd, qdd, gravity, friction):
         Its spatial axes and inertias at ``q``, batch shape (...).
     qd, qdd : ndarray, shape (..., n)
         Joint velocities and accelerations [rad/s, rad/s^2, m/s, m/s^2].
-    gravity : ndarray, shape (..., 3)
+    gravity : ndarray, shape (3,)
         Gravity in world coordinates [m/s^2].
     friction : bool
         Add the motors' friction.
@@ -152,7 +154,7 @@ def gravity_torques(robot, q, *, gravity=None):
         With inertial parameters.
     q : array_like, shape (..., n)
         Joint values [rad, m].
-    gravity : array_like, shape (3,) or (..., 3), optional
+    gravity : array_like, shape (3,), optional
         Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
 
     Returns
@@ -168,9 +170,13 @@ def gravity_torques(robot, q, *, gravity=None):
     """
     parts = body(robot)
     (q,) = joint_arrays(robot, q=q)
-    zero = np.zeros(robot.n)
-    geo = geometry(robot, q, parts)
-    return newton_euler(geo.axis, geo.inertia, zero, zero, -default_gravity(robot, gravity))
+    zero, g = np.zeros(robot.n), default_gravity(robot, gravity)
+
+    def held(q):
+        geo = geometry(robot, q, parts)
+        return newton_euler(geo.axis, geo.inertia, zero, zero, -g)
+
+    return by_chunks(held, (q,), (robot.n,))
 
 
 def mass_matrix(robot, q):
@@ -200,7 +206,7 @@ def mass_matrix(robot, q):
     """
     parts = body(robot)
     (q,) = joint_arrays(robot, q=q)
-    return composite_mass(parts, geometry(robot, q, parts))
+    return by_chunks(lambda q: composite_mass(parts, geometry(robot, q, parts)), (q,), (robot.n, robot.n))
 
 
 def composite_mass(parts, geo):
@@ -258,13 +264,17 @@ def coriolis_matrix(robot, q, qd):
     parts = body(robot)
     q, qd = joint_arrays(robot, q=q, qd=qd)
     n = robot.n
-    scale = np.maximum(np.abs(qd).max(axis=-1, keepdims=True), 1.0)[..., None]  # (..., 1, 1)
-    step = scale * np.eye(n)
-    velocities = np.concatenate([qd[..., None, :] + step, qd[..., None, :] - step], axis=-2)  # (..., 2n, n)
-    geo = geometry(robot, q, parts)
-    h = newton_euler(geo.axis[..., None, :, :], geo.inertia[..., None, :, :, :], velocities, np.zeros(n), np.zeros(3))
-    columns = (h[..., :n, :] - h[..., n:, :]) / (4.0 * scale)  # (..., j, i) = C[i, j]
-    return np.swapaxes(columns, -1, -2)
+
+    def christoffel(q, qd):
+        scale = np.maximum(np.abs(qd).max(axis=-1, keepdims=True), 1.0)[..., None]  # (m, 1, 1)
+        step = scale * np.eye(n)
+        velocities = np.concatenate([qd[..., None, :] + step, qd[..., None, :] - step], axis=-2)  # (m, 2n, n)
+        geo = geometry(robot, q, parts)
+        h = newton_euler(geo.axis[..., None, :, :], geo.inertia[..., None, :, :, :], velocities, np.zeros(n),
+                         np.zeros(3))
+        return np.swapaxes((h[..., :n, :] - h[..., n:, :]) / (4.0 * scale), -1, -2)  # column j: C[:, j]
+
+    return by_chunks(christoffel, (q, qd), (n, n))
 
 
 def friction_torques(robot, qd):
@@ -325,7 +335,7 @@ def potential_energy(robot, q, *, gravity=None):
         With inertial parameters.
     q : array_like, shape (..., n)
         Joint values [rad, m].
-    gravity : array_like, shape (3,) or (..., 3), optional
+    gravity : array_like, shape (3,), optional
         Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
 
     Returns

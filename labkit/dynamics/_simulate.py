@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.dynamics._model import body, default_gravity, geometry, joint_arrays
+from labkit.dynamics._model import body, by_chunks, default_gravity, geometry, joint_arrays
 from labkit.dynamics._rne import composite_mass, inverse
 from labkit.exceptions import DynamicsError, OptionError, ShapeError
 from labkit.validation import as_batch, readonly
@@ -30,7 +30,7 @@ def forward_dynamics(robot, q, qd, tau, *, gravity=None, friction=True):
         Joint values [rad, m] and velocities [rad/s, m/s].
     tau : array_like, shape (..., n)
         Joint torques [N m] and forces [N] applied by the drives.
-    gravity : array_like, shape (3,) or (..., 3), optional
+    gravity : array_like, shape (3,), optional
         Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
     friction : bool
         Subtract the motors' viscous and Coulomb friction.
@@ -55,7 +55,9 @@ def forward_dynamics(robot, q, qd, tau, *, gravity=None, friction=True):
     """
     parts = body(robot)
     q, qd, tau = joint_arrays(robot, q=q, qd=qd, tau=tau)
-    return _accelerations(robot, parts, q, qd, tau, default_gravity(robot, gravity), friction)
+    g = default_gravity(robot, gravity)
+    return by_chunks(lambda q, qd, tau: _accelerations(robot, parts, q, qd, tau, g, friction), (q, qd, tau),
+                     (robot.n,))
 
 
 def _accelerations(robot, parts, q, qd, tau, gravity, friction):
@@ -63,11 +65,11 @@ def _accelerations(robot, parts, q, qd, tau, gravity, friction):
     geo = geometry(robot, q, parts)
     bias = inverse(parts, geo, qd, np.zeros(robot.n), gravity, friction)
     M = composite_mass(parts, geo)
-    _check_definite(robot, M)
+    _check_definite(robot, M, q)
     return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
 
 
-def _check_definite(robot, M):
+def _check_definite(robot, M, q):
     """A DynamicsError unless every M is numerically positive definite (Cholesky pivots above rounding)."""
     scale = np.diagonal(M, axis1=-2, axis2=-1).max(axis=-1)
     try:
@@ -77,9 +79,9 @@ def _check_definite(robot, M):
         bad = np.array([np.linalg.eigvalsh(m)[0] <= _SINGULAR * s for m, s in
                         zip(M.reshape(-1, *M.shape[-2:]), scale.reshape(-1))]).reshape(scale.shape)
     if np.any(bad):
-        where = f" at batch index {tuple(int(i) for i in np.argwhere(bad)[0])}" if M.ndim > 2 else ""
-        raise DynamicsError(f"robot {robot.name!r}: expected a positive definite mass matrix, got a singular one"
-                            f"{where} (a joint that moves no mass and has no rotor inertia)")
+        raise DynamicsError(f"robot {robot.name!r}: expected a positive definite mass matrix, got a singular one "
+                            f"(a joint that moves no mass and has no rotor inertia) at q = "
+                            f"{np.round(q.reshape(-1, q.shape[-1])[int(np.argmax(bad.reshape(-1)))], 4).tolist()} rad")
 
 
 @dataclass(frozen=True)

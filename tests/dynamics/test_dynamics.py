@@ -99,6 +99,22 @@ def test_inverse_dynamics_is_m_qdd_plus_c_qd_plus_g_plus_friction():
     assert np.allclose(tau[1, 2], D.inverse_dynamics(robot, q[1, 2], qd[1, 2], qdd[1, 2]), rtol=1e-14, atol=1e-14)
 
 
+def test_a_big_batch_runs_in_chunks_with_the_same_numbers():
+    from labkit.dynamics._model import CHUNK
+
+    robot = _random_robot(np.random.default_rng(11), Convention.STANDARD, motors=True)
+    q, qd, qdd = np.random.default_rng(12).uniform(-1, 1, (3, 2 * CHUNK + 5, robot.n))
+    tail = slice(2 * CHUNK, None)
+    for big, small in [
+        (D.inverse_dynamics(robot, q, qd, qdd), D.inverse_dynamics(robot, q[tail], qd[tail], qdd[tail])),
+        (D.mass_matrix(robot, q), D.mass_matrix(robot, q[tail])),
+        (D.coriolis_matrix(robot, q, qd), D.coriolis_matrix(robot, q[tail], qd[tail])),
+        (D.gravity_torques(robot, q), D.gravity_torques(robot, q[tail])),
+        (D.forward_dynamics(robot, q, qd, qdd), D.forward_dynamics(robot, q[tail], qd[tail], qdd[tail])),
+    ]:
+        assert big.shape[0] == 2 * CHUNK + 5 and np.array_equal(big[tail], small)
+
+
 def test_a_flipped_joint_is_the_unflipped_joint_run_backwards():
     robot = _random_robot(np.random.default_rng(9), Convention.STANDARD, motors=True)
     plain = robot.replace(links=tuple(lk.__class__(**{**lk.__dict__, "flip": False}) for lk in robot.links))
