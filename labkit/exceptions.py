@@ -27,6 +27,7 @@ __all__ = [
     "UnreachableError",
     "JointLimitError",
     "TrajectoryError",
+    "DynamicsError",
     "MeasurementError",
     "DeviceError",
     "ProtocolError",
@@ -140,6 +141,11 @@ class JointLimitError(LabkitError, ValueError):
 
 class TrajectoryError(LabkitError, ValueError):
     """A trajectory cannot be built or violates speed/acceleration limits."""
+
+
+class DynamicsError(LabkitError, ValueError):
+    """The dynamics cannot be solved: a singular mass matrix (a joint that moves no mass) or a
+    simulation the integrator could not finish."""
 
 
 class MeasurementError(LabkitError, ValueError):

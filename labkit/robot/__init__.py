@@ -7,6 +7,7 @@ units (deg, mm), the servos' joint window and a bound of the reach are helpers f
 """
 
 from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusServo, Bus, BUS_KINDS, Link
+from labkit.robot._inertia import LinkInertia, Motor
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
 from labkit.robot._display import joints_from_display, joints_to_display, servo_window, robot_reach
@@ -20,6 +21,8 @@ __all__ = [
     "Bus",
     "BUS_KINDS",
     "Link",
+    "LinkInertia",
+    "Motor",
     "Robot",
     "bundled_robots",
     "robot_search_path",

@@ -25,18 +25,21 @@ from labkit.robot.types import (
     Gripper,
     JointType,
     Link,
+    LinkInertia,
+    Motor,
     ServoCalibration,
 )
 from labkit.data import robots_dir
-from labkit.exceptions import RobotFileError
+from labkit.exceptions import LabkitError, RobotFileError
 
 _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper", "bus"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
-               "flip", "bus"}
-_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc"}
+               "flip", "bus", "mass", "com", "inertia", "motor"}
+_MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
+_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
 _FRAME_KEYS = {"translation", "rpy"}
 _BUS_KEYS = {"kind", "baudrate", "resolution"}
-_BUS_SERVO_KEYS = {"id", "zero", "direction"}
+_BUS_SERVO_KEYS = {"id", "zero", "direction", "stall_torque"}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
 
@@ -163,7 +166,59 @@ def _bus_servo(path, where, table, bus):
     direction = table.get("direction", 1)
     if isinstance(direction, bool) or direction not in (1, -1):
         raise RobotFileError(path, f"{where}.bus.direction", f"expected 1 or -1, got {direction!r}")
-    return BusServo(sid, zero, direction, bus.resolution)
+    return BusServo(sid, zero, direction, bus.resolution, _stall(path, f"{where}.bus", table))
+
+
+def _stall(path, where, table):
+    """A servo table's optional ``stall_torque`` [N m, SI whatever the file's units]."""
+    if "stall_torque" not in table:
+        return None
+    v = _num(path, f"{where}.stall_torque", table["stall_torque"])
+    if not v > 0:
+        raise RobotFileError(path, f"{where}.stall_torque", f"expected a torque > 0 N m, got {v:g}")
+    return v
+
+
+def _numbers(path, field, value, k):
+    if not isinstance(value, list) or len(value) != k:
+        raise RobotFileError(path, field, f"expected a list of {k} numbers, got {value!r}")
+    return [_num(path, field, v) for v in value]
+
+
+def _inertial(path, where, j, L):
+    """A joint's ``mass`` [kg], ``com`` [L] and ``inertia`` [kg L^2] as a LinkInertia in SI, or None."""
+    if not any(key in j for key in ("mass", "com", "inertia")):
+        return None
+    if "mass" not in j:
+        raise RobotFileError(path, f"{where}.mass", "missing; expected the link's mass [kg] with com or inertia")
+    mass = _num(path, f"{where}.mass", j["mass"])
+    if mass < 0:
+        raise RobotFileError(path, f"{where}.mass", f"expected a mass >= 0 kg, got {mass:g}")
+    com = [v * L for v in _numbers(path, f"{where}.com", j.get("com", [0, 0, 0]), 3)]
+    inertia = [v * L * L for v in _numbers(path, f"{where}.inertia", j.get("inertia", [0] * 6), 6)]
+    try:
+        return LinkInertia(mass, tuple(com), tuple(inertia))
+    except RobotFileError:
+        raise
+    except LabkitError as exc:
+        raise RobotFileError(path, f"{where}.inertia", str(exc).split(": ", 2)[-1]) from None
+
+
+def _motor(path, where, table):
+    """A joint's ``motor = { inertia, gear_ratio, viscous, coulomb = [plus, minus] }`` (SI, at the motor)."""
+    if table is None:
+        return None
+    _check_keys(path, f"{where}.motor", table, _MOTOR_KEYS)
+    values = dict(
+        inertia=_num(path, f"{where}.motor.inertia", table.get("inertia", 0.0)),
+        gear_ratio=_num(path, f"{where}.motor.gear_ratio", table.get("gear_ratio", 1.0)),
+        viscous=_num(path, f"{where}.motor.viscous", table.get("viscous", 0.0)),
+        coulomb=tuple(_numbers(path, f"{where}.motor.coulomb", table.get("coulomb", [0, 0]), 2)),
+    )
+    try:
+        return Motor(**values)
+    except LabkitError as exc:
+        raise RobotFileError(path, f"{where}.motor.{getattr(exc, 'field', '')}", str(exc).split(": ", 2)[-1]) from None
 
 
 def parse(data, path):
@@ -254,6 +309,7 @@ def parse(data, path):
                 feedback_adc=_within(path, f"{where}.servo.feedback_adc",
                                      _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
                                      0, 1023, "ADC counts"),
+                stall_torque=_stall(path, f"{where}.servo", s),
             )
         bus_servo = _bus_servo(path, where, j["bus"], bus) if "bus" in j else None
         if bus_servo is not None and servo is not None:
@@ -281,6 +337,8 @@ def parse(data, path):
                 max_acceleration=_positive(path, f"{where}.max_acceleration", j.get("max_acceleration"), qscale),
                 flip=flip,
                 bus=bus_servo,
+                inertial=_inertial(path, where, j, L),
+                motor=_motor(path, where, j.get("motor")),
             )
         )
     names = [lk.name for lk in links]
@@ -334,6 +392,12 @@ def _fmt(x):
     if x == int(x) and abs(x) < 1e15:
         return f"{int(x)}"
     return repr(round(x, 12))
+
+
+def _sig(x):
+    """A number to 15 significant digits (inertias of small links are below _fmt's 1e-12 grid)."""
+    x = float(f"{float(x):.15g}")
+    return _fmt(x) if x == int(x) else repr(x)
 
 
 def dump(robot, length_unit="m", angle_unit="rad"):
@@ -390,10 +454,20 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                 f"servo = {{ channel = {s.channel}, zero = {_fmt(s.zero / qs)}, direction = {s.direction}, "
                 f"range = [{_fmt(s.angle_range[0] / qs)}, {_fmt(s.angle_range[1] / qs)}], "
                 f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
-                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}] }}"
+                f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}]"
+                + (f", stall_torque = {_sig(s.stall_torque)}" if s.stall_torque is not None else "") + " }"
             )
         if lk.bus:
-            out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction} }}")
+            stall = f", stall_torque = {_sig(lk.bus.stall_torque)}" if lk.bus.stall_torque is not None else ""
+            out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction}{stall} }}")
+        if lk.inertial:
+            out += [f"mass = {_sig(lk.inertial.mass)}",
+                    "com = [" + ", ".join(_sig(v / L) for v in lk.inertial.com) + "]",
+                    "inertia = [" + ", ".join(_sig(v / (L * L)) for v in lk.inertial.inertia) + "]"]
+        if lk.motor:
+            m = lk.motor
+            out.append(f"motor = {{ inertia = {_sig(m.inertia)}, gear_ratio = {_sig(m.gear_ratio)}, "
+                       f"viscous = {_sig(m.viscous)}, coulomb = [{_sig(m.coulomb[0])}, {_sig(m.coulomb[1])}] }}")
         out.append("")
     if robot.bus:
         out += ["[bus]", f'kind = "{robot.bus.kind}"', f"baudrate = {robot.bus.baudrate}",

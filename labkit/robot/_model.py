@@ -387,6 +387,44 @@ class Robot:
         links[index] = replace(links[index], **changes)
         return replace(self, links=tuple(links))
 
+    def with_payload(self, mass, com=(0.0, 0.0, 0.0)):
+        """Copy carrying a point mass rigidly at the tool (added to the last link's inertial).
+
+        Parameters
+        ----------
+        mass : float
+            Payload mass [kg], >= 0.
+        com : array_like, shape (3,)
+            Where the payload's centre of mass sits, in the tool frame [m].
+
+        Returns
+        -------
+        Robot
+            The last link's ``inertial`` is the lumped body (its own mass, centre of mass and
+            inertia plus the point mass, by the parallel-axis theorem); calling it twice adds twice.
+
+        Examples
+        --------
+        >>> arm = Robot.load("puma560").with_payload(2.0, [0, 0, 0.1])
+        >>> arm.links[-1].inertial.mass
+        2.09
+        """
+        from labkit.robot._inertia import LinkInertia, lump
+
+        owner = f"Robot {self.name!r}: with_payload"
+        if isinstance(mass, bool) or not isinstance(mass, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(mass) or mass < 0:
+            raise RobotError(f"{owner}: expected a mass >= 0 kg, got {mass!r}", "mass")
+        c = np.asarray(com, dtype=float) if np.asarray(com).dtype.kind in "iuf" else None
+        if c is None or c.shape != (3,) or not np.all(np.isfinite(c)):
+            raise ShapeError(f"{owner}: expected com with shape (3,) (finite numbers in the tool frame, m), "
+                             f"got {com!r}")
+        at = np.eye(4)
+        at[:3, 3] = c
+        own = self.links[-1].inertial or LinkInertia(0.0)
+        body = lump([(own, np.eye(4)), (LinkInertia(float(mass)), self.tool @ at)])
+        return self.with_link(self.n - 1, inertial=body)
+
     # -- files --------------------------------------------------------------
     @classmethod
     def load(cls, name_or_path):

@@ -16,6 +16,7 @@ from enum import Enum
 import numpy as np
 
 from labkit.exceptions import JointLimitError, RobotError
+from labkit.robot._inertia import LinkInertia, Motor
 
 __all__ = [
     "Convention",
@@ -26,6 +27,8 @@ __all__ = [
     "Bus",
     "BUS_KINDS",
     "Link",
+    "LinkInertia",
+    "Motor",
 ]
 
 #: servo buses a robot file's ``[bus]`` table may name (``kind``), each with its default resolution [ticks/turn]
@@ -92,6 +95,15 @@ def _check_direction(owner, direction):
         raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {direction!r}", "direction")
 
 
+def _check_stall_torque(owner, servo):
+    """A servo's ``stall_torque``: None or a positive finite number [N m] (stored as a float)."""
+    if servo.stall_torque is not None:
+        v = _finite(owner, "stall_torque", servo.stall_torque)
+        if not v > 0:
+            raise RobotError(f"{owner}: field 'stall_torque': expected a torque > 0 N m, got {v:g}", "stall_torque")
+        object.__setattr__(servo, "stall_torque", v)
+
+
 @dataclass(frozen=True)
 class ServoCalibration:
     """Map between a DH joint value and a hobby-servo command.
@@ -114,6 +126,8 @@ class ServoCalibration:
     feedback_adc : tuple of float
         ADC counts (0-1023 on a 5 V Uno) read on the servo's potentiometer tap
         at the two ends of ``angle_range`` (default 0.5 V -> 4.5 V).
+    stall_torque : float or None
+        The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
     """
 
     channel: int
@@ -122,9 +136,11 @@ class ServoCalibration:
     angle_range: tuple = (0.0, math.pi)
     pulse_range: tuple = (500.0, 2500.0)
     feedback_adc: tuple = (102.3, 920.7)
+    stall_torque: float | None = None
 
     def __post_init__(self):
         owner = "ServoCalibration"
+        _check_stall_torque(owner, self)
         _check_channel(owner, "channel", self.channel)
         _check_direction(owner, self.direction)
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
@@ -282,6 +298,8 @@ class BusServo:
         +1 or -1 (the servo's positive sense against the joint's).
     resolution : int
         Ticks per turn (the ``[bus]`` table's ``resolution``; 4096 on an XM430 and an STS3215).
+    stall_torque : float or None
+        The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
 
     Examples
     --------
@@ -296,9 +314,11 @@ class BusServo:
     zero: float = 2048.0
     direction: int = 1
     resolution: int = 4096
+    stall_torque: float | None = None
 
     def __post_init__(self):
         owner = "BusServo"
+        _check_stall_torque(owner, self)
         _check_integer(owner, "id", self.id, 0, 252)
         _check_direction(owner, self.direction)
         _check_integer(owner, "resolution", self.resolution, 16, 1_048_576, " ticks/turn")
@@ -395,6 +415,11 @@ class Link:
         The joint variable enters the chain negated (roboticstoolbox's ``flip``):
         ``theta_i = -q_i + theta`` (revolute) or ``d_i = -q_i + d`` (prismatic).
         Limits, speeds and servo calibration stay in terms of ``q``.
+    inertial : LinkInertia or None
+        Mass, centre of mass and inertia of the link this joint moves, in frame i
+        (robot-file keys ``mass``, ``com``, ``inertia``); None: a massless link.
+    motor : Motor or None
+        Rotor inertia, gear ratio and friction of the joint's drive (robot-file ``motor``); None: none.
 
     Raises
     ------
@@ -419,6 +444,8 @@ class Link:
     max_acceleration: float | None = None
     flip: bool = False
     bus: BusServo | None = None
+    inertial: LinkInertia | None = None
+    motor: Motor | None = None
 
     def __post_init__(self):
         owner = f"Link {self.name!r}" if self.name else "Link"
@@ -455,6 +482,10 @@ class Link:
         if not isinstance(self.flip, (bool, np.bool_)):
             raise RobotError(f"{owner}: field 'flip': expected true or false, got {self.flip!r}", "flip")
         object.__setattr__(self, "flip", bool(self.flip))
+        for field, cls in (("inertial", LinkInertia), ("motor", Motor)):
+            if getattr(self, field) is not None and not isinstance(getattr(self, field), cls):
+                raise RobotError(f"{owner}: field '{field}': expected a {cls.__name__} or None, "
+                                 f"got {getattr(self, field)!r}", field)
 
     @property
     def is_revolute(self):

@@ -12,6 +12,11 @@ axis ``i``; for intersecting ones ``z_i x z_{i+1}``). Frame 1 at ``q = 0`` becom
 robot's ``base`` and the ``tip_link`` frame seen from the last DH frame its ``tool``,
 so forward kinematics equals the URDF's own chain for every ``q`` (rounding only).
 
+The ``<inertial>`` of each link moved by joint i, together with every link it carries through
+fixed joints (and side branches off the chain, at their zero position), becomes that joint's
+``Link.inertial``, lumped by the parallel-axis theorem into DH frame i: what roboticstoolbox's
+URDF import gets wrong when a chain has fixed joints.
+
 Only numpy and :mod:`labkit.rotations` are used here (layer 3): no kinematics.
 """
 
@@ -24,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import RobotError, needs_extra
+from labkit.robot._inertia import LinkInertia, lump
 from labkit.robot.types import Convention, JointType, Link
 
 __all__ = ["urdf_fields"]
@@ -139,6 +145,48 @@ def _lines(path, joints):
     return lines, moving, T
 
 
+def _inertials(robot, base_link, moving, frames):
+    """Each moving joint's link, with every link rigidly carried by it, lumped in its DH frame (or None).
+
+    A URDF link belongs to the nearest moving chain joint above it: the links hung below it by
+    fixed joints (a flange, a tool, a sensor) and any side branch off the chain (carried at its
+    zero position) are added to it by the parallel-axis theorem, in DH frame i at ``q = 0``.
+    Links fixed to ``base_link`` carry no load on any joint and are left out.
+    """
+    by_child = {j.child: j for j in robot.joints}
+    owner = {j.child: i for i, j in enumerate(moving)}
+    poses = {base_link: np.eye(4)}
+
+    def pose(link):  # base_link -> link at q = 0 (None if not below base_link)
+        if link not in poses:
+            j = by_child.get(link)
+            above = None if j is None else pose(j.parent)
+            poses[link] = None if above is None else above @ (np.eye(4) if j.origin is None else
+                                                             np.asarray(j.origin, dtype=float))
+        return poses[link]
+
+    def joint_of(link):  # index of the nearest moving chain joint above link, or None
+        while link != base_link and link in by_child:
+            if link in owner:
+                return owner[link]
+            link = by_child[link].parent
+        return None
+
+    groups = {}
+    for lk in robot.links:
+        ine = lk.inertial
+        if ine is None or ine.mass is None or (ine.mass == 0 and ine.inertia is None):
+            continue
+        i = joint_of(lk.name)
+        if i is None or pose(lk.name) is None:
+            continue
+        at = pose(lk.name) @ (np.eye(4) if ine.origin is None else np.asarray(ine.origin, dtype=float))
+        tensor = np.zeros((3, 3)) if ine.inertia is None else np.asarray(ine.inertia, dtype=float)
+        body = LinkInertia.from_matrix(float(ine.mass), np.zeros(3), tensor)
+        groups.setdefault(i, []).append((body, np.linalg.inv(_frame_matrix(*frames[i])) @ at))
+    return [lump(groups[i]) if i in groups else None for i in range(len(moving))]
+
+
 def _perpendicular(z, hint):
     """A unit vector perpendicular to z, as close to ``hint`` as possible."""
     if hint is not None:
@@ -224,7 +272,8 @@ def urdf_fields(path, *, base_link=None, tip_link=None, name=None, parallel_tol=
     dict
         Keyword arguments of :class:`~labkit.robot.Robot`: ``links`` (one per
         revolute/continuous/prismatic joint, named as in the URDF, limits and
-        ``max_velocity`` from ``<limit>``; continuous joints get (-pi, pi)),
+        ``max_velocity`` from ``<limit>``; continuous joints get (-pi, pi); ``inertial`` from
+        the ``<inertial>`` of the links each joint moves, fixed joints lumped),
         ``convention`` (modified), ``base`` (``base_link`` -> DH frame 1 at
         ``q = 0``) and ``tool`` (last DH frame -> ``tip_link``) [m, rad].
 
@@ -255,6 +304,7 @@ def urdf_fields(path, *, base_link=None, tip_link=None, name=None, parallel_tol=
     joints, base_link, tip_link = _chain(p, robot, base_link, tip_link)
     lines, moving, T_tip = _lines(p, joints)
     frames, hits = _dh_frames(p, lines, [j.name for j in moving], parallel_tol)
+    inertials = _inertials(robot, base_link, moving, frames)
     links = []
     for i, (j, (x, z, o)) in enumerate(zip(moving, frames)):
         if i == 0:
@@ -280,7 +330,7 @@ def urdf_fields(path, *, base_link=None, tip_link=None, name=None, parallel_tol=
             limits = (float(lo), float(hi))
         v = float(lim.velocity) if lim is not None and lim.velocity is not None and lim.velocity > 0 else None
         links.append(Link(a=a, alpha=alpha, d=d, theta=theta, joint_type=jt, limits=limits, name=j.name,
-                          max_velocity=v))
+                          max_velocity=v, inertial=inertials[i]))
     base = _frame_matrix(*frames[0])
     tool = np.linalg.inv(_frame_matrix(*frames[-1])) @ T_tip
     tool[3] = [0.0, 0.0, 0.0, 1.0]

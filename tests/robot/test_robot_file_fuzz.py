@@ -14,7 +14,7 @@ from labkit.robot import Robot
 from labkit.robot._files import _resolve
 
 BASE = _resolve("arduino_arm_3dof").read_text(encoding="utf-8")
-SERVO0 = "servo = { channel = 0, zero = 0, direction = 1, range = [0, 180], pulse_us = [500, 2500] }"
+SERVO0 = "servo = { channel = 0, zero = 0, direction = 1, range = [0, 180], pulse_us = [500, 2500], stall_torque = 0.92 }"
 
 
 def _file(tmp_path, text, name="arm.toml"):

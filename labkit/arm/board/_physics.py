@@ -76,8 +76,9 @@ class PhysicsConfig:
     joint_compliance : float or tuple of float
         Joint compliance [rad/(N m)] (scalar or per joint).
     link_masses : tuple of float or None
-        Mass of each moving link [kg], lumped at the middle of the link
-        (``None``: 0.05 kg each).
+        Mass of each moving link [kg], lumped at the middle of the link; ``None``: the
+        robot file's inertias (``mass``, ``com``, ``inertia``) through
+        :func:`labkit.dynamics.gravity_torques` where it has them, else 0.05 kg each.
     tool_mass : float
         Mass at the tool point (gripper with its servo) [kg].
     gravity : tuple of float or None
@@ -149,10 +150,12 @@ def _per_joint(value, n, name):
 def gravity_sag(robot, q, config=PhysicsConfig()):
     """Quasi-static joint deflection under gravity.
 
-    Each link's mass sits at the middle of the link (between the origins of
-    consecutive frames, the last link ending at the tool point, which also
-    carries ``tool_mass``); the deflection of joint ``j`` is its compliance
-    times the gravity torque about its axis.
+    The gravity torques are :func:`labkit.dynamics.gravity_torques` of the robot file's
+    inertias with ``tool_mass`` as a payload at the tool point; without inertias (or with
+    ``link_masses`` given) each link's mass sits at the middle of the link (between the
+    origins of consecutive frames, the last link ending at the tool point, which also
+    carries ``tool_mass``). The deflection of joint ``j`` is its compliance times the
+    gravity torque about its axis.
 
     Parameters
     ----------
@@ -177,12 +180,17 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     from labkit.kinematics import fk_frames
 
     n = robot.n
+    compliance = _per_joint(config.joint_compliance, n, "joint_compliance")
+    g = -9.81 * np.asarray(robot.up, dtype=float) if config.gravity is None else np.asarray(config.gravity, dtype=float)
+    if config.link_masses is None and any(lk.inertial is not None for lk in robot.links):
+        from labkit.dynamics import gravity_torques  # the robot file's inertias: the load is the dynamics'
+
+        held = robot.with_payload(config.tool_mass) if config.tool_mass > 0 else robot
+        return 0.0 - compliance * gravity_torques(held, q, gravity=g) * robot.is_revolute  # 0.0 -: no -0
     T = fk_frames(robot, q)  # (..., n + 2, 4, 4)
     origins = T[..., :3, 3]
     zs = T[..., :3, 2]
     masses = _per_joint(0.05 if config.link_masses is None else config.link_masses, n, "link_masses")
-    compliance = _per_joint(config.joint_compliance, n, "joint_compliance")
-    g = -9.81 * np.asarray(robot.up, dtype=float) if config.gravity is None else np.asarray(config.gravity, dtype=float)
     # joint j's axis: frame j (modified DH) or frame j-1 (standard DH)
     shift = 1 if robot.convention is Convention.MODIFIED else 0
     # link k (1..n) spans frame k -> frame k+1 (frame n+1 = tool)

@@ -1,0 +1,125 @@
+"""A servo torque budget: can the servos hold (or drive) this pose with this payload, and with what margin."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.dynamics._rne import gravity_torques, inverse_dynamics
+from labkit.exceptions import RobotError
+from labkit.validation import readonly
+
+__all__ = ["TorqueBudget", "torque_budget", "stall_torques"]
+
+
+def stall_torques(robot):
+    """Each joint's servo stall torque from the robot file (``servo`` or ``bus`` table).
+
+    Parameters
+    ----------
+    robot : Robot
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        [N m].
+
+    Raises
+    ------
+    RobotError
+        A joint whose servo has no ``stall_torque`` (named).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> stall_torques(Robot.load("arduino_arm_3dof")).tolist()
+    [0.92, 0.92, 0.92]
+    """
+    out = []
+    for i, lk in enumerate(robot.links, start=1):
+        servo = lk.servo or lk.bus
+        if servo is None or servo.stall_torque is None:
+            raise RobotError(f"robot {robot.name!r}: joint {i} ({robot.joint_names[i - 1]}): expected a servo with "
+                             f"stall_torque [N m] in its servo or bus table, got none", f"joint[{i}].stall_torque")
+        out.append(servo.stall_torque)
+    return np.array(out)
+
+
+@dataclass(frozen=True)
+class TorqueBudget:
+    """Joint torques set against the servos' stall torques.
+
+    Attributes
+    ----------
+    torque : ndarray, shape (..., n)
+        Torque each joint needs [N m].
+    stall : ndarray, shape (n,)
+        Each servo's stall torque [N m].
+    load : ndarray, shape (..., n)
+        ``|torque| / stall`` [1]: 1 is a stalled servo.
+    margin : ndarray, shape (...)
+        ``1 / max(load)`` over the joints: how many times the worst joint's need the servo gives
+        (``inf`` where nothing is needed).
+    worst_joint : ndarray of int, shape (...)
+        0-based index of the most loaded joint.
+    """
+
+    torque: np.ndarray
+    stall: np.ndarray
+    load: np.ndarray
+    margin: np.ndarray
+    worst_joint: np.ndarray
+
+    @property
+    def ok(self):
+        """Whether every servo gives more than the pose needs [bool, shape (...)]."""
+        return self.margin > 1.0
+
+
+def torque_budget(robot, q, *, qd=None, qdd=None, payload=0.0, payload_com=(0.0, 0.0, 0.0), gravity=None):
+    """Can the servos hold ``q`` (or drive ``q, qd, qdd``) with a payload, and with what margin?
+
+    Over a pose or a map of poses (any batch shape). Holding is ``gravity_torques``; with
+    ``qd``/``qdd`` it is the full ``inverse_dynamics`` (friction included).
+
+    Parameters
+    ----------
+    robot : Robot
+        With inertial parameters and ``stall_torque`` on every servo.
+    q : array_like, shape (..., n)
+        Joint values [rad, m].
+    qd, qdd : array_like, shape (..., n), optional
+        Joint velocities and accelerations of a motion [rad/s, rad/s^2]; default: holding still.
+    payload : float
+        Mass carried at the tool [kg].
+    payload_com : array_like, shape (3,)
+        Its centre of mass in the tool frame [m].
+    gravity : array_like, shape (3,), optional
+        Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
+
+    Returns
+    -------
+    TorqueBudget
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> budget = torque_budget(arm, [0.0, 0.0, 0.0], payload=0.1)   # arm stretched out horizontally
+    >>> bool(budget.ok), int(budget.worst_joint), round(float(budget.margin), 1)
+    (True, 1, 2.4)
+    """
+    stall = stall_torques(robot)
+    held = robot.with_payload(payload, payload_com) if payload else robot
+    if qd is None and qdd is None:
+        tau = gravity_torques(held, q, gravity=gravity)
+    else:
+        zero = np.zeros(robot.n)
+        tau = inverse_dynamics(held, q, zero if qd is None else qd, zero if qdd is None else qdd, gravity=gravity)
+    load = np.abs(tau) / stall
+    worst = load.max(axis=-1)
+    with np.errstate(divide="ignore"):
+        margin = np.where(worst > 0, 1.0 / np.where(worst > 0, worst, 1.0), np.inf)
+    return TorqueBudget(readonly(tau), readonly(stall), readonly(load), readonly(margin),
+                        readonly(load.argmax(axis=-1)).astype(int))

@@ -1,0 +1,39 @@
+"""The servo torque budget: stall torques from the robot file against the dynamics' torques."""
+
+import numpy as np
+import pytest
+
+from labkit import dynamics as D
+from labkit.exceptions import RobotError, RobotFileError
+from labkit.robot import Robot
+
+
+def test_budget_over_a_pose_map_with_a_payload():
+    arm = Robot.load("arduino_arm_3dof")
+    grid = np.stack(np.meshgrid(np.linspace(0, np.pi, 5), np.linspace(0, np.pi, 7), indexing="ij"), -1)
+    q = np.concatenate([np.full(grid.shape[:-1] + (1,), 0.5), grid], -1)  # (5, 7, 3): shoulder x elbow map
+    empty = D.torque_budget(arm, q)
+    loaded = D.torque_budget(arm, q, payload=0.4)
+    assert empty.margin.shape == (5, 7) and empty.load.shape == (5, 7, 3)
+    assert np.all(loaded.margin <= empty.margin)
+    assert np.allclose(loaded.torque, D.gravity_torques(arm.with_payload(0.4), q))
+    assert np.allclose(loaded.load, np.abs(loaded.torque) / 0.92)
+    assert loaded.ok.any() and not loaded.ok.all()  # 400 g is too much stretched out, fine folded up
+    assert np.all(loaded.worst_joint[~loaded.ok] == 1)  # the shoulder gives up first
+    moving = D.torque_budget(arm, q[0, 0], qd=[0.0, 1.0, 0.0], qdd=[0.0, 20.0, 0.0])
+    assert moving.torque[1] != pytest.approx(empty.torque[0, 0, 1])
+
+
+def test_stall_torque_is_read_written_and_required(tmp_path):
+    omx = Robot.load("openmanipulator_x")
+    assert D.stall_torques(omx).tolist() == [4.1] * 4
+    again = tmp_path / "omx.toml"
+    again.write_text(omx.to_toml())
+    assert D.stall_torques(Robot.load(again)).tolist() == [4.1] * 4
+    with pytest.raises(RobotError, match="stall_torque"):
+        D.stall_torques(Robot.load("puma560"))
+    bad = tmp_path / "bad.toml"
+    bad.write_text(Robot.load("arduino_arm_3dof").to_toml().replace("stall_torque = 0.92", "stall_torque = -1", 1))
+    with pytest.raises(RobotFileError, match="torque > 0") as info:
+        Robot.load(bad)
+    assert info.value.field == "joint[1].servo.stall_torque"
