@@ -65,6 +65,8 @@ def _breakable(text):
     return re.sub(r"(?<=[_/])(?=[^<>\s])(?![^<]*>)", "<wbr>", text)
 
 
+#: a parameter that says where the build writes (``output_dir = "../../reports/..."``): not in the code listing
+_BUILD_PARAMETER = re.compile(r"^\s*output_dir\s*=")
 _CHECK_LINE = re.compile(r"^(?:PASS|FAIL|TYPO)  .*(?:\n|$)", re.MULTILINE)
 _HEAD_ID = re.compile(r'(<h[1-6] )id="([^"]*)"')
 _IMAGE_MIMES = ("image/png", "image/jpeg", "image/svg+xml")
@@ -275,6 +277,8 @@ def _chapter(k, nb, name, numbering, *, show_code, unresolved, error=""):
             continue
         opts, source = cell_options(cell.source)
         listing = source.strip("\n")
+        if "parameters" in tags or "injected-parameters" in tags:  # where files go is the build's, not the lab's
+            listing = "\n".join(line for line in listing.splitlines() if not _BUILD_PARAMETER.match(line))
         if "injected-parameters" in tags:
             listing = "# parameters of this run (labkit report)\n" + "\n".join(
                 line for line in listing.splitlines() if not line.startswith("# Parameters"))

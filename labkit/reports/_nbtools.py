@@ -44,6 +44,14 @@ def _display(obj):
     return False
 
 
+def _in_ipython() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover
+        return False
+    return get_ipython() is not None
+
+
 def _display_raw(bundle):
     """Display a MIME bundle (dict) in IPython; False outside IPython."""
     try:
@@ -221,6 +229,13 @@ def _row_cells(r) -> dict:
             "tolerance": tol, "result": result, "note": r.note}
 
 
+def _row_line(r) -> str:
+    """One check as a line of text (a terminal, or the immediate :func:`check`)."""
+    cells = _row_cells(r)
+    return (f"{'PASS' if r.passed else 'FAIL'}  {r.name}: reproduced {cells['reproduced']}, published "
+            f"{cells['published / expected']}, max |diff| {cells['max |diff|']} <= {cells['tolerance']}? {r.note}")
+
+
 @dataclass
 class Checks:
     """Collects the closing assertions of a notebook.
@@ -230,7 +245,8 @@ class Checks:
     title : str
         Table caption.
     display : bool
-        Print each row as it is added (False in doctests/tests).
+        Show the rows: outside a notebook each row is printed as it is added; in a notebook
+        they are shown once, as :meth:`assert_all`'s table (False in doctests/tests).
     """
 
     title: str = "Reproduced vs published"
@@ -277,10 +293,8 @@ class Checks:
         row = Comparison(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note,
                          relative=bool(relative))
         self.rows.append(row)
-        if self.display:
-            cells = _row_cells(row)
-            print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {cells['reproduced']}, published "
-                  f"{cells['published / expected']}, max |diff| {cells['max |diff|']} <= {cells['tolerance']}? {note}")
+        if self.display and not _in_ipython():  # a notebook shows the rows once, in assert_all's table
+            print(_row_line(row))
         return row
 
     def typo(self, name, published, correct, note) -> Comparison:
@@ -308,7 +322,7 @@ class Checks:
         err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
         row = Comparison(name, correct, published, 0.0, err, True, note, kind="typo")
         self.rows.append(row)
-        if self.display:
+        if self.display and not _in_ipython():
             print(f"TYPO  {name}: published {_fmt(published)}, correct {_fmt(correct)}. {note}")
         return row
 
@@ -382,10 +396,10 @@ def check(name, value, published, tol, note="", *, relative=False) -> Comparison
     PASS  pi: ...
     Comparison(...)
     """
-    c = Checks()
-    row = c.check(name, value, published, tol, note, relative=relative)
+    row = Checks(display=False).check(name, value, published, tol, note, relative=relative)
+    print(_row_line(row))
+    cells = _row_cells(row)
     if not row.passed:
-        cells = _row_cells(row)
         raise CheckFailed(f"{name}: reproduced {cells['reproduced']} differs from published "
                           f"{cells['published / expected']} by {cells['max |diff|']} > tolerance {cells['tolerance']}")
     return row

@@ -154,8 +154,8 @@ def _is_vector(v) -> bool:
     return isinstance(v, (tuple, list, np.ndarray)) and not isinstance(v, str)
 
 
-def _numbers_of(values):
-    """Every finite real number in a column (vectors flattened), as floats."""
+def _numbers_of(values, zero=0.0):
+    """Every finite real number in a column (vectors flattened), as floats; round-off (``<= zero``) as 0."""
     out = []
     for v in values:
         items = np.asarray(v, dtype=object).ravel() if _is_vector(v) else [v]
@@ -163,13 +163,13 @@ def _numbers_of(values):
             if isinstance(x, (bool, np.bool_)) or _is_missing(x) or not isinstance(x, numbers.Real):
                 continue
             if math.isfinite(float(x)):
-                out.append(float(x))
+                out.append(0.0 if abs(float(x)) <= zero else float(x))
     return out
 
 
-def _style(values, digits):
+def _style(values, digits, zero):
     """(decimals, scientific) for a column: ``digits`` significant digits on its largest magnitude."""
-    nums = _numbers_of(values)
+    nums = _numbers_of(values, zero)
     if all(float(x).is_integer() for x in nums) and all(
             isinstance(x, (numbers.Integral, np.integer)) for v in values if not _is_missing(v)
             for x in (np.asarray(v, dtype=object).ravel() if _is_vector(v) else [v])
@@ -177,15 +177,15 @@ def _style(values, digits):
         return 0, False
     big = max((abs(x) for x in nums), default=0.0)
     if big == 0.0:
-        return max(digits - 1, 0), False
+        return 0, False  # a column of zeros (round-off) prints 0
     if big >= 1e6 or big < 1e-3:
         return digits - 1, True
     exponent = math.floor(math.log10(big))
     return max(digits - 1 - exponent, 0), False
 
 
-def _number(x, decimals, scientific) -> str:
-    x = float(x)
+def _number(x, decimals, scientific, zero) -> str:
+    x = 0.0 if abs(float(x)) <= zero else float(x)
     if math.isinf(x):
         return "∞" if x > 0 else "-∞"
     if scientific:
@@ -199,23 +199,23 @@ def _number(x, decimals, scientific) -> str:
     return text
 
 
-def _cell(v, decimals, scientific, words, missing) -> str:
+def _cell(v, decimals, scientific, words, missing, zero) -> str:
     if _is_missing(v):
         return missing
     if isinstance(v, (bool, np.bool_)):
         return words[0] if v else words[1]
     if _is_vector(v):
         items = np.asarray(v, dtype=object).ravel()
-        return "(" + ", ".join(_cell(x, decimals, scientific, words, missing) for x in items) + ")"
+        return "(" + ", ".join(_cell(x, decimals, scientific, words, missing, zero) for x in items) + ")"
     if isinstance(v, (numbers.Integral, np.integer)):
-        return str(int(v)) if decimals == 0 and not scientific else _number(v, decimals, scientific)
+        return str(int(v)) if decimals == 0 and not scientific else _number(v, decimals, scientific, zero)
     if isinstance(v, numbers.Real):
-        return _number(v, decimals, scientific)
+        return _number(v, decimals, scientific, zero)
     return str(v)
 
 
-def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans=("yes", "no"),
-                 missing="–") -> ReportTable:
+def report_table(df, *, columns=None, digits=3, caption="", index=None, units=None, booleans=("yes", "no"),
+                 missing="–", zero=1e-9) -> ReportTable:
     """A DataFrame as a report table: human names with units, digits per column, words for booleans.
 
     Parameters
@@ -224,7 +224,8 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans
         The data (numbers in the units the header states; a Series is one column).
     columns : dict of str to str, optional
         Column name -> printed name with its unit (``{"q1_dot": "q1 rate [deg/s]"}``); a
-        column not named keeps its name. A name mapped to ``None`` is left out.
+        column not named keeps its name (the levels of a two-level name joined by ", "). A
+        name mapped to ``None`` is left out.
     digits : int or dict of str to int
         Significant digits of a column's largest magnitude; every number of the column gets
         the same decimals (a column of integers prints as integers). Per column by the
@@ -235,10 +236,15 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans
     index : bool, optional
         Print the index as the first column; default: only when it carries meaning (it has a
         name or is not the default 0, 1, 2, ...).
+    units : dict of str to str, optional
+        Column name -> unit, added to the printed name as ``[unit]`` unless it already holds
+        one; default: ``df.attrs["units"]`` (what ``Trajectory.to_dataframe`` records).
     booleans : (str, str)
         Words for true and false ("yes", "no"; marks such as "✓", "✗" work too).
     missing : str
         What a missing value (``None``, ``NaN``) prints as.
+    zero : float
+        Round-off: a magnitude at most this prints as 0 (``5.6e-17`` is 0, never ``5.6e-17``).
 
     Returns
     -------
@@ -273,7 +279,7 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans
     if len(booleans) != 2 or not all(isinstance(b, str) for b in booleans):
         raise OptionError(f"booleans expects two words (true, false), got {booleans!r}")
     columns = dict(columns or {})
-    unknown = [k for k in columns if k not in df.columns and k != df.index.name]
+    unknown = [k for k in columns if k not in df.columns and k not in df.index.names]
     if unknown:
         raise OptionError(f"columns names {', '.join(map(str, unknown))}, which the table does not have "
                           f"(it has {', '.join(map(str, df.columns))})")
@@ -281,9 +287,14 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans
         index = df.index.name is not None or any(n is not None for n in df.index.names) or not (
             isinstance(df.index, pd.RangeIndex) and df.index.start == 0 and df.index.step == 1)
     if index:
-        df = df.reset_index()
-        if df.columns[0] == "index":
-            df = df.rename(columns={"index": ""})
+        names = [n if n is not None else "" for n in df.index.names]
+        levels = [df.index.get_level_values(k) for k in range(df.index.nlevels)]
+        df = df.copy()
+        df.columns = [c for c in df.columns]  # one level: a two-level name is a tuple
+        for k in reversed(range(len(levels))):
+            key = names[k] if names[k] not in df.columns else f"{names[k]} "
+            df.insert(0, key, list(levels[k]))
+    units = dict(df.attrs.get("units", {}) if units is None else units)
     per_column = digits if isinstance(digits, dict) else {"*": digits}
     unknown = [k for k in per_column if k != "*" and k not in df.columns]
     if unknown:
@@ -294,13 +305,15 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, booleans
             raise OptionError(f"digits expects positive integers, got {value!r}")
     header, cells, numeric = [], [], []
     for name in df.columns:
-        label = columns.get(name, name)
+        label = columns.get(name, ", ".join(map(str, name)) if isinstance(name, tuple) else name)
         if label is None:
             continue
+        if units.get(name) and "[" not in str(label):
+            label = f"{label} [{units[name]}]"
         values = list(df[name])
-        decimals, scientific = _style(values, int(per_column.get(name, default)))
+        decimals, scientific = _style(values, int(per_column.get(name, default)), zero)
         header.append(str(label))
-        cells.append([_cell(v, decimals, scientific, booleans, missing) for v in values])
+        cells.append([_cell(v, decimals, scientific, booleans, missing, zero) for v in values])
         numeric.append(bool(_numbers_of(values)) and not any(isinstance(v, str) for v in values if not _is_missing(v)))
     rows = tuple(zip(*cells)) if cells else tuple(() for _ in range(len(df)))
     return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric))

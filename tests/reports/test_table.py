@@ -93,3 +93,18 @@ def test_bad_input_says_what_was_expected():
         report_table(df, digits={"c": 2})
     with pytest.raises(OptionError, match="two words"):
         report_table(df, booleans=("yes",))
+
+
+def test_units_from_the_frame_or_given_go_into_the_header():
+    df = pd.DataFrame({"shoulder_pitch_ddot": [1.0], "x": [2.0], "n [1]": [3]})
+    df.attrs["units"] = {"shoulder_pitch_ddot": "deg/s^2", "x": "mm"}
+    t = report_table(df, columns={"shoulder_pitch_ddot": "shoulder accel"})
+    assert t.header == ("shoulder accel [deg/s^2]", "x [mm]", "n [1]")
+    assert report_table(df, units={"x": "m"}).header == ("shoulder_pitch_ddot", "x [m]", "n [1]")
+
+
+def test_a_two_level_index_prints_as_columns_named_by_its_levels():
+    df = pd.DataFrame({"a0": [0.0, 0.18]}, index=pd.MultiIndex.from_tuples([(1, "x [m]"), (1, "y [m]")],
+                                                                          names=["segment", "value"]))
+    t = report_table(df, columns={"segment": None, "value": "axis", "a0": "a0 [m]"})
+    assert t.header == ("axis", "a0 [m]") and t.rows == (("x [m]", "0.000"), ("y [m]", "0.180"))
