@@ -5,7 +5,7 @@ column names with their units (a mapping, ``{"shoulder_pitch_ddot": "shoulder ac
 [deg/s^2]"}``), the same number of decimals down a column (chosen from the column's largest
 magnitude for the significant digits asked), booleans as words, vectors as ``(x, y, z)``,
 missing values as a dash, never ``NaN``; a long table may break across pages with its header
-repeated. The result shows itself in a notebook (HTML) and prints as LaTeX (booktabs,
+repeated. The result shows itself in a notebook (HTML; ``to_latex()`` gives booktabs,
 ``longtable`` when long); ``labkit report`` takes its HTML into the PDF and the DOCX.
 
 Example
@@ -120,9 +120,6 @@ class ReportTable:
 
     def _repr_html_(self):
         return self.to_html()
-
-    def _repr_latex_(self):
-        return self.to_latex()
 
     def __repr__(self):
         return self.to_text()
