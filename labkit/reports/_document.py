@@ -447,7 +447,7 @@ def number_notebook(nb, chapter=None):
     Code cells lose their ``#|`` option lines, round-off in tables prints as ``0``
     (:func:`labkit.reports._report.tidy_numbers`); a captioned cell gets its caption as an
     output ("Figure 1: ...", after the figure; "Table 1: ...", before the table);
-    ``@fig-...`` references in markdown become "Figure 1" links.
+    ``[Figure](#fig-...)`` and ``@fig-...`` references in markdown become "Figure 1" links.
 
     Parameters
     ----------
