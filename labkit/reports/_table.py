@@ -70,7 +70,7 @@ class ReportTable:
         -------
         str
         """
-        align = [' class="lk-num"' if n else ' class="lk-text"' for n in self._numeric()]
+        align = [' class="lk-cell-num"' if n else ' class="lk-cell-text"' for n in self._numeric()]
         head = "".join(f"<th{a}>{_html.escape(h)}</th>" for a, h in zip(align, self.header))
         body = "".join("<tr>" + "".join(f"<td{a}>{_html.escape(c)}</td>" for a, c in zip(align, row)) + "</tr>"
                        for row in self.rows)
