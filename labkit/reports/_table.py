@@ -33,7 +33,7 @@ from labkit.exceptions import OptionError, ShapeError
 __all__ = ["ReportTable", "report_table", "LONG_TABLE_ROWS"]
 
 #: a table with more rows than this may break across pages (its header repeated on each)
-LONG_TABLE_ROWS = 24
+LONG_TABLE_ROWS = 15
 _MINUS = "-"
 
 
@@ -232,7 +232,7 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         in a report takes that caption instead.
     index : bool, optional
         Print the index as the first column; default: only when it carries meaning (it has a
-        name or is not the default 0, 1, 2, ...).
+        name or holds labels), not row numbers (0, 1, 2, ... or those of a subsample).
     units : dict of str to str, optional
         Column name -> unit, added to the printed name as ``[unit]`` unless it already holds
         one; default: ``df.attrs["units"]`` (what ``Trajectory.to_dataframe`` records).
@@ -280,9 +280,8 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
     if unknown:
         raise OptionError(f"columns names {', '.join(map(str, unknown))}, which the table does not have "
                           f"(it has {', '.join(map(str, df.columns))})")
-    if index is None:
-        index = df.index.name is not None or any(n is not None for n in df.index.names) or not (
-            isinstance(df.index, pd.RangeIndex) and df.index.start == 0 and df.index.step == 1)
+    if index is None:  # row numbers (a default or a subsample's index) carry no meaning; labels and names do
+        index = any(n is not None for n in df.index.names) or not pd.api.types.is_integer_dtype(df.index.dtype)
     if index:
         names = [n if n is not None else "" for n in df.index.names]
         levels = [df.index.get_level_values(k) for k in range(df.index.nlevels)]

@@ -18,6 +18,8 @@ def test_no_default_index_but_a_meaningful_one_is_kept():
     labelled = report_table(pd.DataFrame({"x [m]": [0.1, 0.2]}, index=["elbow up", "elbow down"]))
     assert labelled.header == ("", "x [m]") and labelled.rows[1][0] == "elbow down"
     assert report_table(pd.DataFrame({"x": [1.0]}, index=["a"]), index=False).header == ("x",)
+    subsample = pd.DataFrame({"x": [1.0, 2.0, 3.0, 4.0]}).iloc[::2]  # row numbers 0, 2: still no index
+    assert report_table(subsample).header == ("x",)
     html = plain.to_html()
     assert "<th></th>" not in html and ">0<" not in html  # no index column
 
