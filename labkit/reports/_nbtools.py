@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from labkit.exceptions import CheckFailed, ShapeError
 
-__all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
+__all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex"]
 
 
 def _display(obj):
@@ -132,32 +132,6 @@ def show_latex(expr, prefix="", decimals=4):
 
     if not _display(Math(tex)):
         print(tex)
-
-
-def show_table(df, caption=None, floatfmt="{:.4g}"):
-    """Display a pandas DataFrame as a compact HTML table (static in reports).
-
-    Outside IPython the table is printed as text instead.
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-    caption : str, optional
-        Table caption.
-    floatfmt : str
-        Format of numeric cells (``str.format`` syntax).
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``df`` itself (unchanged), so that a cell can display and keep it.
-    """
-    styler = df.style.format(floatfmt, subset=df.select_dtypes("number").columns)
-    if caption:
-        styler = styler.set_caption(caption)
-    if not _display(styler):
-        print(df.to_string())
-    return df
 
 
 @dataclass(frozen=True)
