@@ -1,7 +1,8 @@
 """The seed lab reports as a course would receive them, read back from the PDF and the HTML.
 
-Every page carries text (at least 25 words) unless a figure or a table fills it; no report
-table prints ``NaN``, ``True``/``False`` or a pandas index column.
+Every page carries text (at least 25 words) unless a figure or a table fills it (the title
+page, the contents and the last page are what they are); no report table prints ``NaN``,
+``True``/``False`` or a pandas index column.
 """
 
 import html as _html
@@ -27,7 +28,9 @@ def sparse_pages(pdf):
     with pdfplumber.open(str(pdf)) as doc:
         for k, page in enumerate(doc.pages, start=1):
             words = page.extract_words()
-            if k == 1 or len(words) >= MIN_WORDS:  # the title page is meant to be sparse
+            text = page.extract_text() or ""
+            # the title page, the contents and the document's last page end where they end
+            if k in (1, len(doc.pages)) or text.startswith("Contents") or len(words) >= MIN_WORDS:
                 continue
             area = page.width * page.height
             covered = sum((im["x1"] - im["x0"]) * (im["bottom"] - im["top"]) for im in page.images)
