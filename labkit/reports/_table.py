@@ -30,7 +30,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 
-__all__ = ["ReportTable", "report_table", "LONG_TABLE_ROWS"]
+__all__ = ["ReportTable", "report_table", "format_value", "LONG_TABLE_ROWS"]
 
 #: a table with more rows than this may break across pages (its header repeated on each)
 LONG_TABLE_ROWS = 15
@@ -313,3 +313,55 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         numeric.append(bool(_numbers_of(values)) and not any(isinstance(v, str) for v in values if not _is_missing(v)))
     rows = tuple(zip(*cells)) if cells else tuple(() for _ in range(len(df)))
     return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric))
+
+
+def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
+    """A number or a vector as prose prints it, the way :func:`report_table` prints a cell.
+
+    Parameters
+    ----------
+    value : float or array_like
+        A number, or numbers (printed as ``(a, b, c)``; a matrix row by row).
+    digits : int
+        Significant digits of the largest magnitude; every number gets the same decimals.
+    decimals : int, optional
+        Fixed decimals instead of ``digits``.
+    unit : str
+        Appended after a space ("mm", "deg").
+    zero : float
+        Round-off: a magnitude at most this prints as 0.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    OptionError
+        ``digits`` or ``decimals`` is not a non-negative integer (``digits`` positive).
+
+    Examples
+    --------
+    >>> format_value([0.523599, 0.149718, -5.6e-17], decimals=4, unit="rad")
+    '(0.5236, 0.1497, 0.0000) rad'
+    >>> format_value(1.1e-13, unit="mm")
+    '0 mm'
+    """
+    if isinstance(digits, bool) or not isinstance(digits, numbers.Integral) or digits < 1:
+        raise OptionError(f"digits expects a positive integer, got {digits!r}")
+    if decimals is not None and (isinstance(decimals, bool) or not isinstance(decimals, numbers.Integral) or decimals < 0):
+        raise OptionError(f"decimals expects a non-negative integer, got {decimals!r}")
+    arr = np.asarray(value, dtype=object)
+    flat = list(arr.ravel()) if arr.ndim else [value]
+    if decimals is None:
+        dec, scientific = _style(flat, int(digits), zero)
+    else:
+        dec, scientific = int(decimals), False
+    if arr.ndim == 0:
+        text = _cell(value, dec, scientific, ("yes", "no"), "–", zero)
+    elif arr.ndim == 1:
+        text = _cell(list(arr), dec, scientific, ("yes", "no"), "–", zero)
+    else:
+        text = "(" + ", ".join(_cell(list(row), dec, scientific, ("yes", "no"), "–", zero)
+                               for row in arr.reshape(-1, arr.shape[-1])) + ")"
+    return f"{text} {unit}" if unit else text
