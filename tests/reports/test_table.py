@@ -110,3 +110,14 @@ def test_a_two_level_index_prints_as_columns_named_by_its_levels():
                                                                           names=["segment", "value"]))
     t = report_table(df, columns={"segment": None, "value": "axis", "a0": "a0 [m]"})
     assert t.header == ("axis", "a0 [m]") and t.rows == (("x [m]", "0.000"), ("y [m]", "0.180"))
+
+
+def test_format_value_prints_prose_numbers_like_the_table_cells():
+    from labkit.reports import format_value
+
+    assert format_value([0.0, 94.00000001], digits=3) == "(0.0, 94.0)"  # not [ 0. 94.]
+    assert format_value(5.6e-17, unit="m") == "0 m"  # round-off, not 5.6e-17
+    assert format_value(np.array([[1.0, -2.0], [3.0, 4.0]]), decimals=1) == "((1.0, -2.0), (3.0, 4.0))"
+    assert format_value(True) == "yes" and format_value(float("nan")) == "–"
+    with pytest.raises(OptionError, match="decimals expects a non-negative integer, got -1"):
+        format_value(1.0, decimals=-1)
