@@ -121,3 +121,11 @@ def test_format_value_prints_prose_numbers_like_the_table_cells():
     assert format_value(True) == "yes" and format_value(float("nan")) == "–"
     with pytest.raises(OptionError, match="decimals expects a non-negative integer, got -1"):
         format_value(1.0, decimals=-1)
+
+
+def test_the_dh_table_records_its_units_for_the_header():
+    from labkit.robot import Robot
+
+    t = report_table(Robot.load("arduino_arm_3dof").dh_table(), columns={"i": "link i"})
+    assert t.header[:4] == ("link i", "joint", "type", "a_{i-1} [mm]")
+    assert "alpha_{i-1} [deg]" in t.header and "lower [deg]" in t.header
