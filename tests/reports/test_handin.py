@@ -60,6 +60,17 @@ def table_problems(html):
     return problems
 
 
+_REPR = re.compile(r"\b(?:array\(|np\.float64\(|Comparison\(|<pandas\.|DataFrame\()|\[ *-?\d+\. +-?\d")
+
+
+def raw_reprs(html):
+    """Python reprs printed in the body of a report (outside the code appendix): numpy arrays, objects."""
+    body = re.sub(r"<(script|style)\b.*?</\1>", "", html, flags=re.S)
+    body = re.sub(r'<section class="lk-appendix".*?</section>', "", body, flags=re.S)
+    text = _html.unescape(re.sub(r"<[^>]+>", " ", body))
+    return sorted({m.group(0) for m in _REPR.finditer(text)})
+
+
 def test_the_checks_find_what_they_look_for():
     index_table = ("<table><thead><tr><th></th><th>x</th></tr></thead><tbody><tr><th>0</th><td>1.0</td></tr>"
                    "<tr><th>1</th><td>NaN</td></tr></tbody></table>")
@@ -72,6 +83,8 @@ def test_the_checks_find_what_they_look_for():
     assert table_problems(good) == []
     code = '<section class="lk-appendix"><table><tr><td>True</td></tr></table></section>'
     assert table_problems(code) == []
+    assert raw_reprs("<pre>FK at q = 0 [mm]: [274.   0.   0.]</pre><p>Comparison(name='x')</p>") == ["Comparison(", "[274.   0"]
+    assert raw_reprs('<p>(274.0, 0.0, 0.0) mm</p><section class="lk-appendix">array([1.])</section>') == []
 
 
 @pytest.mark.slow
@@ -84,4 +97,6 @@ def test_seed_report_pages_and_tables(lab, tmp_path):
     res = build_report(REPO / "notebooks" / lab, tmp_path / lab, to=["pdf", "html"], progress=None)
     assert res.ok, (res.errors, res.warnings)
     assert sparse_pages(res.files["pdf"]) == []
-    assert table_problems(res.files["html"].read_text("utf-8")) == []
+    html = res.files["html"].read_text("utf-8")
+    assert table_problems(html) == []
+    assert raw_reprs(html) == []
