@@ -4,14 +4,16 @@
 - :mod:`labkit.arm.board`: the virtual board and its physics (``sim://``);
 - :mod:`labkit.arm.simavr`: the real firmware in the AVR simulator (``simavr://``);
 
-plus the protocol shared by host and boards (framing, checksums, codes), the integer
+plus what the host needs of any board (:class:`BoardPort`, the one interface :class:`Arm` uses),
+the protocol shared by host and boards (framing, checksums, codes), the integer
 segment check the firmware, the virtual board and the host all run, fault injection
 for tests, and the pyserial URL handlers (:mod:`labkit.arm.urlhandler`).
 """
 
 from labkit.arm._protocol import checksum, CommandRejected, PROTOCOL_VERSION, MAX_LINE, ERRORS
-from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, PortInfo, list_ports, find_ports, Arm
-from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, VirtualBoard, make_board, serve_pty
+from labkit.arm._board_port import BoardPort
+from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, ArduinoPort, PortInfo, list_ports, find_ports, Arm
+from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, Executor, Servos, VirtualBoard, make_board, serve_pty
 from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
 from labkit.arm._port_errors import PortURLError, PortError, PortClosedError
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
@@ -22,11 +24,13 @@ __all__ = [
     "PROTOCOL_VERSION",
     "MAX_LINE",
     "ERRORS",
+    "BoardPort",
     "BoardInfo",
     "Status",
     "LinkStats",
     "TrajectoryReport",
     "segments_from_trajectory",
+    "ArduinoPort",
     "PortInfo",
     "list_ports",
     "find_ports",
@@ -39,6 +43,8 @@ __all__ = [
     "ArmModel",
     "FirmwareAdapter",
     "FW_VERSION",
+    "Executor",
+    "Servos",
     "VirtualBoard",
     "make_board",
     "serve_pty",

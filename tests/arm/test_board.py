@@ -87,24 +87,25 @@ def test_example_session_lines_and_checksums():
 
 def test_state_changing_lines_need_seq_and_crc():
     b = booted()
-    before = list(b.q)
+    before = list(b.executor.q)
     for line in ["MOVE 4500 9000 3000 250", "#5 MOVE 4500 9000 3000 250", seal("MOVE 4500 9000 3000 250 "),
                  "GRIP 1200", "TIMEOUT 0", "STREAM 10", "SAVE", "DEFAULTS", "STOP", "CAL 0"]:
         assert talk(b, line) == [seal("ERR 1 BADCHK unsealed")], line
-    assert b.q == before and b.grip == 1500 and b.stream_hz == 0 and b.timeout_ms == 500
+    ex = b.executor
+    assert ex.q == before and ex.grip == 1500 and ex.stream_hz == 0 and ex.timeout_ms == 500
 
 
 def test_the_line_split_attack_of_issue_13_runs_nothing():
     """A byte damaged into LF splits a sealed MOVE; neither half may run (protocol 1 ran the front half)."""
     b = booted()
-    before = list(b.q)
+    before = list(b.executor.q)
     line = seal("#5 MOVE 4500 9000 3000 250 ")
     for k in range(1, len(line)):
         for eol in (b"\n", b"\r"):
             b.receive(line[:k].encode() + eol + line[k + 1:].encode() + b"\n")
             out = [strip(x) for x in b.take_output().decode().split("\r\n") if x]
             assert not any(o.startswith("OK") for o in out), (k, out)
-    assert b.q == before
+    assert b.executor.q == before
 
 
 def test_lines_without_reply_and_malformed_lines():
@@ -230,7 +231,7 @@ def test_calibration_save_survives_reset():
     assert "ERR 5 RANGE" in cmd(b, "CAL 9")[0]
     assert "ERR 6 LIMIT" in cmd(b, "CAL 0 500 2500 0 1 0 1000")[0]  # joint 0 sits at 9000
     assert cmd(b, "DEFAULTS")[0].startswith("OK DEFAULTS")
-    b.eeprom[10] ^= 0xFF  # corrupt the image: CRC fails at the next boot
+    b.executor.eeprom[10] ^= 0xFF  # corrupt the image: CRC fails at the next boot
     b.reset()
     b.advance(0.2)
     assert b"eeprom=DEFAULTS" in b.take_output()
@@ -308,8 +309,8 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
     robot.to_toml(path)
     rows = calibration_rows(robot)
     board = VirtualBoard(str(path), saved_calibration=True)
-    assert board.cal == rows and not board.flags & 0x01
-    assert all(r[4] <= q <= r[5] for q, r in zip(board.q, rows))
+    assert board.executor.cal == rows and not board.executor.flags & 0x01
+    assert all(r[4] <= q <= r[5] for q, r in zip(board.executor.q, rows))
     with pytest.raises(LabkitError, match="CAL rejected: 6 LIMIT"):
         Arm(f"sim://{path}?clock=lockstep", robot=str(path))
     with Arm(f"sim://{path}?clock=lockstep&calibrated=1", robot=str(path)) as arm:

@@ -88,7 +88,7 @@ COUNTED = (b"MOVE", b"SEG", b"GRIP", b"TIMEOUT", b"STOP")
 
 
 def _count_runs(board):
-    """Count the state-changing commands a virtual board really runs (MOVE runs as its SEG), in ``board.runs``."""
+    """Count the state-changing commands a virtual board's executor really runs (MOVE runs as its SEG), in ``.runs``."""
     board.runs = 0
     for name in ("seg", "grip", "timeout", "stop"):
         def run(args, fn=getattr(board, f"_cmd_{name}")):
@@ -131,7 +131,7 @@ def _segments_run(raw, truth):
     acknowledged = len(_motion_replies(_lines(truth.board_out + tail), COUNTED))
     board = getattr(raw, "board", None)
     if board is not None:  # the virtual board: every command it ran, against the distinct ones it acknowledged
-        return board.runs, acknowledged
+        return board.executor.runs, acknowledged
     if not m:  # the firmware: the segments it ran, against the distinct MOVE/SEG it acknowledged
         return None, len(seen)
     return int(m.group(3)) + int(m.group(2)), len(seen)
@@ -169,7 +169,7 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
     while out["commands"] < commands:
         raw = serial.serial_for_url(url, baudrate=115200, timeout=0.05)
         if hasattr(raw, "board"):
-            _count_runs(raw.board)
+            _count_runs(raw.board.executor)
         truth = Truth(raw)
         cfg = FaultConfig(seed=int(rng.integers(2**31)), disconnect_after=float(rng.exponential(disconnect_every)),
                           **NOISY)

@@ -59,7 +59,7 @@ def test_1000_segment_trajectory_under_corruption_and_loss():
     raw, port = faulty(2, **NOISY)
     with Arm(port, timeout=0.005, retries=40) as arm:
         arm.set_host_timeout(0)
-        board = raw.board
+        board = raw.board.executor
         accepted = []
         orig = board._cmd_seg
 
@@ -82,7 +82,7 @@ def test_1000_segment_trajectory_under_corruption_and_loss():
 def test_short_trajectory_under_faults_in_both_directions():
     raw, port = faulty(3, **NOISY)
     with Arm(port, timeout=0.005, retries=40) as arm:
-        board = raw.board
+        board = raw.board.executor
         accepted = []
         orig = board._cmd_seg
 
@@ -128,7 +128,7 @@ def test_disconnect_mid_trajectory_raises_device_error():
         segs = segments_from_trajectory(wave(arm.commanded_joints(), 200))
         with pytest.raises(DeviceError, match="vanished"):
             arm.run_trajectory(segs)
-        assert 0 < raw.board.done + len(raw.board.segments) < 200
+        assert 0 < raw.board.executor.done + len(raw.board.executor.segments) < 200
         with pytest.raises(DeviceError):
             arm.ping()
     assert port.counts.disconnected

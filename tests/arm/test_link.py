@@ -58,7 +58,7 @@ def test_requests_carry_sequence_and_checksum():
 
 
 def test_calibration_sync_matches_robot_file(arm):
-    board = arm.port.board
+    board = arm.port.board.executor
     assert board.cal[0] == [500, 2500, 0, 1, 0, 18000]
     assert board.cal[3][:2] == [1000, 1900]  # gripper open/closed from the robot file
 
@@ -136,7 +136,7 @@ def test_run_trajectory_streams_segments_and_tracks(arm):
     assert report.underruns == 0 and report.retries == 0
     assert report.duration == pytest.approx(3.0, abs=0.15)
     np.testing.assert_allclose(arm.commanded_joints(), np.radians([120.0, 80.0, 20.0]), atol=1e-4)
-    assert arm.port.board.done == 1 + 60  # the MOVE ran as one segment, then the trajectory
+    assert arm.port.board.executor.done == 1 + 60  # the MOVE ran as one segment, then the trajectory
 
 
 def test_segments_are_continuous_and_exact_at_the_ends():
@@ -170,7 +170,7 @@ def test_trajectory_limits_checked_before_sending(arm):
     bad = type(traj)(t=traj.t, q=traj.q - math.radians(20.0), qd=traj.qd, qdd=traj.qdd)
     with pytest.raises(JointLimitError):
         arm.run_trajectory(bad)
-    assert arm.port.board.done == 0 and arm.status().queue == 0
+    assert arm.port.board.executor.done == 0 and arm.status().queue == 0
 
 
 def test_stream_to_dataframe(arm):
@@ -190,7 +190,7 @@ def test_lost_motion_reply_is_verified_not_repeated():
     """A MOVE whose reply is lost is settled with STATUS, never sent again blindly."""
     raw = serial.serial_for_url(SIM, timeout=0.05)
     with Arm(raw, timeout=0.02) as arm:
-        board = raw.board
+        board = raw.board.executor
         moves = []
         orig = board._cmd_move
 
@@ -224,7 +224,7 @@ def test_the_timeout_and_retries_setters_refuse_what_the_constructor_refuses(arm
 def test_timeouts_raise_device_error():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     arm = Arm(raw, timeout=0.02, retries=2)
-    raw.board._emit = lambda text: None  # the board goes silent
+    raw.board.executor._emit = lambda text: None  # the board goes silent
     with pytest.raises(DeviceError, match="PING failed after 3 attempts: no valid reply"):
         arm.ping()
     with pytest.raises(DeviceError, match="STATUS failed"):
@@ -263,13 +263,13 @@ def test_open_errors():
 
 def test_wrong_protocol_version_is_refused():
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    board = raw.board
+    board = raw.board.executor
     orig = board._cmd_hello
     board._cmd_hello = lambda args: orig(args).replace("proto=3", "proto=4")
     with pytest.raises(DeviceError, match=r"firmware 3\.0\.0\) speaks protocol 4, labkit expects protocol 3"):
         Arm(raw, timeout=0.02)
     raw2 = serial.serial_for_url(SIM, timeout=0.05)
-    raw2.board._cmd_hello = lambda args: "other-board v9"
+    raw2.board.executor._cmd_hello = lambda args: "other-board v9"
     with pytest.raises(ProtocolError, match="not a labkit arm"):
         Arm(raw2, timeout=0.02)
 
@@ -277,7 +277,7 @@ def test_wrong_protocol_version_is_refused():
 def v1_board():
     """A virtual board that talks like the protocol-1 firmware (EV BOOT, XOR checksums)."""
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    board = raw.board
+    board = raw.board.executor
 
     def emit(text):
         if text.startswith("READY"):
@@ -294,7 +294,7 @@ def v1_board():
 def v2_board(ready=True):
     """A virtual board that talks like firmware 2.3.0 (protocol 2: CRC-16 seals ``*HHHH``, 4-digit echoes)."""
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    board = raw.board
+    board = raw.board.executor
     handle = board._handle
 
     def emit(text):
@@ -334,23 +334,23 @@ def test_a_protocol_2_board_is_refused_naming_both_versions(ready):
 @pytest.mark.parametrize("old", ["2.3.0", "2.99.0"])
 def test_a_board_older_than_the_oldest_firmware_driven_is_refused(old):
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    orig = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: orig(args).replace("fw=3.0.0", f"fw={old}")
+    orig = raw.board.executor._cmd_hello
+    raw.board.executor._cmd_hello = lambda args: orig(args).replace("fw=3.0.0", f"fw={old}")
     with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 3\.0\.0 or newer .*flash firmware/labkit_arm"):
         Arm(raw, timeout=0.02)
 
 
 def test_a_newer_board_is_driven():
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    newer = raw.board._cmd_hello
-    raw.board._cmd_hello = lambda args: newer(args).replace("fw=3.0.0", "fw=3.10.0")
+    newer = raw.board.executor._cmd_hello
+    raw.board.executor._cmd_hello = lambda args: newer(args).replace("fw=3.0.0", "fw=3.10.0")
     with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
         assert arm.info.firmware == "3.10.0"
 
 
 def test_no_ready_and_no_answer_says_what_to_check():
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    raw.board._emit = lambda text: None  # a silent device (wrong sketch, wrong baud rate)
+    raw.board.executor._emit = lambda text: None  # a silent device (wrong sketch, wrong baud rate)
     with pytest.raises(DeviceError, match=r"no READY from the board within 0.5 s .*firmware flashed"):
         Arm(raw, timeout=0.02, boot_wait=0.5)
 
@@ -364,7 +364,7 @@ def test_a_board_without_auto_reset_is_still_found():
 
 
 def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
-    board = arm.port.board
+    board = arm.port.board.executor
     orig = board._cmd_move
 
     def misread(args):  # the board's parser reads something else than what was sent
@@ -378,7 +378,7 @@ def test_a_wrong_echo_stops_the_arm_and_names_the_command(arm):
 
 
 def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
-    board = arm.port.board
+    board = arm.port.board.executor
     board.receive(b"#999 MOVE 1000 2000 3000 1000 *" + f"{checksum('#999 MOVE 1000 2000 3000 1000 '):08X}".encode() + b"\n")
     board.take_output()
     with pytest.raises(DeviceError, match=r"request #999.*unrequested motion.*stopped"):
@@ -388,7 +388,7 @@ def test_an_unrequested_state_change_is_reported_and_stops_the_arm(arm):
 
 def test_a_stale_request_is_refused_not_executed_and_not_resent(arm):
     # another program numbered its requests ahead of labkit's: the board refuses labkit's next one as stale (issue 27)
-    board = arm.port.board
+    board = arm.port.board.executor
     body = "#20000 GRIP 1500 "
     board.receive(f"{body}*{checksum(body):08X}\n".encode())
     board.take_output()
@@ -410,14 +410,14 @@ def test_no_port_found(monkeypatch):
 
 def test_stream_reanchors_after_a_genuine_jump(arm):
     board = arm.port.board
-    orig = board._stream_frame
+    orig = board.executor._stream_frame
 
     def jump():
-        if board.stream_counter == 20:
+        if board.executor.stream_counter == 20:
             board.set_analog(0, 4.0)  # joint 0's pot jumps (a hand pushed the arm)
         orig()
 
-    board._stream_frame = jump
+    board.executor._stream_frame = jump
     df = arm.stream(1.0, hz=50)
     assert df.attrs["lost"] <= 1
     assert (df["adc0"] == 819).sum() >= 28  # floor(4.0 * 1024 / 5)
@@ -426,7 +426,7 @@ def test_stream_reanchors_after_a_genuine_jump(arm):
 def test_frame_damaged_before_sealing_is_rejected_by_plausibility(arm):
     """A frame whose field is wrong but whose CRC matches (a board bug): the plausibility checks catch it."""
     board = arm.port.board
-    orig = board._emit
+    orig = board.executor._emit
 
     def damaged(text):
         if text.startswith("FB 10 "):
@@ -435,7 +435,7 @@ def test_frame_damaged_before_sealing_is_rejected_by_plausibility(arm):
             text = " ".join(fields)
         orig(text)
 
-    board._emit = damaged
+    board.executor._emit = damaged
     df = arm.stream(0.5, hz=50)
     truth = board.sent_frames
     for c, a0 in zip(df["counter"], df["adc0"]):
@@ -457,11 +457,11 @@ def test_long_segments_keep_the_host_silence_timer_alive(arm):
     assert arm.status().timeout == 0.5
     report = arm.run_trajectory(segs)
     assert report.queue_full_waits > 0 and report.segments == 10
-    assert arm.status().flags & 0x02 == 0 and arm.port.board.done == 10
+    assert arm.status().flags & 0x02 == 0 and arm.port.board.executor.done == 10
 
 
 def test_speed_limits_are_sent_and_checked_before_sending(arm):
-    board = arm.port.board
+    board = arm.port.board.executor
     assert board.vmax == [30000] * 3 and board.amax == [150000] * 3  # 300 deg/s, 1500 deg/s^2 (robot file)
     q = [round(math.degrees(v) * 100) for v in arm.commanded_joints()]
     fast = [(5, 3, [q[0], 0, 3000, -2000, q[1], 0, 0, 0, q[2], 0, 0, 0])]  # 10 deg in 5 ms
@@ -500,7 +500,7 @@ def test_move_joints_runs_the_shortest_move_the_speed_limits_allow(arm):
     from labkit.arm.link._segments import move_duration_ms, move_segment
     from labkit.arm._segment_check import segment_speed_ok
 
-    board = arm.port.board
+    board = arm.port.board.executor
     sent = []
     orig = board._cmd_move
     board._cmd_move = lambda args: (sent.append(list(args)), orig(args))[1]
@@ -536,7 +536,7 @@ def test_move_joints_with_a_too_short_duration_sends_nothing(arm):
 
 def test_a_raw_out_of_speed_move_is_refused_and_nothing_moves(arm):
     """The board's own check, bypassing the host's: ERR 11 SPEED and the position unchanged."""
-    board = arm.port.board
+    board = arm.port.board.executor
     before = list(board.q)
     line = "#900 MOVE 17000 9000 9000 20 "
     board.receive(f"{line}*{checksum(line):08X}\n".encode())

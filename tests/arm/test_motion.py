@@ -106,7 +106,7 @@ def test_the_host_refuses_a_segment_leaving_the_range_between_samples_like_the_b
     robot = Robot.load("arduino_arm_3dof")
     board = VirtualBoard(robot)
     ranges = feasible_ranges(robot)
-    assert ranges == [board._feasible(j) for j in range(robot.n)]  # the board booted with the robot file's calibration
+    assert ranges == [board.executor._feasible(j) for j in range(robot.n)]  # the board booted with the robot file's calibration
     lo, hi = ranges[0]
     mid = [[(a + b) // 2, 0, 0, 0] for a, b in ranges[1:]]
     touches = [hi - 100, 400, -400, 0]  # ends at hi - 100, peaks at hi (s = 1/2)

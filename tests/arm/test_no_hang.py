@@ -68,7 +68,7 @@ def test_a_resent_request_runs_once():
     raw = serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
     with Arm(raw, timeout=0.02) as arm:
         arm.set_host_timeout(0)
-        board = raw.board
+        board = raw.board.executor
         emit, lost = board._emit, []
 
         def lose_first_seg_reply(text):

@@ -1,10 +1,10 @@
-"""The virtual board's request lines and commands (protocol v3, ``docs/protocol.md`` sections 2 and 4).
+"""The executor's request lines and commands (protocol v3, ``docs/protocol.md`` sections 2 and 4).
 
-:class:`BoardCommands` is the half of :class:`labkit.arm.VirtualBoard` that
+:class:`BoardCommands` is the half of the board's :class:`Executor` that
 reads a request line (characters, optional checksum and sequence id, integer
 arguments), runs its command (``HELLO``, ``MOVE``, ``SEG`` ...) on the
-board's state and answers ``OK`` or ``ERR``; the board itself (state, clock,
-servo frames, feedback stream) is in ``_board.py``. A rejected command has no
+board's state and answers ``OK`` or ``ERR``; the rest of the executor (state, clock,
+servo frames, feedback stream) is in ``_executor.py``. A rejected command has no
 effect: every check comes before the first change of state. The EEPROM image
 (calibration and host timeout, ``SAVE``) is written and read here too.
 """
@@ -138,15 +138,12 @@ def read_eeprom(eeprom, channels):
 
 
 class BoardCommands:
-    """Request-line handling and command handlers of :class:`labkit.arm.VirtualBoard` (a mixin).
+    """Request-line handling and command handlers of the board's executor (a mixin of :class:`Executor`).
 
-    Works on the board's state (``q``, ``cal``, ``segments``, ``state``...)
+    Works on the executor's state (``q``, ``cal``, ``segments``, ``state``...)
     and answers through its ``_emit``; a handler ``_cmd_<name>(args)`` returns
     the reply fields or raises a rejection (code of :data:`labkit.arm.ERRORS`).
     """
-
-    #: why ``GRIP`` is refused (``ERR 5 RANGE <text>``) on a board with no gripper servo to drive; ``""``: driven
-    grip_refused = ""
 
     # -- request lines -------------------------------------------------------------
     def _handle(self, raw):
@@ -283,12 +280,6 @@ class BoardCommands:
         self.grip = args[0]
         return str(args[0])
 
-    def _feasible(self, j):
-        """Joint ``j``'s feasible range ``lo, hi`` [cdeg]: its limits within its servo's range."""
-        zero, direction, lo, hi = self.cal[j][2:6]
-        a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
-        return max(a, lo), min(b, hi)
-
     def _cmd_seg(self, args):
         if len(args) < 2:
             raise _Reject(2, "arguments")
@@ -349,6 +340,7 @@ class BoardCommands:
         self._stream_t0 = self.time
         self._stream_k = 0
         self.stream_next = self.time if args[0] else math.inf  # first frame at once
+        self.servos.stream_rate(args[0])
         return str(args[0])
 
     def _cmd_cal(self, args):

@@ -1,9 +1,11 @@
-"""Smart-servo buses behind :class:`labkit.arm.Arm`: Dynamixel Protocol 2.0 and Feetech STS.
+"""Smart-servo buses behind :class:`labkit.arm.Arm`: Dynamixel Protocol 2.0 and Feetech STS, one codec module each.
 
 :class:`BusBoard` is a host-side board: it speaks labkit's protocol to :class:`~labkit.arm.Arm`
-(the virtual board's command set and segment executor, reused) and drives the servos through the
-vendor SDK (``dynamixel-sdk``, ``feetech-servo-sdk``); :class:`BusEmulator` is a virtual bus on a
-pseudo-terminal that the unmodified SDKs talk to. URLs: ``dynamixel:///dev/ttyUSB0``,
+through the board's :class:`~labkit.arm.board.Executor`, which it holds (the command set and segment
+executor every in-process board holds), and drives the servos through the vendor SDK
+(``dynamixel-sdk``, ``feetech-servo-sdk``); :class:`BusEmulator` is a virtual bus on a
+pseudo-terminal that the unmodified SDKs talk to. The bus kinds are a registry, :data:`BUSES`
+(kind -> codec module): a new kind is one module and one entry. URLs: ``dynamixel:///dev/ttyUSB0``,
 ``feetech:///dev/ttyACM0``, ``sim://<robot>?bus=dynamixel`` (``docs/link.md``).
 """
 

@@ -1,11 +1,11 @@
 """A host-side board for a servo bus: labkit's protocol to :class:`~labkit.arm.Arm`, the vendor SDK to the servos.
 
-:class:`BusBoard` is a :class:`labkit.arm.VirtualBoard` whose servo frames go to a bus instead of
-a physics model: the same request parser, checks, segment queue and executor run the ``MOVE`` s
-and ``SEG`` s :class:`~labkit.arm.Arm` sends (so limits, speeds and continuity are checked
-exactly as on every other board), and each 20 ms servo frame writes the executor's joint values
-as goal positions to every servo in one sync-write packet. Every fifth frame, every ``READ``
-and every stream frame read the servos' present positions and currents in one sync read.
+:class:`BusBoard` holds the board's firmware, an :class:`labkit.arm.board.Executor` (the same
+request parser, checks, segment queue and executor every in-process board holds), and is its
+servos: the ``MOVE`` s and ``SEG`` s :class:`~labkit.arm.Arm` sends are checked and run exactly as on
+every other board, and each 20 ms servo frame writes the executor's joint values as goal positions
+to every servo in one sync-write packet. Every fifth frame, every ``READ`` and every stream frame
+read the servos' present positions and currents in one sync read.
 
 The servos' range replaces the hobby-servo window: a joint may go anywhere within its limits
 (the robot-file loader checks that the limits map inside the servo's ticks). The board starts
@@ -26,9 +26,9 @@ import weakref
 
 from labkit.exceptions import DeviceError, OptionError
 from labkit.robot import Robot
-from labkit.arm.board import PhysicsConfig, VirtualBoard
+from labkit.arm.board import Executor
 from labkit.arm.bus._driver import BusFault
-from labkit.arm.bus._registry import DRIVERS
+from labkit.arm.bus._registry import bus_module
 
 __all__ = ["BusBoard", "open_bus_board"]
 
@@ -37,16 +37,13 @@ HEALTH_FRAMES = 5
 
 
 class _Unpowered:
-    """The board's physics slot on a real bus: the servos are real, nothing to simulate."""
+    """The physics slot on a real bus: the servos are real, nothing to simulate."""
 
     def advance_to(self, t):
         pass
 
-    def command_pulses(self, pulses):
-        pass
 
-
-class BusBoard(VirtualBoard):
+class BusBoard:
     """labkit's board protocol in front of a servo bus (see the module notes).
 
     Parameters
@@ -66,6 +63,8 @@ class BusBoard(VirtualBoard):
 
     Attributes
     ----------
+    executor : Executor
+        The board's firmware: its state (``q``, ``segments``, ``done`` ...), commands and clock.
     reading : BusReading or None
         The last sync read.
     stream_rows : list of tuple
@@ -88,23 +87,194 @@ class BusBoard(VirtualBoard):
         robot = Robot.load(robot)
         if robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table, got {robot.name!r}")
+        self.robot = robot
         self.driver = driver
         self.fault = None
         self.reading = None
         self.stream_rows = []
         self.goals_sent = 0
+        self._model = model
         self._physics = model if model is not None else _Unpowered()
         self._settle = settle
         self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
         self._goal = None
         self._frames = 0
-        super().__init__(robot, PhysicsConfig(), queue=queue)
+        self.executor = Executor(self, robot.n, queue=queue)
+        self.executor.boot("POWER")
         atexit.register(_shutdown_at_exit, weakref.ref(self))  # torque off if the program ends with the arm open
 
-    # -- power-up: start where the arm is -----------------------------------------------------------
-    def _boot(self, reason, config):
-        self.model = self._physics
-        super()._boot(reason, config)
+    # -- what a port drives (labkit.arm.urlhandler) ---------------------------------------------------
+    @property
+    def time(self):
+        """Board time [s] since power-up."""
+        return self.executor.time
+
+    @property
+    def out_waiting(self):
+        """Number of bytes sent by the board and not yet taken."""
+        return self.executor.out_waiting
+
+    def take_output(self, size=None):
+        """Remove and return up to ``size`` bytes the board has sent (all if ``None``).
+
+        Parameters
+        ----------
+        size : int, optional
+
+        Returns
+        -------
+        bytes
+        """
+        return self.executor.take_output(size)
+
+    def next_event_time(self):
+        """Board time [s] of the next servo frame or stream frame.
+
+        Returns
+        -------
+        float
+        """
+        return self.executor.next_event_time()
+
+    def receive(self, data):
+        """Bytes from the host (refused once the bus has failed, see :meth:`Executor.receive`).
+
+        Parameters
+        ----------
+        data : bytes-like
+        """
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        self.executor.receive(data)
+
+    def advance_to(self, t):
+        """Run the board until board time ``t`` [s] (servo frames go to the bus).
+
+        Parameters
+        ----------
+        t : float
+        """
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        self.executor.advance_to(t)
+
+    def advance(self, dt):
+        """Run the board for ``dt`` seconds of board time.
+
+        Parameters
+        ----------
+        dt : float
+        """
+        self.advance_to(self.executor.time + dt)
+
+    def reset(self, reason="EXTERNAL"):
+        """Reset the board: RAM state lost, the servos read again where they are, ``READY`` 0.1 s later.
+
+        Parameters
+        ----------
+        reason : str
+        """
+        self.executor.boot(reason)
+
+    @property
+    def virtual_model(self):
+        """The virtual arm behind a virtual bus (:class:`labkit.arm.ArmModel`), ``None`` on a real bus."""
+        return self._model
+
+    def read_servos(self):
+        """A sync read of every servo now (board time), checked for faults.
+
+        Returns
+        -------
+        BusReading
+
+        Raises
+        ------
+        BusFault
+        """
+        return self._guard(self._read)
+
+    def servo_stream(self):
+        """The stream frames read since ``STREAM`` was switched on (a copy of :attr:`stream_rows`).
+
+        Returns
+        -------
+        list of tuple
+        """
+        return list(self.stream_rows)
+
+    def shutdown(self):
+        """Turn torque off and close the bus (never raises; the port's ``close`` calls it)."""
+        self.executor._halt()
+        self.driver.close()
+
+    # -- faults ------------------------------------------------------------------------------------------
+    def _guard(self, fn, *args):
+        if self.fault is not None:
+            raise BusFault(str(self.fault))
+        try:
+            return fn(*args)
+        except DeviceError as exc:
+            self._fail(exc)
+
+    def _fail(self, exc):
+        self.executor.segments.clear()
+        self.executor.state = "HOLD"
+        failed = self.driver.torque_off_quietly()
+        note = "torque is off on every servo" if not failed else \
+            f"torque off not acknowledged by servo(s) {', '.join(map(str, failed))}: switch the servo power off"
+        self.fault = BusFault(f"{exc}; the arm is stopped and {note}")
+        raise self.fault from None
+
+    # -- the servos: what the executor asks (its Servos interface); the servos' range is the joint limits ------
+    def joint_range(self, j, cal):
+        """Joint ``j``'s range ``lo, hi`` [cdeg]: its limits (``cal`` is not used on a bus).
+
+        Parameters
+        ----------
+        j : int
+        cal : sequence of int
+
+        Returns
+        -------
+        tuple of int
+        """
+        return self._lim[j]
+
+    def valid(self, j, q, cal):
+        """Whether ``q`` [cdeg] is within joint ``j``'s limits.
+
+        Parameters
+        ----------
+        j : int
+        q : float
+        cal : sequence of int
+
+        Returns
+        -------
+        bool
+        """
+        lo, hi = self._lim[j]
+        return lo <= q <= hi
+
+    def clamp(self, j, q, cal):
+        """``q`` [cdeg] clamped to joint ``j``'s limits.
+
+        Parameters
+        ----------
+        j : int
+        q : float
+        cal : sequence of int
+
+        Returns
+        -------
+        float
+        """
+        lo, hi = self._lim[j]
+        return min(max(q, lo), hi)
+
+    def power_up(self):
+        """Start where the arm is (see the module notes)."""
         self._guard(self._power_up)
 
     def _power_up(self):
@@ -118,51 +288,70 @@ class BusBoard(VirtualBoard):
                 raise BusFault(f"{driver.name}: joint {lk.name!r} rests at {math.degrees(q):.1f} deg, outside its limits "
                                f"{math.degrees(lo):.1f}..{math.degrees(hi):.1f} deg: torque stays off; move it "
                                f"inside by hand (or fix the robot file's bus zero {lk.bus.zero:g} / direction)")
-        self.q = [min(max(math.degrees(v) * 100, lo), hi) for v, (lo, hi) in zip(reading.q, self._lim)]
+        self.executor.q = [min(max(math.degrees(v) * 100, lo), hi) for v, (lo, hi) in zip(reading.q, self._lim)]
         self._write_goals([int(t) for t in reading.ticks])
         driver.set_profiles()
         driver.torque(True)
 
-    # -- faults ------------------------------------------------------------------------------------------
-    def _guard(self, fn, *args):
-        if self.fault is not None:
-            raise BusFault(str(self.fault))
-        try:
-            return fn(*args)
-        except DeviceError as exc:
-            self._fail(exc)
+    def settle(self):
+        """Run a virtual bus's physics up to board time."""
+        self._physics.advance_to(self.executor.time)
 
-    def _fail(self, exc):
-        self.segments.clear()
-        self.state = "HOLD"
-        failed = self.driver.torque_off_quietly()
-        note = "torque is off on every servo" if not failed else \
-            f"torque off not acknowledged by servo(s) {', '.join(map(str, failed))}: switch the servo power off"
-        self.fault = BusFault(f"{exc}; the arm is stopped and {note}")
-        raise self.fault from None
+    def frame(self):
+        """A servo frame: the goal positions in one sync write, a health read every few frames."""
+        self._guard(self._drive)
 
-    def shutdown(self):
-        """Turn torque off and close the bus (never raises; the port's ``close`` calls it)."""
-        self.segments.clear()
-        self.state = "IDLE"
-        self.driver.close()
+    def _drive(self):
+        ex = self.executor
+        goal = [int(lk.bus.ticks(math.radians(q / 100.0))) for lk, q in zip(self.robot.links, ex.q)]
+        self._physics.advance_to(ex.time)
+        if goal != self._goal:
+            self._write_goals(goal)
+            self.goals_sent += 1
+        self._frames += 1
+        if self._frames % HEALTH_FRAMES == 0 and ex.stream_hz == 0:
+            self._read()
 
-    # -- the servos' range replaces the hobby-servo window ------------------------------------------------
-    def _valid(self, j, q, cal=None):
-        lo, hi = self._lim[j]
-        return lo <= q <= hi
+    def feedback(self):
+        """``READ`` on a bus: the present positions as 10-bit counts of the servo's turn, and 0 for the pot.
 
-    def _clamp_servo(self, j, q):
-        lo, hi = self._lim[j]
-        return min(max(q, lo), hi)
+        Returns
+        -------
+        list of int
+        """
+        reading = self._guard(self._read)
+        res = self.robot.bus.resolution
+        return [int(round(int(t) % res * 1023 / (res - 1))) for t in reading.ticks] + [0]
 
-    def _feasible(self, j):
-        return self._lim[j]
+    def stream_frame(self, counter, t_ms):
+        """A stream frame: one sync read kept in :attr:`stream_rows`; no ``FB`` line is sent.
+
+        Parameters
+        ----------
+        counter : int
+        t_ms : int
+
+        Returns
+        -------
+        None
+        """
+        reading = self._guard(self._read)
+        self.stream_rows.append((counter, t_ms, *reading.ticks.tolist(), *reading.current.tolist()))
+
+    def stream_rate(self, hz):
+        """A new stream starts a new table of rows.
+
+        Parameters
+        ----------
+        hz : int
+        """
+        if hz:
+            self.stream_rows = []
 
     # -- the bus ---------------------------------------------------------------------------------------------
     def _read(self):
-        self._physics.advance_to(self.time)
-        self.reading = self.driver.read_state(self.time)
+        self._physics.advance_to(self.executor.time)
+        self.reading = self.driver.read_state(self.executor.time)
         return self.reading
 
     def _write_goals(self, goal):
@@ -170,75 +359,6 @@ class BusBoard(VirtualBoard):
         self._goal = goal
         if self._settle is not None and not self._settle(self.driver.sync_writes):
             raise BusFault(f"{self.driver.name}: the virtual bus did not take the goal positions within 2 s")
-
-    def read_now(self):
-        """A sync read of every servo now (board time), checked for faults.
-
-        Returns
-        -------
-        BusReading
-
-        Raises
-        ------
-        BusFault
-        """
-        return self._guard(self._read)
-
-    def receive(self, data):
-        """Bytes from the host (refused once the bus has failed, see :class:`VirtualBoard`).
-
-        Parameters
-        ----------
-        data : bytes-like
-        """
-        if self.fault is not None:
-            raise BusFault(str(self.fault))
-        super().receive(data)
-
-    def advance_to(self, t):
-        """Run the board until board time ``t`` [s] (servo frames go to the bus).
-
-        Parameters
-        ----------
-        t : float
-        """
-        if self.fault is not None:
-            raise BusFault(str(self.fault))
-        super().advance_to(t)
-
-    def _servo_frame(self):
-        super()._servo_frame()
-        self._guard(self._drive)
-
-    def _drive(self):
-        goal = [int(lk.bus.ticks(math.radians(q / 100.0))) for lk, q in zip(self.robot.links, self.q)]
-        self._physics.advance_to(self.time)
-        if goal != self._goal:
-            self._write_goals(goal)
-            self.goals_sent += 1
-        self._frames += 1
-        if self._frames % HEALTH_FRAMES == 0 and self.stream_hz == 0:
-            self._read()
-
-    def _adc(self):
-        """``READ`` on a bus: the present positions as 10-bit counts of the servo's turn, and 0 for the pot."""
-        reading = self._guard(self._read)
-        res = self.robot.bus.resolution
-        return [int(round(int(t) % res * 1023 / (res - 1))) for t in reading.ticks] + [0]
-
-    def _stream_frame(self):
-        reading = self._guard(self._read)
-        t_ms = self.clock_ms
-        self.stream_rows.append((self.stream_counter, t_ms, *reading.ticks.tolist(), *reading.current.tolist()))
-        self.stream_counter = (self.stream_counter + 1) % 65536
-        self._stream_k += 1
-        self.stream_next = self._stream_t0 + self._stream_k / self.stream_hz
-
-    def _cmd_stream(self, args):
-        out = super()._cmd_stream(args)
-        if self.stream_hz:
-            self.stream_rows = []
-        return out
 
 
 def _shutdown_at_exit(ref):
@@ -282,7 +402,7 @@ def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None, laten
     if robot.bus is None or robot.bus.kind != kind:
         got = "no [bus] table" if robot.bus is None else f"[bus] kind = {robot.bus.kind!r}"
         raise OptionError(f"expected robot {robot.name!r} to have [bus] kind = {kind!r} for a {kind} bus, got {got}")
-    driver = DRIVERS[kind](device, robot, name=name, latency=latency)
+    driver = bus_module(kind).Driver(device, robot, name=name, latency=latency)
     try:
         return BusBoard(robot, driver, model=model, queue=queue, settle=settle)
     except BaseException:

@@ -257,3 +257,6 @@ class DynamixelDriver(BusDriver):
 
     def _acceleration_value(self, rad_s2):
         return max(1, round(rad_s2 * 3600 / (2 * 3.141592653589793) / ACCELERATION_UNIT))
+
+#: the host side of this bus (the registry's contract, :mod:`labkit.arm.bus`)
+Driver = DynamixelDriver

@@ -209,3 +209,6 @@ class FeetechDriver(BusDriver):
 
     def _acceleration_value(self, rad_s2):
         return min(max(1, round(rad_s2 * self.resolution / (2 * 3.141592653589793) / ACCELERATION_UNIT)), 254)
+
+#: the host side of this bus (the registry's contract, :mod:`labkit.arm.bus`)
+Driver = FeetechDriver

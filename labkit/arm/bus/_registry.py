@@ -1,33 +1,59 @@
-"""The bus kinds labkit drives: one module per bus (control table, packet codec, SDK driver), one entry here.
+"""The bus kinds labkit drives: one codec module per bus, one entry here.
 
-Adding a bus is one new module with the same names (``KIND``, ``TABLE``, ``STATE``, ``encode``,
-``decode``, ``status``, ``ping_reply``, its driver class ...) and one entry in :data:`BUSES`.
+:data:`BUSES` is data: a bus kind (the robot file's ``[bus] kind``, the URL scheme ``<kind>://``, the
+``sim://...?bus=<kind>`` option) -> the module that holds everything the bus fixes for both ends. A
+codec module defines:
+
+- ``KIND``; ``TABLE`` (control-table field -> ``(address, size)``), ``STATE`` (the ``(address, size)`` a
+  sync read of the state takes), ``MODEL`` (the model number virtual servos report), ``CURRENT_UNIT``
+  [A per LSB], ``TORQUE_CONSTANT`` [N m / A], ``HARDWARE_ERRORS`` (bit -> name), ``ALERT`` (the status
+  error bit that means "read the hardware error", or ``None``), ``INSTRUCTIONS`` (code -> ``"ping"``,
+  ``"read"``, ``"write"``, ``"sync read"``, ``"sync write"``), ``BROADCAST``, ``ADDRESS_BYTES``,
+  ``SIGN_MAGNITUDE``;
+- ``encode(servo_id, instruction, params, error=None)``, ``decode(buffer)``, ``status(servo_id, error,
+  params)`` and ``ping_reply(model)``: the packet codec the virtual bus (:class:`BusEmulator`) parses
+  and answers with;
+- ``Driver``: its :class:`BusDriver` subclass, the host side through the vendor SDK.
+
+Adding a bus is that module and one entry in :data:`BUSES`; the board (:class:`BusBoard`), the
+virtual bus, the URL handlers and :class:`labkit.arm.Arm` find it here. (The robot file's loader
+keeps its own list of the kinds a ``[bus]`` table may name, :data:`labkit.robot.BUS_KINDS`.)
 """
 
 from __future__ import annotations
 
+import importlib
+
 from labkit.exceptions import OptionError
-from labkit.arm.bus import _dynamixel, _feetech
 
 __all__ = ["BUSES", "bus_module"]
 
-#: bus kind (the robot file's ``[bus] kind``, the URL scheme) -> its module
-BUSES = {"dynamixel": _dynamixel, "feetech": _feetech}
-#: bus kind -> its host driver class
-DRIVERS = {"dynamixel": _dynamixel.DynamixelDriver, "feetech": _feetech.FeetechDriver}
+#: bus kind -> its codec module (imported on first use)
+BUSES = {"dynamixel": "labkit.arm.bus._dynamixel", "feetech": "labkit.arm.bus._feetech"}
 
 
 def bus_module(kind):
-    """The module of bus ``kind``, or an :class:`OptionError` listing the kinds.
+    """The codec module of bus ``kind``, or an :class:`OptionError` listing the kinds.
 
     Parameters
     ----------
     kind : str
+        A key of :data:`BUSES`.
 
     Returns
     -------
     module
+
+    Raises
+    ------
+    OptionError
+        ``kind`` is not a key of :data:`BUSES`.
+
+    Examples
+    --------
+    >>> bus_module("feetech").KIND
+    'feetech'
     """
     if kind not in BUSES:
         raise OptionError(f"expected a bus kind, one of {', '.join(BUSES)}, got {kind!r}")
-    return BUSES[kind]
+    return importlib.import_module(BUSES[kind])

@@ -1,7 +1,7 @@
 """Streams of a servo bus: every frame one sync read of positions and currents, as a table.
 
 On a bus the host-side :class:`BusBoard` takes the readings itself (a sync read per frame at the
-stream rate, on its board clock), so nothing travels as ``FB`` lines and nothing is lost between
+stream rate, on its board clock; the port's ``servo_stream``), so nothing travels as ``FB`` lines and nothing is lost between
 board and host: a lost or corrupt status packet on the bus is a :class:`BusFault`, not a gap.
 """
 
@@ -26,7 +26,8 @@ def record_bus_stream(wire, robot, duration, hz):
     Parameters
     ----------
     wire : object
-        The link's wire (``transact``, ``pump``, ``clock``, ``port``); its port holds the :class:`BusBoard`.
+        The link's wire (``transact``, ``pump``, ``clock``, ``io``, ``port``); its port (a
+        :class:`labkit.arm.BoardPort`) offers the frames (``servo_stream``).
     robot : labkit.robot.Robot
         The robot with the ``[bus]`` table.
     duration : float
@@ -56,9 +57,9 @@ def record_bus_stream(wire, robot, duration, hz):
     if isinstance(hz, bool) or not isinstance(hz, (int, float)) or hz != int(hz) or not 1 <= hz <= 200:
         raise OptionError(f"expected hz as a whole number in 1..200 Hz, got {hz!r}")
     hz = int(hz)
-    board = getattr(wire.port, "board", None)
-    if not hasattr(board, "stream_rows"):
-        raise DeviceError(f"{wire.name}: expected a servo-bus board behind the port, got {board!r}")
+    if wire.io(wire.port.servo_stream) is None:
+        raise DeviceError(f"{wire.name}: expected a servo-bus board behind the port (its stream frames read from the "
+                          f"servos), got a board that sends FB lines")
     t_begin = wire.transact("PING", parse=_ping)
     wire.transact("STREAM", hz)
     try:
@@ -67,7 +68,7 @@ def record_bus_stream(wire, robot, duration, hz):
             wire.pump(min(t_end - wire.clock(), 0.05))
     finally:
         wire.transact("STREAM", 0)
-    rows = list(board.stream_rows)
+    rows = wire.io(wire.port.servo_stream)
     n = robot.n
     names = robot.joint_names
     cols = ["counter", "t_ms", *(f"tick{j}" for j in range(n)), *(f"current_{nm}" for nm in names)]

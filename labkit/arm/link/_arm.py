@@ -2,7 +2,8 @@
 
 :class:`Arm` opens a real board (``/dev/ttyACM0``, ``COM3``, auto-detected), the virtual arm
 (``sim://``), the firmware simulator (``simavr://``) or a servo bus (``dynamixel://``,
-``feetech://``, ``sim://...?bus=``: a host-side board, :mod:`labkit.arm.bus`), waits for the board's
+``feetech://``, ``sim://...?bus=``: a host-side board, :mod:`labkit.arm.bus`), all through one interface
+(:class:`labkit.arm.BoardPort`: it never asks which kind of board it has), waits for the board's
 ``READY`` after the reset-on-open, shakes hands, and offers the lab operations in SI units: joint
 moves (checked against the robot file's limits and servo ranges *before* anything is sent),
 Cartesian moves through :func:`labkit.kinematics.ik`, trajectories streamed as polynomial
@@ -39,7 +40,7 @@ from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
                                   move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import record_stream
-from labkit.arm.link._ports import first_arduino, handshake, open_port
+from labkit.arm.link._ports import board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
 
 __all__ = ["Arm"]
@@ -64,7 +65,8 @@ class Arm:
     ----------
     port : str or serial-like, optional
         Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``, ``simavr://``, ``dynamixel://``,
-        ``feetech://``, any pyserial URL) or an open pyserial-like object; ``None`` auto-detects an Arduino.
+        ``feetech://``, any pyserial URL), an open :class:`BoardPort` or an open pyserial-like port to a real
+        board (wrapped in an :class:`~labkit.arm.link.ArduinoPort`); ``None`` auto-detects an Arduino.
     robot : Robot or str
         The robot file whose servo calibrations and limits the host enforces.
     baudrate : int
@@ -124,7 +126,7 @@ class Arm:
 
         register()
         if port is not None and not isinstance(port, (str, bytes)):
-            return port
+            return board_port(port)
         return open_port(first_arduino() if port is None else port, baudrate, robot)
 
     def close(self):
@@ -141,7 +143,7 @@ class Arm:
         return f"Arm({self.name!r}, robot={self.robot.name!r})"
 
     # -- the link's state, held by the wire object -------------------------------------------------
-    port = _on_wire("port", "The open pyserial-like port (``None`` after :meth:`close`).")
+    port = _on_wire("port", "The open port (a :class:`BoardPort`, pyserial-like; ``None`` after :meth:`close`).")
     name = _on_wire("name", "Port name (``/dev/ttyACM0``, ``sim://...``) used in error messages.")
     timeout = _on_wire("timeout", "Reply timeout of one request attempt [s] (settable: finite, 1e-4..60 s).", reply_timeout)
     retries = _on_wire("retries", "Extra attempts of a request whose reply was lost or garbled (settable: 0..1000).",
@@ -170,13 +172,7 @@ class Arm:
         (2, 3)
         """
         port = self.port
-        if hasattr(port, "virtual_model"):  # sim:// (with or without a servo bus), dynamixel://, feetech://
-            return port.virtual_model
-        for owner in (getattr(port, "board", None), getattr(port, "physics", None)):  # simavr://, wrappers
-            model = getattr(owner, "model", None)
-            if model is not None:
-                return model
-        return None
+        return None if port is None else port.virtual_model
 
     def _clock(self):
         return self._wire.clock()
@@ -287,7 +283,7 @@ class Arm:
             From :meth:`read_adc` through each joint's servo calibration, or one sync read of a servo bus.
         """
         if self.robot.bus is not None:
-            return self.port.read_bus().q
+            return self._read_servos().q
         adc = self.read_adc()
         return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
 
@@ -303,7 +299,16 @@ class Arm:
         if self.robot.bus is None:
             raise DeviceError(f"{self.name}: expected an arm on a servo bus ([bus] in the robot file) to read the "
                               f"load of, got {self.robot.name!r} with hobby servos (they report no current)")
-        return self.port.read_bus().current
+        return self._read_servos().current
+
+    def _read_servos(self):
+        """One sync read of a servo bus through the port (:meth:`BoardPort.read_servos`)."""
+        reading = self._wire.io(lambda: self.port.read_servos())
+        if reading is None:
+            raise DeviceError(f"{self.name}: expected a port on a servo bus (sim://...?bus=, dynamixel://, feetech://) "
+                              f"to read present positions and currents from, got a board that reports its joints "
+                              f"only as READ lines")
+        return reading
 
     # -- configuration ---------------------------------------------------------------------
     def speed_limits(self):

@@ -1,6 +1,6 @@
 """Real-board start-up (private; the public names are re-exported by :mod:`labkit.arm`).
 
-Which serial ports exist and which look like an Arduino (pyserial's
+A real board's pyserial port as a :class:`labkit.arm.BoardPort` (:class:`ArduinoPort`); which serial ports exist and which look like an Arduino (pyserial's
 :func:`serial.tools.list_ports.comports`, USB vendor/product ids); opening
 one with errors that say what to do: a port held by another program (the
 Arduino IDE's serial monitor) or one the user may not open (Linux: the
@@ -18,13 +18,16 @@ from __future__ import annotations
 
 import errno
 import sys
+import time
 from dataclasses import dataclass
 
 from labkit.exceptions import DeviceError, ProtocolError
+from labkit.arm._board_port import BoardPort
+from labkit.arm._faults import PortWrapper
 from labkit.arm._protocol import PROTOCOL_VERSION
 from labkit.arm.link._replies import BoardInfo, parse_hello
 
-__all__ = ["PortInfo", "list_ports", "find_ports"]
+__all__ = ["ArduinoPort", "PortInfo", "list_ports", "find_ports"]
 
 #: USB vendor ids of Arduino boards and the USB-serial chips of common clones
 #: oldest firmware the host drives: 3.0.0 speaks protocol 3 (every line sealed with a CRC-32); before it 2.1.0 gave
@@ -37,6 +40,69 @@ ARDUINO_VIDS = {0x2341: "Arduino", 0x2A03: "Arduino.org", 0x1A86: "CH340 (clone)
                 0x239A: "Adafruit"}
 #: USB vendor ids of the USB-serial chips of servo-bus adapters (ROBOTIS U2D2: FTDI FT232H), not taken for an Arduino
 BUS_ADAPTER_VIDS = {0x0403: "FTDI"}
+
+
+class ArduinoPort(PortWrapper):
+    """A pyserial port to a real board (an Arduino running labkit's firmware) as a :class:`BoardPort`.
+
+    Bytes, ``timeout`` and everything else go to the wrapped port; the host keeps the wall clock
+    (``board_time`` is ``None``, ``clock`` ``"realtime"`` at ``time_scale`` 1, :meth:`sleep` sleeps), the
+    board's joints come back only as protocol lines (:meth:`read_servos` is ``None``) and nothing is
+    simulated (``virtual_model`` is ``None``).
+
+    Parameters
+    ----------
+    port : serial-like
+        An open pyserial port (or any object with pyserial's ``read``, ``write``, ``in_waiting``,
+        ``timeout`` and ``close``).
+    """
+
+    board_time = None
+    clock = "realtime"
+    time_scale = 1.0
+    virtual_model = None
+
+    def sleep(self, seconds):
+        """Wait ``seconds`` of the wall clock.
+
+        Parameters
+        ----------
+        seconds : float
+        """
+        time.sleep(seconds)
+
+    def read_servos(self):
+        """``None``: a real board reports its joints as ``READ`` and ``FB`` lines.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+    def servo_stream(self):
+        """``None``: a real board's stream frames travel as ``FB`` lines.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+
+def board_port(port):
+    """``port`` as a :class:`BoardPort`: as it is if it is one, else a real board's port (:class:`ArduinoPort`).
+
+    Parameters
+    ----------
+    port : serial-like
+        An open port.
+
+    Returns
+    -------
+    BoardPort
+    """
+    return port if isinstance(port, BoardPort) else ArduinoPort(port)
 
 
 @dataclass(frozen=True)
@@ -144,8 +210,8 @@ def open_port(port, baudrate, robot=None):
 
     Returns
     -------
-    serial.SerialBase
-        The open port (read timeout 0.05 s).
+    BoardPort
+        The open port (read timeout 0.05 s); a device's pyserial port wrapped in an :class:`ArduinoPort`.
 
     Raises
     ------
@@ -153,11 +219,11 @@ def open_port(port, baudrate, robot=None):
         The port does not exist, is held by another program, or may not be opened by this user.
     """
     import serial
-    from labkit.robot import BUS_KINDS
+    from labkit.arm.bus import BUSES
 
-    bus = {"robot": robot} if str(port).split("://", 1)[0].lower() in BUS_KINDS else {}
+    bus = {"robot": robot} if str(port).split("://", 1)[0].lower() in BUSES else {}
     try:
-        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.05, **bus)
+        return board_port(serial.serial_for_url(port, baudrate=baudrate, timeout=0.05, **bus))
     except (serial.SerialException, OSError, ValueError) as exc:
         if bus and isinstance(exc, DeviceError):  # a silent servo, an arm outside its limits: the message says
             raise

@@ -89,8 +89,8 @@ class Wire:
 
     Parameters
     ----------
-    port : serial-like
-        An open pyserial-like port.
+    port : BoardPort
+        An open port to the board (:class:`labkit.arm.BoardPort`).
     name : str
         Port name used in error messages.
     timeout : float
@@ -136,8 +136,8 @@ class Wire:
     def clock(self):
         """Board time [s] for a simulated board (``sim://``, ``simavr://``), else the wall clock.
 
-        A port that knows its board's time offers it as ``port.board_time`` (also
-        through port wrappers such as :class:`FaultyPort`). All waits and timeouts of
+        The port (a :class:`labkit.arm.BoardPort`) offers its board's time as ``port.board_time``, or
+        ``None`` for a real board. All waits and timeouts of
         the link are in these seconds, so a simulated board running faster or slower
         than real time, or stepped by the host's waits (``clock=lockstep``), keeps
         its timing whatever the host machine does.
@@ -148,7 +148,7 @@ class Wire:
             Seconds (board time since power-up, or ``time.monotonic()``).
         """
         port = self.port
-        board_time = None if port is None else self.io(getattr, port, "board_time", None)
+        board_time = None if port is None else self.io(lambda: port.board_time)
         return time.monotonic() if board_time is None else board_time
 
     def _port_seconds(self, seconds):
@@ -158,8 +158,9 @@ class Wire:
         ``port.time_scale`` times faster; any other port (a real board, or a
         ``lockstep`` one whose reads wait in board time) takes board seconds.
         """
-        if getattr(self.port, "clock", "") == "realtime":
-            return seconds / self.port.time_scale
+        port = self.port
+        if port is not None and port.clock == "realtime":
+            return seconds / port.time_scale
         return seconds
 
     # -- bytes and lines ---------------------------------------------------------------------
@@ -352,7 +353,7 @@ class Wire:
 
     def _wire_timed(self, command):
         """Whether the reply to ``command`` is bounded by wire times: a lockstep port, and not ``SAVE``."""
-        return command not in _SLOW_COMMANDS and getattr(self.port, "clock", None) == "lockstep"
+        return command not in _SLOW_COMMANDS and self.port is not None and self.port.clock == "lockstep"
 
     def _await(self, seq, timeout=None, quiet=None):
         """The reply to ``seq`` within ``timeout`` [s]; on a lockstep port give up once the line stays ``quiet``.

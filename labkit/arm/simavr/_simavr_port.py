@@ -15,8 +15,8 @@ return. Its ``clock`` says how the simulator's time relates to the host's waits:
     The simulator runs free (about 10x real time) or paced to the wall clock (``pace=1``); reads
     wait on the wall clock, :attr:`SimavrPort.board_time` still reads simulated time.
 
-The link (:class:`labkit.arm.Arm`) reads ``board_time``, ``clock`` and ``time_scale`` of any port
-that has them and then keeps every wait and timeout in board seconds.
+The port is a :class:`labkit.arm.BoardPort`: the link (:class:`labkit.arm.Arm`) reads its
+``board_time``, ``clock`` and ``time_scale`` and keeps every wait and timeout in board seconds.
 """
 
 from __future__ import annotations
@@ -72,6 +72,8 @@ class SimavrPort(serialposix.Serial):
     """
 
     sim = None
+    #: the arm model the firmware's servo pulses drive (``simavr://?physics=``), else None
+    physics = None
 
     def __init__(self, sim=None, *, clock="lockstep", **serial_options):
         if clock not in CLOCKS:
@@ -107,6 +109,29 @@ class SimavrPort(serialposix.Serial):
         if self._clock == "lockstep":
             return self.sim.board_time
         return self.sim.time()
+
+    @property
+    def virtual_model(self):
+        """The simulated arm behind the firmware (:class:`labkit.arm.ArmModel`) with ``physics``, else ``None``."""
+        return None if self.physics is None else self.physics.model
+
+    def read_servos(self):
+        """``None``: the firmware drives hobby servos, whose joints come back only as ``READ`` and ``FB`` lines.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+    def servo_stream(self):
+        """``None``: the firmware's stream frames travel as ``FB`` lines.
+
+        Returns
+        -------
+        None
+        """
+        return None
 
     def sleep(self, seconds):
         """Let ``seconds`` of board time pass (lockstep: the simulator runs them at full speed).

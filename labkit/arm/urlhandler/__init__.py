@@ -1,14 +1,23 @@
 """pyserial URL handlers of labkit (``sim://`` virtual arm, ``simavr://`` firmware simulator,
-``dynamixel://`` and ``feetech://`` servo buses).
+``<bus>://`` servo buses: ``dynamixel://``, ``feetech://``, every kind of :data:`labkit.arm.bus.BUSES`).
 
 pyserial looks for ``protocol_<scheme>`` modules in the packages listed in
-``serial.protocol_handler_packages``; :func:`register` adds this package once.
+``serial.protocol_handler_packages``; :func:`register` adds this package once and names
+:mod:`labkit.arm.urlhandler.bus_port` as the ``protocol_<kind>`` module of every bus kind of the
+registry, so that a new bus kind needs no handler module of its own.
 """
+
+import sys
 
 import serial
 
 
 def register():
     """Make ``serial.serial_for_url`` understand labkit's URL schemes (idempotent)."""
+    from labkit.arm.bus import BUSES
+    from labkit.arm.urlhandler import bus_port
+
     if __name__ not in serial.protocol_handler_packages:
         serial.protocol_handler_packages.append(__name__)
+    for kind in BUSES:
+        sys.modules.setdefault(f"{__name__}.protocol_{kind}", bus_port)

@@ -12,7 +12,8 @@ URL form::
 * ``latency``: the adapter's latency [ms] in the SDK's status-packet timeout (default: the SDK's 16 ms, an
   FTDI adapter's default latency timer; a U2D2 set to 1 ms may use less, a busy host more).
 
-The port holds a :class:`labkit.arm.bus.BusBoard` on the wall clock (``clock=realtime``,
+Any bus kind of :data:`labkit.arm.bus.BUSES` is a scheme. The port holds a
+:class:`labkit.arm.bus.BusBoard` on the wall clock (``clock=realtime``,
 ``time_scale=1``): :class:`labkit.arm.Arm` speaks labkit's protocol to it as to any board, and it
 drives the servos through the vendor SDK. The robot (its ``[bus]`` table) is the one the
 :class:`~labkit.arm.Arm` is opened with (``serial_for_url(url, robot=...)``).
@@ -25,9 +26,9 @@ import urllib.parse
 from dataclasses import replace
 
 from labkit.arm._port_errors import PortURLError
-from labkit.arm.urlhandler.protocol_sim import Serial as SimSerial
+from labkit.arm.urlhandler.board_serial import BoardSerial
 
-__all__ = ["parse_bus_url", "BusSerial"]
+__all__ = ["parse_bus_url", "BusSerial", "Serial"]
 
 
 def parse_bus_url(url):
@@ -40,7 +41,7 @@ def parse_bus_url(url):
     Returns
     -------
     kind : str
-        ``"dynamixel"`` or ``"feetech"``.
+        A bus kind of :data:`labkit.arm.bus.BUSES` (``"dynamixel"``, ``"feetech"`` ...).
     device : str
         The adapter's serial device.
     options : dict
@@ -56,11 +57,11 @@ def parse_bus_url(url):
     >>> parse_bus_url("dynamixel:///dev/ttyUSB0?baud=57600")
     ('dynamixel', '/dev/ttyUSB0', {'baud': 57600, 'queue': 6, 'latency': None})
     """
-    from labkit.robot import BUS_KINDS
+    from labkit.arm.bus import BUSES
 
     parts = urllib.parse.urlsplit(url)
-    if parts.scheme not in BUS_KINDS:
-        raise PortURLError(f"expected a URL <bus>://<device> with <bus> one of {', '.join(BUS_KINDS)}, got {url!r}")
+    if parts.scheme not in BUSES:
+        raise PortURLError(f"expected a URL <bus>://<device> with <bus> one of {', '.join(BUSES)}, got {url!r}")
     device = urllib.parse.unquote(parts.netloc + parts.path)
     if not device:
         raise PortURLError(f"{url}: expected the bus adapter's device after {parts.scheme}:// "
@@ -81,8 +82,8 @@ def parse_bus_url(url):
     return parts.scheme, device, options
 
 
-class BusSerial(SimSerial):
-    """A pyserial-like port holding a :class:`labkit.arm.bus.BusBoard` on a real bus (see the module notes).
+class BusSerial(BoardSerial):
+    """A pyserial port holding a :class:`labkit.arm.bus.BusBoard` on a real bus (see the module notes).
 
     Parameters
     ----------
@@ -95,7 +96,13 @@ class BusSerial(SimSerial):
         super().__init__(*args, **kwargs)
 
     def open(self):
-        """Open the bus through its SDK and start the host-side board (pyserial calls this)."""
+        """Open the bus through its SDK and start the host-side board (pyserial calls this).
+
+        Raises
+        ------
+        PortURLError
+            A malformed URL, no robot file, or one whose ``[bus] kind`` is not the URL's.
+        """
         from labkit.arm.bus import open_bus_board
         from labkit.exceptions import OptionError
         from labkit.robot import Robot
@@ -116,3 +123,7 @@ class BusSerial(SimSerial):
         self._scale = 1.0
         self._t0 = time.monotonic()
         self.is_open = True
+
+
+#: the class pyserial's ``serial_for_url`` opens for ``<kind>://`` (see :func:`labkit.arm.urlhandler.register`)
+Serial = BusSerial

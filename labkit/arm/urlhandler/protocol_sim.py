@@ -15,7 +15,7 @@ URL form::
   calibration (saved with ``CAL`` + ``SAVE``), so the joints start at the middle of their
   limits; default ``0``, the factory calibration (every servo centred at 90 deg), under which
   a robot whose limits exclude 90 deg cannot be calibrated;
-* ``bus``: ``dynamixel`` or ``feetech`` puts a virtual servo bus between the board and the arm: the
+* ``bus``: a bus kind (:data:`labkit.arm.bus.BUSES`: ``dynamixel``, ``feetech``) puts a virtual servo bus between the board and the arm: the
   robot file's ``[bus]`` table names the servos, a :class:`labkit.arm.bus.BusEmulator` serves them on a
   pseudo-terminal and a :class:`labkit.arm.bus.BusBoard` drives them through the vendor SDK (default:
   none, the hobby-servo board); the bus's physics has no deadband unless ``deadband`` is given;
@@ -36,19 +36,15 @@ b'READY labkit-arm 3 '
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 import urllib.parse
 
-from serial.serialutil import SerialBase, to_bytes
-
-from labkit.arm._port_errors import PortClosedError, PortError, PortURLError
+from labkit.arm._port_errors import PortError, PortURLError
+from labkit.arm.urlhandler.board_serial import BoardSerial
 
 CLOCKS = ("realtime", "lockstep")
 #: the adapter latency [ms] the SDK's status timeouts assume on a virtual bus (a loaded host answers late)
 VIRTUAL_BUS_LATENCY = 100.0
-#: longest wait [s of board time] of a lockstep read with ``timeout=None`` before it fails
-_BLOCKING_LIMIT = 120.0
 
 
 def _parse_value(field, text):
@@ -85,7 +81,7 @@ def parse_url(url):
         also a ``serial.SerialException``.
     """
     from labkit.arm.board import PhysicsConfig
-    from labkit.robot import BUS_KINDS
+    from labkit.arm.bus import BUSES
 
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "sim":
@@ -113,8 +109,8 @@ def parse_url(url):
                     raise PortURLError(f"{url}: expected calibrated=0 or 1, got {value!r}")
                 options["calibrated"] = value == "1"
             elif key == "bus":
-                if value not in BUS_KINDS:
-                    raise PortURLError(f"{url}: expected bus one of {', '.join(BUS_KINDS)}, got {value!r}")
+                if value not in BUSES:
+                    raise PortURLError(f"{url}: expected bus one of {', '.join(BUSES)}, got {value!r}")
                 options["bus"] = value
             else:
                 valid = ", ".join(["clock", "time_scale", "queue", "calibrated", *fields, "bus"])
@@ -127,16 +123,13 @@ def parse_url(url):
     return robot, physics, options
 
 
-class Serial(SerialBase):
-    """A pyserial port whose other end is a :class:`labkit.arm.VirtualBoard` (attribute ``board``)."""
+class Serial(BoardSerial):
+    """A pyserial port whose other end is a :class:`labkit.arm.VirtualBoard` or, with ``bus=``, a
+    :class:`labkit.arm.bus.BusBoard` on a virtual bus (attribute ``board``; see :class:`BoardSerial`)."""
 
     def __init__(self, *args, **kwargs):
-        self.board = None
         #: the virtual servo bus of ``bus=...`` (a :class:`labkit.arm.bus.BusEmulator`), else None
         self.emulator = None
-        self._clock = "realtime"
-        self._scale = 1.0
-        self._t0 = 0.0
         super().__init__(*args, **kwargs)
 
     # -- pyserial plumbing ---------------------------------------------------------
@@ -179,194 +172,6 @@ class Serial(SerialBase):
 
     def close(self):
         """Close the port; the board object stays inspectable (a bus board turns torque off, its bus closes)."""
-        if self.is_open and hasattr(self.board, "shutdown"):
-            self.board.shutdown()
+        super().close()
         if self.emulator is not None:
             self.emulator.close()
-        self.is_open = False  # the board object stays inspectable after close
-        super().close()
-
-    # -- a servo bus (bus=..., dynamixel://, feetech://) ----------------------------------------------
-    @property
-    def virtual_model(self):
-        """The simulated arm (:class:`labkit.arm.ArmModel`), ``None`` behind a real servo bus."""
-        if self.emulator is not None:
-            return self.emulator.model
-        return None if hasattr(self.board, "driver") else getattr(self.board, "model", None)
-
-    def read_bus(self):
-        """A sync read of every servo of a bus board now (:class:`labkit.arm.bus.BusReading`).
-
-        Returns
-        -------
-        BusReading
-
-        Raises
-        ------
-        PortError
-            The board is not on a servo bus.
-        """
-        self._check_open()
-        if not hasattr(self.board, "read_now"):
-            raise PortError(f"{self.port}: expected a port on a servo bus (bus=..., dynamixel://, feetech://) to read "
-                            f"present positions and currents from, got a hobby-servo board")
-        self._sync()
-        return self.board.read_now()
-
-    def _reconfigure_port(self):
-        pass
-
-    def _update_dtr_state(self):
-        pass
-
-    def _update_rts_state(self):
-        pass
-
-    def _update_break_state(self):
-        pass
-
-    @property
-    def cts(self):
-        return True
-
-    @property
-    def dsr(self):
-        return True
-
-    @property
-    def ri(self):
-        return False
-
-    @property
-    def cd(self):
-        return True
-
-    # -- clock -------------------------------------------------------------------------
-    @property
-    def clock(self):
-        """``"realtime"`` or ``"lockstep"``."""
-        return self._clock
-
-    @property
-    def time_scale(self):
-        """Board seconds per wall-clock second (realtime clock)."""
-        return self._scale
-
-    @property
-    def board_time(self):
-        """Board time since power-up [s]: the link's clock for this port (brought up to date first).
-
-        Returns
-        -------
-        float
-        """
-        if self.is_open:
-            self._sync()
-        return self.board.time
-
-    def _sync(self):
-        if self._clock == "realtime":
-            self.board.advance_to((time.monotonic() - self._t0) * self._scale)
-
-    def sleep(self, seconds):
-        """Let ``seconds`` of *board* time pass (lockstep: instantly).
-
-        Parameters
-        ----------
-        seconds : float
-            Board time [s].
-        """
-        self._check_open()
-        if self._clock == "lockstep":
-            self.board.advance(seconds)
-        else:
-            time.sleep(seconds / self._scale)
-            self._sync()
-
-    def _check_open(self):
-        if not self.is_open or self.board is None:
-            raise PortClosedError(self.port)
-
-    # -- data ----------------------------------------------------------------------------
-    @property
-    def in_waiting(self):
-        self._check_open()
-        self._sync()
-        return self.board.out_waiting
-
-    def read(self, size=1):
-        """Read up to ``size`` bytes the board sent, waiting up to ``timeout`` (board time when lockstep).
-
-        Parameters
-        ----------
-        size : int
-            Largest number of bytes.
-
-        Returns
-        -------
-        bytes
-        """
-        self._check_open()
-        board = self.board
-        timeout = self._timeout
-        data = bytearray()
-        if self._clock == "lockstep":
-            # timeout=None blocks until `size` bytes came; in lockstep a board that sends nothing would make that
-            # an endless loop of servo frames, so the wait ends with an error after _BLOCKING_LIMIT of board time
-            limit = board.time + (_BLOCKING_LIMIT if timeout is None else timeout)
-            while len(data) < size:
-                if board.out_waiting:
-                    data += board.take_output(size - len(data))
-                    continue
-                nxt = min(board.next_event_time(), limit)
-                if board.time >= limit or math.isinf(nxt):
-                    if timeout is not None:
-                        break
-                    raise PortError(f"{self.port}: expected a read timeout with clock=lockstep (board time passes "
-                                    f"only while the host waits), got timeout=None and {len(data)} of {size} "
-                                    f"bytes after {_BLOCKING_LIMIT:g} s of board time: the read would block forever")
-                board.advance_to(nxt)
-            return bytes(data)
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while len(data) < size:
-            self._sync()
-            if board.out_waiting:
-                data += board.take_output(size - len(data))
-                continue
-            now = time.monotonic()
-            if deadline is not None and now >= deadline:
-                break
-            time.sleep(0.0005 if deadline is None else min(0.0005, deadline - now))
-        return bytes(data)
-
-    def write(self, data):
-        """Send ``data`` to the board at the current board time.
-
-        Parameters
-        ----------
-        data : bytes-like
-
-        Returns
-        -------
-        int
-            ``len(data)``.
-        """
-        self._check_open()
-        data = to_bytes(data)
-        self._sync()
-        self.board.receive(data)
-        return len(data)
-
-    def reset_input_buffer(self):
-        """Discard what the board has sent and the host has not read."""
-        self._check_open()
-        self._sync()
-        self.board.take_output()
-
-    def reset_output_buffer(self):
-        """Nothing to discard: written bytes reach the board at once."""
-        self._check_open()
-
-    @property
-    def out_waiting(self):
-        return 0

@@ -119,7 +119,6 @@ def parse_url(url):
 class Serial(SimavrPort):
     """A pyserial port on the simulated Uno's UART0 (see module docstring)."""
 
-    physics = None
 
     def open(self):
         """Start the simulator (and the arm model with ``physics``), open its pty, then run the CPU."""
