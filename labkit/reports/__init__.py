@@ -1,6 +1,6 @@
 """Reports: executing lab notebooks (papermill on the virtual arm), rendering them to
 self-contained HTML and PDF, and the helpers notebooks use to close a section
-(:class:`Checks`, :func:`check`, LaTeX and tables).
+(:class:`Checks`, :func:`check`, LaTeX, and :func:`report_table`, the one table style).
 
 The course loop (student versions, grading) is :mod:`labkit.course`; making and
 opening labs is :mod:`labkit.labs`.
@@ -8,7 +8,8 @@ opening labs is :mod:`labkit.labs`.
 
 from labkit.reports._execute import CELL_TIMEOUT, ExecutionResult, notebooks_root, find_notebooks, lab_of, parse_parameter, check_parameter_types, notebook_parameters, kernel_manager_class, execute_notebook
 from labkit.reports._render import RenderResult, find_chromium, export_html, print_pdf, render, render_one, write_index
-from labkit.reports._nbtools import Comparison, Checks, check, show_latex, matrix_latex, show_table
+from labkit.reports._nbtools import Comparison, Checks, check, show_latex, matrix_latex
+from labkit.reports._table import LONG_TABLE_ROWS, ReportTable, format_value, report_table
 from labkit.reports._report import LabInfo, ReportResult, lab_info, write_lab_info, build_report
 
 __all__ = [
@@ -34,7 +35,10 @@ __all__ = [
     "check",
     "show_latex",
     "matrix_latex",
-    "show_table",
+    "LONG_TABLE_ROWS",
+    "ReportTable",
+    "report_table",
+    "format_value",
     "LabInfo",
     "ReportResult",
     "lab_info",

@@ -66,6 +66,8 @@ def _breakable(text):
     return re.sub(r"(?<=[_/])(?=[^<>\s])(?![^<]*>)", "<wbr>", text)
 
 
+#: a parameter that says where the build writes (``output_dir = "../../reports/..."``): not in the code listing
+_BUILD_PARAMETER = re.compile(r"^\s*output_dir\s*=")
 _CHECK_LINE = re.compile(r"^(?:PASS|FAIL|TYPO)  .*(?:\n|$)", re.MULTILINE)
 _HEAD_ID = re.compile(r'(<h[1-6] )id="([^"]*)"')
 _IMAGE_MIMES = ("image/png", "image/jpeg", "image/svg+xml")
@@ -236,9 +238,10 @@ def _outputs(cell, entry, show_code_first=None):
             if "<table" in html:
                 html = re.sub(r"<caption>.*?</caption>", "", html, flags=re.DOTALL) if tbls else html
                 html = tidy_numbers(_TH.sub(lambda m: m.group(1) + _breakable(m.group(2)) + m.group(3), html))
+                long = " lk-long" if 'class="lk-report-table lk-long"' in html else ""
                 if tbls:
                     item = tbls.pop(0)
-                    parts.append(f'<figure class="lk-table" id="{item.anchor}"><figcaption>{_caption_html(item)}'
+                    parts.append(f'<figure class="lk-table{long}" id="{item.anchor}"><figcaption>{_caption_html(item)}'
                                  f'</figcaption><div class="lk-fit">{html}</div></figure>')
                 else:
                     parts.append(f'<div class="lk-fit lk-unnumbered">{html}</div>')
@@ -284,6 +287,8 @@ def _chapter(k, nb, name, numbering, *, show_code, unresolved, error=""):
             continue
         opts, source = cell_options(cell.source)
         listing = source.strip("\n")
+        if "parameters" in tags or "injected-parameters" in tags:  # where files go is the build's, not the lab's
+            listing = "\n".join(line for line in listing.splitlines() if not _BUILD_PARAMETER.match(line))
         if "injected-parameters" in tags:
             listing = "# parameters of this run (labkit report)\n" + "\n".join(
                 line for line in listing.splitlines() if not line.startswith("# Parameters"))
@@ -452,7 +457,7 @@ def number_notebook(nb, chapter=None):
     Code cells lose their ``#|`` option lines, round-off in tables prints as ``0``
     (:func:`labkit.reports._report.tidy_numbers`); a captioned cell gets its caption as an
     output ("Figure 1: ...", after the figure; "Table 1: ...", before the table);
-    ``@fig-...`` references in markdown become "Figure 1" links.
+    ``[Figure](#fig-...)`` and ``@fig-...`` references in markdown become "Figure 1" links.
 
     Parameters
     ----------

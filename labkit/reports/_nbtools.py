@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from labkit.exceptions import CheckFailed, ShapeError, needs_extra
 
-__all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex", "show_table"]
+__all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex"]
 
 
 def _display(obj):
@@ -42,6 +42,14 @@ def _display(obj):
     except ImportError:  # pragma: no cover - IPython is a dependency of ipykernel
         pass
     return False
+
+
+def _in_ipython() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover
+        return False
+    return get_ipython() is not None
 
 
 def _display_raw(bundle):
@@ -127,32 +135,6 @@ def show_latex(expr, prefix="", decimals=4):
         print(tex)
 
 
-def show_table(df, caption=None, floatfmt="{:.4g}"):
-    """Display a pandas DataFrame as a compact HTML table (static in reports).
-
-    Outside IPython the table is printed as text instead.
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-    caption : str, optional
-        Table caption.
-    floatfmt : str
-        Format of numeric cells (``str.format`` syntax).
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``df`` itself (unchanged), so that a cell can display and keep it.
-    """
-    styler = df.style.format(floatfmt, subset=df.select_dtypes("number").columns)
-    if caption:
-        styler = styler.set_caption(caption)
-    if not _display(styler):
-        print(df.to_string())
-    return df
-
-
 @dataclass(frozen=True)
 class Comparison:
     """One reproduced-vs-published comparison.
@@ -222,6 +204,13 @@ def _row_cells(r) -> dict:
             "tolerance": tol, "result": result, "note": r.note}
 
 
+def _row_line(r) -> str:
+    """One check as a line of text (a terminal, or the immediate :func:`check`)."""
+    cells = _row_cells(r)
+    return (f"{'PASS' if r.passed else 'FAIL'}  {r.name}: reproduced {cells['reproduced']}, published "
+            f"{cells['published / expected']}, max |diff| {cells['max |diff|']} <= {cells['tolerance']}? {r.note}")
+
+
 @dataclass
 class Checks:
     """Collects the closing assertions of a notebook.
@@ -231,7 +220,8 @@ class Checks:
     title : str
         Table caption.
     display : bool
-        Print each row as it is added (False in doctests/tests).
+        Show the rows: outside a notebook each row is printed as it is added; in a notebook
+        they are shown once, as :meth:`assert_all`'s table (False in doctests/tests).
     """
 
     title: str = "Reproduced vs published"
@@ -278,10 +268,8 @@ class Checks:
         row = Comparison(name, value, published, float(tol), err, bool(np.isfinite(err) and err <= tol), note,
                          relative=bool(relative))
         self.rows.append(row)
-        if self.display:
-            cells = _row_cells(row)
-            print(f"{'PASS' if row.passed else 'FAIL'}  {name}: reproduced {cells['reproduced']}, published "
-                  f"{cells['published / expected']}, max |diff| {cells['max |diff|']} <= {cells['tolerance']}? {note}")
+        if self.display and not _in_ipython():  # a notebook shows the rows once, in assert_all's table
+            print(_row_line(row))
         return row
 
     def typo(self, name, published, correct, note) -> Comparison:
@@ -309,7 +297,7 @@ class Checks:
         err = float(np.max(np.abs(correct - published))) if published.shape == correct.shape else float("nan")
         row = Comparison(name, correct, published, 0.0, err, True, note, typo=True)
         self.rows.append(row)
-        if self.display:
+        if self.display and not _in_ipython():
             print(f"TYPO  {name}: published {_fmt(published)}, correct {_fmt(correct)}. {note}")
         return row
 
@@ -383,10 +371,10 @@ def check(name, value, published, tol, note="", *, relative=False) -> Comparison
     PASS  pi: ...
     Comparison(...)
     """
-    c = Checks()
-    row = c.check(name, value, published, tol, note, relative=relative)
+    row = Checks(display=False).check(name, value, published, tol, note, relative=relative)
+    print(_row_line(row))
+    cells = _row_cells(row)
     if not row.passed:
-        cells = _row_cells(row)
         raise CheckFailed(f"{name}: reproduced {cells['reproduced']} differs from published "
                           f"{cells['published / expected']} by {cells['max |diff|']} > tolerance {cells['tolerance']}")
     return row

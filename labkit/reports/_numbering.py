@@ -8,9 +8,10 @@ A code cell opens with cell options, one per line::
 ``fig-cap`` numbers the cell's figures ("Figure 2.1"), ``tbl-cap`` its tables ("Table 2.1",
 the caption above the table); a list gives one caption per figure or table of the cell. A
 display equation in markdown is labelled after its closing ``$$``: ``$$ ... $$ {#eq-fk}``;
-a heading with ``{#sec-name}``. Markdown refers to them as ``@fig-fk-error``, ``@tbl-...``,
-``@eq-...``, ``@sec-...``; :func:`number_notebooks` gives every label its number and
-:func:`resolve_references` writes the references as "Figure 2.1" (a link).
+a heading with ``{#sec-name}``. Markdown refers to them as ``[Figure](#fig-fk-error)``,
+``[Table](#tbl-...)``, ``[Equation](#eq-...)``, ``[Chapter](#sec-...)`` (a link that reads well in a
+live notebook) or Quarto's ``@fig-fk-error``; :func:`number_notebooks` gives every label its number
+and :func:`resolve_references` writes the references as "Figure 2.1" (a link).
 
 Example
 -------
@@ -33,7 +34,9 @@ KIND_NAMES = {"fig": "Figure", "tbl": "Table", "eq": "Equation", "sec": "Chapter
 _OPTION = re.compile(r"^#\|\s?(.*)$")
 _EQUATION = re.compile(r"\$\$(?P<tex>.+?)\$\$[ \t]*\{#(?P<label>eq-[\w-]+)\}", re.DOTALL)
 _HEADING_LABEL = re.compile(r"^(?P<head>#{1,6} .*?)[ \t]*\{#(?P<label>sec-[\w-]+)\}[ \t]*$", re.MULTILINE)
-REFERENCE = re.compile(r"(?<![\w@/.])@(?P<label>(?:fig|tbl|eq|sec)-[\w-]*\w)")
+#: a reference: ``@fig-x`` (Quarto's), or ``[Figure](#fig-x)``, which reads as a link in a live notebook
+REFERENCE = re.compile(r"\[[^\]\n]*\]\(#(?P<linked>(?:fig|tbl|eq|sec)-[\w-]*\w)\)"
+                       r"|(?<![\w@/.#])@(?P<label>(?:fig|tbl|eq|sec)-[\w-]*\w)")
 
 
 @dataclass(frozen=True)
@@ -215,7 +218,7 @@ def number_notebooks(notebooks, *, chapters=True, first_chapter=1) -> dict:
 
 
 def resolve_references(markdown: str, labels: dict, *, link=True, unresolved=None) -> str:
-    """Write ``@fig-x`` references as ``[Figure 2.1](#fig-x)`` and number labelled equations.
+    """Write ``[Figure](#fig-x)`` and ``@fig-x`` references as ``[Figure 2.1](#fig-x)``; number labelled equations.
 
     Parameters
     ----------
@@ -236,11 +239,12 @@ def resolve_references(markdown: str, labels: dict, *, link=True, unresolved=Non
     """
 
     def ref(m):
-        item = labels.get(m.group("label"))
+        label = m.group("label") or m.group("linked")
+        item = labels.get(label)
         if item is None:
             if unresolved is not None:
-                unresolved.append(m.group("label"))
-            return f"**?@{m.group('label')}**"
+                unresolved.append(label)
+            return f"**?@{label}**"
         return f"[{item.text}](#{item.anchor or item.label})" if link else item.text
 
     def equation(m):

@@ -4,7 +4,7 @@
 already) and writes one document: a title page from the lab's ``lab.toml`` (course, lab
 title, team, authors, date), the contents, one numbered chapter per notebook, numbered
 figures, tables and equations with their captions (cell options ``#| label:``,
-``#| fig-cap:``, ``#| tbl-cap:``; references ``@fig-...`` in markdown, see
+``#| fig-cap:``, ``#| tbl-cap:``; references ``[Figure](#fig-...)`` or ``@fig-...`` in markdown, see
 :mod:`labkit.reports._numbering`), the checks of every notebook as a closing verification
 table, and the code in an appendix (``show_code=True`` keeps it in the body).
 

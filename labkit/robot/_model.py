@@ -536,7 +536,9 @@ class Robot:
         -------
         pandas.DataFrame
             One row per joint, indexed ``i = 1..n``: ``joint, type, a, alpha, d_i,
-            theta_i, lower, upper`` (``a_{i-1}``/``alpha_{i-1}`` for modified DH).
+            theta_i, lower, upper`` (``a_{i-1}``/``alpha_{i-1}`` for modified DH);
+            ``attrs["units"]`` maps the columns to their units (the limits' only when
+            every joint is of one type).
         """
         import pandas as pd
 
@@ -557,4 +559,10 @@ class Robot:
                     "upper": ang(lk.limits[1]) if lk.is_revolute else lk.limits[1] / scale,
                 }
             )
-        return pd.DataFrame(rows).set_index(pd.RangeIndex(1, self.n + 1, name="i"))
+        table = pd.DataFrame(rows).set_index(pd.RangeIndex(1, self.n + 1, name="i"))
+        lengths, angles = length_unit or self.length_unit, "deg" if degrees else "rad"
+        limits = {lk.is_revolute for lk in self.links}
+        limit_unit = (angles if limits == {True} else lengths) if len(limits) == 1 else ""
+        table.attrs["units"] = {table.columns[2]: lengths, table.columns[3]: angles, "d_i": lengths,
+                                "theta_i": angles, "lower": limit_unit, "upper": limit_unit}
+        return table

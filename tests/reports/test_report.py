@@ -387,7 +387,8 @@ def test_every_lab_notebook_has_captions_and_resolved_references(path):
     labels = number_notebooks([nb])["local"][0]
     assert any(lab.kind == "fig" for lab in labels.values()) or any(lab.kind == "tbl" for lab in labels.values())
     assert all(lab.caption for lab in labels.values() if lab.kind in ("fig", "tbl")), "every figure/table has a caption"
-    refs = [m.group("label") for c in nb.cells if c.cell_type == "markdown" for m in REFERENCE.finditer(c.source)]
+    refs = [m.group("label") or m.group("linked") for c in nb.cells if c.cell_type == "markdown"
+            for m in REFERENCE.finditer(c.source)]
     assert refs and all(r in labels for r in refs), [r for r in refs if r not in labels]
     # a caption that names a seed table or figure says so ("the seed's Table 4")
     for lab in labels.values():

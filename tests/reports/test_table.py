@@ -1,0 +1,131 @@
+"""report_table: the one style of the tables a report prints."""
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from labkit.exceptions import OptionError, ShapeError
+from labkit.reports import LONG_TABLE_ROWS, report_table
+
+
+def test_no_default_index_but_a_meaningful_one_is_kept():
+    plain = report_table(pd.DataFrame({"row": [1, 2], "x [m]": [0.1, 0.2]}))
+    assert plain.header == ("row", "x [m]")
+    named = report_table(pd.DataFrame({"x [m]": [0.1, 0.2]}, index=pd.Index(["a", "b"], name="pose")))
+    assert named.header == ("pose", "x [m]") and [r[0] for r in named.rows] == ["a", "b"]
+    labelled = report_table(pd.DataFrame({"x [m]": [0.1, 0.2]}, index=["elbow up", "elbow down"]))
+    assert labelled.header == ("", "x [m]") and labelled.rows[1][0] == "elbow down"
+    assert report_table(pd.DataFrame({"x": [1.0]}, index=["a"]), index=False).header == ("x",)
+    subsample = pd.DataFrame({"x": [1.0, 2.0, 3.0, 4.0]}).iloc[::2]  # row numbers 0, 2: still no index
+    assert report_table(subsample).header == ("x",)
+    html = plain.to_html()
+    assert "<th></th>" not in html and ">0<" not in html  # no index column
+
+
+def test_human_names_units_and_left_out_columns():
+    df = pd.DataFrame({"t": [0.0, 0.1], "shoulder_pitch_ddot": [1.0, 2.0], "debug": [1, 2]})
+    t = report_table(df, columns={"t": "time [s]", "shoulder_pitch_ddot": "shoulder accel [deg/s^2]",
+                                  "debug": None})
+    assert t.header == ("time [s]", "shoulder accel [deg/s^2]")
+    assert all(len(r) == 2 for r in t.rows)
+
+
+def test_same_decimals_down_a_column_from_its_largest_magnitude():
+    t = report_table(pd.DataFrame({"a [m]": [0.0, 0.012, -0.0016, 1e-17, -2e-18]}), digits=3)
+    assert [r[0] for r in t.rows] == ["0.0000", "0.0120", "-0.0016", "0.0000", "0.0000"]  # no -0, no 1e-17
+    t = report_table(pd.DataFrame({"q [deg]": [113.865, -45.0, 0.5], "n": [1, 20, 300]}), digits=4)
+    assert [r[0] for r in t.rows] == ["113.9", "-45.0", "0.5"]
+    assert [r[1] for r in t.rows] == ["1", "20", "300"]  # integers stay integers
+    per = report_table(pd.DataFrame({"a": [1.23456], "b": [1.23456]}), digits={"a": 2, "*": 5})
+    assert per.rows[0] == ("1.2", "1.2346")
+    tiny = report_table(pd.DataFrame({"e [m]": [5.6e-7, 1.2e-6]}), digits=2)
+    assert [r[0] for r in tiny.rows] == ["5.6e-7", "1.2e-6"]
+
+
+def test_booleans_missing_and_vectors_print_as_words_dashes_and_tuples():
+    df = pd.DataFrame({"reached": [True, False, None], "err [mm]": [1.5, np.nan, None],
+                       "target [m]": [(0.1, 0.1, -0.1), np.array([0.1, -0.1, -0.16]), None]})
+    t = report_table(df, digits=2)
+    text = t.to_text() + t.to_html() + t.to_latex()
+    assert not re.search(r"\b(True|False|NaN|nan|None)\b", text)
+    assert [r[0] for r in t.rows] == ["yes", "no", "–"]
+    assert [r[1] for r in t.rows] == ["1.5", "–", "–"]
+    assert t.rows[0][2] == "(0.10, 0.10, -0.10)" and t.rows[1][2] == "(0.10, -0.10, -0.16)"
+    marks = report_table(df[["reached"]], booleans=("✓", "✗"), missing="n/a")
+    assert [r[0] for r in marks.rows] == ["✓", "✗", "n/a"]
+
+
+def test_long_tables_repeat_their_header_and_short_ones_do_not_break():
+    short = report_table(pd.DataFrame({"k": range(LONG_TABLE_ROWS)}))
+    long = report_table(pd.DataFrame({"k": range(LONG_TABLE_ROWS + 1)}), caption="every sample")
+    assert not short.long and "lk-long" not in short.to_html()
+    assert long.long and 'class="lk-report-table lk-long"' in long.to_html() and "<thead>" in long.to_html()
+    tex = long.to_latex()
+    assert tex.startswith(r"\begin{longtable}") and r"\endhead" in tex and r"\caption{every sample}" in tex
+    assert short.to_latex().startswith(r"\begin{table}") and r"\toprule" in short.to_latex()
+
+
+def test_html_escapes_and_latex_escapes():
+    t = report_table(pd.DataFrame({"a_b & <c> [%]": ["x_1 <b>"]}), caption="50 % of <rows>")
+    assert "&lt;c&gt;" in t.to_html() and "<b>" not in t.to_html() and "&lt;rows&gt;" in t.to_html()
+    assert r"a\_b \& <c> [\%]" in t.to_latex() and r"50 \% of" in t.to_latex()
+
+
+def test_notebook_display_is_the_html_and_the_report_keeps_it():
+    from labkit.reports._document import _outputs
+
+    t = report_table(pd.DataFrame({"k": range(LONG_TABLE_ROWS + 5)}))
+    assert t._repr_html_() == t.to_html()
+    cell = {"outputs": [{"output_type": "execute_result", "data": {"text/html": t.to_html(), "text/plain": repr(t)}}]}
+    parts, _ = _outputs(cell, None)
+    assert len(parts) == 1 and "lk-report-table" in parts[0]
+
+
+def test_bad_input_says_what_was_expected():
+    df = pd.DataFrame({"a": [1.0]})
+    with pytest.raises(ShapeError, match="DataFrame or Series, got list"):
+        report_table([1, 2])
+    with pytest.raises(OptionError, match="columns names b, which the table does not have"):
+        report_table(df, columns={"b": "B"})
+    with pytest.raises(OptionError, match="digits expects positive integers, got 0"):
+        report_table(df, digits=0)
+    with pytest.raises(OptionError, match="digits names c"):
+        report_table(df, digits={"c": 2})
+    with pytest.raises(OptionError, match="two words"):
+        report_table(df, booleans=("yes",))
+
+
+def test_units_from_the_frame_or_given_go_into_the_header():
+    df = pd.DataFrame({"shoulder_pitch_ddot": [1.0], "x": [2.0], "n [1]": [3]})
+    df.attrs["units"] = {"shoulder_pitch_ddot": "deg/s^2", "x": "mm"}
+    t = report_table(df, columns={"shoulder_pitch_ddot": "shoulder accel"})
+    assert t.header == ("shoulder accel [deg/s^2]", "x [mm]", "n [1]")
+    assert report_table(df, units={"x": "m"}).header == ("shoulder_pitch_ddot", "x [m]", "n [1]")
+
+
+def test_a_two_level_index_prints_as_columns_named_by_its_levels():
+    df = pd.DataFrame({"a0": [0.0, 0.18]}, index=pd.MultiIndex.from_tuples([(1, "x [m]"), (1, "y [m]")],
+                                                                          names=["segment", "value"]))
+    t = report_table(df, columns={"segment": None, "value": "axis", "a0": "a0 [m]"})
+    assert t.header == ("axis", "a0 [m]") and t.rows == (("x [m]", "0.000"), ("y [m]", "0.180"))
+
+
+def test_format_value_prints_prose_numbers_like_the_table_cells():
+    from labkit.reports import format_value
+
+    assert format_value([0.0, 94.00000001], digits=3) == "(0.0, 94.0)"  # not [ 0. 94.]
+    assert format_value(5.6e-17, unit="m") == "0 m"  # round-off, not 5.6e-17
+    assert format_value(np.array([[1.0, -2.0], [3.0, 4.0]]), decimals=1) == "((1.0, -2.0), (3.0, 4.0))"
+    assert format_value(True) == "yes" and format_value(float("nan")) == "–"
+    with pytest.raises(OptionError, match="decimals expects a non-negative integer, got -1"):
+        format_value(1.0, decimals=-1)
+
+
+def test_the_dh_table_records_its_units_for_the_header():
+    from labkit.robot import Robot
+
+    t = report_table(Robot.load("arduino_arm_3dof").dh_table(), columns={"i": "link i"})
+    assert t.header[:4] == ("link i", "joint", "type", "a_{i-1} [mm]")
+    assert "alpha_{i-1} [deg]" in t.header and "lower [deg]" in t.header
