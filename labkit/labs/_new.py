@@ -386,16 +386,16 @@ def _virtual_port(robot, robot_ref):
     'sim://robot.toml?bus=feetech&clock=lockstep&seed=0'
     """
     if robot.bus is not None:
-        return f"sim://{robot_ref}?bus={robot.bus.kind}&clock=lockstep&seed=0"
+        return f"sim://{robot_ref}?bus={robot.bus.protocol}&clock=lockstep&seed=0"
     return f"sim://{robot_ref}?clock=lockstep&seed=0&calibrated=1"
 
 
 def _port_doc(robot):
     """The comment of the notebooks' ``port`` parameter: the virtual arm, and what a real one is."""
     if robot.bus is not None:
-        device = {"dynamixel": "/dev/ttyUSB0", "feetech": "/dev/ttyACM0"}.get(robot.bus.kind, "/dev/ttyUSB0")
-        return (f"the virtual arm on a virtual {robot.bus.kind} bus; a real bus: \"{robot.bus.kind}://{device}\" "
-                f"({robot.bus.kind}://COM4 on Windows)")
+        device = {"dynamixel": "/dev/ttyUSB0", "feetech": "/dev/ttyACM0"}.get(robot.bus.protocol, "/dev/ttyUSB0")
+        return (f"the virtual arm on a virtual {robot.bus.protocol} bus; a real bus: \"{robot.bus.protocol}://{device}\" "
+                f"({robot.bus.protocol}://COM4 on Windows)")
     return _PARAM_DOC["port"]
 
 

@@ -31,7 +31,7 @@ def _recording_close(self):
     _close(self)
     if not counted:
         with open(os.environ["LABKIT_TEST_BUS_LOG"], "a", encoding="utf-8") as f:
-            f.write(json.dumps({"cwd": os.getcwd(), "kind": self.bus.KIND, "packets": len(self.packets),
+            f.write(json.dumps({"cwd": os.getcwd(), "kind": self.bus.PROTOCOL, "packets": len(self.packets),
                                 "instructions": sorted({p[0] for p in self.packets}),
                                 "sync_writes": self.sync_writes, "rejected": list(self.rejected)}) + "\\n")
 

@@ -596,4 +596,4 @@ class Arm:
         OptionError
             ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200 (a ``ValueError``).
         """
-        return record_stream(self._wire, self.robot, duration, hz)
+        return record_stream(self.robot, self._wire, duration, hz)

@@ -15,7 +15,7 @@ URL form::
   calibration (saved with ``CAL`` + ``SAVE``), so the joints start at the middle of their
   limits; default ``0``, the factory calibration (every servo centred at 90 deg), under which
   a robot whose limits exclude 90 deg cannot be calibrated;
-* ``bus``: a bus kind (:data:`labkit.arm.bus.BUSES`: ``dynamixel``, ``feetech``) puts a virtual servo bus between the board and the arm: the
+* ``bus``: a bus protocol (:data:`labkit.arm.bus.BUSES`: ``dynamixel``, ``feetech``) puts a virtual servo bus between the board and the arm: the
   robot file's ``[bus]`` table names the servos, a :class:`labkit.arm.bus.BusEmulator` serves them on a
   pseudo-terminal and a :class:`labkit.arm.bus.BusBoard` drives them through the vendor SDK (default:
   none, the hobby-servo board); the bus's physics has no deadband unless ``deadband`` is given;
@@ -163,7 +163,7 @@ class Serial(BoardSerial):
 
         self.emulator = BusEmulator(robot, config)
         try:
-            self.board = open_bus_board(options["bus"], self.emulator.path, robot, model=self.emulator.model,
+            self.board = open_bus_board(robot, self.emulator.path, protocol=options["bus"], model=self.emulator.model,
                                         queue=options["queue"], name=self.port, latency=VIRTUAL_BUS_LATENCY,
                                         settle=self.emulator.wait_sync_writes)
         except BaseException:
