@@ -48,7 +48,7 @@ assert "<table" in errors.to_html() and len(errors.table) > 0
 ax = plot_arm(arm, q)
 ax.figure.savefig("arm.png")
 plot_trajectory(traj)[0].figure.savefig("trajectory.png")
-with Arm("sim://", robot=arm) as link:
+with Arm(arm, "sim://") as link:
     link.move_joints(q, wait=True)
     reached = np.asarray(link.read_joints())
 assert np.allclose(reached, q, atol=np.radians(3)), np.degrees(reached)

@@ -31,14 +31,8 @@ import pytest
 
 import labkit
 
-#: rules that a part of the library still breaks, with why: each entry must still be broken
-#: (``test_pending_entries_are_still_needed``), so that fixing one means deleting its entry here.
-PENDING = {
-    ("labkit.arm.Arm", "robot"): "Arm(port, robot='arduino_arm_3dof'): robot second with the course arm as "
-                                 "default; reworked with the board interface (issue 35, item 5)",
-}
-
-#: callables whose signature another library fixes, with why (each must still break the rule, like PENDING)
+#: callables whose signature another library fixes, with why: each entry must still break the rule
+#: (``test_exemptions_are_still_needed``), so that an entry no longer needed is deleted.
 FIXED_ELSEWHERE = {
     ("labkit.arm.urlhandler.bus_port.BusSerial", "robot"):
         "a pyserial URL handler: serial_for_url(url, **options) constructs it as cls(None, *args, **options), "
@@ -178,15 +172,15 @@ def _violations(exports):
 
 
 def test_public_signatures_follow_the_vocabulary():
-    bad = {k: v for k, v in _violations(_exports()).items() if k not in PENDING and k not in FIXED_ELSEWHERE}
+    bad = {k: v for k, v in _violations(_exports()).items() if k not in FIXED_ELSEWHERE}
     assert not bad, "\n".join(f"{q}({p}): {why}" for (q, p), why in sorted(bad.items()))
 
 
-def test_pending_entries_are_still_needed():
-    """An entry of PENDING whose rule now holds is stale: delete it."""
+def test_exemptions_are_still_needed():
+    """An entry of FIXED_ELSEWHERE whose rule now holds is stale: delete it."""
     found = _violations(_exports())
-    stale = [k for k in (*PENDING, *FIXED_ELSEWHERE) if k not in found]
-    assert not stale, f"these now follow the vocabulary; delete them from PENDING: {stale}"
+    stale = [k for k in FIXED_ELSEWHERE if k not in found]
+    assert not stale, f"these now follow the vocabulary; delete them from FIXED_ELSEWHERE: {stale}"
 
 
 def _foreign_exceptions(exports):

@@ -30,7 +30,7 @@ register()
 
 def _sim(kind):
     if kind == "sim":
-        return serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
+        return serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05)
     return serial.serial_for_url(f"sim://{BUS_ROBOTS[kind]}?bus={kind}&clock=lockstep", timeout=0.05)
 
 
@@ -148,7 +148,7 @@ def toy_bus(monkeypatch, tmp_path):
 
 
 def test_a_new_bus_kind_runs_end_to_end_on_a_virtual_bus(toy_bus):
-    with Arm(f"sim://{toy_bus}?bus=toy&clock=lockstep", robot=toy_bus) as arm:
+    with Arm(toy_bus, f"sim://{toy_bus}?bus=toy&clock=lockstep") as arm:
         emu = arm.port.emulator
         assert emu.bus.PROTOCOL == "toy" and arm.port.board.driver.protocol == "toy"
         assert emu.get(11, "model_number") == 4242

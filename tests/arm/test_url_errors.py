@@ -48,7 +48,7 @@ def test_sim_parse_url_refuses_another_scheme_with_a_labkit_error():
 
 
 def test_a_closed_sim_port_raises_a_labkit_error_that_is_pyserials_port_not_open_error():
-    port = serial.serial_for_url("sim://?clock=lockstep", timeout=0.1)
+    port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.1)
     with pytest.raises(PortError, match="expected a closed port to open, got one already open"):
         port.open()
     port.close()

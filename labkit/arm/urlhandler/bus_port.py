@@ -109,7 +109,7 @@ class BusSerial(BoardSerial):
 
         protocol, device, options = parse_bus_url(self.port)
         if self.robot is None:
-            raise PortURLError(f"{self.port}: expected the robot file of the arm on the bus (Arm(url, robot=...) "
+            raise PortURLError(f"{self.port}: expected the robot file of the arm on the bus (Arm(robot, url) "
                                f"or serial_for_url(url, robot=...)), got none")
         robot = Robot.load(self.robot)
         if options["baud"] is not None and robot.bus is not None:
