@@ -377,7 +377,7 @@ def _virtual_port(robot, robot_ref):
     -------
     str
         ``sim://<robot_ref>?clock=lockstep&seed=0&calibrated=1`` (hobby servos, the board's
-        EEPROM holding the robot file's calibration), or ``sim://<robot_ref>?bus=<kind>&clock=lockstep&seed=0``
+        EEPROM holding the robot file's calibration), or ``sim://<robot_ref>?bus=<protocol>&clock=lockstep&seed=0``
         (a Dynamixel or Feetech bus: the vendor SDK drives an emulated bus).
 
     Examples
