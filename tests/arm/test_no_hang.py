@@ -107,7 +107,7 @@ def test_a_large_lockstep_write_to_simavr_returns(size):
 def test_a_simavr_port_left_open_exits_cleanly(how):
     code = {
         "port": "p = serial.serial_for_url('simavr://?clock=lockstep', timeout=0.5); p.readline()",
-        "arm": "a = Arm("arduino_arm_3dof", 'simavr://?clock=lockstep'); a.ping()",
+        "arm": "a = Arm('arduino_arm_3dof', 'simavr://?clock=lockstep'); a.ping()",
         "collected": "p = serial.serial_for_url('simavr://?clock=lockstep', timeout=0.5); p.readline(); del p; "
                      "import gc; gc.collect()",
     }[how]

@@ -33,7 +33,7 @@ def test_ports_are_listed_arduinos_first(monkeypatch, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].split() == ["*", "/dev/ttyACM0", "2341:0043", "Arduino", "Uno"]
     assert out[2].split()[:3] == ["/dev/ttyS0", "-", "n/a"]
-    assert "Arm("arduino_arm_3dof") without a port takes the first" in out[-1]
+    assert "Arm(robot) without a port takes the first" in out[-1]
 
 
 def test_an_ftdi_adapter_is_a_possible_bus_adapter_not_an_arduino(monkeypatch, capsys):

@@ -56,7 +56,7 @@ def test_a_closed_sim_port_raises_a_labkit_error_that_is_pyserials_port_not_open
         with pytest.raises(serial.PortNotOpenError) as info:
             use()
         assert isinstance(info.value, PortClosedError) and isinstance(info.value, DeviceError)
-        assert "sim://?clock=lockstep: expected an open port, got a closed one" in str(info.value)
+        assert "sim://arduino_arm_3dof?clock=lockstep: expected an open port, got a closed one" in str(info.value)
 
 
 @pytest.mark.parametrize("url, message", [
