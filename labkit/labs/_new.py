@@ -495,10 +495,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     added = (f" The notebooks use `{SERVO_FILE}`: `{ROBOT_FILE}` unchanged plus the servo calibrations the "
              f"virtual arm needs (joint ranges in its header).") if notes else ""
     if model.bus is not None:
-        kind = model.bus.kind
-        where = (f"virtual arm on a virtual {kind} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "
+        protocol = model.bus.protocol
+        where = (f"virtual arm on a virtual {protocol} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "
                  f"packets to an emulated bus")
-        real = f"On the real arm: `labkit run 02_fk_check.ipynb -p port {kind}://{'/dev/ttyUSB0' if kind == 'dynamixel' else '/dev/ttyACM0'}`"
+        real = (f"On the real arm: `labkit run 02_fk_check.ipynb -p port "
+                f"{protocol}://{'/dev/ttyUSB0' if protocol == 'dynamixel' else '/dev/ttyACM0'}`")
     else:
         where, real = "virtual arm, `sim://`", "On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`"
     (folder / "README.md").write_text(
