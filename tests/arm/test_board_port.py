@@ -1,4 +1,4 @@
-"""One board interface: every board kind is a BoardPort; the host asks nothing else; a new bus kind is one
+"""One board interface: every board kind is a BoardPort; the host asks nothing else; a new bus protocol is one
 codec module and one registry entry; the boards share the executor by holding it, not by inheriting a board."""
 
 import ast
@@ -147,7 +147,7 @@ def toy_bus(monkeypatch, tmp_path):
     sys.modules.pop("labkit.arm.urlhandler.protocol_toy", None)
 
 
-def test_a_new_bus_kind_runs_end_to_end_on_a_virtual_bus(toy_bus):
+def test_a_new_bus_protocol_runs_end_to_end_on_a_virtual_bus(toy_bus):
     with Arm(toy_bus, f"sim://{toy_bus}?bus=toy&clock=lockstep") as arm:
         emu = arm.port.emulator
         assert emu.bus.PROTOCOL == "toy" and arm.port.board.driver.protocol == "toy"
@@ -165,7 +165,7 @@ def test_a_new_bus_kind_runs_end_to_end_on_a_virtual_bus(toy_bus):
         assert emu.rejected == []
 
 
-def test_a_new_bus_kind_is_a_url_scheme(toy_bus):
+def test_a_new_bus_protocol_is_a_url_scheme(toy_bus):
     register()
     port = serial.serial_for_url("toy:///dev/null", do_not_open=True)
     assert isinstance(port, BusSerial)
