@@ -41,7 +41,7 @@ q = np.radians([45.0, 60.0, 30.0])
 T = fk(arm, q)
 sols = ik_all(arm, T[:3, 3])
 assert any(np.allclose(fk(arm, qi)[:3, 3], T[:3, 3], atol=1e-9) for qi in sols.q[sols.valid]), sols
-traj = joint_trajectory(np.zeros(3) + 0.5, q, robot=arm)
+traj = joint_trajectory(arm, np.zeros(3) + 0.5, q)
 assert np.allclose(traj.q[-1], q) and traj.q.shape[1] == 3
 errors = error_table(measurement_file("seed000_fk_tables1-3.csv"), arm)
 assert "<table" in errors.to_html() and len(errors.table) > 0
