@@ -66,7 +66,7 @@ def finish(robot, q, *, flipped=True):
 def _joints(robot):
     """Which joints are flipped and revolute, and the limits [rad, m], as arrays (n,)."""
     lim = robot.joint_limits
-    return np.array([lk.flip for lk in robot.links]), robot.is_revolute, lim[:, 0], lim[:, 1]
+    return robot.flip, robot.is_revolute, lim[:, 0], lim[:, 1]
 
 
 def solve(robot, family, flat):
