@@ -97,9 +97,10 @@ def solve(robot, family, flat):
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         part = slice(s, s + _CHUNK)
-        # a batch's components are (N,) rows; one target's are numpy scalars (the same formulas, without
-        # the bookkeeping of arrays of one element)
-        qb, rb, d = family.solve(flat[0] if N == 1 else np.ascontiguousarray(np.moveaxis(flat[part], 0, -1)))
+        # a batch's components are (N,) rows; one target's are Python floats (the same formulas, without
+        # the bookkeeping of arrays of one element, and about 3x cheaper than numpy scalars), or numpy
+        # scalars where a float would divide by an exact zero (numpy's inf/nan, then flagged unreachable)
+        qb, rb, d = _solve_rows(family, flat[part]) if N > 1 else _solve_one(family, flat[0])
         for k, (branch, ok) in enumerate(zip(qb, rb)):
             for j, v in enumerate(branch):
                 q[part, k, j] = v
@@ -108,6 +109,19 @@ def solve(robot, family, flat):
     q = finish(robot, q)
     distance[reach.any(axis=1)] = 0.0
     return q, reach, reach & robot.within_limits(q), distance
+
+
+def _solve_rows(family, flat):
+    """The family on a batch of targets, its components as contiguous ``(N,)`` rows."""
+    return family.solve(np.ascontiguousarray(np.moveaxis(flat, 0, -1)))
+
+
+def _solve_one(family, target):
+    """The family on one target, its components as floats (numpy scalars where a float divides by 0)."""
+    try:
+        return family.solve(target.tolist())
+    except ZeroDivisionError:
+        return family.solve(target)
 
 
 def nearest(robot, q, valid, q_near):
