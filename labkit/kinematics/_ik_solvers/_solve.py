@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from labkit.kinematics._chain import per_robot
 from labkit.rotations import wrap_angle
 
 #: targets per numpy call of a family
@@ -50,23 +51,31 @@ def finish(robot, q, *, flipped=True):
         that enters the joint's limits; non-finite values replaced by 0.
     """
     q = np.array(q, dtype=float)
-    flip, rev, lo, hi = _joints(robot)
-    if flipped and flip.any():
+    flip, any_flip, rev, lo, hi, up, down = _joints(robot)
+    if flipped and any_flip:
         q[..., flip] *= -1.0
     v = wrap_angle(q[..., rev])
-    lo, hi = lo[rev] - _SLACK, hi[rev] + _SLACK
     # a value below the limits may enter them one turn up, one above them one turn down (pi itself, when the
-    # range starts at -pi); either only where the limits reach beyond (-pi, pi]
-    v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
-    q[..., rev] = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+    # range starts at -pi); either only where the limits reach beyond (-pi, pi] (``up``, ``down``)
+    if up:
+        v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
+    if down:
+        v = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+    q[..., rev] = v
     q[~np.isfinite(q)] = 0.0
     return q
 
 
+@per_robot
 def _joints(robot):
-    """Which joints are flipped and revolute, and the limits [rad, m], as arrays (n,)."""
-    lim = robot.joint_limits
-    return robot.flip, robot.is_revolute, lim[:, 0], lim[:, 1]
+    """Which joints are flipped (and whether any), which revolute, the revolute limits with slack [rad], and
+    whether a turn up or down can enter them."""
+    lim, rev = robot.joint_limits, robot.is_revolute
+    lo, hi = lim[rev, 0] - _SLACK, lim[rev, 1] + _SLACK
+    # whether a wrapped angle v in (-pi, pi] can go a turn up (v < lo needs lo > -pi, v + 2 pi <= hi needs
+    # hi >= pi: v + 2 pi rounds to at least pi) or down (the mirror image); else finish skips that step
+    up, down = bool(((lo > -math.pi) & (hi >= math.pi)).any()), bool(((hi < math.pi) & (lo <= -math.pi)).any())
+    return robot.flip, bool(robot.flip.any()), rev, lo, hi, up, down
 
 
 def solve(robot, family, flat):
