@@ -68,12 +68,10 @@ def finish(robot, q, *, flipped=True):
 
 @per_robot
 def _joints(robot):
-    """Which joints are flipped (and whether any), which revolute, the revolute limits with slack [rad], and
-    whether a turn up or down can enter them."""
+    """Flipped joints (and whether any), revolute ones, their limits with slack [rad], and whether a wrapped
+    angle v can go a turn up (v < lo needs lo > -pi; v + 2 pi rounds to >= pi, so hi >= pi) or down."""
     lim, rev = robot.joint_limits, robot.is_revolute
     lo, hi = lim[rev, 0] - _SLACK, lim[rev, 1] + _SLACK
-    # whether a wrapped angle v in (-pi, pi] can go a turn up (v < lo needs lo > -pi, v + 2 pi <= hi needs
-    # hi >= pi: v + 2 pi rounds to at least pi) or down (the mirror image); else finish skips that step
     up, down = bool(((lo > -math.pi) & (hi >= math.pi)).any()), bool(((hi < math.pi) & (lo <= -math.pi)).any())
     return robot.flip, bool(robot.flip.any()), rev, lo, hi, up, down
 
@@ -106,10 +104,10 @@ def solve(robot, family, flat):
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         part = slice(s, s + _CHUNK)
-        # a batch's components are (N,) rows; one target's are Python floats (the same formulas, without
-        # the bookkeeping of arrays of one element, and about 3x cheaper than numpy scalars), or numpy
-        # scalars where a float would divide by an exact zero (numpy's inf/nan, then flagged unreachable)
-        qb, rb, d = _solve_rows(family, flat[part]) if N > 1 else _solve_one(family, flat[0])
+        # a batch's components are (N,) rows; one target's are Python floats (the same formulas, about 3x
+        # cheaper than numpy scalars; numpy scalars where a float divides by an exact zero: numpy's inf/nan)
+        qb, rb, d = family.solve(np.ascontiguousarray(np.moveaxis(flat[part], 0, -1))) if N > 1 else \
+            _solve_one(family, flat[0])
         for k, (branch, ok) in enumerate(zip(qb, rb)):
             for j, v in enumerate(branch):
                 q[part, k, j] = v
@@ -118,11 +116,6 @@ def solve(robot, family, flat):
     q = finish(robot, q)
     distance[reach.any(axis=1)] = 0.0
     return q, reach, reach & robot.within_limits(q), distance
-
-
-def _solve_rows(family, flat):
-    """The family on a batch of targets, its components as contiguous ``(N,)`` rows."""
-    return family.solve(np.ascontiguousarray(np.moveaxis(flat, 0, -1)))
 
 
 def _solve_one(family, target):
