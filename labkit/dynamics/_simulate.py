@@ -150,7 +150,7 @@ def _torque_function(robot, torque, shape):
     return lambda t, q, qd: constant
 
 
-def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, integrator="DOP853", rtol=1e-10,
+def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, solver="DOP853", rtol=1e-10,
              atol=1e-10):
     """Integrate the forward dynamics from ``q0, qd0`` under a torque or a controller.
 
@@ -171,7 +171,7 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, int
         Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
     friction : bool
         Include the motors' viscous and Coulomb friction.
-    integrator : {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}
+    solver : {"RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"}
         The :func:`scipy.integrate.solve_ivp` integrator.
     rtol, atol : float
         The integrator's relative and absolute tolerances.
@@ -183,7 +183,7 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, int
     Raises
     ------
     OptionError
-        An unknown ``integrator``.
+        An unknown ``solver``.
     ShapeError
         Bad ``t`` (not increasing, fewer than two samples) or state shapes.
     DynamicsError
@@ -201,8 +201,8 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, int
     """
     from scipy.integrate import solve_ivp
 
-    if integrator not in INTEGRATORS:
-        raise OptionError(f"expected integrator one of {', '.join(INTEGRATORS)}, got {integrator!r}")
+    if solver not in INTEGRATORS:
+        raise OptionError(f"expected solver one of {', '.join(INTEGRATORS)}, got {solver!r}")
     q0, qd0 = joint_arrays(robot, q0=q0, qd0=qd0)
     times = as_batch(t, (), "t (sample times, s)").reshape(-1) if np.ndim(t) <= 1 else None
     if times is None or times.size < 2 or not np.all(np.diff(times) > 0):
@@ -217,7 +217,7 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, int
         return np.concatenate([qd.reshape(-1), qdd.reshape(-1)])
 
     y0 = np.concatenate([q0.reshape(-1), qd0.reshape(-1)])
-    sol = solve_ivp(rhs, (times[0], times[-1]), y0, method=integrator, t_eval=times, rtol=rtol, atol=atol)
+    sol = solve_ivp(rhs, (times[0], times[-1]), y0, method=solver, t_eval=times, rtol=rtol, atol=atol)
     if not sol.success:
         raise DynamicsError(f"robot {robot.name!r}: the simulation stopped at t = {sol.t[-1]:.6g} s: {sol.message}")
     y = sol.y.T  # (m, 2 * size)

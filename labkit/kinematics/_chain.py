@@ -30,7 +30,6 @@ from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
 
-
 def per_robot(func):
     """Cache ``func(robot)`` per robot object, in a keyed cache (``Robot`` stays plain frozen data).
 

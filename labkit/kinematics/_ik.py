@@ -40,17 +40,8 @@ from labkit.kinematics._ik_solvers import (
     solve_numeric, target_words, task_rows, validate_targets,
 )
 
-__all__ = [
-    "Solver",
-    "IKSolutions",
-    "IKResult",
-    "target_kind",
-    "solver_for",
-    "ik",
-    "ik_all",
-    "ik_numeric",
-    "pose_from_position_pitch",
-]
+__all__ = ["Solver", "IKSolutions", "IKResult", "target_kind", "solver_for", "ik", "ik_all", "ik_numeric",
+           "pose_from_position_pitch"]
 
 #: IK solver choice: ``AUTO`` picks the closed-form family that fits the robot, else ``NUMERIC``;
 #: one member per family of the registry

@@ -33,17 +33,8 @@ from labkit.rotations import skew
 from labkit.validation import as_batch
 from labkit.exceptions import OptionError, ShapeError
 
-__all__ = [
-    "joint_torques",
-    "wrench_transform_matrix",
-    "transform_wrench",
-    "singular_values",
-    "manipulability",
-    "condition_number",
-    "is_singular",
-    "damping_factor",
-    "joint_rates",
-]
+__all__ = ["joint_torques", "wrench_transform_matrix", "transform_wrench", "singular_values", "manipulability",
+           "condition_number", "is_singular", "damping_factor", "joint_rates"]
 
 Part = Literal["full", "linear", "angular"]
 _PARTS = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}

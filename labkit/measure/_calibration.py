@@ -164,8 +164,7 @@ def apply_parameters(robot, names, values):
     Robot
     """
     links, changes = list(robot.links), {}  # (changes: per link the fields to set, one copy of each link)
-    tool = np.array(robot.tool)
-    base = np.array(robot.base)
+    frames = {}  # the tool and base transforms that change (the others stay the robot's, not checked again)
     for name, v in zip(names, values):
         m = _NAME.match(name)
         if m.group(1) == "offset":
@@ -174,11 +173,11 @@ def apply_parameters(robot, names, values):
         elif m.group(1) in ("a", "d"):
             changes.setdefault(int(m.group(2)) - 1, {})[m.group(1)] = float(v)
         elif m.group(3):
-            T = tool if m.group(3) == "tool" else base
+            T = frames.setdefault(m.group(3), np.array(getattr(robot, m.group(3))))
             T["xyz".index(m.group(4)), 3] = float(v)
     for i, fields in changes.items():
         links[i] = dataclasses.replace(links[i], **fields)
-    return robot.replace(links=tuple(links), tool=tool, base=base)
+    return robot.replace(links=tuple(links), **frames)
 
 
 def _sag_dq(robot, q, sag, gravity):

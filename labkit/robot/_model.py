@@ -9,7 +9,8 @@ closes no import cycle).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,11 @@ def _rigid(owner, name, T):
         )
     return readonly(arr)
 
+
+def _frozen(arr):
+    """``arr`` itself, made read-only (a view cached on the robot)."""
+    arr.setflags(write=False)
+    return arr
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,55 +104,69 @@ class Robot:
     bus: Bus | None = None
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not self.name:
+        self._validate(None)
+
+    def _validate(self, changed):
+        """Check and normalise the fields in ``changed`` (None: all) and every rule reading one (:meth:`replace`)."""
+        def touched(*names):
+            return changed is None or not changed.isdisjoint(names)
+
+        if touched("name") and (not isinstance(self.name, str) or not self.name):
             raise RobotError(f"Robot: field 'name': expected a non-empty string, got {self.name!r}", "name")
         owner = f"Robot {self.name!r}"
-        try:
-            links = tuple(self.links)
-        except TypeError:
-            raise RobotError(f"{owner}: field 'links': expected a sequence of Link, got {self.links!r}",
-                             "links") from None
-        if not links:
-            raise RobotError(f"{owner}: field 'links': expected at least one Link, got {self.links!r}", "links")
-        for i, lk in enumerate(links, start=1):
-            if not isinstance(lk, Link):
-                raise RobotError(f"{owner}: field 'links[{i}]': expected a Link, got {lk!r}", f"links[{i}]")
-        object.__setattr__(self, "links", links)
-        valid = [c.value for c in Convention] + ["craig"]
-        if self.convention == "craig":
-            object.__setattr__(self, "convention", Convention.MODIFIED)
-        elif self.convention not in valid:
-            raise RobotError(f"{owner}: field 'convention': expected one of {valid}, got {self.convention!r}",
-                             "convention")
-        object.__setattr__(self, "convention", Convention(self.convention))
+        if touched("links"):
+            try:
+                links = tuple(self.links)
+            except TypeError:
+                raise RobotError(f"{owner}: field 'links': expected a sequence of Link, got {self.links!r}",
+                                 "links") from None
+            if not links:
+                raise RobotError(f"{owner}: field 'links': expected at least one Link, got {self.links!r}", "links")
+            for i, lk in enumerate(links, start=1):
+                if not isinstance(lk, Link):
+                    raise RobotError(f"{owner}: field 'links[{i}]': expected a Link, got {lk!r}", f"links[{i}]")
+            object.__setattr__(self, "links", links)
+            names = self.joint_names
+            dup = sorted({nm for nm in names if names.count(nm) > 1})
+            if dup:
+                raise RobotError(f"{owner}: field 'joint.name': expected distinct joint names, got {dup[0]!r} twice",
+                                 "joint.name")
+        links = self.links
+        if touched("convention"):
+            valid = [c.value for c in Convention] + ["craig"]
+            if self.convention == "craig":
+                object.__setattr__(self, "convention", Convention.MODIFIED)
+            elif self.convention not in valid:
+                raise RobotError(f"{owner}: field 'convention': expected one of {valid}, got "
+                                 f"{self.convention!r}", "convention")
+            object.__setattr__(self, "convention", Convention(self.convention))
         for name in ("base", "tool"):
-            object.__setattr__(self, name, _rigid(owner, name, getattr(self, name)))
-        names = self.joint_names
-        dup = sorted({nm for nm in names if names.count(nm) > 1})
-        if dup:
-            raise RobotError(f"{owner}: field 'joint.name': expected distinct joint names, got {dup[0]!r} twice",
-                             "joint.name")
-        if self.gripper is not None and not isinstance(self.gripper, Gripper):
+            if touched(name):
+                object.__setattr__(self, name, _rigid(owner, name, getattr(self, name)))
+        if touched("gripper") and self.gripper is not None and not isinstance(self.gripper, Gripper):
             raise RobotError(f"{owner}: field 'gripper': expected a Gripper or None, got {self.gripper!r}",
                              "gripper")
-        channels = [lk.servo.channel for lk in links if lk.servo] + ([self.gripper.channel] if self.gripper else [])
-        if len(set(channels)) != len(channels):
-            raise RobotError(f"{owner}: field 'servo.channel': expected distinct servo channels, got {channels}",
-                             "servo.channel")
-        if self.length_unit not in _LENGTH_UNITS:
+        if touched("links", "gripper"):
+            channels = [lk.servo.channel for lk in links if lk.servo] + [g.channel for g in [self.gripper] if g]
+            if len(set(channels)) != len(channels):
+                raise RobotError(f"{owner}: field 'servo.channel': expected distinct servo channels, got "
+                                 f"{channels}", "servo.channel")
+        if touched("length_unit") and self.length_unit not in _LENGTH_UNITS:
             raise RobotError(f"{owner}: field 'units.length': expected one of {sorted(_LENGTH_UNITS)}, "
                              f"got {self.length_unit!r}", "units.length")
-        if self.angle_unit not in _ANGLE_UNITS:
+        if touched("angle_unit") and self.angle_unit not in _ANGLE_UNITS:
             raise RobotError(f"{owner}: field 'units.angle': expected one of {sorted(_ANGLE_UNITS)}, "
                              f"got {self.angle_unit!r}", "units.angle")
-        self._check_bus(owner, links)
-        up = np.asarray(self.up, dtype=float)
-        if up.shape != (3,):
-            raise ShapeError(f"expected up with shape (3,) (a direction in world coordinates), got {up.shape}")
-        norm = float(np.linalg.norm(up))
-        if not (np.isfinite(norm) and norm > 0.0):
-            raise ShapeError(f"expected up to be a finite non-zero direction, got {up.tolist()}")
-        object.__setattr__(self, "up", readonly(up / norm))
+        if touched("links", "bus"):
+            self._check_bus(owner, links)
+        if touched("up"):
+            up = np.asarray(self.up, dtype=float)
+            if up.shape != (3,):
+                raise ShapeError(f"expected up with shape (3,) (a direction in world coordinates), got {up.shape}")
+            norm = float(np.linalg.norm(up))
+            if not (np.isfinite(norm) and norm > 0.0):
+                raise ShapeError(f"expected up to be a finite non-zero direction, got {up.tolist()}")
+            object.__setattr__(self, "up", readonly(up / norm))
 
     def _check_bus(self, owner, links):
         """A ``[bus]`` table and per-joint ``bus`` servos come together: one servo per joint, distinct ids."""
@@ -211,20 +231,20 @@ class Robot:
         """Joint angle offsets, shape (n,) [rad]."""
         return np.array([lk.theta for lk in self.links])
 
-    @property
+    @cached_property
     def is_revolute(self):
-        """Boolean mask of revolute joints, shape (n,)."""
-        return np.array([lk.is_revolute for lk in self.links])
+        """Boolean mask of revolute joints, shape (n,) (read-only)."""
+        return _frozen(np.array([lk.is_revolute for lk in self.links]))
 
-    @property
+    @cached_property
     def flip(self):
-        """Boolean mask of flipped joints (variable enters negated), shape (n,)."""
-        return np.array([lk.flip for lk in self.links])
+        """Boolean mask of flipped joints (variable enters negated), shape (n,) (read-only)."""
+        return _frozen(np.array([lk.flip for lk in self.links]))
 
-    @property
+    @cached_property
     def joint_limits(self):
-        """Joint limits, shape (n, 2) [rad or m]."""
-        return np.array([lk.limits for lk in self.links], dtype=float)
+        """Joint limits, shape (n, 2) [rad or m] (read-only)."""
+        return _frozen(np.array([lk.limits for lk in self.links], dtype=float))
 
     @property
     def joint_names(self):
@@ -246,14 +266,8 @@ class Robot:
         ok : ndarray of bool, shape (...)
         """
         q = np.asarray(q, dtype=float)
-        ok = np.ones(q.shape[:-1], dtype=bool)
-        for j, lk in enumerate(self.links):  # column by column: no (..., n) temporaries
-            lo, hi = lk.limits
-            if np.isfinite(lo):
-                ok &= q[..., j] >= lo - tol
-            if np.isfinite(hi):
-                ok &= q[..., j] <= hi + tol
-        return ok
+        lim = self.joint_limits
+        return ((q >= lim[:, 0] - tol) & (q <= lim[:, 1] + tol)).all(axis=-1)
 
     def check_limits(self, q, tol=1e-9):
         """Raise :class:`JointLimitError` naming the first joint outside its limits.
@@ -356,7 +370,10 @@ class Robot:
         return kinematics.ik(self, target, **kwargs)
 
     def replace(self, **changes):
-        """Copy with some fields replaced (``dataclasses.replace``).
+        """Copy with some fields replaced (as ``dataclasses.replace``).
+
+        Only the replaced fields, and the rules that read them, are checked
+        again: the rest of the robot was checked when it was built.
 
         Parameters
         ----------
@@ -366,8 +383,19 @@ class Robot:
         Returns
         -------
         Robot
+
+        Examples
+        --------
+        >>> arm = Robot.load("puma560")
+        >>> arm.replace(name="copy").name, arm.replace(name="copy").n
+        ('copy', 6)
         """
-        return replace(self, **changes)
+        if not changes.keys() <= _FIELDS:
+            return replace(self, **changes)  # raises the TypeError that names the unknown field
+        new = object.__new__(type(self))
+        new.__dict__.update({name: getattr(self, name) for name in _FIELDS}, **changes)
+        new._validate({name for name, value in changes.items() if value is not getattr(self, name)})
+        return new
 
     def with_link(self, index, **changes):
         """Copy with fields of one link replaced.
@@ -385,7 +413,7 @@ class Robot:
         """
         links = list(self.links)
         links[index] = replace(links[index], **changes)
-        return replace(self, links=tuple(links))
+        return self.replace(links=tuple(links))
 
     def with_payload(self, mass, com=(0.0, 0.0, 0.0)):
         """Copy carrying a point mass rigidly at the tool (added to the last link's inertial).
@@ -566,3 +594,7 @@ class Robot:
         table.attrs["units"] = {table.columns[2]: lengths, table.columns[3]: angles, "d_i": lengths,
                                 "theta_i": angles, "lower": limit_unit, "upper": limit_unit}
         return table
+
+
+#: the dataclass fields of a Robot
+_FIELDS = frozenset(f.name for f in fields(Robot))

@@ -40,3 +40,14 @@ def test_a_virtual_bus_reports_the_current_of_the_dynamics_gravity_torque():
         counts = np.array([r - 65536 if r >= 32768 else r for r in raw])  # 16-bit two's complement
     assert np.array_equal(counts, np.rint(amps / CURRENT_UNIT).astype(int))
     assert np.abs(counts).max() > 10
+
+
+def test_a_geared_drive_sags_by_the_compliance_over_its_gear_ratio_squared():
+    """The PUMA 560's motors (G = 53.7 to 107.8) hold its joints: sag = compliance / G^2 x gravity torque."""
+    puma = Robot.load("puma560")
+    q = np.array([0.0, 0.4, -0.3, 0.0, 0.5, 0.0])
+    config = PhysicsConfig(tool_mass=0.0)
+    gears = np.array([lk.motor.gear_ratio for lk in puma.links])
+    expected = -config.joint_compliance / gears**2 * gravity_torques(puma, q)
+    np.testing.assert_allclose(gravity_sag(puma, q, config), expected, rtol=1e-12, atol=1e-15)
+    assert np.abs(gravity_sag(puma, q, config)).max() < np.radians(0.1)  # a PUMA barely yields

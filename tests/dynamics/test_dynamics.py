@@ -163,7 +163,7 @@ def test_a_controller_holds_a_pose_and_batches_simulate_together():
     def controller(time, q, qd):  # PD with gravity compensation
         return 40.0 * (target - q) - 8.0 * qd + D.gravity_torques(arm, q)
 
-    held = D.simulate(arm, [0.0, 0.0], [0.0, 0.0], np.linspace(0, 3.0, 4), torque=controller, integrator="RK45",
+    held = D.simulate(arm, [0.0, 0.0], [0.0, 0.0], np.linspace(0, 3.0, 4), torque=controller, solver="RK45",
                       rtol=1e-5, atol=1e-7)
     assert np.abs(held.q[-1] - target).max() < 1e-3 < np.abs(held.q[0] - target).max()
     assert np.allclose(held.tau[-1], D.gravity_torques(arm, held.q[-1]), atol=0.05)
@@ -184,7 +184,7 @@ def test_errors_say_what_was_expected():
     with pytest.raises(ShapeError, match="gravity"):
         D.gravity_torques(puma, np.zeros(6), gravity=[0, 9.81])
     with pytest.raises(OptionError, match="RK45"):
-        D.simulate(puma, np.zeros(6), np.zeros(6), [0, 1], integrator="euler")
+        D.simulate(puma, np.zeros(6), np.zeros(6), [0, 1], solver="euler")
     with pytest.raises(ShapeError, match="increasing"):
         D.simulate(puma, np.zeros(6), np.zeros(6), [1, 0])
     with pytest.raises(ShapeError, match="torque"):

@@ -155,7 +155,8 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     ``link_masses`` given) each link's mass sits at the middle of the link (between the
     origins of consecutive frames, the last link ending at the tool point, which also
     carries ``tool_mass``). The deflection of joint ``j`` is its compliance times the
-    gravity torque about its axis.
+    gravity torque about its axis; a joint whose file names a geared ``motor`` (ratio
+    ``G``) has ``joint_compliance / G**2`` (the drive's loop holds the motor shaft).
 
     Parameters
     ----------
@@ -186,6 +187,10 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
         from labkit.dynamics import gravity_torques  # the robot file's inertias: the load is the dynamics'
 
         held = robot.with_payload(config.tool_mass) if config.tool_mass > 0 else robot
+        # a drive with a gearbox (the file's motor.gear_ratio G) holds its position loop at the motor: the
+        # joint sees that compliance divided by G^2 (a hobby servo's compliance is already at its horn)
+        gears = np.array([1.0 if lk.motor is None else float(lk.motor.gear_ratio) for lk in robot.links])
+        compliance = compliance / gears**2
         return 0.0 - compliance * gravity_torques(held, q, gravity=g) * robot.is_revolute  # 0.0 -: no -0
     T = fk_frames(robot, q)  # (..., n + 2, 4, 4)
     origins = T[..., :3, 3]

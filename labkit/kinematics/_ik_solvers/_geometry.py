@@ -421,6 +421,8 @@ def per_branch(f, branches, shared):
     """
     k = len(branches)
     n = max(np.size(v) for v in (*branches[0], *shared))
+    if n == 1:  # one target: branch by branch on floats (cheaper than numpy rows of k elements)
+        return [f(*(float(v) for v in (*branch, *shared))) for branch in branches]
     args = np.empty((len(branches[0]) + len(shared), k, n))
     for j, branch in enumerate(branches):
         for i, v in enumerate((*branch, *shared)):

@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from labkit.kinematics._chain import per_robot
 from labkit.rotations import wrap_angle
 
 #: targets per numpy call of a family
@@ -50,23 +51,29 @@ def finish(robot, q, *, flipped=True):
         that enters the joint's limits; non-finite values replaced by 0.
     """
     q = np.array(q, dtype=float)
-    flip, rev, lo, hi = _joints(robot)
-    if flipped and flip.any():
+    flip, any_flip, rev, lo, hi, up, down = _joints(robot)
+    if flipped and any_flip:
         q[..., flip] *= -1.0
     v = wrap_angle(q[..., rev])
-    lo, hi = lo[rev] - _SLACK, hi[rev] + _SLACK
     # a value below the limits may enter them one turn up, one above them one turn down (pi itself, when the
-    # range starts at -pi); either only where the limits reach beyond (-pi, pi]
-    v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
-    q[..., rev] = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+    # range starts at -pi); either only where the limits reach beyond (-pi, pi] (``up``, ``down``)
+    if up:
+        v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
+    if down:
+        v = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+    q[..., rev] = v
     q[~np.isfinite(q)] = 0.0
     return q
 
 
+@per_robot
 def _joints(robot):
-    """Which joints are flipped and revolute, and the limits [rad, m], as arrays (n,)."""
-    lim = robot.joint_limits
-    return np.array([lk.flip for lk in robot.links]), robot.is_revolute, lim[:, 0], lim[:, 1]
+    """Flipped joints (and whether any), revolute ones, their limits with slack [rad], and whether a wrapped
+    angle v can go a turn up (v < lo needs lo > -pi; v + 2 pi rounds to >= pi, so hi >= pi) or down."""
+    lim, rev = robot.joint_limits, robot.is_revolute
+    lo, hi = lim[rev, 0] - _SLACK, lim[rev, 1] + _SLACK
+    up, down = bool(((lo > -math.pi) & (hi >= math.pi)).any()), bool(((hi < math.pi) & (lo <= -math.pi)).any())
+    return robot.flip, bool(robot.flip.any()), rev, lo, hi, up, down
 
 
 def solve(robot, family, flat):
@@ -97,9 +104,10 @@ def solve(robot, family, flat):
     distance = np.empty(N)
     for s in range(0, N, _CHUNK):
         part = slice(s, s + _CHUNK)
-        # a batch's components are (N,) rows; one target's are numpy scalars (the same formulas, without
-        # the bookkeeping of arrays of one element)
-        qb, rb, d = family.solve(flat[0] if N == 1 else np.ascontiguousarray(np.moveaxis(flat[part], 0, -1)))
+        # a batch's components are (N,) rows; one target's are Python floats (the same formulas, about 3x
+        # cheaper than numpy scalars; numpy scalars where a float divides by an exact zero: numpy's inf/nan)
+        qb, rb, d = family.solve(np.ascontiguousarray(np.moveaxis(flat[part], 0, -1))) if N > 1 else \
+            _solve_one(family, flat[0])
         for k, (branch, ok) in enumerate(zip(qb, rb)):
             for j, v in enumerate(branch):
                 q[part, k, j] = v
@@ -108,6 +116,14 @@ def solve(robot, family, flat):
     q = finish(robot, q)
     distance[reach.any(axis=1)] = 0.0
     return q, reach, reach & robot.within_limits(q), distance
+
+
+def _solve_one(family, target):
+    """The family on one target, its components as floats (numpy scalars where a float divides by 0)."""
+    try:
+        return family.solve(target.tolist())
+    except ZeroDivisionError:
+        return family.solve(target)
 
 
 def nearest(robot, q, valid, q_near):

@@ -23,7 +23,6 @@ SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
 SNAP_ALPHA = np.radians(3.0)
 
 
-
 def snapped(robot, fraction):
     """Copy of ``robot`` with small DH lengths set to 0 and near-right twists made exact.
 

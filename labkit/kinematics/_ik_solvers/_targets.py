@@ -178,12 +178,13 @@ def _vector_targets(target, kind):
 def _rigid_defects(T):
     """How far poses ``T`` (N, 4, 4) are from rigid transforms: the largest deviation of the rotation columns
     from orthonormal, the determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``."""
-    t = np.moveaxis(T, 0, -1)
-    c0, c1, c2 = ((t[0, k], t[1, k], t[2, k]) for k in range(3))
+    t = T[0].tolist() if T.shape[0] == 1 else np.moveaxis(T, 0, -1)  # one pose: floats, cheaper than rows of one
+    c0, c1, c2 = ((t[0][k], t[1][k], t[2][k]) for k in range(3))
     err = np.abs(_dot(c0, c0) - 1.0)
     for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
         err = np.maximum(err, np.abs(e))
-    return err, _dot(_cross(c0, c1), c2), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
+    det = _dot(_cross(c0, c1), c2)
+    return np.reshape(err, -1), np.reshape(det, -1), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
 
 
 def _is_bad(err, det, last):
