@@ -34,7 +34,7 @@ from test_fault_runs import fault_run  # noqa: E402
 import labkit.arm.link._wire as wire  # noqa: E402
 
 BOARDS = {
-    "sim": dict(url="sim://?clock=lockstep", timeout=0.01, disconnect_every=10000),
+    "sim": dict(url="sim://arduino_arm_3dof?clock=lockstep", timeout=0.01, disconnect_every=10000),
     "simavr": dict(url="simavr://?clock=lockstep", timeout=0.05, disconnect_every=30000),
 }
 

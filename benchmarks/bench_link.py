@@ -63,7 +63,7 @@ def bench(url, n):
     raw = serial.serial_for_url(url, baudrate=115200, timeout=0.05)
     port = Counting(raw)
     rows = []
-    with Arm(port, timeout=1.0, check_moves=False) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=1.0, check_moves=False) as arm:
         arm.set_host_timeout(0)
         rows.append(measure(arm, port, "PING round trip", arm.ping, n))
         rows.append(measure(arm, port, "STATUS round trip", arm.status, n // 2))

@@ -43,12 +43,12 @@ sols = ik_all(arm, T[:3, 3])
 assert any(np.allclose(fk(arm, qi)[:3, 3], T[:3, 3], atol=1e-9) for qi in sols.q[sols.valid]), sols
 traj = joint_trajectory(arm, np.zeros(3) + 0.5, q)
 assert np.allclose(traj.q[-1], q) and traj.q.shape[1] == 3
-errors = error_table(measurement_file("seed000_fk_tables1-3.csv"), arm)
+errors = error_table(arm, measurement_file("seed000_fk_tables1-3.csv"))
 assert "<table" in errors.to_html() and len(errors.table) > 0
 ax = plot_arm(arm, q)
 ax.figure.savefig("arm.png")
 plot_trajectory(traj)[0].figure.savefig("trajectory.png")
-with Arm("sim://", robot=arm) as link:
+with Arm(arm, "sim://") as link:
     link.move_joints(q, wait=True)
     reached = np.asarray(link.read_joints())
 assert np.allclose(reached, q, atol=np.radians(3)), np.degrees(reached)

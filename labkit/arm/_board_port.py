@@ -16,7 +16,7 @@ Examples
 >>> import serial
 >>> from labkit.arm.urlhandler import register
 >>> register()
->>> port = serial.serial_for_url("sim://?clock=lockstep", timeout=0.5)
+>>> port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.5)
 >>> isinstance(port, BoardPort), port.read_servos() is None, port.virtual_model is not None
 (True, True, True)
 >>> port.close()

@@ -15,9 +15,9 @@ Examples
 >>> from labkit.arm.urlhandler import register
 >>> from labkit.arm import Arm
 >>> register()
->>> raw = serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
+>>> raw = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05)
 >>> port = FaultyPort(raw, FaultConfig(seed=1, corrupt=0.01, drop=0.005))
->>> with Arm(port, timeout=0.05, retries=20) as arm:
+>>> with Arm("arduino_arm_3dof", port, timeout=0.05, retries=20) as arm:
 ...     t = arm.ping()
 >>> t > 0
 True

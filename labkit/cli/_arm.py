@@ -35,7 +35,7 @@ def _cmd_ports(args):
     for p in ports:
         print(f"{'*' if p.arduino else 'b' if p.bus_adapter else ' '} {p.device:<{width}}  {p.usb_id:<9}  {p.description}")
     if any(p.arduino for p in ports):
-        print("* looks like an Arduino; Arm() without a port takes the first of these")
+        print("* looks like an Arduino; Arm(robot) without a port takes the first of these")
     if any(p.bus_adapter for p in ports):
         print("b may be a servo-bus adapter (FTDI, e.g. a U2D2): dynamixel://<port> or feetech://<port>")
     return 0

@@ -377,7 +377,7 @@ def _virtual_port(robot, robot_ref):
     -------
     str
         ``sim://<robot_ref>?clock=lockstep&seed=0&calibrated=1`` (hobby servos, the board's
-        EEPROM holding the robot file's calibration), or ``sim://<robot_ref>?bus=<kind>&clock=lockstep&seed=0``
+        EEPROM holding the robot file's calibration), or ``sim://<robot_ref>?bus=<protocol>&clock=lockstep&seed=0``
         (a Dynamixel or Feetech bus: the vendor SDK drives an emulated bus).
 
     Examples
@@ -386,16 +386,16 @@ def _virtual_port(robot, robot_ref):
     'sim://robot.toml?bus=feetech&clock=lockstep&seed=0'
     """
     if robot.bus is not None:
-        return f"sim://{robot_ref}?bus={robot.bus.kind}&clock=lockstep&seed=0"
+        return f"sim://{robot_ref}?bus={robot.bus.protocol}&clock=lockstep&seed=0"
     return f"sim://{robot_ref}?clock=lockstep&seed=0&calibrated=1"
 
 
 def _port_doc(robot):
     """The comment of the notebooks' ``port`` parameter: the virtual arm, and what a real one is."""
     if robot.bus is not None:
-        device = {"dynamixel": "/dev/ttyUSB0", "feetech": "/dev/ttyACM0"}.get(robot.bus.kind, "/dev/ttyUSB0")
-        return (f"the virtual arm on a virtual {robot.bus.kind} bus; a real bus: \"{robot.bus.kind}://{device}\" "
-                f"({robot.bus.kind}://COM4 on Windows)")
+        device = {"dynamixel": "/dev/ttyUSB0", "feetech": "/dev/ttyACM0"}.get(robot.bus.protocol, "/dev/ttyUSB0")
+        return (f"the virtual arm on a virtual {robot.bus.protocol} bus; a real bus: \"{robot.bus.protocol}://{device}\" "
+                f"({robot.bus.protocol}://COM4 on Windows)")
     return _PARAM_DOC["port"]
 
 
@@ -495,10 +495,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     added = (f" The notebooks use `{SERVO_FILE}`: `{ROBOT_FILE}` unchanged plus the servo calibrations the "
              f"virtual arm needs (joint ranges in its header).") if notes else ""
     if model.bus is not None:
-        kind = model.bus.kind
-        where = (f"virtual arm on a virtual {kind} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "
+        protocol = model.bus.protocol
+        where = (f"virtual arm on a virtual {protocol} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "
                  f"packets to an emulated bus")
-        real = f"On the real arm: `labkit run 02_fk_check.ipynb -p port {kind}://{'/dev/ttyUSB0' if kind == 'dynamixel' else '/dev/ttyACM0'}`"
+        real = (f"On the real arm: `labkit run 02_fk_check.ipynb -p port "
+                f"{protocol}://{'/dev/ttyUSB0' if protocol == 'dynamixel' else '/dev/ttyACM0'}`")
     else:
         where, real = "virtual arm, `sim://`", "On a real board: `labkit run 02_fk_check.ipynb -p port /dev/ttyACM0`"
     (folder / "README.md").write_text(

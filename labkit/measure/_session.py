@@ -22,7 +22,7 @@ Examples
 >>> from labkit.arm import Arm
 >>> path = pathlib.Path(tempfile.mkdtemp()) / "sweep.csv"
 >>> plan = joint_sweep_plan("arduino_arm_3dof", {1: [45.0, 90.0]})
->>> with Arm("sim://?clock=lockstep&seed=0") as arm:
+>>> with Arm("arduino_arm_3dof", "sim://?clock=lockstep&seed=0") as arm:
 ...     df = MeasurementSession(arm, path, source="ruler", readings=2).run(plan)
 >>> len(df), sorted(df["quantity"].unique())
 (12, ['x', 'y', 'z'])

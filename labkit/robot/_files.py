@@ -17,7 +17,7 @@ import numpy as np
 from labkit.robot.types import (
     _ANGLE_UNITS,
     _LENGTH_UNITS,
-    BUS_KINDS,
+    _PROTOCOL_NAME,
     FORMAT,
     Bus,
     BusServo,
@@ -38,7 +38,7 @@ _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "m
 _MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
 _FRAME_KEYS = {"translation", "rpy"}
-_BUS_KEYS = {"kind", "baudrate", "resolution"}
+_BUS_KEYS = {"protocol", "baudrate", "resolution"}
 _BUS_SERVO_KEYS = {"id", "zero", "direction", "stall_torque"}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
@@ -141,23 +141,24 @@ def _int(path, field, value, lo, hi, unit=""):
 
 
 def _bus(path, table):
-    """The ``[bus]`` table: ``kind``, ``baudrate`` [bit/s], ``resolution`` [ticks/turn]."""
+    """The ``[bus]`` table: ``protocol``, ``baudrate`` [bit/s], ``resolution`` [ticks/turn] (default 4096)."""
     if table is None:
         return None
     _check_keys(path, "bus", table, _BUS_KEYS)
-    kind = table.get("kind")
-    if not isinstance(kind, str) or kind not in BUS_KINDS:
-        raise RobotFileError(path, "bus.kind", f"expected one of {', '.join(repr(k) for k in BUS_KINDS)}, got {kind!r}")
+    protocol = table.get("protocol")
+    if not isinstance(protocol, str) or not _PROTOCOL_NAME.fullmatch(protocol):
+        raise RobotFileError(path, "bus.protocol", "expected a bus protocol name such as 'dynamixel' or 'feetech' "
+                             f"(lower-case letters, digits, '_'), got {protocol!r}")
     baud = _int(path, "bus.baudrate", table.get("baudrate", 1_000_000), 9600, 4_500_000, "bit/s")
-    res = _int(path, "bus.resolution", table.get("resolution", BUS_KINDS[kind]), 16, 1_048_576, "ticks/turn")
-    return Bus(kind, baud, res)
+    res = _int(path, "bus.resolution", table.get("resolution", 4096), 16, 1_048_576, "ticks/turn")
+    return Bus(protocol, baud, res)
 
 
 def _bus_servo(path, where, table, bus):
     """A joint's ``bus = { id, zero, direction }`` (needs the ``[bus]`` table for the resolution)."""
     _check_keys(path, f"{where}.bus", table, _BUS_SERVO_KEYS)
     if bus is None:
-        raise RobotFileError(path, f"{where}.bus", "expected a [bus] table (kind, baudrate, resolution) in the file, "
+        raise RobotFileError(path, f"{where}.bus", "expected a [bus] table (protocol, baudrate, resolution) in the file, "
                              "got a bus servo without one")
     sid = _int(path, f"{where}.bus.id", table.get("id"), 0, 252)
     zero = _num(path, f"{where}.bus.zero", table.get("zero", bus.resolution // 2))
@@ -470,7 +471,7 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                        f"viscous = {_sig(m.viscous)}, coulomb = [{_sig(m.coulomb[0])}, {_sig(m.coulomb[1])}] }}")
         out.append("")
     if robot.bus:
-        out += ["[bus]", f'kind = "{robot.bus.kind}"', f"baudrate = {robot.bus.baudrate}",
+        out += ["[bus]", f'protocol = "{robot.bus.protocol}"', f"baudrate = {robot.bus.baudrate}",
                 f"resolution = {robot.bus.resolution}", ""]
     for name in ("base", "tool"):
         T = getattr(robot, name)

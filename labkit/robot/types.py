@@ -10,6 +10,7 @@ Convenience methods (``robot.fk(q)``) delegate to the pure functions of
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from enum import Enum
 
@@ -25,14 +26,14 @@ __all__ = [
     "Gripper",
     "BusServo",
     "Bus",
-    "BUS_KINDS",
     "Link",
     "LinkInertia",
     "Motor",
 ]
 
-#: servo buses a robot file's ``[bus]`` table may name (``kind``), each with its default resolution [ticks/turn]
-BUS_KINDS = {"dynamixel": 4096, "feetech": 4096}
+#: what a ``protocol`` name looks like: lower-case letters, digits and ``_``, starting with a letter (which
+#: protocols exist is :data:`labkit.arm.bus.BUSES`, checked when a bus is opened)
+_PROTOCOL_NAME = re.compile(r"[a-z][a-z0-9_]{0,31}")
 
 FORMAT = "labkit-robot/1"
 _LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
@@ -360,21 +361,24 @@ class Bus:
 
     Attributes
     ----------
-    kind : str
-        ``"dynamixel"`` (Protocol 2.0) or ``"feetech"`` (STS/SCS), a key of :data:`BUS_KINDS`.
+    protocol : str
+        The bus protocol, a key of :data:`labkit.arm.bus.BUSES`: ``"dynamixel"`` (Protocol 2.0) or
+        ``"feetech"`` (STS/SCS). The robot layer checks only its form (lower-case letters, digits, ``_``);
+        opening the bus checks that labkit has a codec for it.
     baudrate : int
         Bus baud rate [bit/s] the servos are set to (1,000,000 on OpenMANIPULATOR-X and SO-101).
     resolution : int
         Ticks per turn of every servo.
     """
 
-    kind: str
+    protocol: str
     baudrate: int = 1_000_000
     resolution: int = 4096
 
     def __post_init__(self):
-        if self.kind not in BUS_KINDS:
-            raise RobotError(f"Bus: field 'kind': expected one of {', '.join(BUS_KINDS)}, got {self.kind!r}", "kind")
+        if not isinstance(self.protocol, str) or not _PROTOCOL_NAME.fullmatch(self.protocol):
+            raise RobotError(f"Bus: field 'protocol': expected a bus protocol name such as 'dynamixel' (lower-case "
+                             f"letters, digits, '_'), got {self.protocol!r}", "protocol")
         if isinstance(self.baudrate, bool) or not isinstance(self.baudrate, (int, np.integer)) \
                 or not 9600 <= self.baudrate <= 4_500_000:
             raise RobotError(f"Bus: field 'baudrate': expected an integer 9600..4500000 bit/s, got {self.baudrate!r}",

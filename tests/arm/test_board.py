@@ -264,7 +264,7 @@ def test_url_handler_options_and_errors():
 
 
 def test_realtime_clock_runs_scaled():
-    port = serial.serial_for_url("sim://?time_scale=20", timeout=0.2)
+    port = serial.serial_for_url("sim://arduino_arm_3dof?time_scale=20", timeout=0.2)
     t0 = time.monotonic()
     assert port.readline().startswith(b"READY")
     assert time.monotonic() - t0 < 0.1  # 0.1 s of board time is 5 ms of wall time
@@ -312,8 +312,8 @@ def test_board_with_saved_calibration_accepts_a_robot_whose_limits_exclude_90_de
     assert board.executor.cal == rows and not board.executor.flags & 0x01
     assert all(r[4] <= q <= r[5] for q, r in zip(board.executor.q, rows))
     with pytest.raises(LabkitError, match="CAL rejected: 6 LIMIT"):
-        Arm(f"sim://{path}?clock=lockstep", robot=str(path))
-    with Arm(f"sim://{path}?clock=lockstep&calibrated=1", robot=str(path)) as arm:
+        Arm(str(path), f"sim://{path}?clock=lockstep")
+    with Arm(str(path), f"sim://{path}?clock=lockstep&calibrated=1") as arm:
         q = np.radians([10, 60, -120, 20, 30, 40])
         arm.move_joints(q, wait=True)
         assert np.abs(arm.read_joints() - q).max() < np.radians(1.5)

@@ -1,4 +1,4 @@
-"""One board interface: every board kind is a BoardPort; the host asks nothing else; a new bus kind is one
+"""One board interface: every board kind is a BoardPort; the host asks nothing else; a new bus protocol is one
 codec module and one registry entry; the boards share the executor by holding it, not by inheriting a board."""
 
 import ast
@@ -30,7 +30,7 @@ register()
 
 def _sim(kind):
     if kind == "sim":
-        return serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
+        return serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05)
     return serial.serial_for_url(f"sim://{BUS_ROBOTS[kind]}?bus={kind}&clock=lockstep", timeout=0.05)
 
 
@@ -107,7 +107,7 @@ def test_no_bus_class_inherits_a_simulator():
                 assert not bases & {"VirtualBoard", "SimSerial", "Serial"}, (path.name, node.name, bases)
 
 
-# -- a new bus kind: one codec module, one registry entry -------------------------------------------------
+# -- a new bus protocol: one codec module, one registry entry -------------------------------------------------
 
 OFFSET = 100  # the toy servo's control table: Dynamixel's, 100 bytes further up
 
@@ -116,7 +116,7 @@ def _toy_codec():
     """A bus codec module written here: Protocol 2.0 framing, its own control table, model and units."""
     dxl = bus_module("dynamixel")
     toy = types.ModuleType("toy_bus_codec")
-    toy.KIND = "toy"
+    toy.PROTOCOL = "toy"
     toy.TABLE = {name: (address + OFFSET, size) for name, (address, size) in dxl.TABLE.items()}
     toy.STATE = (dxl.STATE[0] + OFFSET, dxl.STATE[1])
     toy.MODEL = 4242
@@ -127,7 +127,7 @@ def _toy_codec():
         setattr(toy, name, getattr(dxl, name))
 
     class ToyDriver(dxl.Driver):
-        kind = "toy"
+        protocol = "toy"
         table = toy.TABLE
         state = toy.STATE
         current_unit = toy.CURRENT_UNIT
@@ -138,22 +138,19 @@ def _toy_codec():
 
 @pytest.fixture
 def toy_bus(monkeypatch, tmp_path):
-    from labkit.robot import BUS_KINDS
-
     monkeypatch.setitem(sys.modules, "toy_bus_codec", _toy_codec())
     monkeypatch.setitem(BUSES, "toy", "toy_bus_codec")  # the registry entry
-    monkeypatch.setitem(BUS_KINDS, "toy", 4096)  # what a robot file's [bus] kind may say (labkit.robot's list)
     robot = tmp_path / "toy_arm.toml"
-    robot.write_text(Path(BUS_ROBOTS["dynamixel"]).read_text().replace('kind = "dynamixel"', 'kind = "toy"')
+    robot.write_text(Path(BUS_ROBOTS["dynamixel"]).read_text().replace('protocol = "dynamixel"', 'protocol = "toy"')
                      .replace('name = "omx_test"', 'name = "toy_arm"'))
     yield str(robot)
     sys.modules.pop("labkit.arm.urlhandler.protocol_toy", None)
 
 
-def test_a_new_bus_kind_runs_end_to_end_on_a_virtual_bus(toy_bus):
-    with Arm(f"sim://{toy_bus}?bus=toy&clock=lockstep", robot=toy_bus) as arm:
+def test_a_new_bus_protocol_runs_end_to_end_on_a_virtual_bus(toy_bus):
+    with Arm(toy_bus, f"sim://{toy_bus}?bus=toy&clock=lockstep") as arm:
         emu = arm.port.emulator
-        assert emu.bus.KIND == "toy" and arm.port.board.driver.kind == "toy"
+        assert emu.bus.PROTOCOL == "toy" and arm.port.board.driver.protocol == "toy"
         assert emu.get(11, "model_number") == 4242
         target = np.radians([30.0, 20.0, -10.0, 15.0])
         arm.move_joints(target, wait=True)
@@ -168,7 +165,7 @@ def test_a_new_bus_kind_runs_end_to_end_on_a_virtual_bus(toy_bus):
         assert emu.rejected == []
 
 
-def test_a_new_bus_kind_is_a_url_scheme(toy_bus):
+def test_a_new_bus_protocol_is_a_url_scheme(toy_bus):
     register()
     port = serial.serial_for_url("toy:///dev/null", do_not_open=True)
     assert isinstance(port, BusSerial)
@@ -176,3 +173,18 @@ def test_a_new_bus_kind_is_a_url_scheme(toy_bus):
         port.open()
     with pytest.raises(serial.SerialException, match="bus one of dynamixel, feetech, toy"):
         serial.serial_for_url(f"sim://{toy_bus}?bus=nobus")
+
+
+def test_a_robot_file_may_name_any_protocol_and_opening_it_lists_the_known_ones(tmp_path):
+    from labkit.arm.bus import open_bus_board
+    from labkit.exceptions import OptionError
+    from labkit.robot import Robot
+
+    path = tmp_path / "herkulex_arm.toml"
+    path.write_text(Path(BUS_ROBOTS["dynamixel"]).read_text().replace('protocol = "dynamixel"', 'protocol = "herkulex"'))
+    robot = Robot.load(str(path))  # the robot layer checks the name's form only
+    assert robot.bus.protocol == "herkulex"
+    with pytest.raises(OptionError, match="one of dynamixel, feetech, got 'herkulex'"):
+        open_bus_board(robot, "/dev/null")
+    with pytest.raises(OptionError, match="protocol = 'feetech' for a feetech bus, got \\[bus\\] protocol = 'herkulex'"):
+        open_bus_board(robot, "/dev/null", protocol="feetech")

@@ -163,8 +163,8 @@ class DamageOneReply(PortWrapper):
 
 
 def test_a_wrong_reply_that_passes_the_crc16_is_refused_and_asked_again():
-    port = DamageOneReply(serial.serial_for_url("sim://?clock=lockstep", baudrate=115200, timeout=0.05))
-    arm = Arm(port, timeout=0.05, retries=3)
+    port = DamageOneReply(serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", baudrate=115200, timeout=0.05))
+    arm = Arm("arduino_arm_3dof", port, timeout=0.05, retries=3)
     try:
         truth = arm.status()
         sent, bad = arm.stats.sent, arm.stats.bad_lines

@@ -177,7 +177,7 @@ def fault_run(url, commands, *, seed=0, disconnect_every=4000, timeout=0.01, ret
         host = HostLog(faulty)
         accepted = []
         try:
-            arm = Arm(host, timeout=timeout, retries=retries)
+            arm = Arm("arduino_arm_3dof", host, timeout=timeout, retries=retries)
         except DeviceError:
             out["raised"] += 1
             _close(raw, faulty, out)
@@ -313,7 +313,7 @@ def check(r):
 
 
 def test_fault_run_on_the_virtual_arm():
-    r = fault_run("sim://?clock=lockstep", 500, seed=1, disconnect_every=10000)
+    r = fault_run("sim://arduino_arm_3dof?clock=lockstep", 500, seed=1, disconnect_every=10000)
     print(r)
     check(r)
     assert r["disconnects"] >= 1 and r["verified"] >= 1

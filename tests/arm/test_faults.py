@@ -14,7 +14,7 @@ NOISY = dict(corrupt=0.01, drop=0.005)  # the acceptance level: 1 % corrupted by
 
 
 def faulty(seed, **kw):
-    raw = serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
+    raw = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05)
     return raw, FaultyPort(raw, FaultConfig(seed=seed, **kw))
 
 
@@ -46,7 +46,7 @@ def check_stream(raw, df):
 @pytest.mark.parametrize("seed", [0, 1])
 def test_60s_feedback_stream_under_corruption_and_loss(seed):
     raw, port = faulty(seed, **NOISY)
-    with Arm(port, timeout=0.005, retries=40) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.005, retries=40) as arm:
         df = arm.stream(60.0, hz=50)
     check_stream(raw, df)
     assert df.attrs["lost"] > 500  # ~40 % of the 35-byte frames are hit at this error rate...
@@ -57,7 +57,7 @@ def test_60s_feedback_stream_under_corruption_and_loss(seed):
 @pytest.mark.slow
 def test_1000_segment_trajectory_under_corruption_and_loss():
     raw, port = faulty(2, **NOISY)
-    with Arm(port, timeout=0.005, retries=40) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.005, retries=40) as arm:
         arm.set_host_timeout(0)
         board = raw.board.executor
         accepted = []
@@ -81,7 +81,7 @@ def test_1000_segment_trajectory_under_corruption_and_loss():
 
 def test_short_trajectory_under_faults_in_both_directions():
     raw, port = faulty(3, **NOISY)
-    with Arm(port, timeout=0.005, retries=40) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.005, retries=40) as arm:
         board = raw.board.executor
         accepted = []
         orig = board._cmd_seg
@@ -113,7 +113,7 @@ def test_short_trajectory_under_faults_in_both_directions():
 
 def test_delays_are_survived():
     raw, port = faulty(5, delay=0.2, delay_s=0.03)
-    with Arm(port, timeout=0.05, retries=10) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.05, retries=10) as arm:
         for k in range(20):
             arm.move_joints(np.radians([10.0 + k, 20.0, 30.0]))
         np.testing.assert_allclose(np.degrees(arm.commanded_joints()), [29.0, 20.0, 30.0], atol=1e-6)
@@ -124,7 +124,7 @@ def test_delays_are_survived():
 
 def test_disconnect_mid_trajectory_raises_device_error():
     raw, port = faulty(6, disconnect_after=3000)
-    with Arm(port, timeout=0.01) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.01) as arm:
         segs = segments_from_trajectory(wave(arm.commanded_joints(), 200))
         with pytest.raises(DeviceError, match="vanished"):
             arm.run_trajectory(segs)

@@ -15,7 +15,7 @@ from labkit.arm import checksum
 from labkit.arm.urlhandler import register
 
 register()
-SIM = "sim://?clock=lockstep&seed=0"
+SIM = "sim://arduino_arm_3dof?clock=lockstep&seed=0"
 
 
 class Recorder(PortWrapper):
@@ -32,7 +32,7 @@ class Recorder(PortWrapper):
 
 @pytest.fixture
 def arm():
-    with Arm(SIM, timeout=0.02) as a:
+    with Arm("arduino_arm_3dof", SIM, timeout=0.02) as a:
         yield a
 
 
@@ -45,7 +45,7 @@ def test_handshake_reads_board_info(arm):
 
 def test_requests_carry_sequence_and_checksum():
     rec = Recorder(serial.serial_for_url(SIM, timeout=0.05))
-    with Arm(rec, timeout=0.02) as arm:
+    with Arm("arduino_arm_3dof", rec, timeout=0.02) as arm:
         arm.ping()
     seqs = []
     for line in rec.lines:
@@ -72,7 +72,7 @@ def test_move_joints_reaches_target_and_reads_back(arm):
 
 def test_limits_checked_on_host_before_sending():
     rec = Recorder(serial.serial_for_url(SIM, timeout=0.05))
-    with Arm(rec, timeout=0.02) as arm:
+    with Arm("arduino_arm_3dof", rec, timeout=0.02) as arm:
         n = len(rec.lines)
         with pytest.raises(JointLimitError, match="joint 2"):
             arm.move_joints(np.radians([10.0, 190.0, 10.0]))
@@ -92,13 +92,13 @@ def test_servo_range_checked_on_host():
     cal = robot.links[1].servo
     narrow = robot.with_link(1, servo=type(cal)(cal.channel, zero=math.radians(30), direction=1,
                                                  angle_range=(0.0, math.pi)))
-    with Arm(SIM, robot=narrow, timeout=0.02) as arm:
+    with Arm(narrow, SIM, timeout=0.02) as arm:
         with pytest.raises(JointLimitError, match="servo"):
             arm.move_joints(np.radians([10.0, 170.0, 10.0]))
 
 
 def test_board_rejection_raises_clear_error():
-    with Arm(SIM, timeout=0.02, sync_calibration=False) as arm:
+    with Arm("arduino_arm_3dof", SIM, timeout=0.02, sync_calibration=False) as arm:
         arm._transact("CAL", 1, 500, 2500, 0, 1, 0, 9000)  # the board is narrower than the robot file
         with pytest.raises(CommandRejected, match="LIMIT") as info:
             arm.move_joints(np.radians([10.0, 120.0, 10.0]))
@@ -189,7 +189,7 @@ def test_stream_to_dataframe(arm):
 def test_lost_motion_reply_is_verified_not_repeated():
     """A MOVE whose reply is lost is settled with STATUS, never sent again blindly."""
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    with Arm(raw, timeout=0.02) as arm:
+    with Arm("arduino_arm_3dof", raw, timeout=0.02) as arm:
         board = raw.board.executor
         moves = []
         orig = board._cmd_move
@@ -215,7 +215,7 @@ def test_the_timeout_and_retries_setters_refuse_what_the_constructor_refuses(arm
     with pytest.raises(OptionError, match=rf"expected {name} "):
         setattr(arm, name, value)
     with pytest.raises(OptionError, match=rf"expected {name} "):
-        Arm(SIM, **{name: value})
+        Arm("arduino_arm_3dof", SIM, **{name: value})
     assert getattr(arm, name) == before
     setattr(arm, name, 0.5 if name == "timeout" else 3)
     assert getattr(arm, name) == (0.5 if name == "timeout" else 3) and arm.ping() >= 0
@@ -223,7 +223,7 @@ def test_the_timeout_and_retries_setters_refuse_what_the_constructor_refuses(arm
 
 def test_timeouts_raise_device_error():
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    arm = Arm(raw, timeout=0.02, retries=2)
+    arm = Arm("arduino_arm_3dof", raw, timeout=0.02, retries=2)
     raw.board.executor._emit = lambda text: None  # the board goes silent
     with pytest.raises(DeviceError, match="PING failed after 3 attempts: no valid reply"):
         arm.ping()
@@ -234,7 +234,7 @@ def test_timeouts_raise_device_error():
 
 def test_vanished_port_raises_device_error():
     raw = serial.serial_for_url(SIM, timeout=0.05)
-    arm = Arm(raw, timeout=0.02)
+    arm = Arm("arduino_arm_3dof", raw, timeout=0.02)
     raw.close()
     with pytest.raises(DeviceError, match="vanished"):
         arm.ping()
@@ -243,7 +243,7 @@ def test_vanished_port_raises_device_error():
 def test_garbled_replies_are_never_accepted():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     port = FaultyPort(raw, FaultConfig(seed=4, corrupt=0.01, direction="read"))
-    with Arm(port, timeout=0.01, retries=60) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.01, retries=60) as arm:
         for _ in range(30):
             st = arm.status()
             assert st.state == "IDLE"
@@ -255,9 +255,9 @@ def test_garbled_replies_are_never_accepted():
 
 def test_open_errors():
     with pytest.raises(DeviceError, match="cannot open"):
-        Arm("/dev/does-not-exist-labkit")
+        Arm("arduino_arm_3dof", "/dev/does-not-exist-labkit")
     with pytest.raises(DeviceError, match="joints"):
-        Arm(SIM, robot="puma560")
+        Arm("puma560", "sim://arduino_arm_3dof?clock=lockstep&seed=0")  # a 6-joint robot file, a 3-joint board
     assert isinstance(find_ports(), list)
 
 
@@ -267,11 +267,11 @@ def test_wrong_protocol_version_is_refused():
     orig = board._cmd_hello
     board._cmd_hello = lambda args: orig(args).replace("proto=3", "proto=4")
     with pytest.raises(DeviceError, match=r"firmware 3\.0\.0\) speaks protocol 4, labkit expects protocol 3"):
-        Arm(raw, timeout=0.02)
+        Arm("arduino_arm_3dof", raw, timeout=0.02)
     raw2 = serial.serial_for_url(SIM, timeout=0.05)
     raw2.board.executor._cmd_hello = lambda args: "other-board v9"
     with pytest.raises(ProtocolError, match="not a labkit arm"):
-        Arm(raw2, timeout=0.02)
+        Arm("arduino_arm_3dof", raw2, timeout=0.02)
 
 
 def v1_board():
@@ -319,7 +319,7 @@ def v2_board(ready=True):
 def test_an_older_board_is_refused_with_what_to_do():
     with pytest.raises(DeviceError, match=r"labkit firmware 1\.0\.0, protocol 1 .*labkit speaks protocol 3 "
                                           r"\(firmware 3\.0\.0 or newer.*flash firmware/labkit_arm"):
-        Arm(v1_board(), timeout=0.02)
+        Arm("arduino_arm_3dof", v1_board(), timeout=0.02)
 
 
 @pytest.mark.parametrize("ready", [True, False])
@@ -328,7 +328,7 @@ def test_a_protocol_2_board_is_refused_naming_both_versions(ready):
     which = r"labkit firmware 2\.3\.0, protocol 2" if ready else "an older labkit firmware, protocol 2"
     with pytest.raises(DeviceError, match=rf"the board runs {which} \(.*\*[0-9A-F]{{4}}'\); labkit speaks protocol 3 "
                                           r"\(firmware 3\.0\.0 or newer: a CRC-32 on every line\): flash firmware"):
-        Arm(v2_board(ready), timeout=0.02, boot_wait=0.2)
+        Arm("arduino_arm_3dof", v2_board(ready), timeout=0.02, boot_wait=0.2)
 
 
 @pytest.mark.parametrize("old", ["2.3.0", "2.99.0"])
@@ -337,14 +337,14 @@ def test_a_board_older_than_the_oldest_firmware_driven_is_refused(old):
     orig = raw.board.executor._cmd_hello
     raw.board.executor._cmd_hello = lambda args: orig(args).replace("fw=3.0.0", f"fw={old}")
     with pytest.raises(DeviceError, match=rf"firmware {old}; labkit needs 3\.0\.0 or newer .*flash firmware/labkit_arm"):
-        Arm(raw, timeout=0.02)
+        Arm("arduino_arm_3dof", raw, timeout=0.02)
 
 
 def test_a_newer_board_is_driven():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     newer = raw.board.executor._cmd_hello
     raw.board.executor._cmd_hello = lambda args: newer(args).replace("fw=3.0.0", "fw=3.10.0")
-    with Arm(raw, timeout=0.02) as arm:  # versions compare as numbers, not text
+    with Arm("arduino_arm_3dof", raw, timeout=0.02) as arm:  # versions compare as numbers, not text
         assert arm.info.firmware == "3.10.0"
 
 
@@ -352,14 +352,14 @@ def test_no_ready_and_no_answer_says_what_to_check():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     raw.board.executor._emit = lambda text: None  # a silent device (wrong sketch, wrong baud rate)
     with pytest.raises(DeviceError, match=r"no READY from the board within 0.5 s .*firmware flashed"):
-        Arm(raw, timeout=0.02, boot_wait=0.5)
+        Arm("arduino_arm_3dof", raw, timeout=0.02, boot_wait=0.5)
 
 
 def test_a_board_without_auto_reset_is_still_found():
     raw = serial.serial_for_url(SIM, timeout=0.05)
     raw.board.advance(0.5)
     raw.board.take_output()  # its READY went out before the host opened the port
-    with Arm(raw, timeout=0.02, boot_wait=0.2) as arm:
+    with Arm("arduino_arm_3dof", raw, timeout=0.02, boot_wait=0.2) as arm:
         assert arm.info.protocol == 3
 
 
@@ -405,7 +405,7 @@ def test_no_port_found(monkeypatch):
 
     monkeypatch.setattr(ports, "list_ports", lambda: [])
     with pytest.raises(DeviceError, match="sim://"):
-        Arm(None)
+        Arm("arduino_arm_3dof", None)
 
 
 def test_stream_reanchors_after_a_genuine_jump(arm):
@@ -544,3 +544,18 @@ def test_a_raw_out_of_speed_move_is_refused_and_nothing_moves(arm):
     assert out.startswith("ERR #900 11 SPEED joint 0*"), out
     board.advance(0.1)
     assert board.q == before and board.state == "IDLE" and not board.segments
+
+
+def test_the_robot_comes_first_and_a_sim_url_may_name_it():
+    from labkit.exceptions import OptionError, PortURLError
+
+    with Arm(None, "sim://al5d?clock=lockstep&seed=0&calibrated=1", timeout=0.05) as arm:  # the URL's robot
+        assert arm.robot.name == "al5d" and arm.virtual_model.robot.name == "al5d"
+    with Arm("al5d", "sim://?clock=lockstep&seed=0&calibrated=1", timeout=0.05) as arm:  # the arm's robot, simulated
+        assert arm.virtual_model.robot.name == "al5d" and arm.info.joints == 5
+    with pytest.raises(OptionError, match="expected the arm's robot .* got robot=None and port 'sim://\\?seed=0'"):
+        Arm(None, "sim://?seed=0")
+    with pytest.raises(OptionError, match="got robot=None and port '/dev/ttyACM0'"):
+        Arm(None, "/dev/ttyACM0")
+    with pytest.raises(PortURLError, match="expected a robot, named in the URL .* or given as the robot= option"):
+        serial.serial_for_url("sim://?clock=lockstep")

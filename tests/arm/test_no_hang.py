@@ -1,8 +1,8 @@
 """Issue 27: the host never hangs and never aborts the interpreter (probes kept as tests).
 
-- a board flooding the line (bytes always waiting) cannot hold ``Arm()`` forever;
+- a board flooding the line (bytes always waiting) cannot hold ``Arm(robot, port)`` forever;
 - a large write to ``simavr://?clock=lockstep`` returns (the simulator takes the bytes at the baud rate);
-- a ``simavr://`` port or ``Arm("simavr://")`` left open ends the interpreter cleanly (exit status 0);
+- a ``simavr://`` port or ``Arm("arduino_arm_3dof", "simavr://")`` left open ends the interpreter cleanly (exit status 0);
 - a ``sim://`` lockstep read with ``timeout=None`` and nothing to read fails instead of spinning;
 - a request resent under the same ``#seq`` after a lost reply is answered, not run again.
 """
@@ -44,16 +44,16 @@ class Flood(PortWrapper):
 
 
 def test_a_flooding_board_does_not_hang_the_handshake():
-    flood = Flood(serial.serial_for_url("sim://?clock=lockstep", timeout=0.05))
+    flood = Flood(serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05))
     t0 = time.monotonic()
     with pytest.raises(DeviceError):
-        Arm(flood, timeout=0.02, retries=1, boot_wait=0.2)
+        Arm("arduino_arm_3dof", flood, timeout=0.02, retries=1, boot_wait=0.2)
     assert time.monotonic() - t0 < 20
     assert flood.read_bytes > 10_000  # it really was flooded
 
 
 def test_a_lockstep_sim_read_without_timeout_fails_instead_of_spinning():
-    port = serial.serial_for_url("sim://?clock=lockstep", timeout=0.5)
+    port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.5)
     port.readline()  # READY
     port.timeout = None
     t0 = time.monotonic()
@@ -65,8 +65,8 @@ def test_a_lockstep_sim_read_without_timeout_fails_instead_of_spinning():
 
 def test_a_resent_request_runs_once():
     # the reply to the first SEG is lost: the host resends it under the same #seq, the board answers it again
-    raw = serial.serial_for_url("sim://?clock=lockstep", timeout=0.05)
-    with Arm(raw, timeout=0.02) as arm:
+    raw = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.05)
+    with Arm("arduino_arm_3dof", raw, timeout=0.02) as arm:
         arm.set_host_timeout(0)
         board = raw.board.executor
         emit, lost = board._emit, []
@@ -107,7 +107,7 @@ def test_a_large_lockstep_write_to_simavr_returns(size):
 def test_a_simavr_port_left_open_exits_cleanly(how):
     code = {
         "port": "p = serial.serial_for_url('simavr://?clock=lockstep', timeout=0.5); p.readline()",
-        "arm": "a = Arm('simavr://?clock=lockstep'); a.ping()",
+        "arm": "a = Arm('arduino_arm_3dof', 'simavr://?clock=lockstep'); a.ping()",
         "collected": "p = serial.serial_for_url('simavr://?clock=lockstep', timeout=0.5); p.readline(); del p; "
                      "import gc; gc.collect()",
     }[how]
@@ -124,7 +124,7 @@ BAD = [float("nan"), float("inf"), -1.0, 1e308, "x", None, [1.0, 2.0], True]
 
 @pytest.fixture(scope="module")
 def sim_arm():
-    with Arm("sim://?clock=lockstep", timeout=0.02) as arm:
+    with Arm("arduino_arm_3dof", "sim://?clock=lockstep", timeout=0.02) as arm:
         yield arm
 
 
@@ -138,9 +138,9 @@ def test_bad_arm_arguments_are_labkit_errors_and_never_wait_forever(sim_arm, cal
         "sleep": lambda: sim_arm.sleep(value),
         "wait_settled tol": lambda: sim_arm.wait_settled(sim_arm.commanded_joints(), tol=value, max_wait=0.1),
         "wait_settled max_wait": lambda: sim_arm.wait_settled(sim_arm.commanded_joints(), max_wait=value),
-        "Arm timeout": lambda: Arm("sim://?clock=lockstep", timeout=value).close(),
-        "Arm retries": lambda: Arm("sim://?clock=lockstep", retries=value).close(),
-        "Arm boot_wait": lambda: Arm("sim://?clock=lockstep", boot_wait=value).close(),
+        "Arm timeout": lambda: Arm("arduino_arm_3dof", "sim://?clock=lockstep", timeout=value).close(),
+        "Arm retries": lambda: Arm("arduino_arm_3dof", "sim://?clock=lockstep", retries=value).close(),
+        "Arm boot_wait": lambda: Arm("arduino_arm_3dof", "sim://?clock=lockstep", boot_wait=value).close(),
         "grip": lambda: sim_arm.grip(value),
         "set_host_timeout": lambda: sim_arm.set_host_timeout(value),
         "move_joints": lambda: sim_arm.move_joints([value, 1.0, 1.0]),

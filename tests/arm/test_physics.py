@@ -214,7 +214,7 @@ def test_same_physics_drives_the_firmware_in_simavr():
     with FirmwareSim(on_tick=adapter.on_tick, tick_period=0.005) as sim:
         port = sim.open_port(baudrate=115200, timeout=0.05)
         assert isinstance(port, SimavrPort) and port.clock == "lockstep" and sim.stepped
-        with Arm(port, timeout=0.5) as arm:
+        with Arm("arduino_arm_3dof", port, timeout=0.5) as arm:
             np.testing.assert_allclose(arm.read_joints(), np.radians([90, 90, 90]), atol=math.radians(1.5))
             arm.move_joints(np.radians([30.0, 60.0, 120.0]))
             t_moved = sim.time()
@@ -243,7 +243,7 @@ def test_simavr_url_with_physics_closes_the_loop_like_sim():
     port = serial.serial_for_url("simavr://?physics=arduino_arm_3dof&seed=1", baudrate=115200, timeout=0.05)
     assert isinstance(port.physics, FirmwareAdapter)
     assert port.clock == "lockstep"  # the default with pace=0: the link waits in simulated time
-    with Arm(port, timeout=0.5) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.5) as arm:
         arm.move_joints(np.radians([30.0, 60.0, 120.0]))
         assert abs(arm.ping() - port.board_time) < 0.005  # the link's clock is the board's (ms + the reply)
         port.sim.sleep(1.5)

@@ -33,7 +33,7 @@ def test_ports_are_listed_arduinos_first(monkeypatch, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].split() == ["*", "/dev/ttyACM0", "2341:0043", "Arduino", "Uno"]
     assert out[2].split()[:3] == ["/dev/ttyS0", "-", "n/a"]
-    assert "Arm() without a port takes the first" in out[-1]
+    assert "Arm(robot) without a port takes the first" in out[-1]
 
 
 def test_an_ftdi_adapter_is_a_possible_bus_adapter_not_an_arduino(monkeypatch, capsys):
@@ -55,7 +55,7 @@ def test_an_ftdi_adapter_is_a_possible_bus_adapter_not_an_arduino(monkeypatch, c
     assert find_ports() == []
     with pytest.raises(DeviceError, match=r"no Arduino-like serial port.*/dev/ttyUSB1 may be a servo-bus adapter.*"
                                           r"'dynamixel:///dev/ttyUSB1'"):
-        Arm()
+        Arm("arduino_arm_3dof")
 
 
 def test_auto_detection_opens_the_first_arduino(monkeypatch):
@@ -68,7 +68,7 @@ def test_auto_detection_opens_the_first_arduino(monkeypatch):
 
     monkeypatch.setattr(serial, "serial_for_url", fake_open)
     with pytest.raises(DeviceError, match="ttyACM0.*is the board plugged in"):
-        Arm()
+        Arm("arduino_arm_3dof")
     assert opened == ["/dev/ttyACM0"]
 
 
@@ -82,7 +82,7 @@ def test_busy_and_forbidden_ports_say_what_to_do(monkeypatch, code, text, hint):
 
     monkeypatch.setattr(serial, "serial_for_url", fake_open)
     with pytest.raises(DeviceError, match=hint):
-        Arm("/dev/ttyACM0")
+        Arm("arduino_arm_3dof", "/dev/ttyACM0")
 
 
 def test_no_ports_at_all(monkeypatch, capsys):
@@ -92,4 +92,4 @@ def test_no_ports_at_all(monkeypatch, capsys):
     assert main(["ports"]) == 0
     assert "no serial ports found" in capsys.readouterr().out
     with pytest.raises(DeviceError, match="labkit ports"):
-        Arm()
+        Arm("arduino_arm_3dof")

@@ -39,7 +39,7 @@ class Stalling(PortWrapper):
 def _timed_move(stall_s):
     port = serial.serial_for_url("simavr://", baudrate=115200, timeout=0.05)
     stalling = Stalling(port)
-    with Arm(stalling, timeout=0.05) as arm:
+    with Arm("arduino_arm_3dof", stalling, timeout=0.05) as arm:
         stalling.seconds = stall_s
         arm.move_joints(np.radians([30.0, 60.0, 120.0]), duration=1.0)  # STATUS polled every 50 ms of board time
         stalling.seconds = 0.0

@@ -48,7 +48,7 @@ def test_sim_parse_url_refuses_another_scheme_with_a_labkit_error():
 
 
 def test_a_closed_sim_port_raises_a_labkit_error_that_is_pyserials_port_not_open_error():
-    port = serial.serial_for_url("sim://?clock=lockstep", timeout=0.1)
+    port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep", timeout=0.1)
     with pytest.raises(PortError, match="expected a closed port to open, got one already open"):
         port.open()
     port.close()
@@ -56,7 +56,7 @@ def test_a_closed_sim_port_raises_a_labkit_error_that_is_pyserials_port_not_open
         with pytest.raises(serial.PortNotOpenError) as info:
             use()
         assert isinstance(info.value, PortClosedError) and isinstance(info.value, DeviceError)
-        assert "sim://?clock=lockstep: expected an open port, got a closed one" in str(info.value)
+        assert "sim://arduino_arm_3dof?clock=lockstep: expected an open port, got a closed one" in str(info.value)
 
 
 @pytest.mark.parametrize("url, message", [

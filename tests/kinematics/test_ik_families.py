@@ -311,7 +311,7 @@ def test_arm_move_to_takes_the_target_the_arm_needs():
     al5d = Robot.load("al5d")
     q0 = np.array([0.3, -0.4, 0.5, 0.2, 0.1])
     target = _target(al5d, q0)
-    with Arm("sim://al5d?clock=lockstep&seed=0&calibrated=1", robot="al5d") as arm:
+    with Arm("al5d", "sim://al5d?clock=lockstep&seed=0&calibrated=1") as arm:
         q = arm.move_to(target, wait=True)
         assert np.abs(_difference(al5d, _target(al5d, q), target)).max() < 1e-12
         assert np.abs(arm.read_joints() - q).max() < np.radians(2.0)

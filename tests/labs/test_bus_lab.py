@@ -31,7 +31,7 @@ def _recording_close(self):
     _close(self)
     if not counted:
         with open(os.environ["LABKIT_TEST_BUS_LOG"], "a", encoding="utf-8") as f:
-            f.write(json.dumps({"cwd": os.getcwd(), "kind": self.bus.KIND, "packets": len(self.packets),
+            f.write(json.dumps({"cwd": os.getcwd(), "kind": self.bus.PROTOCOL, "packets": len(self.packets),
                                 "instructions": sorted({p[0] for p in self.packets}),
                                 "sync_writes": self.sync_writes, "rejected": list(self.rejected)}) + "\\n")
 
@@ -60,7 +60,7 @@ def test_a_bus_fault_during_a_measurement_stops_the_arm(tmp_path):
     from labkit.arm import Arm
     from labkit.measure import MeasurementSession, PlannedPose
 
-    with Arm("sim://so101?bus=feetech&clock=lockstep&seed=0", robot="so101") as arm:
+    with Arm("so101", "sim://so101?bus=feetech&clock=lockstep&seed=0") as arm:
         emu = arm.port.emulator
         session = MeasurementSession(arm, tmp_path / "log.csv", source="feedback", readings=1)
         q0 = arm.commanded_joints()
@@ -84,7 +84,7 @@ def test_a_bus_fault_during_a_measurement_stops_the_arm(tmp_path):
 def test_the_gripper_of_a_bus_arm_says_labkit_does_not_drive_it():
     from labkit.arm import Arm
 
-    with Arm("sim://openmanipulator_x?bus=dynamixel&clock=lockstep", robot="openmanipulator_x") as arm:
+    with Arm("openmanipulator_x", "sim://openmanipulator_x?bus=dynamixel&clock=lockstep") as arm:
         sent = len(arm.port.emulator.packets)
         with pytest.raises(DeviceError, match="gripper not driven on a servo bus"):
             arm.grip(1500)

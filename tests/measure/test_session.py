@@ -21,7 +21,7 @@ from labkit.measure import (
 from labkit.arm.urlhandler import register
 
 register()
-SIM = "sim://?clock=lockstep&seed=0"
+SIM = "sim://arduino_arm_3dof?clock=lockstep&seed=0"
 
 
 def test_seed000_plan():
@@ -40,7 +40,7 @@ def test_seed000_section_II4_sweeps_error_tables_and_calibration(tmp_path):
     from labkit.measure import error_table
 
     path = tmp_path / "sweep.csv"
-    with Arm(SIM) as arm:
+    with Arm("arduino_arm_3dof", SIM) as arm:
         offsets = arm.port.board.model.zero_offsets.copy()
         df = MeasurementSession(arm, path, source="ruler", readings=3).run(joint_sweep_plan(arm.robot, SEED000_SWEEPS))
     assert len(df) == 15 * 3 * 3
@@ -68,7 +68,7 @@ def test_seed000_section_II4_sweeps_error_tables_and_calibration(tmp_path):
 
 def test_feedback_readings(tmp_path):
     plan = [PlannedPose("a", (0.5, 1.0, 1.5)), PlannedPose("b", (1.0, 0.3, 0.2))]
-    with Arm(SIM) as arm:
+    with Arm("arduino_arm_3dof", SIM) as arm:
         df = MeasurementSession(arm, tmp_path / "fb.csv", source="feedback", readings=4).run(plan)
     assert len(df) == 2 * 4 * 3
     assert set(df["quantity"]) == {"theta1", "theta2", "theta3"} and set(df["unit"]) == {"deg"}
@@ -83,7 +83,7 @@ def test_feedback_readings(tmp_path):
 def test_manual_readings_are_validated(tmp_path, capsys):
     answers = iter(["", "abc", "1e9", "100", "0", "-50"] + ["10", "20", "30"] * 3)
     plan = [PlannedPose("p1", (0.5, 0.5, 0.5))]
-    with Arm(SIM) as arm:
+    with Arm("arduino_arm_3dof", SIM) as arm:
         session = MeasurementSession(arm, tmp_path / "m.csv", source="manual", readings=2, unit="mm",
                                      input=lambda prompt: next(answers))
         df = session.run(plan)
@@ -96,7 +96,7 @@ def test_manual_readings_are_validated(tmp_path, capsys):
 
 def test_manual_form_records_and_advances(tmp_path):
     plan = joint_sweep_plan("arduino_arm_3dof", {1: [30, 60]})
-    with Arm(SIM) as arm:
+    with Arm("arduino_arm_3dof", SIM) as arm:
         session = MeasurementSession(arm, tmp_path / "form.csv", source="manual", readings=1, unit="cm")
         form = manual_form(session, plan)
         title, fx, fy, fz, buttons, message = form.children
@@ -131,10 +131,10 @@ def test_ruler_needs_the_virtual_arm(tmp_path):
         def close(self):
             self._p.close()
 
-    with Arm(BarePort(serial.serial_for_url(SIM, timeout=0.05)), timeout=0.05) as arm:
+    with Arm("arduino_arm_3dof", BarePort(serial.serial_for_url(SIM, timeout=0.05)), timeout=0.05) as arm:
         with pytest.raises(DeviceError, match="source='manual'"):
             MeasurementSession(arm, tmp_path / "x.csv", source="ruler")
-    with Arm(SIM) as arm, pytest.raises(ValueError, match="expected source one of"):
+    with Arm("arduino_arm_3dof", SIM) as arm, pytest.raises(ValueError, match="expected source one of"):
         MeasurementSession(arm, tmp_path / "y.csv", source="laser")
 
 
@@ -143,7 +143,7 @@ def test_no_acknowledged_measurement_is_lost_when_the_link_dies(tmp_path):
     raw = serial.serial_for_url(SIM, timeout=0.05)
     port = FaultyPort(raw, FaultConfig(disconnect_after=1000))
     acknowledged = []
-    with Arm(port, timeout=0.02) as arm:
+    with Arm("arduino_arm_3dof", port, timeout=0.02) as arm:
         session = MeasurementSession(arm, path, source="ruler", readings=3)
         with pytest.raises(DeviceError, match="vanished"):
             for pose in joint_sweep_plan(arm.robot, SEED000_SWEEPS):

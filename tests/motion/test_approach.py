@@ -81,7 +81,7 @@ def test_pick_and_place_on_the_virtual_arm_approaches_from_above():
     plans = [cartesian_trajectory(ARM, line_path(leg.start, leg.end), 1.0 if leg.gripper else 2.0, dt=0.1,
                                   branch="elbow_up") for leg in legs]
     stops, descents = [], {}
-    with Arm(SIM, robot=ARM) as arm:
+    with Arm(ARM, SIM) as arm:
         sim = arm.virtual_model
         arm.set_host_timeout(5.0)
         arm.move_joints(plans[0].q[0], wait=True)

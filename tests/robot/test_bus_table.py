@@ -49,7 +49,8 @@ def _edit(tmp_path, old, new):
 
 
 @pytest.mark.parametrize("old, new, field, words", [
-    ('kind = "dynamixel"', 'kind = "herkulex"', "bus.kind", "expected one of 'dynamixel', 'feetech'"),
+    ('protocol = "dynamixel"', 'protocol = "Dynamixel 2.0"', "bus.protocol", "expected a bus protocol name"),
+    ('protocol = "dynamixel"', 'kind = "dynamixel"', "bus.kind", "unknown key"),
     ("baudrate = 1000000", "baudrate = 1e6", "bus.baudrate", "expected an integer 9600..4500000"),
     ("resolution = 4096", "resolution = 0", "bus.resolution", "ticks/turn"),
     ("bus = { id = 11, zero = 2048, direction = 1 }", "bus = { id = 300, zero = 2048 }", "joint[1].bus.id",

@@ -15,7 +15,7 @@ OFFSETS = (0.02, -0.015, 0.012)  # rad
 def _run(url, path, frames=2, plan=PLAN):
     rig = CameraRig.around("arduino_arm_3dof")
     truth = {}
-    with Arm(url) as arm:
+    with Arm("arduino_arm_3dof", url) as arm:
         camera = rig.virtual_camera(arm, seed=1)
         session = CameraSession(arm, path, camera, rig, frames=frames)
         for pose in plan:

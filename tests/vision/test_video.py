@@ -46,7 +46,7 @@ def recording(tmp_path_factory):
     rig = CameraRig.around("arduino_arm_3dof")
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, rig.camera.image_size, isColor=False)
     assert writer.isOpened(), "this OpenCV cannot write MJPG"
-    with Arm(URL) as arm:
+    with Arm("arduino_arm_3dof", URL) as arm:
         recorder = _Recorder(rig.virtual_camera(arm, seed=1), writer)
         session = CameraSession(arm, path.with_name("direct.csv"), recorder, rig, frames=FRAMES)
         session.run(PLAN)
@@ -59,7 +59,7 @@ def _replay(recording, log, **source):
     """Measure the plan again on the virtual arm, the frames coming from the video; returns the open source."""
     path, truth, rig = recording
     video = VideoSource(path, **source)
-    with Arm(URL) as arm:
+    with Arm("arduino_arm_3dof", URL) as arm:
         session = CameraSession(arm, log, video, rig, frames=FRAMES)
         df = session.run(PLAN)
         session.log.close()
@@ -121,7 +121,7 @@ def test_truncated_video_and_wrong_sizes_are_clear_errors(recording, tmp_path):
     with pytest.raises(DeviceError, match="could not open it"):
         VideoSource(tmp_path / "no_such_camera.avi")
     small = dataclasses.replace(rig.camera, image_size=(640, 480))
-    with Arm(URL) as arm, VideoSource(path) as video:
+    with Arm("arduino_arm_3dof", URL) as arm, VideoSource(path) as video:
         session = CameraSession(arm, tmp_path / "x.csv", video, rig, camera=small, frames=1)
         with pytest.raises(VisionError, match=r"pose 'j1_20': expected 640x480 frames .*, got 1280x960"):
             session.measure(PLAN[0])

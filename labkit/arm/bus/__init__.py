@@ -4,8 +4,8 @@
 through the board's :class:`~labkit.arm.board.Executor`, which it holds (the command set and segment
 executor every in-process board holds), and drives the servos through the vendor SDK
 (``dynamixel-sdk``, ``feetech-servo-sdk``); :class:`BusEmulator` is a virtual bus on a
-pseudo-terminal that the unmodified SDKs talk to. The bus kinds are a registry, :data:`BUSES`
-(kind -> codec module): a new kind is one module and one entry. URLs: ``dynamixel:///dev/ttyUSB0``,
+pseudo-terminal that the unmodified SDKs talk to. The bus protocols are a registry, :data:`BUSES`
+(protocol -> codec module): a new protocol is one module and one entry. URLs: ``dynamixel:///dev/ttyUSB0``,
 ``feetech:///dev/ttyACM0``, ``sim://<robot>?bus=dynamixel`` (``docs/link.md``).
 """
 

@@ -367,16 +367,18 @@ def _shutdown_at_exit(ref):
         board.shutdown()
 
 
-def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None, latency=None, settle=None):
-    """Open the bus ``kind`` on ``device`` through its SDK and put a :class:`BusBoard` in front of it.
+def open_bus_board(robot, device, *, protocol=None, model=None, queue=6, name=None, latency=None, settle=None):
+    """Open ``robot``'s servo bus on ``device`` through its SDK and put a :class:`BusBoard` in front of it.
 
     Parameters
     ----------
-    kind : str
-        ``"dynamixel"`` or ``"feetech"`` (the robot file's ``[bus] kind`` must agree).
+    robot : Robot or str
+        A robot (file) with a ``[bus]`` table; its ``protocol`` picks the codec (:data:`BUSES`).
     device : str
         The bus adapter's serial device (or a :class:`BusEmulator`'s pseudo-terminal).
-    robot : Robot or str
+    protocol : str, optional
+        The protocol the caller expects (a URL's scheme ``dynamixel://``, a ``sim://...?bus=``): the robot
+        file's ``[bus] protocol`` must agree; default: the robot file's.
     model : ArmModel, optional
         The virtual arm behind a virtual bus.
     queue : int
@@ -394,15 +396,16 @@ def open_bus_board(kind, device, robot, *, model=None, queue=6, name=None, laten
     Raises
     ------
     OptionError
-        ``kind`` unknown or not the robot file's.
+        The robot has no ``[bus]`` table, its protocol is not ``protocol`` or not one of :data:`BUSES`.
     DeviceError
         The bus cannot be opened, a servo does not answer, the arm rests outside its limits.
     """
     robot = Robot.load(robot)
-    if robot.bus is None or robot.bus.kind != kind:
-        got = "no [bus] table" if robot.bus is None else f"[bus] kind = {robot.bus.kind!r}"
-        raise OptionError(f"expected robot {robot.name!r} to have [bus] kind = {kind!r} for a {kind} bus, got {got}")
-    driver = bus_module(kind).Driver(device, robot, name=name, latency=latency)
+    if robot.bus is None or (protocol is not None and robot.bus.protocol != protocol):
+        want = "a [bus] table" if protocol is None else f"[bus] protocol = {protocol!r} for a {protocol} bus"
+        got = "no [bus] table" if robot.bus is None else f"[bus] protocol = {robot.bus.protocol!r}"
+        raise OptionError(f"expected robot {robot.name!r} to have {want}, got {got}")
+    driver = bus_module(robot.bus.protocol).Driver(robot, device, name=name, latency=latency)
     try:
         return BusBoard(robot, driver, model=model, queue=queue, settle=settle)
     except BaseException:

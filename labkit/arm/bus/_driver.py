@@ -52,18 +52,18 @@ class BusReading:
 
 
 class BusDriver:
-    """A servo bus through a vendor SDK (subclasses: one per bus kind).
+    """A servo bus through a vendor SDK (subclasses: one per bus protocol, the ``Driver`` of its codec module).
 
     Parameters
     ----------
-    device : str
-        Serial device of the bus adapter (``/dev/ttyUSB0``, a pseudo-terminal of the virtual bus).
     robot : labkit.robot.Robot
         A robot with a ``[bus]`` table: baud rate, resolution, each joint's servo id.
+    device : str
+        Serial device of the bus adapter (``/dev/ttyUSB0``, a pseudo-terminal of the virtual bus).
     retries : int
         Extra attempts of a state read whose status packets were lost or corrupt.
     name : str, optional
-        How messages name the bus (default ``"<kind>://<device>"``).
+        How messages name the bus (default ``"<protocol>://<device>"``).
     latency : float, optional
         The adapter's latency [ms] in the SDK's status-packet timeout (``2 * latency + 2 ms`` plus the packet's
         wire time); default the SDK's 16 ms (an FTDI adapter's latency timer); the virtual bus uses more, as a
@@ -75,14 +75,14 @@ class BusDriver:
         The device cannot be opened or set to the baud rate.
     """
 
-    kind = ""
+    protocol = ""
     table = {}
     state = (0, 0)
     current_unit = 1.0
     errors = {}
     profile = ()
 
-    def __init__(self, device, robot, *, retries=1, name=None, latency=None):
+    def __init__(self, robot, device, *, retries=1, name=None, latency=None):
         self.device = device
         self.robot = robot
         self.resolution = robot.bus.resolution
@@ -91,7 +91,7 @@ class BusDriver:
         self.retries = int(retries)
         #: sync-write packets sent (a virtual bus waits until it has handled as many)
         self.sync_writes = 0
-        self.name = name or f"{self.kind}://{device}"
+        self.name = name or f"{self.protocol}://{device}"
         self.sdk, port_class, self.packets = self._sdk()
         if latency is not None:
             port_class = _with_latency(port_class, float(latency))
@@ -101,11 +101,11 @@ class BusDriver:
         try:
             ok = self.handler.openPort()
         except Exception as exc:  # noqa: BLE001 - pyserial's SerialException or an OSError
-            raise DeviceError(f"cannot open the {self.kind} bus {device!r}: {exc}; is the adapter (U2D2, "
+            raise DeviceError(f"cannot open the {self.protocol} bus {device!r}: {exc}; is the adapter (U2D2, "
                               f"OpenRB-150, Feetech board) plugged in? 'labkit ports' lists the serial ports") from None
         if not ok or not self.handler.setBaudRate(self.baudrate):
             self.handler.closePort()
-            raise DeviceError(f"cannot set the {self.kind} bus {device!r} to {self.baudrate} bit/s")
+            raise DeviceError(f"cannot set the {self.protocol} bus {device!r} to {self.baudrate} bit/s")
         # the SDKs open the port with timeout=0 and poll it while a status packet is due: a 1 ms read timeout
         # lets that wait sleep in select() instead of spinning (a read still returns as soon as its bytes came)
         self.handler.ser.timeout = 0.001

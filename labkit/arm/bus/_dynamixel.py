@@ -24,7 +24,7 @@ from labkit.exceptions import needs_extra
 
 __all__ = []
 
-KIND = "dynamixel"
+PROTOCOL = "dynamixel"
 #: control table (address, size [bytes]) of the XM430 / XL430 in Protocol 2.0
 TABLE = {
     "model_number": (0, 2), "firmware": (6, 1), "id": (7, 1), "operating_mode": (11, 1),
@@ -227,7 +227,7 @@ def status(servo_id, error, params):
 class DynamixelDriver(BusDriver):
     """The host side of a Dynamixel Protocol 2.0 bus through ``dynamixel-sdk`` (see :class:`BusDriver`)."""
 
-    kind = KIND
+    protocol = PROTOCOL
     table = TABLE
     state = STATE
     current_unit = CURRENT_UNIT

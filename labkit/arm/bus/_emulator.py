@@ -97,7 +97,7 @@ class BusEmulator:
         if self.robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table for a virtual bus, got {self.robot.name!r} "
                               f"(hobby servos: use sim://{self.robot.name})")
-        self.bus = bus_module(self.robot.bus.kind)
+        self.bus = bus_module(self.robot.bus.protocol)
         limits = self.robot.joint_limits
         q0 = limits.mean(axis=1) if q0 is None else np.asarray(q0, float)
         self.model = ArmModel(self.robot, config, q0=q0)
@@ -125,7 +125,7 @@ class BusEmulator:
 
         tty.setraw(self._slave)
         self.path = os.ttyname(self._slave)
-        self._thread = threading.Thread(target=self._serve, name=f"labkit {self.bus.KIND} bus", daemon=True)
+        self._thread = threading.Thread(target=self._serve, name=f"labkit {self.bus.PROTOCOL} bus", daemon=True)
         self._thread.start()
 
     # -- control tables ---------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from labkit.exceptions import needs_extra
 
 __all__ = []
 
-KIND = "feetech"
+PROTOCOL = "feetech"
 #: control table (address, size [bytes]) of the STS3215
 TABLE = {
     "firmware": (0, 1), "model_number": (3, 2), "id": (5, 1), "torque_enable": (40, 1), "acceleration": (41, 1),
@@ -184,7 +184,7 @@ def signed(value, bit=15):
 class FeetechDriver(BusDriver):
     """The host side of a Feetech STS bus through ``feetech-servo-sdk`` (see :class:`BusDriver`)."""
 
-    kind = KIND
+    protocol = PROTOCOL
     table = TABLE
     state = STATE
     current_unit = CURRENT_UNIT

@@ -1,10 +1,10 @@
-"""The bus kinds labkit drives: one codec module per bus, one entry here.
+"""The bus protocols labkit drives: one codec module per protocol, one entry here.
 
-:data:`BUSES` is data: a bus kind (the robot file's ``[bus] kind``, the URL scheme ``<kind>://``, the
-``sim://...?bus=<kind>`` option) -> the module that holds everything the bus fixes for both ends. A
-codec module defines:
+:data:`BUSES` is data: a bus protocol (the robot file's ``[bus] protocol``, the URL scheme
+``<protocol>://``, the ``sim://...?bus=<protocol>`` option) -> the module that holds everything the bus
+fixes for both ends. A codec module defines:
 
-- ``KIND``; ``TABLE`` (control-table field -> ``(address, size)``), ``STATE`` (the ``(address, size)`` a
+- ``PROTOCOL`` (its key here); ``TABLE`` (control-table field -> ``(address, size)``), ``STATE`` (the ``(address, size)`` a
   sync read of the state takes), ``MODEL`` (the model number virtual servos report), ``CURRENT_UNIT``
   [A per LSB], ``TORQUE_CONSTANT`` [N m / A], ``HARDWARE_ERRORS`` (bit -> name), ``ALERT`` (the status
   error bit that means "read the hardware error", or ``None``), ``INSTRUCTIONS`` (code -> ``"ping"``,
@@ -16,8 +16,9 @@ codec module defines:
 - ``Driver``: its :class:`BusDriver` subclass, the host side through the vendor SDK.
 
 Adding a bus is that module and one entry in :data:`BUSES`; the board (:class:`BusBoard`), the
-virtual bus, the URL handlers and :class:`labkit.arm.Arm` find it here. (The robot file's loader
-keeps its own list of the kinds a ``[bus]`` table may name, :data:`labkit.robot.BUS_KINDS`.)
+virtual bus, the URL handlers and :class:`labkit.arm.Arm` find it here. The robot-file loader, a layer
+below, checks only that ``[bus] protocol`` is a name; opening the bus (:func:`bus_module`) checks that
+it is one of these.
 """
 
 from __future__ import annotations
@@ -28,16 +29,16 @@ from labkit.exceptions import OptionError
 
 __all__ = ["BUSES", "bus_module"]
 
-#: bus kind -> its codec module (imported on first use)
+#: bus protocol -> its codec module (imported on first use)
 BUSES = {"dynamixel": "labkit.arm.bus._dynamixel", "feetech": "labkit.arm.bus._feetech"}
 
 
-def bus_module(kind):
-    """The codec module of bus ``kind``, or an :class:`OptionError` listing the kinds.
+def bus_module(protocol):
+    """The codec module of bus ``protocol``, or an :class:`OptionError` listing the protocols.
 
     Parameters
     ----------
-    kind : str
+    protocol : str
         A key of :data:`BUSES`.
 
     Returns
@@ -47,13 +48,14 @@ def bus_module(kind):
     Raises
     ------
     OptionError
-        ``kind`` is not a key of :data:`BUSES`.
+        ``protocol`` is not a key of :data:`BUSES`.
 
     Examples
     --------
-    >>> bus_module("feetech").KIND
+    >>> bus_module("feetech").PROTOCOL
     'feetech'
     """
-    if kind not in BUSES:
-        raise OptionError(f"expected a bus kind, one of {', '.join(BUSES)}, got {kind!r}")
-    return importlib.import_module(BUSES[kind])
+    if protocol not in BUSES:
+        raise OptionError(f"expected a bus protocol labkit has a codec for, one of {', '.join(BUSES)}, "
+                          f"got {protocol!r}")
+    return importlib.import_module(BUSES[protocol])

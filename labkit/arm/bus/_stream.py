@@ -20,16 +20,16 @@ def _ping(fields):
     return int(fields[0]) / 1000.0
 
 
-def record_bus_stream(wire, robot, duration, hz):
+def record_bus_stream(robot, wire, duration, hz):
     """Record ``duration`` s of a bus board's stream (:meth:`labkit.arm.Arm.stream` on a servo bus).
 
     Parameters
     ----------
+    robot : labkit.robot.Robot
+        The robot with the ``[bus]`` table.
     wire : object
         The link's wire (``transact``, ``pump``, ``clock``, ``io``, ``port``); its port (a
         :class:`labkit.arm.BoardPort`) offers the frames (``servo_stream``).
-    robot : labkit.robot.Robot
-        The robot with the ``[bus]`` table.
     duration : float
         Recording time [s of board time], > 0.
     hz : int

@@ -19,7 +19,7 @@ there stops the arm; anything that cannot be settled raises :class:`~labkit.exce
 
 Examples
 --------
->>> with Arm("sim://?clock=lockstep") as arm:
+>>> with Arm("arduino_arm_3dof", "sim://?clock=lockstep") as arm:
 ...     arm.move_joints([0.5, 0.8, 0.3], wait=True)
 ...     q = arm.read_joints()
 >>> np.allclose(q, [0.5, 0.8, 0.3], atol=0.02)
@@ -32,15 +32,14 @@ import math
 
 import numpy as np
 
-from labkit.robot import Robot
 from labkit.exceptions import DeviceError, OptionError
 from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
-from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments, move_duration_ms,
-                                  move_segment, segments_from_trajectory)
+from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
+                                       move_duration_ms, move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import record_stream
-from labkit.arm.link._ports import board_port, first_arduino, handshake, open_port
+from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
 
 __all__ = ["Arm"]
@@ -63,12 +62,13 @@ class Arm:
 
     Parameters
     ----------
+    robot : Robot or str or None
+        The robot (name, file, :class:`Robot`) whose servo calibrations and limits the host enforces (a
+        ``sim://`` URL naming none simulates it); ``None``: the one a ``sim://<robot>`` URL names.
     port : str or serial-like, optional
         Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``, ``simavr://``, ``dynamixel://``,
         ``feetech://``, any pyserial URL), an open :class:`BoardPort` or an open pyserial-like port to a real
         board (wrapped in an :class:`~labkit.arm.link.ArduinoPort`); ``None`` auto-detects an Arduino.
-    robot : Robot or str
-        The robot file whose servo calibrations and limits the host enforces.
     baudrate : int
     timeout : float
         Reply timeout of one request attempt [s of the link's clock: board time on ``sim://`` and
@@ -95,17 +95,18 @@ class Arm:
 
     Raises
     ------
+    OptionError
+        ``robot`` is ``None`` and the port is not a ``sim://<robot>`` URL.
     DeviceError
         No port found, the port cannot be opened, no handshake, wrong protocol version or joint count.
     """
 
-    def __init__(self, port=None, robot="arduino_arm_3dof", *, baudrate=115200, timeout=0.25, retries=6,
-                 boot_wait=3.0, sync_calibration=True, check_moves=True):
-        timeout = reply_timeout(timeout)
-        retries = retry_count(retries)
+    def __init__(self, robot, port=None, *, baudrate=115200, timeout=0.25, retries=6, boot_wait=3.0,
+                 sync_calibration=True, check_moves=True):
+        timeout, retries = reply_timeout(timeout), retry_count(retries)
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
-        self.robot = Robot.load(robot)
+        self.robot = arm_robot(robot, port)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate, self.robot)
@@ -140,7 +141,7 @@ class Arm:
         self.close()
 
     def __repr__(self):
-        return f"Arm({self.name!r}, robot={self.robot.name!r})"
+        return f"Arm({self.robot.name!r}, {self.name!r})"
 
     # -- the link's state, held by the wire object -------------------------------------------------
     port = _on_wire("port", "The open port (a :class:`BoardPort`, pyserial-like; ``None`` after :meth:`close`).")
@@ -167,7 +168,7 @@ class Arm:
 
         Examples
         --------
-        >>> with Arm("sim://?clock=lockstep") as arm:
+        >>> with Arm("arduino_arm_3dof", "sim://?clock=lockstep") as arm:
         ...     arm.virtual_model.ruler(2).shape
         (2, 3)
         """
@@ -596,4 +597,4 @@ class Arm:
         OptionError
             ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200 (a ``ValueError``).
         """
-        return record_stream(self._wire, self.robot, duration, hz)
+        return record_stream(self.robot, self._wire, duration, hz)

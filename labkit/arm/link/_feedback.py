@@ -117,15 +117,15 @@ class FrameFilter:
             self.stats.frames += 1
 
 
-def record_stream(wire, robot, duration, hz):
+def record_stream(robot, wire, duration, hz):
     """Record the feedback stream for ``duration`` s of board time (see :meth:`labkit.arm.Arm.stream`).
 
     Parameters
     ----------
-    wire : Wire
-        The link's wire object; its :attr:`~Wire.frames` sink is set while recording.
     robot : labkit.robot.Robot
         Joint count, speed limits and servo calibrations.
+    wire : Wire
+        The link's wire object; its :attr:`~Wire.frames` sink is set while recording.
     duration : float
         Recording time [s of board time].
     hz : int
@@ -142,7 +142,7 @@ def record_stream(wire, robot, duration, hz):
         ``duration`` not > 0 s, or ``hz`` not a whole number in 1..200.
     """
     if robot.bus is not None:  # a servo bus: the servos' positions and currents, one sync read per frame
-        return record_bus_stream(wire, robot, duration, hz)
+        return record_bus_stream(robot, wire, duration, hz)
     duration = finite("duration", duration, unit="s")
     if duration <= 0:
         raise OptionError(f"expected a recording time duration > 0 s, got {duration:g}")

@@ -21,7 +21,8 @@ import sys
 import time
 from dataclasses import dataclass
 
-from labkit.exceptions import DeviceError, ProtocolError
+from labkit.exceptions import DeviceError, OptionError, ProtocolError
+from labkit.robot import Robot
 from labkit.arm._board_port import BoardPort
 from labkit.arm._faults import PortWrapper
 from labkit.arm._protocol import PROTOCOL_VERSION
@@ -174,7 +175,7 @@ def find_ports():
 
 
 def first_arduino():
-    """The first of :func:`find_ports` (what ``Arm()`` without a port opens).
+    """The first of :func:`find_ports` (what ``Arm(robot)`` without a port opens).
 
     Returns
     -------
@@ -196,6 +197,34 @@ def first_arduino():
                       f"port (e.g. '/dev/ttyACM0', 'COM3'), or use the virtual arm 'sim://'{hint}")
 
 
+def arm_robot(robot, port):
+    """The robot of ``Arm(robot, port)``: ``robot`` loaded, or with ``None`` the one a ``sim://<robot>`` port names.
+
+    Parameters
+    ----------
+    robot : Robot or str or None
+    port : str or serial-like or None
+
+    Returns
+    -------
+    Robot
+
+    Raises
+    ------
+    OptionError
+        ``robot`` is ``None`` and ``port`` is not a ``sim://`` URL naming a robot.
+    """
+    from labkit.arm.urlhandler.protocol_sim import parse_url
+
+    if robot is None and isinstance(port, str) and port.lower().startswith("sim://"):
+        robot = parse_url(port)[0] or None
+    if robot is None:
+        raise OptionError("expected the arm's robot (Arm(robot, port): a bundled robot name, a robot file or a "
+                          f"Robot), or robot=None with a port sim://<robot>?... that names one; got robot=None and "
+                          f"port {port!r}")
+    return Robot.load(robot)
+
+
 def open_port(port, baudrate, robot=None):
     """Open ``port`` (device name or pyserial URL) with an error that says what to do.
 
@@ -206,7 +235,8 @@ def open_port(port, baudrate, robot=None):
     baudrate : int
         Baud rate [bit/s] (of a board; a servo bus runs at its robot file's ``[bus] baudrate``).
     robot : Robot, optional
-        The arm's robot file, handed to a servo-bus URL (``dynamixel://``, ``feetech://``) for its ``[bus]`` table.
+        The arm's robot file, handed to a servo-bus URL (``dynamixel://``, ``feetech://``) for its ``[bus]`` table
+        and to a ``sim://`` URL that names no robot (the virtual arm is then a copy of it).
 
     Returns
     -------
@@ -221,7 +251,8 @@ def open_port(port, baudrate, robot=None):
     import serial
     from labkit.arm.bus import BUSES
 
-    bus = {"robot": robot} if str(port).split("://", 1)[0].lower() in BUSES else {}
+    scheme = str(port).split("://", 1)[0].lower() if "://" in str(port) else ""
+    bus = {"robot": robot} if robot is not None and (scheme in BUSES or scheme == "sim") else {}
     try:
         return board_port(serial.serial_for_url(port, baudrate=baudrate, timeout=0.05, **bus))
     except (serial.SerialException, OSError, ValueError) as exc:

@@ -1,10 +1,10 @@
 """pyserial URL handlers of labkit (``sim://`` virtual arm, ``simavr://`` firmware simulator,
-``<bus>://`` servo buses: ``dynamixel://``, ``feetech://``, every kind of :data:`labkit.arm.bus.BUSES`).
+``<bus>://`` servo buses: ``dynamixel://``, ``feetech://``, every protocol of :data:`labkit.arm.bus.BUSES`).
 
 pyserial looks for ``protocol_<scheme>`` modules in the packages listed in
 ``serial.protocol_handler_packages``; :func:`register` adds this package once and names
-:mod:`labkit.arm.urlhandler.bus_port` as the ``protocol_<kind>`` module of every bus kind of the
-registry, so that a new bus kind needs no handler module of its own.
+:mod:`labkit.arm.urlhandler.bus_port` as the ``protocol_<protocol>`` module of every bus protocol of the
+registry, so that a new bus protocol needs no handler module of its own.
 """
 
 import sys
@@ -19,5 +19,5 @@ def register():
 
     if __name__ not in serial.protocol_handler_packages:
         serial.protocol_handler_packages.append(__name__)
-    for kind in BUSES:
-        sys.modules.setdefault(f"{__name__}.protocol_{kind}", bus_port)
+    for protocol in BUSES:
+        sys.modules.setdefault(f"{__name__}.protocol_{protocol}", bus_port)

@@ -12,7 +12,7 @@ URL form::
 * ``latency``: the adapter's latency [ms] in the SDK's status-packet timeout (default: the SDK's 16 ms, an
   FTDI adapter's default latency timer; a U2D2 set to 1 ms may use less, a busy host more).
 
-Any bus kind of :data:`labkit.arm.bus.BUSES` is a scheme. The port holds a
+Any bus protocol of :data:`labkit.arm.bus.BUSES` is a scheme. The port holds a
 :class:`labkit.arm.bus.BusBoard` on the wall clock (``clock=realtime``,
 ``time_scale=1``): :class:`labkit.arm.Arm` speaks labkit's protocol to it as to any board, and it
 drives the servos through the vendor SDK. The robot (its ``[bus]`` table) is the one the
@@ -32,7 +32,7 @@ __all__ = ["parse_bus_url", "BusSerial", "Serial"]
 
 
 def parse_bus_url(url):
-    """Split ``<kind>://<device>?baud=..&queue=..`` into ``(kind, device, options)``.
+    """Split ``<protocol>://<device>?baud=..&queue=..`` into ``(protocol, device, options)``.
 
     Parameters
     ----------
@@ -40,8 +40,8 @@ def parse_bus_url(url):
 
     Returns
     -------
-    kind : str
-        A bus kind of :data:`labkit.arm.bus.BUSES` (``"dynamixel"``, ``"feetech"`` ...).
+    protocol : str
+        A bus protocol of :data:`labkit.arm.bus.BUSES` (``"dynamixel"``, ``"feetech"`` ...).
     device : str
         The adapter's serial device.
     options : dict
@@ -101,21 +101,21 @@ class BusSerial(BoardSerial):
         Raises
         ------
         PortURLError
-            A malformed URL, no robot file, or one whose ``[bus] kind`` is not the URL's.
+            A malformed URL, no robot file, or one whose ``[bus] protocol`` is not the URL's.
         """
         from labkit.arm.bus import open_bus_board
         from labkit.exceptions import OptionError
         from labkit.robot import Robot
 
-        kind, device, options = parse_bus_url(self.port)
+        protocol, device, options = parse_bus_url(self.port)
         if self.robot is None:
-            raise PortURLError(f"{self.port}: expected the robot file of the arm on the bus (Arm(url, robot=...) "
+            raise PortURLError(f"{self.port}: expected the robot file of the arm on the bus (Arm(robot, url) "
                                f"or serial_for_url(url, robot=...)), got none")
         robot = Robot.load(self.robot)
         if options["baud"] is not None and robot.bus is not None:
             robot = replace(robot, bus=replace(robot.bus, baudrate=options["baud"]))
         try:
-            self.board = open_bus_board(kind, device, robot, queue=options["queue"], name=self.port,
+            self.board = open_bus_board(robot, device, protocol=protocol, queue=options["queue"], name=self.port,
                                         latency=options["latency"])
         except OptionError as exc:
             raise PortURLError(str(exc)) from None
@@ -125,5 +125,5 @@ class BusSerial(BoardSerial):
         self.is_open = True
 
 
-#: the class pyserial's ``serial_for_url`` opens for ``<kind>://`` (see :func:`labkit.arm.urlhandler.register`)
+#: the class pyserial's ``serial_for_url`` opens for ``<protocol>://`` (see :func:`labkit.arm.urlhandler.register`)
 Serial = BusSerial

@@ -4,7 +4,9 @@ URL form::
 
     sim://[robot]?seed=0&time_scale=1&clock=realtime&<physics option>=<value>...
 
-* ``robot``: bundled robot name or robot file (default ``arduino_arm_3dof``);
+* ``robot``: bundled robot name or robot file; without one in the URL, the ``robot=`` option of
+  ``serial.serial_for_url(url, robot=...)`` (which :class:`labkit.arm.Arm` passes: ``Arm(robot, "sim://")``
+  is a virtual copy of ``robot``); there is no default arm;
 * ``seed``: physics seed (offsets, noise, ruler);
 * ``clock``: ``realtime`` (board time = ``time_scale`` x wall clock) or
   ``lockstep`` (board time advances only while the host waits in ``read``,
@@ -15,7 +17,7 @@ URL form::
   calibration (saved with ``CAL`` + ``SAVE``), so the joints start at the middle of their
   limits; default ``0``, the factory calibration (every servo centred at 90 deg), under which
   a robot whose limits exclude 90 deg cannot be calibrated;
-* ``bus``: a bus kind (:data:`labkit.arm.bus.BUSES`: ``dynamixel``, ``feetech``) puts a virtual servo bus between the board and the arm: the
+* ``bus``: a bus protocol (:data:`labkit.arm.bus.BUSES`: ``dynamixel``, ``feetech``) puts a virtual servo bus between the board and the arm: the
   robot file's ``[bus]`` table names the servos, a :class:`labkit.arm.bus.BusEmulator` serves them on a
   pseudo-terminal and a :class:`labkit.arm.bus.BusBoard` drives them through the vendor SDK (default:
   none, the hobby-servo board); the bus's physics has no deadband unless ``deadband`` is given;
@@ -27,7 +29,7 @@ Examples
 >>> import serial
 >>> from labkit.arm.urlhandler import register
 >>> register()
->>> port = serial.serial_for_url("sim://?clock=lockstep&seed=1", timeout=0.5)
+>>> port = serial.serial_for_url("sim://arduino_arm_3dof?clock=lockstep&seed=1", timeout=0.5)
 >>> port.readline()[:19]
 b'READY labkit-arm 3 '
 >>> port.close()
@@ -68,7 +70,7 @@ def parse_url(url):
     Returns
     -------
     robot : str
-        Bundled robot name or robot file.
+        Bundled robot name or robot file; ``""`` if the URL names none.
     physics : dict
         :class:`labkit.arm.PhysicsConfig` fields given in the URL.
     options : dict
@@ -86,7 +88,7 @@ def parse_url(url):
     parts = urllib.parse.urlsplit(url)
     if parts.scheme != "sim":
         raise PortURLError(f"expected a URL of the form sim://[robot]?seed=..., got {url!r}")
-    robot = urllib.parse.unquote(parts.netloc + parts.path) or "arduino_arm_3dof"
+    robot = urllib.parse.unquote(parts.netloc + parts.path)
     fields = {f.name: f for f in dataclasses.fields(PhysicsConfig)}
     physics, options = {}, {"clock": "realtime", "time_scale": 1.0, "queue": 6, "calibrated": False, "bus": ""}
     for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
@@ -125,9 +127,18 @@ def parse_url(url):
 
 class Serial(BoardSerial):
     """A pyserial port whose other end is a :class:`labkit.arm.VirtualBoard` or, with ``bus=``, a
-    :class:`labkit.arm.bus.BusBoard` on a virtual bus (attribute ``board``; see :class:`BoardSerial`)."""
+    :class:`labkit.arm.bus.BusBoard` on a virtual bus (attribute ``board``; see :class:`BoardSerial`).
 
-    def __init__(self, *args, **kwargs):
+    Parameters
+    ----------
+    *args, **kwargs
+        As for ``serial.Serial``; ``robot`` (a Robot, bundled robot name or robot file) is the simulated
+        arm when the URL names none (``sim://?seed=1``).
+    """
+
+    def __init__(self, *args, robot=None, **kwargs):
+        #: the robot of ``serial_for_url(url, robot=...)``, used when the URL names none
+        self.robot = robot
         #: the virtual servo bus of ``bus=...`` (a :class:`labkit.arm.bus.BusEmulator`), else None
         self.emulator = None
         super().__init__(*args, **kwargs)
@@ -142,6 +153,12 @@ class Serial(BoardSerial):
         if self._port is None:
             raise PortError("expected a sim:// URL as the port to open, got none (port=None)")
         robot, physics, options = parse_url(self.port)
+        if not robot:
+            if self.robot is None:
+                raise PortURLError(f"{self.port}: expected a robot, named in the URL (sim://<robot>?..., e.g. "
+                                   "sim://arduino_arm_3dof?seed=0) or given as the robot= option "
+                                   "(serial_for_url(url, robot=...); Arm(robot, url) passes its own), got none")
+            robot = self.robot
         try:
             if options["bus"]:
                 self._open_bus(robot, PhysicsConfig(**{"deadband": 0.0, **physics}), options)
@@ -163,7 +180,7 @@ class Serial(BoardSerial):
 
         self.emulator = BusEmulator(robot, config)
         try:
-            self.board = open_bus_board(options["bus"], self.emulator.path, robot, model=self.emulator.model,
+            self.board = open_bus_board(robot, self.emulator.path, protocol=options["bus"], model=self.emulator.model,
                                         queue=options["queue"], name=self.port, latency=VIRTUAL_BUS_LATENCY,
                                         settle=self.emulator.wait_sync_writes)
         except BaseException:

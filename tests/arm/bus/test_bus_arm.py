@@ -18,7 +18,7 @@ def _url(robot_file, kind):
 
 @pytest.fixture
 def arm(robot_file, kind):
-    with Arm(_url(robot_file, kind), robot=robot_file) as arm:
+    with Arm(robot_file, _url(robot_file, kind)) as arm:
         yield arm
 
 
@@ -103,7 +103,7 @@ def test_a_bus_fault_stops_the_arm_with_torque_off(arm, fault):
 
 
 def test_closing_turns_torque_off(robot_file, kind):
-    arm = Arm(_url(robot_file, kind), robot=robot_file)
+    arm = Arm(robot_file, _url(robot_file, kind))
     emu = arm.port.emulator
     assert _torques(arm) == [True] * arm.robot.n
     arm.close()
@@ -115,7 +115,7 @@ def test_the_dynamixel_url_drives_a_bus_on_its_device():
     from tests.arm.bus.conftest import ROBOTS
 
     with BusEmulator(ROBOTS["dynamixel"], wall_clock=True) as emu:
-        with Arm(f"dynamixel://{emu.path}?baud=1000000&latency=100", robot=ROBOTS["dynamixel"]) as arm:
+        with Arm(ROBOTS["dynamixel"], f"dynamixel://{emu.path}?baud=1000000&latency=100") as arm:
             assert arm.virtual_model is None  # a "real" bus: nothing simulated on this side
             target = arm.commanded_joints() + np.radians([5.0, 0.0, 0.0, -5.0])
             arm.move_joints(target, wait=True)
@@ -131,22 +131,22 @@ def test_a_servo_that_does_not_answer_is_named_at_open():
     with BusEmulator(ROBOTS["feetech"], wall_clock=True) as emu:
         emu.faults.silent.add(3)
         with pytest.raises(DeviceError, match=r"servo 3 \(joint 'elbow'\) does not answer ping"):
-            Arm(f"feetech://{emu.path}?latency=100", robot=ROBOTS["feetech"])
+            Arm(ROBOTS["feetech"], f"feetech://{emu.path}?latency=100")
 
 
 def test_a_bus_url_needs_a_robot_with_that_bus(robot_file):
     with pytest.raises(DeviceError, match="bus"):
-        Arm("feetech:///dev/null-no-such", robot="arduino_arm_3dof")
+        Arm("arduino_arm_3dof", "feetech:///dev/null-no-such")
     with pytest.raises(DeviceError, match="expected bus one of dynamixel, feetech"):
-        Arm(f"sim://{robot_file}?bus=can", robot=robot_file)
+        Arm(robot_file, f"sim://{robot_file}?bus=can")
     with pytest.raises(DeviceError, match="hobby servos"):
-        with Arm("sim://?clock=lockstep") as plain:
+        with Arm("arduino_arm_3dof", "sim://?clock=lockstep") as plain:
             plain.read_load()
 
 
 def test_lockstep_runs_on_a_virtual_bus_repeat_exactly(robot_file, kind):
     def run():
-        with Arm(_url(robot_file, kind) + "&seed=3", robot=robot_file) as arm:
+        with Arm(robot_file, _url(robot_file, kind) + "&seed=3") as arm:
             arm.move_joints(arm.commanded_joints() + np.radians([15.0, -10.0, 5.0, 0.0]))
             df = arm.stream(0.2, hz=50)
             return df.to_numpy(), arm.virtual_model.true_q
@@ -169,7 +169,7 @@ from labkit.arm import Arm
 from labkit.arm.bus import BusEmulator
 emu = BusEmulator({ROBOTS['dynamixel']!r}, wall_clock=True)
 atexit.register(lambda: print("after", [emu.torque(i) for i in emu.ids]))  # runs after the board's handler
-arm = Arm(f"dynamixel://{{emu.path}}?latency=100", robot={ROBOTS['dynamixel']!r})
+arm = Arm({ROBOTS['dynamixel']!r}, f"dynamixel://{{emu.path}}?latency=100")
 print("before", [emu.torque(i) for i in emu.ids])
 """, encoding="utf-8")
     root = Path(__file__).parents[3]
