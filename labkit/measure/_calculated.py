@@ -33,6 +33,7 @@ Examples
 from __future__ import annotations
 
 import math
+import os
 import warnings
 
 import numpy as np
@@ -91,6 +92,9 @@ def _frame(data, loader, required):
     import pandas as pd
 
     if not isinstance(data, pd.DataFrame):
+        if not isinstance(data, (str, os.PathLike)):
+            raise MeasurementError(f"expected measurements as a DataFrame or the path of a CSV file, got "
+                                   f"{type(data).__name__} (the robot comes first: f(robot, measurements))")
         return loader(data)
     missing = [c for c in ("pose_id", "quantity", *required) if c not in data]
     if missing:

@@ -299,3 +299,12 @@ def test_ik_table_for_planar_and_6r_targets():
     table = error_table(puma, df, mode="ik", branch=None).table.set_index("quantity")
     assert table.loc["x", "calculated"] == pytest.approx(T6[0, 3])
     assert np.isfinite(table.loc["theta1", "calculated"])
+
+
+def test_measurements_in_the_robots_place_get_a_clear_error():
+    from labkit.exceptions import LabkitError
+    from labkit.robot import Robot
+
+    arm = Robot.load("arduino_arm_3dof")
+    with pytest.raises(LabkitError, match="expected measurements as a DataFrame or the path of a CSV file, got Robot"):
+        error_table(arm, arm)
