@@ -8,9 +8,9 @@ import numpy as np
 
 from labkit.dynamics._rne import gravity_torques, inverse_dynamics
 from labkit.exceptions import RobotError
-from labkit.validation import readonly
+from labkit.validation import as_batch, readonly
 
-__all__ = ["TorqueBudget", "torque_budget", "stall_torques"]
+__all__ = ["TorqueBudget", "torque_budget", "stall_torques", "torques_from_current"]
 
 
 def stall_torques(robot):
@@ -44,6 +44,47 @@ def stall_torques(robot):
                              f"stall_torque [N m] in its servo or bus table, got none", f"joint[{i}].stall_torque")
         out.append(servo.stall_torque)
     return np.array(out)
+
+
+def torques_from_current(robot, current):
+    """Joint torques that bus servos' present currents stand for: ``direction * torque_constant * current``.
+
+    The torque constant is each bus servo's ``torque_constant`` in the robot file (stall torque
+    over stall current from its datasheet); the direction turns the servo's sense into the
+    joint's.
+
+    Parameters
+    ----------
+    robot : Robot
+        An arm on a servo bus with ``torque_constant`` in every joint's ``bus`` table.
+    current : array_like, shape (..., n)
+        Present currents [A] (:meth:`labkit.arm.Arm.read_load`).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Joint torques [N m].
+
+    Raises
+    ------
+    RobotError
+        A joint that is not a bus servo or whose bus table has no ``torque_constant`` (named).
+    ShapeError
+        ``current`` is not of shape (..., n).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> torques_from_current(Robot.load("openmanipulator_x"), [0.0, -0.5, 0.2, 0.1]).round(3).tolist()
+    [0.0, -0.89, 0.356, 0.178]
+    """
+    gains = []
+    for i, lk in enumerate(robot.links, start=1):
+        if lk.bus is None or lk.bus.torque_constant is None:
+            raise RobotError(f"robot {robot.name!r}: joint {i} ({robot.joint_names[i - 1]}): expected a bus servo with "
+                             f"torque_constant [N m/A] in its bus table, got none", f"joint[{i}].torque_constant")
+        gains.append(lk.bus.direction * lk.bus.torque_constant)
+    return as_batch(current, (robot.n,), "current (present currents, A)") * np.array(gains)
 
 
 @dataclass(frozen=True)

@@ -37,3 +37,16 @@ def test_stall_torque_is_read_written_and_required(tmp_path):
     with pytest.raises(RobotFileError, match="torque > 0") as info:
         Robot.load(bad)
     assert info.value.field == "joint[1].servo.stall_torque"
+
+
+def test_torque_constant_is_read_written_and_checked(tmp_path):
+    omx = Robot.load("openmanipulator_x")
+    again = tmp_path / "omx.toml"
+    again.write_text(omx.to_toml())
+    assert [lk.bus.torque_constant for lk in Robot.load(again).links] == [1.78] * 4
+    assert np.allclose(D.torques_from_current(Robot.load(again), [[1.0, 1.0, -1.0, 0.0]]), [[1.78, 1.78, -1.78, 0.0]])
+    bad = tmp_path / "bad.toml"
+    bad.write_text(omx.to_toml().replace("torque_constant = 1.78", "torque_constant = 0", 1))
+    with pytest.raises(RobotFileError, match="torque constant > 0") as info:
+        Robot.load(bad)
+    assert info.value.field == "joint[1].bus.torque_constant"
