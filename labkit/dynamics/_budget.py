@@ -7,10 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.dynamics._rne import gravity_torques, inverse_dynamics
-from labkit.exceptions import RobotError
+from labkit.exceptions import RobotError, ShapeError, TorqueWarning
 from labkit.validation import as_batch, readonly
 
-__all__ = ["TorqueBudget", "torque_budget", "stall_torques", "torques_from_current"]
+__all__ = ["TorqueBudget", "torque_budget", "stall_torques", "torques_from_current", "check_torque_budget"]
 
 
 def stall_torques(robot):
@@ -164,3 +164,73 @@ def torque_budget(robot, q, *, qd=None, qdd=None, payload=0.0, payload_com=(0.0,
         margin = np.where(worst > 0, 1.0 / np.where(worst > 0, worst, 1.0), np.inf)
     return TorqueBudget(readonly(tau), readonly(stall), readonly(load), readonly(margin),
                         readonly(load.argmax(axis=-1)).astype(int))
+
+
+def check_torque_budget(robot, trajectory, *, payload=0.0, payload_com=(0.0, 0.0, 0.0), gravity=None):
+    """The torque budget of a motion plan, with a :class:`~labkit.exceptions.TorqueWarning` where it overdraws.
+
+    Call it before the plan goes to the arm: every sample's inverse dynamics (holding,
+    accelerating, friction) against the servos' stall torques. A plan that asks any joint for
+    more than its servo gives is warned about (which joint, when, how much), not refused: a
+    servo at its stall torque lags and heats rather than breaks, and the arm may carry less
+    than ``payload``.
+
+    Parameters
+    ----------
+    robot : Robot
+        With inertial parameters and ``stall_torque`` on every servo.
+    trajectory : Trajectory
+        A motion plan with samples ``t`` (m,) [s] and ``q``, ``qd``, ``qdd`` (m, n)
+        (:func:`labkit.motion.joint_trajectory`, :func:`labkit.motion.cartesian_trajectory`).
+    payload : float
+        Mass carried at the tool [kg].
+    payload_com : array_like, shape (3,)
+        Its centre of mass in the tool frame [m].
+    gravity : array_like, shape (3,), optional
+        Gravity in world coordinates [m/s^2]; default 9.81 along ``-robot.up``.
+
+    Returns
+    -------
+    TorqueBudget
+        Per sample: ``torque`` (m, n), ``margin`` (m,), ...
+
+    Warns
+    -----
+    TorqueWarning
+        Some sample needs more than a servo's stall torque.
+
+    Raises
+    ------
+    RobotError
+        The robot file has no inertias, or a servo without ``stall_torque``.
+    ShapeError
+        ``trajectory`` has no ``q``, ``qd``, ``qdd`` samples of shape (m, n).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> from labkit.motion import joint_trajectory
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> plan = joint_trajectory(arm, [1.5, 1.0, 1.0], [1.5, 0.2, 0.6], 1.0, law="quintic")
+    >>> round(float(check_torque_budget(arm, plan).margin.min()), 1)   # 8 times what the plan needs
+    8.0
+    """
+    import warnings
+
+    try:
+        t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
+    except AttributeError:
+        raise ShapeError(f"expected a trajectory with samples t, q, qd, qdd, got {type(trajectory).__name__}") from None
+    if q.ndim != 2 or q.shape[1] != robot.n or qd.shape != q.shape or qdd.shape != q.shape or t.shape != q.shape[:1]:
+        raise ShapeError(f"expected a trajectory of {robot.n} joints (t (m,), q, qd, qdd (m, {robot.n})), got "
+                         f"t {t.shape}, q {q.shape}, qd {qd.shape}, qdd {qdd.shape}")
+    budget = torque_budget(robot, q, qd=qd, qdd=qdd, payload=payload, payload_com=payload_com, gravity=gravity)
+    if not np.all(budget.ok):
+        k = int(np.argmin(budget.margin))
+        j = int(budget.worst_joint[k])
+        over = int(np.count_nonzero(~budget.ok))
+        warnings.warn(f"robot {robot.name!r}: the motion plan asks {robot.joint_names[j]} for "
+                      f"{abs(budget.torque[k, j]):.3g} N m at t = {t[k]:.3g} s, above its servo's stall torque of "
+                      f"{budget.stall[j]:.3g} N m ({over} of {len(t)} samples over; payload {payload:g} kg): slow the "
+                      f"move down, lighten the load or choose poses nearer the support", TorqueWarning, stacklevel=2)
+    return budget
