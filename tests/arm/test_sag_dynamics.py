@@ -83,3 +83,23 @@ def test_a_geared_drive_sags_by_the_compliance_over_its_gear_ratio_squared():
     expected = -config.joint_compliance / gears**2 * gravity_torques(puma, q)
     np.testing.assert_allclose(gravity_sag(puma, q, config), expected, rtol=1e-12, atol=1e-15)
     assert np.abs(gravity_sag(puma, q, config)).max() < np.radians(0.1)  # a PUMA barely yields
+
+
+def test_link_masses_are_point_masses_at_mid_link_fed_to_the_dynamics(tmp_path):
+    """A standard-DH 2R arm in a vertical plane: the sag of point masses at mid-link against the textbook torques."""
+    from labkit.arm.board import point_mass_links
+
+    path = tmp_path / "vertical2r.toml"
+    path.write_text('format = "labkit-robot/1"\nname = "vertical2r"\nconvention = "standard"\n'
+                    'units = { length = "mm", angle = "deg" }\nup = [0, 1, 0]\n'
+                    '[[joint]]\na = 300\nlimits = [-170, 170]\n[[joint]]\na = 200\nlimits = [-170, 170]\n')
+    arm = Robot.load(path)
+    m1, m2, tool, l1, l2, g = 0.4, 0.25, 0.1, 0.3, 0.2, 9.81
+    q = np.random.default_rng(3).uniform(-2.5, 2.5, (6, 2))
+    c1, c12 = np.cos(q[:, 0]), np.cos(q[:, 0] + q[:, 1])
+    tau = np.column_stack([m1 * g * l1 / 2 * c1 + m2 * g * (l1 * c1 + l2 / 2 * c12) + tool * g * (l1 * c1 + l2 * c12),
+                           m2 * g * l2 / 2 * c12 + tool * g * l2 * c12])
+    cfg = PhysicsConfig(link_masses=(m1, m2), tool_mass=tool, joint_compliance=(0.02, 0.05))
+    np.testing.assert_allclose(gravity_sag(arm, q, cfg), -np.array([0.02, 0.05]) * tau, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose([lk.inertial.com for lk in point_mass_links(arm, (m1, m2)).links],
+                               [[-l1 / 2, 0, 0], [-l2 / 2, 0, 0]], atol=1e-15)  # frame i sits at the link's far end
