@@ -436,9 +436,14 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
-    if kind in REDUCED:
-        raise OptionError(f"{robot.name}: numeric IK takes position, planar or pose targets; this arm takes "
-                          f"{target_words(kind)}, solved in closed form (use kind='position' or 'pose')")
+    sides = 1
+    if kind in REDUCED:  # x y z pitch [roll] / yaw: every tool pose that reaches them (front, back), as poses
+        if flat.ndim == 2:
+            flat = _reduced_family(robot, kind).poses(flat)
+            sides = flat.shape[1]
+            flat = flat.reshape(-1, 4, 4)
+            q0 = None if q0 is None else np.repeat(q0, sides, axis=0)
+        kind = "pose"
     rows = task_rows(kind)
     if mask is not None:
         mask = np.asarray(mask, dtype=bool).reshape(-1)
@@ -448,7 +453,22 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
         if not rows:
             raise OptionError("mask selects no task coordinate")
     rng = LazyGenerator(seed)
-    return solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+    q, ok, it, res = solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+    if sides == 1:
+        return q, ok, it, res
+    q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
+    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))  # the first pose reached
+    each = np.arange(q.shape[0])
+    return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
+
+
+def _reduced_family(robot, kind):
+    """The closed-form family that defines ``kind``'s angles (pitch, roll, yaw) on ``robot``."""
+    found, _ = detect(robot)
+    if found is None or found.kind != kind:
+        raise OptionError(f"{robot.name}: {target_words(kind)} targets are defined by the closed form of arms "
+                          f"that take them; this arm takes {target_words(target_kind(robot))} (or use kind='pose')")
+    return found
 
 
 def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_iter=50, restarts=10, seed=0):
@@ -466,12 +486,16 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         ``(..., 3)`` or ``(..., 4, 4)`` as :func:`target_kind` (or ``kind``) says.
     q0 : array_like, shape (n,) or (..., n), optional
         Initial guess [rad, m]; default random inside the limits (seeded).
-    kind : {"position", "planar", "pose"}, optional
-        Override :func:`target_kind` (e.g. ``"position"`` for a 6R arm).
+    kind : {"position", "planar", "pose", "position_pitch", "position_pitch_roll", "position_yaw"}, optional
+        Override :func:`target_kind` (e.g. ``"position"`` for a 6R arm). The
+        kinds with angles of 4- and 5-DOF arms and SCARAs take the same
+        targets as their closed form (:func:`ik`), solved on the tool poses
+        that form defines (:func:`pose_from_position_pitch`), so a branch can be
+        cross-checked numerically with the same target.
     mask : array_like of bool, optional
         Which task coordinates to match: 3 entries for position/planar
-        targets, 6 (``x, y, z, rx, ry, rz``) for poses - e.g. for an
-        under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
+        targets, 6 (``x, y, z, rx, ry, rz``) for poses and the kinds with
+        angles - e.g. for an under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
     tol : float
         Success threshold on the residual [m, rad].
     max_iter, restarts : int

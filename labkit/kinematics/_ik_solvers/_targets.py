@@ -25,15 +25,17 @@ COMPONENTS = {
     "planar": ("x", "y", "phi"),
     "position_pitch": ("x", "y", "z", "pitch"),
     "position_pitch_roll": ("x", "y", "z", "pitch", "roll"),
+    "position_yaw": ("x", "y", "z", "yaw"),
 }
 #: target kinds of arms with fewer than 6 joints that fix an orientation too (4-DOF pitch, 5-DOF pitch and
-#: roll, see :mod:`labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch`); they also take poses (checked by FK)
-REDUCED = ("position_pitch", "position_pitch_roll")
+#: roll, see :mod:`labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch`; a SCARA's yaw,
+#: :mod:`labkit.kinematics._ik_solvers._scara`); they also take poses (checked by FK)
+REDUCED = ("position_pitch", "position_pitch_roll", "position_yaw")
 
 #: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind;
 #: the pitch and roll of a reduced kind are no fixed rows: its Cartesian paths are poses (all six rows)
 _TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5),
-              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5)}
+              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5), "position_yaw": (0, 1, 2, 3, 4, 5)}
 
 
 def target_words(kind):
