@@ -32,10 +32,15 @@ COMPONENTS = {
 #: :mod:`labkit.kinematics._ik_solvers._scara`); they also take poses (checked by FK)
 REDUCED = ("position_pitch", "position_pitch_roll", "position_yaw")
 
+#: largest magnitude of a target's coordinates [m] and angles [rad]: a robot's workspace is metres across, and
+#: beyond this the solvers' squares and steps would overflow
+FARTHEST = 1e9
+
 #: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind;
 #: the pitch and roll of a reduced kind are no fixed rows: its Cartesian paths are poses (all six rows)
 _TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5),
-              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5), "position_yaw": (0, 1, 2, 3, 4, 5)}
+              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5),
+              "position_yaw": (0, 1, 2, 3, 4, 5)}
 
 
 def target_words(kind):
@@ -137,9 +142,9 @@ def validate_targets(target, kind):
     Raises
     ------
     ShapeError
-        Wrong shape, non-finite values, or a pose that is not a rigid transform
-        (rotation columns orthonormal to 1e-6, det > 0, last row ``[0, 0, 0, 1]``
-        to 1e-12).
+        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a
+        pose that is not a rigid transform (rotation columns orthonormal to
+        1e-6, det > 0, last row ``[0, 0, 0, 1]`` to 1e-12).
     """
     if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
         return _vector_targets(target, kind)
@@ -147,6 +152,7 @@ def validate_targets(target, kind):
         T = as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
+        _within_reason(T[:, :3, 3], lead, "target pose position")
         defects = _rigid_defects(T)
         bad = _is_bad(*defects).nonzero()[0]
         if len(bad):
@@ -174,7 +180,18 @@ def _vector_targets(target, kind):
         raise ShapeError(f"expected {name} with shape (..., {len(names)}){also}, got {shape}: this arm takes "
                          f"{' '.join(names)}{missing}")
     p = as_batch(target, (len(names),), name)
+    _within_reason(p.reshape(-1, len(names)), p.shape[:-1], name)
     return p.reshape(-1, len(names)), p.shape[:-1]
+
+
+def _within_reason(values, lead, name):
+    """Raise :class:`ShapeError` where a row of ``values`` (N, k) has a magnitude beyond :data:`FARTHEST`."""
+    near = np.abs(values) <= FARTHEST
+    if not near.all():
+        i = int(np.flatnonzero(~near.all(axis=-1))[0])
+        which = "" if not lead else f" (target {batch_index(i, lead)})"
+        raise ShapeError(f"expected {name} with every entry within +-{FARTHEST:.0e} (m, rad), got "
+                         f"{np.abs(values[i]).max():.3g}{which}: a robot's workspace is metres across")
 
 
 def _rigid_defects(T):
