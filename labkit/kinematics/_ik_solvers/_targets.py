@@ -146,7 +146,12 @@ def validate_targets(target, kind):
         pose that is not a rigid transform (rotation columns orthonormal to
         1e-6, det > 0, last row ``[0, 0, 0, 1]`` to 1e-12).
     """
-    if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
+    try:
+        target = np.asarray(target, dtype=float)
+    except (TypeError, ValueError) as exc:  # ragged lists, strings ...
+        raise ShapeError(f"expected the target as numbers ({target_words(kind)}), got {target!r:.80} ({exc})") \
+            from None
+    if kind in REDUCED and target.shape[-2:] != (4, 4):
         return _vector_targets(target, kind)
     if kind in ("pose", *REDUCED):
         T = as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
