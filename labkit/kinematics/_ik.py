@@ -9,15 +9,17 @@ Targets, by :func:`target_kind`:
 * ``"position_pitch"`` ``(..., 4)`` ``(x, y, z [m], pitch [rad])`` - 4-DOF
   yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
 * ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
-  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D); both also take
-  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch and
-  roll are defined in ``docs/ik.md``);
+  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D);
+* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms; these three also take
+  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch,
+  roll and yaw are defined in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
 ``docs/ik.md``): the first family of the registry that fits (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
-``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
+``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``, ``scara``, ``cylindrical``,
+``cartesian``). Other robots use :func:`ik_numeric`, which also takes every kind above.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -180,7 +182,7 @@ class IKResult:
 
 
 def target_kind(robot):
-    """What an IK target of ``robot`` is: ``"position"``, ``"planar"``, ``"position_pitch"``, ``"position_pitch_roll"`` or ``"pose"``.
+    """What an IK target of ``robot`` is: ``"position"``, ``"planar"``, ``"position_pitch[_roll]"``, ``"position_yaw"``, ``"pose"``.
 
     Parameters
     ----------
@@ -192,7 +194,8 @@ def target_kind(robot):
         ``"planar"`` for planar 3R arms (target ``(x, y, phi)``),
         ``"position_pitch"`` for 4-DOF yaw-pitch-pitch-pitch arms (``(x, y, z,
         pitch)``), ``"position_pitch_roll"`` for 5-DOF yaw-pitch-pitch-pitch-roll
-        arms (``(x, y, z, pitch, roll)``), ``"pose"`` for robots with 6 or more
+        arms (``(x, y, z, pitch, roll)``), ``"position_yaw"`` for SCARA arms
+        (``(x, y, z, yaw)``), ``"pose"`` for robots with 6 or more
         joints (target ``(4, 4)``), otherwise ``"position"`` (target ``(x, y, z)``).
 
     Examples
@@ -509,6 +512,14 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         ``q (..., n)``, ``success (...)``, ``iterations (...)``, ``residual (...)``.
         Nothing is raised for failed targets; their ``q`` is the best
         configuration found (finite).
+
+    Raises
+    ------
+    ShapeError
+        Wrong shape, not numbers, NaN/inf or entries beyond 1e9 (m, rad), or a
+        pose that is not a rigid transform.
+    OptionError
+        An unknown kind, or a kind with angles that the arm's closed form does not take.
 
     Examples
     --------
