@@ -73,6 +73,7 @@ ROBOTS = {
     "scara_standard": (_fixture("scara_standard"), "scara"),
     "scara_modified": (_fixture("scara_modified"), "scara"),
     "scara_prrr": (_scara_prrr, "scara"),
+    "scara_rrp": (_fixture("scara_rrp"), "scara_rrp"),
     "cylindrical_rpp": (_fixture("cylindrical_rpp"), "cylindrical"),
     "rpp_seed002": (lambda: Robot.load("rpp_seed002"), "cylindrical"),
     "gantry_ppp": (_fixture("gantry_ppp"), "cartesian"),

@@ -1,4 +1,4 @@
-"""Closed-form IK family ``scara`` (RRPR, RRRP, PRRR ... SCARA arms) (private).
+"""Closed-form IK families ``scara`` (RRPR, RRRP, PRRR ... SCARA arms) and ``scara_rrp`` (no wrist) (private).
 
 Four joints, three revolute and one prismatic, every axis parallel (either
 direction, any orientation in the world, either DH convention; the quill may
@@ -25,7 +25,9 @@ The prismatic joint moves every later frame along ``k`` and commutes with the
 rotations about axes parallel to it, so it takes the height and the three
 revolute joints solve the planar problem of ``planar_3r``: the total turn from
 the yaw, the wrist axis from the tool point and that turn, the elbow from
-the cosine law.
+the cosine law. ``scara_rrp``: the same with two revolute joints and no wrist,
+for targets ``(x, y, z)`` (the tool point's offset from the elbow axis is
+link 2).
 """
 
 from __future__ import annotations
@@ -72,21 +74,22 @@ class Scara(Family):
 
     def __init__(self, robot, z, o, tool):
         k, u, v = up_axis(robot, z)
-        for j in range(1, 4):
-            need_parallel(k, unit(z[j]), "all four joint axes must be parallel")
+        for j in range(1, robot.n):
+            need_parallel(k, unit(z[j]), "all joint axes must be parallel")
         rev = np.flatnonzero(robot.is_revolute)
-        self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, wrist, quill
+        self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, [wrist,] quill
         self.signs = tuple(1.0 if z[j] @ k > 0 else -1.0 for j in self.order)
         self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev[0]])
         P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
         pt = tool[:3, 3] - o[rev[0]]
+        P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
         e, f = np.subtract(P[1], P[0]), np.subtract(P[2], P[1])
         self.L1, self.L2 = math.hypot(*e), math.hypot(*f)
         if min(self.L1, self.L2) < TOL * length_scale(robot):
             raise NotThisFamily("the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
         self.law = CosineLaw(self.L1, self.L2)
         self.g1, self.g2 = math.atan2(e[1], e[0]), math.atan2(f[1], f[0])
-        self.t0 = (float(pt @ u) - P[2][0], float(pt @ v) - P[2][1])  # the tool point seen from the wrist axis
+        self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
         self.h0 = float(pt @ k)  # its height along k at q = 0
         R0 = tool[:3, :3]
         self.ref = R0[:, 1] if abs(R0[:, 0] @ k) > 1.0 - 1e-9 else R0[:, 0]
@@ -97,20 +100,20 @@ class Scara(Family):
     @documented
     def solve(self, t):
         d = tuple(t[i] - self.O[i] for i in range(3))
-        rot = t[3] - self.yaw0  # the total turn of the three revolute joints about k
+        rot = t[3] - self.yaw0 if len(t) == 4 else 0.0  # the total turn of the revolute joints about k
         c, s = np.cos(rot), np.sin(rot)
         t0x, t0y = self.t0
         x, y = _dot(self.u, d), _dot(self.v, d)
         ok, distance, elbow, shoulder, direction = self.law.solve(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
-        s1, s2, s3, sp = self.signs
-        quill = sp * (_dot(self.k, d) - self.h0)
+        quill = self.signs[-1] * (_dot(self.k, d) - self.h0)
         q = []
         for sign in (-1.0, 1.0):  # elbow left: the relative angle of link 2 is negative about k
             q1 = direction - sign * shoulder - self.g1
             q2 = sign * elbow - (self.g2 - self.g1)
-            branch = [None] * 4
-            for j, value in zip(self.order, (s1 * q1, s2 * q2, s3 * (rot - q1 - q2), quill)):
-                branch[j] = value
+            branch = [None] * len(self.order)
+            for j, sj, value in zip(self.order[:-1], self.signs, (q1, q2, rot - q1 - q2)):
+                branch[j] = sj * value
+            branch[self.order[-1]] = quill
             q.append(tuple(branch))
         return q, [ok, ok], distance
 
@@ -162,3 +165,11 @@ class Scara(Family):
         ndarray, shape (N, 1, 4, 4)
         """
         return self.pose(target)[:, None]
+
+
+class ScaraRRP(Scara):
+    """Closed-form position IK of a SCARA without a wrist (two revolute joints and a quill, axes parallel)."""
+
+    name = "scara_rrp"
+    kind = "position"
+    joints = 3
