@@ -154,10 +154,9 @@ def validate_targets(target, kind):
     if kind in REDUCED and target.shape[-2:] != (4, 4):
         return _vector_targets(target, kind)
     if kind in ("pose", *REDUCED):
-        T = as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
+        T = _finite_and_near(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        _within_reason(T[:, :3, 3], lead, "target pose position")
         defects = _rigid_defects(T)
         bad = _is_bad(*defects).nonzero()[0]
         if len(bad):
@@ -184,19 +183,28 @@ def _vector_targets(target, kind):
         also = " or a 4 x 4 pose" if kind in REDUCED else ""
         raise ShapeError(f"expected {name} with shape (..., {len(names)}){also}, got {shape}: this arm takes "
                          f"{' '.join(names)}{missing}")
-    p = as_batch(target, (len(names),), name)
-    _within_reason(p.reshape(-1, len(names)), p.shape[:-1], name)
+    p = _finite_and_near(target, (len(names),), name)
     return p.reshape(-1, len(names)), p.shape[:-1]
 
 
-def _within_reason(values, lead, name):
-    """Raise :class:`ShapeError` where a row of ``values`` (N, k) has a magnitude beyond :data:`FARTHEST`."""
-    near = np.abs(values) <= FARTHEST
-    if not near.all():
-        i = int(np.flatnonzero(~near.all(axis=-1))[0])
-        which = "" if not lead else f" (target {batch_index(i, lead)})"
-        raise ShapeError(f"expected {name} with every entry within +-{FARTHEST:.0e} (m, rad), got "
-                         f"{np.abs(values[i]).max():.3g}{which}: a robot's workspace is metres across")
+def _finite_and_near(target, last, name):
+    """``as_batch(target, last, name)``, also refusing entries beyond :data:`FARTHEST` (a pose: its position).
+
+    One comparison checks both (NaN and inf fail it too); where it fails, ``as_batch`` names a
+    non-finite entry, else the first target too far is named.
+    """
+    arr = as_batch(target, last, name, finite=False)
+    if not (np.abs(arr) <= FARTHEST).all():
+        as_batch(arr, last, name)  # raises for NaN / inf
+        lead = arr.shape[:-len(last)]
+        rows = np.abs(arr.reshape(-1, *last)[:, :3, 3] if len(last) == 2 else arr.reshape(-1, last[0]))
+        far = np.flatnonzero((rows > FARTHEST).any(axis=-1))
+        if len(far):  # (a pose's far rotation entry is no rigid transform: refused after this)
+            which = "" if not lead else f" (target {batch_index(int(far[0]), lead)})"
+            raise ShapeError(f"expected {name} with every {'position ' * (len(last) == 2)}entry within "
+                             f"+-{FARTHEST:.0e} (m, rad), got {rows[far[0]].max():.3g}{which}: a robot's "
+                             f"workspace is metres across")
+    return arr
 
 
 def _rigid_defects(T):
