@@ -30,6 +30,7 @@ from labkit.exceptions import OptionError
 from labkit.robot import Robot
 from labkit.arm.board import ArmModel, PhysicsConfig, gravity_sag
 from labkit.arm.bus._registry import bus_module
+from labkit.arm.bus._servo_loop import PositionLoops
 
 __all__ = ["BusEmulator", "BusFaults"]
 
@@ -70,6 +71,10 @@ class BusEmulator:
     wall_clock : bool
         Advance the physics to the wall clock before each packet (for a bus served alone);
         ``False``: whoever drives the bus advances :attr:`model`.
+    servo_load : bool
+        Whether the servos' position loops carry the gravity load (a servo then droops under load as a real
+        one with no integral gain does); default ``False``: the loops drive the inertia alone and the load
+        shows only in the present current (see :class:`PositionLoops`).
 
     Attributes
     ----------
@@ -92,7 +97,7 @@ class BusEmulator:
     '/dev/pts/5'
     """
 
-    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False):
+    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False, servo_load=False):
         self.robot = Robot.load(robot)
         if self.robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table for a virtual bus, got {self.robot.name!r} "
@@ -101,6 +106,9 @@ class BusEmulator:
         limits = self.robot.joint_limits
         q0 = limits.mean(axis=1) if q0 is None else np.asarray(q0, float)
         self.model = ArmModel(self.robot, config, q0=q0)
+        #: each servo's position loop on the dynamics (the model's servos; see labkit.arm.bus._servo_loop)
+        self.model.servos = PositionLoops(self.robot, config, self.bus, self.model.servos.position,
+                                          gravity=servo_load)
         self._unit_load = replace(config, joint_compliance=1.0)
         self.ids = [lk.bus.id for lk in self.robot.links]
         self.memory = {i: bytearray(256) for i in self.ids}
@@ -117,6 +125,8 @@ class BusEmulator:
             self._put(servo_id, "model_number", self.bus.MODEL)
             self._put(servo_id, "id", servo_id)
             self._put(servo_id, "goal_position", int(self.robot.links[j].bus.ticks(q0[j])))
+            for name, value in self.bus.DEFAULT_GAINS.items():
+                self._put(servo_id, self.bus.GAINS[name][0], value)
         self._refresh()
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -182,8 +192,16 @@ class BusEmulator:
             if servo_id in self.faults.overload:
                 self._overload(servo_id)
 
+    def _sync_loop(self, servo_id):
+        """The servo's torque and position-loop gains from its control table into its loop."""
+        j = self.ids.index(servo_id)
+        loops = self.model.servos
+        loops.enable(j, self.torque(servo_id))
+        loops.set_gains(j, {name: self.get(servo_id, field) for name, (field, _, _) in self.bus.GAINS.items()})
+
     def _overload(self, servo_id):
         self.memory[servo_id][self.bus.TABLE["torque_enable"][0]] = 0
+        self.model.servos.enable(self.ids.index(servo_id), False)
         if "hardware_error" in self.bus.TABLE:
             self._put(servo_id, "hardware_error", 0x20)
 
@@ -199,6 +217,7 @@ class BusEmulator:
         torque = self.bus.TABLE["torque_enable"][0]
         if address <= torque < address + len(data) and servo_id in self.faults.overload and mem[torque]:
             mem[torque] = 0  # a servo in overload keeps its torque off until rebooted
+        self._sync_loop(servo_id)
         if self.torque(servo_id) and address < goal + size and goal < address + len(data):
             j = self.ids.index(servo_id)
             ticks = int.from_bytes(mem[goal:goal + size], "little", signed=True)
