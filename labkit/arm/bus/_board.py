@@ -28,6 +28,7 @@ from labkit.exceptions import DeviceError, OptionError
 from labkit.robot import Robot
 from labkit.arm.board import Executor
 from labkit.arm.bus._driver import BusFault
+from labkit.arm.bus._gains import GainBook
 from labkit.arm.bus._registry import bus_module
 
 __all__ = ["BusBoard", "open_bus_board"]
@@ -99,6 +100,8 @@ class BusBoard:
         self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
         self._goal = None
         self._frames = 0
+        #: the servos' position-loop gains (read, written within range, restored on close)
+        self.gains = GainBook(driver)
         self.executor = Executor(self, robot.n, queue=queue)
         self.executor.boot("POWER")
         atexit.register(_shutdown_at_exit, weakref.ref(self))  # torque off if the program ends with the arm open
@@ -203,9 +206,52 @@ class BusBoard:
         """
         return list(self.stream_rows)
 
+    def servo_bus(self):
+        """This board: what a port offers of its servo bus (:meth:`labkit.arm.BoardPort.servo_bus`).
+
+        Returns
+        -------
+        BusBoard
+        """
+        return self
+
+    def servo_gains(self, joint):
+        """The position-loop gains of joint ``joint``'s servo, read from it (see :class:`GainBook`).
+
+        Parameters
+        ----------
+        joint : int or str
+
+        Returns
+        -------
+        ServoGains
+        """
+        return self._guard(self.gains.read, joint)
+
+    def set_servo_gains(self, joint, **gains):
+        """Write position-loop gains of joint ``joint``'s servo, checked first (see :meth:`GainBook.write`).
+
+        Parameters
+        ----------
+        joint : int or str
+        **gains : int or None
+            ``kp``, ``ki``, ``kd``.
+
+        Returns
+        -------
+        ServoGains
+            The gains now.
+        """
+        self.gains.check(joint, **gains)  # a bad value is the caller's error, not a bus fault
+        self.settle()
+        return self._guard(lambda: self.gains.write(joint, **gains))
+
     def shutdown(self):
-        """Turn torque off and close the bus (never raises; the port's ``close`` calls it)."""
+        """Write back the gains labkit changed, turn torque off and close the bus (never raises; the port's
+        ``close`` calls it)."""
         self.executor._halt()
+        if not self.driver.closed:
+            self.gains.restore()
         self.driver.close()
 
     # -- faults ------------------------------------------------------------------------------------------

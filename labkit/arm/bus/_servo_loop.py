@@ -146,7 +146,8 @@ def position_loop(plant, gains):
     """The linearised closed position loop, goal -> present position, as a python-control transfer function.
 
     ``(Kd s^2 + Kp s + Ki) / (J s^3 + (b + Kd) s^2 + Kp s + Ki)`` (``Kd`` acts on the error, as in the
-    servo's loop; see the module notes).
+    servo's loop; see the module notes); with ``ki = 0`` the common root ``s = 0`` is cancelled:
+    ``(Kd s + Kp) / (J s^2 + (b + Kd) s + Kp)``.
 
     Parameters
     ----------
@@ -169,6 +170,8 @@ def position_loop(plant, gains):
     import control
 
     kp, ki, kd = plant.stiffness(gains)
+    if ki == 0:
+        return control.tf([kd, kp], [plant.inertia, plant.damping + kd, kp])
     return control.tf([kd, kp, ki], [plant.inertia, plant.damping + kd, kp, ki])
 
 
