@@ -17,7 +17,7 @@ import numpy as np
 
 from labkit.validation import readonly
 from labkit.exceptions import JointLimitError, LabkitError, RobotError, RobotFileError, ShapeError
-from labkit.robot.types import Bus, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
+from labkit.robot.types import Bus, BusGripper, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
 from labkit.robot._files import load_fields
 
 __all__ = ["Robot"]
@@ -71,7 +71,7 @@ class Robot:
         frame 0 has z pointing down: its file says ``up = [0, 0, -1]``.
     title, source : str
         Human description and provenance.
-    gripper : Gripper or None
+    gripper : Gripper or BusGripper or None
     path : str
         File it was loaded from ("" if built in code).
     length_unit, angle_unit : str
@@ -96,7 +96,7 @@ class Robot:
     tool: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
     title: str = ""
     source: str = ""
-    gripper: Gripper | None = None
+    gripper: Gripper | BusGripper | None = None
     path: str = ""
     length_unit: str = "m"
     angle_unit: str = "rad"
@@ -143,11 +143,12 @@ class Robot:
         for name in ("base", "tool"):
             if touched(name):
                 object.__setattr__(self, name, _rigid(owner, name, getattr(self, name)))
-        if touched("gripper") and self.gripper is not None and not isinstance(self.gripper, Gripper):
-            raise RobotError(f"{owner}: field 'gripper': expected a Gripper or None, got {self.gripper!r}",
-                             "gripper")
+        if touched("gripper") and self.gripper is not None and not isinstance(self.gripper, (Gripper, BusGripper)):
+            raise RobotError(f"{owner}: field 'gripper': expected a Gripper, a BusGripper or None, got "
+                             f"{self.gripper!r}", "gripper")
         if touched("links", "gripper"):
-            channels = [lk.servo.channel for lk in links if lk.servo] + [g.channel for g in [self.gripper] if g]
+            channels = [lk.servo.channel for lk in links if lk.servo] + \
+                [g.channel for g in [self.gripper] if isinstance(g, Gripper)]
             if len(set(channels)) != len(channels):
                 raise RobotError(f"{owner}: field 'servo.channel': expected distinct servo channels, got "
                                  f"{channels}", "servo.channel")
@@ -157,7 +158,7 @@ class Robot:
         if touched("angle_unit") and self.angle_unit not in _ANGLE_UNITS:
             raise RobotError(f"{owner}: field 'units.angle': expected one of {sorted(_ANGLE_UNITS)}, "
                              f"got {self.angle_unit!r}", "units.angle")
-        if touched("links", "bus"):
+        if touched("links", "bus", "gripper"):
             self._check_bus(owner, links)
         if touched("up"):
             up = np.asarray(self.up, dtype=float)
@@ -173,6 +174,11 @@ class Robot:
         if self.bus is not None and not isinstance(self.bus, Bus):
             raise RobotError(f"{owner}: field 'bus': expected a Bus or None, got {self.bus!r}", "bus")
         on_bus = [i for i, lk in enumerate(links, start=1) if lk.bus is not None]
+        if isinstance(self.gripper, BusGripper) and (self.bus is None or self.gripper.servo.resolution
+                                                       != self.bus.resolution):
+            raise RobotError(f"{owner}: field 'gripper.bus': expected a [bus] table and a gripper servo of its "
+                             f"resolution, got {'no [bus] table' if self.bus is None else self.gripper.servo}",
+                             "gripper.bus")
         if self.bus is None:
             if on_bus:
                 raise RobotError(f"{owner}: field 'joint[{on_bus[0]}].bus': expected a [bus] table (kind, baudrate, "
@@ -199,7 +205,7 @@ class Robot:
                 raise RobotError(f"{owner}: field 'joint[{i}].limits': expected limits inside the servo's position "
                                  f"range 0..{self.bus.resolution - 1} ticks (zero {lk.bus.zero:g}, direction "
                                  f"{lk.bus.direction}), got {ticks[0]}..{ticks[1]} ticks", f"joint[{i}].limits")
-        ids = [lk.bus.id for lk in links]
+        ids = [lk.bus.id for lk in links] + [g.servo.id for g in [self.gripper] if isinstance(g, BusGripper)]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
             raise RobotError(f"{owner}: field 'joint.bus.id': expected distinct servo ids, got {dup[0]} twice",
