@@ -111,6 +111,8 @@ class GripperServo:
         self.id = gripper.servo.id
         self._saved = {}
         self._goal = None
+        #: :meth:`start` has reached the servo (what :meth:`close` undoes)
+        self.started = False
 
     def _write(self, field, value, **kwargs):
         self.driver.write(self.id, field, value, **kwargs)
@@ -127,6 +129,7 @@ class GripperServo:
         if result != self.driver.sdk.COMM_SUCCESS:
             raise BusFault(f"{self.driver.name}: gripper servo {self.id} does not answer ping "
                            f"({self.driver._comm(result)}); check its id and wiring")
+        self.started = True
         self._write("torque_enable", 0)
         if self.bus.GRIPPER_MODE is not None:
             self._saved["operating_mode"] = read_field(self.driver, self.id, "operating_mode")
@@ -203,8 +206,10 @@ class GripperServo:
         Returns
         -------
         bool
-            Whether everything was acknowledged.
+            Whether everything was acknowledged (``True`` when :meth:`start` never reached the servo).
         """
+        if not self.started:
+            return True
         try:
             self._write("torque_enable", 0, check_error=False)
             for field, value in self._saved.items():
