@@ -56,6 +56,15 @@ HEADER = bytes([0xFF, 0xFF, 0xFD, 0x00])
 ADDRESS_BYTES = 2
 #: present current is two's complement (not sign-magnitude)
 SIGN_MAGNITUDE = False
+#: homing offset (address, size; EEPROM, written with torque off): present position = actual + HOMING_SIGN * offset
+HOMING_OFFSET = (20, 4)
+HOMING_SIGN = 1
+#: largest homing-offset magnitude the servo takes [ticks] (XM430 e-Manual: -1,044,479 .. 1,044,479)
+HOMING_LIMIT = 1_044_479
+#: the offset's sign bit (sign-magnitude), ``None``: two's complement
+HOMING_SIGN_BIT = None
+#: the EEPROM lock register (address, size), ``None``: torque off is enough to write the EEPROM
+EEPROM_LOCK = None
 
 
 def ping_reply(model):
