@@ -17,6 +17,7 @@ from pathlib import Path
 from labkit.exceptions import OptionError, RobotFileError, needs_extra
 from labkit.robot.types import _ANGLE_UNITS
 from labkit.robot._files import _resolve, parse
+from labkit.robot._model import Robot
 
 __all__ = ["edit_bus_calibration"]
 
@@ -123,7 +124,7 @@ def edit_bus_calibration(source, changes, *, out=None, backup=True):
                 table["limits"] = [_inward(lo, decimals, True), _inward(hi, decimals, False)]
     after = tomlkit.dumps(doc)
     try:
-        parse(tomllib.loads(after), target)
+        Robot(**parse(tomllib.loads(after), target))  # every check of Robot.load, before anything is written
     except tomllib.TOMLDecodeError as exc:  # pragma: no cover - tomlkit writes valid TOML
         raise RobotFileError(target, "<toml>", f"the edited file is not valid TOML: {exc}") from None
     saved = None
