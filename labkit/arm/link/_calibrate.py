@@ -78,10 +78,10 @@ def calibrate_bus(robot, port, *, out=None, ask=None, say=print, backup=True, wr
     from labkit.arm.bus import BUSES
 
     source = robot
+    robot = Robot.load(robot)
     if write and out is None and not os.path.isfile(os.fspath(source)):
         raise OptionError(f"expected a robot file path to calibrate in place (or out= for a new file), got "
                           f"{os.fspath(source)!r}: labkit's bundled robot files are never changed")
-    robot = Robot.load(robot)
     if robot.bus is None:
         raise OptionError(f"expected a robot file with a [bus] table to calibrate its servos, got {robot.name!r}")
     if not isinstance(port, str):

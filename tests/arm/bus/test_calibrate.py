@@ -188,6 +188,12 @@ def test_the_hand_needs_torque_off_and_bad_input_is_a_labkit_error(tmp_path, cap
     # a bundled robot is never changed in place
     assert main(["calibrate-bus", "so101", "--port", "sim://?bus=feetech&seed=1"]) == 2
     assert "bundled robot files are never changed" in capsys.readouterr().err
+    for argv, words in (([str(tmp_path / "none.toml"), "--port", "feetech:///dev/null"], "no such robot file"),
+                        ([str(robots_dir() / "so101.toml"), "--port", f"feetech://{tmp_path}/none"], "cannot open"),
+                        ([str(robots_dir() / "so101.toml"), "--port", "dynamixel:///dev/ttyUSB0"], "feetech://")):
+        assert main(["calibrate-bus", *argv, "--dry-run"]) == 2
+        err = capsys.readouterr().err
+        assert words in err and err.count("\n") == 1, err
 
 
 def test_a_calibration_the_loader_refuses_is_never_written(tmp_path):
