@@ -220,7 +220,9 @@ def _rehome(name, a, b, offset, resolution, homing, rehome):
     ideal = (resolution - 1) / 2 - (a + b) / 2
     lo, hi = math.ceil(-a - 0.5), math.floor(resolution - 1 - b + 0.5)  # every shift that keeps it inside
     for shift in sorted(range(lo, hi + 1), key=lambda s: (abs(s - ideal), s)):
-        new = _wrap(offset + sign * shift, resolution)
+        new = offset + sign * shift  # as is where the servo takes it (a Dynamixel's present counts on past a turn)
+        if abs(new) > limit:
+            new = _wrap(new, resolution)  # a whole turn less: the same reading on a servo that reads one turn
         if abs(new) <= limit and _fits(a + shift, b + shift, resolution):
             return shift, new
     raise BusCalibrationError(f"{where}, and no homing offset within the servo's +-{limit} ticks brings it inside "

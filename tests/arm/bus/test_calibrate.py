@@ -124,8 +124,10 @@ def test_virtual_openmanipulator_end_to_end(tmp_path):
     source = tmp_path / "omx.toml"
     shutil.copy(robots_dir() / "openmanipulator_x.toml", source)
     robot = Robot.load(source)
-    servos = assembled_servos(robot, seed=0, seam=(1,))
+    servos = list(assembled_servos(robot, seed=0, seam=(1,)))
     assert [s.direction for s in servos] != [lk.bus.direction for lk in robot.links]  # a bad direction to find
+    # joint4 stops at 100 deg where the file says 1.97 rad (112.9 deg): its upper limit becomes 99 deg
+    servos[3] = VirtualServo(servos[3].zero, servos[3].direction, (servos[3].stops[0], math.radians(100.0)))
     with BusEmulator(robot, servos=servos) as emu:
         steps = []
 
@@ -137,6 +139,10 @@ def test_virtual_openmanipulator_end_to_end(tmp_path):
         assert steps == [(j, kind) for j in range(4) for kind in ("zero", "plus", "range")]
         assert [c.direction for c in result.joints] == [s.direction for s in servos]
         assert result.joints[1].offset is not None and homing_offset(emu, 12) == result.joints[1].offset
+        assert [c.offset for c in result.joints[2:]] == [None, None]
+        assert result.joints[0].swept is None and result.joints[0].limits == robot.links[0].limits  # a full turn
+        assert result.joints[3].limits == pytest.approx((robot.links[3].limits[0], math.radians(99.0)), abs=2e-3)
+        assert "before the file's limit" in result.table()
         before, after, backup = edit_bus_calibration(source, result.changes())
         assert backup.read_text() == before and "[OMX] id, [DRV] zero and direction" in after  # comments kept
         _truth_reads_through(source, emu)
