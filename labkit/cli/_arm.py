@@ -33,7 +33,7 @@ def add_commands(sub):
     sp.add_argument("--no-backup", action="store_true", help="calibrating in place: keep no .bak of the old file")
     sp.add_argument("--no-rehome", action="store_true", help="never write a servo's homing offset (a range across the "
                     "encoder's seam is then an error saying how to re-home)")
-    sp.add_argument("--dry-run", action="store_true", help="show the calibration, write no file")
+    sp.add_argument("--dry-run", action="store_true", help="show the calibration; write no file and no homing offset")
     sp.set_defaults(func=_cmd_calibrate_bus)
 
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -305,7 +305,7 @@ def solve_joint(robot, j, zero_tick, path, plus_end, *, offset=0, homing=None, r
     if not _fits(a, b, res):
         shift, new_offset = _rehome(lk.name, a, b, offset, res, homing, rehome)
         notes.append(f"range crossed the encoder's seam: homing offset {offset} -> {new_offset} ticks "
-                     f"(the servo now reads {shift:+d} ticks)")
+                     f"(its readings shift by {shift:+d} ticks)")
     return JointBusCalibration(
         name=lk.name, id=lk.bus.id, zero=int(zero_tick + shift) % res, direction=direction,
         limits=(float(lo), float(hi)), zero_before=lk.bus.zero, direction_before=lk.bus.direction,
@@ -409,7 +409,7 @@ def _prompts(robot, j):
 
 
 def calibrate_servos(robot, device, *, ask, say=print, rehome=True, margin=math.radians(1.0),
-                     min_move=math.radians(5.0), period=0.005, latency=None, name=None):
+                     min_move=math.radians(5.0), period=0.005, latency=None, name=None, write_offsets=True):
     """Guide a student through each joint of a bus arm with torque off and compute its calibration.
 
     Parameters
@@ -435,6 +435,9 @@ def calibrate_servos(robot, device, *, ask, say=print, rehome=True, margin=math.
         The adapter's latency in the SDK's timeouts [ms] (:class:`BusDriver`).
     name : str, optional
         How messages name the bus.
+    write_offsets : bool
+        ``False``: compute the homing offsets a range across the seam needs but write nothing to the servos (a dry
+        run: the zeros are then those the servos will read once the offsets are written).
 
     Returns
     -------
@@ -483,7 +486,9 @@ def calibrate_servos(robot, device, *, ask, say=print, rehome=True, margin=math.
                 path = sampler.stop()
             cal = solve_joint(robot, j, zero_tick, path[:, j], plus_end, offset=offsets[j], homing=homing,
                               rehome=rehome, margin=margin, min_move=min_move)
-            if cal.offset is not None:
+            if cal.offset is not None and not write_offsets:
+                cal = replace(cal, notes=cal.notes + ("the homing offset was not written (dry run)",))
+            elif cal.offset is not None:
                 before = int(driver.read_state().ticks[j])
                 _write_offset(driver, codec, cal.id, cal.offset)
                 after = int(driver.read_state().ticks[j])

@@ -52,7 +52,7 @@ def calibrate_bus(robot, port, *, out=None, ask=None, say=print, backup=True, wr
     backup : bool
         Keep the old file when writing in place.
     write : bool
-        ``False``: compute and show only.
+        ``False``: compute and show only (no robot file, no homing offset written to a servo).
     rehome : bool
         Write a servo's homing offset when its range crosses the encoder's seam.
     margin, min_move : float
@@ -87,7 +87,8 @@ def calibrate_bus(robot, port, *, out=None, ask=None, say=print, backup=True, wr
     if not isinstance(port, str):
         raise PortURLError(f"expected the bus as a URL (dynamixel:///dev/ttyUSB0, sim://?bus=dynamixel&seed=0), "
                            f"got {port!r}")
-    options = {"rehome": rehome, "margin": margin, "min_move": min_move, "say": say, "name": port}
+    options = {"rehome": rehome, "margin": margin, "min_move": min_move, "say": say, "name": port,
+               "write_offsets": write}
     emulator = None
     if port.startswith("sim:"):
         from labkit.arm.urlhandler.protocol_sim import VIRTUAL_BUS_LATENCY, parse_url

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -214,3 +215,14 @@ def test_a_calibration_the_loader_refuses_is_never_written(tmp_path):
     with pytest.raises(OptionError, match="never changed"):
         edit_bus_calibration("so101", [{}] * 5)
     assert isinstance(BusCalibration("x", ()).table(), str)
+
+
+def test_a_dry_run_writes_no_homing_offset_and_no_file():
+    robot = Robot.load(Path(__file__).with_name("so101_test.toml"))
+    servos = assembled_servos(robot, seed=5, seam=(0,))
+    with BusEmulator(robot, servos=servos) as emu:
+        result = calibrate_servos(robot, emu.path, ask=emu.hand.answer, say=lambda text: None, latency=100.0,
+                                  write_offsets=False)
+        assert result.joints[0].offset is not None and homing_offset(emu, robot.links[0].bus.id) == 0
+        assert "not written (dry run)" in result.table()
+        assert [c.direction for c in result.joints] == [s.direction for s in servos]
