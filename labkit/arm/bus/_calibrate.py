@@ -71,6 +71,10 @@ class CalibrationStep:
     kind: str
     text: str
 
+    def __post_init__(self):
+        if self.kind not in STEP_KINDS:
+            raise OptionError(f"expected a calibration step kind, one of {', '.join(STEP_KINDS)}, got {self.kind!r}")
+
 
 @dataclass(frozen=True)
 class JointBusCalibration:
@@ -270,6 +274,10 @@ def solve_joint(robot, j, zero_tick, path, plus_end, *, offset=0, homing=None, r
     lk = robot.links[j]
     res = robot.bus.resolution
     per_rad = res / (2 * math.pi)
+    if not 0 <= zero_tick <= res - 1:
+        raise BusCalibrationError(f"joint {lk.name!r}: its servo reads tick {zero_tick} at the zero mark, outside one turn "
+                                  f"0..{res - 1}: set it to position mode (one turn) and its homing offset to 0 with "
+                                  f"the vendor's tool, then calibrate again")
     u = unwrap_ticks(path, res, start=zero_tick)
     if not 0 <= plus_end < len(u):
         raise BusCalibrationError(f"joint {lk.name!r}: no reading after the move towards + (got {len(u)} readings)")
@@ -296,7 +304,7 @@ def solve_joint(robot, j, zero_tick, path, plus_end, *, offset=0, homing=None, r
         for side, mine, theirs in (("lower", lo, lk.limits[0]), ("upper", hi, lk.limits[1])):
             if mine != theirs:
                 notes.append(f"{side} limit {math.degrees(theirs):.1f} -> {math.degrees(mine):.1f} deg: the joint stops "
-                             f"{math.degrees(margin):g} deg further, before the file's limit")
+                             f"before the file's limit ({math.degrees(margin):g} deg kept from the stop)")
     if not lo < 0 < hi:
         raise BusCalibrationError(f"joint {lk.name!r}: the limits left, {math.degrees(lo):.1f}..{math.degrees(hi):.1f} "
                                   f"deg, do not contain the zero mark; check the mark and sweep again")
@@ -333,7 +341,20 @@ def _register(driver, servo_id, where, value=None):
                    f"{driver._comm(result)}")
 
 
-def _offset_from_register(codec, value):
+def offset_from_register(codec, value):
+    """The homing offset [ticks] a register value of bus ``codec`` means (sign-magnitude or two's complement).
+
+    Parameters
+    ----------
+    codec : module
+        A bus codec module with ``HOMING_OFFSET`` and ``HOMING_SIGN_BIT``.
+    value : int
+        The register's bytes as an unsigned number.
+
+    Returns
+    -------
+    int
+    """
     size = codec.HOMING_OFFSET[1]
     if codec.HOMING_SIGN_BIT is not None:
         magnitude = value & ((1 << codec.HOMING_SIGN_BIT) - 1)
@@ -341,7 +362,18 @@ def _offset_from_register(codec, value):
     return value - (1 << 8 * size) if value >> (8 * size - 1) else value
 
 
-def _offset_to_register(codec, offset):
+def offset_to_register(codec, offset):
+    """The register value (unsigned) that holds homing offset ``offset`` [ticks] on bus ``codec``.
+
+    Parameters
+    ----------
+    codec : module
+    offset : int
+
+    Returns
+    -------
+    int
+    """
     if codec.HOMING_SIGN_BIT is not None:
         return abs(offset) | (1 << codec.HOMING_SIGN_BIT if offset < 0 else 0)
     return offset
@@ -351,7 +383,7 @@ def _write_offset(driver, codec, servo_id, offset):
     lock = codec.EEPROM_LOCK
     if lock is not None:
         _register(driver, servo_id, lock, 0)
-    _register(driver, servo_id, codec.HOMING_OFFSET, _offset_to_register(codec, offset))
+    _register(driver, servo_id, codec.HOMING_OFFSET, offset_to_register(codec, offset))
     if lock is not None:
         _register(driver, servo_id, lock, 1)
 
@@ -464,7 +496,7 @@ def calibrate_servos(robot, device, *, ask, say=print, rehome=True, margin=math.
     try:
         driver.ping_all()
         driver.torque(False)
-        offsets = [_offset_from_register(codec, _register(driver, i, codec.HOMING_OFFSET)) if has_homing else 0
+        offsets = [offset_from_register(codec, _register(driver, i, codec.HOMING_OFFSET)) if has_homing else 0
                    for i in driver.ids]
         say(f"{driver.name}: {robot.n} servos answer; torque is off: move each joint by hand when asked")
         joints = []

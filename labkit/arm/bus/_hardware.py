@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import BusFault, OptionError
+from labkit.arm.bus._calibrate import offset_from_register
 
 __all__ = ["VirtualServo", "VirtualHand", "assembled_servos", "homing_offset", "present_ticks", "goal_joint"]
 
@@ -162,11 +163,7 @@ def homing_offset(emulator, servo_id):
     if where is None:
         return 0
     address, size = where
-    value = int.from_bytes(emulator.memory[servo_id][address:address + size], "little")
-    if bus.HOMING_SIGN_BIT is not None:
-        magnitude = value & ((1 << bus.HOMING_SIGN_BIT) - 1)
-        return -magnitude if value >> bus.HOMING_SIGN_BIT & 1 else magnitude
-    return value - (1 << 8 * size) if value >> (8 * size - 1) else value
+    return offset_from_register(bus, int.from_bytes(emulator.memory[servo_id][address:address + size], "little"))
 
 
 def _shift(emulator, j):

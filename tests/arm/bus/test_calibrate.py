@@ -17,7 +17,7 @@ import pytest
 
 from labkit.arm import calibrate_bus
 from labkit.arm.bus import (BusEmulator, BusCalibration, VirtualServo, assembled_servos, calibrate_servos,
-                            open_bus_board, solve_joint, unwrap_ticks)
+                            bus_module, open_bus_board, solve_joint, unwrap_ticks)
 from labkit.arm.bus._hardware import homing_offset, present_ticks
 from labkit.cli import main
 from labkit.data import robots_dir
@@ -158,24 +158,29 @@ def test_virtual_openmanipulator_end_to_end(tmp_path):
             _truth_reads_through(robot.path, emu)
 
 
-def test_calibrate_bus_cli_on_a_virtual_so101_with_a_joint_across_the_seam(tmp_path, capsys):
-    source = tmp_path / "so101.toml"
-    shutil.copy(robots_dir() / "so101.toml", source)
+@pytest.mark.parametrize("name, seed", [("so101", 3), ("openmanipulator_x", 1)])
+def test_calibrate_bus_cli_on_a_virtual_arm_with_a_joint_across_the_seam(tmp_path, capsys, name, seed):
+    """`labkit calibrate-bus` on a virtual SO-101 / OpenMANIPULATOR-X mounted at random (joint seed mod n across
+    the seam): the file written holds the true zeros (shifted by the homing offset written) and directions."""
+    source = tmp_path / f"{name}.toml"
+    shutil.copy(robots_dir() / f"{name}.toml", source)
     robot = Robot.load(source)
-    seed = 3
-    servos = assembled_servos(robot, seed, seam=(seed % robot.n,))
-    assert servos[3].crosses_seam(robot.links[3].limits, RES)
-    assert main(["calibrate-bus", str(source), "--port", f"sim://?bus=feetech&seed={seed}"]) == 0
+    codec = bus_module(robot.bus.protocol)
+    seam = seed % robot.n
+    servos = assembled_servos(robot, seed, seam=(seam,))
+    assert servos[seam].crosses_seam(robot.links[seam].limits, RES)
+    assert main(["calibrate-bus", str(source), "--port", f"sim://?bus={robot.bus.protocol}&seed={seed}"]) == 0
     out = capsys.readouterr().out
-    assert "before -> after:" in out and f"wrote {source}" in out and "homing offset 0 -> " in out
+    assert "before -> after:" in out and f"wrote {source}" in out
     new = Robot.load(source)
-    offset = int(re.search(r"wrist_flex: range crossed .*homing offset 0 -> (-?\d+)", out).group(1))
-    assert abs(offset) <= 2047
+    found = re.search(rf"{robot.links[seam].name}: range crossed .*homing offset 0 -> (-?\d+)", out)
+    offset = int(found.group(1))
+    assert abs(offset) <= codec.HOMING_LIMIT
     for j, (lk, servo) in enumerate(zip(new.links, servos)):
         assert lk.bus.direction == servo.direction
-        shift = -offset if j == 3 else 0  # Feetech: present = actual - offset
+        shift = codec.HOMING_SIGN * offset if j == seam else 0  # present = actual + sign * offset
         assert lk.bus.zero == (servo.zero + shift) % RES
-    assert (tmp_path / "so101.toml.bak").read_text() == (robots_dir() / "so101.toml").read_text()
+    assert (tmp_path / f"{name}.toml.bak").read_text() == (robots_dir() / f"{name}.toml").read_text()
 
 
 def test_the_hand_needs_torque_off_and_bad_input_is_a_labkit_error(tmp_path, capsys):
@@ -226,3 +231,15 @@ def test_a_dry_run_writes_no_homing_offset_and_no_file():
         assert result.joints[0].offset is not None and homing_offset(emu, robot.links[0].bus.id) == 0
         assert "not written (dry run)" in result.table()
         assert [c.direction for c in result.joints] == [s.direction for s in servos]
+
+
+def test_homing_offsets_in_the_registers_of_both_buses():
+    from labkit.arm.bus._calibrate import offset_from_register, offset_to_register
+
+    feetech, dynamixel = bus_module("feetech"), bus_module("dynamixel")
+    assert offset_to_register(feetech, -1975) == 1975 | 1 << 11  # sign-magnitude, sign in bit 11 (STS3215 "Ofs")
+    assert offset_to_register(dynamixel, -1975) == -1975  # two's complement, masked to 4 bytes when written
+    for codec in (feetech, dynamixel):
+        for offset in (-2047, -1, 0, 1, 2047):
+            value = offset_to_register(codec, offset) & ((1 << 8 * codec.HOMING_OFFSET[1]) - 1)
+            assert offset_from_register(codec, value) == offset
