@@ -23,12 +23,14 @@ from __future__ import annotations
 from labkit.exceptions import BusFault
 from labkit.arm.bus._adapter import advice
 
-__all__ = ["READ_TRIES", "WRITE_TRIES", "read_registers", "write_confirmed", "write_unconfirmed"]
+__all__ = ["READ_TRIES", "WRITE_TRIES", "READBACK_TRIES", "read_registers", "write_confirmed", "write_unconfirmed"]
 
 #: sync reads of one register block before a servo without an intact status packet is a :class:`BusFault`
-READ_TRIES = 5
+READ_TRIES = 8
 #: sync writes of one value before a servo that does not hold it is a :class:`BusFault`
-WRITE_TRIES = 6
+WRITE_TRIES = 8
+#: sync reads of each read-back after a sync write (a servo whose read-back is lost is asked again, then written again)
+READBACK_TRIES = 2
 
 
 def _drain(driver):
@@ -117,7 +119,7 @@ def _sync_write(driver, address, size, values):
     return result
 
 
-def write_unconfirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=READ_TRIES, check_error=True):
+def write_unconfirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=READBACK_TRIES, check_error=True):
     """Sync-write ``field`` of several servos until each reads it back; return those that never did.
 
     Parameters
@@ -172,7 +174,7 @@ def write_unconfirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=RE
     return {i: last.get(i, "?") for i in pending}
 
 
-def write_confirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=READ_TRIES, check_error=True):
+def write_confirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=READBACK_TRIES, check_error=True):
     """Sync-write ``field`` of several servos, read it back and write again until every servo holds its value.
 
     Parameters

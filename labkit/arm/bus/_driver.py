@@ -18,10 +18,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import BusFault, BusWarning, DeviceError
-from labkit.arm.bus._adapter import SYSFS, advice, latency_note, latency_timer
+from labkit.arm.bus._adapter import advice, latency_note, latency_timer
 from labkit.arm.bus._confirm import READ_TRIES, read_registers, write_confirmed, write_unconfirmed
 
 __all__ = ["BusFault", "BusReading"]
+
+
+#: sync writes of a best-effort torque off (after a fault, on close), each read back once
+QUIET_TRIES = 3
 
 
 def _with_latency(port_class, latency):
@@ -117,7 +121,7 @@ class BusDriver:
             port_class = _with_latency(port_class, float(latency))
         #: the adapter latency the status timeouts allow for [ms]; the adapter's USB latency timer [ms] or None
         self.latency = float(latency) if latency is not None else float(_sdk_latency(port_class))
-        self.latency_timer = latency_timer(device, sysfs=SYSFS)
+        self.latency_timer = latency_timer(device)
         self.handler = port_class(device)
         #: the port has been closed (:meth:`close`)
         self.closed = False
@@ -187,7 +191,10 @@ class BusDriver:
             replies = []
             for _ in range(self.retries + 1):
                 self.handler.clearPort()
-                model, result, error = self.packets.ping(self.handler, servo_id)
+                try:
+                    model, result, error = self.packets.ping(self.handler, servo_id)
+                except IndexError:  # feetech-servo-sdk takes the model number from a short packet unchecked
+                    result = self.sdk.COMM_RX_CORRUPT
                 if result == self.sdk.COMM_SUCCESS:
                     break
                 replies.append(self._comm(result))
@@ -231,7 +238,7 @@ class BusDriver:
         ----------
         on : bool
         """
-        write_confirmed(self, "torque_enable", {i: 1 if on else 0 for i in self.ids}, read_tries=self.retries + 1)
+        write_confirmed(self, "torque_enable", {i: 1 if on else 0 for i in self.ids})
 
     def torque_off_quietly(self):
         """Try to turn every servo's torque off; never raises (after a fault, on close).
@@ -242,8 +249,9 @@ class BusDriver:
             Ids whose torque-off was not acknowledged.
         """
         try:
-            return sorted(write_unconfirmed(self, "torque_enable", {i: 0 for i in self.ids}, read_tries=self.retries + 1,
-                                            check_error=False))
+            # a few tries only: after a fault the bus may be dead, and the caller says what was not acknowledged
+            return sorted(write_unconfirmed(self, "torque_enable", {i: 0 for i in self.ids}, tries=QUIET_TRIES,
+                                            read_tries=1, check_error=False))
         except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
             return list(self.ids)
 
@@ -273,7 +281,7 @@ class BusDriver:
             A servo that does not hold its goal after the bounded writes and read-backs (named, with what it
             holds).
         """
-        write_confirmed(self, "goal_position", dict(zip(self.ids, (int(t) for t in ticks))), read_tries=self.retries + 1)
+        write_confirmed(self, "goal_position", dict(zip(self.ids, (int(t) for t in ticks))))
 
     def read_state(self, t=0.0):
         """Every joint's present position and current in one sync read.

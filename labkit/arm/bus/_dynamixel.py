@@ -248,7 +248,10 @@ class DynamixelDriver(BusDriver):
     def _hardware_error(self, servo_id, error):
         if not error & ALERT:
             return f"status error {error:#04x} (instruction-level)"
-        code, result, _ = self.packets.read1ByteTxRx(self.handler, servo_id, TABLE["hardware_error"][0])
+        try:
+            code, result, _ = self.packets.read1ByteTxRx(self.handler, servo_id, TABLE["hardware_error"][0])
+        except IndexError:  # the SDK takes the byte from a short status packet unchecked
+            result = self.sdk.COMM_RX_CORRUPT
         if result != self.sdk.COMM_SUCCESS:
             return "hardware alert (its hardware error status could not be read)"
         return self.describe(code)
