@@ -194,12 +194,7 @@ class Robot:
             if not all(math.isfinite(v) for v in lk.limits):
                 raise RobotError(f"{owner}: field 'joint[{i}].limits': expected finite limits on a servo bus, "
                                  f"got {lk.limits}", f"joint[{i}].limits")
-            if any(abs(v) > 2 * math.pi for v in lk.limits):  # beyond a turn no tick fits (nor an int64)
-                raise RobotError(f"{owner}: field 'joint[{i}].limits': expected limits inside the servo's position "
-                                 f"range 0..{self.bus.resolution - 1} ticks, within one turn of its zero, got "
-                                 f"{math.degrees(lk.limits[0]):g}..{math.degrees(lk.limits[1]):g} deg",
-                                 f"joint[{i}].limits")
-            ticks = [int(lk.bus.ticks(v)) for v in lk.limits]
+            ticks = [int(lk.bus.ticks(v)) if abs(v) <= 7.0 else math.copysign(math.inf, v) for v in lk.limits]
             if min(ticks) < 0 or max(ticks) > self.bus.resolution - 1:
                 raise RobotError(f"{owner}: field 'joint[{i}].limits': expected limits inside the servo's position "
                                  f"range 0..{self.bus.resolution - 1} ticks (zero {lk.bus.zero:g}, direction "

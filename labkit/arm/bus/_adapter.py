@@ -74,8 +74,10 @@ def latency_note(device, timer, assumed):
 
     Examples
     --------
-    >>> latency_note("/dev/ttyUSB0", 16, 1.0).split(":")[0]
-    'the adapter ttyUSB0 holds received bytes for 16 ms (its USB latency timer), longer than the 1 ms the status timeouts allow for'
+    >>> latency_note("/dev/ttyUSB0", 16, 1.0).split(": ")[1]
+    "set it to 1 ms with 'echo 1 | sudo tee /sys/bus/usb-serial/devices/ttyUSB0/latency_timer' (or set the robot file's [bus] latency = 16)"
+    >>> latency_note("/dev/ttyUSB0", 1, 16.0)
+    ''
     """
     if timer is None or timer <= assumed:
         return ""

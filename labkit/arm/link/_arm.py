@@ -64,8 +64,7 @@ class Arm:
     ----------
     robot : Robot or str or None
         The robot (name, file, :class:`Robot`) whose servo calibrations and limits the host enforces (a
-        ``sim://`` URL naming none simulates it); ``None``: the one a ``sim://<robot>`` URL names. A URL
-        given alone (``Arm("sim://openmanipulator_x?bus=dynamixel")``) is the port, its robot the one it names.
+        ``sim://`` URL naming none simulates it); ``None`` or a URL alone (``Arm("sim://<robot>")``): the one it names.
     port : str or serial-like, optional
         Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``, ``simavr://``, ``dynamixel://``,
         ``feetech://``, any pyserial URL), an open :class:`BoardPort` or an open pyserial-like port to a real
@@ -106,10 +105,8 @@ class Arm:
                  sync_calibration=True, check_moves=True):
         timeout, retries = reply_timeout(timeout), retry_count(retries)
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
-        if port is None and isinstance(robot, str) and "://" in robot:  # Arm(url): the URL is the port
-            robot, port = None, robot
         #: the robot file whose servo calibrations and limits the host enforces
-        self.robot = arm_robot(robot, port)
+        self.robot, port = arm_robot(robot, port)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate, self.robot)
