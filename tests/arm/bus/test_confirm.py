@@ -158,3 +158,15 @@ def test_the_robot_files_bus_latency_sets_the_status_timeouts(robot_file, kind, 
             assert driver.handler.packet_timeout == pytest.approx(62.0)
         finally:
             driver.close()
+
+
+def test_a_gain_write_a_servo_missed_is_sent_again(bus, monkeypatch):
+    from labkit.arm.bus._gains import GainBook
+
+    emu, driver = bus
+    field = emu.bus.GAINS["kp"][0]
+    _ignore_writes(monkeypatch, emu, emu.ids[1], field, times=1)
+    book = GainBook(driver)
+    kp = book.read(1).kp + 3
+    assert book.write(1, kp=kp).kp == kp
+    assert emu.get(emu.ids[1], field) == kp
