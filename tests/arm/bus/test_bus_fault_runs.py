@@ -112,8 +112,8 @@ class BytePtyProxy:
 
 
 def _goal_mismatch(arm, emu):
-    """Servos whose goal register differs from the host's goal for them (read below the proxy)."""
-    goal = [int(lk.bus.ticks(q)) for lk, q in zip(arm.robot.links, arm.commanded_joints())]
+    """Servos whose goal register differs from the host's last goal for them (the bus board's, read below the proxy)."""
+    goal = arm.port.board._goal
     held = [emu.get(lk.bus.id, "goal_position") for lk in arm.robot.links]
     return [(lk.bus.id, g, h) for lk, g, h in zip(arm.robot.links, goal, held) if g != h]
 
@@ -178,11 +178,11 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
                     try:
                         lo, hi = arm.robot.joint_limits.T
                         for _ in range(moves_per_open):
-                            q = arm.commanded_joints()
-                            step = np.radians(step_deg) * rng.choice([-1.0, 1.0], size=q.shape)
-                            target = np.clip(q + step, lo + 0.1, hi - 0.1)
                             counts["moves"] += 1
-                            try:
+                            try:  # the commanded joints are read from the board (a bus read on a bus with a gripper)
+                                q = arm.commanded_joints()
+                                step = np.radians(step_deg) * rng.choice([-1.0, 1.0], size=q.shape)
+                                target = np.clip(q + step, lo + 0.1, hi - 0.1)
                                 timed(lambda: arm.move_joints(target, wait=True))
                             except Exception as exc:  # noqa: BLE001 - counted and checked below
                                 counts["move_faults"] += 1
