@@ -199,12 +199,13 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
 
 
 def test_no_move_returns_while_a_servo_holds_another_goal(robot_file, kind):
-    counts = bus_fault_run(robot_file, kind, opens=2, moves_per_open=2, corrupt=0.01, drop=0.005, seed=1, latency=10)
+    counts = bus_fault_run(robot_file, kind, opens=1, moves_per_open=3, corrupt=0.01, drop=0.005, seed=1, latency=10,
+                           step_deg=3.0)
     assert counts["corrupted"] > 0 and counts["dropped"] > 0  # the proxy did damage bytes
     assert counts["silent_goal_mismatches"] == 0, counts
     assert counts["unexplained"] == 0, counts
     assert counts["longest_call_s"] < 30.0, counts  # no hang
-    assert counts["moves"] + counts["open_failures"] >= 2
+    assert counts["moves"] + counts["open_failures"] >= 1
 
 
 def test_the_proxy_damages_bytes_at_the_rates_asked():
