@@ -1,0 +1,10 @@
+"""Control: identify a joint from a recorded response, design its PID with python-control, and control
+arms in simulation (computed torque vs PD on the dynamics) and on the arm (resolved-rate Cartesian
+control by streaming joint set-points).
+"""
+
+from labkit.control import _experiment, _identify
+from labkit.control._identify import StepFit, fit_step_response, model_response
+from labkit.control._experiment import StepRecord, record_step, rate_limited_steps
+
+__all__ = [*_identify.__all__, *_experiment.__all__]
