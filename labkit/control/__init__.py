@@ -3,8 +3,9 @@ arms in simulation (computed torque vs PD on the dynamics) and on the arm (resol
 control by streaming joint set-points).
 """
 
-from labkit.control import _experiment, _identify
+from labkit.control import _experiment, _identify, _torque
 from labkit.control._identify import StepFit, fit_step_response, model_response
 from labkit.control._experiment import StepRecord, record_step, rate_limited_steps
+from labkit.control._torque import computed_torque_controller, pd_controller, TrackingResult, simulate_tracking
 
-__all__ = [*_identify.__all__, *_experiment.__all__]
+__all__ = [*_identify.__all__, *_experiment.__all__, *_torque.__all__]
