@@ -6,10 +6,11 @@ model and the robot-file reader/writer build on them; joint values in display
 units (deg, mm), the servos' joint window and a bound of the reach are helpers for labs.
 """
 
-from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusServo, Bus, Link
+from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusGripper, BusServo, Bus, Link
 from labkit.robot._inertia import LinkInertia, Motor
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
+from labkit.robot._edit import edit_bus_calibration
 from labkit.robot._display import joints_from_display, joints_to_display, servo_window, robot_reach
 
 __all__ = [
@@ -17,6 +18,7 @@ __all__ = [
     "JointType",
     "ServoCalibration",
     "Gripper",
+    "BusGripper",
     "BusServo",
     "Bus",
     "Link",
@@ -25,6 +27,7 @@ __all__ = [
     "Robot",
     "bundled_robots",
     "robot_search_path",
+    "edit_bus_calibration",
     "joints_from_display",
     "joints_to_display",
     "servo_window",
