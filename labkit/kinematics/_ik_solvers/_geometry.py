@@ -1,7 +1,7 @@
 """Geometry shared by the closed-form families, each formula once (private).
 
-* the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), read from
-  :func:`labkit.kinematics.fk_frames`, so every family works in the world frame
+* the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), from the one DH walk
+  (:func:`labkit.kinematics._program.walk`) on floats, so every family works in the world frame
   for either DH convention, base and tool included;
 * the cosine law of a two-link chain (:class:`CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, clip, cos, maximum, sin, sqrt
-from labkit.kinematics._forward import fk_frames
-from labkit.robot.types import Convention
+from labkit.kinematics._chain import chain
+from labkit.kinematics._program import PLAIN, walk
 
 #: geometric tolerance of the structure tests [m or rad]
 TOL = 1e-9
@@ -118,10 +118,17 @@ def joint_axes(robot):
     tool : ndarray, shape (4, 4)
         ``world_from_tool`` at ``q = 0``.
     """
-    n = robot.n
-    F = fk_frames(robot, np.zeros(n))
-    idx = np.arange(1, n + 1) if robot.convention is Convention.MODIFIED else np.arange(0, n)
-    return F[idx, :3, 2].copy(), F[idx, :3, 3].copy(), F[n + 1]
+    # the DH walk on floats at q = 0 (a robot's geometry is read once: nothing is compiled for it)
+    c = chain(robot)
+    revolute = [(cth, sth) for rev, _, _, _, _, _, cth, sth in c.steps if rev]
+    steps = [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth in c.steps]
+    base = tuple(tuple(float(x) for x in robot.base[:3, k]) for k in range(4))
+    frames, _ = walk(PLAIN, c.modified, base, steps, revolute.__getitem__, lambda i, d: d)
+    frames = np.array([base, *frames], dtype=float)  # frames 0..n, columns (x, y, z, origin) each
+    axes = frames[1:] if c.modified else frames[:-1]  # joint i's axis: z of frame i (modified DH), else i - 1
+    last = np.eye(4)
+    last[:3] = frames[-1].T
+    return axes[:, 2].copy(), axes[:, 3].copy(), last @ robot.tool
 
 
 def length_scale(robot):
