@@ -257,7 +257,8 @@ def wire_calibrations(robot):
     joints : list of (list of int or None)
         One row per joint; None for a joint without a servo calibration.
     gripper : list of int or None
-        The gripper channel's row (its pulse range), None without a gripper.
+        The gripper channel's row (its pulse range), None without a hobby-servo gripper (a bus gripper has no
+        pulse range).
     """
     joints = []
     for lk in robot.links:
@@ -271,6 +272,6 @@ def wire_calibrations(robot):
         pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
         joints.append([pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)])
     g = robot.gripper
-    gripper = None if g is None else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
+    gripper = None if not hasattr(g, "open_us") else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
                                       0, 1, 0, 18000]
     return joints, gripper
