@@ -48,6 +48,7 @@ __all__ = [
     "MeasurementWarning",
     "HandEyeWarning",
     "TorqueWarning",
+    "BusWarning",
 ]
 
 
@@ -298,12 +299,18 @@ class MeasurementWarning(UserWarning):
     """A torn (crash-truncated) line was skipped while loading measurements."""
 
 
+class BusWarning(UserWarning):
+    """A servo bus opened with a setting likely to lose status packets (an adapter latency timer too long)."""
+
+
 class HandEyeWarning(UserWarning):
     """The views of a hand-eye calibration are too alike for a trustworthy result."""
 
 
 class TorqueWarning(UserWarning):
     """A motion plan asks a joint for more torque than its servo's stall torque gives."""
+
+
 class MissingExtraError(LabkitError, ImportError):
     """A feature needs a module from one of labkit's extras, and that extra is not installed.
 

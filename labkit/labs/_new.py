@@ -434,8 +434,10 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
 
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
-    ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
-    and ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias) with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
+    ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
+    ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
+    with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     Where joints have no servo calibration (the virtual arm and a servo board drive joints
     through one), the lab adds them in a separate file, ``robot_with_servos.toml``

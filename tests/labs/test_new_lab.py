@@ -3,7 +3,7 @@
 Six robots of different kinds: four bundled (spatial 3-DOF servo arm, planar 3R, 6-DOF PUMA with
 poses as targets, RPP with two prismatic joints) and two written only here (a 4-DOF
 yaw-pitch-pitch-pitch arm and a SCARA with a prismatic quill). Every lab is scaffolded and all
-36 notebooks execute on the virtual arm (``sim://``) in one ``render`` batch (2 workers, no PDF);
+42 notebooks execute on the virtual arm (``sim://``) in one ``render`` batch (2 workers, no PDF);
 every notebook ends with ``Checks.assert_all()``, so a rendered notebook that is ok passed all
 its checks.
 """
@@ -19,9 +19,9 @@ from conftest import require
 from labkit.exceptions import LabkitError
 
 TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check",
-             "07_dynamics"]
+             "07_dynamics", "08_control"]
 #: the notebooks of a lab whose robot file has no inertias (the dynamics notebook is left out)
-WITHOUT_INERTIAS = TEMPLATES[:-1]
+WITHOUT_INERTIAS = [t for t in TEMPLATES if t != "07_dynamics"]
 
 YPP4 = """format = "labkit-robot/1"
 name = "ypp4_test"
