@@ -56,8 +56,16 @@ _PARAM_DOC = {
     "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z (or about \"normal\", a 4-DOF arm's vertical plane)",
     "duration": "duration of each move [s]",
     "readings": "readings per pose and quantity",
+    "payload_kg": "mass at the tool [kg]: the gripper and what it holds (the virtual arm's gripper: 0.08 kg; weigh yours)",
     "measurements": "measurement log (CSV) to use; \"\" = measure on `port` now (into output_dir)",
     "output_dir": "where the notebook writes files",
+}
+#: mass at the tool the lab notebooks assume [kg]: the virtual arm's gripper (labkit.arm.PhysicsConfig.tool_mass)
+PAYLOAD_KG = 0.08
+#: templates only some robots get: stem -> (what the robot needs, why a lab without it leaves the notebook out)
+_NEEDS = {
+    "07_dynamics": (lambda robot: any(lk.inertial is not None for lk in robot.links),
+                    "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
 }
 
 
@@ -101,8 +109,8 @@ class NewLab:
         The robot file the notebooks use: ``robot_file``, or ``robot_with_servos.toml``
         where the lab added servo calibrations.
     notes : tuple of str
-        What the lab added to the robot and the joint ranges that result (printed by
-        ``labkit new``); empty when nothing was added.
+        What the lab added to the robot and the joint ranges that result, and the notebooks it
+        left out and why (printed by ``labkit new``); empty when nothing was added or left out.
     """
 
     folder: Path
@@ -361,7 +369,7 @@ def template_values(robot, robot_ref, stem, defaults=None):
     """
     defaults = defaults or lab_defaults(robot)
     return {**defaults.parameters, "robot": robot_ref, "port": _virtual_port(robot, robot_ref),
-            "measurements": "", "output_dir": f"{stem}_files"}
+            "measurements": "", "payload_kg": PAYLOAD_KG, "output_dir": f"{stem}_files"}
 
 
 def _virtual_port(robot, robot_ref):
@@ -427,7 +435,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
-    ``08_control`` (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
+    ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     Where joints have no servo calibration (the virtual arm and a servo board drive joints
@@ -473,6 +482,9 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
     if not templates:
         raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
+    left_out = [(tpl, _NEEDS[tpl.stem][1]) for tpl in templates if tpl.stem in _NEEDS and not _NEEDS[tpl.stem][0](model)]
+    templates = [tpl for tpl in templates if tpl not in dict(left_out)]
+    skipped = tuple(f"{tpl.name}: left out, {why}" for tpl, why in left_out)
     folder.mkdir(parents=True, exist_ok=True)
     robot_file = folder / ROBOT_FILE
     if Path(user.path).resolve() != robot_file.resolve():
@@ -514,4 +526,4 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
 
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
     return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.description,
-                  lab_file.resolve(), notes)
+                  lab_file.resolve(), notes + skipped)

@@ -19,7 +19,9 @@ from conftest import require
 from labkit.exceptions import LabkitError
 
 TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check",
-             "08_control"]
+             "07_dynamics", "08_control"]
+#: the notebooks of a lab whose robot file has no inertias (the dynamics notebook is left out)
+WITHOUT_INERTIAS = [t for t in TEMPLATES if t != "07_dynamics"]
 
 YPP4 = """format = "labkit-robot/1"
 name = "ypp4_test"
@@ -146,7 +148,8 @@ def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
     out = capsys.readouterr().out
     assert "spatial 3-DOF, prismatic" in out and "labkit render" in out
     lab = tmp_path / "scara_lab"
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == WITHOUT_INERTIAS
+    assert "07_dynamics.ipynb: left out, the robot file has no inertias" in out
     assert (lab / "robot.toml").read_bytes() == open(robot_files["scara"], "rb").read(), "the user's file, unchanged"
     robot = Robot.load(lab / "robot_with_servos.toml")
     assert all(lk.servo is not None for lk in robot.links), "servo calibrations added so the arm can be driven"
@@ -208,8 +211,10 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
     assert main(["new", str(lab), "--robot", str(source)]) == 0
     out = capsys.readouterr().out
     assert (lab / "robot.toml").read_bytes() == source.read_bytes()
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == TEMPLATES
     user = Robot.load(source)
+    has_inertias = any(lk.inertial is not None for lk in user.links)
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == (TEMPLATES if has_inertias else WITHOUT_INERTIAS)
+    assert ("07_dynamics.ipynb: left out, the robot file has no inertias" in out) == (not has_inertias)
     params = notebook_parameters(lab / "03_ik_check.ipynb")
     if user.bus is not None or all(lk.servo is not None for lk in user.links):  # bus servos or hobby servos: nothing to add
         assert not (lab / "robot_with_servos.toml").exists() and "robot_with_servos" not in out
@@ -243,7 +248,7 @@ def test_six_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_f
                            timeout=300)
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
     assert not failed, "\n".join(failed)
-    assert len(results) == 6 * len(TEMPLATES)
+    assert len(results) == sum(len(lab.notebooks) for lab in labs) == 6 * len(WITHOUT_INERTIAS) + 2  # dynamics: seed arm, PUMA
     for r in results:
         assert r.html.is_file() and r.notebook.is_file()
         assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"
