@@ -34,6 +34,7 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
 from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
+from labkit.arm._actuator import joint_sensor
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
@@ -286,7 +287,7 @@ class Arm:
         if self.robot.bus is not None:
             return self._read_servos().q
         adc = self.read_adc()
-        return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
+        return np.array([float(joint_sensor(self.robot, j).joint_from_adc(adc[j])) for j in range(self.robot.n)])
 
     def read_load(self):
         """Present current of every joint's servo on a servo bus (one sync read), the load signal; hobby servos

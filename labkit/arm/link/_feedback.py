@@ -19,6 +19,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ProtocolError
 from labkit.arm._protocol import board_int
+from labkit.arm._actuator import joint_sensor
 from labkit.arm.link._inputs import finite, whole
 from labkit.arm.link._replies import parse_ping
 from labkit.arm.bus import record_bus_stream
@@ -199,8 +200,8 @@ def frame_table(robot, frames, t_begin, t_stop, rejected0):
     df = pd.DataFrame(rows, columns=cols)
     df["received"] = pd.to_datetime(df["received"], unit="s", utc=True)
     df.insert(0, "t", df.pop("t_ms") / 1000.0)
-    for j, (name, lk) in enumerate(zip(robot.joint_names, robot.links)):
-        df[f"q_{name}"] = lk.servo.joint_from_adc(df[f"adc{j}"].to_numpy(float))
+    for j, name in enumerate(robot.joint_names):
+        df[f"q_{name}"] = joint_sensor(robot, j).joint_from_adc(df[f"adc{j}"].to_numpy(float))
     df.attrs.update(lost=lost, expected=expected, t_stop=t_stop_ms / 1000.0,
                     rejected=stats.rejected_frames + stats.bad_lines - rejected0, hz=hz)
     return df
