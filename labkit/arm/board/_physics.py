@@ -376,17 +376,19 @@ class ServoBank:
         self.time += steps * self.config.dt
 
     def _step_ideal(self, j):
-        """One step of an ideal actuator: the speed that stops at the target, reached within the acceleration."""
+        """One step of an ideal actuator: the speed that still stops at the target, reached within the acceleration."""
         d = self._target[j] - self._y[j]
         dt, dv = self.config.dt, self._max_dv[j]
-        vmax = self._max_step[j] / dt
-        # the fastest speed from which the actuator still stops at the target (v^2 = 2 a |d|), capped
-        v_goal = math.copysign(min(vmax, math.sqrt(2.0 * (dv / dt) * abs(d)) if math.isfinite(dv) else vmax), d)
+        # the largest step from which steps shrinking by a dt^2 at every step end on the target (a discrete
+        # braking curve: s + (s - k) + (s - 2k) + ... = |d| with k = a dt^2), capped by the speed and the distance
+        k = dv * dt
+        brake = k * (math.sqrt(0.25 + 2.0 * abs(d) / k) - 0.5) if math.isfinite(k) and k > 0 else math.inf
+        v_goal = math.copysign(min(self._max_step[j], brake, abs(d)), d) / dt
         v = self._v[j]
         v = v + max(-dv, min(dv, v_goal - v))
         step = v * dt
-        if abs(step) >= abs(d) or abs(d) < 1e-12:
-            step, v = d, 0.0
+        if abs(d - step) < 1e-12:
+            step, v = d, 0.0 if abs(d) < 1e-12 else v
         self._v[j] = v
         self._yprev[j] = self._y[j]
         self._y[j] += step
