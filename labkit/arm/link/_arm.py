@@ -34,12 +34,11 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
 from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
-from labkit.arm._actuator import joint_sensor
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
                                        move_duration_ms, move_segment, segments_from_trajectory)
-from labkit.arm.link._feedback import record_stream
+from labkit.arm.link._feedback import joints_from_counts, record_stream
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
 
@@ -287,7 +286,7 @@ class Arm:
         if self.robot.bus is not None:
             return self._read_servos().q
         adc = self.read_adc()
-        return np.array([float(joint_sensor(self.robot, j).joint_from_adc(adc[j])) for j in range(self.robot.n)])
+        return joints_from_counts(self.robot, adc)
 
     def read_load(self):
         """Present current of every joint's servo on a servo bus (one sync read), the load signal; hobby servos

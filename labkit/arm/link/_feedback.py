@@ -45,6 +45,24 @@ def adc_slew(robot):
         for lk in robot.links])
 
 
+def joints_from_counts(robot, counts):
+    """Joint values from feedback counts: each joint's servo pot, or an ideal actuator's encoder over its limits.
+
+    Parameters
+    ----------
+    robot : labkit.robot.Robot
+    counts : array_like, shape (..., n)
+        Feedback ADC counts per joint (may be fractional, e.g. averages).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Joint values [rad | m].
+    """
+    counts = np.asarray(counts, dtype=float)
+    return np.stack([joint_sensor(robot, j).joint_from_adc(counts[..., j]) for j in range(robot.n)], axis=-1)
+
+
 class FrameFilter:
     """Accepts a feedback frame only when a neighbouring frame confirms it.
 
@@ -200,8 +218,9 @@ def frame_table(robot, frames, t_begin, t_stop, rejected0):
     df = pd.DataFrame(rows, columns=cols)
     df["received"] = pd.to_datetime(df["received"], unit="s", utc=True)
     df.insert(0, "t", df.pop("t_ms") / 1000.0)
+    q = joints_from_counts(robot, df[[f"adc{j}" for j in range(J)]].to_numpy(float))
     for j, name in enumerate(robot.joint_names):
-        df[f"q_{name}"] = joint_sensor(robot, j).joint_from_adc(df[f"adc{j}"].to_numpy(float))
+        df[f"q_{name}"] = q[:, j]
     df.attrs.update(lost=lost, expected=expected, t_stop=t_stop_ms / 1000.0,
                     rejected=stats.rejected_frames + stats.bad_lines - rejected0, hz=hz)
     return df
