@@ -297,19 +297,23 @@ def lab_defaults(robot) -> LabDefaults:
     if kind == "planar":
         directions = directions[:4]
     arc_normals = [None]  # arcs in the x-y plane about +z
+    in_plane = False  # the tool moves only in the arm's vertical plane
     if kind in REDUCED or (kind == "pose" and n < 6):
         # a 4-DOF (yaw-pitch-pitch-pitch) arm holds its orientation only where the yaw stays put:
         # lines and arcs in the vertical plane through the base axis and the tool
-        # (the arm's plane: spanned by axis 1 and the radial direction axis 2 x axis 1, at the home pose)
+        # (the arm's plane: spanned by axis 1 and the radial direction axis 2 x axis 1, at the home pose);
+        # a SCARA (parallel first axes, x y z yaw targets) moves freely: no plane
         axes = jacobian(robot, home)[3:, :2].T
         radial = np.cross(axes[1], axes[0])
-        radial = radial / np.linalg.norm(radial)
-        up = axes[0] / np.linalg.norm(axes[0])
-        directions = [radial, -radial, up, -up]
-        arc_normals = [np.cross(radial, up)]
-    # display precision [mm, deg]: 0.1, except for a 4-DOF arm's pose targets, whose orientation and
-    # position must agree to 1e-6 rad (a rounded point no longer lies in the tool's vertical plane)
-    digits = 6 if kind in REDUCED or (kind == "pose" and n < 6) else 1
+        if np.linalg.norm(radial) > 1e-6 * max(np.linalg.norm(axes[0]) * np.linalg.norm(axes[1]), 1e-12):
+            in_plane = True
+            radial = radial / np.linalg.norm(radial)
+            up = axes[0] / np.linalg.norm(axes[0])
+            directions = [radial, -radial, up, -up]
+            arc_normals = [np.cross(radial, up)]
+    # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
+    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane)
+    digits = 6 if in_plane else 1
     line_pts = arc_spec = None
     for length in (0.15, 0.1, 0.05):
         for u in directions:
