@@ -136,5 +136,15 @@ class BoardPort(Protocol):
             [A]; ``None`` on a board whose frames travel as ``FB`` lines.
         """
 
+    def servo_bus(self):
+        """The servo bus behind the port, or ``None`` when the board drives hobby servos.
+
+        Returns
+        -------
+        BusBoard or None
+            On a servo bus the host-side board, which reads and writes what the servos keep beside their
+            goals (their position-loop gains, the gripper); ``None`` on a board of hobby servos.
+        """
+
     def close(self) -> None:
         """Close the port (a bus board turns torque off first)."""

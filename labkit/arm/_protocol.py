@@ -295,7 +295,8 @@ def wire_calibrations(robot):
     joints : list of (list of int or None)
         One row per joint; None for a joint without a servo calibration.
     gripper : list of int or None
-        The gripper channel's row (its pulse range), None without a gripper.
+        The gripper channel's row (its pulse range), None without a hobby-servo gripper (a bus gripper has no
+        pulse range).
 
     Raises
     ------
@@ -316,6 +317,6 @@ def wire_calibrations(robot):
         check_calibration_row(row, f"{robot.name}: joint {robot.joint_names[j]!r}")
         joints.append(row)
     g = robot.gripper
-    gripper = None if g is None else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
+    gripper = None if not hasattr(g, "open_us") else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
                                       0, 1, 0, 18000]
     return joints, gripper

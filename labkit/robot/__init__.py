@@ -6,7 +6,7 @@ model and the robot-file reader/writer build on them; joint values in display
 units (deg, mm), the servos' joint window and a bound of the reach are helpers for labs.
 """
 
-from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusServo, Bus, Link
+from labkit.robot.types import Convention, JointType, ServoCalibration, Gripper, BusGripper, BusServo, Bus, Link
 from labkit.robot._inertia import LinkInertia, Motor
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
@@ -17,6 +17,7 @@ __all__ = [
     "JointType",
     "ServoCalibration",
     "Gripper",
+    "BusGripper",
     "BusServo",
     "Bus",
     "Link",

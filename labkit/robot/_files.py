@@ -23,6 +23,7 @@ from labkit.robot.types import (
     BusServo,
     Convention,
     Gripper,
+    BusGripper,
     JointType,
     Link,
     LinkInertia,
@@ -30,7 +31,7 @@ from labkit.robot.types import (
     ServoCalibration,
 )
 from labkit.data import robots_dir
-from labkit.exceptions import LabkitError, RobotFileError
+from labkit.exceptions import LabkitError, RobotError, RobotFileError
 
 _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "joint", "tool", "base", "gripper", "bus"}
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
@@ -168,6 +169,18 @@ def _bus_servo(path, where, table, bus):
     if isinstance(direction, bool) or direction not in (1, -1):
         raise RobotFileError(path, f"{where}.bus.direction", f"expected 1 or -1, got {direction!r}")
     return BusServo(sid, zero, direction, bus.resolution, _stall(path, f"{where}.bus", table))
+
+
+def _bus_gripper(path, table, bus, angle):
+    """``[gripper]`` with ``bus = { id, zero, direction }``, ``open``, ``closed`` [file's angle unit], ``max_torque`` [N m]."""
+    _check_keys(path, "gripper", table, {"bus", "open", "closed", "max_torque"})
+    servo = _bus_servo(path, "gripper", table["bus"], bus)
+    open_, closed = (_num(path, f"gripper.{key}", table.get(key)) * angle for key in ("open", "closed"))
+    torque = None if "max_torque" not in table else _num(path, "gripper.max_torque", table["max_torque"])
+    try:
+        return BusGripper(servo, open_, closed, torque)
+    except RobotError as exc:
+        raise RobotFileError(path, f"gripper.{exc.field}", str(exc).split(": ", 2)[-1]) from None
 
 
 def _stall(path, where, table):
@@ -348,7 +361,9 @@ def parse(data, path):
         raise RobotFileError(path, "joint.name", f"expected distinct joint names, got {dup[0]!r} twice")
     channels = [lk.servo.channel for lk in links if lk.servo]
     gripper = None
-    if "gripper" in data:
+    if isinstance(data.get("gripper"), dict) and "bus" in data["gripper"]:
+        gripper = _bus_gripper(path, data["gripper"], bus, A)
+    elif "gripper" in data:
         g = data["gripper"]
         _check_keys(path, "gripper", g, {"channel", "open_us", "closed_us"})
         ch = g.get("channel")
@@ -485,7 +500,12 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                 "rpy = [" + ", ".join(_fmt(v / A) for v in rpy) + "]",
                 "",
             ]
-    if robot.gripper:
+    if isinstance(robot.gripper, BusGripper):
+        g = robot.gripper
+        torque = "" if g.max_torque is None else f"max_torque = {_fmt(g.max_torque)}\n"
+        out += ["[gripper]", f"bus = {{ id = {g.servo.id}, zero = {_fmt(g.servo.zero)}, direction = {g.servo.direction} }}",
+                f"open = {_fmt(g.open / A)}", f"closed = {_fmt(g.closed / A)}", torque]
+    elif robot.gripper:
         g = robot.gripper
         out += [
             "[gripper]",

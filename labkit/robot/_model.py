@@ -17,8 +17,9 @@ import numpy as np
 
 from labkit.validation import readonly
 from labkit.exceptions import JointLimitError, LabkitError, RobotError, RobotFileError, ShapeError
-from labkit.robot.types import Bus, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
+from labkit.robot.types import Bus, BusGripper, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
 from labkit.robot._files import load_fields
+from labkit.robot._bus import check_bus
 
 __all__ = ["Robot"]
 
@@ -71,7 +72,7 @@ class Robot:
         frame 0 has z pointing down: its file says ``up = [0, 0, -1]``.
     title, source : str
         Human description and provenance.
-    gripper : Gripper or None
+    gripper : Gripper or BusGripper or None
     path : str
         File it was loaded from ("" if built in code).
     length_unit, angle_unit : str
@@ -96,7 +97,7 @@ class Robot:
     tool: np.ndarray = field(default_factory=lambda: readonly(np.eye(4)))
     title: str = ""
     source: str = ""
-    gripper: Gripper | None = None
+    gripper: Gripper | BusGripper | None = None
     path: str = ""
     length_unit: str = "m"
     angle_unit: str = "rad"
@@ -143,11 +144,12 @@ class Robot:
         for name in ("base", "tool"):
             if touched(name):
                 object.__setattr__(self, name, _rigid(owner, name, getattr(self, name)))
-        if touched("gripper") and self.gripper is not None and not isinstance(self.gripper, Gripper):
-            raise RobotError(f"{owner}: field 'gripper': expected a Gripper or None, got {self.gripper!r}",
-                             "gripper")
+        if touched("gripper") and self.gripper is not None and not isinstance(self.gripper, (Gripper, BusGripper)):
+            raise RobotError(f"{owner}: field 'gripper': expected a Gripper, a BusGripper or None, got "
+                             f"{self.gripper!r}", "gripper")
         if touched("links", "gripper"):
-            channels = [lk.servo.channel for lk in links if lk.servo] + [g.channel for g in [self.gripper] if g]
+            channels = [lk.servo.channel for lk in links if lk.servo] + \
+                [g.channel for g in [self.gripper] if isinstance(g, Gripper)]
             if len(set(channels)) != len(channels):
                 raise RobotError(f"{owner}: field 'servo.channel': expected distinct servo channels, got "
                                  f"{channels}", "servo.channel")
@@ -157,8 +159,8 @@ class Robot:
         if touched("angle_unit") and self.angle_unit not in _ANGLE_UNITS:
             raise RobotError(f"{owner}: field 'units.angle': expected one of {sorted(_ANGLE_UNITS)}, "
                              f"got {self.angle_unit!r}", "units.angle")
-        if touched("links", "bus"):
-            self._check_bus(owner, links)
+        if touched("links", "bus", "gripper"):
+            check_bus(owner, self.bus, links, self.gripper)
         if touched("up"):
             up = np.asarray(self.up, dtype=float)
             if up.shape != (3,):
@@ -167,43 +169,6 @@ class Robot:
             if not (np.isfinite(norm) and norm > 0.0):
                 raise ShapeError(f"expected up to be a finite non-zero direction, got {up.tolist()}")
             object.__setattr__(self, "up", readonly(up / norm))
-
-    def _check_bus(self, owner, links):
-        """A ``[bus]`` table and per-joint ``bus`` servos come together: one servo per joint, distinct ids."""
-        if self.bus is not None and not isinstance(self.bus, Bus):
-            raise RobotError(f"{owner}: field 'bus': expected a Bus or None, got {self.bus!r}", "bus")
-        on_bus = [i for i, lk in enumerate(links, start=1) if lk.bus is not None]
-        if self.bus is None:
-            if on_bus:
-                raise RobotError(f"{owner}: field 'joint[{on_bus[0]}].bus': expected a [bus] table (kind, baudrate, "
-                                 f"resolution) for joints on a servo bus, got none", f"joint[{on_bus[0]}].bus")
-            return
-        for i, lk in enumerate(links, start=1):
-            if lk.bus is None:
-                raise RobotError(f"{owner}: field 'joint[{i}].bus': expected a bus servo (id, zero, direction) on "
-                                 f"every joint of a robot with a [bus] table, got none", f"joint[{i}].bus")
-            if lk.servo is not None:
-                raise RobotError(f"{owner}: field 'joint[{i}].servo': expected either a hobby servo or a bus servo, "
-                                 f"got both", f"joint[{i}].servo")
-            if not lk.is_revolute:
-                raise RobotError(f"{owner}: field 'joint[{i}].bus': expected a revolute joint on a servo bus, "
-                                 f"got a prismatic one", f"joint[{i}].bus")
-            if lk.bus.resolution != self.bus.resolution:
-                raise RobotError(f"{owner}: field 'joint[{i}].bus': expected the bus resolution "
-                                 f"{self.bus.resolution} ticks/turn, got {lk.bus.resolution}", f"joint[{i}].bus")
-            if not all(math.isfinite(v) for v in lk.limits):
-                raise RobotError(f"{owner}: field 'joint[{i}].limits': expected finite limits on a servo bus, "
-                                 f"got {lk.limits}", f"joint[{i}].limits")
-            ticks = [int(lk.bus.ticks(v)) for v in lk.limits]
-            if min(ticks) < 0 or max(ticks) > self.bus.resolution - 1:
-                raise RobotError(f"{owner}: field 'joint[{i}].limits': expected limits inside the servo's position "
-                                 f"range 0..{self.bus.resolution - 1} ticks (zero {lk.bus.zero:g}, direction "
-                                 f"{lk.bus.direction}), got {ticks[0]}..{ticks[1]} ticks", f"joint[{i}].limits")
-        ids = [lk.bus.id for lk in links]
-        dup = sorted({i for i in ids if ids.count(i) > 1})
-        if dup:
-            raise RobotError(f"{owner}: field 'joint.bus.id': expected distinct servo ids, got {dup[0]} twice",
-                             "joint.bus.id")
 
     # -- vectorised views of the DH table ---------------------------------
     @property

@@ -24,6 +24,7 @@ __all__ = [
     "JointType",
     "ServoCalibration",
     "Gripper",
+    "BusGripper",
     "BusServo",
     "Bus",
     "Link",
@@ -353,6 +354,58 @@ class BusServo:
         ndarray, shape (...)
         """
         return (np.asarray(ticks, dtype=float) - self.zero) * self.direction * (2 * math.pi) / self.resolution
+
+
+@dataclass(frozen=True)
+class BusGripper:
+    """A gripper driven by a servo on the arm's bus: its servo, where it opens and closes, and its grip limit.
+
+    Robot-file table ``[gripper]`` with ``bus = { id = 15, zero = 2048, direction = 1 }``, ``open``,
+    ``closed`` (the servo's angle, in the file's angle unit) and ``max_torque`` [N m].
+
+    Attributes
+    ----------
+    servo : BusServo
+        The gripper's servo (id, zero, direction, resolution).
+    open : float
+        Servo angle of the open gripper [rad].
+    closed : float
+        Servo angle of the closed gripper [rad].
+    max_torque : float or None
+        The torque the gripper may squeeze with [N m]: the servo's current limit (Dynamixel current-based
+        position mode) or torque limit (Feetech); ``None``: the servo's own limit.
+
+    Examples
+    --------
+    >>> g = BusGripper(BusServo(15), open=-0.67, closed=0.67, max_torque=0.5)
+    >>> int(g.servo.ticks(g.open))
+    1611
+    """
+
+    servo: "BusServo"
+    open: float
+    closed: float
+    max_torque: float | None = None
+
+    def __post_init__(self):
+        owner = "BusGripper"
+        if not isinstance(self.servo, BusServo):
+            raise RobotError(f"{owner}: field 'servo': expected a BusServo, got {self.servo!r}", "servo")
+        for field in ("open", "closed"):
+            object.__setattr__(self, field, _finite(owner, field, getattr(self, field)))
+        if self.open == self.closed:
+            raise RobotError(f"{owner}: field 'closed': expected an angle other than open = {self.open:g} rad "
+                             f"(the gripper would never move), got {self.closed:g}", "closed")
+        for field in ("open", "closed"):
+            if not 0 <= float(self.servo.ticks(getattr(self, field))) <= self.servo.resolution - 1:
+                raise RobotError(f"{owner}: field '{field}': expected an angle the servo reaches (0..."
+                                 f"{self.servo.resolution - 1} ticks), got {getattr(self, field):g} rad", field)
+        if self.max_torque is not None:
+            v = _finite(owner, "max_torque", self.max_torque)
+            if not v > 0:
+                raise RobotError(f"{owner}: field 'max_torque': expected a torque > 0 N m or None, got {v:g}",
+                                 "max_torque")
+            object.__setattr__(self, "max_torque", v)
 
 
 @dataclass(frozen=True)

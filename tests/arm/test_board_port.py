@@ -122,7 +122,8 @@ def _toy_codec():
     toy.MODEL = 4242
     toy.CURRENT_UNIT = 1e-3
     toy.TORQUE_CONSTANT = 1.0
-    for name in ("HARDWARE_ERRORS", "ALERT", "INSTRUCTIONS", "BROADCAST", "ADDRESS_BYTES", "SIGN_MAGNITUDE",
+    for name in ("HARDWARE_ERRORS", "ALERT", "INSTRUCTIONS", "BROADCAST", "ADDRESS_BYTES", "SIGN_MAGNITUDE", "GAINS",
+                 "DEFAULT_GAINS", "MOTOR", "GRIPPER_MODE", "CURRENT_LIMIT",
                  "encode", "decode", "status", "ping_reply"):
         setattr(toy, name, getattr(dxl, name))
 

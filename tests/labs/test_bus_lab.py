@@ -81,15 +81,16 @@ def test_a_bus_fault_during_a_measurement_stops_the_arm(tmp_path):
     assert np.allclose(np.radians(data.value), q0 + np.radians([10, 5, -5, 5, 0]), atol=math.radians(0.5))
 
 
-def test_the_gripper_of_a_bus_arm_says_labkit_does_not_drive_it():
+def test_the_gripper_of_a_bus_arm_takes_no_pulse_width_and_opens_as_a_bus_servo():
     from labkit.arm import Arm
 
     with Arm("openmanipulator_x", "sim://openmanipulator_x?bus=dynamixel&clock=lockstep") as arm:
         sent = len(arm.port.emulator.packets)
-        with pytest.raises(DeviceError, match="gripper not driven on a servo bus"):
+        with pytest.raises(DeviceError, match="GRIP takes a pulse width: a servo-bus gripper moves with"):
             arm.grip(1500)
-        with pytest.raises(DeviceError, match="no gripper in its robot file"):
-            arm.open_gripper()
+        arm.open_gripper()  # the gripper servo (id 15), through the bus (tests/arm/bus/test_gripper.py)
+        arm.sleep(0.5)
+        assert arm.read_gripper().position == pytest.approx(arm.robot.gripper.open, abs=0.01)
         assert np.allclose(arm.read_joints(), arm.commanded_joints(), atol=math.radians(0.5))  # the arm carries on
         assert len(arm.port.emulator.packets) > sent and arm.port.emulator.rejected == []
 

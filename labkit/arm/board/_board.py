@@ -214,6 +214,15 @@ class VirtualBoard:
         """
         return None
 
+    def servo_bus(self):
+        """``None``: hobby servos have no bus to reach (:meth:`labkit.arm.BoardPort.servo_bus`).
+
+        Returns
+        -------
+        None
+        """
+        return None
+
     def servo_stream(self):
         """``None``: stream frames are sent as ``FB`` lines.
 

@@ -14,6 +14,9 @@ from labkit.arm.bus._registry import BUSES, bus_module
 from labkit.arm.bus._emulator import BusEmulator, BusFaults
 from labkit.arm.bus._board import BusBoard, open_bus_board
 from labkit.arm.bus._stream import record_bus_stream
+from labkit.arm.bus._gains import ServoGains, GainBook
+from labkit.arm.bus._gripper import GripperState, GripperServo, VirtualGripper, limit_register
+from labkit.arm.bus._servo_loop import LoopPlant, loop_plant, position_loop, PositionLoops
 
 __all__ = [
     "BusFault",
@@ -26,4 +29,14 @@ __all__ = [
     "BusBoard",
     "open_bus_board",
     "record_bus_stream",
+    "ServoGains",
+    "GripperState",
+    "GripperServo",
+    "VirtualGripper",
+    "limit_register",
+    "GainBook",
+    "LoopPlant",
+    "loop_plant",
+    "position_loop",
+    "PositionLoops",
 ]

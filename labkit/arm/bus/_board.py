@@ -25,9 +25,11 @@ import math
 import weakref
 
 from labkit.exceptions import DeviceError, OptionError
-from labkit.robot import Robot
+from labkit.robot import BusGripper, Robot
 from labkit.arm.board import Executor
 from labkit.arm.bus._driver import BusFault
+from labkit.arm.bus._gains import GainBook
+from labkit.arm.bus._gripper import GripperServo
 from labkit.arm.bus._registry import bus_module
 
 __all__ = ["BusBoard", "open_bus_board"]
@@ -80,8 +82,9 @@ class BusBoard:
         A servo does not answer, or the arm rests outside its joint limits (torque stays off).
     """
 
-    #: ``GRIP`` is refused (``ERR 5 RANGE``), never a silent no-op: labkit does not drive a bus arm's gripper servo
-    grip_refused = "gripper not driven on a servo bus"
+    #: ``GRIP`` (a pulse width) is refused (``ERR 5 RANGE``), never a silent no-op: a bus gripper is a servo on the
+    #: bus, moved through the port (:meth:`move_gripper`)
+    grip_refused = "GRIP takes a pulse width: a servo-bus gripper moves with Arm.open_gripper / move_gripper"
 
     def __init__(self, robot, driver, *, model=None, queue=6, settle=None):
         robot = Robot.load(robot)
@@ -99,6 +102,10 @@ class BusBoard:
         self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
         self._goal = None
         self._frames = 0
+        #: the servos' position-loop gains (read, written within range, restored on close)
+        self.gains = GainBook(driver)
+        #: the gripper servo (robot file's [gripper] with bus = {...}), else None
+        self.gripper = GripperServo(driver, robot.gripper) if isinstance(robot.gripper, BusGripper) else None
         self.executor = Executor(self, robot.n, queue=queue)
         self.executor.boot("POWER")
         atexit.register(_shutdown_at_exit, weakref.ref(self))  # torque off if the program ends with the arm open
@@ -203,9 +210,85 @@ class BusBoard:
         """
         return list(self.stream_rows)
 
+    def servo_bus(self):
+        """This board: what a port offers of its servo bus (:meth:`labkit.arm.BoardPort.servo_bus`).
+
+        Returns
+        -------
+        BusBoard
+        """
+        return self
+
+    def servo_gains(self, joint):
+        """The position-loop gains of joint ``joint``'s servo, read from it (see :class:`GainBook`).
+
+        Parameters
+        ----------
+        joint : int or str
+
+        Returns
+        -------
+        ServoGains
+        """
+        return self._guard(self.gains.read, joint)
+
+    def set_servo_gains(self, joint, **gains):
+        """Write position-loop gains of joint ``joint``'s servo, checked first (see :meth:`GainBook.write`).
+
+        Parameters
+        ----------
+        joint : int or str
+        **gains : int or None
+            ``kp``, ``ki``, ``kd``.
+
+        Returns
+        -------
+        ServoGains
+            The gains now.
+        """
+        self.gains.check(joint, **gains)  # a bad value is the caller's error, not a bus fault
+        self.settle()
+        return self._guard(lambda: self.gains.write(joint, **gains))
+
+    def _bus_gripper(self):
+        if self.gripper is None:
+            raise OptionError(f"{self.driver.name}: expected a robot file whose [gripper] is a servo on the bus "
+                              f"(bus = {{ id, zero, direction }}, open, closed, max_torque), got "
+                              f"{'none' if self.robot.gripper is None else 'a hobby-servo gripper (channel, pulses)'}")
+        return self.gripper
+
+    def move_gripper(self, position, max_torque=None):
+        """Send the bus gripper to servo angle ``position`` [rad] with grip limit ``max_torque`` [N m].
+
+        Parameters
+        ----------
+        position : float
+        max_torque : float, optional
+            Default the robot file's ``max_torque``.
+        """
+        gripper = self._bus_gripper()
+        self.settle()
+        self._guard(gripper.move, position, max_torque)
+
+    def read_gripper(self):
+        """The bus gripper's present position, goal and current.
+
+        Returns
+        -------
+        GripperState
+        """
+        gripper = self._bus_gripper()
+        self.settle()
+        return self._guard(gripper.read)
+
     def shutdown(self):
-        """Turn torque off and close the bus (never raises; the port's ``close`` calls it)."""
+        """Write back the gains labkit changed, turn torque off and close the bus (never raises; the port's
+        ``close`` calls it)."""
         self.executor._halt()
+        if not self.driver.closed:
+            self.gains.restore()
+            if self.gripper is not None:
+                self.gripper.close()
         self.driver.close()
 
     # -- faults ------------------------------------------------------------------------------------------
@@ -221,6 +304,8 @@ class BusBoard:
         self.executor.segments.clear()
         self.executor.state = "HOLD"
         failed = self.driver.torque_off_quietly()
+        if self.gripper is not None and not self.gripper.close():
+            failed.append(self.gripper.id)
         note = "torque is off on every servo" if not failed else \
             f"torque off not acknowledged by servo(s) {', '.join(map(str, failed))}: switch the servo power off"
         self.fault = BusFault(f"{exc}; the arm is stopped and {note}")
@@ -292,6 +377,8 @@ class BusBoard:
         self._write_goals([int(t) for t in reading.ticks])
         driver.set_profiles()
         driver.torque(True)
+        if self.gripper is not None:
+            self.gripper.start()
 
     def settle(self):
         """Run a virtual bus's physics up to board time."""

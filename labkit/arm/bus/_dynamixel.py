@@ -31,6 +31,9 @@ TABLE = {
     "torque_enable": (64, 1), "hardware_error": (70, 1), "profile_acceleration": (108, 4),
     "profile_velocity": (112, 4), "goal_position": (116, 4), "moving": (122, 1),
     "present_current": (126, 2), "present_velocity": (128, 4), "present_position": (132, 4),
+    # the position loop and the gripper's current limit (RAM, e-Manual XM430-W350 "Position PID Gain", "Goal Current")
+    "current_limit": (38, 2), "position_d_gain": (80, 2), "position_i_gain": (82, 2), "position_p_gain": (84, 2),
+    "goal_current": (102, 2),
 }
 #: what a sync read of the state takes: present current .. present position (10 bytes)
 STATE = (126, 10)
@@ -56,6 +59,21 @@ HEADER = bytes([0xFF, 0xFF, 0xFD, 0x00])
 ADDRESS_BYTES = 2
 #: present current is two's complement (not sign-magnitude)
 SIGN_MAGNITUDE = False
+#: the position loop's gains: name -> (control-table field, largest value, factor to the e-Manual's K_P P/I/D);
+#: every one 0..16383 (XM430-W350 control table: KPP = P(84) / 128, KPI = I(82) / 65536, KPD = D(80) / 16)
+GAINS = {"kp": ("position_p_gain", 16383, 1 / 128), "ki": ("position_i_gain", 16383, 1 / 65536),
+         "kd": ("position_d_gain", 16383, 1 / 16)}
+#: the gains of a servo out of the box (XM430-W350 initial values: P 800, I 0, D 0)
+DEFAULT_GAINS = {"kp": 800, "ki": 0, "kd": 0}
+#: the motor behind the loop (XM430-W350 at 12 V): stall torque [N m], no-load speed [rad/s] (46 rev/min), gear ratio,
+#: full-scale output of the loop [PWM LSB] (PWM Limit(36), initial 885 = 100 %), rotor inertia [kg m^2] (ASSUMED, not
+#: published: a 1 g cm^2 coreless motor; 0.0125 kg m^2 through the gearbox)
+MOTOR = {"stall_torque": 4.1, "no_load_speed": 46 * 2 * 3.141592653589793 / 60, "gear_ratio": 353.5, "full_scale": 885,
+         "rotor_inertia": 1.0e-7}
+#: the gripper's operating mode: current-based position control (Operating Mode(11) = 5, the OpenMANIPULATOR-X
+#: gripper's), its limit the Goal Current(102) [CURRENT_UNIT], at most Current Limit(38) = 1193
+GRIPPER_MODE = 5
+CURRENT_LIMIT = 1193
 
 
 def ping_reply(model):

@@ -27,9 +27,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from labkit.exceptions import OptionError
-from labkit.robot import Robot
+from labkit.robot import BusGripper, Robot
 from labkit.arm.board import ArmModel, PhysicsConfig, gravity_sag
 from labkit.arm.bus._registry import bus_module
+from labkit.arm.bus._servo_loop import PositionLoops
+from labkit.arm.bus._gripper import VirtualGripper, limit_torque
 
 __all__ = ["BusEmulator", "BusFaults"]
 
@@ -70,6 +72,10 @@ class BusEmulator:
     wall_clock : bool
         Advance the physics to the wall clock before each packet (for a bus served alone);
         ``False``: whoever drives the bus advances :attr:`model`.
+    servo_load : bool
+        Whether the servos' position loops carry the gravity load (a servo then droops under load as a real
+        one with no integral gain does); default ``False``: the loops drive the inertia alone and the load
+        shows only in the present current (see :class:`PositionLoops`).
 
     Attributes
     ----------
@@ -92,7 +98,7 @@ class BusEmulator:
     '/dev/pts/5'
     """
 
-    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False):
+    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False, servo_load=False):
         self.robot = Robot.load(robot)
         if self.robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table for a virtual bus, got {self.robot.name!r} "
@@ -101,6 +107,9 @@ class BusEmulator:
         limits = self.robot.joint_limits
         q0 = limits.mean(axis=1) if q0 is None else np.asarray(q0, float)
         self.model = ArmModel(self.robot, config, q0=q0)
+        #: each servo's position loop on the dynamics (the model's servos; see labkit.arm.bus._servo_loop)
+        self.model.servos = PositionLoops(self.robot, config, self.bus, self.model.servos.position,
+                                          gravity=servo_load)
         self._unit_load = replace(config, joint_compliance=1.0)
         self.ids = [lk.bus.id for lk in self.robot.links]
         self.memory = {i: bytearray(256) for i in self.ids}
@@ -117,6 +126,22 @@ class BusEmulator:
             self._put(servo_id, "model_number", self.bus.MODEL)
             self._put(servo_id, "id", servo_id)
             self._put(servo_id, "goal_position", int(self.robot.links[j].bus.ticks(q0[j])))
+            for name, value in self.bus.DEFAULT_GAINS.items():
+                self._put(servo_id, self.bus.GAINS[name][0], value)
+        #: the gripper servo (a :class:`VirtualGripper`, its ``object`` settable) if the robot file has a bus gripper
+        self.gripper = None
+        if isinstance(self.robot.gripper, BusGripper):
+            g = self.robot.gripper
+            self.gripper = VirtualGripper(self.bus, g, 0.5 * (g.open + g.closed))
+            self.memory[g.servo.id] = bytearray(256)
+            self._put(g.servo.id, "model_number", self.bus.MODEL)
+            self._put(g.servo.id, "id", g.servo.id)
+            self._put(g.servo.id, "goal_position", int(g.servo.ticks(self.gripper.position)))
+            limits = {"operating_mode": 3, "current_limit": self.bus.CURRENT_LIMIT, "goal_current": self.bus.CURRENT_LIMIT,
+                      "torque_limit": self.bus.MOTOR["full_scale"]}
+            for name, value in limits.items():
+                if name in self.bus.TABLE and value is not None:
+                    self._put(g.servo.id, name, value)
         self._refresh()
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -170,6 +195,7 @@ class BusEmulator:
             self.model.advance_to(time.monotonic() - self._t0)
         q = self.model.shaft_q
         torques = tuple(self.torque(i) for i in self.ids)
+        self._refresh_gripper()
         key = (self.model.time, tuple(q), torques, frozenset(self.faults.overload))
         if key == self._fresh:
             return
@@ -182,8 +208,29 @@ class BusEmulator:
             if servo_id in self.faults.overload:
                 self._overload(servo_id)
 
+    def _sync_loop(self, servo_id):
+        """The servo's torque and position-loop gains from its control table into its loop."""
+        j = self.ids.index(servo_id)
+        loops = self.model.servos
+        loops.enable(j, self.torque(servo_id))
+        loops.set_gains(j, {name: self.get(servo_id, field) for name, (field, _, _) in self.bus.GAINS.items()})
+
+    def _refresh_gripper(self):
+        """The gripper servo's jaw run to the model's time, its present position and current in its table."""
+        if self.gripper is None:
+            return
+        g = self.robot.gripper
+        sid = g.servo.id
+        address, size = self.bus.TABLE["goal_position"]
+        goal = float(g.servo.joint(int.from_bytes(self.memory[sid][address:address + size], "little", signed=True)))
+        limit = limit_torque(self.bus, lambda field: self.get(sid, field))
+        self.gripper.advance_to(self.model.time, goal, self.torque(sid), limit)
+        self._put(sid, "present_position", int(g.servo.ticks(self.gripper.position)))
+        self._put(sid, "present_current", int(round(self.gripper.current / self.bus.CURRENT_UNIT)))
+
     def _overload(self, servo_id):
         self.memory[servo_id][self.bus.TABLE["torque_enable"][0]] = 0
+        self.model.servos.enable(self.ids.index(servo_id), False)
         if "hardware_error" in self.bus.TABLE:
             self._put(servo_id, "hardware_error", 0x20)
 
@@ -195,10 +242,13 @@ class BusEmulator:
     def _apply_write(self, servo_id, address, data):
         mem = self.memory[servo_id]
         mem[address:address + len(data)] = bytes(data)
+        if servo_id not in self.ids:  # the gripper servo: its jaw reads its table (_refresh_gripper)
+            return
         goal, size = self.bus.TABLE["goal_position"]
         torque = self.bus.TABLE["torque_enable"][0]
         if address <= torque < address + len(data) and servo_id in self.faults.overload and mem[torque]:
             mem[torque] = 0  # a servo in overload keeps its torque off until rebooted
+        self._sync_loop(servo_id)
         if self.torque(servo_id) and address < goal + size and goal < address + len(data):
             j = self.ids.index(servo_id)
             ticks = int.from_bytes(mem[goal:goal + size], "little", signed=True)

@@ -29,6 +29,8 @@ TABLE = {
     "goal_position": (42, 2), "goal_time": (44, 2), "goal_velocity": (46, 2), "present_position": (56, 2),
     "present_velocity": (58, 2), "present_load": (60, 2), "present_voltage": (62, 1),
     "present_temperature": (63, 1), "status": (65, 1), "moving": (66, 1), "present_current": (69, 2),
+    # the position loop and the torque limit (lerobot's STS_SMS_SERIES_CONTROL_TABLE; Feetech STS memory table)
+    "p_coefficient": (21, 1), "d_coefficient": (22, 1), "i_coefficient": (23, 1), "torque_limit": (48, 2),
 }
 #: what a sync read of the state takes: present position .. present current (15 bytes)
 STATE = (56, 15)
@@ -52,6 +54,19 @@ ADDRESS_BYTES = 1
 ALERT = None
 #: present current, speed and load are sign-magnitude (sign in bit 15)
 SIGN_MAGNITUDE = True
+#: the position loop's gains: name -> (control-table field, largest value, factor to the loop's gain); one-byte
+#: coefficients, taken as 0..254 here (Feetech publishes no conversion: the factor 1 leaves them as they are)
+GAINS = {"kp": ("p_coefficient", 254, 1.0), "ki": ("i_coefficient", 254, 1.0), "kd": ("d_coefficient", 254, 1.0)}
+#: the gains of a servo out of the box (STS3215: P 32, D 32, I 0, as lerobot's SO-101 code notes before lowering P)
+DEFAULT_GAINS = {"kp": 32, "ki": 0, "kd": 32}
+#: the motor behind the loop (STS3215 at 7.4 V): stall torque [N m] (TORQUE_CONSTANT times 2.7 A), no-load speed
+#: [rad/s] (0.222 s / 60 deg), gear ratio (1:345), full-scale output of the loop [LSB] (Torque_Limit(48) 1000 = 100 %),
+#: rotor inertia [kg m^2] (ASSUMED, not published: 0.5 g cm^2; 0.006 kg m^2 through the gearbox)
+MOTOR = {"stall_torque": 1.62, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_scale": 1000,
+         "rotor_inertia": 5.0e-8}
+#: the gripper: position mode with its Torque_Limit(48) [0.1 % of the stall torque], 0..1000
+GRIPPER_MODE = None
+CURRENT_LIMIT = None
 
 
 def ping_reply(model):

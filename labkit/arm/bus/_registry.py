@@ -9,7 +9,10 @@ fixes for both ends. A codec module defines:
   [A per LSB], ``TORQUE_CONSTANT`` [N m / A], ``HARDWARE_ERRORS`` (bit -> name), ``ALERT`` (the status
   error bit that means "read the hardware error", or ``None``), ``INSTRUCTIONS`` (code -> ``"ping"``,
   ``"read"``, ``"write"``, ``"sync read"``, ``"sync write"``), ``BROADCAST``, ``ADDRESS_BYTES``,
-  ``SIGN_MAGNITUDE``;
+  ``SIGN_MAGNITUDE``; ``GAINS`` (``kp``/``ki``/``kd`` -> ``(field, largest value, factor)`` of the servo's
+  position loop), ``DEFAULT_GAINS``, ``MOTOR`` (stall torque, no-load speed, gear ratio, full-scale loop output,
+  rotor inertia: the virtual servo's loop, :mod:`labkit.arm.bus._servo_loop`), ``GRIPPER_MODE`` and
+  ``CURRENT_LIMIT`` (the gripper's operating mode and largest goal current, ``None`` where the servo has none);
 - ``encode(servo_id, instruction, params, error=None)``, ``decode(buffer)``, ``status(servo_id, error,
   params)`` and ``ping_reply(model)``: the packet codec the virtual bus (:class:`BusEmulator`) parses
   and answers with;

@@ -41,6 +41,7 @@ from labkit.arm.link._segments import (check_segment_positions, check_segment_sp
 from labkit.arm.link._feedback import joints_from_counts, record_stream
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
+from labkit.arm.link._servos import ServoMethods
 
 __all__ = ["Arm"]
 
@@ -57,7 +58,7 @@ def _on_wire(attr, doc, convert=None):
     return property(get, set_ if convert else None, doc=doc)
 
 
-class Arm:
+class Arm(ServoMethods):
     """A connection to a labkit arm board (real, virtual or simulated firmware).
 
     Parameters
@@ -481,37 +482,6 @@ class Arm:
         q = ik(self.robot, target, branch=branch, q_near=None if branch else current)
         self.move_joints(q, wait=wait)
         return q
-
-    def grip(self, us):
-        """Gripper pulse width [us].
-
-        Parameters
-        ----------
-        us : float
-            Pulse width sent to the gripper servo [us] (rounded to an integer); the board
-            checks it against the gripper channel's range.
-
-        Raises
-        ------
-        OptionError
-            Not a finite number (nothing is sent).
-        CommandRejected
-            Outside the gripper's pulse range (``ERR 5 RANGE``).
-        """
-        self._transact("GRIP", int(round(finite("us", us, lo=400.0, hi=2600.0, unit="us"))))  # RC pulses (protocol 4.2)
-
-    def open_gripper(self):
-        """Open the gripper (robot file's ``open_us``)."""
-        self.grip(self._gripper().open_us)
-
-    def close_gripper(self):
-        """Close the gripper (robot file's ``closed_us``)."""
-        self.grip(self._gripper().closed_us)
-
-    def _gripper(self):
-        if self.robot.gripper is None:
-            raise DeviceError(f"robot {self.robot.name} has no gripper in its robot file")
-        return self.robot.gripper
 
     def stop(self):
         """Stop at once: end any trajectory, clear the queue, hold; returns the held joints [rad].

@@ -81,6 +81,15 @@ class ArduinoPort(PortWrapper):
         """
         return None
 
+    def servo_bus(self):
+        """``None``: the board drives hobby servos, which have no bus to reach.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
     def servo_stream(self):
         """``None``: a real board's stream frames travel as ``FB`` lines.
 

@@ -124,6 +124,15 @@ class SimavrPort(serialposix.Serial):
         """
         return None
 
+    def servo_bus(self):
+        """``None``: the board drives hobby servos, which have no bus to reach.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
     def servo_stream(self):
         """``None``: the firmware's stream frames travel as ``FB`` lines.
 

@@ -73,6 +73,17 @@ class BoardSerial(SerialBase):
         self._sync()
         return self.board.read_servos()
 
+    def servo_bus(self):
+        """The servo bus behind the port (a :class:`labkit.arm.bus.BusBoard`), ``None`` on a hobby-servo board.
+
+        Returns
+        -------
+        BusBoard or None
+        """
+        self._check_open()
+        self._sync()
+        return self.board.servo_bus()
+
     def servo_stream(self):
         """The stream frames a bus board read since ``STREAM`` was switched on, ``None`` on a hobby-servo board.
 
