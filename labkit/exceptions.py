@@ -33,6 +33,7 @@ __all__ = [
     "ProtocolError",
     "CommandRejected",
     "BusFault",
+    "BusCalibrationError",
     "PortURLError",
     "PortError",
     "PortClosedError",
@@ -216,6 +217,11 @@ class BusFault(DeviceError):
 
     The arm is stopped and every servo's torque turned off before it is raised.
     """
+
+
+class BusCalibrationError(LabkitError, ValueError):
+    """A guided servo-bus calibration cannot finish: a joint did not move as asked, its range does not fit
+    the servo's one turn, or a homing offset is out of the servo's range; the message says what to redo."""
 
 
 class PortURLError(OptionError, SerialException):

@@ -1,7 +1,7 @@
 """The ``labkit`` command line.
 
 Every subcommand's argparse lives in this package, one module per concept
-(``_kinematics``: robots, fk, ik; ``_arm``: sim, ports; ``_measure``: errors,
+(``_kinematics``: robots, fk, ik; ``_arm``: sim, ports, calibrate-bus; ``_measure``: errors,
 audit, calibrate; ``_reports``: run, render, report; ``_labs``: lab, new; ``_course``:
 assign, grade), each a thin call into the library. The library modules hold no
 command-line code.

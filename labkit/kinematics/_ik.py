@@ -9,15 +9,17 @@ Targets, by :func:`target_kind`:
 * ``"position_pitch"`` ``(..., 4)`` ``(x, y, z [m], pitch [rad])`` - 4-DOF
   yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
 * ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
-  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D); both also take
-  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch and
-  roll are defined in ``docs/ik.md``);
+  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D);
+* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms; these three also take
+  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch,
+  roll and yaw are defined in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
 ``docs/ik.md``): the first family of the registry that fits (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
-``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``). Other robots use :func:`ik_numeric`.
+``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``, ``scara``, ``cylindrical``,
+``cartesian``). Other robots use :func:`ik_numeric`, which also takes every kind above.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -180,7 +182,7 @@ class IKResult:
 
 
 def target_kind(robot):
-    """What an IK target of ``robot`` is: ``"position"``, ``"planar"``, ``"position_pitch"``, ``"position_pitch_roll"`` or ``"pose"``.
+    """What an IK target of ``robot`` is: ``"position"``, ``"planar"``, ``"position_pitch[_roll]"``, ``"position_yaw"``, ``"pose"``.
 
     Parameters
     ----------
@@ -192,7 +194,8 @@ def target_kind(robot):
         ``"planar"`` for planar 3R arms (target ``(x, y, phi)``),
         ``"position_pitch"`` for 4-DOF yaw-pitch-pitch-pitch arms (``(x, y, z,
         pitch)``), ``"position_pitch_roll"`` for 5-DOF yaw-pitch-pitch-pitch-roll
-        arms (``(x, y, z, pitch, roll)``), ``"pose"`` for robots with 6 or more
+        arms (``(x, y, z, pitch, roll)``), ``"position_yaw"`` for SCARA arms
+        (``(x, y, z, yaw)``), ``"pose"`` for robots with 6 or more
         joints (target ``(4, 4)``), otherwise ``"position"`` (target ``(x, y, z)``).
 
     Examples
@@ -436,9 +439,14 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
-    if kind in REDUCED:
-        raise OptionError(f"{robot.name}: numeric IK takes position, planar or pose targets; this arm takes "
-                          f"{target_words(kind)}, solved in closed form (use kind='position' or 'pose')")
+    sides = 1
+    if kind in REDUCED:  # x y z pitch [roll] / yaw: every tool pose that reaches them (front, back), as poses
+        if flat.ndim == 2:
+            flat = _reduced_family(robot, kind).poses(flat)
+            sides = flat.shape[1]
+            flat = flat.reshape(-1, 4, 4)
+            q0 = None if q0 is None else np.repeat(q0, sides, axis=0)
+        kind = "pose"
     rows = task_rows(kind)
     if mask is not None:
         mask = np.asarray(mask, dtype=bool).reshape(-1)
@@ -448,7 +456,22 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
         if not rows:
             raise OptionError("mask selects no task coordinate")
     rng = LazyGenerator(seed)
-    return solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+    q, ok, it, res = solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
+    if sides == 1:
+        return q, ok, it, res
+    q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
+    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))  # the first pose reached
+    each = np.arange(q.shape[0])
+    return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
+
+
+def _reduced_family(robot, kind):
+    """The closed-form family that defines ``kind``'s angles (pitch, roll, yaw) on ``robot``."""
+    found, _ = detect(robot)
+    if found is None or found.kind != kind:
+        raise OptionError(f"{robot.name}: {target_words(kind)} targets are defined by the closed form of arms "
+                          f"that take them; this arm takes {target_words(target_kind(robot))} (or use kind='pose')")
+    return found
 
 
 def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_iter=50, restarts=10, seed=0):
@@ -466,12 +489,16 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         ``(..., 3)`` or ``(..., 4, 4)`` as :func:`target_kind` (or ``kind``) says.
     q0 : array_like, shape (n,) or (..., n), optional
         Initial guess [rad, m]; default random inside the limits (seeded).
-    kind : {"position", "planar", "pose"}, optional
-        Override :func:`target_kind` (e.g. ``"position"`` for a 6R arm).
+    kind : {"position", "planar", "pose", "position_pitch", "position_pitch_roll", "position_yaw"}, optional
+        Override :func:`target_kind` (e.g. ``"position"`` for a 6R arm). The
+        kinds with angles of 4- and 5-DOF arms and SCARAs take the same
+        targets as their closed form (:func:`ik`), solved on the tool poses
+        that form defines (:func:`pose_from_position_pitch`), so a branch can be
+        cross-checked numerically with the same target.
     mask : array_like of bool, optional
         Which task coordinates to match: 3 entries for position/planar
-        targets, 6 (``x, y, z, rx, ry, rz``) for poses - e.g. for an
-        under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
+        targets, 6 (``x, y, z, rx, ry, rz``) for poses and the kinds with
+        angles - e.g. for an under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
     tol : float
         Success threshold on the residual [m, rad].
     max_iter, restarts : int
@@ -485,6 +512,14 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         ``q (..., n)``, ``success (...)``, ``iterations (...)``, ``residual (...)``.
         Nothing is raised for failed targets; their ``q`` is the best
         configuration found (finite).
+
+    Raises
+    ------
+    ShapeError
+        Wrong shape, not numbers, NaN/inf or entries beyond 1e9 (m, rad), or a
+        pose that is not a rigid transform.
+    OptionError
+        An unknown kind, or a kind with angles that the arm's closed form does not take.
 
     Examples
     --------

@@ -259,3 +259,98 @@ def test_al5d_file_is_roboticstoolbox_al5d_plus_a_wrist_rotate():
     # q5 turns the tool about the approach, right-handed: a constant angle apart from RTB's tool frame
     turn = np.angle(np.exp(1j * (np.array(turn) - turn[0])))
     assert np.abs(turn).max() < 1e-9
+
+
+def _random_scara(rng, convention):
+    """A SCARA (three revolute joints and a quill, every axis parallel) of random lengths, quill position and
+    signs (twists of 0 or pi, flipped joints), on a random base with a random tool."""
+    quill = int(rng.integers(4))
+    links = []
+    for j in range(4):
+        prismatic = j == quill
+        links.append(Link(
+            a=float(rng.uniform(0.15, 0.4)) if rng.random() < 0.7 else 0.0,
+            alpha=float(rng.choice([0.0, np.pi])), d=float(rng.uniform(-0.2, 0.3)),
+            theta=float(rng.uniform(-np.pi, np.pi)) if rng.random() < 0.5 else 0.0,
+            joint_type=JointType.PRISMATIC if prismatic else JointType.REVOLUTE,
+            limits=(-0.3, 0.3) if prismatic else (-np.pi, np.pi), flip=bool(rng.random() < 0.3),
+        ))
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy(rng.uniform(-0.4, 0.4, 3))
+    base[:3, 3] = rng.uniform(-0.3, 0.3, 3)
+    return Robot(name="scara", links=tuple(links), convention=convention, base=base, tool=_random_transform(rng))
+
+
+def _yaw(T, k):
+    """Yaw of poses ``T`` (N, 4, 4) about the unit axis ``k``, from the world axis least along ``k`` projected."""
+    e = np.eye(3)[int(np.argmin(np.abs(k)))]
+    u = e - k * (e @ k)
+    u /= np.linalg.norm(u)
+    ref = T[:, :3, 0]
+    return np.arctan2(ref @ np.cross(k, u), ref @ u)
+
+
+@pytest.mark.parametrize("convention", [Convention.STANDARD, Convention.MODIFIED])
+def test_scara_closed_form_reaches_roboticstoolbox_poses(convention):
+    """Random SCARA models built in roboticstoolbox (DHRobot of RevoluteDH/PrismaticDH or the MDH links):
+    targets x y z yaw read from rtb's ``fkine``; every branch labkit returns, put through rtb's ``fkine``, has
+    the target's tool point and yaw, and the configuration the target came from is a valid branch."""
+    from labkit.kinematics import solver_for
+
+    rng = np.random.default_rng(40 if convention is Convention.STANDARD else 41)
+    tested = 0
+    while tested < 8:
+        robot = _random_scara(rng, convention)
+        if solver_for(robot).value != "scara":  # two revolute axes drawn on one line: no elbow
+            continue
+        tested += 1
+        ref = _rtb_model(robot)
+        k = ref.base.A[:3, 2] if convention is Convention.STANDARD else (ref.base * ref.links[0].A(0.0)).A[:3, 2]
+        k = k if k[2] > 0 else -k  # the axes' direction on the side of up (+z)
+        lim = robot.joint_limits
+        q = rng.uniform(lim[:, 0], lim[:, 1], size=(20, 4))
+        T = np.array([ref.fkine(qk).A for qk in q])
+        target = np.column_stack([T[:, :3, 3], _yaw(T, k)])
+        sols = ik_all(robot, target)
+        assert sols.branches == ("elbow_left", "elbow_right") and sols.reachable.all()
+        for i in range(len(q)):
+            for qb in sols.q[i]:
+                Tb = ref.fkine(qb).A
+                assert np.abs(Tb[:3, 3] - target[i, :3]).max() < 1e-9
+                dyaw = _yaw(Tb[None], k)[0] - target[i, 3]
+                assert abs(np.remainder(dyaw + np.pi, 2 * np.pi) - np.pi) < 1e-9
+        gap = np.abs(np.remainder(sols.q - q[:, None] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
+        assert np.where(sols.valid, gap, np.inf).min(axis=1).max() < 1e-7
+
+
+def test_rtb_cobra600_scara_closed_form():
+    """roboticstoolbox's Omron Cobra 600 (RRPR, quill pointing down): both elbows reach rtb's poses, the
+    right elbow (counterclockwise seen from above) has q2 > 0 on this arm, and numeric IK of the same
+    x y z yaw target lands on one of the two branches."""
+    from labkit.kinematics import ik_numeric, solver_for, target_from_pose
+
+    rtb = require("roboticstoolbox")
+    ref = rtb.models.DH.Cobra600()
+    links = tuple(
+        Link(a=lk.a, alpha=lk.alpha, d=lk.d, theta=lk.offset, limits=tuple(ref.qlim[:, j])) if lk.isrevolute
+        else Link(a=lk.a, alpha=lk.alpha, theta=lk.theta, d=lk.offset, joint_type="prismatic",
+                  limits=tuple(ref.qlim[:, j]))
+        for j, lk in enumerate(ref.links))
+    cobra = Robot("cobra600", links)
+    assert solver_for(cobra).value == "scara"
+    rng = np.random.default_rng(42)
+    q = rng.uniform(ref.qlim[0], ref.qlim[1], size=(40, 4))
+    T = np.array([ref.fkine(qk).A for qk in q])
+    target = np.column_stack([T[:, :3, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])])  # axis 1 is world +z
+    assert np.abs(target_from_pose(cobra, T) - target).max() < 1e-12
+    sols = ik_all(cobra, target)
+    for i in range(len(q)):
+        for qb in sols.q[i]:
+            Tb = ref.fkine(qb).A
+            assert np.abs(Tb[:3, 3] - target[i, :3]).max() < 1e-9
+            assert abs(np.remainder(np.arctan2(Tb[1, 0], Tb[0, 0]) - target[i, 3] + np.pi, 2 * np.pi) - np.pi) < 1e-9
+    assert (sols["elbow_right"][:, 1] > 0).all() and (sols["elbow_left"][:, 1] < 0).all()
+    res = ik_numeric(cobra, target[:10])
+    assert res.success.all()
+    gap = np.abs(sols.q[:10] - res.q[:, None]).max(axis=-1).min(axis=-1)
+    assert gap.max() < 1e-6

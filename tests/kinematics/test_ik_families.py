@@ -5,6 +5,8 @@ made from is among the branches, and the branch set is complete: numeric IK star
 random configurations finds no solution that is not one of the valid branches.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -34,6 +36,28 @@ def _arm4():
     return Robot("arm4", links)
 
 
+#: robot-file fixtures of the SCARA, cylindrical and Cartesian families
+FIXTURES = Path(__file__).resolve().parent / "robots"
+
+
+def _fixture(name):
+    return lambda: Robot.load(FIXTURES / f"{name}.toml")
+
+
+def _scara_prrr():
+    """A SCARA with its lift first (PRRR), quill down (flipped), on a base tilted in the world."""
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy([0.3, -0.5, 1.0])
+    base[:3, 3] = [0.2, -0.1, 0.4]
+    tool = np.eye(4)
+    tool[:3, :3] = matrix_from_rpy([0.0, 0.0, 0.7])
+    tool[:3, 3] = [0.02, 0.01, 0.05]
+    links = (Link(d=0.1, alpha=np.pi, joint_type="prismatic", limits=(-0.2, 0.2), flip=True),
+             Link(a=0.35, theta=0.2, limits=(-2.5, 2.5)), Link(a=0.25, limits=(-2.6, 2.6)),
+             Link(a=0.03, d=0.02, limits=(-np.pi, np.pi)))
+    return Robot("scara_prrr", links, base=base, tool=tool)
+
+
 ROBOTS = {
     "arduino_arm_3dof": (lambda: Robot.load("arduino_arm_3dof"), "yaw_pitch_pitch"),
     "planar3r_seed004": (lambda: Robot.load("planar3r_seed004"), "planar_3r"),
@@ -46,6 +70,13 @@ ROBOTS = {
     "openmanipulator_x": (lambda: Robot.load("openmanipulator_x"), "yaw_pitch_pitch_pitch"),
     "so101": (lambda: Robot.load("so101"), "yaw_pitch_pitch_pitch_roll"),
     "al5d": (lambda: Robot.load("al5d"), "yaw_pitch_pitch_pitch_roll"),
+    "scara_standard": (_fixture("scara_standard"), "scara"),
+    "scara_modified": (_fixture("scara_modified"), "scara"),
+    "scara_prrr": (_scara_prrr, "scara"),
+    "scara_rrp": (_fixture("scara_rrp"), "scara_rrp"),
+    "cylindrical_rpp": (_fixture("cylindrical_rpp"), "cylindrical"),
+    "rpp_seed002": (lambda: Robot.load("rpp_seed002"), "cylindrical"),
+    "gantry_ppp": (_fixture("gantry_ppp"), "cartesian"),
 }
 
 
@@ -245,13 +276,11 @@ def test_4dof_targets_of_the_wrong_size_say_what_the_arm_takes(values, missing):
         assert "got (5,)" in message and "missing" not in message
 
 
-def test_5dof_targets_say_roll_is_missing_and_numeric_ik_says_why_not():
+def test_5dof_targets_say_roll_is_missing():
     so101 = Robot.load("so101")
     assert target_kind(so101) == "position_pitch_roll"
     with pytest.raises(ShapeError, match="this arm takes x y z pitch roll; roll missing"):
         ik_all(so101, [0.2, 0.0, 0.1, -1.0])
-    with pytest.raises(OptionError, match="numeric IK takes position, planar or pose targets"):
-        ik(so101, [0.2, 0.0, 0.1, -1.0, 0.0], solver="numeric")
 
 
 #: the course arms of issue 25 (4-DOF pitch and 5-DOF pitch-roll targets)

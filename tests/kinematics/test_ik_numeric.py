@@ -5,6 +5,7 @@ import pytest
 
 from labkit.kinematics import fk, ik_all, ik_numeric
 from labkit.kinematics._ik_solvers import _lm, _starts
+from labkit.exceptions import OptionError
 from labkit.robot import Robot
 
 
@@ -180,3 +181,35 @@ def test_starts_of_one_target_are_those_of_the_batch(make):
         assert np.isnan(first[100:]).any() and np.isfinite(first[:100]).all()
     else:  # an idealised copy's: every branch is a start
         assert np.isfinite(first).all()
+
+
+@pytest.mark.parametrize("name", ["openmanipulator_x", "so101", "al5d", "scara"])
+def test_numeric_ik_takes_the_closed_form_target_kind(name):
+    """x y z pitch (OpenMANIPULATOR-X), x y z pitch roll (SO-101, AL5D) and x y z yaw (a SCARA) go to
+    ik_numeric as they go to ik: every target is reached (also those the arm reaches over its back, whose
+    tool pose differs from the front one) and each answer is one of the closed-form branches."""
+    from pathlib import Path
+
+    from labkit.kinematics import target_from_pose, target_kind
+    from labkit.rotations import wrap_angle
+
+    robot = Robot.load(Path(__file__).parent / "robots" / "scara_standard.toml") if name == "scara" \
+        else Robot.load(name)
+    rng = np.random.default_rng(11)
+    lim = robot.joint_limits
+    target = target_from_pose(robot, fk(robot, rng.uniform(lim[:, 0], lim[:, 1], size=(24, robot.n))))
+    assert target.shape == (24, {"position_pitch": 4, "position_pitch_roll": 5, "position_yaw": 4}[target_kind(robot)])
+    res = ik_numeric(robot, target, seed=3)
+    assert res.success.all() and robot.within_limits(res.q).all()
+    d = target_from_pose(robot, fk(robot, res.q)) - target
+    d[:, 3:] = wrap_angle(d[:, 3:])
+    assert np.abs(d).max() < 1e-8
+    sols = ik_all(robot, target)
+    gap = np.where(sols.valid, np.abs(wrap_angle(sols.q - res.q[:, None])).max(axis=-1), np.inf).min(axis=-1)
+    assert gap.max() < 1e-6
+    # one target, and a target kind the arm does not take
+    one = ik_numeric(robot, target[0])
+    assert one.success and one.q.shape == (robot.n,)
+    other = "position_yaw" if name != "scara" else "position_pitch"
+    with pytest.raises(OptionError, match="targets are defined by the closed form"):
+        ik_numeric(robot, np.zeros(4), kind=other)

@@ -74,6 +74,15 @@ MOTOR = {"stall_torque": 4.1, "no_load_speed": 46 * 2 * 3.141592653589793 / 60, 
 #: gripper's), its limit the Goal Current(102) [CURRENT_UNIT], at most Current Limit(38) = 1193
 GRIPPER_MODE = 5
 CURRENT_LIMIT = 1193
+#: homing offset (address, size; EEPROM, written with torque off): present position = actual + HOMING_SIGN * offset
+HOMING_OFFSET = (20, 4)
+HOMING_SIGN = 1
+#: largest homing-offset magnitude the servo takes [ticks] (XM430 e-Manual: -1,044,479 .. 1,044,479)
+HOMING_LIMIT = 1_044_479
+#: the offset's sign bit (sign-magnitude), ``None``: two's complement
+HOMING_SIGN_BIT = None
+#: the EEPROM lock register (address, size), ``None``: torque off is enough to write the EEPROM
+EEPROM_LOCK = None
 
 
 def ping_reply(model):

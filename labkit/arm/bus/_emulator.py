@@ -32,6 +32,7 @@ from labkit.arm.board import ArmModel, PhysicsConfig, gravity_sag
 from labkit.arm.bus._registry import bus_module
 from labkit.arm.bus._servo_loop import PositionLoops
 from labkit.arm.bus._gripper import VirtualGripper, limit_torque
+from labkit.arm.bus._hardware import VirtualHand, VirtualServo, assembled_servos, goal_joint, present_ticks
 
 __all__ = ["BusEmulator", "BusFaults"]
 
@@ -76,6 +77,9 @@ class BusEmulator:
         Whether the servos' position loops carry the gravity load (a servo then droops under load as a real
         one with no integral gain does); default ``False``: the loops drive the inertia alone and the load
         shows only in the present current (see :class:`PositionLoops`).
+    servos : sequence of VirtualServo, optional
+        How each servo is really mounted (raw zero, direction, stops; :func:`assembled_servos`); default
+        the robot file's ``zero`` and ``direction`` (a calibrated arm).
 
     Attributes
     ----------
@@ -90,6 +94,10 @@ class BusEmulator:
     rejected : list of str
         Why each damaged packet was dropped.
     faults : BusFaults
+    hardware : tuple of VirtualServo
+        The servos as mounted.
+    hand : VirtualHand
+        Moves a joint whose torque is off (a guided calibration's student).
 
     Examples
     --------
@@ -98,7 +106,8 @@ class BusEmulator:
     '/dev/pts/5'
     """
 
-    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False, servo_load=False):
+    def __init__(self, robot, config=PhysicsConfig(deadband=0.0), *, q0=None, wall_clock=False, servo_load=False,
+                 servos=None):
         self.robot = Robot.load(robot)
         if self.robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table for a virtual bus, got {self.robot.name!r} "
@@ -112,6 +121,10 @@ class BusEmulator:
                                           gravity=servo_load)
         self._unit_load = replace(config, joint_compliance=1.0)
         self.ids = [lk.bus.id for lk in self.robot.links]
+        self.hardware = assembled_servos(self.robot) if servos is None else tuple(servos)
+        if len(self.hardware) != self.robot.n or not all(isinstance(s, VirtualServo) for s in self.hardware):
+            raise OptionError(f"expected servos as {self.robot.n} VirtualServo, got {servos!r}")
+        self.hand = VirtualHand(self)
         self.memory = {i: bytearray(256) for i in self.ids}
         self.faults = BusFaults()
         self.packets = []
@@ -125,7 +138,7 @@ class BusEmulator:
         for j, servo_id in enumerate(self.ids):
             self._put(servo_id, "model_number", self.bus.MODEL)
             self._put(servo_id, "id", servo_id)
-            self._put(servo_id, "goal_position", int(self.robot.links[j].bus.ticks(q0[j])))
+            self._put(servo_id, "goal_position", present_ticks(self, j, q0[j]))
             for name, value in self.bus.DEFAULT_GAINS.items():
                 self._put(servo_id, self.bus.GAINS[name][0], value)
         #: the gripper servo (a :class:`VirtualGripper`, its ``object`` settable) if the robot file has a bus gripper
@@ -202,8 +215,8 @@ class BusEmulator:
         self._fresh = key
         tau = gravity_sag(self.robot, q, self._unit_load)
         for j, (lk, servo_id) in enumerate(zip(self.robot.links, self.ids)):
-            self._put(servo_id, "present_position", int(lk.bus.ticks(q[j])))
-            amps = tau[j] / self.bus.TORQUE_CONSTANT * lk.bus.direction if self.torque(servo_id) else 0.0
+            self._put(servo_id, "present_position", present_ticks(self, j, q[j]))
+            amps = tau[j] / self.bus.TORQUE_CONSTANT * self.hardware[j].direction if self.torque(servo_id) else 0.0
             self._put(servo_id, "present_current", int(round(amps / self.bus.CURRENT_UNIT)))
             if servo_id in self.faults.overload:
                 self._overload(servo_id)
@@ -242,6 +255,7 @@ class BusEmulator:
     def _apply_write(self, servo_id, address, data):
         mem = self.memory[servo_id]
         mem[address:address + len(data)] = bytes(data)
+        self._fresh = None  # a homing offset changes what the servo reports
         if servo_id not in self.ids:  # the gripper servo: its jaw reads its table (_refresh_gripper)
             return
         goal, size = self.bus.TABLE["goal_position"]
@@ -253,7 +267,7 @@ class BusEmulator:
             j = self.ids.index(servo_id)
             ticks = int.from_bytes(mem[goal:goal + size], "little", signed=True)
             q = self.model.servos.commanded
-            q[j] = float(self.robot.links[j].bus.joint(ticks))
+            q[j] = goal_joint(self, j, ticks)
             self.model.command(q)
 
     # -- packets ------------------------------------------------------------------------------------

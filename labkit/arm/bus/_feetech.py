@@ -67,6 +67,15 @@ MOTOR = {"stall_torque": 1.62, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_
 #: the gripper: position mode with its Torque_Limit(48) [0.1 % of the stall torque], 0..1000
 GRIPPER_MODE = None
 CURRENT_LIMIT = None
+#: homing offset ("Ofs", address, size; EEPROM): present position = actual - offset (HOMING_SIGN = -1)
+HOMING_OFFSET = (31, 2)
+HOMING_SIGN = -1
+#: largest homing-offset magnitude the STS3215 takes [ticks]: 11 bits and a sign (LeRobot's "magnitude exceeds 2047")
+HOMING_LIMIT = 2047
+#: the offset's sign bit (sign-magnitude, bit 11)
+HOMING_SIGN_BIT = 11
+#: the EEPROM lock register (address, size): 0 to write the EEPROM, 1 to keep it over a power cycle
+EEPROM_LOCK = (55, 1)
 
 
 def ping_reply(model):

@@ -13,6 +13,9 @@ fixes for both ends. A codec module defines:
   position loop), ``DEFAULT_GAINS``, ``MOTOR`` (stall torque, no-load speed, gear ratio, full-scale loop output,
   rotor inertia: the virtual servo's loop, :mod:`labkit.arm.bus._servo_loop`), ``GRIPPER_MODE`` and
   ``CURRENT_LIMIT`` (the gripper's operating mode and largest goal current, ``None`` where the servo has none);
+  ``SIGN_MAGNITUDE``; optionally the homing offset, ``HOMING_OFFSET`` (``(address, size)``), ``HOMING_SIGN``
+  (present = actual + sign * offset), ``HOMING_LIMIT``, ``HOMING_SIGN_BIT`` and ``EEPROM_LOCK`` (what a guided
+  calibration writes to re-home a servo; without them a range across the encoder's seam is an error);
 - ``encode(servo_id, instruction, params, error=None)``, ``decode(buffer)``, ``status(servo_id, error,
   params)`` and ``ping_reply(model)``: the packet codec the virtual bus (:class:`BusEmulator`) parses
   and answers with;

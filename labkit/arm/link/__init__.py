@@ -10,6 +10,7 @@ from labkit.arm.link._wire import LinkStats
 from labkit.arm.link._segments import TrajectoryReport, segments_from_trajectory
 from labkit.arm.link._ports import ArduinoPort, PortInfo, list_ports, find_ports
 from labkit.arm.link._arm import Arm
+from labkit.arm.link._calibrate import calibrate_bus
 
 __all__ = [
     "BoardInfo",
@@ -22,4 +23,5 @@ __all__ = [
     "list_ports",
     "find_ports",
     "Arm",
+    "calibrate_bus",
 ]

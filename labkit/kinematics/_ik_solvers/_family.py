@@ -6,11 +6,11 @@ A family is a class with
     its :class:`labkit.kinematics.Solver` value (``"planar_3r"`` ...);
 ``kind``
     the target it takes: ``"position"``, ``"planar"``, ``"position_pitch"``,
-    ``"position_pitch_roll"`` or ``"pose"`` (:data:`labkit.kinematics._ik_solvers._targets.COMPONENTS`);
+    ``"position_pitch_roll"``, ``"position_yaw"`` or ``"pose"`` (:data:`labkit.kinematics._ik_solvers._targets.COMPONENTS`);
 ``branches``, ``aliases``
     the names of its solutions, in order, and accepted other names;
-``joints``
-    how many revolute joints it needs;
+``joints``, ``prismatic``
+    how many joints it needs, and how many of them are prismatic (the others revolute);
 ``__init__(robot, z, o, tool)``
     reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
     tool frame at ``q = 0``, from
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, need_revolute
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, need_joints
 
 
 #: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
@@ -47,6 +47,7 @@ class Family(ABC):
     branches = ()
     aliases = {}
     joints = 0
+    prismatic = 0
 
     @classmethod
     def fits(cls, robot):
@@ -65,7 +66,7 @@ class Family(ABC):
             Empty when it fits, else what the robot lacks.
         """
         try:
-            need_revolute(robot, cls.joints)
+            need_joints(robot, cls.joints, cls.prismatic)
             return cls(robot, *joint_axes(robot)), ""
         except NotThisFamily as exc:
             return None, str(exc)

@@ -139,8 +139,8 @@ def length_scale(robot):
     return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
 
 
-def need_revolute(robot, n):
-    """Raise :class:`NotThisFamily` unless ``robot`` has exactly ``n`` revolute joints.
+def need_joints(robot, n, prismatic=0):
+    """Raise :class:`NotThisFamily` unless ``robot`` has exactly ``n`` joints, ``prismatic`` of them prismatic.
 
     Parameters
     ----------
@@ -148,9 +148,12 @@ def need_revolute(robot, n):
         The arm tried.
     n : int
         Number of joints the family needs.
+    prismatic : int
+        How many of them are prismatic (the others revolute).
     """
-    if robot.n != n or not np.all(robot.is_revolute):
-        raise NotThisFamily(f"needs exactly {n} revolute joints")
+    if robot.n != n or int(np.count_nonzero(~robot.is_revolute)) != prismatic:
+        raise NotThisFamily(f"needs exactly {n} joints, {prismatic} of them prismatic" if prismatic
+                            else f"needs exactly {n} revolute joints")
 
 
 def need_parallel(u, v, reason):

@@ -25,15 +25,22 @@ COMPONENTS = {
     "planar": ("x", "y", "phi"),
     "position_pitch": ("x", "y", "z", "pitch"),
     "position_pitch_roll": ("x", "y", "z", "pitch", "roll"),
+    "position_yaw": ("x", "y", "z", "yaw"),
 }
 #: target kinds of arms with fewer than 6 joints that fix an orientation too (4-DOF pitch, 5-DOF pitch and
-#: roll, see :mod:`labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch`); they also take poses (checked by FK)
-REDUCED = ("position_pitch", "position_pitch_roll")
+#: roll, see :mod:`labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch`; a SCARA's yaw,
+#: :mod:`labkit.kinematics._ik_solvers._scara`); they also take poses (checked by FK)
+REDUCED = ("position_pitch", "position_pitch_roll", "position_yaw")
+
+#: largest magnitude of a target's coordinates [m] and angles [rad]: a robot's workspace is metres across, and
+#: beyond this the solvers' squares and steps would overflow
+FARTHEST = 1e9
 
 #: rows of the spatial velocity [vx, vy, vz, wx, wy, wz] (and of the geometric Jacobian) per target kind;
 #: the pitch and roll of a reduced kind are no fixed rows: its Cartesian paths are poses (all six rows)
 _TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4, 5),
-              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5)}
+              "position_pitch": (0, 1, 2, 3, 4, 5), "position_pitch_roll": (0, 1, 2, 3, 4, 5),
+              "position_yaw": (0, 1, 2, 3, 4, 5)}
 
 
 def target_words(kind):
@@ -135,14 +142,19 @@ def validate_targets(target, kind):
     Raises
     ------
     ShapeError
-        Wrong shape, non-finite values, or a pose that is not a rigid transform
-        (rotation columns orthonormal to 1e-6, det > 0, last row ``[0, 0, 0, 1]``
-        to 1e-12).
+        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a
+        pose that is not a rigid transform (rotation columns orthonormal to
+        1e-6, det > 0, last row ``[0, 0, 0, 1]`` to 1e-12).
     """
-    if kind in REDUCED and np.shape(target)[-2:] != (4, 4):
+    try:
+        target = np.asarray(target, dtype=float)
+    except (TypeError, ValueError) as exc:  # ragged lists, strings ...
+        raise ShapeError(f"expected the target as numbers ({target_words(kind)}), got {target!r:.80} ({exc})") \
+            from None
+    if kind in REDUCED and target.shape[-2:] != (4, 4):
         return _vector_targets(target, kind)
     if kind in ("pose", *REDUCED):
-        T = as_batch(target, (4, 4), "target pose")  # finite (else raises, naming the entry)
+        T = _finite_and_near(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
         defects = _rigid_defects(T)
@@ -171,8 +183,28 @@ def _vector_targets(target, kind):
         also = " or a 4 x 4 pose" if kind in REDUCED else ""
         raise ShapeError(f"expected {name} with shape (..., {len(names)}){also}, got {shape}: this arm takes "
                          f"{' '.join(names)}{missing}")
-    p = as_batch(target, (len(names),), name)
+    p = _finite_and_near(target, (len(names),), name)
     return p.reshape(-1, len(names)), p.shape[:-1]
+
+
+def _finite_and_near(target, last, name):
+    """``as_batch(target, last, name)``, also refusing entries beyond :data:`FARTHEST` (a pose: its position).
+
+    One comparison checks both (NaN and inf fail it too); where it fails, ``as_batch`` names a
+    non-finite entry, else the first target too far is named.
+    """
+    arr = as_batch(target, last, name, finite=False)
+    if not (np.abs(arr) <= FARTHEST).all():
+        as_batch(arr, last, name)  # raises for NaN / inf
+        lead = arr.shape[:-len(last)]
+        rows = np.abs(arr.reshape(-1, *last)[:, :3, 3] if len(last) == 2 else arr.reshape(-1, last[0]))
+        far = np.flatnonzero((rows > FARTHEST).any(axis=-1))
+        if len(far):  # (a pose's far rotation entry is no rigid transform: refused after this)
+            which = "" if not lead else f" (target {batch_index(int(far[0]), lead)})"
+            raise ShapeError(f"expected {name} with every {'position ' * (len(last) == 2)}entry within "
+                             f"+-{FARTHEST:.0e} (m, rad), got {rows[far[0]].max():.3g}{which}: a robot's "
+                             f"workspace is metres across")
+    return arr
 
 
 def _rigid_defects(T):

@@ -102,23 +102,24 @@ class YawPitchPitchPitch(Family):
 
     # -- poses <-> targets (numpy; for display, target errors and pose targets) --------------------
 
-    def _front(self, p):
-        """``q1`` of the plane with the target along its +er (side > 0) for points ``p`` (N, 3)."""
-        sides, _, _, _ = self.arm.planes(tuple(p.T))
-        return next(q1 for side, q1, _ in sides if side > 0)
+    def _rest(self, target, back=False):
+        """The orientation after joints 1-4 (before any roll) on the front or back side:
+        ``Rot(a1, q1) Rot(a2, theta)``, (N, 3, 3)."""
+        sides, _, _, _ = self.arm.planes(tuple(target[:, :3].T))
+        q1 = next(q1 for side, q1, _ in sides if (side < 0) == back)
+        pitch = self.sign * target[:, 3]
+        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(
+            self.arm.a2, self.psi0 - (math.pi - pitch if back else pitch))
 
-    def _rest(self, target):
-        """The orientation after joints 1-4 (before any roll): ``Rot(a1, q1) Rot(a2, theta)``, (N, 3, 3)."""
-        q1 = self._front(target[:, :3])
-        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(self.arm.a2, self.psi0 - self.sign * target[:, 3])
-
-    def pose(self, target):
-        """Tool poses of targets, on the side facing them (see the module docstring for pitch).
+    def pose(self, target, back=False):
+        """Tool poses of targets, on the side facing them or over the back (see the module docstring for pitch).
 
         Parameters
         ----------
         target : ndarray, shape (N, k)
             ``(x, y, z, pitch)`` [m, rad] (``k = 4``; the 5-DOF family adds roll).
+        back : bool
+            The pose of the branches reaching over the back (base turned by half a turn).
 
         Returns
         -------
@@ -126,10 +127,24 @@ class YawPitchPitchPitch(Family):
             ``world_from_tool`` [m].
         """
         T = np.zeros((target.shape[0], 4, 4))
-        T[:, :3, :3] = self._rest(target) @ self.R0
+        T[:, :3, :3] = self._rest(target, back) @ self.R0
         T[:, :3, 3] = target[:, :3]
         T[:, 3, 3] = 1.0
         return T
+
+    def poses(self, target):
+        """Every tool pose that reaches targets: facing them, then over the back, ``(N, 2, 4, 4)`` [m].
+
+        Parameters
+        ----------
+        target : ndarray, shape (N, k)
+            Targets [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (N, 2, 4, 4)
+        """
+        return np.stack([self.pose(target), self.pose(target, back=True)], axis=1)
 
     def target_of(self, T):
         """The targets that tool poses ``T`` reach (inverse of :meth:`pose` on the poses the arm takes).

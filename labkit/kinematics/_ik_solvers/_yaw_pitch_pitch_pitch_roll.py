@@ -64,9 +64,9 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
         back = roll + math.pi  # the same tool orientation reached over the back
         return [(*qb, roll if side > 0 else back) for qb, side in zip(q, signs)], reach, distance
 
-    def _rest(self, target):
-        """``Rot(a1, q1) Rot(a2, theta) Rot(a5, roll)`` of targets (N, 5), (N, 3, 3)."""
-        return super()._rest(target) @ rotation_matrices(tuple(self.a5), target[:, 4])
+    def _rest(self, target, back=False):
+        """``Rot(a1, q1) Rot(a2, theta) Rot(a5, q5)`` of targets (N, 5) on one side, (N, 3, 3)."""
+        return super()._rest(target, back) @ rotation_matrices(tuple(self.a5), target[:, 4] + (math.pi if back else 0.0))
 
     def _roll_of(self, T, app, q1, psi, ahead):
         """Roll of poses: from the reference orientation (``q5 = 0``, the target ahead) about the approach."""

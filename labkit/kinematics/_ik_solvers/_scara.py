@@ -1,0 +1,175 @@
+"""Closed-form IK families ``scara`` (RRPR, RRRP, PRRR ... SCARA arms) and ``scara_rrp`` (no wrist) (private).
+
+Four joints, three revolute and one prismatic, every axis parallel (either
+direction, any orientation in the world, either DH convention; the quill may
+point up or down and sit anywhere in the chain). Joints 1 and 2 of the
+revolute ones are the shoulder and the elbow, the third the wrist. The arm
+reaches a tool point and a turn of its tool about the axes: targets ``(x, y,
+z, yaw)`` [m, rad].
+
+Up
+    ``k``, the axis direction on the side of the robot's ``up`` (axis 1 itself
+    when it is horizontal).
+Yaw
+    The angle about ``k`` from the reference ``u`` (world ``x`` when ``k`` is
+    world ``z``; in general :func:`~labkit.kinematics._ik_solvers._geometry.perpendicular`
+    of ``k``) to the tool ``x`` axis projected on the plane perpendicular to
+    ``k`` (the tool ``y`` axis where ``x`` lies along ``k``).
+
+Branches ``elbow_left`` and ``elbow_right`` (aliases ``lefty``/``righty``):
+looking down ``k``, the elbow lies to the left or right of the line from the
+shoulder axis to the wrist axis (right: the elbow turns counterclockwise, the
+"righty" arm of SCARA makers).
+
+The prismatic joint moves every later frame along ``k`` and commutes with the
+rotations about axes parallel to it, so it takes the height and the three
+revolute joints solve the planar problem of ``planar_3r``: the total turn from
+the yaw, the wrist axis from the tool point and that turn, the elbow from
+the cosine law. ``scara_rrp``: the same with two revolute joints and no wrist,
+for targets ``(x, y, z)`` (the tool point's offset from the elbow axis is
+link 2).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._geometry import (
+    TOL, CosineLaw, NotThisFamily, _dot, floats, length_scale, need_parallel, perpendicular, rotation_matrices, unit,
+)
+
+
+def up_axis(robot, z):
+    """The unit axis ``k`` of parallel joint axes on the side of the robot's ``up`` (see the module docstring).
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm (its ``up``).
+    z : ndarray, shape (n, 3)
+        Joint axes; the first gives the direction.
+
+    Returns
+    -------
+    k, u, v : ndarray, shape (3,)
+        ``k``, the reference ``u`` perpendicular to it and ``v = k x u``.
+    """
+    k = unit(z[0])
+    k = -k if float(np.dot(robot.up, k)) < -TOL else k
+    u = perpendicular(k)
+    return k, u, np.cross(k, u)
+
+
+class Scara(Family):
+    """Closed-form IK of a SCARA arm (three revolute and one prismatic joint, axes parallel): two elbows."""
+
+    name = "scara"
+    kind = "position_yaw"
+    joints, prismatic = 4, 1
+    branches = ("elbow_left", "elbow_right")
+    aliases = {"left": "elbow_left", "right": "elbow_right", "lefty": "elbow_left", "righty": "elbow_right"}
+
+    def __init__(self, robot, z, o, tool):
+        k, u, v = up_axis(robot, z)
+        for j in range(1, robot.n):
+            need_parallel(k, unit(z[j]), "all joint axes must be parallel")
+        rev = np.flatnonzero(robot.is_revolute)
+        self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, [wrist,] quill
+        self.signs = tuple(1.0 if z[j] @ k > 0 else -1.0 for j in self.order)
+        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev[0]])
+        P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
+        pt = tool[:3, 3] - o[rev[0]]
+        P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
+        e, f = np.subtract(P[1], P[0]), np.subtract(P[2], P[1])
+        self.L1, self.L2 = math.hypot(*e), math.hypot(*f)
+        if min(self.L1, self.L2) < TOL * length_scale(robot):
+            raise NotThisFamily("the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
+        self.law = CosineLaw(self.L1, self.L2)
+        self.g1, self.g2 = math.atan2(e[1], e[0]), math.atan2(f[1], f[0])
+        self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
+        self.h0 = float(pt @ k)  # its height along k at q = 0
+        R0 = tool[:3, :3]
+        self.ref = R0[:, 1] if abs(R0[:, 0] @ k) > 1.0 - 1e-9 else R0[:, 0]
+        self.ref_tool = R0.T @ self.ref  # the yaw's reference axis in tool coordinates
+        self.yaw0 = math.atan2(float(self.ref @ v), float(self.ref @ u))
+        self.R0 = R0.copy()
+
+    @documented
+    def solve(self, t):
+        d = tuple(t[i] - self.O[i] for i in range(3))
+        rot = t[3] - self.yaw0 if len(t) == 4 else 0.0  # the total turn of the revolute joints about k
+        c, s = np.cos(rot), np.sin(rot)
+        t0x, t0y = self.t0
+        x, y = _dot(self.u, d), _dot(self.v, d)
+        ok, distance, elbow, shoulder, direction = self.law.solve(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
+        quill = self.signs[-1] * (_dot(self.k, d) - self.h0)
+        q = []
+        for sign in (-1.0, 1.0):  # elbow left: the relative angle of link 2 is negative about k
+            q1 = direction - sign * shoulder - self.g1
+            q2 = sign * elbow - (self.g2 - self.g1)
+            branch = [None] * len(self.order)
+            for j, sj, value in zip(self.order[:-1], self.signs, (q1, q2, rot - q1 - q2)):
+                branch[j] = sj * value
+            branch[self.order[-1]] = quill
+            q.append(tuple(branch))
+        return q, [ok, ok], distance
+
+    def pose(self, target):
+        """Tool poses of targets ``(x, y, z, yaw)``.
+
+        Parameters
+        ----------
+        target : ndarray, shape (N, 4)
+            Targets [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (N, 4, 4)
+            ``world_from_tool`` [m].
+        """
+        T = np.zeros((target.shape[0], 4, 4))
+        T[:, :3, :3] = rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0
+        T[:, :3, 3] = target[:, :3]
+        T[:, 3, 3] = 1.0
+        return T
+
+    def target_of(self, T):
+        """The targets ``(x, y, z, yaw)`` [m, rad] of tool poses ``T`` (N, 4, 4); yaw in (-pi, pi].
+
+        Parameters
+        ----------
+        T : ndarray, shape (N, 4, 4)
+            Tool poses [m].
+
+        Returns
+        -------
+        ndarray, shape (N, 4)
+        """
+        ref = T[:, :3, :3] @ self.ref_tool
+        yaw = np.arctan2(ref @ np.array(self.v), ref @ np.array(self.u))
+        return np.concatenate([T[:, :3, 3], yaw[:, None]], axis=1)
+
+    def poses(self, target):
+        """Every tool pose that reaches targets (one: the yaw fixes the orientation), ``(N, 1, 4, 4)`` [m].
+
+        Parameters
+        ----------
+        target : ndarray, shape (N, 4)
+            Targets [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (N, 1, 4, 4)
+        """
+        return self.pose(target)[:, None]
+
+
+class ScaraRRP(Scara):
+    """Closed-form position IK of a SCARA without a wrist (two revolute joints and a quill, axes parallel)."""
+
+    name = "scara_rrp"
+    kind = "position"
+    joints = 3
