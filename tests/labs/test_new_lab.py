@@ -140,6 +140,8 @@ def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
             errors = [target_error(robot, q, goal) for q, ok in zip(np.atleast_2d(sols.q), np.atleast_1d(sols.valid)) if ok]
             # targets are printed to 0.1 mm / 0.1 deg: the IK of the printed target reaches it exactly
             assert errors and min(errors) < 1e-6, (key, row)
+            if key == "cobra600_scara":  # both elbows of every SCARA target inside the limits (03 shows them)
+                assert sols.branches == ("elbow_left", "elbow_right") and np.all(sols.valid), row
             points.append(fk(robot, np.atleast_2d(sols.q)[0])[:3, 3])
         points = np.array(points)
         gaps = [np.linalg.norm(points[i] - points[k]) for i in range(3) for k in range(i)]
