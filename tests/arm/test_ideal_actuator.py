@@ -46,7 +46,7 @@ def test_an_ideal_actuator_moves_over_its_limits_within_its_speed_and_accelerati
     target = [math.radians(140.0), 0.24, 0.29]  # 140 deg: beyond any 180-degree servo window centred on 0
     bank.command(target)
     ys = [bank.position]
-    for _ in range(int(8.0 / bank.config.dt)):
+    for _ in range(int(4.0 / bank.config.dt)):
         bank.step()
         ys.append(bank.position)
     ys = np.array(ys)
