@@ -47,6 +47,7 @@ __all__ = [
     "CalibrationImageError",
     "MeasurementWarning",
     "HandEyeWarning",
+    "BusWarning",
 ]
 
 
@@ -295,6 +296,10 @@ class CalibrationImageError(VisionError):
 
 class MeasurementWarning(UserWarning):
     """A torn (crash-truncated) line was skipped while loading measurements."""
+
+
+class BusWarning(UserWarning):
+    """A servo bus opened with a setting likely to lose status packets (an adapter latency timer too long)."""
 
 
 class HandEyeWarning(UserWarning):

@@ -31,7 +31,7 @@ def test_wheel_carries_data_and_runs_outside_the_checkout(tmp_path):
         "assert (r.STATIC / 'mathjax-tex-svg-full.js.gz').is_file()\n"
         "from labkit.labs import new_lab\n"
         "lab = new_lab('planar3r_seed003', 'lab')\n"  # the lab templates ship in the wheel
-        "assert len(lab.notebooks) == 6, lab\n"
+        "assert len(lab.notebooks) == 7, lab\n"
         "print('ok')\n"
     )
     run = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,

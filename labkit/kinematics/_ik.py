@@ -387,10 +387,11 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     flat, lead = validate_targets(target, kind)
     qn = None if q_near is None else np.broadcast_to(as_batch(q_near, (n,), "q_near"), lead + (n,)).reshape(-1, n)
     q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)
-    if idx is not None:
-        reach_t, valid_t = reach[:, idx], valid[:, idx]
-    else:
-        reach_t, valid_t = reach.any(axis=1), valid.any(axis=1)
+    valid_t = valid[:, idx] if idx is not None else valid.any(axis=1)
+    if valid_t.all():  # (valid implies reachable: the usual case needs no more checks)
+        out = q[:, idx] if idx is not None else q[np.arange(q.shape[0]), nearest(robot, q, valid, qn)]
+        return out.reshape(lead + (n,))
+    reach_t = reach[:, idx] if idx is not None else reach.any(axis=1)
     if not reach_t.all():
         i = int(np.flatnonzero(~reach_t)[0])
         where = "" if not lead else f" (target {batch_index(i, lead)})"
@@ -418,24 +419,21 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
             distance=dist[i], index=batch_index(i, lead),
         )
-    if not valid_t.all():
-        i = int(np.flatnonzero(~valid_t)[0])
-        cols = [idx] if idx is not None else [k for k in range(len(branches)) if reach[i, k]]
-        reasons, joint = [], None
-        for k in cols:
-            try:
-                robot.check_limits(q[i, k])
-            except JointLimitError as exc:
-                joint = exc.joint if joint is None else joint
-                reasons.append(f"{branches[k]}: {str(exc).split(': ', 1)[-1]}")
-        where = "" if not lead else f" (target {batch_index(i, lead)})"
-        raise JointLimitError(
-            f"{robot.name}: target {describe_target(kind, flat[i])}{where} is reachable only outside the "
-            f"joint limits: " + "; ".join(reasons),
-            joint=joint, index=batch_index(i, lead),
-        )
-    out = q[:, idx] if idx is not None else q[np.arange(q.shape[0]), nearest(robot, q, valid, qn)]
-    return out.reshape(lead + (n,))
+    i = int(np.flatnonzero(~valid_t)[0])
+    cols = [idx] if idx is not None else [k for k in range(len(branches)) if reach[i, k]]
+    reasons, joint = [], None
+    for k in cols:
+        try:
+            robot.check_limits(q[i, k])
+        except JointLimitError as exc:
+            joint = exc.joint if joint is None else joint
+            reasons.append(f"{branches[k]}: {str(exc).split(': ', 1)[-1]}")
+    where = "" if not lead else f" (target {batch_index(i, lead)})"
+    raise JointLimitError(
+        f"{robot.name}: target {describe_target(kind, flat[i])}{where} is reachable only outside the "
+        f"joint limits: " + "; ".join(reasons),
+        joint=joint, index=batch_index(i, lead),
+    )
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):

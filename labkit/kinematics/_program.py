@@ -231,6 +231,35 @@ def walk(b, modified, base, steps, trig, joint_value):
     return frames, axes
 
 
+class _Plain:
+    """The algebra :func:`walk` runs on as plain arithmetic: on Python floats (one configuration, evaluated
+    at once, nothing compiled) or on sympy expressions (:mod:`labkit.kinematics.symbolic`)."""
+
+    @staticmethod
+    def mul(x, y):
+        return x * y
+
+    @staticmethod
+    def add(x, y):
+        return x + y
+
+    @staticmethod
+    def neg(x):
+        return -x
+
+    @staticmethod
+    def comb(x, cx, y, cy):
+        return tuple(x[k] * cx + y[k] * cy for k in range(3))
+
+    @staticmethod
+    def axpy(p, v, w):
+        return tuple(p[k] + v[k] * w for k in range(3))
+
+
+#: :func:`walk`'s plain-arithmetic algebra
+PLAIN = _Plain()
+
+
 def _pose_rows(first, cols):
     """(output row, value) of a (4, 4) pose written row-major from row ``first``."""
     rows = [(first + 4 * r + k, col[r]) for k, col in enumerate(cols) for r in range(3)]

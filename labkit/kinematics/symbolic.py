@@ -31,7 +31,7 @@ from fractions import Fraction
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.kinematics._program import walk
+from labkit.kinematics._program import PLAIN, walk
 from labkit.robot.types import Convention
 
 __all__ = [
@@ -108,36 +108,9 @@ def dh_matrix(a, alpha, d, theta, convention="standard"):
     alpha, theta = _exact_angle(alpha), _exact_angle(theta)
     identity = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0))
     step = (True, a, sp.cos(alpha), sp.sin(alpha), d, None, None)
-    frames, _ = walk(_SYMPY, conv is Convention.MODIFIED, identity, [step],
+    frames, _ = walk(PLAIN, conv is Convention.MODIFIED, identity, [step],
                      lambda j: (sp.cos(theta), sp.sin(theta)), None)
     return _matrix(frames[0])
-
-
-class _Sympy:
-    """The algebra :func:`labkit.kinematics._program.walk` runs on here: sympy expressions."""
-
-    @staticmethod
-    def mul(x, y):
-        return x * y
-
-    @staticmethod
-    def add(x, y):
-        return x + y
-
-    @staticmethod
-    def neg(x):
-        return -x
-
-    @staticmethod
-    def comb(x, cx, y, cy):
-        return tuple(x[k] * cx + y[k] * cy for k in range(3))
-
-    @staticmethod
-    def axpy(p, v, w):
-        return tuple(p[k] + v[k] * w for k in range(3))
-
-
-_SYMPY = _Sympy()
 
 
 def _matrix(frame):
@@ -306,7 +279,7 @@ def _walk(robot, q, lengths, length_unit):
             values[i - 1] = qi
             steps.append((False, a, sp.cos(alpha), sp.sin(alpha), L(lk.d, f"d0_{i}"), sp.cos(theta), sp.sin(theta)))
     base = _frame_matrix(robot.base, L, "base")
-    frames, axes = walk(_SYMPY, mod, _columns(base), steps, lambda j: (sp.cos(angles[j]), sp.sin(angles[j])),
+    frames, axes = walk(PLAIN, mod, _columns(base), steps, lambda j: (sp.cos(angles[j]), sp.sin(angles[j])),
                         lambda i, d: values[i] + d)
     last = _matrix(frames[-1]) if frames else base
     return last, axes, _frame_matrix(robot.tool, L, "t")

@@ -475,7 +475,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
 
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
-    ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`)
+    ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
+    ``08_control`` (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal

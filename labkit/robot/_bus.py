@@ -58,7 +58,8 @@ def check_bus(owner, bus, links, gripper):
         if not all(math.isfinite(v) for v in lk.limits):
             raise RobotError(f"{owner}: field 'joint[{i}].limits': expected finite limits on a servo bus, "
                              f"got {lk.limits}", f"joint[{i}].limits")
-        ticks = [int(lk.bus.ticks(v)) for v in lk.limits]
+        # beyond a turn no tick fits (nor, far beyond, an int64): the message shows an infinite tick
+        ticks = [int(lk.bus.ticks(v)) if abs(v) <= 7.0 else math.copysign(math.inf, v) for v in lk.limits]
         if min(ticks) < 0 or max(ticks) > bus.resolution - 1:
             raise RobotError(f"{owner}: field 'joint[{i}].limits': expected limits inside the servo's position "
                              f"range 0..{bus.resolution - 1} ticks (zero {lk.bus.zero:g}, direction "

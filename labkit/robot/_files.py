@@ -39,7 +39,7 @@ _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "m
 _MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
 _FRAME_KEYS = {"translation", "rpy"}
-_BUS_KEYS = {"protocol", "baudrate", "resolution"}
+_BUS_KEYS = {"protocol", "baudrate", "resolution", "latency"}
 _BUS_SERVO_KEYS = {"id", "zero", "direction", "stall_torque"}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
@@ -142,7 +142,7 @@ def _int(path, field, value, lo, hi, unit=""):
 
 
 def _bus(path, table):
-    """The ``[bus]`` table: ``protocol``, ``baudrate`` [bit/s], ``resolution`` [ticks/turn] (default 4096)."""
+    """The ``[bus]`` table: ``protocol``, ``baudrate`` [bit/s], ``resolution`` [ticks/turn] (default 4096), ``latency`` [ms]."""
     if table is None:
         return None
     _check_keys(path, "bus", table, _BUS_KEYS)
@@ -152,7 +152,12 @@ def _bus(path, table):
                              f"(lower-case letters, digits, '_'), got {protocol!r}")
     baud = _int(path, "bus.baudrate", table.get("baudrate", 1_000_000), 9600, 4_500_000, "bit/s")
     res = _int(path, "bus.resolution", table.get("resolution", 4096), 16, 1_048_576, "ticks/turn")
-    return Bus(protocol, baud, res)
+    latency = table.get("latency")
+    if latency is not None:
+        latency = _num(path, "bus.latency", latency)
+        if not 0 <= latency <= 1000:
+            raise RobotFileError(path, "bus.latency", f"expected the adapter latency 0..1000 ms, got {latency:g}")
+    return Bus(protocol, baud, res, latency)
 
 
 def _bus_servo(path, where, table, bus):

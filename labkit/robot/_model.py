@@ -232,7 +232,7 @@ class Robot:
         """
         q = np.asarray(q, dtype=float)
         lim = self.joint_limits
-        return ((q >= lim[:, 0] - tol) & (q <= lim[:, 1] + tol)).all(axis=-1)
+        return np.logical_and.reduce((q >= lim[:, 0] - tol) & (q <= lim[:, 1] + tol), axis=-1)
 
     def check_limits(self, q, tol=1e-9):
         """Raise :class:`JointLimitError` naming the first joint outside its limits.

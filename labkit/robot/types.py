@@ -337,8 +337,16 @@ class BusServo:
         Returns
         -------
         ndarray of int, shape (...)
+
+        Raises
+        ------
+        JointLimitError
+            A value that is not finite or many turns away (no servo position, nor a 64-bit integer).
         """
         t = self.zero + self.direction * np.asarray(q, dtype=float) * self.resolution / (2 * math.pi)
+        if not np.all(np.abs(t) < 2.0 ** 62):
+            raise JointLimitError(f"BusServo {self.id}: expected finite joint values within a few turns, got "
+                                  f"{float(np.ravel(q)[~(np.abs(np.ravel(t)) < 2.0 ** 62)][0]):g} rad")
         return np.rint(t).astype(np.int64)
 
     def joint(self, ticks):
@@ -422,11 +430,15 @@ class Bus:
         Bus baud rate [bit/s] the servos are set to (1,000,000 on OpenMANIPULATOR-X and SO-101).
     resolution : int
         Ticks per turn of every servo.
+    latency : float or None
+        The USB adapter's latency [ms] the status-packet timeouts allow for (``None``: the vendor SDK's
+        16 ms, an FTDI adapter's default latency timer; 1 ms once the timer is set to 1 ms).
     """
 
     protocol: str
     baudrate: int = 1_000_000
     resolution: int = 4096
+    latency: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.protocol, str) or not _PROTOCOL_NAME.fullmatch(self.protocol):
@@ -436,6 +448,12 @@ class Bus:
                 or not 9600 <= self.baudrate <= 4_500_000:
             raise RobotError(f"Bus: field 'baudrate': expected an integer 9600..4500000 bit/s, got {self.baudrate!r}",
                              "baudrate")
+        if self.latency is not None:
+            if isinstance(self.latency, bool) or not isinstance(self.latency, (int, float, np.integer, np.floating)) \
+                    or not 0 <= self.latency <= 1000:
+                raise RobotError(f"Bus: field 'latency': expected a number 0..1000 ms or None, got {self.latency!r}",
+                                 "latency")
+            object.__setattr__(self, "latency", float(self.latency))
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, needs_extra
 from labkit.vision._families import dictionary, family_info
+from labkit.vision._images import as_gray
 
 __all__ = ["Checkerboard", "CharucoBoard"]
 
@@ -86,7 +87,8 @@ class Checkerboard:
 
         Parameters
         ----------
-        image : ndarray, shape (h, w), uint8
+        image : ndarray, shape (h, w) or (h, w, 3)
+            Grey or BGR image (:func:`~labkit.vision._images.as_gray`).
 
         Returns
         -------
@@ -97,7 +99,7 @@ class Checkerboard:
         """
         with needs_extra("vision"):
             import cv2
-
+        image = as_gray(image)
         small = cv2.resize(image, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
         ok, corners = cv2.findChessboardCorners(small, (self.columns, self.rows),
                                                 flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
@@ -167,7 +169,8 @@ class CharucoBoard:
 
         Parameters
         ----------
-        image : ndarray, shape (h, w), uint8
+        image : ndarray, shape (h, w) or (h, w, 3)
+            Grey or BGR image (:func:`~labkit.vision._images.as_gray`).
 
         Returns
         -------
@@ -180,7 +183,7 @@ class CharucoBoard:
             import cv2
 
         detector = cv2.aruco.CharucoDetector(self._cv())
-        corners, ids, _, _ = detector.detectBoard(image)
+        corners, ids, _, _ = detector.detectBoard(as_gray(image))
         if ids is None or len(ids) < 6:
             return None, None
         obj, img = self._cv().matchImagePoints(corners, ids)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import tomllib
 from pathlib import Path
 
@@ -27,12 +28,22 @@ import numpy as np
 
 from labkit.exceptions import ShapeError, needs_extra
 from labkit.exceptions import CalibrationImageError, VisionError
-from labkit.vision._images import as_gray
+from labkit.vision._images import as_gray, image_size as _checked_size
 
 __all__ = ["Camera", "CameraCalibration", "calibrate_camera", "MIN_IMAGES"]
 
 _FORMAT = "labkit-camera/1"
 _DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
+#: the largest distortion coefficient taken (fitted lenses stay far below: wide-angle rational models reach tens)
+MAX_DISTORTION = 1e4
+
+
+def _numbers(value, what):
+    """``value`` as a float array, or a ShapeError saying what was expected and what was received."""
+    try:
+        return np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"expected the {what} as numbers, got {value!r} ({exc})") from None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -65,23 +76,25 @@ class Camera:
     name: str = ""
 
     def __post_init__(self):
-        K = np.array(self.matrix, dtype=float)
+        K = _numbers(self.matrix, "camera matrix")
         if K.shape != (3, 3) or not np.all(np.isfinite(K)):
             raise ShapeError(f"expected a finite 3x3 camera matrix, got shape {K.shape}")
-        if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0, 0, 1]):
-            raise VisionError(f"expected fx, fy > 0 and last row (0, 0, 1), got {K.tolist()}")
-        D = np.array(self.distortion, dtype=float).reshape(-1)
+        if not (K[0, 0] > 0 and K[1, 1] > 0) or not np.allclose(K[2], [0, 0, 1]) or K[0, 1] != 0 or K[1, 0] != 0:
+            raise VisionError(f"expected a camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0 "
+                              f"(no skew: OpenCV's projection ignores it), got {K.tolist()}")
+        D = _numbers(self.distortion, "distortion coefficients").reshape(-1)
         if D.size not in _DISTORTION_LENGTHS or not np.all(np.isfinite(D)):
             raise ShapeError(f"expected {_DISTORTION_LENGTHS} finite distortion coefficients, got {D.size}")
+        if np.any(np.abs(D) > MAX_DISTORTION):
+            raise VisionError(f"expected distortion coefficients within +-{MAX_DISTORTION:g}, got {D.tolist()}")
+        if not isinstance(self.name, str):
+            raise VisionError(f"expected the camera's name as text, got {self.name!r}")
         K.flags.writeable = False
         D.flags.writeable = False
         object.__setattr__(self, "matrix", K)
         object.__setattr__(self, "distortion", D)
         if self.image_size is not None:
-            w, h = (int(v) for v in self.image_size)
-            if w <= 0 or h <= 0:
-                raise VisionError(f"expected a positive image size (width, height), got {self.image_size}")
-            object.__setattr__(self, "image_size", (w, h))
+            object.__setattr__(self, "image_size", _checked_size(self.image_size))
 
     @classmethod
     def pinhole(cls, focal, image_size, *, distortion=(), name=""):
@@ -101,9 +114,10 @@ class Camera:
         -------
         Camera
         """
-        w, h = image_size
+        w, h = _checked_size(image_size)
         K = [[focal, 0.0, (w - 1) / 2], [0.0, focal, (h - 1) / 2], [0.0, 0.0, 1.0]]
-        return cls(K, np.asarray(distortion, float) if len(distortion) else np.zeros(5), (w, h), name)
+        D = _numbers(distortion, "distortion coefficients").reshape(-1)
+        return cls(K, D if D.size else np.zeros(5), (w, h), name)
 
     @property
     def focal(self):
@@ -253,11 +267,13 @@ class Camera:
         VisionError
             The file is not a ``labkit-camera/1`` file or lacks ``matrix``.
         """
+        if not isinstance(path, (str, os.PathLike)):
+            raise VisionError(f"expected the path of a camera file, got {path!r}")
         path = Path(path)
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise VisionError(f"expected a readable TOML camera file, got {path}: {exc}") from exc
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise VisionError(f"expected a readable UTF-8 TOML camera file, got {path}: {exc}") from None
         if data.get("format") != _FORMAT or "matrix" not in data:
             raise VisionError(f"expected format = {_FORMAT!r} and a matrix in {path}, got format = "
                               f"{data.get('format')!r} and keys {sorted(data)}")
@@ -365,11 +381,14 @@ def calibrate_camera(images, board, *, image_size=None, flags=0, flag_factor=2.5
     with needs_extra("vision"):
         import cv2
 
+    if isinstance(images, np.ndarray) and images.ndim == 2 or not hasattr(images, "__iter__"):
+        raise VisionError(f"expected a sequence of images, got {type(images).__name__}")
     grays = [as_gray(im) for im in images]
     if image_size is None:
         if not grays:
             raise CalibrationImageError(f"expected at least {MIN_IMAGES} images, got none")
         image_size = grays[0].shape[::-1]
+    image_size = _checked_size(image_size)
     obj, img, index = [], [], []
     for k, g in enumerate(grays):
         o, i = board.detect(g)

@@ -60,3 +60,17 @@ def test_replace_checks_the_changed_fields_and_keeps_the_rest():
     q = np.zeros((2, 6))
     q[1, 0] = 10.0
     assert puma.within_limits(q).tolist() == [True, False]
+
+
+@pytest.mark.parametrize("name", ["arduino_arm_3dof", "puma560", "so101", "al5d", "ur5", "planar3r_seed004"])
+def test_joint_axes_on_floats_are_the_frames_of_fk(name):
+    from labkit.kinematics import fk_frames
+    from labkit.kinematics._ik_solvers._geometry import joint_axes
+
+    robot = Robot.load(name)
+    for r in (robot, robot.with_link(0, a=0.01, d=0.02), robot.with_link(robot.n - 1, theta=0.3)):
+        F = fk_frames(r, np.zeros(r.n))  # the compiled program
+        idx = np.arange(1, r.n + 1) if r.convention.value == "modified" else np.arange(r.n)
+        z, o, tool = joint_axes(r)  # the DH walk on floats
+        assert np.allclose(z, F[idx, :3, 2], rtol=0, atol=1e-14) and np.allclose(o, F[idx, :3, 3], rtol=0, atol=1e-14)
+        assert np.allclose(tool, F[-1], rtol=0, atol=1e-14)

@@ -21,7 +21,8 @@ import pytest
 from conftest import require
 from labkit.exceptions import LabkitError
 
-TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check"]
+TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check",
+             "08_control"]
 
 YPP4 = """format = "labkit-robot/1"
 name = "ypp4_test"

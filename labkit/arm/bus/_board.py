@@ -4,7 +4,8 @@
 request parser, checks, segment queue and executor every in-process board holds), and is its
 servos: the ``MOVE`` s and ``SEG`` s :class:`~labkit.arm.Arm` sends are checked and run exactly as on
 every other board, and each 20 ms servo frame writes the executor's joint values as goal positions
-to every servo in one sync-write packet. Every fifth frame, every ``READ`` and every stream frame
+to every servo in one sync-write packet, read back and sent again until every servo holds its goal (a
+move never returns while a servo's goal differs from the host's). Every fifth frame, every ``READ`` and every stream frame
 read the servos' present positions and currents in one sync read.
 
 The servos' range replaces the hobby-servo window: a joint may go anywhere within its limits
@@ -59,9 +60,6 @@ class BusBoard:
         each bus transaction; ``None`` on a real bus.
     queue : int
         Segment queue depth.
-    settle : callable, optional
-        ``settle(n)`` returns once a virtual bus has handled the first ``n`` sync writes (they have no status
-        packet), so that its physics never runs ahead of a goal sent (:meth:`BusEmulator.wait_sync_writes`).
 
     Attributes
     ----------
@@ -86,7 +84,7 @@ class BusBoard:
     #: bus, moved through the port (:meth:`move_gripper`)
     grip_refused = "GRIP takes a pulse width: a servo-bus gripper moves with Arm.open_gripper / move_gripper"
 
-    def __init__(self, robot, driver, *, model=None, queue=6, settle=None):
+    def __init__(self, robot, driver, *, model=None, queue=6):
         robot = Robot.load(robot)
         if robot.bus is None:
             raise OptionError(f"expected a robot file with a [bus] table, got {robot.name!r}")
@@ -98,7 +96,6 @@ class BusBoard:
         self.goals_sent = 0
         self._model = model
         self._physics = model if model is not None else _Unpowered()
-        self._settle = settle
         self._lim = [(round(math.degrees(lo) * 100), round(math.degrees(hi) * 100)) for lo, hi in robot.joint_limits]
         self._goal = None
         self._frames = 0
@@ -442,10 +439,10 @@ class BusBoard:
         return self.reading
 
     def _write_goals(self, goal):
+        # read back from every servo before it returns (a virtual bus has run the write before it answers, so
+        # its physics never runs ahead of a goal sent)
         self.driver.write_goals(goal)
         self._goal = goal
-        if self._settle is not None and not self._settle(self.driver.sync_writes):
-            raise BusFault(f"{self.driver.name}: the virtual bus did not take the goal positions within 2 s")
 
 
 def _shutdown_at_exit(ref):
@@ -454,7 +451,7 @@ def _shutdown_at_exit(ref):
         board.shutdown()
 
 
-def open_bus_board(robot, device, *, protocol=None, model=None, queue=6, name=None, latency=None, settle=None):
+def open_bus_board(robot, device, *, protocol=None, model=None, queue=6, name=None, latency=None):
     """Open ``robot``'s servo bus on ``device`` through its SDK and put a :class:`BusBoard` in front of it.
 
     Parameters
@@ -473,9 +470,6 @@ def open_bus_board(robot, device, *, protocol=None, model=None, queue=6, name=No
         How messages name the bus.
     latency : float, optional
         Adapter latency in the SDK's status timeout [ms] (see :class:`BusDriver`).
-    settle : callable, optional
-        A virtual bus's wait for its sync writes (see :class:`BusBoard`).
-
     Returns
     -------
     BusBoard
@@ -494,7 +488,7 @@ def open_bus_board(robot, device, *, protocol=None, model=None, queue=6, name=No
         raise OptionError(f"expected robot {robot.name!r} to have {want}, got {got}")
     driver = bus_module(robot.bus.protocol).Driver(robot, device, name=name, latency=latency)
     try:
-        return BusBoard(robot, driver, model=model, queue=queue, settle=settle)
+        return BusBoard(robot, driver, model=model, queue=queue)
     except BaseException:
         driver.close()
         raise

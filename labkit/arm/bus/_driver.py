@@ -3,19 +3,29 @@
 A driver opens the bus device with the vendor's ``PortHandler`` at the robot file's baud rate,
 pings every servo, sets torque and motion profiles, writes every joint's goal position in one
 sync-write packet and reads every joint's present position and current in one sync read. Every
-failure is a :class:`BusFault` naming the servo, its joint and what to check; the driver never
-retries a write (a sync write has no status packet) and retries a state read ``retries`` times.
+failure is a :class:`BusFault` naming the servo, its joint, what was tried and what to check. Nothing is
+taken on trust (:mod:`labkit.arm.bus._confirm`): a ping, a read and a register write whose status packet
+is lost are tried again a bounded number of times, and every goal-position and torque write (a sync write,
+which has no status packet) is read back and sent again until each servo holds its value.
 """
 
 from __future__ import annotations
 
+import sys
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.exceptions import BusFault, DeviceError
+from labkit.exceptions import BusFault, BusWarning, DeviceError
+from labkit.arm.bus._adapter import advice, latency_note, latency_timer
+from labkit.arm.bus._confirm import READ_TRIES, read_registers, write_confirmed, write_unconfirmed
 
 __all__ = ["BusFault", "BusReading"]
+
+
+#: sync writes of a best-effort torque off (after a fault, on close), each read back once
+QUIET_TRIES = 3
 
 
 def _with_latency(port_class, latency):
@@ -27,6 +37,15 @@ def _with_latency(port_class, latency):
             self.packet_timeout = self.tx_time_per_byte * packet_length + latency * 2.0 + 2.0
 
     return Port
+
+
+def _sdk_latency(port_class):
+    """The adapter latency [ms] the SDK's ``PortHandler`` assumes (its module's ``LATENCY_TIMER``)."""
+    for cls in port_class.__mro__:
+        value = getattr(sys.modules.get(cls.__module__), "LATENCY_TIMER", None)
+        if value is not None:
+            return value
+    return 16.0
 
 
 @dataclass(frozen=True)
@@ -61,13 +80,16 @@ class BusDriver:
     device : str
         Serial device of the bus adapter (``/dev/ttyUSB0``, a pseudo-terminal of the virtual bus).
     retries : int
-        Extra attempts of a state read whose status packets were lost or corrupt.
+        Extra attempts of a ping, a read or a write whose status packets were lost or corrupt (a state read
+        asks again only the servos without an intact one).
     name : str, optional
         How messages name the bus (default ``"<protocol>://<device>"``).
     latency : float, optional
         The adapter's latency [ms] in the SDK's status-packet timeout (``2 * latency + 2 ms`` plus the packet's
-        wire time); default the SDK's 16 ms (an FTDI adapter's latency timer); the virtual bus uses more, as a
-        loaded host may take longer than a servo to answer.
+        wire time); default the robot file's ``[bus] latency``, else the SDK's 16 ms (an FTDI adapter's default
+        latency timer); the virtual bus uses more, as a loaded host may take longer than a servo to answer.
+        An adapter whose USB latency timer (read from sysfs on Linux) is above it gives a :class:`BusWarning`
+        with the one-line fix, and every message about lost status packets repeats it.
 
     Raises
     ------
@@ -82,7 +104,7 @@ class BusDriver:
     errors = {}
     profile = ()
 
-    def __init__(self, robot, device, *, retries=1, name=None, latency=None):
+    def __init__(self, robot, device, *, retries=READ_TRIES - 1, name=None, latency=None):
         self.device = device
         self.robot = robot
         self.resolution = robot.bus.resolution
@@ -93,8 +115,13 @@ class BusDriver:
         self.sync_writes = 0
         self.name = name or f"{self.protocol}://{device}"
         self.sdk, port_class, self.packets = self._sdk()
+        if latency is None:
+            latency = getattr(robot.bus, "latency", None)
         if latency is not None:
             port_class = _with_latency(port_class, float(latency))
+        #: the adapter latency the status timeouts allow for [ms]; the adapter's USB latency timer [ms] or None
+        self.latency = float(latency) if latency is not None else float(_sdk_latency(port_class))
+        self.latency_timer = latency_timer(device)
         self.handler = port_class(device)
         #: the port has been closed (:meth:`close`)
         self.closed = False
@@ -109,6 +136,9 @@ class BusDriver:
         # the SDKs open the port with timeout=0 and poll it while a status packet is due: a 1 ms read timeout
         # lets that wait sleep in select() instead of spinning (a read still returns as soon as its bytes came)
         self.handler.ser.timeout = 0.001
+        note = latency_note(device, self.latency_timer, self.latency)
+        if note:
+            warnings.warn(f"{self.name}: {note}", BusWarning, stacklevel=3)
 
     # what each subclass defines: _sdk() -> (sdk module, PortHandler, PacketHandler); _sync_read_tx(address, size,
     # ids) -> result; _hardware_error(servo_id, error) -> text; _decode_state(data) -> (position [ticks], current
@@ -158,11 +188,22 @@ class BusDriver:
         """
         models = {}
         for servo_id in self.ids:
-            model, result, error = self.packets.ping(self.handler, servo_id)
-            if result != self.sdk.COMM_SUCCESS:
-                raise BusFault(f"{self.name}: {self.servo(servo_id)} does not answer ping ({self._comm(result)}); "
-                               f"check its id, that it is set to {self.baudrate} bit/s, the wiring and the "
-                               f"servo power supply")
+            replies = []
+            for _ in range(self.retries + 1):
+                self.handler.clearPort()
+                try:
+                    model, result, error = self.packets.ping(self.handler, servo_id)
+                except IndexError:  # feetech-servo-sdk takes the model number from a short packet unchecked
+                    result = self.sdk.COMM_RX_CORRUPT
+                if result == self.sdk.COMM_SUCCESS:
+                    break
+                replies.append(self._comm(result))
+            else:
+                damaged = [r for r in replies if r != self._comm(self.sdk.COMM_RX_TIMEOUT)]
+                what = (f"answers only with damaged status packets ({damaged[-1]})" if len(damaged) == len(replies)
+                        else f"does not answer ping ({', '.join(dict.fromkeys(replies))})")
+                raise BusFault(f"{self.name}: {self.servo(servo_id)} {what} after {len(replies)} pings; check its "
+                               f"id; {advice(self)}")
             models[servo_id] = model
         return models
 
@@ -197,8 +238,7 @@ class BusDriver:
         ----------
         on : bool
         """
-        for servo_id in self.ids:
-            self.write(servo_id, "torque_enable", 1 if on else 0)
+        write_confirmed(self, "torque_enable", {i: 1 if on else 0 for i in self.ids})
 
     def torque_off_quietly(self):
         """Try to turn every servo's torque off; never raises (after a fault, on close).
@@ -208,13 +248,12 @@ class BusDriver:
         list of int
             Ids whose torque-off was not acknowledged.
         """
-        failed = []
-        for servo_id in self.ids:
-            try:
-                self.write(servo_id, "torque_enable", 0, check_error=False)
-            except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
-                failed.append(servo_id)
-        return failed
+        try:
+            # a few tries only: after a fault the bus may be dead, and the caller says what was not acknowledged
+            return sorted(write_unconfirmed(self, "torque_enable", {i: 0 for i in self.ids}, tries=QUIET_TRIES,
+                                            read_tries=1, check_error=False))
+        except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
+            return list(self.ids)
 
     def set_profiles(self):
         """Each servo's speed and acceleration profile from the robot file's ``max_velocity`` / ``max_acceleration``.
@@ -229,21 +268,20 @@ class BusDriver:
                 self.write(lk.bus.id, acceleration, self._acceleration_value(lk.max_acceleration))
 
     def write_goals(self, ticks):
-        """Every joint's goal position in one sync-write packet (no status packet comes back).
+        """Every joint's goal position in one sync-write packet, read back and sent again until every servo holds it.
 
         Parameters
         ----------
         ticks : sequence of int, shape (n,)
             Goal positions [ticks].
+
+        Raises
+        ------
+        BusFault
+            A servo that does not hold its goal after the bounded writes and read-backs (named, with what it
+            holds).
         """
-        address, size = self.table["goal_position"]
-        group = self.sdk.GroupSyncWrite(self.handler, self.packets, address, size)
-        for servo_id, t in zip(self.ids, ticks):
-            group.addParam(servo_id, list(int(t).to_bytes(size, "little", signed=True)))
-        result = group.txPacket()
-        self.sync_writes += 1
-        if result != self.sdk.COMM_SUCCESS:
-            raise BusFault(f"{self.name}: sync write of the goal positions failed: {self._comm(result)}")
+        write_confirmed(self, "goal_position", dict(zip(self.ids, (int(t) for t in ticks))))
 
     def read_state(self, t=0.0):
         """Every joint's present position and current in one sync read.
@@ -264,29 +302,11 @@ class BusDriver:
             hardware error (overload, overheating ...).
         """
         address, size = self.state
-        last = ""
-        for _ in range(self.retries + 1):
-            result = self._sync_read_tx(address, size, self.ids)
-            if result != self.sdk.COMM_SUCCESS:
-                last = f"sync read not sent: {self._comm(result)}"
-                continue
-            rows = []
-            for servo_id in self.ids:
-                data, result, error = self.packets.readRx(self.handler, servo_id, size)
-                if result != self.sdk.COMM_SUCCESS:
-                    last = f"{self.servo(servo_id)}: {self._comm(result)}"
-                    break
-                if error:
-                    raise BusFault(f"{self.name}: {self.servo(servo_id)} reports "
-                                   f"{self._hardware_error(servo_id, error)}")
-                rows.append(self._decode_state(data))
-            else:
-                ticks = np.array([r[0] for r in rows], dtype=np.int64)
-                q = np.array([float(lk.bus.joint(k)) for lk, k in zip(self.robot.links, ticks)])
-                return BusReading(float(t), ticks, q, np.array([r[1] for r in rows], float) * self.current_unit)
-            self.handler.clearPort()
-        raise BusFault(f"{self.name}: no intact status packet after {self.retries + 1} sync reads ({last}); "
-                       f"check the cable, the baud rate ({self.baudrate} bit/s) and the servo power supply")
+        data = read_registers(self, address, size, self.ids, tries=self.retries + 1)
+        rows = [self._decode_state(data[servo_id]) for servo_id in self.ids]
+        ticks = np.array([r[0] for r in rows], dtype=np.int64)
+        q = np.array([float(lk.bus.joint(k)) for lk, k in zip(self.robot.links, ticks)])
+        return BusReading(float(t), ticks, q, np.array([r[1] for r in rows], float) * self.current_unit)
 
     def close(self):
         """Turn every servo's torque off (best effort) and close the port; never raises (idempotent)."""

@@ -46,6 +46,8 @@ TORQUE_CONSTANT = 1.78
 #: profile-velocity unit [rev/min per LSB] and profile-acceleration unit [rev/min^2 per LSB]
 VELOCITY_UNIT = 0.229
 ACCELERATION_UNIT = 214.577
+#: the largest profile velocity and acceleration the registers take (velocity-based profile; 0 means "no limit")
+PROFILE_MAX = 32767
 #: hardware error status bits (address 70)
 HARDWARE_ERRORS = {0x01: "input voltage", 0x04: "overheating", 0x08: "motor encoder", 0x10: "electrical shock",
                    0x20: "overload"}
@@ -273,7 +275,10 @@ class DynamixelDriver(BusDriver):
     def _hardware_error(self, servo_id, error):
         if not error & ALERT:
             return f"status error {error:#04x} (instruction-level)"
-        code, result, _ = self.packets.read1ByteTxRx(self.handler, servo_id, TABLE["hardware_error"][0])
+        try:
+            code, result, _ = self.packets.read1ByteTxRx(self.handler, servo_id, TABLE["hardware_error"][0])
+        except IndexError:  # the SDK takes the byte from a short status packet unchecked
+            result = self.sdk.COMM_RX_CORRUPT
         if result != self.sdk.COMM_SUCCESS:
             return "hardware alert (its hardware error status could not be read)"
         return self.describe(code)
@@ -282,10 +287,10 @@ class DynamixelDriver(BusDriver):
         return word(data[6:10], 4), word(data[0:2], 2)
 
     def _velocity_value(self, rad_s):
-        return max(1, round(rad_s * 60 / (2 * 3.141592653589793) / VELOCITY_UNIT))
+        return min(max(1, round(rad_s * 60 / (2 * 3.141592653589793) / VELOCITY_UNIT)), PROFILE_MAX)
 
     def _acceleration_value(self, rad_s2):
-        return max(1, round(rad_s2 * 3600 / (2 * 3.141592653589793) / ACCELERATION_UNIT))
+        return min(max(1, round(rad_s2 * 3600 / (2 * 3.141592653589793) / ACCELERATION_UNIT)), PROFILE_MAX)
 
 #: the host side of this bus (the registry's contract, :mod:`labkit.arm.bus`)
 Driver = DynamixelDriver

@@ -3,7 +3,7 @@
 :class:`BusEmulator` serves one bus on a new pseudo-terminal, so that a vendor SDK opens it
 as it opens a USB adapter. It parses every packet with the bus module's codec (header, CRC-16
 or checksum, byte stuffing, lengths; a damaged packet is counted in :attr:`BusEmulator.rejected`
-and never answered), runs ping, read, write, sync read and sync write on each servo's control
+and never answered; an unfinished packet is dropped after :data:`PACKET_TIMEOUT` without a byte), runs ping, read, write, sync read and sync write on each servo's control
 table, answers status packets, and moves the servos with the virtual arm's physics
 (:class:`labkit.arm.ArmModel`: the goal positions are the model's commands, the present positions
 its shaft angles, the present current its gravity torque over the servo's torque constant).
@@ -35,6 +35,10 @@ from labkit.arm.bus._gripper import VirtualGripper, limit_torque
 from labkit.arm.bus._hardware import VirtualHand, VirtualServo, assembled_servos, goal_joint, present_ticks
 
 __all__ = ["BusEmulator", "BusFaults"]
+
+#: a servo's receive timeout [s]: bytes of an unfinished packet are dropped after this long without a byte (a
+#: damaged length field would otherwise make it wait for bytes that belong to the next packets)
+PACKET_TIMEOUT = 0.02
 
 
 @dataclass
@@ -272,13 +276,18 @@ class BusEmulator:
 
     # -- packets ------------------------------------------------------------------------------------
     def _serve(self):
-        buf = b""
+        buf, last = b"", time.monotonic()
         while not self._stop.is_set():
             try:
                 ready, _, _ = select.select([self._master], [], [], 0.01)
                 if not ready:
+                    if buf and time.monotonic() - last > PACKET_TIMEOUT:  # a servo drops a packet that stalls
+                        with self._lock:
+                            self.rejected.append(f"{len(buf)} bytes of an incomplete packet")
+                        buf = b""
                     continue
                 data = os.read(self._master, 4096)
+                last = time.monotonic()
             except OSError:
                 return
             packets, buf, rejected = self.bus.decode(buf + data)

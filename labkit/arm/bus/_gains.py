@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 from labkit.exceptions import BusFault, OptionError
 from labkit.arm.bus._registry import bus_module
+from labkit.arm.bus._confirm import write_confirmed
 
 __all__ = ["ServoGains", "GainBook", "read_field"]
 
@@ -188,8 +189,8 @@ class GainBook:
         if j not in self.saved:
             self.saved[j] = self.read(j)
         servo_id = self.driver.ids[j]
-        for name, value in new.items():
-            self.driver.write(servo_id, self.bus.GAINS[name][0], value)
+        for name, value in new.items():  # read back and sent again until the servo holds it
+            write_confirmed(self.driver, self.bus.GAINS[name][0], {servo_id: value})
         return self.read(j)
 
     def restore(self):

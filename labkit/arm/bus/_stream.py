@@ -8,6 +8,7 @@ board and host: a lost or corrupt status packet on the bus is a :class:`BusFault
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -51,10 +52,12 @@ def record_bus_stream(robot, wire, duration, hz):
     """
     import pandas as pd
 
-    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not math.isfinite(duration) \
+    if isinstance(duration, bool) or not isinstance(duration, numbers.Real) or not math.isfinite(duration) \
             or duration <= 0:
         raise OptionError(f"expected a recording time duration > 0 s, got {duration!r}")
-    if isinstance(hz, bool) or not isinstance(hz, (int, float)) or hz != int(hz) or not 1 <= hz <= 200:
+    if isinstance(hz, bool) or not isinstance(hz, numbers.Real) or not math.isfinite(hz):
+        raise OptionError(f"expected hz as a finite number, got {hz!r}")
+    if hz != int(hz) or not 1 <= hz <= 200:
         raise OptionError(f"expected hz as a whole number in 1..200 Hz, got {hz!r}")
     hz = int(hz)
     if wire.io(wire.port.servo_stream) is None:

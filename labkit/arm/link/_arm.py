@@ -65,7 +65,7 @@ class Arm(ServoMethods):
     ----------
     robot : Robot or str or None
         The robot (name, file, :class:`Robot`) whose servo calibrations and limits the host enforces (a
-        ``sim://`` URL naming none simulates it); ``None``: the one a ``sim://<robot>`` URL names.
+        ``sim://`` URL naming none simulates it); ``None`` or a URL alone (``Arm("sim://<robot>")``): the one it names.
     port : str or serial-like, optional
         Device name (``/dev/ttyACM0``, ``COM3``), URL (``sim://``, ``simavr://``, ``dynamixel://``,
         ``feetech://``, any pyserial URL), an open :class:`BoardPort` or an open pyserial-like port to a real
@@ -107,7 +107,7 @@ class Arm(ServoMethods):
         timeout, retries = reply_timeout(timeout), retry_count(retries)
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
-        self.robot = arm_robot(robot, port)
+        self.robot, port = arm_robot(robot, port)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate, self.robot)

@@ -207,7 +207,10 @@ def first_arduino():
 
 
 def arm_robot(robot, port):
-    """The robot of ``Arm(robot, port)``: ``robot`` loaded, or with ``None`` the one a ``sim://<robot>`` port names.
+    """The robot and port of ``Arm(robot, port)``: ``robot`` loaded, or with ``None`` the one a ``sim://`` port names.
+
+    A URL given alone (``Arm("sim://openmanipulator_x?bus=dynamixel")``, ``robot`` a string with ``://`` and
+    ``port`` ``None``) is the port, and its robot the one it names.
 
     Parameters
     ----------
@@ -216,7 +219,8 @@ def arm_robot(robot, port):
 
     Returns
     -------
-    Robot
+    robot : Robot
+    port : str or serial-like or None
 
     Raises
     ------
@@ -225,13 +229,15 @@ def arm_robot(robot, port):
     """
     from labkit.arm.urlhandler.protocol_sim import parse_url
 
+    if port is None and isinstance(robot, str) and "://" in robot:  # Arm(url): the URL is the port
+        robot, port = None, robot
     if robot is None and isinstance(port, str) and port.lower().startswith("sim://"):
         robot = parse_url(port)[0] or None
     if robot is None:
         raise OptionError("expected the arm's robot (Arm(robot, port): a bundled robot name, a robot file or a "
                           f"Robot), or robot=None with a port sim://<robot>?... that names one; got robot=None and "
                           f"port {port!r}")
-    return Robot.load(robot)
+    return Robot.load(robot), port
 
 
 def open_port(port, baudrate, robot=None):

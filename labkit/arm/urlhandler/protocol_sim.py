@@ -181,8 +181,7 @@ class Serial(BoardSerial):
         self.emulator = BusEmulator(robot, config)
         try:
             self.board = open_bus_board(robot, self.emulator.path, protocol=options["bus"], model=self.emulator.model,
-                                        queue=options["queue"], name=self.port, latency=VIRTUAL_BUS_LATENCY,
-                                        settle=self.emulator.wait_sync_writes)
+                                        queue=options["queue"], name=self.port, latency=VIRTUAL_BUS_LATENCY)
         except BaseException:
             self.emulator.close()
             raise

@@ -1,7 +1,7 @@
 """Geometry shared by the closed-form families, each formula once (private).
 
-* the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), read from
-  :func:`labkit.kinematics.fk_frames`, so every family works in the world frame
+* the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), from the one DH walk
+  (:func:`labkit.kinematics._program.walk`) on floats, so every family works in the world frame
   for either DH convention, base and tool included;
 * the cosine law of a two-link chain (:class:`CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.kinematics._forward import fk_frames
-from labkit.robot.types import Convention
+from labkit.kinematics._ik_solvers._elementwise import arctan2, clip, cos, maximum, sin, sqrt
+from labkit.kinematics._chain import chain
+from labkit.kinematics._program import PLAIN, walk
 
 #: geometric tolerance of the structure tests [m or rad]
 TOL = 1e-9
@@ -117,10 +118,17 @@ def joint_axes(robot):
     tool : ndarray, shape (4, 4)
         ``world_from_tool`` at ``q = 0``.
     """
-    n = robot.n
-    F = fk_frames(robot, np.zeros(n))
-    idx = np.arange(1, n + 1) if robot.convention is Convention.MODIFIED else np.arange(0, n)
-    return F[idx, :3, 2].copy(), F[idx, :3, 3].copy(), F[n + 1]
+    # the DH walk on floats at q = 0 (a robot's geometry is read once: nothing is compiled for it)
+    c = chain(robot)
+    revolute = [(cth, sth) for rev, _, _, _, _, _, cth, sth in c.steps if rev]
+    steps = [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth in c.steps]
+    base = tuple(tuple(float(x) for x in robot.base[:3, k]) for k in range(4))
+    frames, _ = walk(PLAIN, c.modified, base, steps, revolute.__getitem__, lambda i, d: d)
+    frames = np.array([base, *frames], dtype=float)  # frames 0..n, columns (x, y, z, origin) each
+    axes = frames[1:] if c.modified else frames[:-1]  # joint i's axis: z of frame i (modified DH), else i - 1
+    last = np.eye(4)
+    last[:3] = frames[-1].T
+    return axes[:, 2].copy(), axes[:, 3].copy(), last @ robot.tool
 
 
 def length_scale(robot):
@@ -229,7 +237,7 @@ def rotate(k, angle, *vectors):
         The rotated vectors, 3 components each, in order.
     """
     k0, k1, k2 = k
-    s, c1 = np.sin(angle), 1.0 - np.cos(angle)
+    s, c1 = sin(angle), 1.0 - cos(angle)
     out = []
     for v0, v1, v2 in vectors:
         u0, u1, u2 = k1 * v2 - k2 * v1, k2 * v0 - k0 * v2, k0 * v1 - k1 * v0
@@ -290,13 +298,13 @@ class CosineLaw:
         """
         L1, L2 = self.L1, self.L2
         r2 = x * x + y * y
-        r = np.sqrt(r2)
+        r = sqrt(r2)
         cb = (r2 - self.L1L1 - self.L2L2) / self.den
-        ok = np.abs(cb) <= self.ok_below
-        distance = np.maximum(np.maximum(r - self.longest, self.shortest - r), 0.0)
-        cb = np.clip(cb, -1.0, 1.0)
-        sb = np.sqrt(1.0 - cb * cb)
-        return ok, distance, np.arctan2(sb, cb), np.arctan2(L2 * sb, L1 + L2 * cb), np.arctan2(y, x)
+        ok = abs(cb) <= self.ok_below
+        distance = maximum(maximum(r - self.longest, self.shortest - r), 0.0)
+        cb = clip(cb, -1.0, 1.0)
+        sb = sqrt(1.0 - cb * cb)
+        return ok, distance, arctan2(sb, cb), arctan2(L2 * sb, L1 + L2 * cb), arctan2(y, x)
 
 
 def angle_about(k, v, w):
@@ -337,7 +345,7 @@ def angle_between(n, vp, wp):
         The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
     """
     w0, w1, w2 = wp
-    return np.arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
+    return arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
 class Subproblem2:
@@ -384,18 +392,18 @@ class Subproblem2:
         if self.orthogonal:
             # |a4 x c| = |a4 x m| = sqrt(beta^2 + gamma^2): accurate near the wrist singularity,
             # where 1 - alpha^2 - beta^2 would lose half the digits
-            s45 = np.sqrt(_dot(mp, mp))
-            b = np.abs(beta)
-            g = np.sqrt(np.maximum((s45 - b) * (s45 + b), 0.0))
+            s45 = sqrt(_dot(mp, mp))
+            b = abs(beta)
+            g = sqrt(maximum((s45 - b) * (s45 + b), 0.0))
         else:
-            g = np.sqrt(np.maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
+            g = sqrt(maximum((1.0 - alpha * alpha - beta * beta - 2 * alpha * beta * k12) / self.cr2, 0.0))
         # C = alpha a4 + beta a5 +- g (a4 x a5)
         b0, b1, b2 = alpha * a40 + beta * a50, alpha * a41 + beta * a51, alpha * a42 + beta * a52
         g0, g1, g2 = g * c0, g * c1, g * c2
         (d0, d1, d2), (p0, p1, p2) = self.c5, self.p
         out = []
         for C0, C1, C2 in ((b0 + g0, b1 + g1, b2 + g2), (b0 - g0, b1 - g1, b2 - g2)):
-            t5 = np.arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
+            t5 = arctan2(d0 * C0 + d1 * C1 + d2 * C2, (p0 * C0 + p1 * C1 + p2 * C2)
                             - a5p * (a50 * C0 + a51 * C1 + a52 * C2))
             # t4: subproblem 1 about a4 from C's part perpendicular to a4 (v) to m's
             a4C = a40 * C0 + a41 * C1 + a42 * C2
@@ -423,7 +431,7 @@ def per_branch(f, branches, shared):
         Per branch the outputs of ``f``, ``(N,)`` rows each.
     """
     k = len(branches)
-    n = max(np.size(v) for v in (*branches[0], *shared))
+    n = max((np.size(v) for v in (*branches[0], *shared) if type(v) is not float), default=1)
     if n == 1:  # one target: branch by branch on floats (cheaper than numpy rows of k elements)
         return [f(*(float(v) for v in (*branch, *shared))) for branch in branches]
     args = np.empty((len(branches[0]) + len(shared), k, n))

@@ -35,6 +35,10 @@ def _plan(kind, rows):
         ([i for i, r in enumerate(rows) if r < 3] if whole else None)
 
 
+#: the rotation vector's components read off a rotation matrix: (R[i, j] - R[j, i]) / 2 for (i, j) = (2, 1) ...
+_UPPER, _LOWER = np.array([2, 0, 1]), np.array([1, 2, 0])
+
+
 def _norm(e):
     return np.sqrt(np.einsum("ij,ij->i", e, e))
 
@@ -72,7 +76,7 @@ def task_error(kind, T, target, rows):
         e = np.column_stack((target[:, :2] - T[:, :2, 3], heading))[:, slots]
         return e, _norm(e)
     R = target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)  # from the pose's orientation to the target's
-    v = 0.5 * (R[:, (2, 0, 1), (1, 2, 0)] - R[:, (1, 2, 0), (2, 0, 1)])
+    v = 0.5 * (R[:, _UPPER, _LOWER] - R[:, _LOWER, _UPPER])
     sv = _norm(v)
     angle = np.arctan2(sv, 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0))
     big = sv > 1e-12

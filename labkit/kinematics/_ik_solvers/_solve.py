@@ -31,8 +31,8 @@ _TURN = 2 * math.pi
 _SLACK = 1e-9
 
 
-def finish(robot, q, *, flipped=True):
-    """Joint values from a solver as the robot's joint values (a new array).
+def finish(robot, q, *, flipped=True, copy=True):
+    """Joint values from a solver as the robot's joint values.
 
     Parameters
     ----------
@@ -43,6 +43,8 @@ def finish(robot, q, *, flipped=True):
         closed-form family), else already the robot's (numeric IK).
     flipped : bool
         Negate the flipped joints (``Link.flip``).
+    copy : bool
+        Return a new array; False: overwrite ``q`` where it is a float array.
 
     Returns
     -------
@@ -50,7 +52,7 @@ def finish(robot, q, *, flipped=True):
         Revolute angles wrapped into (-pi, pi], then a turn up or down where
         that enters the joint's limits; non-finite values replaced by 0.
     """
-    q = np.array(q, dtype=float)
+    q = np.array(q, dtype=float) if copy else np.asarray(q, dtype=float)
     flip, any_flip, rev, lo, hi, up, down = _joints(robot)
     if flipped and any_flip:
         q[..., flip] *= -1.0
@@ -58,22 +60,27 @@ def finish(robot, q, *, flipped=True):
     # a value below the limits may enter them one turn up, one above them one turn down (pi itself, when the
     # range starts at -pi); either only where the limits reach beyond (-pi, pi] (``up``, ``down``)
     if up:
-        v = np.where((v < lo) & (v + _TURN <= hi), v + _TURN, v)
+        turned = v + _TURN
+        v = np.where((v < lo) & (turned <= hi), turned, v)
     if down:
-        v = np.where((v > hi) & (v - _TURN >= lo), v - _TURN, v)
+        turned = v - _TURN
+        v = np.where((v > hi) & (turned >= lo), turned, v)
     q[..., rev] = v
-    q[~np.isfinite(q)] = 0.0
+    finite = np.isfinite(q)
+    if not finite.all():
+        q[~finite] = 0.0
     return q
 
 
 @per_robot
 def _joints(robot):
-    """Flipped joints (and whether any), revolute ones, their limits with slack [rad], and whether a wrapped
-    angle v can go a turn up (v < lo needs lo > -pi; v + 2 pi rounds to >= pi, so hi >= pi) or down."""
+    """Flipped joints (and whether any), revolute ones (a slice of all when all are: a view, not a copy),
+    their limits with slack [rad], and whether a wrapped angle v can go a turn up (v < lo needs lo > -pi;
+    v + 2 pi rounds to >= pi, so hi >= pi) or down."""
     lim, rev = robot.joint_limits, robot.is_revolute
     lo, hi = lim[rev, 0] - _SLACK, lim[rev, 1] + _SLACK
     up, down = bool(((lo > -math.pi) & (hi >= math.pi)).any()), bool(((hi < math.pi) & (lo <= -math.pi)).any())
-    return robot.flip, bool(robot.flip.any()), rev, lo, hi, up, down
+    return robot.flip, bool(robot.flip.any()), slice(None) if rev.all() else rev, lo, hi, up, down
 
 
 def solve(robot, family, flat):
@@ -99,30 +106,38 @@ def solve(robot, family, flat):
         How far each target lies out of reach [m] (0 if any branch reaches it).
     """
     N, m, n = flat.shape[0], len(family.branches), robot.n
-    q = np.empty((N, m, n))
-    reach = np.empty((N, m), dtype=bool)
-    distance = np.empty(N)
-    for s in range(0, N, _CHUNK):
-        part = slice(s, s + _CHUNK)
-        # a batch's components are (N,) rows; one target's are Python floats (the same formulas, about 3x
-        # cheaper than numpy scalars; numpy scalars where a float divides by an exact zero: numpy's inf/nan)
-        qb, rb, d = family.solve(np.ascontiguousarray(np.moveaxis(flat[part], 0, -1))) if N > 1 else \
-            _solve_one(family, flat[0])
-        for k, (branch, ok) in enumerate(zip(qb, rb)):
-            for j, v in enumerate(branch):
-                q[part, k, j] = v
-            reach[part, k] = ok
-        distance[part] = d
-    q = finish(robot, q)
+    q, reach, distance = np.empty((N, m, n)), np.empty((N, m), dtype=bool), np.empty(N)
+    if N == 1:  # one target: its components as Python floats (the same formulas, :mod:`._elementwise`)
+        qb, rb, d = _solve_one(family, flat[0])
+        try:  # floats or numpy scalars: one array each
+            q, reach, distance = (np.array(v, dtype=t).reshape(s) for v, t, s in
+                                  ((qb, float, q.shape), (rb, bool, reach.shape), (d, float, distance.shape)))
+        except ValueError:  # a family that answers one target with rows of one, some beside floats
+            _gather(q, reach, distance, slice(0, 1), qb, rb, d)
+    else:
+        for s in range(0, N, _CHUNK):
+            part = slice(s, s + _CHUNK)
+            _gather(q, reach, distance, part, *family.solve(np.ascontiguousarray(np.moveaxis(flat[part], 0, -1))))
+    q = finish(robot, q, copy=False)
     distance[reach.any(axis=1)] = 0.0
     return q, reach, reach & robot.within_limits(q), distance
 
 
+def _gather(q, reach, distance, part, qb, rb, d):
+    """Write a family's answer for the targets ``part`` (per branch, rows or scalars) into the arrays."""
+    for k, (branch, ok) in enumerate(zip(qb, rb)):
+        for j, v in enumerate(branch):
+            q[part, k, j] = v
+        reach[part, k] = ok
+    distance[part] = d
+
+
 def _solve_one(family, target):
-    """The family on one target, its components as floats (numpy scalars where a float divides by 0)."""
+    """The family on one target, its components as Python floats; on numpy scalars where a float operation
+    raises (a division by an exact zero, ``sqrt`` of a negative number: numpy's inf/nan instead)."""
     try:
         return family.solve(target.tolist())
-    except ZeroDivisionError:
+    except (ArithmeticError, ValueError):
         return family.solve(target)
 
 

@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from labkit.kinematics._ik_solvers._elementwise import sin, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, Subproblem2, angle_between, _cross, floats, length_scale, _matvec, perpendicular,
@@ -78,9 +79,9 @@ class SphericalWrist(Family):
             Y, = rotate(a5, -t5, *rotate(a4, -t4, MX))
             Z, = rotate(a5, -u5, *rotate(a4, -u4, MX))
             t6, u6 = angle_between(n6, x6p, _reject(a6, Y)), angle_between(n6, x6p, _reject(a6, Z))
-            swap = (np.sin(t5) * self.noflip_sign) < 0  # noflip first
-            return (np.where(swap, u4, t4), np.where(swap, u5, t5), np.where(swap, u6, t6),
-                    np.where(swap, t4, u4), np.where(swap, t5, u5), np.where(swap, t6, u6))
+            swap = (sin(t5) * self.noflip_sign) < 0  # noflip first
+            return (where(swap, u4, t4), where(swap, u5, t5), where(swap, u6, t6),
+                    where(swap, t4, u4), where(swap, t5, u5), where(swap, t6, u6))
 
         # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)

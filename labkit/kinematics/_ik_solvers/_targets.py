@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
+from labkit.kinematics._ik_solvers._elementwise import maximum
 from labkit.kinematics._ik_solvers._geometry import _cross, _dot
 from labkit.validation import as_batch
 
@@ -212,9 +213,9 @@ def _rigid_defects(T):
     from orthonormal, the determinant, and the largest deviation of the last row from ``[0, 0, 0, 1]``."""
     t = T[0].tolist() if T.shape[0] == 1 else np.moveaxis(T, 0, -1)  # one pose: floats, cheaper than rows of one
     c0, c1, c2 = ((t[0][k], t[1][k], t[2][k]) for k in range(3))
-    err = np.abs(_dot(c0, c0) - 1.0)
+    err = abs(_dot(c0, c0) - 1.0)
     for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
-        err = np.maximum(err, np.abs(e))
+        err = maximum(err, abs(e))
     det = _dot(_cross(c0, c1), c2)
     return np.reshape(err, -1), np.reshape(det, -1), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
 

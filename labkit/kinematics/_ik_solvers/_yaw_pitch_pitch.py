@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, minimum, sqrt, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
@@ -111,14 +112,14 @@ class Arm:
         hr, hn, w = _matvec(self.planes_frame, d)
         off = self.off
         rho2 = hr * hr + hn * hn
-        u0 = np.sqrt(np.maximum(rho2 - off * off, 0.0))
+        u0 = sqrt(maximum(rho2 - off * off, 0.0))
         shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
-        lateral = np.maximum(abs(off) - np.sqrt(rho2), 0.0)
-        az = np.arctan2(hn, hr)
+        lateral = maximum(abs(off) - sqrt(rho2), 0.0)
+        az = arctan2(hn, hr)
         sides = []
         for side in (self.front, -self.front):
             u = side * u0
-            sides.append((side, az - np.arctan2(off, u), u))
+            sides.append((side, az - arctan2(off, u), u))
         return sides, w, shoulder_ok, lateral
 
     def elbows(self, side, ur, w):
@@ -142,9 +143,9 @@ class Arm:
         """
         ok, dist, elbow, shoulder, direction = self.law.solve(ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
-        forward = np.where(np.abs(ur) > 1e-12, ur > 0, side > 0)
+        forward = where(abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
-        sign = np.where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
+        sign = where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
         ss, se = sign * shoulder, sign * elbow
         g1, g21, s3 = self.g1, self.g21, self.s3
         return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
@@ -172,8 +173,8 @@ class Arm:
         for side, q1, u in sides:
             ok, dist, pairs = self.elbows(side, u - self.Sr, w)
             ok = shoulder_ok & ok
-            dist = np.maximum(dist, lateral)
-            distance = dist if distance is None else np.minimum(distance, dist)
+            dist = maximum(dist, lateral)
+            distance = dist if distance is None else minimum(distance, dist)
             for q2, q3 in pairs:
                 q.append((q1, q2, q3))
                 reach.append(ok)

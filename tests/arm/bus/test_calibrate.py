@@ -148,7 +148,7 @@ def test_virtual_openmanipulator_end_to_end(tmp_path):
         assert backup.read_text() == before and "[OMX] id, [DRV] zero and direction" in after  # comments kept
         _truth_reads_through(source, emu)
         emu.hand.move(2, 0.3)
-        board = open_bus_board(source, emu.path, model=emu.model, latency=100.0, settle=emu.wait_sync_writes)
+        board = open_bus_board(source, emu.path, model=emu.model, latency=100.0)  # goal writes are read back
         try:
             assert board.read_servos().q == pytest.approx(emu.model.shaft_q, abs=2 * 2 * math.pi / RES)
         finally:

@@ -1,0 +1,208 @@
+"""Step tests on an arm: a joint stepped away and back while the feedback stream records it.
+
+A step is the classic identification input, and a hobby servo receives one whenever its pulse width
+jumps; the board's speed and acceleration limits (``LIMITS``, from the robot file) exist to prevent
+exactly that. :func:`record_step` therefore lifts them for the test and restores them after (also on
+an error): it swaps the arm's robot for a copy whose joints have no ``max_velocity`` or
+``max_acceleration``, sends it with :meth:`labkit.arm.Arm.sync_calibration`, queues the two steps as
+protocol segments (:meth:`~labkit.arm.Arm.run_trajectory`, without waiting) and records
+:meth:`~labkit.arm.Arm.stream` meanwhile, with the board's host-silence timeout off for the recording.
+
+The command the servo follows is a step slowed to the joint's ``max_velocity`` (the robot file's
+servo speed, which a servo's motor cannot exceed; the virtual servo's rate limit is the same value):
+:attr:`StepRecord.u` is that ramp, so :func:`fit_step_response` sees the input the servo really got.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from labkit.control._identify import fit_step_response
+from labkit.exceptions import OptionError
+from labkit.validation import readonly
+
+__all__ = ["StepRecord", "record_step", "rate_limited_steps"]
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """A joint's recorded response to a step away and back (:func:`record_step`).
+
+    Attributes
+    ----------
+    joint : str
+        Joint name.
+    t : ndarray, shape (N,)
+        Sample times [s of board time] from the first step.
+    y : ndarray, shape (N,)
+        Sensed joint value [rad, m] (potentiometer or present position).
+    u : ndarray, shape (N,)
+        Commanded joint value as the servo follows it [rad, m]: the steps, slowed to ``rate_limit``.
+    amplitude : float
+        Step size [rad, m].
+    rate_limit : float or None
+        Speed the command was slowed to [rad/s, m/s] (``None``: an ideal step).
+
+    Examples
+    --------
+    >>> rec = StepRecord("j", np.arange(-4, 12) * 0.01, np.zeros(16), np.zeros(16), 0.1, None)
+    >>> rec.to_dataframe().shape
+    (16, 3)
+    """
+
+    joint: str
+    t: np.ndarray
+    y: np.ndarray
+    u: np.ndarray
+    amplitude: float
+    rate_limit: float | None
+
+    def __post_init__(self):
+        for name in ("t", "y", "u"):
+            object.__setattr__(self, name, readonly(np.asarray(getattr(self, name), dtype=float)))
+
+    def fit(self, order=2):
+        """:func:`fit_step_response` of this record (``u`` as the command).
+
+        Parameters
+        ----------
+        order : {1, 2}
+
+        Returns
+        -------
+        StepFit
+        """
+        return fit_step_response(self.t, self.y, u=self.u, order=order)
+
+    def to_dataframe(self):
+        """The record as a table: ``t [s]``, ``command`` and ``sensed`` [rad].
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        return pd.DataFrame({"t": self.t, "command": self.u, "sensed": self.y})
+
+
+def rate_limited_steps(t, start, edges, rate_limit):
+    """A command that jumps to ``edges[k] = (time, value)`` in turn, moving at most ``rate_limit``.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Times [s], increasing.
+    start : float
+        Value before the first edge [rad, m].
+    edges : sequence of (float, float)
+        ``(time [s], new value)`` of each step, in time order.
+    rate_limit : float or None
+        Largest speed [rad/s, m/s]; ``None``: ideal steps.
+
+    Returns
+    -------
+    u : ndarray, shape (N,)
+
+    Examples
+    --------
+    >>> rate_limited_steps([0.0, 0.05, 0.1, 0.2], 0.0, [(0.0, 1.0)], 10.0).round(3).tolist()
+    [0.0, 0.5, 1.0, 1.0]
+    """
+    t = np.asarray(t, dtype=float)
+    u = np.full(t.shape, float(start))
+    level = float(start)
+    for k, (t_edge, value) in enumerate(edges):
+        end = edges[k + 1][0] if k + 1 < len(edges) else np.inf
+        span = (t >= t_edge) & (t < end)
+        if rate_limit is None:
+            u[span] = value
+        else:  # the edges are far enough apart for each ramp to finish (record_step's hold)
+            u[span] = level + np.clip((t[span] - t_edge) * rate_limit, 0.0, abs(value - level)) * np.sign(value - level)
+        level = value
+    return u
+
+
+def record_step(arm, joint, amplitude, *, hold=0.3, hz=200):
+    """Step one joint by ``amplitude`` and back, recording the feedback stream.
+
+    The other joints hold where they are commanded; the joint starts from its commanded value.
+    The sequence is: ``0.1 s`` at rest, the step, ``hold`` s, the step back, ``hold`` s. The board's
+    speed limits and host-silence timeout are lifted during the test and restored after (see the
+    module notes).
+
+    Parameters
+    ----------
+    arm : labkit.arm.Arm
+        The open arm (any board or bus labkit drives).
+    joint : int or str
+        Joint index or name.
+    amplitude : float
+        Step size [rad, m] (sign: direction); the stepped value must lie within the joint limits.
+    hold : float
+        Time after each step [s], 0.1..2 s (several settling times of the joint).
+    hz : int
+        Stream rate [Hz] (see :meth:`labkit.arm.Arm.stream`).
+
+    Returns
+    -------
+    StepRecord
+
+    Raises
+    ------
+    OptionError
+        Unknown joint, ``amplitude`` zero or not finite, ``hold`` outside 0.1..2 s.
+    JointLimitError
+        The stepped joint value is outside the joint's limits (nothing moves).
+    DeviceError
+        The board rejected the segments or the link failed.
+    """
+    from labkit.motion import Trajectory
+
+    robot = arm.robot
+    j = _joint_index(robot, joint)
+    amplitude = float(amplitude)
+    if not (math.isfinite(amplitude) and amplitude != 0.0):
+        raise OptionError(f"expected a finite, non-zero step amplitude [rad, m], got {amplitude!r}")
+    if not (isinstance(hold, (int, float)) and 0.1 <= hold <= 2.0):
+        raise OptionError(f"expected hold within 0.1..2 s, got {hold!r}")
+    q0 = np.asarray(arm.commanded_joints(), dtype=float)
+    q1 = q0.copy()
+    q1[j] += amplitude
+    robot.check_limits(q1)
+    rest, jump = 0.1, 0.001  # a 1 ms segment: the next servo frame sees the new value (a step)
+    times = [0.0, rest, rest + jump, rest + jump + hold, rest + 2 * jump + hold]
+    Q = np.array([q0, q0, q1, q1, q0])
+    steps = Trajectory(t=times, q=Q, qd=np.zeros_like(Q), qdd=np.zeros_like(Q))
+    free = dataclasses.replace(robot, links=tuple(dataclasses.replace(lk, max_velocity=None, max_acceleration=None)
+                                                  for lk in robot.links))
+    timeout = arm.status().timeout
+    arm.robot = free
+    try:
+        arm.sync_calibration()
+        arm.set_host_timeout(0)
+        t_start = arm.status().t
+        arm.run_trajectory(steps, wait=False, min_duration=jump)
+        table = arm.stream(rest + 2 * (jump + hold), hz=hz)
+    finally:
+        arm.robot = robot
+        arm.sync_calibration()
+        arm.set_host_timeout(timeout)
+    t = table["t"].to_numpy(float) - t_start - rest
+    y = table[f"q_{robot.joint_names[j]}"].to_numpy(float)
+    rate = robot.links[j].max_velocity
+    u = rate_limited_steps(t, q0[j], [(0.0, q1[j]), (hold + jump, q0[j])], rate)
+    return StepRecord(joint=robot.joint_names[j], t=t, y=y, u=u, amplitude=amplitude, rate_limit=rate)
+
+
+def _joint_index(robot, joint):
+    names = list(robot.joint_names)
+    if isinstance(joint, str) and joint in names:
+        return names.index(joint)
+    if isinstance(joint, (int, np.integer)) and not isinstance(joint, bool) and 0 <= joint < robot.n:
+        return int(joint)
+    raise OptionError(f"expected a joint index 0..{robot.n - 1} or one of {names}, got {joint!r}")
