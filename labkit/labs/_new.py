@@ -454,6 +454,10 @@ def _port_doc(robot):
     return _PARAM_DOC["port"]
 
 
+#: templates that identify a servo's dynamics from its step response: written only where every joint is a servo
+SERVO_DYNAMICS_TEMPLATES = frozenset({"08_control"})
+
+
 def _actuator_notes(robot):
     """What the virtual arm makes of the joints of ``robot`` that have no servo (printed by ``labkit new``)."""
     ideal = [j for j, lk in enumerate(robot.links) if lk.servo is None and lk.bus is None]
@@ -518,6 +522,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     notes = _actuator_notes(user)
     defaults = lab_defaults(model)
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
+    if notes:  # an ideal actuator has no servo dynamics to identify: no lab that identifies them
+        skipped = [t for t in templates if t.stem in SERVO_DYNAMICS_TEMPLATES]
+        templates = [t for t in templates if t.stem not in SERVO_DYNAMICS_TEMPLATES]
+        notes += tuple(f"{t.name}: not written (it identifies servo dynamics; an ideal actuator has none)"
+                       for t in skipped)
     if not templates:
         raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
     folder.mkdir(parents=True, exist_ok=True)
