@@ -47,6 +47,7 @@ __all__ = [
     "CalibrationImageError",
     "MeasurementWarning",
     "HandEyeWarning",
+    "TorqueWarning",
     "BusWarning",
 ]
 
@@ -304,6 +305,12 @@ class BusWarning(UserWarning):
 
 class HandEyeWarning(UserWarning):
     """The views of a hand-eye calibration are too alike for a trustworthy result."""
+
+
+class TorqueWarning(UserWarning):
+    """A motion plan asks a joint for more torque than its servo's stall torque gives."""
+
+
 class MissingExtraError(LabkitError, ImportError):
     """A feature needs a module from one of labkit's extras, and that extra is not installed.
 

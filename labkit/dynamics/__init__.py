@@ -19,7 +19,9 @@ from labkit.dynamics._rne import (
     potential_energy,
 )
 from labkit.dynamics._simulate import forward_dynamics, Simulation, simulate, INTEGRATORS
-from labkit.dynamics._budget import TorqueBudget, torque_budget, stall_torques
+from labkit.dynamics._budget import (
+    TorqueBudget, torque_budget, stall_torques, torques_from_current, check_torque_budget,
+)
 
 __all__ = [
     "STANDARD_GRAVITY",

@@ -54,8 +54,19 @@ _PARAM_DOC = {
     "arc": "Cartesian arc: centre [mm], radius [mm], start angle and sweep [deg] about +z (or about \"normal\", a 4-DOF arm's vertical plane)",
     "duration": "duration of each move [s]",
     "readings": "readings per pose and quantity",
+    "payload_kg": "mass at the tool [kg]: the gripper and what it holds (the virtual arm's gripper: 0.08 kg; weigh yours)",
     "measurements": "measurement log (CSV) to use; \"\" = measure on `port` now (into output_dir)",
     "output_dir": "where the notebook writes files",
+}
+#: mass at the tool the lab notebooks assume [kg]: the virtual arm's gripper (labkit.arm.PhysicsConfig.tool_mass)
+PAYLOAD_KG = 0.08
+#: templates only some robots get: stem -> (what the robot needs, why a lab without it leaves the notebook out)
+_NEEDS = {
+    "07_dynamics": (lambda robot: any(lk.inertial is not None for lk in robot.links),
+                    "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
+    # it identifies a servo's dynamics from its step response: a joint without a servo is an ideal actuator
+    "08_control": (lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
+                   "joints without a servo are ideal actuators: no servo dynamics to identify"),
 }
 
 
@@ -98,8 +109,8 @@ class NewLab:
     lab_robot_file : Path
         The robot file the notebooks use (``robot_file``).
     notes : tuple of str
-        Which joints run as ideal actuators on the virtual arm and their ranges (printed by
-        ``labkit new``); empty when every joint has a servo.
+        Which joints run as ideal actuators on the virtual arm and their ranges, and the notebooks the
+        lab left out and why (printed by ``labkit new``); empty when nothing needs saying.
     """
 
     folder: Path
@@ -416,7 +427,7 @@ def template_values(robot, robot_ref, stem, defaults=None):
     """
     defaults = defaults or lab_defaults(robot)
     return {**defaults.parameters, "robot": robot_ref, "port": _virtual_port(robot, robot_ref),
-            "measurements": "", "output_dir": f"{stem}_files"}
+            "measurements": "", "payload_kg": PAYLOAD_KG, "output_dir": f"{stem}_files"}
 
 
 def _virtual_port(robot, robot_ref):
@@ -454,10 +465,6 @@ def _port_doc(robot):
     return _PARAM_DOC["port"]
 
 
-#: templates that identify a servo's dynamics from its step response: written only where every joint is a servo
-SERVO_DYNAMICS_TEMPLATES = frozenset({"08_control"})
-
-
 def _actuator_notes(robot):
     """What the virtual arm makes of the joints of ``robot`` that have no servo (printed by ``labkit new``)."""
     ideal = [j for j, lk in enumerate(robot.links) if lk.servo is None and lk.bus is None]
@@ -480,7 +487,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     Copies the robot file to ``robot.toml`` byte for byte (comments, ranges and all) and writes
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
-    ``08_control`` (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
+    ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal
@@ -522,13 +530,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     notes = _actuator_notes(user)
     defaults = lab_defaults(model)
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
-    if notes:  # an ideal actuator has no servo dynamics to identify: no lab that identifies them
-        skipped = [t for t in templates if t.stem in SERVO_DYNAMICS_TEMPLATES]
-        templates = [t for t in templates if t.stem not in SERVO_DYNAMICS_TEMPLATES]
-        notes += tuple(f"{t.name}: not written (it identifies servo dynamics; an ideal actuator has none)"
-                       for t in skipped)
     if not templates:
         raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
+    left_out = [(tpl, _NEEDS[tpl.stem][1]) for tpl in templates if tpl.stem in _NEEDS and not _NEEDS[tpl.stem][0](model)]
+    templates = [tpl for tpl in templates if tpl not in dict(left_out)]
+    skipped = tuple(f"{tpl.name}: left out, {why}" for tpl, why in left_out)
     folder.mkdir(parents=True, exist_ok=True)
     robot_file = folder / ROBOT_FILE
     if Path(user.path).resolve() != robot_file.resolve():
@@ -563,4 +569,4 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
 
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
     return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.description,
-                  lab_file.resolve(), notes)
+                  lab_file.resolve(), notes + skipped)

@@ -40,7 +40,8 @@ _MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
 _SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
 _FRAME_KEYS = {"translation", "rpy"}
 _BUS_KEYS = {"protocol", "baudrate", "resolution", "latency"}
-_BUS_SERVO_KEYS = {"id", "zero", "direction", "stall_torque"}
+_TORQUES = {"stall_torque": "a torque > 0 N m", "torque_constant": "a torque constant > 0 N m/A"}  # datasheet numbers
+_BUS_SERVO_KEYS = {"id", "zero", "direction", *_TORQUES}
 #: smallest servo range [rad for a revolute joint, m for a prismatic one]: 0.01 rad is 0.6 deg
 _MIN_SERVO_SPAN = {True: 0.01, False: 1e-4}
 
@@ -173,7 +174,7 @@ def _bus_servo(path, where, table, bus):
     direction = table.get("direction", 1)
     if isinstance(direction, bool) or direction not in (1, -1):
         raise RobotFileError(path, f"{where}.bus.direction", f"expected 1 or -1, got {direction!r}")
-    return BusServo(sid, zero, direction, bus.resolution, _stall(path, f"{where}.bus", table))
+    return BusServo(sid, zero, direction, bus.resolution, *(_stall(path, f"{where}.bus", table, key) for key in _TORQUES))
 
 
 def _bus_gripper(path, table, bus, angle):
@@ -188,13 +189,12 @@ def _bus_gripper(path, table, bus, angle):
         raise RobotFileError(path, f"gripper.{exc.field}", str(exc).split(": ", 2)[-1]) from None
 
 
-def _stall(path, where, table):
-    """A servo table's optional ``stall_torque`` [N m, SI whatever the file's units]."""
-    if "stall_torque" not in table:
+def _stall(path, where, table, key="stall_torque"):
+    """A servo table's optional ``stall_torque`` [N m] (or ``torque_constant`` [N m/A]), SI whatever the file's units."""
+    if key not in table:
         return None
-    v = _num(path, f"{where}.stall_torque", table["stall_torque"])
-    if not v > 0:
-        raise RobotFileError(path, f"{where}.stall_torque", f"expected a torque > 0 N m, got {v:g}")
+    if not (v := _num(path, f"{where}.{key}", table[key])) > 0:
+        raise RobotFileError(path, f"{where}.{key}", f"expected {_TORQUES[key]}, got {v:g}")
     return v
 
 
@@ -480,6 +480,7 @@ def dump(robot, length_unit="m", angle_unit="rad"):
             )
         if lk.bus:
             stall = f", stall_torque = {_sig(lk.bus.stall_torque)}" if lk.bus.stall_torque is not None else ""
+            stall += f", torque_constant = {_sig(lk.bus.torque_constant)}" if lk.bus.torque_constant is not None else ""
             out.append(f"bus = {{ id = {lk.bus.id}, zero = {_fmt(lk.bus.zero)}, direction = {lk.bus.direction}{stall} }}")
         if lk.inertial:
             out += [f"mass = {_sig(lk.inertial.mass)}",

@@ -302,6 +302,9 @@ class BusServo:
         Ticks per turn (the ``[bus]`` table's ``resolution``; 4096 on an XM430 and an STS3215).
     stall_torque : float or None
         The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
+    torque_constant : float or None
+        Output torque per ampere of present current from its datasheet (stall torque over stall
+        current) [N m/A], or None if unknown: how a bus servo's current reads as a joint torque.
 
     Examples
     --------
@@ -317,10 +320,17 @@ class BusServo:
     direction: int = 1
     resolution: int = 4096
     stall_torque: float | None = None
+    torque_constant: float | None = None
 
     def __post_init__(self):
         owner = "BusServo"
         _check_stall_torque(owner, self)
+        if self.torque_constant is not None:
+            kt = _finite(owner, "torque_constant", self.torque_constant)
+            if not kt > 0:
+                raise RobotError(f"{owner}: field 'torque_constant': expected a torque constant > 0 N m/A, got {kt:g}",
+                                 "torque_constant")
+            object.__setattr__(self, "torque_constant", kt)
         _check_integer(owner, "id", self.id, 0, 252)
         _check_direction(owner, self.direction)
         _check_integer(owner, "resolution", self.resolution, 16, 1_048_576, " ticks/turn")

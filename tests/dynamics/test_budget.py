@@ -37,3 +37,38 @@ def test_stall_torque_is_read_written_and_required(tmp_path):
     with pytest.raises(RobotFileError, match="torque > 0") as info:
         Robot.load(bad)
     assert info.value.field == "joint[1].servo.stall_torque"
+
+
+def test_torque_constant_is_read_written_and_checked(tmp_path):
+    omx = Robot.load("openmanipulator_x")
+    again = tmp_path / "omx.toml"
+    again.write_text(omx.to_toml())
+    assert [lk.bus.torque_constant for lk in Robot.load(again).links] == [1.78] * 4
+    assert np.allclose(D.torques_from_current(Robot.load(again), [[1.0, 1.0, -1.0, 0.0]]), [[1.78, 1.78, -1.78, 0.0]])
+    bad = tmp_path / "bad.toml"
+    bad.write_text(omx.to_toml().replace("torque_constant = 1.78", "torque_constant = 0", 1))
+    with pytest.raises(RobotFileError, match="torque constant > 0") as info:
+        Robot.load(bad)
+    assert info.value.field == "joint[1].bus.torque_constant"
+
+
+def test_a_motion_plan_that_overdraws_a_servo_is_warned_about():
+    import warnings
+
+    from labkit.exceptions import ShapeError, TorqueWarning
+    from labkit.motion import joint_trajectory
+
+    arm = Robot.load("arduino_arm_3dof")
+    plan = joint_trajectory(arm, [1.5, 1.0, 1.0], [1.5, 0.2, 0.6], 1.0, law="quintic")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # within budget: no warning
+        fine = D.check_torque_budget(arm, plan)
+    assert fine.margin.shape == (len(plan.t),) and fine.ok.all()
+    np.testing.assert_allclose(fine.torque, D.inverse_dynamics(arm, plan.q, plan.qd, plan.qdd))
+    with pytest.warns(TorqueWarning, match=r"shoulder_pitch for 1\.\d+ N m .* stall torque of 0\.92 N m") as record:
+        heavy = D.check_torque_budget(arm, plan, payload=0.5)
+    assert len(record) == 1 and not heavy.ok.any()
+    with pytest.raises(RobotError, match="stall_torque"):
+        D.check_torque_budget(Robot.load("puma560"), joint_trajectory(Robot.load("puma560"), np.zeros(6), np.full(6, 0.1), 1.0))
+    with pytest.raises(ShapeError, match="trajectory"):
+        D.check_torque_budget(arm, plan.q)

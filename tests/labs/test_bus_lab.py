@@ -113,12 +113,12 @@ def test_both_bus_labs_render_with_every_check_passing_on_checked_sdk_packets(tm
                         timeout=600)
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
     assert not failed, "\n".join(failed)
-    assert len(results) == 14  # 7 notebooks each
+    assert len(results) == 16  # 8 notebooks each (both files carry inertias: 07_dynamics)
     seen = [json.loads(line) for line in log.read_text().splitlines()]
     for kind in BUS_ARMS.values():
         runs = [s for s in seen if s["kind"] == kind]
-        # one bus per `with Arm(...)`: 02, 03, 04, 05 and 06 open the arm once each, 08 twice
-        assert len(runs) == 7, (kind, runs)
+        # one bus per `with Arm(...)`: 02, 03, 04, 05, 06 and 07 open the arm once each, 08 twice
+        assert len(runs) == 8, (kind, runs)
         for s in runs:
             assert s["rejected"] == [], s  # every packet the SDK sent was intact
             assert s["packets"] > 100 and s["sync_writes"] > 10, s

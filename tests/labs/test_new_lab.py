@@ -22,7 +22,9 @@ from conftest import require
 from labkit.exceptions import LabkitError
 
 TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check",
-             "08_control"]
+             "07_dynamics", "08_control"]
+#: the notebooks of a lab whose robot file has no inertias (the dynamics notebook is left out)
+WITHOUT_INERTIAS = [t for t in TEMPLATES if t != "07_dynamics"]
 
 YPP4 = """format = "labkit-robot/1"
 name = "ypp4_test"
@@ -184,9 +186,10 @@ def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
     out = capsys.readouterr().out
     assert "spatial 3-DOF, prismatic" in out and "labkit render" in out
     lab = tmp_path / "scara_lab"
-    # joints without servos: ideal actuators, no servo dynamics for the control lab to identify
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in TEMPLATES if t != "08_control"]
-    assert "08_control.ipynb: not written" in out
+    # no inertias: no dynamics lab; joints without servos: ideal actuators, no servo dynamics for the control lab
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in WITHOUT_INERTIAS if t != "08_control"]
+    assert "07_dynamics.ipynb: left out, the robot file has no inertias" in out
+    assert "08_control.ipynb: left out, joints without a servo are ideal actuators" in out
     assert (lab / "robot.toml").read_bytes() == open(robot_files["scara"], "rb").read(), "the user's file, unchanged"
     assert not (lab / "robot_with_servos.toml").exists(), "no hobby servos assumed"
     robot = Robot.load(lab / "robot.toml")
@@ -250,7 +253,10 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
     assert (lab / "robot.toml").read_bytes() == source.read_bytes()
     user = Robot.load(source)
     servos = all(lk.servo is not None or lk.bus is not None for lk in user.links)
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in TEMPLATES if servos or t != "08_control"]
+    has_inertias = any(lk.inertial is not None for lk in user.links)
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in TEMPLATES if (has_inertias or t != "07_dynamics")
+                                                           and (servos or t != "08_control")]
+    assert ("07_dynamics.ipynb: left out, the robot file has no inertias" in out) == (not has_inertias)
     params = notebook_parameters(lab / "03_ik_check.ipynb")
     if user.bus is not None or all(lk.servo is not None for lk in user.links):  # bus servos or hobby servos: nothing to add
         assert not (lab / "robot_with_servos.toml").exists() and "robot_with_servos" not in out
@@ -275,6 +281,7 @@ def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot
     require("papermill")
     from labkit.labs import new_lab
     from labkit.reports import render
+    from labkit.robot import Robot
 
     labs = [new_lab(robot_files[key], tmp_path / "labs" / key) for key in RENDERED]
     assert [lab.description for lab in labs] == [DESCRIPTIONS[k] for k in RENDERED]
@@ -283,9 +290,15 @@ def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot
                            timeout=300)
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
     assert not failed, "\n".join(failed)
-    ideal = {lab.folder.name for lab in labs if lab.notes}  # arms with ideal actuators: no control lab (issue 42)
-    assert all(any("08_control.ipynb: not written" in n for n in lab.notes) for lab in labs if lab.folder.name in ideal)
-    assert len(results) == sum(len(TEMPLATES) - (key in ideal) for key in RENDERED)
+
+    def expected(lab):  # the dynamics lab needs inertias, the control lab servos (ideal actuators have no dynamics)
+        robot = Robot.load(lab.robot_file)
+        servos = all(lk.servo is not None or lk.bus is not None for lk in robot.links)
+        inertias = any(lk.inertial is not None for lk in robot.links)
+        return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (servos or t != "08_control")]
+
+    assert [sorted(p.stem for p in lab.notebooks) for lab in labs] == [expected(lab) for lab in labs]
+    assert len(results) == sum(len(lab.notebooks) for lab in labs)
     for r in results:
         assert r.html.is_file() and r.notebook.is_file()
         assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"

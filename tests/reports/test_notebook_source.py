@@ -38,7 +38,7 @@ def test_the_generators_are_gone_and_the_filter_is_declared():
     assert not list((REPO / "tools").glob("make_notebooks*.py")), "notebooks are the source: no generator scripts"
     attributes = (REPO / ".gitattributes").read_text().splitlines()
     assert "*.ipynb filter=nbstripout" in attributes
-    assert len(NOTEBOOKS) >= 20 and len(TEMPLATES) == 7
+    assert len(NOTEBOOKS) >= 20 and len(TEMPLATES) == 8
 
 
 @pytest.mark.parametrize("path", ALL, ids=IDS)

@@ -4,7 +4,7 @@ arm they drive (:class:`VirtualBoard`, :class:`ArmModel`: servo lag, speed limit
 sag, zero offsets, sensor noise) and a pseudo-terminal that serves it to any serial program.
 """
 
-from labkit.arm.board._physics import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX
+from labkit.arm.board._physics import PhysicsConfig, ServoBank, gravity_sag, point_mass_links, ADC_VREF, ADC_MAX
 from labkit.arm.board._model import ArmModel, FirmwareAdapter
 from labkit.arm.board._commands import FW_VERSION
 from labkit.arm.board._executor import Executor, Servos
@@ -15,6 +15,7 @@ __all__ = [
     "PhysicsConfig",
     "ServoBank",
     "gravity_sag",
+    "point_mass_links",
     "ADC_VREF",
     "ADC_MAX",
     "ArmModel",

@@ -48,7 +48,7 @@ from labkit.exceptions import OptionError, ShapeError
 from labkit.robot import Convention
 from labkit.arm._actuator import ideal_speed_limits, is_ideal
 
-__all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "ADC_VREF", "ADC_MAX"]
+__all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "point_mass_links", "ADC_VREF", "ADC_MAX"]
 
 #: reference voltage and full scale of the board's 10-bit ADC (Arduino Uno)
 ADC_VREF = 5.0
@@ -81,7 +81,8 @@ class PhysicsConfig:
     joint_compliance : float or tuple of float
         Joint compliance [rad/(N m)] (scalar or per joint).
     link_masses : tuple of float or None
-        Mass of each moving link [kg], lumped at the middle of the link; ``None``: the
+        Mass of each moving link [kg], a point at the middle of the link
+        (:func:`point_mass_links`); ``None``: the
         robot file's inertias (``mass``, ``com``, ``inertia``) through
         :func:`labkit.dynamics.gravity_torques` where it has them, else 0.05 kg each.
     tool_mass : float
@@ -152,16 +153,56 @@ def _per_joint(value, n, name):
     return arr.copy()
 
 
+def point_mass_links(robot, masses):
+    """``robot`` with each link's mass as a point at the middle of the link (the inertias of a file that has none).
+
+    Link ``j`` runs from the origin of the frame that carries joint ``j``'s axis (frame ``j - 1``
+    in the standard DH convention, frame ``j`` in the modified one) to that of joint ``j + 1``
+    (the tool point for the last link): a segment fixed in the frame that moves with joint ``j``
+    (where joint ``j + 1`` slides, at the middle of its limits).
+
+    Parameters
+    ----------
+    robot : Robot
+    masses : array_like, shape (n,)
+        Mass of each moving link [kg].
+
+    Returns
+    -------
+    Robot
+        A copy whose links carry :class:`labkit.robot.LinkInertia` point masses (no rotational
+        inertia), for :func:`labkit.dynamics.gravity_torques`.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = point_mass_links(Robot.load("planar3r_seed003"), [0.05, 0.05, 0.05])
+    >>> [round(c * 1000, 1) for c in arm.links[0].inertial.com]   # the middle of the 145 mm first link [mm]
+    [72.5, 0.0, 0.0]
+    """
+    from labkit.kinematics import fk_frames
+    from labkit.robot import LinkInertia
+
+    n = robot.n
+    masses = _per_joint(masses, n, "link_masses")
+    T = fk_frames(robot, robot.joint_limits.mean(axis=1))  # (n + 2, 4, 4): base, frames 1..n, tool
+    axis = [j + (1 if robot.convention is Convention.MODIFIED else 0) for j in range(n)] + [n + 1]
+    for j in range(n):
+        middle = 0.5 * (T[axis[j], :3, 3] + T[axis[j + 1], :3, 3])
+        com = np.linalg.solve(T[j + 1], np.append(middle, 1.0))[:3]  # in frame j + 1, the one joint j moves
+        robot = robot.with_link(j, inertial=LinkInertia(float(masses[j]), tuple(float(c) for c in com)))
+    return robot
+
+
 def gravity_sag(robot, q, config=PhysicsConfig()):
     """Quasi-static joint deflection under gravity.
 
-    The gravity torques are :func:`labkit.dynamics.gravity_torques` of the robot file's
-    inertias with ``tool_mass`` as a payload at the tool point; without inertias (or with
-    ``link_masses`` given) each link's mass sits at the middle of the link (between the
-    origins of consecutive frames, the last link ending at the tool point, which also
-    carries ``tool_mass``). The deflection of joint ``j`` is its compliance times the
-    gravity torque about its axis; a joint whose file names a geared ``motor`` (ratio
-    ``G``) has ``joint_compliance / G**2`` (the drive's loop holds the motor shaft).
+    The deflection of joint ``j`` is its compliance times the gravity torque about its axis,
+    :func:`labkit.dynamics.gravity_torques` of the robot file's inertias with ``tool_mass`` as a
+    payload at the tool point; without inertias (or with ``link_masses`` given) each link's mass
+    is a point at the middle of the link (:func:`point_mass_links`). A joint whose file names a
+    geared ``motor`` (ratio ``G``) has ``joint_compliance / G**2`` (the drive's loop holds the
+    motor shaft).
 
     Parameters
     ----------
@@ -183,42 +224,19 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     >>> np.round(np.degrees(dq), 2)
     array([ 0.  , -0.75,  0.42])
     """
-    from labkit.kinematics import fk_frames
+    from labkit.dynamics import gravity_torques
 
     n = robot.n
     compliance = _per_joint(config.joint_compliance, n, "joint_compliance")
     g = -9.81 * np.asarray(robot.up, dtype=float) if config.gravity is None else np.asarray(config.gravity, dtype=float)
-    if config.link_masses is None and any(lk.inertial is not None for lk in robot.links):
-        from labkit.dynamics import gravity_torques  # the robot file's inertias: the load is the dynamics'
-
-        held = robot.with_payload(config.tool_mass) if config.tool_mass > 0 else robot
-        # a drive with a gearbox (the file's motor.gear_ratio G) holds its position loop at the motor: the
-        # joint sees that compliance divided by G^2 (a hobby servo's compliance is already at its horn)
-        gears = np.array([1.0 if lk.motor is None else float(lk.motor.gear_ratio) for lk in robot.links])
-        compliance = compliance / gears**2
-        return 0.0 - compliance * gravity_torques(held, q, gravity=g) * robot.is_revolute  # 0.0 -: no -0
-    T = fk_frames(robot, q)  # (..., n + 2, 4, 4)
-    origins = T[..., :3, 3]
-    zs = T[..., :3, 2]
-    masses = _per_joint(0.05 if config.link_masses is None else config.link_masses, n, "link_masses")
-    # joint j's axis: frame j (modified DH) or frame j-1 (standard DH)
-    shift = 1 if robot.convention is Convention.MODIFIED else 0
-    # link k (1..n) spans frame k -> frame k+1 (frame n+1 = tool)
-    centres = 0.5 * (origins[..., 1:n + 1, :] + origins[..., 2:n + 2, :])
-    tip = origins[..., n + 1, :]
-    tau = np.zeros(np.shape(q)[:-1] + (n,))
-    rev = robot.is_revolute
-    for j in range(n):
-        if not rev[j]:
-            continue
-        z = zs[..., j + shift, :]
-        o = origins[..., j + shift, :]
-        # every link from j on moves with joint j
-        load = np.cross(tip - o, config.tool_mass * g)
-        for k in range(j, n):
-            load = load + np.cross(centres[..., k, :] - o, masses[k] * g)
-        tau[..., j] = np.sum(z * load, axis=-1)
-    return compliance * tau
+    if config.link_masses is not None or all(lk.inertial is None for lk in robot.links):
+        robot = point_mass_links(robot, 0.05 if config.link_masses is None else config.link_masses)
+    held = robot.with_payload(config.tool_mass) if config.tool_mass > 0 else robot
+    # a drive with a gearbox (the file's motor.gear_ratio G) holds its position loop at the motor: the
+    # joint sees that compliance divided by G^2 (a hobby servo's compliance is already at its horn)
+    gears = np.array([1.0 if lk.motor is None else float(lk.motor.gear_ratio) for lk in robot.links])
+    compliance = compliance / gears**2
+    return 0.0 - compliance * gravity_torques(held, q, gravity=g) * robot.is_revolute  # 0.0 -: no -0
 
 
 class ServoBank:

@@ -217,10 +217,11 @@ class BusEmulator:
         if key == self._fresh:
             return
         self._fresh = key
-        tau = gravity_sag(self.robot, q, self._unit_load)
+        hold = -gravity_sag(self.robot, q, self._unit_load)  # the torque each servo gives to hold the arm [N m]
         for j, (lk, servo_id) in enumerate(zip(self.robot.links, self.ids)):
             self._put(servo_id, "present_position", present_ticks(self, j, q[j]))
-            amps = tau[j] / self.bus.TORQUE_CONSTANT * self.hardware[j].direction if self.torque(servo_id) else 0.0
+            kt = lk.bus.torque_constant or self.bus.TORQUE_CONSTANT  # the robot file's datasheet value first
+            amps = hold[j] / kt * self.hardware[j].direction if self.torque(servo_id) else 0.0
             self._put(servo_id, "present_current", int(round(amps / self.bus.CURRENT_UNIT)))
             if servo_id in self.faults.overload:
                 self._overload(servo_id)
