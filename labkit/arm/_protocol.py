@@ -30,7 +30,7 @@ import math
 import re
 import zlib
 
-from labkit.exceptions import CommandRejected, ProtocolError
+from labkit.exceptions import CommandRejected, ProtocolError, RobotError
 
 __all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
 
@@ -47,6 +47,10 @@ VMAX_FACTORY = 60000
 #: largest speed [cdeg/s] and acceleration [cdeg/s^2] limits ``LIMITS`` accepts
 VMAX_MAX = 1_000_000
 AMAX_MAX = 100_000_000
+#: the fields of a calibration row (``CAL``, the EEPROM image's int16/int8 fields) and the values the board
+#: accepts in each: name, lowest, highest, unit (pulses within an RC servo's 400-2600 us, angles within int16)
+CAL_FIELDS = (("pmin", 400, 2600, "us"), ("pmax", 400, 2600, "us"), ("zero", -32000, 32000, "cdeg"),
+              ("direction", -1, 1, ""), ("lo", -32000, 32000, "cdeg"), ("hi", -32000, 32000, "cdeg"))
 #: commands a person may type without ``#seq`` and ``*CRC`` (they change nothing); all others must be sealed
 READ_ONLY = frozenset({"HELLO", "PING", "STATUS", "READ"})
 #: codes of a request that never ran (damaged on the way: checksum, syntax, unknown, too long)
@@ -241,6 +245,40 @@ def wire_speed_limits(robot):
             [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])
 
 
+def check_calibration_row(row, where):
+    """Refuse a calibration row whose values the board cannot store (before anything is sent).
+
+    Parameters
+    ----------
+    row : sequence of int
+        ``[pmin, pmax, zero, direction, lo, hi]`` (:data:`CAL_FIELDS`).
+    where : str
+        What the row belongs to, for the message (``"scara: joint 'quill'"``).
+
+    Raises
+    ------
+    RobotError
+        A field outside what the board accepts (an int16 pulse width of 35407 us, limits past
+        +-320 deg): names ``where``, the field, the value and the accepted range.
+
+    Examples
+    --------
+    >>> check_calibration_row([500, 2500, 0, 1, 0, 18000], "joint 'base'")
+    >>> check_calibration_row([1000, 35407, 0, 1, 0, 573], "joint 'quill'")
+    Traceback (most recent call last):
+    ...
+    labkit.exceptions.RobotError: joint 'quill': calibration field pmax = 35407 us does not fit the board's protocol (expected 400..2600 us): a servo's pulse range must span its 180 deg (prismatic: pi m) travel
+    """
+    for (name, low, high, unit), value in zip(CAL_FIELDS, row):
+        if not low <= value <= high or (name == "direction" and value == 0):
+            unit = f" {unit}" if unit else ""
+            raise RobotError(f"{where}: calibration field {name} = {value}{unit} does not fit the board's protocol "
+                             f"(expected {low}..{high}{unit}): a servo's pulse range must span its 180 deg "
+                             f"(prismatic: pi m) travel" if name in ("pmin", "pmax") else
+                             f"{where}: calibration field {name} = {value}{unit} does not fit the board's protocol "
+                             f"(expected {low}..{high}{unit})", f"servo.{name}")
+
+
 def wire_calibrations(robot):
     """The robot file's servo calibrations in the board's units (the rows ``CAL`` sends).
 
@@ -259,9 +297,14 @@ def wire_calibrations(robot):
     gripper : list of int or None
         The gripper channel's row (its pulse range), None without a hobby-servo gripper (a bus gripper has no
         pulse range).
+
+    Raises
+    ------
+    RobotError
+        A joint's row does not fit the protocol's fields (:func:`check_calibration_row`): nothing is sent.
     """
     joints = []
-    for lk in robot.links:
+    for j, lk in enumerate(robot.links):
         cal = lk.servo
         if cal is None:
             joints.append(None)
@@ -270,7 +313,9 @@ def wire_calibrations(robot):
         p0, p1 = cal.pulse_range
         pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
         pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
-        joints.append([pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)])
+        row = [pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)]
+        check_calibration_row(row, f"{robot.name}: joint {robot.joint_names[j]!r}")
+        joints.append(row)
     g = robot.gripper
     gripper = None if not hasattr(g, "open_us") else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),
                                       0, 1, 0, 18000]

@@ -42,8 +42,6 @@ __all__ = ["TEMPLATE_DIR", "LabDefaults", "NewLab", "lab_defaults", "with_servos
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 #: the robot file's name inside a lab folder (the user's file, copied unchanged)
 ROBOT_FILE = "robot.toml"
-#: the robot file the notebooks use when the lab had to add servo calibrations (written by labkit)
-SERVO_FILE = "robot_with_servos.toml"
 _PARAM_DOC = {
     "robot": "robot file (or bundled robot name)",
     "port": "the virtual arm; a real board: \"/dev/ttyACM0\" (COM3 on Windows)",
@@ -66,6 +64,9 @@ PAYLOAD_KG = 0.08
 _NEEDS = {
     "07_dynamics": (lambda robot: any(lk.inertial is not None for lk in robot.links),
                     "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
+    # it identifies a servo's dynamics from its step response: a joint without a servo is an ideal actuator
+    "08_control": (lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
+                   "joints without a servo are ideal actuators: no servo dynamics to identify"),
 }
 
 
@@ -106,11 +107,10 @@ class NewLab:
     description : str
         :attr:`LabDefaults.description`.
     lab_robot_file : Path
-        The robot file the notebooks use: ``robot_file``, or ``robot_with_servos.toml``
-        where the lab added servo calibrations.
+        The robot file the notebooks use (``robot_file``).
     notes : tuple of str
-        What the lab added to the robot and the joint ranges that result, and the notebooks it
-        left out and why (printed by ``labkit new``); empty when nothing was added or left out.
+        Which joints run as ideal actuators on the virtual arm and their ranges, and the notebooks the
+        lab left out and why (printed by ``labkit new``); empty when nothing needs saying.
     """
 
     folder: Path
@@ -122,7 +122,10 @@ class NewLab:
 
 
 def with_servos(robot):
-    """``robot`` with a servo calibration on every joint that has none (channel = joint index).
+    """``robot`` with a hobby-servo calibration on every joint that has none (channel = joint index).
+
+    For a course that drives its joints with hobby servos; ``labkit new`` does not call it (a joint
+    without a servo is an ideal actuator on the virtual arm).
 
     A revolute joint's 180-deg servo travel is centred on the middle of its limits (the whole
     limits when they span at most 180 deg); a prismatic joint reads its length as the servo
@@ -170,18 +173,51 @@ def _round(robot, q):
     return joints_from_display(robot, np.round(joints_to_display(robot, q)))
 
 
-def _reachable(robot, q, kind, window):
-    """True when IK of FK(q) returns a solution inside the window that reproduces the target."""
+def _valid_branches(robot, q, window):
+    """How many IK branches of FK(q) lie inside the window and reproduce the target (0: not reachable)."""
     target = target_from_pose(robot, fk(robot, q))
     try:
         sols = ik_all(robot, target)
     except LabkitError:
-        return False
+        return 0
+    count = 0
     for qs, ok in zip(np.atleast_2d(sols.q), np.atleast_1d(sols.valid)):
         if ok and np.all(qs >= window[:, 0] - 1e-9) and np.all(qs <= window[:, 1] + 1e-9):
-            if target_error(robot, qs, target) < 1e-6:
-                return True
-    return False
+            count += target_error(robot, qs, target) < 1e-6
+    return count
+
+
+def _spread(points, count, scale):
+    """Indices of ``count`` of ``points`` (shape (k, 3)) spread apart: farthest-point picking from the first."""
+    chosen = [0]
+    while len(chosen) < count:
+        dist = np.min(np.linalg.norm(points[:, None, :] - points[chosen][None, :, :], axis=-1), axis=1) / scale
+        dist[chosen] = -1.0
+        chosen.append(int(np.argmax(dist)))
+    return chosen
+
+
+def _ik_targets(robot, kind, window, at, count=3, candidates=12, tries=200):
+    """Joint poses whose FK are the lab's IK targets: well-conditioned, every branch inside the window where
+    possible, spread over the workspace."""
+    rng = np.random.default_rng(0)
+    found = []
+    for _ in range(tries):
+        q = at(rng.uniform(0.2, 0.8, robot.n))
+        if _well_conditioned(robot, q, kind):
+            branches = _valid_branches(robot, q, window)
+            if branches:
+                found.append((branches, q))
+                if len(found) == candidates:
+                    break
+    if len(found) < count:
+        return [q for _, q in found]
+    most = max(b for b, _ in found)
+    pool = [q for b, q in found if b == most]
+    if len(pool) < count:  # the targets with every branch first, then the others
+        pool += [q for b, q in sorted(found, key=lambda bq: -bq[0]) if b != most][:count - len(pool)]
+    points = fk(robot, np.array(pool))[:, :3, 3]
+    return [pool[i] for i in _spread(points, count, max(robot_reach(robot), 1e-3))]
 
 
 def _well_conditioned(robot, q, kind):
@@ -204,14 +240,29 @@ def _cartesian_ok(robot, path, q_start, window, duration):
     return bool(np.all(traj.q >= window[:, 0] - 1e-9) and np.all(traj.q <= window[:, 1] + 1e-9))
 
 
+def _duration(robot, plans, base=2.0, margin=1.25):
+    """The moves' duration [s]: ``base``, or longer (in 0.5 s steps) where a plan at ``base`` would exceed the
+    robot file's ``max_velocity`` / ``max_acceleration`` of a joint (with ``margin``)."""
+    vmax = np.array([np.inf if lk.max_velocity is None else lk.max_velocity for lk in robot.links])
+    amax = np.array([np.inf if lk.max_acceleration is None else lk.max_acceleration for lk in robot.links])
+    stretch = 1.0
+    for traj in plans:
+        stretch = max(stretch, margin * float(np.max(np.abs(traj.qd) / vmax)),
+                      math.sqrt(margin * float(np.max(np.abs(traj.qdd) / amax))))
+    return math.ceil(base * stretch * 2.0 - 1e-9) / 2.0  # speeds scale as 1/T, accelerations as 1/T^2
+
+
 def lab_defaults(robot) -> LabDefaults:
     """Pick lab defaults from a robot: poses, targets, moves, a line and an arc inside its servo window.
 
-    Poses are fractions of the joint window (the reachable part of the limits, see
-    :func:`servo_window`), rounded to whole degrees / millimetres; IK targets are the FK of
-    well-conditioned poses whose targets the robot's IK solves inside the window; the line
-    and the arc start at the home pose and are planned (IK at every sample) before they are
-    accepted.
+    Poses are fractions of the joint window (the limits, within a hobby servo's travel where a
+    joint has one, see :func:`servo_window`), rounded to whole degrees / millimetres: a home pose
+    and each joint moved both ways from it (30 % and 70 % of a revolute joint's window, 15 % and
+    85 % of a prismatic joint's travel). IK targets are the FK of well-conditioned poses in the
+    middle 60 % of the window whose targets the robot's IK solves inside it, preferring targets
+    with every IK branch inside the window, spread apart over the workspace (farthest-point
+    picking). The line and the arc start at the home pose and are planned (IK at every sample)
+    before they are accepted.
 
     Parameters
     ----------
@@ -243,18 +294,12 @@ def lab_defaults(robot) -> LabDefaults:
     home = next((at(f) for f in patterns if _well_conditioned(robot, at(f), kind)), at(np.full(n, 0.5)))
     poses = [home]
     for j in range(n):
-        for f in (0.3, 0.7):
+        # each joint away from home both ways, well inside its window; a prismatic joint over most of its travel
+        for f in ((0.3, 0.7) if robot.is_revolute[j] else (0.15, 0.85)):
             q = home.copy()
             q[j] = at(np.full(n, f))[j]
             poses.append(q)
-    rng = np.random.default_rng(0)
-    targets_q = []
-    for _ in range(200):
-        q = at(rng.uniform(0.25, 0.75, n))
-        if _well_conditioned(robot, q, kind) and _reachable(robot, q, kind, window):
-            targets_q.append(q)
-            if len(targets_q) == 3:
-                break
+    targets_q = _ik_targets(robot, kind, window, at)
     if len(targets_q) < 3:
         raise LabkitError(f"{robot.name}: found no 3 well-conditioned IK targets inside the joint window")
     move = [home, targets_q[0]]
@@ -263,19 +308,23 @@ def lab_defaults(robot) -> LabDefaults:
     if kind == "planar":
         directions = directions[:4]
     arc_normals = [None]  # arcs in the x-y plane about +z
+    in_plane = False  # the tool moves only in the arm's vertical plane
     if kind in REDUCED or (kind == "pose" and n < 6):
         # a 4-DOF (yaw-pitch-pitch-pitch) arm holds its orientation only where the yaw stays put:
         # lines and arcs in the vertical plane through the base axis and the tool
-        # (the arm's plane: spanned by axis 1 and the radial direction axis 2 x axis 1, at the home pose)
+        # (the arm's plane: spanned by axis 1 and the radial direction axis 2 x axis 1, at the home pose);
+        # a SCARA (parallel first axes, x y z yaw targets) moves freely: no plane
         axes = jacobian(robot, home)[3:, :2].T
         radial = np.cross(axes[1], axes[0])
-        radial = radial / np.linalg.norm(radial)
-        up = axes[0] / np.linalg.norm(axes[0])
-        directions = [radial, -radial, up, -up]
-        arc_normals = [np.cross(radial, up)]
-    # display precision [mm, deg]: 0.1, except for a 4-DOF arm's pose targets, whose orientation and
-    # position must agree to 1e-6 rad (a rounded point no longer lies in the tool's vertical plane)
-    digits = 6 if kind in REDUCED or (kind == "pose" and n < 6) else 1
+        if np.linalg.norm(radial) > 1e-6 * max(np.linalg.norm(axes[0]) * np.linalg.norm(axes[1]), 1e-12):
+            in_plane = True
+            radial = radial / np.linalg.norm(radial)
+            up = axes[0] / np.linalg.norm(axes[0])
+            directions = [radial, -radial, up, -up]
+            arc_normals = [np.cross(radial, up)]
+    # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
+    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane)
+    digits = 6 if in_plane else 1
     line_pts = arc_spec = None
     for length in (0.15, 0.1, 0.05):
         for u in directions:
@@ -312,6 +361,15 @@ def lab_defaults(robot) -> LabDefaults:
     def disp(q):
         return [round(float(v), 1) for v in joints_to_display(robot, q)]
 
+    from labkit.motion import cartesian_trajectory, joint_trajectory
+
+    plans = [joint_trajectory(robot, home, targets_q[0], 2.0, law=law, dt=0.02) for law in ("cubic", "quintic")]
+    arc_path_ = arc_path(np.asarray(arc_spec["center_mm"]) / 1e3, arc_spec["radius_mm"] / 1e3,
+                         math.radians(arc_spec["start_deg"]), math.radians(arc_spec["sweep_deg"]),
+                         normal=arc_spec.get("normal"))
+    for path in (line_path(*(line_pts / 1e3)), arc_path_):  # as the notebook plans them (dt = 0.02 s)
+        plans.append(cartesian_trajectory(robot, path, 2.0, dt=0.02, q_start=home))
+
     params = {
         "home": disp(home),
         "poses": [disp(q) for q in poses],
@@ -320,7 +378,7 @@ def lab_defaults(robot) -> LabDefaults:
         "move": [disp(q) for q in move],
         "line_mm": line_pts.tolist(),
         "arc": arc_spec,
-        "duration": 2.0,
+        "duration": _duration(robot, plans),
         "readings": 2,
     }
     return LabDefaults(_description(robot, kind), kind, reach, params)
@@ -407,25 +465,19 @@ def _port_doc(robot):
     return _PARAM_DOC["port"]
 
 
-def _servo_notes(user, model):
-    """What :func:`with_servos` added to ``user`` (giving ``model``) and the joint ranges that result."""
-    from labkit.robot import servo_window
-
-    added = [j for j, lk in enumerate(user.links) if lk.servo is None and lk.bus is None]
-    if not added:
+def _actuator_notes(robot):
+    """What the virtual arm makes of the joints of ``robot`` that have no servo (printed by ``labkit new``)."""
+    ideal = [j for j, lk in enumerate(robot.links) if lk.servo is None and lk.bus is None]
+    if not ideal:
         return ()
-    window = servo_window(model)
-    notes = [f"{ROBOT_FILE}: your robot file, copied unchanged",
-             f"{SERVO_FILE}: {ROBOT_FILE} plus hobby-servo calibrations (180 deg travel, 500-2500 us, channel = "
-             f"joint index) on {', '.join(user.joint_names[j] for j in added)}, so the virtual arm (sim://) and a "
-             f"servo board can drive them; the notebooks use this file. Joint ranges that result:"]
-    for j in added:
-        rev = user.is_revolute[j]
-        scale, unit = (180.0 / math.pi, "deg") if rev else (1000.0, "mm")
-        lo, hi = (float(v) * scale for v in user.joint_limits[j])
-        wlo, whi = (float(v) * scale for v in window[j])
-        change = "unchanged" if abs(wlo - lo) < 1e-6 and abs(whi - hi) < 1e-6 else f"narrowed to {wlo:.4g}..{whi:.4g} {unit}"
-        notes.append(f"  {user.joint_names[j]}: limits {lo:.4g}..{hi:.4g} {unit} -> {change}")
+    notes = [f"{ROBOT_FILE}: your robot file, copied unchanged; the notebooks use it",
+             f"Joints without a servo table ({', '.join(robot.joint_names[j] for j in ideal)}) run as ideal actuators "
+             f"on the virtual arm (sim://): within the robot file's limits, at its max_velocity and max_acceleration "
+             f"(the virtual arm's defaults where the file gives none). Joint ranges:"]
+    for j in ideal:
+        scale, unit = (180.0 / math.pi, "deg") if robot.is_revolute[j] else (1000.0, "mm")
+        lo, hi = (float(v) * scale for v in robot.joint_limits[j])
+        notes.append(f"  {robot.joint_names[j]}: {lo:.4g}..{hi:.4g} {unit} (the robot file's limits)")
     return tuple(notes)
 
 
@@ -439,12 +491,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
     with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
-    Where joints have no servo calibration (the virtual arm and a servo board drive joints
-    through one), the lab adds them in a separate file, ``robot_with_servos.toml``
-    (:func:`with_servos`), which the notebooks then use; :attr:`NewLab.notes` says what was
-    added and which joint ranges result (``labkit new`` prints it). An arm on a servo bus (a
-    ``[bus]`` table) needs nothing added: its notebooks use ``robot.toml`` and run on its virtual
-    bus (``port = "sim://robot.toml?bus=dynamixel&..."``, or ``feetech``).
+    The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal
+    actuator on the virtual arm (within the file's limits, at its speed limits; no servo window is
+    assumed), and :attr:`NewLab.notes` says so (``labkit new`` prints it). An arm on a servo bus (a
+    ``[bus]`` table) runs on its virtual bus (``port = "sim://robot.toml?bus=dynamixel&..."``, or
+    ``feetech``).
 
     Parameters
     ----------
@@ -475,9 +526,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     folder = Path(lab_dir)
     if folder.exists() and any(folder.iterdir()) and not force:
         raise LabkitError(f"expected a new or empty lab folder, got {str(folder)!r} (not empty; use --force)")
-    user = Robot.load(robot)
-    model = with_servos(user)
-    notes = _servo_notes(user, model)
+    user = model = Robot.load(robot)
+    notes = _actuator_notes(user)
     defaults = lab_defaults(model)
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
     if not templates:
@@ -490,12 +540,6 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     if Path(user.path).resolve() != robot_file.resolve():
         shutil.copyfile(user.path, robot_file)
     lab_file = robot_file
-    if notes:
-        lab_file = folder / SERVO_FILE
-        header = "".join(f"# {line}\n" for line in (
-            f"Written by `labkit new`: {ROBOT_FILE} (unchanged) plus the servo calibrations the lab adds.",
-            *notes[2:]))
-        lab_file.write_text(header + model.to_toml(), encoding="utf-8")
     title = title or f"{model.title or model.name} lab"
     written = []
     for tpl in templates:
@@ -505,8 +549,7 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
         out = folder / tpl.name
         nbformat.write(nb, str(out))
         written.append(out)
-    added = (f" The notebooks use `{SERVO_FILE}`: `{ROBOT_FILE}` unchanged plus the servo calibrations the "
-             f"virtual arm needs (joint ranges in its header).") if notes else ""
+    added = "".join(f" {line}" for line in notes[1:])
     if model.bus is not None:
         protocol = model.bus.protocol
         where = (f"virtual arm on a virtual {protocol} bus, `{_virtual_port(model, lab_file.name)}`: the vendor SDK's "

@@ -248,7 +248,11 @@ def _wrap_deg_or_rad(x, unit):
     return wrap_angle(x)
 
 
-def _command_text(cmd, tgt):
+def _command_text(cmd, tgt, robot=None):
+    if cmd is not None and robot is not None and not all(robot.is_revolute) and len(cmd) == robot.n:
+        # a prismatic joint in mm, not its metres read as radians
+        return "q = (" + ", ".join(f"{math.degrees(v) if rev else v * 1000.0:g} {'deg' if rev else 'mm'}"
+                                   for v, rev in zip(cmd, robot.is_revolute)) + ")"
     if cmd is not None:
         return "q = (" + ", ".join(f"{math.degrees(v):g}" for v in cmd) + ") deg"
     if tgt is not None:

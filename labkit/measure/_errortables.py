@@ -266,7 +266,7 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
         rel = abs(error) / abs(calc) if abs(calc) >= resolution else float("nan")
         rows.append(dict(
             pose_id=pose, quantity=quantity,
-            command=_command_text(df["commanded"].iloc[first], df["target"].iloc[first]),
+            command=_command_text(df["commanded"].iloc[first], df["target"].iloc[first], robot),
             unit=unit, calculated=calc, mean=mean, n=n, half_range=hr, std=std,
             resolution=resolution, uncertainty=u, error=error, abs_error=abs(error),
             rel_error=rel, inside=bool(abs(error) <= u * (1 + 1e-9)),

@@ -1,9 +1,11 @@
 """``labkit new``: a lab for any arm from the generic templates, rendered like the seed labs.
 
-Six robots of different kinds: four bundled (spatial 3-DOF servo arm, planar 3R, 6-DOF PUMA with
-poses as targets, RPP with two prismatic joints) and two written only here (a 4-DOF
-yaw-pitch-pitch-pitch arm and a SCARA with a prismatic quill). Every lab is scaffolded and all
-42 notebooks execute on the virtual arm (``sim://``) in one ``render`` batch (2 workers, no PDF);
+Robots of different kinds: bundled ones (spatial 3-DOF servo arm, planar 3R, 6-DOF PUMA with poses
+as targets, RPP with two prismatic joints, the Cobra 600 SCARA (RRPR), a PPP gantry), test
+fixtures (a cylindrical RPP arm, a planar RP arm: ``tests/labs/robots``) and two written only here
+(a 4-DOF yaw-pitch-pitch-pitch arm and a SCARA with a prismatic quill). The robot files without
+servo tables run as ideal actuators on the virtual arm. Eight labs are scaffolded and all their
+notebooks execute on the virtual arm (``sim://``) in one ``render`` batch (2 workers, no PDF);
 every notebook ends with ``Checks.assert_all()``, so a rendered notebook that is ok passed all
 its checks.
 """
@@ -11,6 +13,7 @@ its checks.
 import ast
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,8 +78,16 @@ type = "prismatic"
 limits = [20, 120]
 """
 
+#: the test fixtures: a cylindrical RPP arm and a planar 2-DOF arm with a prismatic joint (limits, no servo tables)
+FIXTURES = Path(__file__).parent / "robots"
+
 DESCRIPTIONS = {"arduino_arm_3dof": "spatial 3-DOF", "planar3r_seed003": "planar 3-DOF", "puma560": "6-DOF pose",
-         "rpp_seed002": "spatial 3-DOF, prismatic", "ypp4": "4-DOF", "scara": "spatial 3-DOF, prismatic"}
+                "rpp_seed002": "spatial 3-DOF, prismatic", "ypp4": "4-DOF", "scara": "spatial 3-DOF, prismatic",
+                "cobra600_scara": "4-DOF, prismatic", "gantry_ppp": "spatial 3-DOF, prismatic",
+                "cylindrical_rpp": "spatial 3-DOF, prismatic", "planar_rp": "2-DOF, prismatic"}
+#: the arms whose labs are rendered (the SCARA RRPR, RPP, PPP and planar RP arms of issue 42 among them)
+RENDERED = ["arduino_arm_3dof", "planar3r_seed003", "puma560", "ypp4", "cobra600_scara", "gantry_ppp",
+            "cylindrical_rpp", "planar_rp"]
 
 
 @pytest.fixture
@@ -87,7 +98,8 @@ def robot_files(tmp_path):
         path.write_text(text)
         files[name] = str(path)
     return {"arduino_arm_3dof": "arduino_arm_3dof", "planar3r_seed003": "planar3r_seed003", "puma560": "puma560",
-            "rpp_seed002": "rpp_seed002", **files}
+            "rpp_seed002": "rpp_seed002", **files, "cobra600_scara": "cobra600_scara", "gantry_ppp": "gantry_ppp",
+            "cylindrical_rpp": str(FIXTURES / "cylindrical_rpp.toml"), "planar_rp": str(FIXTURES / "planar_rp.toml")}
 
 
 def test_templates_carry_parameters_and_assignment_tags():
@@ -106,26 +118,52 @@ def test_templates_carry_parameters_and_assignment_tags():
 
 
 def test_lab_defaults_pick_the_robot_kind_and_reachable_targets(robot_files):
-    from labkit.kinematics import ik_all
-    from labkit.robot import joints_from_display, servo_window
+    from labkit.kinematics import fk, ik_all
+    from labkit.robot import joints_from_display, robot_reach, servo_window
     from labkit.labs import lab_defaults
     from labkit.kinematics import target_error, target_from_display
-    from labkit.labs._new import with_servos
     from labkit.robot import Robot
 
     for key, ref in robot_files.items():
-        robot = with_servos(Robot.load(ref))
+        robot = Robot.load(ref)
         d = lab_defaults(robot)
         assert d.description == DESCRIPTIONS[key], key
-        window = servo_window(robot)
-        for q in joints_from_display(robot, d.parameters["poses"]):
+        window = servo_window(robot)  # the robot file's limits where a joint has no servo (an ideal actuator)
+        if all(lk.servo is None and lk.bus is None for lk in robot.links):
+            assert np.array_equal(window, robot.joint_limits), key
+        poses = joints_from_display(robot, d.parameters["poses"])
+        for q in poses:
             assert np.all(q >= window[:, 0] - 1e-9) and np.all(q <= window[:, 1] + 1e-9), key
+        travel = np.ptp(poses, axis=0) / np.ptp(window, axis=1)  # each joint is moved over much of its window
+        assert np.all(travel[robot.is_revolute] >= 0.39) and np.all(travel[~robot.is_revolute] >= 0.69), (key, travel)
+        points = []
         for row in d.parameters["targets"]:
             goal = target_from_display(robot, row)
             sols = ik_all(robot, goal)
             errors = [target_error(robot, q, goal) for q, ok in zip(np.atleast_2d(sols.q), np.atleast_1d(sols.valid)) if ok]
             # targets are printed to 0.1 mm / 0.1 deg: the IK of the printed target reaches it exactly
             assert errors and min(errors) < 1e-6, (key, row)
+            if key == "cobra600_scara":  # both elbows of every SCARA target inside the limits (03 shows them)
+                assert sols.branches == ("elbow_left", "elbow_right") and np.all(sols.valid), row
+            points.append(fk(robot, np.atleast_2d(sols.q)[0])[:3, 3])
+        points = np.array(points)
+        gaps = [np.linalg.norm(points[i] - points[k]) for i in range(3) for k in range(i)]
+        assert min(gaps) > 0.05 * robot_reach(robot), (key, "targets spread over the workspace")
+
+
+def test_lab_defaults_slow_the_moves_down_to_the_joints_speed_limits():
+    from labkit.labs import lab_defaults
+    from labkit.motion import joint_trajectory
+    from labkit.robot import Robot, joints_from_display
+
+    robot = Robot.load("gantry_ppp")  # 100 mm/s axes: a 2 s move over most of the travel would be too fast
+    d = lab_defaults(robot)
+    q0, q1 = joints_from_display(robot, d.parameters["move"])
+    assert d.parameters["duration"] > 2.0
+    for law in ("cubic", "quintic"):
+        traj = joint_trajectory(robot, q0, q1, d.parameters["duration"], law=law, dt=0.01)
+        assert np.all(np.abs(traj.qd).max(axis=0) <= [lk.max_velocity for lk in robot.links])
+        assert np.all(np.abs(traj.qdd).max(axis=0) <= [lk.max_acceleration for lk in robot.links])
 
 
 def test_new_lab_refuses_a_non_empty_folder_and_rejects_a_missing_robot(tmp_path):
@@ -148,16 +186,18 @@ def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
     out = capsys.readouterr().out
     assert "spatial 3-DOF, prismatic" in out and "labkit render" in out
     lab = tmp_path / "scara_lab"
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == WITHOUT_INERTIAS
+    # no inertias: no dynamics lab; joints without servos: ideal actuators, no servo dynamics for the control lab
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in WITHOUT_INERTIAS if t != "08_control"]
     assert "07_dynamics.ipynb: left out, the robot file has no inertias" in out
+    assert "08_control.ipynb: left out, joints without a servo are ideal actuators" in out
     assert (lab / "robot.toml").read_bytes() == open(robot_files["scara"], "rb").read(), "the user's file, unchanged"
-    robot = Robot.load(lab / "robot_with_servos.toml")
-    assert all(lk.servo is not None for lk in robot.links), "servo calibrations added so the arm can be driven"
-    assert "robot_with_servos.toml: robot.toml plus hobby-servo calibrations" in out
-    assert "quill: limits 20..120 mm -> unchanged" in out
+    assert not (lab / "robot_with_servos.toml").exists(), "no hobby servos assumed"
+    robot = Robot.load(lab / "robot.toml")
+    assert "run as ideal actuators on the virtual arm" in out
+    assert "shoulder: -120..120 deg (the robot file's limits)" in out and "quill: 20..120 mm" in out
     params = notebook_parameters(lab / "02_fk_check.ipynb")
-    assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"
-    assert ast.literal_eval(params["port"]).startswith("sim://robot_with_servos.toml?")
+    assert ast.literal_eval(params["robot"]) == "robot.toml"
+    assert ast.literal_eval(params["port"]).startswith("sim://robot.toml?")
     assert len(ast.literal_eval(params["poses"])) == 1 + 2 * robot.n
     nb = json.loads((lab / "01_robot_dh.ipynb").read_text())
     assert nb["cells"][0]["source"][0].startswith("# SCARA lab: 1.")
@@ -212,8 +252,10 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
     out = capsys.readouterr().out
     assert (lab / "robot.toml").read_bytes() == source.read_bytes()
     user = Robot.load(source)
+    servos = all(lk.servo is not None or lk.bus is not None for lk in user.links)
     has_inertias = any(lk.inertial is not None for lk in user.links)
-    assert sorted(p.stem for p in lab.glob("*.ipynb")) == (TEMPLATES if has_inertias else WITHOUT_INERTIAS)
+    assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in TEMPLATES if (has_inertias or t != "07_dynamics")
+                                                           and (servos or t != "08_control")]
     assert ("07_dynamics.ipynb: left out, the robot file has no inertias" in out) == (not has_inertias)
     params = notebook_parameters(lab / "03_ik_check.ipynb")
     if user.bus is not None or all(lk.servo is not None for lk in user.links):  # bus servos or hobby servos: nothing to add
@@ -223,12 +265,11 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
         assert port.startswith("sim://robot.toml?") and ("bus=" in port) == (user.bus is not None)
         assert all(len(row) == user.n for row in ast.literal_eval(params["targets"]))  # x y z pitch [roll]
         return
-    assert ast.literal_eval(params["robot"]) == "robot_with_servos.toml"
+    assert ast.literal_eval(params["robot"]) == "robot.toml" and not (lab / "robot_with_servos.toml").exists()
     assert "robot.toml: your robot file, copied unchanged" in out
-    added = Robot.load(lab / "robot_with_servos.toml")
-    assert np.allclose(added.joint_limits, user.joint_limits, rtol=0, atol=1e-9) and added.n == user.n
-    assert "base: limits -180..180 deg -> narrowed to -90..90 deg" in out  # the servo's 180 deg travel, said out loud
-    assert "shoulder: limits -117..90 deg -> narrowed to -103.5..76.5 deg" in out  # the ranges of issue 25
+    # no hobby-servo window assumed (issue 42): the joints move over the robot file's own limits
+    assert "base: -180..180 deg (the robot file's limits)" in out and "narrowed" not in out
+    assert "shoulder: -117..90 deg (the robot file's limits)" in out
     # the lab's targets are the kind the arm takes: x y z pitch (4-DOF) or x y z pitch roll (5-DOF)
     width = {4: 4, 5: 5}[user.n]
     assert all(len(row) == width for row in ast.literal_eval(params["targets"]))
@@ -236,22 +277,31 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
 
 @pytest.mark.slow
 @pytest.mark.notebooks
-def test_six_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_files, capsys):
+def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot_files, capsys):
     require("papermill")
     from labkit.labs import new_lab
     from labkit.reports import render
+    from labkit.robot import Robot
 
-    labs = [new_lab(ref, tmp_path / "labs" / key) for key, ref in robot_files.items()]
-    assert [lab.description for lab in labs] == [DESCRIPTIONS[k] for k in robot_files]
+    labs = [new_lab(robot_files[key], tmp_path / "labs" / key) for key in RENDERED]
+    assert [lab.description for lab in labs] == [DESCRIPTIONS[k] for k in RENDERED]
     t0 = time.perf_counter()
     results, wall = render([str(lab.folder) for lab in labs], tmp_path / "reports", jobs=2, pdf=False, progress=None,
                            timeout=300)
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
     assert not failed, "\n".join(failed)
-    assert len(results) == sum(len(lab.notebooks) for lab in labs) == 6 * len(WITHOUT_INERTIAS) + 2  # dynamics: seed arm, PUMA
+
+    def expected(lab):  # the dynamics lab needs inertias, the control lab servos (ideal actuators have no dynamics)
+        robot = Robot.load(lab.robot_file)
+        servos = all(lk.servo is not None or lk.bus is not None for lk in robot.links)
+        inertias = any(lk.inertial is not None for lk in robot.links)
+        return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (servos or t != "08_control")]
+
+    assert [sorted(p.stem for p in lab.notebooks) for lab in labs] == [expected(lab) for lab in labs]
+    assert len(results) == sum(len(lab.notebooks) for lab in labs)
     for r in results:
         assert r.html.is_file() and r.notebook.is_file()
         assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"
     with capsys.disabled():
-        print(f"\n6 labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
+        print(f"\n{len(RENDERED)} labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
               f"({time.perf_counter() - t0:.1f} s with the index)")

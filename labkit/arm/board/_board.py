@@ -1,6 +1,6 @@
 """The virtual arm: a pure-Python board speaking ``docs/protocol.md`` (version 3).
 
-:class:`VirtualBoard` is hobby servos and their simulated physics (:class:`labkit.arm.ArmModel`)
+:class:`VirtualBoard` is hobby servos (and ideal actuators on the joints without a servo) and their simulated physics (:class:`labkit.arm.ArmModel`)
 behind the board's firmware, an :class:`Executor` it holds (``board.executor``: segment queue,
 servo frames, feedback stream, host-silence timeout, virtual EEPROM; ``_executor.py`` and
 ``_commands.py``); the wire format (checksum, error codes, line limit) is in ``_protocol.py``,
@@ -32,7 +32,8 @@ import math
 import numpy as np
 
 from labkit.robot import Robot
-from labkit.arm._protocol import wire_calibrations, wire_speed_limits
+from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
+from labkit.arm._actuator import is_ideal, joint_sensor
 from labkit.arm.board._physics import PhysicsConfig
 from labkit.arm.board._model import ArmModel
 from labkit.arm.board._commands import FACTORY, eeprom_image
@@ -100,6 +101,13 @@ class VirtualBoard:
     def __init__(self, robot, config=PhysicsConfig(), *, queue=6, user_pot=512,
                  saved_calibration=False):
         self.robot = Robot.load(robot)
+        #: joints without a servo: ideal actuators over the robot file's limits (``labkit.arm``'s ``_actuator``)
+        self._ideal = [is_ideal(lk) for lk in self.robot.links]
+        for j in range(self.robot.n):
+            if self._ideal[j]:
+                joint_sensor(self.robot, j)  # refuses infinite limits
+        self._ideal_range = [tuple(cdeg(v) for v in lk.limits) if ideal else None
+                             for lk, ideal in zip(self.robot.links, self._ideal)]
         self.user_pot = int(user_pot)
         self.config = config
         eeprom = bytearray(b"\xff" * 1024)
@@ -243,9 +251,11 @@ class VirtualBoard:
             self.analog_override[int(pin)] = float(volts)
 
     # -- the hobby servos: what the executor asks (its Servos interface) ----------------------
-    @staticmethod
-    def joint_range(j, cal):
+    def joint_range(self, j, cal):
         """Joint ``j``'s feasible range ``lo, hi`` [cdeg]: its limits within its servo's 0..180 deg.
+
+        An ideal actuator (a joint without a servo in the robot file) ranges over the robot
+        file's limits; its channel's calibration row is not used.
 
         Parameters
         ----------
@@ -257,12 +267,13 @@ class VirtualBoard:
         -------
         tuple of int
         """
+        if self._ideal[j]:
+            return self._ideal_range[j]
         zero, direction, lo, hi = cal[2:6]
         a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
         return max(a, lo), min(b, hi)
 
-    @staticmethod
-    def valid(j, q, cal):
+    def valid(self, j, q, cal):
         """Whether ``q`` [cdeg] is within joint ``j``'s limits and its servo's 0..180 deg.
 
         Parameters
@@ -275,11 +286,13 @@ class VirtualBoard:
         -------
         bool
         """
+        if self._ideal[j]:
+            lo, hi = self._ideal_range[j]
+            return lo <= q <= hi
         s = cal[2] + cal[3] * q
         return cal[4] <= q <= cal[5] and 0 <= s <= 18000
 
-    @staticmethod
-    def clamp(j, q, cal):
+    def clamp(self, j, q, cal):
         """``q`` [cdeg] clamped to joint ``j``'s limits, then to its servo's 0..180 deg.
 
         Parameters
@@ -292,6 +305,9 @@ class VirtualBoard:
         -------
         float
         """
+        if self._ideal[j]:
+            lo, hi = self._ideal_range[j]
+            return min(max(q, lo), hi)
         lo, hi = cal[4], cal[5]
         q = min(max(q, lo), hi)
         s = cal[2] + cal[3] * q
@@ -313,7 +329,9 @@ class VirtualBoard:
         ex = self.executor
         t = ex.time
         self.model.advance_to(t)
-        pulses = {j: _pulse(ex.cal[j], ex.cal[j][2] + ex.cal[j][3] * ex.q[j]) for j in range(ex.joints)}
+        # hobby servos get pulses; an ideal actuator (no servo) gets its joint value [cdeg -> rad | m]
+        pulses = {j: _pulse(ex.cal[j], ex.cal[j][2] + ex.cal[j][3] * ex.q[j]) for j in range(ex.joints)
+                  if not self._ideal[j]}
         pulses[ex.joints] = float(ex.grip)
         for ch, us in pulses.items():
             if self.pulses.get(ch) != us:
@@ -322,6 +340,8 @@ class VirtualBoard:
             del self.pulse_log[:100_000]
         self.pulses = pulses
         self.model.command_pulses(pulses)
+        if any(self._ideal):
+            self.model.command_joints({j: math.radians(ex.q[j] / 100.0) for j in range(ex.joints) if self._ideal[j]})
 
     def feedback(self):
         """The feedback pots' counts now (joints, then the user pot), analog overrides applied.

@@ -23,6 +23,7 @@ from labkit.arm._protocol import (
     REQUEST_CHECKSUM,
     REQUEST_INT,
     AMAX_MAX,
+    CAL_FIELDS,
     REQUEST_SEQ,
     READ_ONLY,
     VMAX_FACTORY,
@@ -351,8 +352,8 @@ class BoardCommands:
         if len(args) == 7:
             self._not_busy()
             pmin, pmax, zero, d, lo, hi = args[1:]
-            if (not 400 <= pmin <= 2600 or not 400 <= pmax <= 2600 or pmin == pmax or not -32000 <= zero <= 32000
-                    or d not in (1, -1) or not -32000 <= lo <= hi <= 32000):
+            if (pmin == pmax or d == 0 or lo > hi
+                    or not all(low <= v <= high for (_, low, high, _), v in zip(CAL_FIELDS, args[1:]))):
                 raise _Reject(5, "calibration field")
             new = [list(c) for c in self.cal]
             new[ch] = [pmin, pmax, zero, d, lo, hi]

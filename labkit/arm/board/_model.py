@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.robot import Robot
+from labkit.arm._actuator import is_ideal, joint_sensor
 from labkit.arm.board._physics import ADC_MAX, ADC_VREF, PhysicsConfig, ServoBank, _per_joint, gravity_sag
 
 __all__ = ["ArmModel", "FirmwareAdapter"]
@@ -60,8 +61,14 @@ class ArmModel:
             self.zero_offsets = _per_joint(config.zero_offsets, robot.n, "zero_offsets")
         else:
             self.zero_offsets = off_rng.normal(0.0, config.zero_offset_std, robot.n)
+            # an ideal actuator (a joint without a servo) has no servo horn to mount one spline off
+            self.zero_offsets[[is_ideal(lk) for lk in robot.links]] = 0.0
         self._noise = _Noise(fb_rng, ruler_rng)
         self._servo_cal = [lk.servo for lk in robot.links]
+        #: the feedback of every joint: its servo's pot, or an ideal actuator's encoder (None on a servo bus)
+        self._sensor = [None if lk.bus is not None else joint_sensor(robot, j) for j, lk in enumerate(robot.links)]
+        #: joints driven as ideal actuators (commanded by joint value, :meth:`command_joints`)
+        self.ideal = [is_ideal(lk) for lk in robot.links]
 
     @property
     def time(self):
@@ -92,6 +99,19 @@ class ArmModel:
         for j, cal in enumerate(self._servo_cal):
             if cal is not None and cal.channel in pulses_us and pulses_us[cal.channel] is not None:
                 q[j] = float(cal.joint_from_pulse(pulses_us[cal.channel]))
+        self.command(q)
+
+    def command_joints(self, q_by_joint):
+        """Command some joints by value ``{joint index: q}`` [rad | m] (the ideal actuators' input).
+
+        Parameters
+        ----------
+        q_by_joint : mapping of int to float
+            Joint index -> commanded joint value; the other joints keep their command.
+        """
+        q = self.servos.commanded
+        for j, v in q_by_joint.items():
+            q[j] = float(v)
         self.command(q)
 
     def advance(self, duration):
@@ -140,18 +160,19 @@ class ArmModel:
         return self.servos.settled(**kwargs)
 
     def feedback_adc(self):
-        """Feedback ADC counts of every joint with a servo, shape (n,) (int, 0..1023; -1 where no servo).
+        """Feedback ADC counts of every joint, shape (n,) (int, 0..1023; -1 for a bus servo).
 
-        Each call draws fresh feedback noise.
+        A servo's pot, or an ideal actuator's encoder over the joint limits. Each call draws
+        fresh feedback noise.
 
         Returns
         -------
         ndarray of int, shape (n,)
-            Counts 0..1023 (rounded, clipped), -1 for joints without a servo.
+            Counts 0..1023 (rounded, clipped), -1 for joints on a servo bus.
         """
         out = np.full(self.robot.n, -1, dtype=int)
         q = self.shaft_q
-        for j, cal in enumerate(self._servo_cal):
+        for j, cal in enumerate(self._sensor):
             if cal is None:
                 continue
             c = float(cal.adc_from_joint(q[j])) + self._noise.feedback.normal(0.0, self.config.feedback_noise)
@@ -170,7 +191,7 @@ class ArmModel:
         return {cal.channel: adc[j] * ADC_VREF / ADC_MAX for j, cal in enumerate(self._servo_cal) if cal is not None}
 
     def sensed_q(self):
-        """Joint values sensed through the feedback ADC, shape (n,) [rad] (NaN where no servo).
+        """Joint values sensed through the feedback ADC, shape (n,) [rad] (NaN on a servo bus).
 
         Returns
         -------
@@ -179,7 +200,7 @@ class ArmModel:
         """
         adc = self.feedback_adc()
         return np.array(
-            [float(cal.joint_from_adc(adc[j])) if cal is not None else math.nan for j, cal in enumerate(self._servo_cal)]
+            [float(cal.joint_from_adc(adc[j])) if cal is not None else math.nan for j, cal in enumerate(self._sensor)]
         )
 
     def end_effector(self):

@@ -13,6 +13,10 @@ Model, per joint ``j`` (see ``docs/virtual-arm.md``):
   **second-order transfer function** ``wn^2 / (s^2 + 2 zeta wn s + wn^2)``
   built with :func:`control.tf` and discretised with
   :func:`control.sample_system` (zero-order hold, step ``dt``);
+* a joint **without a servo** (no ``servo`` or ``[bus]`` table) is an ideal actuator
+  (:mod:`labkit.arm`'s ``_actuator``): it follows its command within the joint limits at the
+  joint's ``max_velocity`` and ``max_acceleration`` (defaults 90 deg/s and 360 deg/s^2, 0.1 m/s
+  and 0.5 m/s^2), without lag or deadband, and an encoder over its limits reports it;
 * the shaft position read by the servo's potentiometer is the model output;
   the **true joint** adds a per-joint **zero-offset** error (horn mounted one
   spline off, seeded) and the **gravity sag** of the links (joint compliance
@@ -42,6 +46,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.robot import Convention
+from labkit.arm._actuator import ideal_speed_limits, is_ideal
 
 __all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "point_mass_links", "ADC_VREF", "ADC_MAX"]
 
@@ -275,7 +280,15 @@ class ServoBank:
             rl = [math.radians(300) if lk.max_velocity is None else lk.max_velocity for lk in robot.links]
         else:
             rl = [config.rate_limit] * n
-        self._max_step = [r * config.dt for r in rl]
+        # joints without a servo are ideal actuators (labkit.arm): they follow a reference limited in speed and
+        # acceleration exactly (no servo lag, no deadband)
+        self._ideal = [is_ideal(lk) for lk in robot.links]
+        limits = [ideal_speed_limits(robot, j) if self._ideal[j] else (rl[j], math.inf) for j in range(n)]
+        if config.rate_limit is not None:
+            limits = [(config.rate_limit, a) for _, a in limits]
+        self._max_step = [v * config.dt for v, _ in limits]
+        self._max_dv = [a * config.dt for _, a in limits]
+        self._v = [0.0] * n
         q0 = np.zeros(n) if q0 is None else np.asarray(q0, dtype=float).reshape(n)
         q0 = np.clip(q0, robot.joint_limits[:, 0], robot.joint_limits[:, 1])
         self.time = 0.0
@@ -302,6 +315,7 @@ class ServoBank:
         self._cmd = list(q)
         self._y = list(q)
         self._yprev = list(q)
+        self._v = [0.0] * len(q)
 
     def command(self, q):
         """Set the commanded shaft positions [rad] (shape (n,)).
@@ -318,7 +332,7 @@ class ServoBank:
         db = self.config.deadband
         for j, c in enumerate(new):
             if c != self._cmd[j]:
-                self._target[j] = c if abs(c - self._y[j]) > db else self._y[j]
+                self._target[j] = c if self._ideal[j] or abs(c - self._y[j]) > db else self._y[j]
         self._cmd = new
 
     @property
@@ -365,6 +379,9 @@ class ServoBank:
         n = self.robot.n
         for _ in range(int(steps)):
             for j in range(n):
+                if self._ideal[j]:
+                    self._step_ideal(j)
+                    continue
                 d = self._target[j] - self._ref[j]
                 m = self._max_step[j]
                 self._ref[j] += m if d > m else (-m if d < -m else d)
@@ -375,6 +392,25 @@ class ServoBank:
                 self._yprev[j] = self._y[j]
                 self._y[j] = y
         self.time += steps * self.config.dt
+
+    def _step_ideal(self, j):
+        """One step of an ideal actuator: the speed that still stops at the target, reached within the acceleration."""
+        d = self._target[j] - self._y[j]
+        dt, dv = self.config.dt, self._max_dv[j]
+        # the largest step from which steps shrinking by a dt^2 at every step end on the target (a discrete
+        # braking curve: s + (s - k) + (s - 2k) + ... = |d| with k = a dt^2), capped by the speed and the distance
+        k = dv * dt
+        brake = k * (math.sqrt(0.25 + 2.0 * abs(d) / k) - 0.5) if math.isfinite(k) and k > 0 else math.inf
+        v_goal = math.copysign(min(self._max_step[j], brake, abs(d)), d) / dt
+        v = self._v[j]
+        v = v + max(-dv, min(dv, v_goal - v))
+        step = v * dt
+        if abs(d - step) < 1e-12:
+            step, v = d, 0.0 if abs(d) < 1e-12 else v
+        self._v[j] = v
+        self._yprev[j] = self._y[j]
+        self._y[j] += step
+        self._ref[j] = self._y[j]
 
     def advance(self, duration):
         """Advance by ``duration`` seconds (rounded to whole steps) [s].

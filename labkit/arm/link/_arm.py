@@ -38,7 +38,7 @@ from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse
 from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
                                        move_duration_ms, move_segment, segments_from_trajectory)
-from labkit.arm.link._feedback import record_stream
+from labkit.arm.link._feedback import joints_from_counts, record_stream
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
 from labkit.arm.link._servos import ServoMethods
@@ -287,7 +287,7 @@ class Arm(ServoMethods):
         if self.robot.bus is not None:
             return self._read_servos().q
         adc = self.read_adc()
-        return np.array([float(lk.servo.joint_from_adc(adc[j])) for j, lk in enumerate(self.robot.links)])
+        return joints_from_counts(self.robot, adc)
 
     def read_load(self):
         """Present current of every joint's servo on a servo bus (one sync read), the load signal; hobby servos

@@ -19,6 +19,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ProtocolError
 from labkit.arm._protocol import board_int
+from labkit.arm._actuator import joint_sensor
 from labkit.arm.link._inputs import finite, whole
 from labkit.arm.link._replies import parse_ping
 from labkit.arm.bus import record_bus_stream
@@ -42,6 +43,24 @@ def adc_slew(robot):
         1.5 * (math.radians(600) if lk.max_velocity is None else lk.max_velocity)
         * abs(float(lk.servo.adc_from_joint(1.0) - lk.servo.adc_from_joint(0.0))) if lk.servo else np.inf
         for lk in robot.links])
+
+
+def joints_from_counts(robot, counts):
+    """Joint values from feedback counts: each joint's servo pot, or an ideal actuator's encoder over its limits.
+
+    Parameters
+    ----------
+    robot : labkit.robot.Robot
+    counts : array_like, shape (..., n)
+        Feedback ADC counts per joint (may be fractional, e.g. averages).
+
+    Returns
+    -------
+    ndarray, shape (..., n)
+        Joint values [rad | m].
+    """
+    counts = np.asarray(counts, dtype=float)
+    return np.stack([joint_sensor(robot, j).joint_from_adc(counts[..., j]) for j in range(robot.n)], axis=-1)
 
 
 class FrameFilter:
@@ -199,8 +218,9 @@ def frame_table(robot, frames, t_begin, t_stop, rejected0):
     df = pd.DataFrame(rows, columns=cols)
     df["received"] = pd.to_datetime(df["received"], unit="s", utc=True)
     df.insert(0, "t", df.pop("t_ms") / 1000.0)
-    for j, (name, lk) in enumerate(zip(robot.joint_names, robot.links)):
-        df[f"q_{name}"] = lk.servo.joint_from_adc(df[f"adc{j}"].to_numpy(float))
+    q = joints_from_counts(robot, df[[f"adc{j}" for j in range(J)]].to_numpy(float))
+    for j, name in enumerate(robot.joint_names):
+        df[f"q_{name}"] = q[:, j]
     df.attrs.update(lost=lost, expected=expected, t_stop=t_stop_ms / 1000.0,
                     rejected=stats.rejected_frames + stats.bad_lines - rejected0, hz=hz)
     return df

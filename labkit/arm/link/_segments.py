@@ -132,8 +132,8 @@ def feasible_ranges(robot):
     ----------
     robot : labkit.Robot
         Joint limits [rad] and servo calibrations (``zero`` [rad], ``direction``), as
-        :meth:`labkit.arm.Arm.sync_calibration` sends them; a joint without a servo keeps the
-        board's factory calibration (servo angle = ``q``).
+        :meth:`labkit.arm.Arm.sync_calibration` sends them; a joint without a servo is an ideal
+        actuator over its limits.
 
     Returns
     -------
@@ -145,8 +145,11 @@ def feasible_ranges(robot):
         if lk.bus is not None:  # a servo bus: the robot file's loader checked the limits against the servo's ticks
             ranges.append((cdeg(lk.limits[0]), cdeg(lk.limits[1])))
             continue
-        lo, hi = (cdeg(v) for v in lk.limits) if lk.servo is not None else (0, 18000)
-        zero, direction = (cdeg(lk.servo.zero), int(lk.servo.direction)) if lk.servo is not None else (0, 1)
+        if lk.servo is None:  # an ideal actuator (no servo): the robot file's limits
+            ranges.append((cdeg(lk.limits[0]), cdeg(lk.limits[1])))
+            continue
+        lo, hi = (cdeg(v) for v in lk.limits)
+        zero, direction = cdeg(lk.servo.zero), int(lk.servo.direction)
         a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
         ranges.append((max(a, lo), min(b, hi)))
     return ranges

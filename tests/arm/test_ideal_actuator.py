@@ -1,0 +1,110 @@
+"""Joints that are not hobby servos (issue 42): ideal actuators on the virtual arm, and calibration rows that do
+not fit the protocol's fields refused before anything is sent."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from labkit.arm import Arm, ArmModel, PhysicsConfig, ServoBank, VirtualBoard
+from labkit.arm.link._segments import feasible_ranges
+from labkit.exceptions import LabkitError, RobotError
+from labkit.robot import Robot
+
+FIXTURES = Path(__file__).parents[1] / "labs" / "robots"
+#: a cylindrical RPP arm without servo tables: turn -150..150 deg, lift 50..250 mm, reach 100..300 mm
+RPP = Robot.load(FIXTURES / "cylindrical_rpp.toml")
+
+#: a SCARA whose prismatic quill has an RC linear-servo table (50 mm over 1000-2000 us): issue 42's overflow
+QUILL_SERVO = """format = "labkit-robot/1"
+name = "quill_servo"
+convention = "standard"
+units = { length = "mm", angle = "deg" }
+
+[[joint]]
+name = "shoulder"
+d = 200
+a = 150
+limits = [-90, 90]
+servo = { channel = 0, zero = 90 }
+
+[[joint]]
+name = "quill"
+type = "prismatic"
+limits = [0, 50]
+servo = { channel = 1, range = [0, 50], pulse_us = [1000, 2000] }
+"""
+
+
+def quiet():
+    return PhysicsConfig(zero_offsets=(0.0, 0.0, 0.0), joint_compliance=0.0, feedback_noise=0.0, deadband=0.0)
+
+
+def test_an_ideal_actuator_moves_over_its_limits_within_its_speed_and_acceleration():
+    bank = ServoBank(RPP, quiet(), q0=[0.0, 0.1, 0.15])
+    target = [math.radians(140.0), 0.24, 0.29]  # 140 deg: beyond any 180-degree servo window centred on 0
+    bank.command(target)
+    ys = [bank.position]
+    for _ in range(int(4.0 / bank.config.dt)):
+        bank.step()
+        ys.append(bank.position)
+    ys = np.array(ys)
+    v = np.diff(ys, axis=0) / bank.config.dt
+    a = np.diff(v, axis=0) / bank.config.dt
+    vmax = np.array([lk.max_velocity for lk in RPP.links])
+    amax = np.array([math.radians(360.0), 2.0, 2.0])  # turn: the stated default; lift and reach: the file's
+    assert np.all(np.abs(v).max(axis=0) <= vmax * (1 + 1e-9))
+    assert np.all(np.abs(a).max(axis=0) <= amax * (1 + 1e-6))
+    assert np.abs(v).max(axis=0) == pytest.approx(vmax, rel=1e-6), "cruises at its max_velocity"
+    assert np.allclose(ys[-1], target, atol=1e-12), "reaches its command exactly, no overshoot"
+    # braking in whole steps of dt: an overshoot below 1e-5 (a hundredth of an encoder count) at most
+    assert np.all(ys.max(axis=0) - target <= 1e-5)
+
+
+def test_an_ideal_actuator_is_clipped_to_the_robot_files_limits_and_has_no_horn_offset():
+    model = ArmModel(RPP, PhysicsConfig(seed=3, feedback_noise=0.0))
+    assert np.all(model.zero_offsets == 0.0)
+    model.command([math.radians(170.0), 0.4, 0.0])
+    model.advance(10.0)
+    assert np.allclose(model.shaft_q, [math.radians(150.0), 0.25, 0.1])
+    # the encoder spans the limits with the 10-bit count
+    assert model.feedback_adc().tolist() == [1023, 1023, 0]
+
+
+def test_the_virtual_board_drives_ideal_actuators_over_their_limits_and_reads_them_back():
+    assert feasible_ranges(RPP) == [(-15000, 15000), (286, 1432), (573, 1719)]  # no 0..180 deg window
+    with Arm(RPP, f"sim://{FIXTURES / 'cylindrical_rpp.toml'}?clock=lockstep&seed=0") as arm:
+        q = np.array([math.radians(-140.0), 0.2, 0.12])
+        arm.move_joints(q, wait=True, max_wait=20.0)
+        read = arm.read_joints()
+        assert np.abs(read - q).max() < 0.3 * np.ptp(RPP.joint_limits, axis=1).max() / 1023 + 1e-3
+        assert np.allclose(arm.virtual_model.true_q, q, atol=1e-3)
+    board = VirtualBoard(RPP)
+    assert board.valid(0, -14000, [500, 2500, 0, 1, 0, 18000])  # -140 deg: the robot file's limits, not a servo's
+    assert not board.valid(0, -15100, [500, 2500, 0, 1, 0, 18000])
+
+
+def test_a_calibration_that_does_not_fit_the_protocol_is_refused_naming_the_joint_and_the_field(tmp_path):
+    path = tmp_path / "quill.toml"
+    path.write_text(QUILL_SERVO)
+    robot = Robot.load(path)
+    from labkit.arm._protocol import wire_calibrations
+
+    with pytest.raises(RobotError, match=r"joint 'quill': calibration field pmax = 63832 us .*expected 400\.\.2600 us") as err:
+        wire_calibrations(robot)
+    assert err.value.field == "servo.pmax"
+    with pytest.raises(RobotError, match="joint 'quill'"):  # the board's EEPROM image: no struct.error
+        VirtualBoard(robot, saved_calibration=True)
+    with pytest.raises(LabkitError, match="joint 'quill': calibration field pmax"):
+        Arm(robot, f"sim://{path}?clock=lockstep&seed=0&calibrated=1")
+
+
+def test_limits_past_the_int16_field_are_refused(tmp_path):
+    path = tmp_path / "wide.toml"
+    path.write_text(QUILL_SERVO.replace("limits = [-90, 90]\nservo = { channel = 0, zero = 90 }",
+                                        "limits = [-340, 340]\nservo = { channel = 0, zero = 90 }"))
+    from labkit.arm._protocol import wire_calibrations
+
+    with pytest.raises(RobotError, match=r"joint 'shoulder': calibration field lo = -34000 cdeg"):
+        wire_calibrations(Robot.load(path))
