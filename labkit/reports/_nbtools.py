@@ -124,7 +124,8 @@ def show_latex(expr, prefix="", decimals=4):
     elif isinstance(expr, (np.ndarray, list, tuple)):
         tex = matrix_latex(expr, decimals)
     else:
-        import sympy
+        with needs_extra("symbolic"):
+            import sympy
 
         tex = sympy.latex(expr)
     tex = prefix + tex
