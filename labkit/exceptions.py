@@ -319,7 +319,7 @@ class MissingExtraError(LabkitError, ImportError):
 
 
 #: labkit's extras (pyproject.toml's optional dependencies) that a feature can need: ``pip install 'labkit[NAME]'``
-EXTRAS = ("symbolic", "reports", "lab", "course", "vision", "bus", "urdf")
+EXTRAS = ("reports", "lab", "course", "vision", "bus", "urdf")
 
 
 @contextlib.contextmanager
@@ -327,11 +327,11 @@ def needs_extra(extra):
     """Import an extra's modules inside this block; a missing one raises :class:`MissingExtraError`.
 
     The core (``pip install labkit``) brings what the math, motion, measurement tables, plots and
-    the serial link need; symbolic derivations (sympy), notebooks and reports, JupyterLab, the
-    course tools, the camera, the servo buses and URDF import come with extras. Every import of an
-    extra's module in labkit sits in such a block (``tests/test_packaging.py`` checks it, and that
-    the extra declares the module's distribution), so a missing one says which ``pip install`` to
-    run instead of a bare ``ModuleNotFoundError``.
+    the serial link need; notebooks and reports, JupyterLab, the course tools, the camera, the
+    servo buses and URDF import come with extras. Every import of an extra's module in labkit
+    sits in such a block (``tests/test_packaging.py`` checks it, and that the extra declares the
+    module's distribution), so a missing one says which ``pip install`` to run instead of a bare
+    ``ModuleNotFoundError``.
 
     Parameters
     ----------

@@ -1,6 +1,5 @@
 """labkit works from a built wheel: bundled robots, seed tables and report assets come along."""
 
-import os
 import re
 import subprocess
 import sys
@@ -120,8 +119,7 @@ def test_every_import_is_declared_by_the_core_or_by_the_extra_that_guards_it():
     imports = _imports_with_their_extra()
     assert {"numpy", "pypdf", "yaml", "cv2"} <= {top for top, _, _ in imports}  # imports inside functions too
     assert ("tomlkit", "bus") in {(top, extra) for top, _, extra in imports}  # calibrate-bus edits robot files
-    assert {extra for _, _, extra in imports} >= {None, "optional", "symbolic", "reports", "vision", "course"}
-    assert ("sympy", "symbolic") in {(top, extra) for top, _, extra in imports}  # derivations as LaTeX
+    assert {extra for _, _, extra in imports} >= {None, "optional", "reports", "vision", "course"}
     wrong = []
     for top, where, extra in imports:
         dists = {_normalised(d) for d in dist_of.get(top, [top])}
@@ -141,30 +139,8 @@ def test_extras_in_the_code_are_the_extras_of_pyproject():
     assert set(EXTRAS) <= set(EXTRA_DISTRIBUTIONS)
     assert EXTRA_DISTRIBUTIONS["all"] == set().union(*(EXTRA_DISTRIBUTIONS[e] for e in EXTRAS))
     heavy = {"jupyterlab", "opencv-contrib-python-headless", "pypandoc-binary", "nbgrader", "dask", "nbconvert",
-             "ipykernel", "yourdfpy", "dynamixel-sdk", "sympy"}
+             "ipykernel", "yourdfpy", "dynamixel-sdk"}
     assert not heavy & CORE, heavy & CORE
-    # the lab notebooks that labkit run / render execute derive their FK with labkit.kinematics.symbolic
-    assert "sympy" in EXTRA_DISTRIBUTIONS["reports"] and "sympy" in EXTRA_DISTRIBUTIONS["lab"]
-
-
-@pytest.mark.parametrize("module, call", [
-    ("labkit.kinematics.symbolic", "forward_kinematics(Robot.load('arduino_arm_3dof'))"),
-    ("labkit.dynamics.symbolic", "lagrangian_dynamics(Robot.load('arduino_arm_3dof'))"),
-    ("labkit.reports", "show_latex(object())"),
-])
-def test_symbolic_without_sympy_names_the_extra(module, call):
-    """Without sympy (a core install), the symbolic derivations say which extra brings it; labkit itself and
-    the symbolic modules still import."""
-    code = ("import sys; sys.modules['sympy'] = None\n"  # `import sympy` now raises ModuleNotFoundError
-            "from labkit import Robot\n"
-            f"from {module} import *\n"
-            "from labkit.exceptions import MissingExtraError\n"
-            f"try:\n    {call}\nexcept MissingExtraError as exc:\n    print(exc)\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "PYTHONPATH": str(REPO)})
-    assert run.returncode == 0, run.stderr[-2000:]
-    assert run.stdout.strip().endswith("which labkit's 'symbolic' extra brings and which is not installed: "
-                                       "pip install 'labkit[symbolic]'"), run.stdout
 
 
 def test_labkit_imports_from_the_clones_parent_folder(tmp_path):

@@ -26,15 +26,14 @@ from fractions import Fraction
 import numpy as np
 
 from labkit.dynamics._model import STANDARD_GRAVITY
-from labkit.exceptions import RobotError, ShapeError, needs_extra
+from labkit.exceptions import RobotError, ShapeError
 from labkit.kinematics.symbolic import joint_symbols, latex, link_transforms
 
 __all__ = ["SymbolicDynamics", "lagrangian_dynamics"]
 
 
 def _sp():
-    with needs_extra("symbolic"):
-        import sympy  # imported where used: sympy is slow to import
+    import sympy  # imported where used: sympy is slow to import
 
     return sympy
 

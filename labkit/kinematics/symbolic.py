@@ -30,7 +30,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from labkit.exceptions import OptionError, ShapeError, needs_extra
+from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics._program import PLAIN, walk
 from labkit.robot.types import Convention
 
@@ -49,8 +49,7 @@ _LENGTH_SCALE = {"m": 1.0, "mm": 1e3, "cm": 1e2}
 
 
 def _sp():
-    with needs_extra("symbolic"):
-        import sympy
+    import sympy
 
     return sympy
 

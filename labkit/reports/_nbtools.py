@@ -124,8 +124,7 @@ def show_latex(expr, prefix="", decimals=4):
     elif isinstance(expr, (np.ndarray, list, tuple)):
         tex = matrix_latex(expr, decimals)
     else:
-        with needs_extra("symbolic"):
-            import sympy
+        import sympy
 
         tex = sympy.latex(expr)
     tex = prefix + tex
