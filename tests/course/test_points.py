@@ -135,3 +135,43 @@ def test_faking_q_and_the_steps_earns_no_more_than_untouched(ik_lab, tmp_path):
     assert "earns nothing" in results["faked"].detail and "FK(q) - target" in results["faked"].detail
     page = (tmp_path / "fb" / "students" / "faked" / "index.html").read_text()
     assert re.search(r"Score <b>0 / 3</b>", page), page[:500]
+
+
+def test_no_gradebook_column_for_a_check_without_student_work():
+    """Seed 004's 02 notebook checks labkit only: every row passes untouched, so its check is worth 0 and has no
+    gradebook column, while 01's checks (student work) have theirs (scored by the grading's own rules, no kernel)."""
+    nbformat = require("nbformat")
+    require("pandas")
+    from labkit.course import SubmissionResult, gradebook_frame
+    from labkit.course._points import score_notebook
+
+    names = ("01_ik_elbow_minus.ipynb", "02_arc_trajectory_animation.ipynb")
+    nbs = {n: nbformat.read(str(SEED004 / n), as_version=4) for n in names}
+    plans = {n: _plans(nb, n) for n, nb in nbs.items()}
+    untouched = {(n, cid): {r.index for r in p.rows} for n in names[1:] for cid, p in plans[n].items()}
+    untouched[(names[0], "01_ik_elbow_minus-10")] = {2, 3, 4}
+    results = []
+    for student, passing in (("solved", True), ("untouched", False)):
+        scores = []
+        for n, nb in nbs.items():
+            verdicts = {cid: [{"passed": passing or r.index in untouched.get((n, cid), ()), "error": "", "line": r.line}
+                              for r in p.rows] for cid, p in plans[n].items()}
+            scores += score_notebook(nb, n, verdicts, untouched, plans[n])
+        results.append(SubmissionResult(student, "ok", "", tuple(scores), 1.0))
+    frame = gradebook_frame(results)
+    checks = [c for c in frame.columns if ".ipynb: " in c]
+    assert checks == ["01_ik_elbow_minus.ipynb: A.4 and part B checks (public)", "01_ik_elbow_minus.ipynb: A.2 steps (hidden)"]
+    assert list(frame["points"]) == [5, 0] and list(frame["max_points"]) == [5, 5]
+
+
+def test_a_failing_row_names_the_values_it_read():
+    """The detail of a failing row names the submission's values it compared (``t3 = 3.24``), not only a difference."""
+    from labkit.course._checker import check_cell
+    from labkit.course._plan import plan_check
+    from labkit.reports import Checks
+
+    plan = plan_check('assert t3 < 0\nchecks.check("q", q, [0.1, 0.2, 0.3], tol=1e-12)', "c", "steps")
+    rows = check_cell(plan, {"t3": 3.24, "q": [0.0, 0.0, 0.0]}, {"checks": Checks("x", display=False)})
+    assert [r["passed"] for r in rows] == [False, False]
+    assert rows[0]["error"] == "AssertionError (no message) (t3 = 3.24)", rows[0]
+    assert rows[1]["error"].startswith("q: max |diff| 0.3 > tol 1e-12 (q = [0"), rows[1]
