@@ -37,17 +37,14 @@ Example
 from __future__ import annotations
 
 import ast
-import builtins
 from dataclasses import dataclass
 
 from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG, SOLUTION_TAG, TESTS_TAG, cell_role,
                                    graded_cells)
-from labkit.course._plan import _bound_inside, _stores, plan_check, prelude_source, python_source
+from labkit.course._plan import _BUILTINS, _bound_inside, _stores, plan_check, prelude_source, python_source
 from labkit.course._submission import clean_text
 
 __all__ = ["RowScore", "CellScore", "RowLinks", "row_values", "link_rows", "score_notebook", "unscored"]
-
-_BUILTINS = frozenset(dir(builtins))
 
 
 @dataclass(frozen=True)
