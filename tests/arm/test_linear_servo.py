@@ -45,7 +45,7 @@ def test_the_linear_servo_uses_the_hobby_servos_calibration():
     lift = L16.links[1].servo
     assert float(lift.pulse_us(0.0625)) == pytest.approx(1625.0)
     assert float(lift.joint_from_pulse(1625.0)) == pytest.approx(0.0625)
-    assert lift.speed == pytest.approx(0.020)  # the datasheet's 20 mm/s, in SI
+    assert lift.no_load_speed == pytest.approx(0.020)  # the datasheet's 20 mm/s, in SI
 
 
 def test_the_virtual_linear_servo_moves_at_its_datasheet_speed_and_stops_on_its_command():

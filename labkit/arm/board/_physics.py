@@ -14,7 +14,7 @@ Model, per joint ``j`` (see ``docs/virtual-arm.md``):
   built with :func:`control.tf` and discretised with
   :func:`control.sample_system` (zero-order hold, step ``dt``);
 * an **RC linear servo** (a prismatic joint's servo table, e.g. an Actuonix L16-R) is the same loop in
-  metres: its reference moves at most at the servo's datasheet speed (the table's ``speed``, else the
+  metres: its reference moves at most at the servo's datasheet speed (the table's ``no_load_speed``, else the
   joint's ``max_velocity``, else 0.1 m/s), its deadband is ``linear_deadband`` and it has no zero offset
   (no horn to mount one spline off); gravity does not bend a prismatic joint;
 * a joint **without a servo** (no ``servo`` or ``[bus]`` table) is an ideal actuator
@@ -74,7 +74,7 @@ class PhysicsConfig:
     damping_ratio : float
         Closed-loop damping ratio of a servo [1].
     rate_limit : float or None
-        Largest reference speed [rad/s | m/s]; ``None`` uses each servo's datasheet ``speed``, else the link's
+        Largest reference speed [rad/s | m/s]; ``None`` uses each servo's datasheet ``no_load_speed``, else the link's
         ``max_velocity``, else 5.24 rad/s = 300 deg/s (a linear servo: 0.1 m/s).
     deadband : float
         Servo deadband [rad] (about 5 us of pulse on a hobby servo).
@@ -154,10 +154,10 @@ class PhysicsConfig:
 
 
 def _servo_speed(link):
-    """A servo's largest speed [rad/s | m/s]: its datasheet ``speed``, else the joint's ``max_velocity``, else a default
+    """A servo's largest speed [rad/s | m/s]: its datasheet ``no_load_speed``, else the joint's ``max_velocity``, else a default
     (300 deg/s for a hobby servo, an ideal linear actuator's 0.1 m/s for a linear servo)."""
-    if link.servo is not None and link.servo.speed is not None:
-        return link.servo.speed
+    if link.servo is not None and link.servo.no_load_speed is not None:
+        return link.servo.no_load_speed
     if link.max_velocity is not None:
         return link.max_velocity
     return math.radians(300) if link.joint_type is JointType.REVOLUTE else IDEAL_VELOCITY[False]
