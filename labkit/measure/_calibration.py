@@ -304,16 +304,18 @@ def _pose_data(measurements, robot):
         raise MeasurementError("expected position readings (quantities x, y, z) to calibrate against, got none")
     table = error_table(robot, df, mode="fk").table
     pose_ids = tuple(dict.fromkeys(table["pose_id"]))
-    commanded = df.drop_duplicates("pose_id").set_index("pose_id")["commanded"]
+    commanded = {}
+    for pose, cmd in zip(df["pose_id"].tolist(), df["commanded"].tolist()):
+        commanded.setdefault(pose, cmd)  # (a pose's first row)
     q = np.array([commanded[p] for p in pose_ids], dtype=float)
     measured = np.full((len(pose_ids), 3), np.nan)
     sigma = np.full((len(pose_ids), 3), np.nan)
     index = {p: i for i, p in enumerate(pose_ids)}
-    for r in table.itertuples(index=False):
-        f = UNITS[r.unit][1]
-        k = "xyz".index(r.quantity)
-        measured[index[r.pose_id], k] = r.mean * f
-        sigma[index[r.pose_id], k] = r.uncertainty * f
+    for pose, quantity, unit, mean, u in zip(*(table[c].tolist() for c in ("pose_id", "quantity", "unit", "mean",
+                                                                           "uncertainty"))):
+        f = UNITS[unit][1]
+        measured[index[pose], "xyz".index(quantity)] = mean * f
+        sigma[index[pose], "xyz".index(quantity)] = u * f
     return pose_ids, q, measured, sigma
 
 
