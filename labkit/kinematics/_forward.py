@@ -50,9 +50,8 @@ def _tool_offset(c, point):
 
 def _as_point(point, length=3, name="point"):
     """A vector of shape (length,) (a tool-frame point by default) or None (validated)."""
-    if point is None or (type(point) is list and len(point) == length
-                         and all(type(v) is float and math.isfinite(v) for v in point)):
-        return point  # (a list of finite floats as it is)
+    if point is None:
+        return None
     pt = as_vector(point, length, name)
     if pt.ndim != 1:
         raise ShapeError(f"expected {name} with shape ({length},), got {pt.shape}")
@@ -183,8 +182,10 @@ def fk_position_with(robot, q, *, theta=None, a=None, d=None, base_position=None
     columns = {}
     for name, v, length in (("theta", theta, c.n), ("a", a, c.n), ("d", d, c.n), ("base_position", base_position, 3),
                             ("tool_position", tool_position, 3)):
-        v = _as_point(v, length, name)
-        columns[name] = v.tolist() if isinstance(v, np.ndarray) else v
+        if v is not None and not (type(v) is list and len(v) == length  # (a list of finite floats as it is)
+                                  and all(type(x) is float and math.isfinite(x) for x in v)):
+            v = _as_point(v, length, name).tolist()
+        columns[name] = v
     return _position(*prepare(robot, q, varied(c, **columns)), None, None)
 
 
