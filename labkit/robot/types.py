@@ -223,7 +223,18 @@ class ServoCalibration:
         return self.pulse_from_servo_angle(a)
 
     def pulse_from_servo_angle(self, angle):
-        """Pulse widths [us], shape (...), at servo angles ``angle`` [rad | m], shape (...) (not range-checked)."""
+        """Pulse widths at servo angles (or an RC linear servo's positions), not range-checked.
+
+        Parameters
+        ----------
+        angle : array_like, shape (...)
+            Servo angles [rad], or positions along an RC linear servo's stroke [m].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Pulse widths [us], linear in ``angle`` over ``angle_range`` -> ``pulse_range``.
+        """
         lo, hi = self.angle_range
         p0, p1 = self.pulse_range
         return p0 + (np.asarray(angle, dtype=float) - lo) / (hi - lo) * (p1 - p0)
