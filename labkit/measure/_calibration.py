@@ -47,7 +47,8 @@ import numpy as np
 
 from labkit.exceptions import MeasurementError, OptionError
 from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
-from labkit.measure._parameters import _NAME, GROUPS, _nominal, _numbers, apply_parameters, parameter_names
+from labkit.measure._parameters import (_NAME, GROUPS, _nominal, _numbers, _position_derivatives, apply_parameters,
+                                        parameter_names)
 
 __all__ = ["GROUPS",
     "CalibrationResult",
@@ -417,6 +418,13 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         res = (model(x, q[rows]) - measured[rows]) * weights[rows]
         return res[~np.isnan(res)]
 
+    def derivatives(x, rows):  # d residuals / d x, the rows of residuals(x, rows)
+        w = weights[rows]
+        return (_position_derivatives(robot, names, x, q[rows]) * w[:, :, None])[~np.isnan(measured[rows] * w)]
+
+    # analytic derivatives unless a sag is fitted (the sag's joint deflections move with every parameter)
+    jac = "2-point" if sag_index else derivatives
+
     all_rows = np.arange(len(q))
     m = int(np.sum(~np.isnan(measured)))
     p = len(names)
@@ -426,7 +434,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         warnings.warn(f"{len(q)} poses for {p} parameters: too few to estimate a per-pose error, the intervals "
                       "take every measured component as independent (errors='independent')", UserWarning, stacklevel=2)
         errors = "independent"
-    sol = least_squares(residuals, nominal, args=(all_rows,), x_scale="jac", method="trf")
+    sol = least_squares(residuals, nominal, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
     dof = m - p
     shared = 0.0
     if weighted and errors == "per_pose":
@@ -436,7 +444,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         shared = _shared_variance((model(sol.x, q) - measured)[mask], sigma[mask], dof)
         if shared > 0:
             weights = 1.0 / np.sqrt(sigma ** 2 + shared)
-            sol = least_squares(residuals, sol.x, args=(all_rows,), x_scale="jac", method="trf")
+            sol = least_squares(residuals, sol.x, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
         shared = math.sqrt(shared)
     J = sol.jac
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
@@ -459,7 +467,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
             keep = all_rows[all_rows != i]
             if int(np.sum(~np.isnan(measured[keep]))) <= p:
                 continue
-            s = least_squares(residuals, fitted, args=(keep,), x_scale="jac", method="trf")
+            s = least_squares(residuals, fitted, args=(keep,), jac=jac, x_scale="jac", method="trf")
             loo[i] = model(s.x, q[i:i + 1])[0] - measured[i]
 
     def rms(r):

@@ -154,3 +154,51 @@ def _numbers(robot, names, values):
                 numbers[key] = getattr(robot, key[:4])[:3, 3].tolist()
             numbers[key][i] = float(v)
     return numbers
+
+
+def _position_derivatives(robot, names, values, q):
+    """Derivatives of the tool positions with respect to the named parameters (``sag`` entries excluded).
+
+    Read from the frames of the robot with the parameters set
+    (:func:`labkit.kinematics.fk_frames_with`): a joint offset (DH theta) turns the
+    distal chain about the joint axis ``z`` through its origin ``o``, so the tool
+    point moves by ``z x (p - o)``; a DH ``d`` slides it along ``z``; a DH ``a``
+    slides it along the ``x`` axis of the frame it is measured in (frame i in the
+    standard convention, frame i-1 in the modified one); a tool translation along
+    frame n's axes; a base translation along the world axes.
+
+    Parameters
+    ----------
+    robot : Robot
+    names : sequence of str
+        Parameter names (:func:`parameter_names`), none of them a ``sag``.
+    values : array_like, shape (len(names),)
+        Parameter values in SI units.
+    q : array_like, shape (P, n)
+        Commanded joint values [rad, m].
+
+    Returns
+    -------
+    ndarray, shape (P, 3, len(names))
+        ``d position / d parameter`` [m/rad or 1].
+    """
+    from labkit.kinematics import fk_frames_with
+
+    F = fk_frames_with(robot, q, **_numbers(robot, names, values))
+    n = robot.n
+    shift = 1 if robot.convention.value == "modified" else 0
+    tip = F[:, n + 1, :3, 3]
+    out = np.empty((len(F), 3, len(names)))
+    for k, name in enumerate(names):
+        key, i = _slot(robot, name)
+        if key == "theta":
+            out[:, :, k] = np.cross(F[:, i + shift, :3, 2], tip - F[:, i + shift, :3, 3])
+        elif key == "d":
+            out[:, :, k] = F[:, i + shift, :3, 2]
+        elif key == "a":
+            out[:, :, k] = F[:, i + 1 - shift, :3, 0]
+        elif key == "tool_position":
+            out[:, :, k] = F[:, n, :3, i]
+        else:  # base_position
+            out[:, :, k] = np.eye(3)[i]
+    return out
