@@ -414,13 +414,23 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
             return predict_positions(apply_parameters(robot, names, x), qs, sag, g)
         return fk_position_with(robot, qs, **_numbers(robot, names, x))
 
+    last = {}  # without a sag: the derivatives found with the last residuals, which scipy asks for next (same x)
+
     def residuals(x, rows):
-        res = (model(x, q[rows]) - measured[rows]) * weights[rows]
+        if sag_index:
+            positions = model(x, q[rows])
+        else:
+            positions, last["derivatives"] = _position_derivatives(robot, names, x, q[rows])
+            last["at"] = (x.tobytes(), rows)
+        res = (positions - measured[rows]) * weights[rows]
         return res[~np.isnan(res)]
 
     def derivatives(x, rows):  # d residuals / d x, the rows of residuals(x, rows)
+        at = last.get("at")
+        if at is None or at[1] is not rows or at[0] != x.tobytes():
+            residuals(x, rows)
         w = weights[rows]
-        return (_position_derivatives(robot, names, x, q[rows]) * w[:, :, None])[~np.isnan(measured[rows] * w)]
+        return (last["derivatives"] * w[:, :, None])[~np.isnan(measured[rows] * w)]
 
     # analytic derivatives unless a sag is fitted (the sag's joint deflections move with every parameter)
     jac = "2-point" if sag_index else derivatives

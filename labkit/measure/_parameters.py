@@ -157,7 +157,7 @@ def _numbers(robot, names, values):
 
 
 def _position_derivatives(robot, names, values, q):
-    """Derivatives of the tool positions with respect to the named parameters (``sag`` entries excluded).
+    """Tool positions and their derivatives with respect to the named parameters (``sag`` entries excluded).
 
     Read from the frames of the robot with the parameters set
     (:func:`labkit.kinematics.fk_frames_with`): a joint offset (DH theta) turns the
@@ -179,26 +179,29 @@ def _position_derivatives(robot, names, values, q):
 
     Returns
     -------
-    ndarray, shape (P, 3, len(names))
+    positions : ndarray, shape (P, 3)
+        Tool positions in the world frame [m].
+    derivatives : ndarray, shape (P, 3, len(names))
         ``d position / d parameter`` [m/rad or 1].
     """
     from labkit.kinematics import fk_frames_with
 
-    F = fk_frames_with(robot, q, **_numbers(robot, names, values))
     n = robot.n
     shift = 1 if robot.convention.value == "modified" else 0
-    tip = F[:, n + 1, :3, 3]
-    out = np.empty((len(F), 3, len(names)))
-    for k, name in enumerate(names):
+    frame, axis, turn, base = [], [], [], []  # the direction of each column: an axis of a frame (of F below)
+    for name in names:
         key, i = _slot(robot, name)
-        if key == "theta":
-            out[:, :, k] = np.cross(F[:, i + shift, :3, 2], tip - F[:, i + shift, :3, 3])
-        elif key == "d":
-            out[:, :, k] = F[:, i + shift, :3, 2]
-        elif key == "a":
-            out[:, :, k] = F[:, i + 1 - shift, :3, 0]
-        elif key == "tool_position":
-            out[:, :, k] = F[:, n, :3, i]
-        else:  # base_position
-            out[:, :, k] = np.eye(3)[i]
-    return out
+        turn.append(key == "theta")
+        base.append(key == "base_position")
+        frame.append(n if key == "tool_position" else (i + 1 - shift if key == "a" else i + shift))
+        axis.append(i if key.endswith("position") else (0 if key == "a" else 2))
+    # (P, n + 2, 4, 3): the columns (axes x, y, z and the origin) of every frame
+    columns = fk_frames_with(robot, q, **_numbers(robot, names, values))[..., :3, :].swapaxes(-1, -2)
+    direction = columns[:, frame, axis]  # (P, p, 3)
+    tip = columns[:, n + 1, 3]
+    if any(turn):  # z x (p - o), the cross product written out (np.cross costs more for a few vectors)
+        z, lever = direction[:, turn], tip[:, None] - columns[:, np.array(frame)[turn], 3]
+        direction[:, turn] = z[..., [1, 2, 0]] * lever[..., [2, 0, 1]] - z[..., [2, 0, 1]] * lever[..., [1, 2, 0]]
+    if any(base):
+        direction[:, base] = np.eye(3)[[i for b, i in zip(base, axis) if b]]
+    return tip, direction.transpose(0, 2, 1)
