@@ -4,7 +4,9 @@
 offsets, link lengths, base offset, and optionally a gravity-sag term per
 joint) so that forward kinematics of the commanded joints reproduces the
 measured tool positions in the least-squares sense
-(:func:`scipy.optimize.least_squares`). It reports each fitted value with a
+(:func:`scipy.optimize.least_squares`, with the analytic derivatives of the tool
+positions with respect to the parameters, read from the model's frames; finite
+differences when a sag is fitted). It reports each fitted value with a
 confidence interval from the Jacobian and the scatter of the poses about the fit
 (the readings of one pose may share one error), the residuals before and after, and a leave-one-pose-out check
 (each pose predicted by a fit that did not see it), so overfitting shows as a
