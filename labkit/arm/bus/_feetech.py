@@ -29,7 +29,8 @@ TABLE = {
     "goal_position": (42, 2), "goal_time": (44, 2), "goal_velocity": (46, 2), "present_position": (56, 2),
     "present_velocity": (58, 2), "present_load": (60, 2), "present_voltage": (62, 1),
     "present_temperature": (63, 1), "status": (65, 1), "moving": (66, 1), "present_current": (69, 2),
-    # the position loop and the torque limit (lerobot's STS_SMS_SERIES_CONTROL_TABLE; Feetech STS memory table)
+    # the position loop and the torque limit (lerobot's STS_SMS_SERIES_CONTROL_TABLE; Feetech STS memory table:
+    # Torque_Limit(48) 0..1000 [0.1 % of the stall torque], see GAINS for the coefficients' range)
     "p_coefficient": (21, 1), "d_coefficient": (22, 1), "i_coefficient": (23, 1), "torque_limit": (48, 2),
 }
 #: what a sync read of the state takes: present position .. present current (15 bytes)
@@ -54,8 +55,12 @@ ADDRESS_BYTES = 1
 ALERT = None
 #: present current, speed and load are sign-magnitude (sign in bit 15)
 SIGN_MAGNITUDE = True
-#: the position loop's gains: name -> (control-table field, largest value, factor to the loop's gain); one-byte
-#: coefficients, taken as 0..254 here (Feetech publishes no conversion: the factor 1 leaves them as they are)
+#: the position loop's gains: name -> (control-table field, largest value, factor to the loop's gain). Position
+#: P / D / I gain at addresses 21 / 22 / 23, one byte each, value range 0..254: Feetech's STS series memory table
+#: (doc.feetech.cn, FT-SMS-STS e-manual; transcribed in vassar-robotics/feetech-servo-sdk,
+#: docs/reference/memory_tables/sts_memory_table.md, "Position P Gain | RW | 1 | - | 0-254"); addresses and sizes
+#: as huggingface/lerobot src/lerobot/motors/feetech/tables.py (P/D/I_Coefficient: (21, 1), (22, 1), (23, 1)).
+#: Feetech publishes no conversion to a loop gain: the factor 1 leaves the register values as they are
 GAINS = {"kp": ("p_coefficient", 254, 1.0), "ki": ("i_coefficient", 254, 1.0), "kd": ("d_coefficient", 254, 1.0)}
 #: the gains of a servo out of the box (STS3215: P 32, D 32, I 0, as lerobot's SO-101 code notes before lowering P)
 DEFAULT_GAINS = {"kp": 32, "ki": 0, "kd": 32}

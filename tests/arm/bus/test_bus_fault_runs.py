@@ -11,7 +11,12 @@ through it again and again and moves it, and counts:
 - ``opens`` / ``open_failures`` (each failure a :class:`~labkit.exceptions.BusFault` whose message says what was
   tried), ``moves`` / ``moves_ok`` / ``move_faults``, ``unexplained`` (a failure that is not a ``DeviceError``
   saying what was tried: must be 0), and ``longest_call_s`` (no hang: every open and move returns within
-  a bound).
+  a bound);
+- with ``gripper=True`` (a robot file whose gripper is a bus servo) each arm move is followed by a gripper move
+  to a random position with a random grip limit: ``gripper_moves`` / ``gripper_moves_ok`` / ``gripper_faults``,
+  ``gripper_silent_mismatches`` (moves that returned normally while the gripper servo's goal or limit register
+  differed from what was sent: must be 0) and ``gripper_faults_unnamed`` (a gripper move's fault whose message
+  does not name the gripper servo: must be 0).
 
 The CI test runs a few moves; ``benchmarks/bench_bus_faults.py`` runs the same function longer and prints the
 counts.
@@ -28,6 +33,7 @@ import time
 import tty
 
 import numpy as np
+import pytest
 
 from labkit.exceptions import DeviceError
 
@@ -118,8 +124,18 @@ def _goal_mismatch(arm, emu):
     return [(lk.bus.id, g, h) for lk, g, h in zip(arm.robot.links, goal, held) if g != h]
 
 
+def _gripper_mismatch(arm, emu, position, torque):
+    """What the gripper servo holds (read below the proxy) that differs from a move to ``position`` with ``torque``."""
+    from labkit.arm.bus import limit_register
+
+    g = arm.robot.gripper
+    field, value = limit_register(emu.bus, torque)
+    want = {"goal_position": int(g.servo.ticks(position)), field: value}
+    return {name: (v, emu.get(g.servo.id, name)) for name, v in want.items() if emu.get(g.servo.id, name) != v}
+
+
 def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.01, drop=0.005, seed=0,
-                  latency=20.0, step_deg=8.0):
+                  latency=20.0, step_deg=8.0, gripper=False):
     """Open ``robot_file``'s arm through a :class:`BytePtyProxy` ``opens`` times and move it; return the counts.
 
     Parameters
@@ -135,6 +151,8 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
         The URL's ``latency`` [ms] (status timeouts).
     step_deg : float
         Size of each move on every joint [deg].
+    gripper : bool
+        Follow each arm move with a move of the robot file's bus gripper (see the module notes).
 
     Returns
     -------
@@ -146,6 +164,9 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
     rng = np.random.default_rng(seed)
     counts = dict(opens=0, open_failures=0, moves=0, moves_ok=0, move_faults=0, silent_goal_mismatches=0,
                   unexplained=0, longest_call_s=0.0, bytes=0, corrupted=0, dropped=0, examples=[])
+    if gripper:
+        counts.update(gripper_moves=0, gripper_moves_ok=0, gripper_faults=0, gripper_silent_mismatches=0,
+                      gripper_faults_unnamed=0)
 
     def timed(fn):
         t0 = time.monotonic()
@@ -163,6 +184,27 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
 
             counts["examples"].append(f"{type(exc).__name__}: {str(exc)[:300]}" +
                                       ("" if ok else "".join(traceback.format_tb(exc.__traceback__)[-3:])))
+
+    def gripper_move(arm, emu):
+        """A gripper move to a random position and limit, counted; whether the arm may go on."""
+        g = arm.robot.gripper
+        position = float(rng.uniform(min(g.open, g.closed), max(g.open, g.closed)))
+        torque = float(rng.uniform(0.2, 1.0) * (g.max_torque or emu.bus.MOTOR["stall_torque"]))
+        counts["gripper_moves"] += 1
+        try:
+            timed(lambda: arm.move_gripper(position, max_torque=torque))
+        except Exception as exc:  # noqa: BLE001 - counted and checked below
+            counts["gripper_faults"] += 1
+            explained(exc)
+            if f"servo {g.servo.id} (gripper)" not in str(exc):
+                counts["gripper_faults_unnamed"] += 1
+            return False
+        counts["gripper_moves_ok"] += 1
+        mismatch = _gripper_mismatch(arm, emu, position, torque)
+        if mismatch:
+            counts["gripper_silent_mismatches"] += 1
+            counts["examples"].append(f"gripper move returned while the servo holds {mismatch} (sent, held)")
+        return True
 
     with BusEmulator(robot_file, wall_clock=True) as emu:
         for k in range(opens):
@@ -191,6 +233,8 @@ def bus_fault_run(robot_file, protocol, *, opens=3, moves_per_open=4, corrupt=0.
                             counts["moves_ok"] += 1
                             if _goal_mismatch(arm, emu):
                                 counts["silent_goal_mismatches"] += 1
+                            if gripper and not gripper_move(arm, emu):
+                                break
                     finally:
                         timed(arm.close)
                 for key in ("bytes", "corrupted", "dropped"):
@@ -206,6 +250,21 @@ def test_no_move_returns_while_a_servo_holds_another_goal(robot_file, kind):
     assert counts["unexplained"] == 0, counts
     assert counts["longest_call_s"] < 30.0, counts  # no hang
     assert counts["moves"] + counts["open_failures"] >= 1
+
+
+#: robot files whose gripper is a servo on the bus (the bundled OpenMANIPULATOR-X and SO-101)
+GRIPPER_ROBOTS = {"dynamixel": "openmanipulator_x", "feetech": "so101"}
+
+
+@pytest.mark.parametrize("kind", sorted(GRIPPER_ROBOTS))
+def test_no_gripper_move_returns_while_its_servo_holds_another_goal_or_limit(kind):
+    counts = bus_fault_run(GRIPPER_ROBOTS[kind], kind, opens=1, moves_per_open=3, corrupt=0.01, drop=0.005, seed=2,
+                           latency=10, step_deg=3.0, gripper=True)
+    assert counts["corrupted"] > 0 and counts["dropped"] > 0
+    assert counts["gripper_silent_mismatches"] == 0 and counts["silent_goal_mismatches"] == 0, counts
+    assert counts["gripper_faults_unnamed"] == 0 and counts["unexplained"] == 0, counts
+    assert counts["longest_call_s"] < 30.0, counts
+    assert counts["gripper_moves"] + counts["open_failures"] >= 1, counts
 
 
 def test_the_proxy_damages_bytes_at_the_rates_asked():
