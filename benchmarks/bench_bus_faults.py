@@ -13,7 +13,9 @@ With ``--gripper`` the arms are the bundled OpenMANIPULATOR-X and SO-101, whose 
 each arm move is followed by a gripper move to a random position with a random grip limit: the line adds
 ``gripper_moves``, ``gripper_moves_ok``, ``gripper_faults``, ``gripper_silent_mismatches`` (gripper moves that
 returned normally while the servo's goal or limit register differed from what was sent: must be 0) and
-``gripper_faults_unnamed`` (faults that do not name the gripper servo: must be 0).
+``gripper_faults_naming_it`` (a gripper write that did not land: the fault names ``servo N (gripper)``) and
+``gripper_faults_unnamed`` (faults naming neither the gripper nor the joint servo that failed: must be 0);
+``--gripper-only`` moves the gripper alone (the joints hold), ``--moves`` gripper moves per open.
 
     python benchmarks/bench_bus_faults.py [--opens N] [--moves M] [--rates 0.01/0.005,0.001/0.0005] [--buses dynamixel,feetech] [--gripper]
 """
@@ -44,6 +46,7 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--latency", type=float, default=20.0, help="the URL's latency [ms]")
     parser.add_argument("--gripper", action="store_true", help="the bundled arms with bus grippers, gripper moves too")
+    parser.add_argument("--gripper-only", action="store_true", help="as --gripper, moving the gripper alone")
     args = parser.parse_args(argv)
     import labkit
 
@@ -51,13 +54,16 @@ def main(argv=None):
         corrupt, drop = (float(v) for v in rate.split("/"))
         for bus in args.buses.split(","):
             t0 = time.monotonic()
-            robot = GRIPPER_ROBOTS[bus] if args.gripper else ROBOTS[bus]
+            gripper = "only" if args.gripper_only else args.gripper
+            robot = GRIPPER_ROBOTS[bus] if gripper else ROBOTS[bus]
             counts = bus_fault_run(robot, bus, opens=args.opens, moves_per_open=args.moves, corrupt=corrupt,
-                                   drop=drop, seed=args.seed, latency=args.latency, gripper=args.gripper)
+                                   drop=drop, seed=args.seed, latency=args.latency, gripper=gripper)
             counts.update(bus=bus, robot=Path(robot).stem, corrupt=corrupt, drop=drop, seconds=round(time.monotonic() - t0, 1),
                           labkit=str(Path(labkit.__file__).parents[1]))
             counts["longest_call_s"] = round(counts["longest_call_s"], 2)
             counts["examples"] = [e[:160] for e in counts["examples"]]
+            if "gripper_fault_examples" in counts:
+                counts["gripper_fault_examples"] = [e[:200] for e in counts["gripper_fault_examples"]]
             print(json.dumps(counts), flush=True)
 
 

@@ -244,7 +244,8 @@ class BusDriver:
             if result == self.sdk.COMM_SUCCESS:
                 break
         if result != self.sdk.COMM_SUCCESS:
-            raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed: {self._comm(result)}")
+            raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed after {self.retries + 1} "
+                           f"writes: {self._comm(result)}; {advice(self)}")
         if error and check_error:
             raise BusFault(f"{self.name}: {self.servo(servo_id)} reports {self._hardware_error(servo_id, error)}")
 

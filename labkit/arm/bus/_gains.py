@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 from labkit.exceptions import BusFault, OptionError
 from labkit.arm.bus._registry import bus_module
+from labkit.arm.bus._adapter import advice
 from labkit.arm.bus._confirm import write_confirmed, write_unconfirmed
 from labkit.arm.bus._driver import QUIET_TRIES
 
@@ -87,7 +88,8 @@ def read_field(driver, servo_id, field):
         value, result, error = fn(driver.handler, servo_id, address)
         if result == driver.sdk.COMM_SUCCESS:
             return int(value)
-    raise BusFault(f"{driver.name}: reading {field} of {driver.servo(servo_id)} failed: {driver._comm(result)}")
+    raise BusFault(f"{driver.name}: reading {field} of {driver.servo(servo_id)} failed after {driver.retries + 1} "
+                   f"reads: {driver._comm(result)}; {advice(driver)}")
 
 
 class GainBook:
