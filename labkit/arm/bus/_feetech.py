@@ -39,7 +39,8 @@ STATE = (56, 15)
 MODEL = 777
 #: present-current unit of the STS3215 [A per LSB]
 CURRENT_UNIT = 6.5e-3
-#: torque constant used by the virtual bus [N m / A] (STS3215 at 7.4 V: about 1.6 N m stall at 2.7 A)
+#: torque constant used by the virtual bus [N m / A] (ASSUMED: no stall current found in a readable datasheet; the
+#: robot files' bus tables carry none for the STS3215)
 TORQUE_CONSTANT = 0.6
 #: error bits of a status packet (and of the status byte, address 65)
 HARDWARE_ERRORS = {0x01: "input voltage", 0x02: "angle sensor", 0x04: "overheating", 0x08: "overcurrent",
@@ -64,10 +65,13 @@ SIGN_MAGNITUDE = True
 GAINS = {"kp": ("p_coefficient", 254, 1.0), "ki": ("i_coefficient", 254, 1.0), "kd": ("d_coefficient", 254, 1.0)}
 #: the gains of a servo out of the box (STS3215: P 32, D 32, I 0, as lerobot's SO-101 code notes before lowering P)
 DEFAULT_GAINS = {"kp": 32, "ki": 0, "kd": 32}
-#: the motor behind the loop (STS3215 at 7.4 V): stall torque [N m] (TORQUE_CONSTANT times 2.7 A), no-load speed
-#: [rad/s] (0.222 s / 60 deg), gear ratio (1:345), full-scale output of the loop [LSB] (Torque_Limit(48) 1000 = 100 %),
-#: rotor inertia [kg m^2] (ASSUMED, not published: 0.5 g cm^2; 0.006 kg m^2 through the gearbox)
-MOTOR = {"stall_torque": 1.62, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_scale": 1000,
+#: the motor behind the loop (STS3215 at 7.4 V, 1:345): stall torque [N m] (19.5 kgf cm = 1.912 N m at 7.4 V: DFRobot
+#: SER0069 "ST3215 Serial Bus Servo" (ST3215: the STS3215's name at Waveshare and DFRobot), product data "19.5kg.cm
+#: stall torque at 7.4V", "1:345 gear train", as listed by Little Bird Electronics), no-load speed [rad/s] (0.222 s / 60 deg, see
+#: so101.toml [STS]; the same listing gives 0.192 s / 60 deg at 7.4 V), gear ratio (1:345), full-scale output of the
+#: loop [LSB] (Torque_Limit(48) 1000 = 100 %), rotor inertia [kg m^2] (ASSUMED, not published: 0.5 g cm^2; 0.006 kg m^2
+#: through the gearbox)
+MOTOR = {"stall_torque": 1.912, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_scale": 1000,
          "rotor_inertia": 5.0e-8}
 #: the gripper: position mode with its Torque_Limit(48) [0.1 % of the stall torque], 0..1000
 GRIPPER_MODE = None

@@ -76,7 +76,7 @@ def limit_register(bus, torque):
     --------
     >>> limit_register(bus_module("dynamixel"), 0.5)
     ('goal_current', 104)
-    >>> limit_register(bus_module("feetech"), 0.81)
+    >>> limit_register(bus_module("feetech"), 0.956)
     ('torque_limit', 500)
     """
     if bus.GRIPPER_MODE is not None:
