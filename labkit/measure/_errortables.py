@@ -234,24 +234,24 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
     calc_si = calculated_si(df, robot, mode=mode, branch=branch)
     lines = df["line"].tolist() if "line" in df else [i + 2 for i in range(len(df))]
     rows = []
+    col = {name: df[name].tolist() for name in ("unit", "value", "resolution", "half_range", "n_readings",
+                                                 "commanded", "target")}  # (lists: no pandas call per reading)
     for (pose, quantity), idx in df.groupby(["pose_id", "quantity"], sort=False).indices.items():
-        g = df.iloc[idx]
         first = idx[0]
-        unit = g["unit"].iloc[0]
+        unit = col["unit"][first]
         factor = UNITS[unit][1]
         for k in idx[1:]:
-            if df["commanded"].iloc[k] != df["commanded"].iloc[first] or df["target"].iloc[k] != df["target"].iloc[first]:
+            if col["commanded"][k] != col["commanded"][first] or col["target"][k] != col["target"][first]:
                 raise MeasurementError(f"pose {pose!r} was logged with different commanded joints/targets", line=lines[k], column="commanded")
-        values = np.array([v * UNITS[u][1] / factor for v, u in zip(g["value"], g["unit"])])
-        res = np.array([v * UNITS[u][1] / factor for v, u in zip(g["resolution"], g["unit"])])
-        half = np.array([v * UNITS[u][1] / factor for v, u in zip(g["half_range"], g["unit"])])
+        values, res, half = (np.array([col[name][k] * UNITS[col["unit"][k]][1] / factor for k in idx])
+                             for name in ("value", "resolution", "half_range"))
         summary_rows = ~np.isnan(half)
         if summary_rows.any():
-            if len(g) > 1:
+            if len(idx) > 1:
                 k = idx[int(np.argmax(summary_rows))] if summary_rows.sum() == 1 else idx[1]
                 raise MeasurementError(f"pose {pose!r}, quantity {quantity!r}: a summary row (half_range given) must be "
-                           f"the only row of its pose and quantity, got {len(g)} rows", line=lines[k], column="half_range")
-            mean, hr, std, n = values[0], half[0], float("nan"), int(g["n_readings"].iloc[0])
+                           f"the only row of its pose and quantity, got {len(idx)} rows", line=lines[k], column="half_range")
+            mean, hr, std, n = values[0], half[0], float("nan"), int(col["n_readings"][first])
         else:
             mean = values.mean()
             hr = (values.max() - values.min()) / 2
@@ -266,7 +266,7 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
         rel = abs(error) / abs(calc) if abs(calc) >= resolution else float("nan")
         rows.append(dict(
             pose_id=pose, quantity=quantity,
-            command=_command_text(df["commanded"].iloc[first], df["target"].iloc[first], robot),
+            command=_command_text(col["commanded"][first], col["target"][first], robot),
             unit=unit, calculated=calc, mean=mean, n=n, half_range=hr, std=std,
             resolution=resolution, uncertainty=u, error=error, abs_error=abs(error),
             rel_error=rel, inside=bool(abs(error) <= u * (1 + 1e-9)),

@@ -130,6 +130,11 @@ class ServoCalibration:
         at the two ends of ``angle_range`` (default 0.5 V -> 4.5 V).
     stall_torque : float or None
         The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
+    no_load_speed : float or None
+        The servo's no-load speed from its datasheet [rad/s], the most the virtual arm moves it at; None if unknown.
+
+    An RC linear servo (a prismatic joint's, e.g. an Actuonix L16-R) has metres for radians: ``angle_range``
+    is its rod's positions at the ends of ``pulse_range`` (its stroke), ``no_load_speed`` [m/s].
     """
 
     channel: int
@@ -139,10 +144,16 @@ class ServoCalibration:
     pulse_range: tuple = (500.0, 2500.0)
     feedback_adc: tuple = (102.3, 920.7)
     stall_torque: float | None = None
+    no_load_speed: float | None = None
 
     def __post_init__(self):
         owner = "ServoCalibration"
         _check_stall_torque(owner, self)
+        if self.no_load_speed is not None:
+            v = _finite(owner, "no_load_speed", self.no_load_speed)
+            if not v > 0:
+                raise RobotError(f"{owner}: field 'no_load_speed': expected a speed > 0, got {v:g}", "no_load_speed")
+            object.__setattr__(self, "no_load_speed", v)
         _check_channel(owner, "channel", self.channel)
         _check_direction(owner, self.direction)
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
@@ -209,8 +220,24 @@ class ServoCalibration:
                 f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg",
                 joint=None,
             )
+        return self.pulse_from_servo_angle(a)
+
+    def pulse_from_servo_angle(self, angle):
+        """Pulse widths at servo angles (or an RC linear servo's positions), not range-checked.
+
+        Parameters
+        ----------
+        angle : array_like, shape (...)
+            Servo angles [rad], or positions along an RC linear servo's stroke [m].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Pulse widths [us], linear in ``angle`` over ``angle_range`` -> ``pulse_range``.
+        """
+        lo, hi = self.angle_range
         p0, p1 = self.pulse_range
-        return p0 + (a - lo) / (hi - lo) * (p1 - p0)
+        return p0 + (np.asarray(angle, dtype=float) - lo) / (hi - lo) * (p1 - p0)
 
     def joint_from_adc(self, counts):
         """Joint value [rad] sensed from feedback ADC ``counts``.

@@ -20,6 +20,7 @@ import math
 import numbers
 
 from labkit.exceptions import JointLimitError, OptionError
+from labkit.robot import JointType
 from labkit.validation import as_vector
 from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, wire_speed_limits
 
@@ -117,7 +118,14 @@ def joint_vector(robot, q):
             try:
                 lk.servo.pulse_us(q[j])
             except JointLimitError as exc:
-                raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
+                if lk.joint_type is JointType.REVOLUTE:
+                    raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
+                s = lk.servo  # an RC linear servo: say it in millimetres and microseconds
+                (r0, r1), (p0, p1) = s.angle_range, s.pulse_range
+                raise JointLimitError(
+                    f"{robot.name}: joint {j + 1} ({lk.name!r}): {q[j] * 1000:g} mm needs a pulse of "
+                    f"{float(s.pulse_from_servo_angle(s.servo_angle(q[j]))):.1f} us, outside its servo's pulse_us "
+                    f"{p0:g}..{p1:g} us (range {r0 * 1000:g}..{r1 * 1000:g} mm); nothing was sent", joint=j) from None
     return q
 
 
