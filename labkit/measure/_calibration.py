@@ -4,7 +4,9 @@
 offsets, link lengths, base offset, and optionally a gravity-sag term per
 joint) so that forward kinematics of the commanded joints reproduces the
 measured tool positions in the least-squares sense
-(:func:`scipy.optimize.least_squares`). It reports each fitted value with a
+(:func:`scipy.optimize.least_squares`, with the analytic derivatives of the tool
+positions with respect to the parameters, read from the model's frames; finite
+differences when a sag is fitted). It reports each fitted value with a
 confidence interval from the Jacobian and the scatter of the poses about the fit
 (the readings of one pose may share one error), the residuals before and after, and a leave-one-pose-out check
 (each pose predicted by a fit that did not see it), so overfitting shows as a
@@ -47,7 +49,8 @@ import numpy as np
 
 from labkit.exceptions import MeasurementError, OptionError
 from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
-from labkit.measure._parameters import _NAME, GROUPS, _nominal, _numbers, apply_parameters, parameter_names
+from labkit.measure._parameters import (_NAME, GROUPS, _nominal, _numbers, _position_derivatives, apply_parameters,
+                                        parameter_names)
 
 __all__ = ["GROUPS",
     "CalibrationResult",
@@ -413,9 +416,26 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
             return predict_positions(apply_parameters(robot, names, x), qs, sag, g)
         return fk_position_with(robot, qs, **_numbers(robot, names, x))
 
+    last = {}  # without a sag: the derivatives found with the last residuals, which scipy asks for next (same x)
+
     def residuals(x, rows):
-        res = (model(x, q[rows]) - measured[rows]) * weights[rows]
+        if sag_index:
+            positions = model(x, q[rows])
+        else:
+            positions, last["derivatives"] = _position_derivatives(robot, names, x, q[rows])
+            last["at"] = (x.tobytes(), rows)
+        res = (positions - measured[rows]) * weights[rows]
         return res[~np.isnan(res)]
+
+    def derivatives(x, rows):  # d residuals / d x, the rows of residuals(x, rows)
+        at = last.get("at")
+        if at is None or at[1] is not rows or at[0] != x.tobytes():
+            residuals(x, rows)
+        w = weights[rows]
+        return (last["derivatives"] * w[:, :, None])[~np.isnan(measured[rows] * w)]
+
+    # analytic derivatives unless a sag is fitted (the sag's joint deflections move with every parameter)
+    jac = "2-point" if sag_index else derivatives
 
     all_rows = np.arange(len(q))
     m = int(np.sum(~np.isnan(measured)))
@@ -426,7 +446,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         warnings.warn(f"{len(q)} poses for {p} parameters: too few to estimate a per-pose error, the intervals "
                       "take every measured component as independent (errors='independent')", UserWarning, stacklevel=2)
         errors = "independent"
-    sol = least_squares(residuals, nominal, args=(all_rows,), x_scale="jac", method="trf")
+    sol = least_squares(residuals, nominal, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
     dof = m - p
     shared = 0.0
     if weighted and errors == "per_pose":
@@ -436,7 +456,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         shared = _shared_variance((model(sol.x, q) - measured)[mask], sigma[mask], dof)
         if shared > 0:
             weights = 1.0 / np.sqrt(sigma ** 2 + shared)
-            sol = least_squares(residuals, sol.x, args=(all_rows,), x_scale="jac", method="trf")
+            sol = least_squares(residuals, sol.x, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
         shared = math.sqrt(shared)
     J = sol.jac
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
@@ -459,7 +479,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
             keep = all_rows[all_rows != i]
             if int(np.sum(~np.isnan(measured[keep]))) <= p:
                 continue
-            s = least_squares(residuals, fitted, args=(keep,), x_scale="jac", method="trf")
+            s = least_squares(residuals, fitted, args=(keep,), jac=jac, x_scale="jac", method="trf")
             loo[i] = model(s.x, q[i:i + 1])[0] - measured[i]
 
     def rms(r):

@@ -236,7 +236,11 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
     rows = []
     col = {name: df[name].tolist() for name in ("unit", "value", "resolution", "half_range", "n_readings",
                                                  "commanded", "target")}  # (lists: no pandas call per reading)
-    for (pose, quantity), idx in df.groupby(["pose_id", "quantity"], sort=False).indices.items():
+    groups = {}  # (pose, quantity) -> row positions, in order of first appearance (rows without either skipped)
+    for k, key in enumerate(zip(df["pose_id"].tolist(), df["quantity"].tolist())):
+        if not (pd.isna(key[0]) or pd.isna(key[1])):
+            groups.setdefault(key, []).append(k)
+    for (pose, quantity), idx in groups.items():
         first = idx[0]
         unit = col["unit"][first]
         factor = UNITS[unit][1]
@@ -272,14 +276,25 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
             rel_error=rel, inside=bool(abs(error) <= u * (1 + 1e-9)),
         ))
     table = pd.DataFrame(rows)
+    per_quantity = {}
+    for row in rows:
+        per_quantity.setdefault(row["quantity"], []).append(row)
     summary = pd.DataFrame([
-        dict(quantity=q, unit=g["unit"].iloc[0], n_poses=len(g),
-             rms_error=float(np.sqrt(np.mean(g["error"] ** 2))),
-             max_abs_error=float(g["abs_error"].max()), mean_error=float(g["error"].mean()),
-             n_inside=int(g["inside"].sum()))
-        for q, g in table.groupby("quantity", sort=False)
+        dict(quantity=q, unit=g[0]["unit"], n_poses=len(g), **_error_statistics([row["error"] for row in g]),
+             n_inside=sum(row["inside"] for row in g))
+        for q, g in per_quantity.items()
     ]).set_index("quantity")
     return ErrorTable(table=table, summary=summary, combine=combine)
+
+
+def _error_statistics(errors):
+    """RMS, largest magnitude and mean of a quantity's errors, NaN entries left out (all NaN: NaN)."""
+    e = np.array(errors, dtype=float)
+    e = e[~np.isnan(e)]
+    if not e.size:
+        return dict(rms_error=math.nan, max_abs_error=math.nan, mean_error=math.nan)
+    return dict(rms_error=float(np.sqrt(np.mean(e ** 2))), max_abs_error=float(np.abs(e).max()),
+                mean_error=float(e.mean()))
 
 
 def fk_error_table(robot, measurements, **kwargs):

@@ -154,3 +154,54 @@ def _numbers(robot, names, values):
                 numbers[key] = getattr(robot, key[:4])[:3, 3].tolist()
             numbers[key][i] = float(v)
     return numbers
+
+
+def _position_derivatives(robot, names, values, q):
+    """Tool positions and their derivatives with respect to the named parameters (``sag`` entries excluded).
+
+    Read from the frames of the robot with the parameters set
+    (:func:`labkit.kinematics.fk_frames_with`): a joint offset (DH theta) turns the
+    distal chain about the joint axis ``z`` through its origin ``o``, so the tool
+    point moves by ``z x (p - o)``; a DH ``d`` slides it along ``z``; a DH ``a``
+    slides it along the ``x`` axis of the frame it is measured in (frame i in the
+    standard convention, frame i-1 in the modified one); a tool translation along
+    frame n's axes; a base translation along the world axes.
+
+    Parameters
+    ----------
+    robot : Robot
+    names : sequence of str
+        Parameter names (:func:`parameter_names`), none of them a ``sag``.
+    values : array_like, shape (len(names),)
+        Parameter values in SI units.
+    q : array_like, shape (P, n)
+        Commanded joint values [rad, m].
+
+    Returns
+    -------
+    positions : ndarray, shape (P, 3)
+        Tool positions in the world frame [m].
+    derivatives : ndarray, shape (P, 3, len(names))
+        ``d position / d parameter`` [m/rad or 1].
+    """
+    from labkit.kinematics import fk_frames_with
+
+    n = robot.n
+    shift = 1 if robot.convention.value == "modified" else 0
+    frame, axis, turn, base = [], [], [], []  # the direction of each column: an axis of a frame (of F below)
+    for name in names:
+        key, i = _slot(robot, name)
+        turn.append(key == "theta")
+        base.append(key == "base_position")
+        frame.append(n if key == "tool_position" else (i + 1 - shift if key == "a" else i + shift))
+        axis.append(i if key.endswith("position") else (0 if key == "a" else 2))
+    # (P, n + 2, 4, 3): the columns (axes x, y, z and the origin) of every frame
+    columns = fk_frames_with(robot, q, **_numbers(robot, names, values))[..., :3, :].swapaxes(-1, -2)
+    direction = columns[:, frame, axis]  # (P, p, 3)
+    tip = columns[:, n + 1, 3]
+    if any(turn):  # z x (p - o), the cross product written out (np.cross costs more for a few vectors)
+        z, lever = direction[:, turn], tip[:, None] - columns[:, np.array(frame)[turn], 3]
+        direction[:, turn] = z[..., [1, 2, 0]] * lever[..., [2, 0, 1]] - z[..., [2, 0, 1]] * lever[..., [1, 2, 0]]
+    if any(base):
+        direction[:, base] = np.eye(3)[[i for b, i in zip(base, axis) if b]]
+    return tip, direction.transpose(0, 2, 1)

@@ -8,7 +8,7 @@ from conftest import require
 
 from labkit.robot import Convention, JointType, Link, Robot
 from labkit.exceptions import ShapeError
-from labkit.kinematics import fk, fk_frames, fk_jacobian, fk_position, fk_position_with, jacobian
+from labkit.kinematics import fk, fk_frames, fk_frames_with, fk_jacobian, fk_position, fk_position_with, jacobian
 
 
 # -- reference implementation (plain 4x4 products) ------------------------------
@@ -242,6 +242,8 @@ def test_fk_position_with_is_the_changed_robot(convention, rng):
             got = fk_position_with(robot, q, theta=theta, a=a, d=d, base_position=base_position,
                                    tool_position=tool_position)
             assert np.array_equal(got, fk_position(changed, q))
+            assert np.array_equal(fk_frames_with(robot, q, theta=theta, a=a, d=d, base_position=base_position,
+                                                 tool_position=tool_position), fk_frames(changed, q))
             sign = np.where(changed.flip, -1.0, 1.0)  # (a flipped joint's value enters negated)
             ref = np.array([_reference_frames(changed, sign * qk)[-1, :3, 3] for qk in q])
             assert np.allclose(got, ref, atol=1e-12)
@@ -252,6 +254,8 @@ def test_fk_position_with_is_the_changed_robot(convention, rng):
         fk_position_with(robot, q, theta=[0.0, float("nan"), 0.0, 0.0, 0.0, 0.0])
     with pytest.raises(ShapeError, match=r"expected tool_position with shape \(..., 3\)"):
         fk_position_with(robot, q, tool_position=[0.0, 1.0])
+    with pytest.raises(ShapeError, match=r"expected a with shape \(6,\), got \(2, 6\)"):
+        fk_frames_with(robot, q, a=np.zeros((2, 6)))
 
 
 def test_batch_shapes_and_delegates(rng):
