@@ -40,7 +40,7 @@ from labkit.arm.link._segments import (check_segment_positions, check_segment_sp
                                        move_duration_ms, move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import joints_from_counts, record_stream
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
-from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
+from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count, speed_limit_lists
 from labkit.arm.link._servos import ServoMethods
 
 __all__ = ["Arm"]
@@ -326,9 +326,16 @@ class Arm(ServoMethods):
         """
         return wire_speed_limits(self.robot)
 
-    def sync_calibration(self):
-        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only)."""
-        vmax, amax = self.speed_limits()
+    def sync_calibration(self, *, speed_limits=None):
+        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only).
+
+        Parameters
+        ----------
+        speed_limits : tuple of two lists of int, optional
+            ``(vmax, amax)`` to send instead of the robot file's, in the form :meth:`speed_limits` returns (0: unchecked;
+            ``record_step`` lifts them for a step); nothing on the host changes, pass the same to :meth:`run_trajectory`.
+        """
+        vmax, amax = speed_limit_lists(self.robot, speed_limits)
         for j in range(self.robot.n):
             self._transact("LIMITS", j, vmax[j], amax[j])
         joints, gripper = wire_calibrations(self.robot)
@@ -501,7 +508,7 @@ class Arm(ServoMethods):
         """
         return self._transact("STOP", parse=lambda fields: parse_stop(fields, self.robot.n, self._units))
 
-    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True):
+    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True, speed_limits=None):
         """Stream a trajectory to the board's segment queue, keeping it fed.
 
         Parameters
@@ -517,6 +524,9 @@ class Arm(ServoMethods):
             ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
         wait : bool
             Wait for the board's ``EV DONE`` after the last segment.
+        speed_limits : tuple of two lists of int, optional
+            ``(vmax, amax)`` the board holds (sent with :meth:`sync_calibration`) to check the segments against
+            instead of the robot file's (:meth:`speed_limits`).
 
         Returns
         -------
@@ -540,7 +550,7 @@ class Arm(ServoMethods):
                 joint_vector(self.robot, row)
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration, units=self._units)
         check_segment_positions(self.robot, segs)
-        check_segment_speeds(self.robot, segs, *self.speed_limits())
+        check_segment_speeds(self.robot, segs, *speed_limit_lists(self.robot, speed_limits))
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------
