@@ -173,6 +173,13 @@ def _round(robot, q):
     return joints_from_display(robot, np.round(joints_to_display(robot, q)))
 
 
+def _window_text(robot, window):
+    """The joint window (shape (n, 2) [rad | m]) as ``name lo..hi unit`` per joint, for messages."""
+    lo, hi = joints_to_display(robot, window[:, 0]), joints_to_display(robot, window[:, 1])
+    return ", ".join(f"{name} {a:.4g}..{b:.4g} {'deg' if rev else 'mm'}"
+                     for name, a, b, rev in zip(robot.joint_names, lo, hi, robot.is_revolute))
+
+
 def _valid_branches(robot, q, window):
     """How many IK branches of FK(q) lie inside the window and reproduce the target (0: not reachable)."""
     target = target_from_pose(robot, fk(robot, q))
@@ -204,7 +211,7 @@ def _ik_targets(robot, kind, window, at, count=3, candidates=12, tries=200):
     found = []
     for _ in range(tries):
         q = at(rng.uniform(0.2, 0.8, robot.n))
-        if _well_conditioned(robot, q, kind):
+        if _conditioning(robot, q, kind) > 1.0:
             branches = _valid_branches(robot, q, window)
             if branches:
                 found.append((branches, q))
@@ -220,21 +227,26 @@ def _ik_targets(robot, kind, window, at, count=3, candidates=12, tries=200):
     return [pool[i] for i in _spread(points, count, max(robot_reach(robot), 1e-3))]
 
 
-def _well_conditioned(robot, q, kind):
+def _conditioning(robot, q, kind):
+    """The Jacobian's smallest relevant singular value at ``q`` over 5 % of the reach: above 1 is well-conditioned."""
     J = jacobian(robot, q)
     rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}.get(kind, [0, 1, 2])
     if kind == "pose" and robot.n < 6:  # a 4-DOF arm's pose targets: the position part must stay well-conditioned
         rows = [0, 1, 2]
     s = np.linalg.svd(J[rows], compute_uv=False)
     reach = max(robot_reach(robot), 1e-3)
-    return s[min(len(rows), robot.n) - 1] > 0.05 * reach
+    return float(s[min(len(rows), robot.n) - 1] / (0.05 * reach))
 
 
 def _cartesian_ok(robot, path, q_start, window, duration):
+    import warnings
+
     from labkit.motion import cartesian_trajectory
 
     try:
-        traj = cartesian_trajectory(robot, path, duration, dt=0.05, q_start=q_start)
+        with warnings.catch_warnings():  # a trial path through a gimbal lock of the rpy angles: not news to the user
+            warnings.filterwarnings("ignore", message="Gimbal lock", category=UserWarning)
+            traj = cartesian_trajectory(robot, path, duration, dt=0.05, q_start=q_start)
     except LabkitError:
         return False
     return bool(np.all(traj.q >= window[:, 0] - 1e-9) and np.all(traj.q <= window[:, 1] + 1e-9))
@@ -256,8 +268,9 @@ def lab_defaults(robot) -> LabDefaults:
     """Pick lab defaults from a robot: poses, targets, moves, a line and an arc inside its servo window.
 
     Poses are fractions of the joint window (the limits, within a hobby servo's travel where a
-    joint has one, see :func:`servo_window`), rounded to whole degrees / millimetres: a home pose
-    and each joint moved both ways from it (30 % and 70 % of a revolute joint's window, 15 % and
+    joint has one, see :func:`servo_window`; a revolute joint within a turn either side of zero),
+    rounded to whole degrees / millimetres: a home pose (the first of a few spread patterns that is
+    well-conditioned, else the best-conditioned one) and each joint moved both ways from it (30 % and 70 % of a revolute joint's window, 15 % and
     85 % of a prismatic joint's travel). IK targets are the FK of well-conditioned poses in the
     middle 60 % of the window whose targets the robot's IK solves inside it, preferring targets
     with every IK branch inside the window, spread apart over the workspace (farthest-point
@@ -276,22 +289,33 @@ def lab_defaults(robot) -> LabDefaults:
     Raises
     ------
     LabkitError
-        No well-conditioned pose, reachable target or feasible path was found.
+        The arm has no length, or no well-conditioned pose, reachable target or feasible path was
+        found (the message names the robot file and the joint window).
     """
     from labkit.motion import arc_path, line_path
 
     robot = Robot.load(robot)
+    who = robot.path or robot.name  # errors name the robot file
+    reach = robot_reach(robot)
+    if not reach > 0.0:
+        raise LabkitError(f"{who}: expected an arm with a length (a non-zero a, d, prismatic travel or tool offset), "
+                          f"got every length 0: its tool cannot move")
     kind = target_kind(robot)
     window = servo_window(robot)
+    # a revolute joint's poses are picked within a turn either side of zero (limits such as +-3600 deg: "endless")
+    turns = np.asarray(robot.is_revolute) & (window[:, 0] < 2 * math.pi) & (window[:, 1] > -2 * math.pi)
+    window[turns] = np.clip(window[turns], -2 * math.pi, 2 * math.pi)
     lo, hi = window[:, 0], window[:, 1]
-    reach = robot_reach(robot)
     n = robot.n
 
     def at(f):
         return _round(robot, lo + np.asarray(f, float) * (hi - lo))
 
     patterns = [np.array([0.5 + s * (0.12 + 0.05 * (j % 3)) * (-1) ** j for j in range(n)]) for s in (1, -1, 1.6, -1.6, 0.5)]
-    home = next((at(f) for f in patterns if _well_conditioned(robot, at(f), kind)), at(np.full(n, 0.5)))
+    # the first well-conditioned pattern; else the best-conditioned one (never the window's middle as such: with
+    # symmetric limits that is q = 0, often a singular stretched-out pose)
+    home = next((at(f) for f in patterns if _conditioning(robot, at(f), kind) > 1.0),
+                max((at(f) for f in patterns), key=lambda q: _conditioning(robot, q, kind)))
     poses = [home]
     for j in range(n):
         # each joint away from home both ways, well inside its window; a prismatic joint over most of its travel
@@ -301,7 +325,8 @@ def lab_defaults(robot) -> LabDefaults:
             poses.append(q)
     targets_q = _ik_targets(robot, kind, window, at)
     if len(targets_q) < 3:
-        raise LabkitError(f"{robot.name}: found no 3 well-conditioned IK targets inside the joint window")
+        raise LabkitError(f"{who}: found no 3 well-conditioned IK targets inside the joint window "
+                          f"({_window_text(robot, window)}); expected limits that leave the arm room to move")
     move = [home, targets_q[0]]
     p0 = fk(robot, home)[:3, 3]
     directions = [np.array(v, float) for v in ([1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1])]
@@ -356,7 +381,9 @@ def lab_defaults(robot) -> LabDefaults:
         if arc_spec:
             break
     if line_pts is None or arc_spec is None:
-        raise LabkitError(f"{robot.name}: found no Cartesian line/arc from the home pose inside the joint window")
+        raise LabkitError(f"{who}: found no Cartesian line/arc from the home pose "
+                          f"{joints_to_display(robot, home).round(1).tolist()} inside the joint window "
+                          f"({_window_text(robot, window)})")
 
     def disp(q):
         return [round(float(v), 1) for v in joints_to_display(robot, q)]

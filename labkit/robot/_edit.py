@@ -16,7 +16,7 @@ from pathlib import Path
 
 from labkit.exceptions import OptionError, RobotFileError, needs_extra
 from labkit.robot.types import _ANGLE_UNITS
-from labkit.robot._files import _resolve, parse
+from labkit.robot._files import _resolve, parse, read_text
 from labkit.robot._model import Robot
 
 __all__ = ["edit_bus_calibration"]
@@ -85,10 +85,7 @@ def edit_bus_calibration(source, changes, *, out=None, backup=True):
     target = path if out is None else Path(os.fspath(out))
     if target.exists() and not target.is_file():
         raise OptionError(f"expected a regular file to write the robot file to, got {str(target)!r}")
-    try:
-        before = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RobotFileError(path, "<file>", f"cannot read the file: {exc}") from None
+    before = read_text(path)
     with needs_extra("bus"):
         import tomlkit
         from tomlkit.exceptions import TOMLKitError

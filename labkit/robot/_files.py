@@ -15,20 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from labkit.robot.types import (
-    _ANGLE_UNITS,
-    _LENGTH_UNITS,
-    _PROTOCOL_NAME,
-    FORMAT,
-    Bus,
-    BusServo,
-    Convention,
-    Gripper,
-    BusGripper,
-    JointType,
-    Link,
-    LinkInertia,
-    Motor,
-    ServoCalibration,
+    _ANGLE_UNITS, _LENGTH_UNITS, _PROTOCOL_NAME, FORMAT, Bus, BusServo, Convention, Gripper, BusGripper, JointType, Link,
+    LinkInertia, Motor, ServoCalibration,
 )
 from labkit.data import robots_dir
 from labkit.exceptions import LabkitError, RobotError, RobotFileError
@@ -557,7 +545,7 @@ def _resolve(name_or_path):
     p = Path(os.fspath(name_or_path))
     if p.suffix == ".toml" or p.is_file() or os.sep in str(name_or_path):
         if not p.is_file():
-            raise RobotFileError(p, "<file>", "no such robot file")
+            raise RobotFileError(p, "<file>", "expected a robot file, got a folder" if p.is_dir() else "no such robot file")
         return p
     robots = bundled_robots()
     if str(name_or_path) in robots:
@@ -567,6 +555,20 @@ def _resolve(name_or_path):
         "<name>",
         f"unknown robot; expected a file path or one of: {', '.join(robots) or '(none found)'}",
     )
+
+
+def read_text(path):
+    """The text of robot file ``path``: UTF-8, a leading byte-order mark (as Notepad writes) dropped; else a
+    :class:`RobotFileError` (unreadable; not UTF-8, naming the first bad byte and its line)."""
+    try:
+        text = (raw := Path(path).read_bytes()).decode("utf-8-sig")
+    except OSError as exc:
+        raise RobotFileError(path, "<file>", f"cannot read the file: {exc}") from None
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise RobotFileError(path, "<file>", f"expected UTF-8 text, got byte 0x{raw[exc.start]:02x} on line {line}; "
+                             "save the file as UTF-8") from None
+    return text
 
 
 def load_fields(name_or_path):
@@ -588,10 +590,7 @@ def load_fields(name_or_path):
         The file is missing, unreadable, not TOML, or malformed.
     """
     path = _resolve(name_or_path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RobotFileError(path, "<file>", f"cannot read the file: {exc}") from None
+    text = read_text(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -305,3 +305,43 @@ def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot
     with capsys.disabled():
         print(f"\n{len(RENDERED)} labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
               f"({time.perf_counter() - t0:.1f} s with the index)")
+
+
+def test_lab_defaults_leave_a_singular_window_middle_for_a_well_conditioned_home():
+    # a UR-like arm whose limits put the window's middle on a singularity (straight up, wrist axes aligned) and
+    # none of the home patterns passes the conditioning bar: the best-conditioned pattern is home, not the middle
+    from labkit.kinematics import jacobian
+    from labkit.labs import lab_defaults
+    from labkit.robot import Robot, joints_from_display, servo_window
+
+    robot = Robot.load(FIXTURES / "ur3e_like.toml")
+    middle = servo_window(robot).mean(axis=1)
+    assert np.linalg.svd(jacobian(robot, middle), compute_uv=False)[-1] < 1e-9  # the middle is singular
+    d = lab_defaults(robot)
+    home = joints_from_display(robot, d.parameters["home"])
+    assert np.linalg.svd(jacobian(robot, home), compute_uv=False)[-1] > 0.02
+    assert d.parameters["line_mm"] and d.parameters["arc"]["radius_mm"] > 0
+
+
+def test_lab_defaults_that_cannot_be_picked_name_the_robot_file_and_why(tmp_path):
+    from labkit.labs import lab_defaults
+
+    still = tmp_path / "still.toml"  # every length 0: the tool cannot move
+    still.write_text('name = "still"\nconvention = "standard"\n[[joint]]\nlimits = [-1, 1]\n[[joint]]\nlimits = [-1, 1]\n')
+    with pytest.raises(LabkitError, match=rf"^{still}: expected an arm with a length .* got every length 0"):
+        lab_defaults(still)
+    tight = tmp_path / "tight.toml"  # a 1-degree window: no three targets apart
+    tight.write_text(YPP4.replace("limits = [-10, 170]", "limits = [40, 41]").replace("[-150, 150]", "[10, 11]"))
+    with pytest.raises(LabkitError, match=rf"^{tight}: found no .* inside the joint window \(yaw 10\.\.11 deg, "
+                                          rf"shoulder 40\.\.41 deg"):
+        lab_defaults(tight)
+
+
+def test_lab_defaults_pick_poses_within_a_turn_either_side_of_an_endless_joint(tmp_path):
+    from labkit.labs import lab_defaults
+
+    endless = tmp_path / "endless.toml"  # a wrist with +-10 turns ("endless"): poses stay within +-1 turn
+    endless.write_text(YPP4.replace("limits = [-120, 120]", "limits = [-3600, 3600]"))
+    d = lab_defaults(endless)
+    wrist = np.array(d.parameters["poses"])[:, 3]
+    assert np.all(np.abs(wrist) <= 360) and np.ptp(wrist) >= 0.39 * 720

@@ -167,13 +167,23 @@ def test_tool_frame_errors(tmp_path):
 def test_unreadable_file(tmp_path):
     p = tmp_path / "latin1.toml"
     p.write_bytes(MINIMAL.replace("mini", "mini\xe9").encode("utf-8").replace(b"\xc3\xa9", b"\xe9"))
-    with pytest.raises(RobotFileError, match="cannot read the file") as info:
+    line = MINIMAL.splitlines().index('name = "mini"') + 1
+    with pytest.raises(RobotFileError, match=f"expected UTF-8 text, got byte 0xe9 on line {line}; save the file as "
+                       "UTF-8") as info:
         Robot.load(p)
-    assert info.value.field == "<file>"
+    assert info.value.field == "<file>" and str(info.value.path) == str(p)
     d = tmp_path / "folder.toml"
     d.mkdir()
-    with pytest.raises(RobotFileError, match="no such robot file"):
+    with pytest.raises(RobotFileError, match="expected a robot file, got a folder"):
         Robot.load(d)
+
+
+def test_byte_order_mark_is_not_part_of_the_file(tmp_path):
+    # Windows Notepad saves UTF-8 with a byte-order mark: the file is the same robot
+    p = tmp_path / "bom.toml"
+    p.write_bytes(b"\xef\xbb\xbf" + MINIMAL.lstrip().encode("utf-8"))
+    bom, plain = Robot.load(p), Robot.load(_write(tmp_path, MINIMAL, "plain.toml"))
+    assert bom.name == "mini" and bom.links == plain.links
 
 
 def test_invalid_toml(tmp_path):
