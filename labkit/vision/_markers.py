@@ -180,15 +180,19 @@ def _refine_edges(gray, quad, bits, camera):
 
     quad = np.asarray(quad, dtype=float)
     ends = np.roll(quad, -1, axis=0)
-    side = float(np.mean(np.linalg.norm(ends - quad, axis=1)))
-    half = float(np.clip(0.45 * side / (bits + 2), 1.5, 4.0))
-    steps = np.linspace(-half, half, _PROFILE_SAMPLES)
+    # each profile reaches less than half a bit into the black border (beyond it lie the data bits), a bit
+    # measured across its edge: the quad's height over that side, which is far less than the side when the
+    # marker is seen obliquely (a thin quad)
+    lengths = np.linalg.norm(ends - quad, axis=1)
+    area = 0.5 * abs(float(np.sum(quad[:, 0] * ends[:, 1] - ends[:, 0] * quad[:, 1])))
+    half = np.clip(0.45 * area / lengths / (bits + 2), 1.5, 4.0)
+    steps = np.linspace(-1.0, 1.0, _PROFILE_SAMPLES)[None, :] * half[:, None]  # (4, s) [px]
     d = (ends - quad) / np.linalg.norm(ends - quad, axis=1, keepdims=True)
     n = np.column_stack([-d[:, 1], d[:, 0]])
     outward = np.sum(n * (quad - quad.mean(axis=0)), axis=1) < 0
     n[outward] *= -1  # from the black border to the white quiet zone
     base = quad[:, None, :] + _EDGE_FRACTIONS[None, :, None] * (ends - quad)[:, None, :]  # (4, m, 2)
-    pts = base[:, :, None, :] + steps[None, None, :, None] * n[:, None, None, :]  # (4, m, s, 2)
+    pts = base[:, :, None, :] + steps[:, None, :, None] * n[:, None, None, :]  # (4, m, s, 2)
     flat = pts.reshape(-1, _PROFILE_SAMPLES, 2).astype(np.float32)
     prof = cv2.remap(gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     lo = prof[:, :4].mean(axis=1, keepdims=True)
@@ -201,7 +205,8 @@ def _refine_edges(gray, quad, bits, camera):
     i = np.maximum(idx, 1)
     p0, p1 = prof[rows, i - 1], prof[rows, i]
     frac = (mid[:, 0] - p0) / np.maximum(p1 - p0, 1e-6)
-    off = steps[i - 1] + frac * (steps[1] - steps[0])
+    side = rows // len(_EDGE_FRACTIONS)
+    off = steps[side, i - 1] + frac * (steps[side, 1] - steps[side, 0])
     edge = base.reshape(-1, 2) + off[:, None] * np.repeat(n, len(_EDGE_FRACTIONS), axis=0)
     good = good.reshape(4, -1)
     if np.any(good.sum(axis=1) < 6):
