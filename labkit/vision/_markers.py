@@ -9,8 +9,10 @@ the marker is unknown (it is seen too face-on, too small or too blurred): that
 is reported as an ambiguous pose rather than guessed.
 
 Each detection carries a covariance of its pose from the corner noise
-(``sigma^2 (J^T J)^-1``, J the Jacobian of the corners' reprojection), so a
-position comes with its uncertainty.
+(``sigma^2 (J^T W J)^-1``, J the Jacobian of the corners' reprojection, W the
+squared sine of each corner's angle in the image: a sharp corner of a marker
+seen obliquely is the crossing of two nearly parallel edges), so a position
+comes with its uncertainty.
 
 Coordinates: the marker frame has its origin at the centre of the black square,
 x to the right, y up (towards the top of the printed marker), z out of the
@@ -294,8 +296,14 @@ def _pose_from_corners(corners, camera, size, corner_sigma):
     uv, jac = cv2.projectPoints(obj.reshape(4, 1, 3), rvec, tvec, camera.matrix, camera.distortion)
     J = jac[:, :6]
     sigma = max(corner_sigma, err)
+    # a corner is the crossing of two edge lines: an edge off by sigma moves it by sigma / sin(angle), so the
+    # sharp corners of a marker seen obliquely (a thin quad) are the less certain ones
+    before, after = np.roll(corners, 1, axis=0) - corners, np.roll(corners, -1, axis=0) - corners
+    cross = np.abs(before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0])
+    sine = cross / np.maximum(np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1), 1e-12)
+    weight = np.repeat(np.clip(sine, 1e-3, 1.0) ** 2, 2)  # (8,): u and v of each corner [1 / sigma^2 units]
     try:
-        cov = sigma ** 2 * np.linalg.inv(J.T @ J)
+        cov = sigma ** 2 * np.linalg.inv(J.T @ (weight[:, None] * J))
     except np.linalg.LinAlgError:
         cov = np.full((6, 6), np.inf)
     R = cv2.Rodrigues(rvec)[0]
