@@ -9,8 +9,8 @@ the marker is unknown (it is seen too face-on, too small or too blurred): that
 is reported as an ambiguous pose rather than guessed.
 
 Each detection carries a covariance of its pose from the corner noise
-(``sigma^2 (J^T W J)^-1``, J the Jacobian of the corners' reprojection, W the
-squared sine of each corner's angle in the image: a sharp corner of a marker
+(``sigma^2 (J^T W J)^-1``, J the Jacobian of the corners' reprojection, W per
+corner ``N^T N`` of the unit normals of its two edges: a sharp corner of a marker
 seen obliquely is the crossing of two nearly parallel edges), so a position
 comes with its uncertainty.
 
@@ -296,14 +296,17 @@ def _pose_from_corners(corners, camera, size, corner_sigma):
     uv, jac = cv2.projectPoints(obj.reshape(4, 1, 3), rvec, tvec, camera.matrix, camera.distortion)
     J = jac[:, :6]
     sigma = max(corner_sigma, err)
-    # a corner is the crossing of two edge lines: an edge off by sigma moves it by sigma / sin(angle), so the
-    # sharp corners of a marker seen obliquely (a thin quad) are the less certain ones
-    before, after = np.roll(corners, 1, axis=0) - corners, np.roll(corners, -1, axis=0) - corners
-    cross = np.abs(before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0])
-    sine = cross / np.maximum(np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1), 1e-12)
-    weight = np.repeat(np.clip(sine, 1e-3, 1.0) ** 2, 2)  # (8,): u and v of each corner [1 / sigma^2 units]
+    # a corner is the crossing of two edge lines, each off by sigma across itself: its covariance is
+    # sigma^2 (N^T N)^-1, N the two edges' unit normals (the identity at a right angle), so the sharp
+    # corners of a marker seen obliquely (a thin quad) are uncertain along their bisector
+    edges = np.roll(corners, -1, axis=0) - corners  # edge k runs from corner k to corner k + 1
+    normals = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.maximum(np.linalg.norm(edges, axis=1), 1e-12)[:, None]
+    pair = np.stack([np.roll(normals, 1, axis=0), normals], axis=1)  # (4, 2, 2): the edges meeting at each corner
+    information = np.zeros((8, 8))
+    for k in range(4):
+        information[2 * k:2 * k + 2, 2 * k:2 * k + 2] = pair[k].T @ pair[k]
     try:
-        cov = sigma ** 2 * np.linalg.inv(J.T @ (weight[:, None] * J))
+        cov = sigma ** 2 * np.linalg.inv(J.T @ information @ J)
     except np.linalg.LinAlgError:
         cov = np.full((6, 6), np.inf)
     R = cv2.Rodrigues(rvec)[0]
