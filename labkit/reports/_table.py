@@ -355,7 +355,7 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
 _ERROR_COLUMNS = {"calculated": "calculated", "mean": "measured", "half_range": "±", "error": "error"}
 
 
-def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=3, caption="") -> ReportTable:
+def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=None, caption="") -> ReportTable:
     """A measured-versus-calculated error table as a journal prints it: one row per pose and quantity.
 
     Columns: the pose, the quantity, calculated, measured (mean of the readings), ± (half
@@ -375,9 +375,10 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=3
         Factor from the readings' unit to ``unit`` (1e3 for m -> mm).
     pose : {"command", "pose_id"}
         What names a pose: the commanded joints or target ("q = (5, 0, 0) deg") or its id.
-    digits : int or dict of str to int
+    digits : int or dict of str to int, optional
         Significant digits of each column's largest magnitude; per column by the names
-        "calculated", "measured", "±", "error", with ``"*"`` for the rest.
+        "calculated", "measured", "±", "error", with ``"*"`` for the rest. Default: 2 for
+        ±, 3 for the rest.
     caption : str
         What the table shows.
 
@@ -401,8 +402,8 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=3
     ...                      "half_range": [0.02, 0.05], "error": [-0.0133, 0.0411], "inside": [True, True]})
     >>> print(error_report_table(long, unit="mm", scale=1e3).to_text())
     pose            quantity  calculated [mm]  measured [mm]  ± [mm]  error [mm]  within U
-    q = (5, 0) deg  x                     273            260    20.0       -13.3  yes
-                    y                      24             65    50.0        41.1  yes
+    q = (5, 0) deg  x                     273            260      20       -13.3  yes
+                    y                      24             65      50        41.1  yes
     """
     import pandas as pd
 
@@ -426,6 +427,8 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=3
                           **{f"{name}{suffix}": table[column].to_numpy(float) * float(scale)
                              for column, name in _ERROR_COLUMNS.items()},
                           "within U": table["inside"].to_numpy(bool)})
+    if digits is None:
+        digits = {"±": 2, "*": 3}
     if isinstance(digits, dict):
         digits = {(f"{k}{suffix}" if k in _ERROR_COLUMNS.values() else k): v for k, v in digits.items()}
     return report_table(frame, digits=digits, caption=caption, group="pose")
