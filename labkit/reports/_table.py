@@ -263,9 +263,10 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         What a missing value (``None``, ``NaN``) prints as.
     zero : float
         Round-off: a magnitude at most this prints as 0 (``5.6e-17`` is 0, never ``5.6e-17``).
-    group : str, optional
-        A column whose runs of equal values form groups of rows: its value printed on a
-        group's first row only, a little space between groups, a group kept on one page.
+    group : str or list of str, optional
+        A column (or columns) whose runs of equal values form groups of rows: the values
+        printed on a group's first row only, a little space between groups, a group kept on
+        one page.
 
     Returns
     -------
@@ -323,16 +324,18 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
     for value in [default, *per_column.values()]:
         if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
             raise OptionError(f"digits expects positive integers, got {value!r}")
-    if group is not None and (group not in df.columns or columns.get(group, group) is None):
-        raise OptionError(f"group expects a column the table prints, got {group!r} "
-                          f"(it prints {', '.join(str(c) for c in df.columns if columns.get(c, c) is not None)})")
-    header, cells, numeric, grouped = [], [], [], None
+    group = [] if group is None else [group] if isinstance(group, str) else list(group)
+    for name in group:
+        if name not in df.columns or columns.get(name, name) is None:
+            raise OptionError(f"group expects columns the table prints, got {name!r} "
+                              f"(it prints {', '.join(str(c) for c in df.columns if columns.get(c, c) is not None)})")
+    header, cells, numeric, grouped = [], [], [], []
     for name in df.columns:
         label = columns.get(name, ", ".join(map(str, name)) if isinstance(name, tuple) else name)
         if label is None:
             continue
-        if name == group:
-            grouped = len(header)
+        if name in group:
+            grouped.append(len(header))
         if units.get(name) and "[" not in str(label):
             label = f"{label} [{units[name]}]"
         values = list(df[name])
@@ -343,10 +346,11 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         numeric.append(bool(present) and all(_is_number_text(v) if isinstance(v, str) else bool(_numbers_of([v]))
                                              for v in present))
     starts = ()
-    if grouped is not None:
-        labels = cells[grouped]
+    if grouped:
+        labels = list(zip(*(cells[g] for g in grouped)))
         starts = tuple(k for k in range(len(labels)) if k == 0 or labels[k] != labels[k - 1])
-        cells[grouped] = [c if k in starts else "" for k, c in enumerate(labels)]
+        for g in grouped:
+            cells[g] = [c if k in starts else "" for k, c in enumerate(cells[g])]
     rows = tuple(zip(*cells)) if cells else tuple(() for _ in range(len(df)))
     return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric), starts)
 

@@ -141,8 +141,11 @@ def test_grouped_rows_print_their_label_once_and_stay_together():
     assert t.to_latex().count(r"\addlinespace") == 2
     plain = report_table(df)
     assert plain.groups == () and plain.to_html().count("<tbody>") == 1 and plain.rows[1][0] == "a"
-    with pytest.raises(OptionError, match="group expects a column the table prints, got 'axis'"):
+    with pytest.raises(OptionError, match="group expects columns the table prints, got 'axis'"):
         report_table(df, group="axis", columns={"axis": None})
+    two = report_table(df.assign(target=["p", "p", "q", "q", "r", "r"]), group=["pose", "target"])
+    assert two.groups == (0, 2, 4, 5)  # a group ends where either label changes
+    assert [r[3] for r in two.rows] == ["p", "", "q", "", "r", "r"] and [r[0] for r in two.rows] == ["a", "", "b", "", "b", "a"]
 
 
 def test_numbers_kept_as_printed_text_align_as_numbers():
