@@ -25,7 +25,8 @@ extern "C" {
 #define LK_MAXLINE 164  /* longest accepted line, bytes before EOL */
 #define LK_FRAME_MS 20  /* servo frame period */
 #define LK_USER_POT_PIN 5
-#define LK_SERVO_FULL 18000 /* servo travel, centidegrees */
+#define LK_SERVO_FULL 18000 /* servo travel in wire units: a hobby servo's 180 deg in centidegrees, an RC linear
+                               servo's stroke in 1/18000 (docs/protocol.md 3); below, "cdeg" means a joint's unit */
 #define LK_MAX_ORDER 5
 #ifndef LK_SEEN
 #define LK_SEEN 4 /* accepted sealed requests remembered to answer repeats (docs/protocol.md 2.1) */
@@ -49,7 +50,7 @@ enum lk_flag {
 enum lk_reset { LK_RESET_POWER = 0, LK_RESET_EXTERNAL = 1, LK_RESET_WATCHDOG = 2, LK_RESET_BROWNOUT = 3 };
 
 typedef struct {
-    int16_t pmin, pmax; /* pulse width [us] at servo angle 0 and 180 deg */
+    int16_t pmin, pmax; /* pulse width [us] at the ends of the servo's travel (0 and 180 deg; a linear servo's stroke) */
     int16_t zero;       /* servo angle at q = 0 [cdeg] */
     int8_t dir;         /* +1 / -1 */
     int16_t lo, hi;     /* joint limits [cdeg] */

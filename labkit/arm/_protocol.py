@@ -5,7 +5,8 @@ board (:class:`labkit.arm.VirtualBoard`) both take from here what the
 protocol fixes: the protocol version, the line length limit, the error codes,
 the CRC-32 line checksum (CRC-32/ISO-HDLC, ``zlib.crc32``) and how a line is sealed with it, which
 commands may go unsealed, the echo of a parsed request, the strict integer
-syntax of board lines, the angle unit (centidegrees), and
+syntax of board lines, the joint positions' units on the wire (:class:`WireUnits`: centidegrees, or
+1/18000 of an RC linear servo's stroke), and
 :class:`CommandRejected`, the error of an ``ERR`` reply. Nothing here knows
 about ports, clocks or physics.
 
@@ -30,9 +31,12 @@ import math
 import re
 import zlib
 
-from labkit.exceptions import CommandRejected, ProtocolError, RobotError
+import numpy as np
 
-__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY"]
+from labkit.exceptions import CommandRejected, ProtocolError, RobotError
+from labkit.robot import JointType, servo_travel
+
+__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY", "WireUnits"]
 
 #: protocol version spoken by both ends (``HELLO`` ``proto=``, ``READY labkit-arm <version>``); 3: CRC-32
 PROTOCOL_VERSION = 3
@@ -42,6 +46,8 @@ MAX_LINE = 164
 #: error codes of ``ERR <code> <NAME>`` replies (``docs/protocol.md`` section 5)
 ERRORS = {1: "BADCHK", 2: "SYNTAX", 3: "UNKNOWN", 4: "TOOLONG", 5: "RANGE", 6: "LIMIT", 7: "QFULL",
           8: "BUSY", 9: "DISCONT", 10: "EEPROM", 11: "SPEED", 12: "STALE"}
+#: a servo's travel on the wire [wire units]: a hobby servo's 180 deg in centidegrees, an RC linear servo's stroke
+SERVO_FULL = 18000
 #: factory speed limit of every joint [cdeg/s] (600 deg/s, above any hobby servo); acceleration unchecked
 VMAX_FACTORY = 60000
 #: largest speed [cdeg/s] and acceleration [cdeg/s^2] limits ``LIMITS`` accepts
@@ -225,27 +231,121 @@ def cdeg(q):
     return int(round(math.degrees(float(q)) * 100))
 
 
+class WireUnits:
+    """The units of a robot's joint positions on the wire (``docs/protocol.md`` section 3), joint by joint.
+
+    The board counts every joint in integer units of which its servo's travel is 18000
+    (:data:`SERVO_FULL`): a hobby servo's 180 deg are 18000 **centidegrees**; an RC linear servo's stroke
+    (its servo table's ``range``, :func:`labkit.robot.servo_travel`) is 18000 units of ``stroke / 18000``
+    (2.8 um for a 50 mm stroke, 7.8 um for 140 mm). Revolute joints, and prismatic joints without a
+    servo (ideal actuators, their metres read as radians), are in centidegrees. So the firmware converts
+    every joint with the same integers, and a robot without an RC linear servo is on the wire as before.
+
+    Parameters
+    ----------
+    robot : labkit.robot.Robot
+
+    Attributes
+    ----------
+    metres : tuple of float or None
+        Per joint: one wire unit [m] of an RC linear servo, None for centidegrees.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> units = WireUnits(Robot.load("arduino_arm_3dof"))
+    >>> units.positions([0.5, 1.0, 0.25])
+    [2865, 5730, 1432]
+    """
+
+    def __init__(self, robot):
+        self.metres = tuple(None if lk.servo is None or lk.joint_type is JointType.REVOLUTE
+                            else (servo_travel(lk)[1] - servo_travel(lk)[0]) / SERVO_FULL for lk in robot.links)
+
+    def value(self, j, x):
+        """Joint ``j``'s value ``x`` [rad | m] (or a rate of it [/s, /s^2]) in wire units, not rounded.
+
+        Parameters
+        ----------
+        j : int
+        x : float
+
+        Returns
+        -------
+        float
+        """
+        unit = self.metres[j]
+        return math.degrees(float(x)) * 100 if unit is None else float(x) / unit
+
+    def positions(self, q):
+        """Joint values ``q`` [rad | m], shape (n,), as the board's integers (rounded to the nearest unit).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,)
+
+        Returns
+        -------
+        list of int
+        """
+        return [int(round(self.value(j, x))) for j, x in enumerate(q)]
+
+    def joints(self, values):
+        """The board's integer positions, shape (..., n), as joint values [rad | m].
+
+        Parameters
+        ----------
+        values : array_like, shape (..., n)
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+        """
+        v = np.asarray(values, dtype=float)
+        scale = np.array([math.radians(0.01) if u is None else u for u in self.metres])
+        cdeg_joints = np.array([u is None for u in self.metres])
+        return np.where(cdeg_joints, np.radians(v / 100.0), v * scale)
+
+    def show(self, j, v):
+        """Wire value ``v`` of joint ``j`` as a person reads it (``"45 deg"``, ``"12.5 mm"``).
+
+        Parameters
+        ----------
+        j : int
+        v : float
+
+        Returns
+        -------
+        str
+        """
+        unit = self.metres[j]
+        return f"{v / 100:g} deg" if unit is None else f"{v * unit * 1000:.3g} mm"
+
+
 def wire_speed_limits(robot):
     """The robot file's joint speed and acceleration limits in the board's units (``LIMITS``).
 
     Parameters
     ----------
     robot : labkit.Robot
-        ``max_velocity`` [rad/s] and ``max_acceleration`` [rad/s^2] of each joint (``None``: none).
+        ``max_velocity`` [rad/s | m/s] and ``max_acceleration`` [rad/s^2 | m/s^2] of each joint (``None``: none).
 
     Returns
     -------
     vmax, amax : list of int
-        [cdeg/s], [cdeg/s^2], rounded down; 0 where the robot file gives no limit (unchecked).
+        [units/s], [units/s^2] (:class:`WireUnits`: cdeg, or 1/18000 of a linear servo's stroke), rounded down;
+        0 where the robot file gives no limit (unchecked).
     """
-    def wire(value, largest):
-        return 0 if value is None else min(int(math.floor(math.degrees(value) * 100)), largest)
+    units = WireUnits(robot)
 
-    return ([wire(lk.max_velocity, VMAX_MAX) for lk in robot.links],
-            [wire(lk.max_acceleration, AMAX_MAX) for lk in robot.links])
+    def wire(j, value, largest):
+        return 0 if value is None else min(int(math.floor(units.value(j, value))), largest)
+
+    return ([wire(j, lk.max_velocity, VMAX_MAX) for j, lk in enumerate(robot.links)],
+            [wire(j, lk.max_acceleration, AMAX_MAX) for j, lk in enumerate(robot.links)])
 
 
-def check_calibration_row(row, where):
+def check_calibration_row(row, where, position_unit="cdeg"):
     """Refuse a calibration row whose values the board cannot store (before anything is sent).
 
     Parameters
@@ -254,41 +354,44 @@ def check_calibration_row(row, where):
         ``[pmin, pmax, zero, direction, lo, hi]`` (:data:`CAL_FIELDS`).
     where : str
         What the row belongs to, for the message (``"scara: joint 'quill'"``).
+    position_unit : str
+        The unit of ``zero``, ``lo`` and ``hi`` in the message (:class:`WireUnits`).
 
     Raises
     ------
     RobotError
-        A field outside what the board accepts (an int16 pulse width of 35407 us, limits past
-        +-320 deg): names ``where``, the field, the value and the accepted range.
+        A field outside what the board accepts (a hobby servo whose ``pulse_us`` extended to 0 and 180 deg
+        pass 2600 us, limits past +-320 deg, a linear servo's limits past 1.78 strokes): names ``where``,
+        the field, the value and the accepted range.
 
     Examples
     --------
     >>> check_calibration_row([500, 2500, 0, 1, 0, 18000], "joint 'base'")
-    >>> check_calibration_row([1000, 35407, 0, 1, 0, 573], "joint 'quill'")
+    >>> check_calibration_row([500, 4500, 0, 1, 0, 18000], "joint 'base'")
     Traceback (most recent call last):
     ...
-    labkit.exceptions.RobotError: joint 'quill': calibration field pmax = 35407 us does not fit the board's protocol (expected 400..2600 us): a servo's pulse range must span its 180 deg (prismatic: pi m) travel
+    labkit.exceptions.RobotError: joint 'base': calibration field pmax = 4500 us does not fit the board's protocol (expected 400..2600 us): the pulse widths at the ends of the servo's travel (a hobby servo: 0 and 180 deg)
     """
     for (name, low, high, unit), value in zip(CAL_FIELDS, row):
         if not low <= value <= high or (name == "direction" and value == 0):
-            unit = f" {unit}" if unit else ""
+            unit = f" {position_unit if unit == 'cdeg' else unit}" if unit else ""
+            why = (": the pulse widths at the ends of the servo's travel (a hobby servo: 0 and 180 deg)"
+                   if unit == " us" else "")
             raise RobotError(f"{where}: calibration field {name} = {value}{unit} does not fit the board's protocol "
-                             f"(expected {low}..{high}{unit}): a servo's pulse range must span its 180 deg "
-                             f"(prismatic: pi m) travel" if name in ("pmin", "pmax") else
-                             f"{where}: calibration field {name} = {value}{unit} does not fit the board's protocol "
-                             f"(expected {low}..{high}{unit})", f"servo.{name}")
+                             f"(expected {low}..{high}{unit}){why}", f"servo.{name}")
 
 
 def wire_calibrations(robot):
     """The robot file's servo calibrations in the board's units (the rows ``CAL`` sends).
 
-    A row is ``[pmin, pmax, zero, direction, lo, hi]``: the pulse widths at servo angles 0 and
-    180 deg [us], the servo angle at ``q = 0`` and the joint limits [cdeg] (prismatic joints in
-    metres read as radians, as on the wire).
+    A row is ``[pmin, pmax, zero, direction, lo, hi]``: the pulse widths at the ends of the servo's
+    travel (:func:`labkit.robot.servo_travel`: a hobby servo's 0 and 180 deg, extended from its
+    ``pulse_us`` over ``range``; an RC linear servo's stroke ends, its ``pulse_us``) [us], the servo
+    position at ``q = 0`` from the travel's start and the joint limits, in wire units (:class:`WireUnits`).
 
     Parameters
     ----------
-    robot : labkit.Robot
+    robot : labkit.robot.Robot
 
     Returns
     -------
@@ -303,18 +406,19 @@ def wire_calibrations(robot):
     RobotError
         A joint's row does not fit the protocol's fields (:func:`check_calibration_row`): nothing is sent.
     """
+    units = WireUnits(robot)
     joints = []
     for j, lk in enumerate(robot.links):
         cal = lk.servo
         if cal is None:
             joints.append(None)
             continue
-        lo_a, hi_a = cal.angle_range
-        p0, p1 = cal.pulse_range
-        pmin = int(round(p0 + (0.0 - lo_a) / (hi_a - lo_a) * (p1 - p0)))
-        pmax = int(round(p0 + (math.pi - lo_a) / (hi_a - lo_a) * (p1 - p0)))
-        row = [pmin, pmax, cdeg(cal.zero), int(cal.direction), *(cdeg(v) for v in lk.limits)]
-        check_calibration_row(row, f"{robot.name}: joint {robot.joint_names[j]!r}")
+        start, end = servo_travel(lk)
+        row = [int(round(float(cal.pulse_from_servo_angle(a)))) for a in (start, end)]
+        row += [int(round(units.value(j, cal.zero - start))), int(cal.direction),
+                *(int(round(units.value(j, v))) for v in lk.limits)]
+        check_calibration_row(row, f"{robot.name}: joint {robot.joint_names[j]!r}",
+                              "cdeg" if units.metres[j] is None else f"units of {units.metres[j] * 1e6:.3g} um")
         joints.append(row)
     g = robot.gripper
     gripper = None if not hasattr(g, "open_us") else [int(round(min(g.open_us, g.closed_us))), int(round(max(g.open_us, g.closed_us))),

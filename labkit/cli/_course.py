@@ -69,11 +69,16 @@ def _cmd_assign(args):
         from labkit.course import baseline
 
         base = baseline(args.lab_dir)
-        print(f"the untouched student version passes {len(base.reasons)} check row(s); at grading these rows are "
-              f"free (worth 0), so it scores 0 and a submission can earn at most {base.max_points:g} points "
+        kinds = (f"{len(base.reasons)} of them are free (worth 0) and {len(base.derivations)} are derivation rows "
+                 "(they count, and earn only with the rows they back)" if base.derivations else
+                 "these rows are free (worth 0)")
+        print(f"the untouched student version passes {len(base.reasons) + len(base.derivations)} check row(s); at "
+              f"grading {kinds}, so it scores 0 and a submission can earn at most {base.max_points:g} points "
               f"(of the {base.result.max_points:g} the checks declare; labkit grade --count-free counts free rows)")
         for line in base.reasons:
             print(f"  free: {line}")
+        for line in base.derivations:
+            print(f"  derivation: {line}")
     return 0
 
 

@@ -2,11 +2,14 @@
 
 A step is the classic identification input, and a hobby servo receives one whenever its pulse width
 jumps; the board's speed and acceleration limits (``LIMITS``, from the robot file) exist to prevent
-exactly that. :func:`record_step` therefore lifts them for the test and restores them after (also on
-an error): it swaps the arm's robot for a copy whose joints have no ``max_velocity`` or
-``max_acceleration``, sends it with :meth:`labkit.arm.Arm.sync_calibration`, queues the two steps as
-protocol segments (:meth:`~labkit.arm.Arm.run_trajectory`, without waiting) and records
+exactly that. :func:`record_step` therefore lifts them on the board for the test and restores them after
+(also on an error): it sends ``LIMITS`` of 0 (unchecked) with :meth:`labkit.arm.Arm.sync_calibration`
+(``speed_limits=``), queues the two steps as protocol segments checked against those same limits
+(:meth:`~labkit.arm.Arm.run_trajectory` with ``speed_limits=``, without waiting) and records
 :meth:`~labkit.arm.Arm.stream` meanwhile, with the board's host-silence timeout off for the recording.
+Nothing of the arm object changes: its robot (and so every later move's host-side check) stays the robot
+file's; only the board's ``LIMITS`` and timeout are changed, and both are sent back after the recording, or,
+when the step fails, after stopping the arm (a board still running the step's segments refuses ``LIMITS``).
 
 The command the servo follows is a step slowed to the joint's ``max_velocity`` (the robot file's
 servo speed, which a servo's motor cannot exceed; the virtual servo's rate limit is the same value):
@@ -15,7 +18,6 @@ servo speed, which a servo's motor cannot exceed; the virtual servo's rate limit
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -178,25 +180,34 @@ def record_step(arm, joint, amplitude, *, hold=0.3, hz=200):
     times = [0.0, rest, rest + jump, rest + jump + hold, rest + 2 * jump + hold]
     Q = np.array([q0, q0, q1, q1, q0])
     steps = Trajectory(t=times, q=Q, qd=np.zeros_like(Q), qdd=np.zeros_like(Q))
-    free = dataclasses.replace(robot, links=tuple(dataclasses.replace(lk, max_velocity=None, max_acceleration=None)
-                                                  for lk in robot.links))
+    unchecked = ([0] * robot.n, [0] * robot.n)  # LIMITS 0: the board and the host check no speed
     timeout = arm.status().timeout
-    arm.robot = free
     try:
-        arm.sync_calibration()
+        arm.sync_calibration(speed_limits=unchecked)
         arm.set_host_timeout(0)
         t_start = arm.status().t
-        arm.run_trajectory(steps, wait=False, min_duration=jump)
+        arm.run_trajectory(steps, wait=False, min_duration=jump, speed_limits=unchecked)
         table = arm.stream(rest + 2 * (jump + hold), hz=hz)
-    finally:
-        arm.robot = robot
-        arm.sync_calibration()
-        arm.set_host_timeout(timeout)
+    except BaseException as exc:
+        try:  # a step cut short: stop its segments (a running board refuses LIMITS), then restore
+            arm.stop()
+            _restore(arm, timeout)
+        except Exception as again:  # noqa: BLE001 - the first error is the one to raise
+            exc.add_note(f"the board's speed limits and host-silence timeout could not be restored ({again}): "
+                         f"reopen the arm before moving it")
+        raise
+    _restore(arm, timeout)
     t = table["t"].to_numpy(float) - t_start - rest
     y = table[f"q_{robot.joint_names[j]}"].to_numpy(float)
     rate = robot.links[j].max_velocity
     u = rate_limited_steps(t, q0[j], [(0.0, q1[j]), (hold + jump, q0[j])], rate)
     return StepRecord(joint=robot.joint_names[j], t=t, y=y, u=u, amplitude=amplitude, rate_limit=rate)
+
+
+def _restore(arm, timeout):
+    """The robot file's speed limits and the host-silence timeout ``timeout`` [s] back on the board."""
+    arm.sync_calibration()
+    arm.set_host_timeout(timeout)
 
 
 def _joint_index(robot, joint):

@@ -10,7 +10,8 @@ batches of gradings or renders on a local process pool or a dask.distributed clu
 from labkit.course._assign import CODE_STUB, HIDDEN_TESTS_TAG, PARAMETERS_TAG, SOLUTION_TAG, TESTS_TAG, AssignResult, GradedCell, assign, cell_role, graded_cells, student_notebook
 from labkit.course._cgroup import MemoryCgroup, memory_cgroup, memory_mechanism
 from labkit.course._sandbox import SANDBOX_HOME, Limits, RunResult, check_sandbox, run_untrusted, sandbox_args
-from labkit.course._grade import Baseline, CellScore, RowScore, SubmissionResult, baseline, grade_submission, graded_notebook
+from labkit.course._points import CellScore, RowScore
+from labkit.course._grade import Baseline, SubmissionResult, baseline, grade_submission, graded_notebook
 from labkit.course._batch import grade, gradebook_frame, pack_dir, render_batch, run_tasks, unpack_dir, write_gradebook
 
 __all__ = [

@@ -201,7 +201,8 @@ def _failed(student, lab_files, free, status, why, t0=None):
         import nbformat
 
     from labkit.course._assign import graded_cells
-    from labkit.course._grade import SubmissionResult, _unscored
+    from labkit.course._grade import SubmissionResult
+    from labkit.course._points import unscored
 
     sources = {}
     for rel in sorted(lab_files):
@@ -214,7 +215,7 @@ def _failed(student, lab_files, free, status, why, t0=None):
                 sources[rel] = nb
     seconds = 0.0 if t0 is None else time.perf_counter() - t0
     why = clean_text(why)
-    return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), seconds)
+    return SubmissionResult(student, status, why[:500], unscored(sources, free, why[:200]), seconds)
 
 
 def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, jobs=2, html=True, progress=True,

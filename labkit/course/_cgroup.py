@@ -14,7 +14,13 @@ Where the cgroup is made, in that order:
 
 * **cgroup v2**: a child of the process's own cgroup (``0::`` in ``/proc/self/cgroup``)
   with ``memory.max`` and ``memory.swap.max``, if the memory controller is enabled for
-  its children (``cgroup.subtree_control``, as under a systemd ``Delegate=yes`` unit);
+  its children (``cgroup.subtree_control``). In a cgroup that systemd delegated (marked with
+  the extended attribute ``user.delegate`` or ``trusted.delegate``: a unit or scope with
+  ``Delegate=yes``, such as ``systemd-run --user --scope -p Delegate=yes labkit grade ...``)
+  where the controller is available (``cgroup.controllers``) but not yet enabled, the
+  grader first moves the cgroup's processes into a leaf child of its own
+  (``labkit-<pid>-grader``: a cgroup v2 with processes cannot enable controllers for its
+  children) and enables ``memory`` there; the runs' cgroups are then siblings of that leaf;
 * **cgroup v1**: a child of its own cgroup in the ``memory`` hierarchy, with
   ``memory.limit_in_bytes`` (and ``memory.memsw.limit_in_bytes`` where swap is accounted);
 * neither (no such mount, not writable, not delegated): :func:`memory_cgroup` returns
@@ -46,11 +52,17 @@ MemoryMechanism = ("cgroup v2", "cgroup v1", "watchdog")
 _PREFIX = "labkit-"
 
 
+#: where this process's mounts and cgroups are read (tests point it at a made-up layout)
+_PROC_SELF = Path("/proc/self")
+_LEAF = "-grader"
+_DELEGATE_XATTRS = ("user.delegate", "trusted.delegate")
+
+
 def _mountinfo() -> list:
     """(mount point, root inside the hierarchy, file-system type, super options) of every mount."""
     mounts = []
     try:
-        lines = Path("/proc/self/mountinfo").read_text().splitlines()
+        lines = (_PROC_SELF / "mountinfo").read_text().splitlines()
     except OSError:
         return mounts
     for line in lines:
@@ -65,7 +77,7 @@ def _own_cgroups() -> dict:
     """{controller or "" for cgroup v2: path of this process's cgroup} from ``/proc/self/cgroup``."""
     own = {}
     try:
-        lines = Path("/proc/self/cgroup").read_text().splitlines()
+        lines = (_PROC_SELF / "cgroup").read_text().splitlines()
     except OSError:
         return own
     for line in lines:
@@ -86,17 +98,78 @@ def _inside(mount, root, path):
     return Path(mount) / rel
 
 
+def _words(path) -> list:
+    try:
+        return Path(path).read_text().split()
+    except OSError:
+        return []
+
+
+def _delegated(folder) -> bool:
+    """systemd delegated this cgroup v2 (``Delegate=yes``): its processes and children are its owner's to arrange."""
+    for name in _DELEGATE_XATTRS:
+        try:
+            if os.getxattr(folder, name).strip() == b"1":
+                return True
+        except OSError:
+            continue
+    return False
+
+
+def _v2_parent(folder):
+    """The cgroup v2 folder under which a run's cgroup can be made, from this process's own; else None.
+
+    Inside a leaf made by :func:`_enable_memory` the parent is that leaf's parent.
+    """
+    if folder.name.startswith(_PREFIX) and folder.name.endswith(_LEAF):
+        folder = folder.parent
+    if "memory" in _words(folder / "cgroup.subtree_control"):
+        return folder
+    if "memory" in _words(folder / "cgroup.controllers") and _delegated(folder):
+        return folder  # delegated: memory_cgroup enables the controller first
+    return None
+
+
+def _enable_memory(folder) -> bool:
+    """Enable the memory controller for the children of a delegated cgroup v2 (move its processes to a leaf first).
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+        The cgroup (delegated, ``memory`` in its ``cgroup.controllers``).
+
+    Returns
+    -------
+    bool
+        True once ``memory`` is in its ``cgroup.subtree_control``.
+    """
+    if "memory" in _words(folder / "cgroup.subtree_control"):
+        return True
+    leaf = folder / f"{_PREFIX}{os.getpid()}{_LEAF}"
+    for _ in range(5):  # a process forked meanwhile is moved on the next round
+        try:
+            leaf.mkdir(exist_ok=True)
+            for pid in _words(folder / "cgroup.procs"):
+                try:
+                    _write(leaf / "cgroup.procs", pid)
+                except ProcessLookupError:
+                    continue
+            _write(folder / "cgroup.subtree_control", "+memory")
+            return True
+        except OSError:
+            time.sleep(0.01)
+    return "memory" in _words(folder / "cgroup.subtree_control")
+
+
 def _parents() -> list:
     """Candidate (version, folder) parents for a new memory cgroup, best first."""
     own, found = _own_cgroups(), []
     for mount, root, fstype, options in _mountinfo():
         if fstype == "cgroup2" and "" in own:
             folder = _inside(mount, root, own[""])
-            try:
-                if folder is not None and "memory" in (folder / "cgroup.subtree_control").read_text().split():
-                    found.insert(0, (2, folder))
-            except OSError:
-                pass
+            parent = _v2_parent(folder) if folder is not None else None
+            if parent is not None:
+                found.insert(0, (2, parent))
         elif fstype == "cgroup" and "memory" in options and "memory" in own:
             folder = _inside(mount, root, own["memory"])
             if folder is not None and (folder / "memory.limit_in_bytes").exists():
@@ -279,6 +352,8 @@ def memory_cgroup(limit_bytes):
     """
     limit_bytes = int(limit_bytes)
     for version, parent in _parents():
+        if version == 2 and not _enable_memory(parent):
+            continue
         path = parent / f"{_PREFIX}{os.getpid()}-{uuid.uuid4().hex[:12]}"
         _sweep(parent)
         try:

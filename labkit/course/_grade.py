@@ -12,8 +12,10 @@ names as the instructor's lab folder) and any files they need. :func:`grade_subm
 3. runs it against ``sim://`` in the sandbox of :func:`labkit.course.run_untrusted`;
 4. runs the instructor's checks on the handed-out data in a separate clean process
    (:mod:`labkit.course._checker`), one score per row;
-5. scores: a check's points are shared by its rows, except **free** rows (rows that
-   pass on the untouched student version, see :func:`baseline`), which are worth 0;
+5. scores (:mod:`labkit.course._points`): a check's points are shared by its rows, except
+   **free** rows (rows that pass on the untouched student version, see :func:`baseline`, and
+   check no value a row needing work reads), which are worth 0; a row that rests on a value
+   of the lab's earns only while the rows proving that value pass;
 6. writes a small feedback page (:mod:`labkit.course._feedback`).
 
 Nothing the student's code patches, hooks or prints reaches the verdict: at most it
@@ -46,78 +48,17 @@ from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_T
                                    graded_cells, student_notebook)
 from labkit.course._checker import run_checker
 from labkit.course._plan import plan_check, prelude_source, python_source
+from labkit.course._points import score_notebook, unscored
 from labkit.course._sandbox import SANDBOX_HOME, Limits, check_sandbox, run_untrusted, sandbox_args
 from labkit.course._safefs import read_tree, remove_tree, write_tree
 from labkit.course._submission import clean_text, copy_regular_files, error_detail, read_student_notebook, student_label
 from labkit.course._wire import MIME, export_source
 from labkit.reports import notebook_parameters
 
-__all__ = ["RowScore", "CellScore", "SubmissionResult", "graded_notebook", "grade_submission", "baseline"]
+__all__ = ["SubmissionResult", "Baseline", "graded_notebook", "grade_submission", "baseline"]
 
 #: the port every graded notebook runs against (the virtual arm)
 GRADING_PORT = "sim://"
-
-
-@dataclass(frozen=True)
-class RowScore:
-    """The score of one row of a check.
-
-    Attributes
-    ----------
-    name : str
-        Row name.
-    points, max_points : float
-        Earned and possible [points] (0 / 0 for a free row).
-    passed : bool
-    free : bool
-        The row passes on the untouched student version (worth nothing).
-    error : str
-        What failed (exception type and message, or the failing comparison).
-    line : int
-        Line of the row in the check cell.
-    """
-
-    name: str
-    points: float
-    max_points: float
-    passed: bool
-    free: bool = False
-    error: str = ""
-    line: int = 0
-
-
-@dataclass(frozen=True)
-class CellScore:
-    """The score of one check (one ``tests`` or ``hidden-tests`` cell) of one submission.
-
-    Attributes
-    ----------
-    notebook, name : str
-        Notebook file name and check name.
-    points, max_points : float
-        Points earned and possible [points]: the check's weight shared by its rows that are
-        not free (a check whose rows are all free is worth 0).
-    hidden : bool
-        True for a hidden check.
-    passed : bool
-        True when every row passed.
-    rows : tuple of RowScore
-    cell_id : str
-    """
-
-    notebook: str
-    name: str
-    points: float
-    max_points: float
-    hidden: bool
-    passed: bool
-    rows: tuple = ()
-    cell_id: str = ""
-
-    @property
-    def free(self) -> bool:
-        """Every row passes without student work (the check is worth 0)."""
-        return bool(self.rows) and all(r.free for r in self.rows)
 
 
 @dataclass(frozen=True)
@@ -407,17 +348,10 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
             verdict = run_checker(job, checker, limits=limits, sandbox_args=args)
         by_nb = {n["name"]: n for n in verdict.get("notebooks", [])}
         for name, status, detail, planned in runs:
-            source_checks = graded_cells(sources[name], name)
             cells = {c["cell_id"]: c["rows"] for c in by_nb.get(name, {}).get("cells", [])}
             if planned is not None and "error" in verdict:
                 status, detail = "crash", f"{detail + '; ' if detail else ''}{verdict['error']}"
-            nb_scores = []
-            for chk in source_checks:
-                plan = planned[1][chk.cell_id] if planned else plan_check(
-                    next(c.source for c in sources[name].cells if str(c.get("id")) == chk.cell_id), chk.cell_id, chk.name)
-                results = cells.get(chk.cell_id) or [{"passed": False, "error": "not graded", "line": r.line}
-                                                     for r in plan.rows]
-                nb_scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
+            nb_scores = score_notebook(sources[name], name, cells, free, planned[1] if planned else None)
             scores += nb_scores
             statuses.append(status)
             failing = [f"{r.name if r.name.startswith(s.name) else s.name + ' / ' + r.name}: {r.error} (line {r.line})"
@@ -442,49 +376,9 @@ def _row_list(row):
     return [row.index, row.name, row.statement, row.line]
 
 
-def _score(chk, plan, results, free_rows) -> CellScore:
-    counted = [r for r in plan.rows if r.index not in free_rows]
-    share = chk.points / len(counted) if counted else 0.0
-    rows = []
-    for r, res in zip(plan.rows, results):
-        is_free = r.index in free_rows
-        passed = bool(res.get("passed"))
-        rows.append(RowScore(r.name, share if passed and not is_free else 0.0, 0.0 if is_free else share, passed,
-                             is_free, clean_text(res.get("error", ""), 500), int(res.get("line", r.line))))
-    return CellScore(chk.notebook, chk.name, round(sum(r.points for r in rows), 9),
-                     round(sum(r.max_points for r in rows), 9), chk.hidden, all(r.passed for r in rows),
-                     tuple(rows), chk.cell_id)
-
-
-def _unscored(sources, free, why="not graded") -> tuple:
-    """Every check of the lab at 0 points (free rows worth 0 of 0), for a submission that could not run.
-
-    Parameters
-    ----------
-    sources : dict of str to nbformat.NotebookNode
-        The instructor's notebooks by file name.
-    free : dict
-        Free rows, as for :func:`grade_submission`.
-    why : str
-        The rows' error.
-
-    Returns
-    -------
-    tuple of CellScore
-    """
-    scores = []
-    for name, nb in sources.items():
-        for chk in graded_cells(nb, name):
-            source = next(c.source for c in nb.cells if str(c.get("id")) == chk.cell_id)
-            plan = plan_check(source, chk.cell_id, chk.name)
-            results = [{"passed": False, "error": why, "line": r.line} for r in plan.rows]
-            scores.append(_score(chk, plan, results, free.get((name, chk.cell_id), set())))
-    return tuple(scores)
-
-
 def _invalid(student, sources, free, why, t0, status="invalid") -> SubmissionResult:
     why = clean_text(why)
-    return SubmissionResult(student, status, why[:500], _unscored(sources, free, why[:200]), time.perf_counter() - t0)
+    return SubmissionResult(student, status, why[:500], unscored(sources, free, why[:200]), time.perf_counter() - t0)
 
 
 @dataclass(frozen=True)
@@ -494,7 +388,8 @@ class Baseline:
     Attributes
     ----------
     free : dict
-        ``{(notebook, cell id): set of row indices}`` that pass without any student work.
+        ``{(notebook, cell id): set of row indices}`` that pass without any student work: the free
+        rows and the derivation rows, which the grading tells apart (:mod:`labkit.course._points`).
     result : SubmissionResult
         The untouched version's grading (every row counted).
     reasons : tuple of str
@@ -503,12 +398,16 @@ class Baseline:
         The most a submission can earn [points]: every check's points, shared by its rows that
         are not free (a check whose rows are all free is worth 0). The one maximum ``labkit
         assign`` reports and ``labkit grade``, the gradebook and the feedback pages use.
+    derivations : tuple of str
+        One line per derivation row: it passes untouched but checks values that rows needing
+        work read, so it counts (:mod:`labkit.course._points`).
     """
 
     free: dict
     result: SubmissionResult
     reasons: tuple
     max_points: float = 0.0
+    derivations: tuple = ()
 
     @property
     def free_points(self) -> float:
@@ -559,22 +458,31 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
         raise LabkitError(f"expected the untouched student version of {lab.name} to run to its end (its checks tell "
                           f"which rows are free), got status {result.status!r}: {result.detail[:300]}; "
                           "raise the limits (--cpu, --memory, --wall) or fix the lab")
-    free, reasons = {}, []
+    free = {}
     for s in result.scores:
+        for index, r in enumerate(s.rows):
+            if r.passed:
+                free.setdefault((s.notebook, s.cell_id), set()).add(index)
+    scored = unscored(sources, free)  # the grading's own scoring of the rows: free and derivation rows
+    reasons, derivations = [], []
+    for s, counted in zip(result.scores, scored):
         source = next((c.source for c in sources[s.notebook].cells if str(c.get("id")) == s.cell_id), "")
         plan = plan_check(source, s.cell_id, s.name)
-        for index, r in enumerate(s.rows):
+        for index, (r, rule) in enumerate(zip(s.rows, counted.rows)):
             if not r.passed:
                 continue
-            free.setdefault((s.notebook, s.cell_id), set()).add(index)
             reads = _loaded(python_source(plan.statements[plan.rows[index].statement][0])) if index < len(plan.rows) \
                 else set()
+            if not rule.free:
+                derivations.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched, but checks values that rows "
+                                   "needing work read: it counts, and earns only with them")
+                continue
             mine = sorted(reads & solved.get(s.notebook, set()))
             why = (f"the stub's values of {', '.join(mine)} already pass it" if mine else
                    "it reads no value a solution cell assigns" + (f" (only {', '.join(sorted(reads))})" if reads else ""))
             reasons.append(f"{s.notebook}: {s.name} / {r.name}: passes untouched: {why}")
-    earnable = sum(s.max_points for s in _unscored(sources, free))  # the grading's own scoring of the rows
-    return Baseline(free, result, tuple(reasons), round(earnable, 9))
+    earnable = sum(s.max_points for s in scored)
+    return Baseline(free, result, tuple(reasons), round(earnable, 9), tuple(derivations))
 
 
 def _assigned(text) -> set:

@@ -5,7 +5,7 @@ statics and velocity kinematics, workspace sampling. Symbolic DH algebra lives i
 """
 
 from labkit.kinematics import _display, _forward, _ik, _statics, _workspace
-from labkit.kinematics._forward import fk, fk_position, fk_frames, jacobian, fk_jacobian
+from labkit.kinematics._forward import fk, fk_position, fk_position_with, fk_frames, fk_frames_with, jacobian, fk_jacobian
 from labkit.kinematics._ik import (
     Solver,
     IKSolutions,

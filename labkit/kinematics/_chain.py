@@ -104,8 +104,8 @@ _EYE = np.eye(4)
 
 
 def _frame_or_none(T):
-    """``None`` for the identity transform, else the matrix as a float array."""
-    T = np.asarray(T, dtype=float)
+    """``None`` for the identity transform (or None), else the matrix as a float array."""
+    T = _EYE if T is None else np.asarray(T, dtype=float)
     return None if (T == _EYE).all() else T
 
 
@@ -171,31 +171,72 @@ def chain(robot):
     Chain
         Its per-link constants.
     """
-    steps = []
-    for lk in robot.links:
-        th = float(lk.theta)
-        steps.append((
-            bool(lk.is_revolute), float(lk.a), _clean(math.cos(lk.alpha)), _clean(math.sin(lk.alpha)),
-            float(lk.d), th, _clean(math.cos(th)), _clean(math.sin(th)),
-        ))
-    rev = np.array([k for k, s in enumerate(steps) if s[0]], dtype=np.intp)
+    steps = tuple(_step(lk.is_revolute, lk.a, _clean(math.cos(lk.alpha)), _clean(math.sin(lk.alpha)), lk.d, lk.theta)
+                  for lk in robot.links)
+    return _assemble(robot.convention is Convention.MODIFIED, steps,
+                     np.array([k for k, s in enumerate(steps) if s[0]], dtype=np.intp),
+                     np.array([k for k, lk in enumerate(robot.links) if lk.flip], dtype=np.intp),
+                     _frame_or_none(robot.base), _frame_or_none(robot.tool))
+
+
+def _step(revolute, a, cos_alpha, sin_alpha, d, theta):
+    """One link's entry of :attr:`Chain.steps`."""
+    th = float(theta)
+    return (bool(revolute), float(a), cos_alpha, sin_alpha, float(d), th, _clean(math.cos(th)), _clean(math.sin(th)))
+
+
+def _assemble(modified, steps, rev, flipped, base, tool):
+    """A :class:`Chain` from its steps, revolute and flipped joints and base and tool transforms (or None)."""
     half = np.array([[0.5 * steps[k][5]] for k in rev]).reshape(-1, 1)
-    base, tool = _frame_or_none(robot.base), _frame_or_none(robot.tool)
     return Chain(
-        modified=robot.convention is Convention.MODIFIED,
+        modified=modified,
         n=len(steps),
-        steps=tuple(steps),
+        steps=steps,
         revolute=rev,
         all_revolute=rev.size == len(steps),
-        flipped=np.array([k for k, lk in enumerate(robot.links) if lk.flip], dtype=np.intp),
+        flipped=flipped,
         half_theta=half if half.any() else None,
         base=base,
         tool=tool,
-        structure=chain_structure(tuple(steps), base, tool, None if tool is None else tool[:3, 3]),
+        structure=chain_structure(steps, base, tool, None if tool is None else tool[:3, 3]),
     )
 
 
-def prepare(robot, q):
+def varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None):
+    """The chain ``c`` with DH columns and the base's or tool's translation replaced.
+
+    The same chain, number for number, as :func:`chain` of the robot with
+    those values; its programs are found in the cache of ``c``'s structure
+    (unless a value becomes 0 or +-1), so nothing is compiled.
+
+    Parameters
+    ----------
+    c : Chain
+        The robot's chain.
+    theta, a, d : sequence of float, length n, optional
+        DH columns [rad, m] (None: keep).
+    base_position, tool_position : sequence of float, length 3, optional
+        Translation of the base (world-from-frame-0) and tool (frame-n-from-tool) transforms [m].
+
+    Returns
+    -------
+    Chain
+    """
+    steps = []
+    for i, step in enumerate(c.steps):
+        rev, old_a, ca, sa, old_d, old_theta = step[:6]
+        new = (old_a if a is None else a[i], old_d if d is None else d[i], old_theta if theta is None else theta[i])
+        steps.append(step if new == (old_a, old_d, old_theta) else _step(rev, new[0], ca, sa, new[1], new[2]))
+    frames = [c.base, c.tool]
+    for k, position in enumerate((base_position, tool_position)):
+        if position is not None:
+            T = (_EYE if frames[k] is None else frames[k]).copy()
+            T[:3, 3] = position
+            frames[k] = _frame_or_none(T)
+    return _assemble(c.modified, tuple(steps), c.revolute, c.flipped, *frames)
+
+
+def prepare(robot, q, c=None):
     """Validate joint values and return the chain, the effective ``q`` and the batch shape.
 
     The one place where joint values enter the chain: both FK kernels run on
@@ -207,11 +248,13 @@ def prepare(robot, q):
         The arm.
     q : array_like, shape (..., n)
         Joint values [rad for revolute, m for prismatic joints].
+    c : Chain, optional
+        The chain to use (default the robot's).
 
     Returns
     -------
     chain : Chain
-        The robot's chain constants.
+        The robot's chain constants (or ``c``).
     q : ndarray, shape (N, n)
         Effective joint values [rad, m], batch dimensions flattened.
     lead : tuple of int
@@ -222,7 +265,7 @@ def prepare(robot, q):
     ShapeError
         If ``q`` does not end in ``n`` or holds non-finite values.
     """
-    c = chain(robot)
+    c = chain(robot) if c is None else c
     n = c.n
     arr = q if type(q) is np.ndarray and q.dtype == np.float64 else None
     if arr is None or arr.shape[-1:] != (n,) or not np.isfinite(arr).all():

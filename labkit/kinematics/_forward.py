@@ -17,14 +17,16 @@ floats, which skips numpy's per-call overhead.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _program
-from labkit.kinematics._chain import chain, check_out, half_angle_trig, prepare
+from labkit.kinematics._chain import chain, check_out, half_angle_trig, prepare, varied
 from labkit.validation import as_vector
 
-__all__ = ["fk", "fk_position", "fk_frames", "jacobian", "fk_jacobian"]
+__all__ = ["fk", "fk_position", "fk_position_with", "fk_frames", "fk_frames_with", "jacobian", "fk_jacobian"]
 
 #: chunks of the compiled programs with many output rows: _PROGRAM_CHUNK_ENTRIES // n configurations
 _PROGRAM_CHUNK_ENTRIES = 49152
@@ -46,13 +48,13 @@ def _tool_offset(c, point):
     return c.tool[:3, 3] if point is None else c.tool[:3, 3] + c.tool[:3, :3] @ point
 
 
-def _as_point(point):
-    """A tool-frame point of shape (3,) or None (validated)."""
+def _as_point(point, length=3, name="point"):
+    """A vector of shape (length,) (a tool-frame point by default) or None (validated)."""
     if point is None:
         return None
-    pt = as_vector(point, 3, "point")
+    pt = as_vector(point, length, name)
     if pt.ndim != 1:
-        raise ShapeError(f"expected point with shape (3,), got {pt.shape}")
+        raise ShapeError(f"expected {name} with shape ({length},), got {pt.shape}")
     return pt
 
 
@@ -123,7 +125,10 @@ def fk_position(robot, q, point=None, *, out=None):
     >>> np.round(fk_position(Robot.load("planar3r_seed004"), [0.0, 0.0, np.pi / 2]), 3)
     array([0.35, 0.12, 0.  ])
     """
-    c, q2, lead = prepare(robot, q)
+    return _position(*prepare(robot, q), point, out)
+
+
+def _position(c, q2, lead, point, out):
     if point is None:
         prog = _default_program(c, _program.POSITION)
     else:
@@ -133,6 +138,60 @@ def fk_position(robot, q, point=None, *, out=None):
     res = _output(out, lead + (3,))
     _evaluate(c, prog, q2, (res.reshape(-1, 3),))
     return res
+
+
+def fk_position_with(robot, q, *, theta=None, a=None, d=None, base_position=None, tool_position=None):
+    """Tool position of ``robot`` with some of its numbers replaced, without building that robot.
+
+    The model a calibration fits: :func:`fk_position` of the robot with these
+    DH columns and base and tool translations, the same numbers bit for bit,
+    for a fraction of the cost of building that robot (the numbers are inputs
+    of the programs of the robot's structure).
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., n)
+        Joint values [rad, m].
+    theta, a, d : array_like, shape (n,), optional
+        DH columns to use instead of the robot's [rad, m].
+    base_position, tool_position : array_like, shape (3,), optional
+        Translation of the ``base`` (world from frame 0) and ``tool`` (frame n
+        from tool) transforms to use instead of the robot's [m].
+
+    Returns
+    -------
+    p : ndarray, shape (..., 3)
+        Position of the tool in the world frame [m].
+
+    Raises
+    ------
+    ShapeError
+        If ``q`` does not end in ``n``, or a column or translation has another shape or a non-finite value.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> longer = arm.with_link(2, a=arm.links[2].a + 0.01)
+    >>> q = [0.1, 0.2, 0.3]
+    >>> bool(np.array_equal(fk_position_with(arm, q, a=longer.a), fk_position(longer, q)))
+    True
+    """
+    return _position(*prepare(robot, q, _varied_chain(robot, theta, a, d, base_position, tool_position)), None, None)
+
+
+def _varied_chain(robot, theta, a, d, base_position, tool_position):
+    """The robot's chain with the given DH columns and base and tool translations (validated; None: keep)."""
+    c = chain(robot)
+    columns = {}
+    for name, v, length in (("theta", theta, c.n), ("a", a, c.n), ("d", d, c.n), ("base_position", base_position, 3),
+                            ("tool_position", tool_position, 3)):
+        if v is not None and not (type(v) is list and len(v) == length  # (a list of finite floats as it is)
+                                  and all(type(x) is float and math.isfinite(x) for x in v)):
+            v = _as_point(v, length, name).tolist()
+        columns[name] = v
+    return varied(c, **columns)
 
 
 def fk_frames(robot, q):
@@ -156,7 +215,48 @@ def fk_frames(robot, q):
     >>> fk_frames(Robot.load("puma560"), np.zeros(6)).shape
     (8, 4, 4)
     """
-    c, q2, lead = prepare(robot, q)
+    return _frames(*prepare(robot, q))
+
+
+def fk_frames_with(robot, q, *, theta=None, a=None, d=None, base_position=None, tool_position=None):
+    """Every frame of ``robot`` with some of its numbers replaced, without building that robot.
+
+    :func:`fk_frames` of the robot with these DH columns and base and tool
+    translations, as :func:`fk_position_with` gives its tool position (the
+    frames a calibration's parameter derivatives are read from).
+
+    Parameters
+    ----------
+    robot : Robot
+    q : array_like, shape (..., n)
+        Joint values [rad, m].
+    theta, a, d : array_like, shape (n,), optional
+        DH columns to use instead of the robot's [rad, m].
+    base_position, tool_position : array_like, shape (3,), optional
+        Translation of the ``base`` and ``tool`` transforms to use instead of the robot's [m].
+
+    Returns
+    -------
+    T : ndarray, shape (..., n + 2, 4, 4)
+        Base (frame 0), frames 1..n and the tool frame in world coordinates [m].
+
+    Raises
+    ------
+    ShapeError
+        If ``q`` does not end in ``n``, or a column or translation has another shape or a non-finite value.
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> arm = Robot.load("arduino_arm_3dof")
+    >>> longer = arm.with_link(2, a=arm.links[2].a + 0.01)
+    >>> bool(np.array_equal(fk_frames_with(arm, [0.1, 0.2, 0.3], a=longer.a), fk_frames(longer, [0.1, 0.2, 0.3])))
+    True
+    """
+    return _frames(*prepare(robot, q, _varied_chain(robot, theta, a, d, base_position, tool_position)))
+
+
+def _frames(c, q2, lead):
     prog = _default_program(c, _program.FRAMES)
     if q2.shape[0] <= SMALL_BATCH:
         return _small(prog, q2).reshape(lead + (c.n + 2, 4, 4))

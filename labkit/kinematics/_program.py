@@ -159,12 +159,13 @@ def chain_structure(steps, base, tool, off):
     steps = tuple((rev, v(a), v(ca), v(sa), v(d), v(0.5 * th) if rev else False,
                    0.0 if rev else v(cth), 0.0 if rev else v(sth)) for rev, a, ca, sa, d, th, cth, sth in steps)
     base_cols = tuple(tuple(v(x) for x in base[:3, k]) if base is not None else _EYE_COLUMNS[k] for k in range(4))
-    rotated = tool is not None and not np.array_equal(tool[:3, :3], np.eye(3))
+    rotated = tool is not None and (tool[:3, :3] != _EYE3).any()
     tool = tuple(tuple(v(x) for x in tool[:3, k]) for k in range(3)) if rotated else None
     return (steps, base_cols, tool, None if off is None else tuple(v(x) for x in off)), numbers
 
 
 _EYE_COLUMNS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+_EYE3 = np.eye(3)
 
 
 def _numbered(x, counter=None):

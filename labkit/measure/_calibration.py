@@ -4,7 +4,9 @@
 offsets, link lengths, base offset, and optionally a gravity-sag term per
 joint) so that forward kinematics of the commanded joints reproduces the
 measured tool positions in the least-squares sense
-(:func:`scipy.optimize.least_squares`). It reports each fitted value with a
+(:func:`scipy.optimize.least_squares`, with the analytic derivatives of the tool
+positions with respect to the parameters, read from the model's frames; finite
+differences when a sag is fitted). It reports each fitted value with a
 confidence interval from the Jacobian and the scatter of the poses about the fit
 (the readings of one pose may share one error), the residuals before and after, and a leave-one-pose-out check
 (each pose predicted by a fit that did not see it), so overfitting shows as a
@@ -41,13 +43,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import warnings
 
 import numpy as np
 
 from labkit.exceptions import MeasurementError, OptionError
 from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
+from labkit.measure._parameters import (_NAME, GROUPS, _nominal, _numbers, _position_derivatives, apply_parameters,
+                                        parameter_names)
 
 __all__ = ["GROUPS",
     "CalibrationResult",
@@ -56,129 +59,6 @@ __all__ = ["GROUPS",
     "apply_parameters",
     "predict_positions",
 ]
-
-GROUPS = ("joint_offsets", "link_lengths", "base_offset", "gravity_sag")
-_NAME = re.compile(r"^(offset|a|d|sag)\[(\d+)\]$|^(tool|base)_([xyz])$")
-
-
-def parameter_names(robot, params=("joint_offsets", "link_lengths")):
-    """Expand groups into parameter names (order kept, duplicates dropped).
-
-    Parameters
-    ----------
-    robot : Robot
-        The nominal robot (decides which lengths are non-zero and which joints
-        can sag).
-    params : str or sequence of str
-        Groups from ``GROUPS`` (``"joint_offsets"``, ``"link_lengths"``,
-        ``"base_offset"``, ``"gravity_sag"``) and/or single names such as
-        ``"offset[2]"``, ``"a[3]"``, ``"d[1]"``, ``"sag[2]"``, ``"tool_x"``,
-        ``"base_z"`` (indices 1-based).
-
-    Returns
-    -------
-    tuple of str
-        Parameter names, e.g. ``('offset[1]', 'a[3]', 'tool_x')``.
-
-    Raises
-    ------
-    MeasurementError
-        An unknown group or name, or a joint index outside ``1..n``.
-
-    Examples
-    --------
-    >>> from labkit.robot import Robot
-    >>> parameter_names(Robot.load("arduino_arm_3dof"), ("joint_offsets", "link_lengths", "gravity_sag"))
-    ('offset[1]', 'offset[2]', 'offset[3]', 'a[3]', 'tool_x', 'sag[2]', 'sag[3]')
-    """
-    if isinstance(params, str):
-        params = (params,)
-    names = []
-    for p in params:
-        if p == "joint_offsets":
-            names += [f"offset[{j + 1}]" for j in range(robot.n)]
-        elif p == "link_lengths":
-            for i, lk in enumerate(robot.links):
-                if lk.a != 0:
-                    names.append(f"a[{i + 1}]")
-                if lk.is_revolute and lk.d != 0:
-                    names.append(f"d[{i + 1}]")
-            names += [f"tool_{ax}" for k, ax in enumerate("xyz") if robot.tool[k, 3] != 0]
-        elif p == "base_offset":
-            names += ["base_x", "base_y", "base_z"]
-        elif p == "gravity_sag":
-            z0 = _horizontal_axes(robot)
-            names += [f"sag[{j + 1}]" for j in range(robot.n) if z0[j]]
-        else:
-            m = _NAME.match(str(p))
-            if not m:
-                raise MeasurementError(
-                    f"unknown calibration parameter {p!r}; expected a group {GROUPS} or a name like "
-                    "'offset[2]', 'a[3]', 'd[1]', 'sag[2]', 'tool_x', 'base_z'"
-                )
-            if m.group(1):
-                idx = int(m.group(2))
-                if not 1 <= idx <= robot.n:
-                    raise MeasurementError(f"parameter {p!r}: expected an index 1..{robot.n}, got {idx}")
-            names.append(str(p))
-    return tuple(dict.fromkeys(names))
-
-
-def _horizontal_axes(robot):
-    from labkit.kinematics import fk_frames
-
-    T = fk_frames(robot, np.zeros(robot.n))
-    shift = 1 if robot.convention.value == "modified" else 0
-    return [bool(robot.is_revolute[j]) and abs(T[j + shift, 2, 2]) < 0.5 for j in range(robot.n)]
-
-
-def _nominal(robot, name):
-    m = _NAME.match(name)
-    if m.group(1) == "offset":
-        j = int(m.group(2)) - 1
-        lk = robot.links[j]
-        return lk.theta if lk.is_revolute else lk.d
-    if m.group(1) in ("a", "d"):
-        return getattr(robot.links[int(m.group(2)) - 1], m.group(1))
-    if m.group(1) == "sag":
-        return 0.0
-    T = robot.tool if m.group(3) == "tool" else robot.base
-    return float(T["xyz".index(m.group(4)), 3])
-
-
-def apply_parameters(robot, names, values):
-    """Copy of ``robot`` with the named parameters set (``sag`` entries ignored).
-
-    Parameters
-    ----------
-    robot : Robot
-        Robot to start from (not modified).
-    names : sequence of str
-        Parameter names as returned by :func:`parameter_names`.
-    values : array_like, shape (len(names),)
-        Parameter values in SI units: joint offsets [rad] (revolute) or [m]
-        (prismatic), lengths and tool/base offsets [m].
-
-    Returns
-    -------
-    Robot
-    """
-    links, changes = list(robot.links), {}  # (changes: per link the fields to set, one copy of each link)
-    frames = {}  # the tool and base transforms that change (the others stay the robot's, not checked again)
-    for name, v in zip(names, values):
-        m = _NAME.match(name)
-        if m.group(1) == "offset":
-            j = int(m.group(2)) - 1
-            changes.setdefault(j, {})["theta" if links[j].is_revolute else "d"] = float(v)
-        elif m.group(1) in ("a", "d"):
-            changes.setdefault(int(m.group(2)) - 1, {})[m.group(1)] = float(v)
-        elif m.group(3):
-            T = frames.setdefault(m.group(3), np.array(getattr(robot, m.group(3))))
-            T["xyz".index(m.group(4)), 3] = float(v)
-    for i, fields in changes.items():
-        links[i] = dataclasses.replace(links[i], **fields)
-    return robot.replace(links=tuple(links), **frames)
-
 
 def _sag_dq(robot, q, sag, gravity):
     """Joint deflection sag_j * cos(elevation of joint j -> tool line), shape (P, n)."""
@@ -427,16 +307,18 @@ def _pose_data(measurements, robot):
         raise MeasurementError("expected position readings (quantities x, y, z) to calibrate against, got none")
     table = error_table(robot, df, mode="fk").table
     pose_ids = tuple(dict.fromkeys(table["pose_id"]))
-    commanded = df.drop_duplicates("pose_id").set_index("pose_id")["commanded"]
+    commanded = {}
+    for pose, cmd in zip(df["pose_id"].tolist(), df["commanded"].tolist()):
+        commanded.setdefault(pose, cmd)  # (a pose's first row)
     q = np.array([commanded[p] for p in pose_ids], dtype=float)
     measured = np.full((len(pose_ids), 3), np.nan)
     sigma = np.full((len(pose_ids), 3), np.nan)
     index = {p: i for i, p in enumerate(pose_ids)}
-    for r in table.itertuples(index=False):
-        f = UNITS[r.unit][1]
-        k = "xyz".index(r.quantity)
-        measured[index[r.pose_id], k] = r.mean * f
-        sigma[index[r.pose_id], k] = r.uncertainty * f
+    for pose, quantity, unit, mean, u in zip(*(table[c].tolist() for c in ("pose_id", "quantity", "unit", "mean",
+                                                                           "uncertainty"))):
+        f = UNITS[unit][1]
+        measured[index[pose], "xyz".index(quantity)] = mean * f
+        sigma[index[pose], "xyz".index(quantity)] = u * f
     return pose_ids, q, measured, sigma
 
 
@@ -493,6 +375,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
     from scipy.optimize import least_squares
     from scipy.stats import t as student_t
 
+    from labkit.kinematics import fk_position_with
     from labkit.robot import Robot
 
     if isinstance(measurements, tuple):
@@ -527,14 +410,32 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
     weights = 1.0 / sigma if weighted else np.ones_like(measured)
 
     def model(x, qs):
-        r = apply_parameters(robot, names, x)
         sag = np.zeros(robot.n)
         sag[sag_joint] = x[sag_index]
-        return predict_positions(r, qs, sag, g)
+        if np.any(sag):  # the joints sag by an amount that depends on the fitted robot's frames
+            return predict_positions(apply_parameters(robot, names, x), qs, sag, g)
+        return fk_position_with(robot, qs, **_numbers(robot, names, x))
+
+    last = {}  # without a sag: the derivatives found with the last residuals, which scipy asks for next (same x)
 
     def residuals(x, rows):
-        res = (model(x, q[rows]) - measured[rows]) * weights[rows]
+        if sag_index:
+            positions = model(x, q[rows])
+        else:
+            positions, last["derivatives"] = _position_derivatives(robot, names, x, q[rows])
+            last["at"] = (x.tobytes(), rows)
+        res = (positions - measured[rows]) * weights[rows]
         return res[~np.isnan(res)]
+
+    def derivatives(x, rows):  # d residuals / d x, the rows of residuals(x, rows)
+        at = last.get("at")
+        if at is None or at[1] is not rows or at[0] != x.tobytes():
+            residuals(x, rows)
+        w = weights[rows]
+        return (last["derivatives"] * w[:, :, None])[~np.isnan(measured[rows] * w)]
+
+    # analytic derivatives unless a sag is fitted (the sag's joint deflections move with every parameter)
+    jac = "2-point" if sag_index else derivatives
 
     all_rows = np.arange(len(q))
     m = int(np.sum(~np.isnan(measured)))
@@ -545,7 +446,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         warnings.warn(f"{len(q)} poses for {p} parameters: too few to estimate a per-pose error, the intervals "
                       "take every measured component as independent (errors='independent')", UserWarning, stacklevel=2)
         errors = "independent"
-    sol = least_squares(residuals, nominal, args=(all_rows,), x_scale="jac", method="trf")
+    sol = least_squares(residuals, nominal, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
     dof = m - p
     shared = 0.0
     if weighted and errors == "per_pose":
@@ -555,7 +456,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         shared = _shared_variance((model(sol.x, q) - measured)[mask], sigma[mask], dof)
         if shared > 0:
             weights = 1.0 / np.sqrt(sigma ** 2 + shared)
-            sol = least_squares(residuals, sol.x, args=(all_rows,), x_scale="jac", method="trf")
+            sol = least_squares(residuals, sol.x, args=(all_rows,), jac=jac, x_scale="jac", method="trf")
         shared = math.sqrt(shared)
     J = sol.jac
     _, sv, vt = np.linalg.svd(J, full_matrices=False)
@@ -578,7 +479,7 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
             keep = all_rows[all_rows != i]
             if int(np.sum(~np.isnan(measured[keep]))) <= p:
                 continue
-            s = least_squares(residuals, fitted, args=(keep,), x_scale="jac", method="trf")
+            s = least_squares(residuals, fitted, args=(keep,), jac=jac, x_scale="jac", method="trf")
             loo[i] = model(s.x, q[i:i + 1])[0] - measured[i]
 
     def rms(r):

@@ -234,24 +234,28 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
     calc_si = calculated_si(df, robot, mode=mode, branch=branch)
     lines = df["line"].tolist() if "line" in df else [i + 2 for i in range(len(df))]
     rows = []
-    for (pose, quantity), idx in df.groupby(["pose_id", "quantity"], sort=False).indices.items():
-        g = df.iloc[idx]
+    col = {name: df[name].tolist() for name in ("unit", "value", "resolution", "half_range", "n_readings",
+                                                 "commanded", "target")}  # (lists: no pandas call per reading)
+    groups = {}  # (pose, quantity) -> row positions, in order of first appearance (rows without either skipped)
+    for k, key in enumerate(zip(df["pose_id"].tolist(), df["quantity"].tolist())):
+        if not (pd.isna(key[0]) or pd.isna(key[1])):
+            groups.setdefault(key, []).append(k)
+    for (pose, quantity), idx in groups.items():
         first = idx[0]
-        unit = g["unit"].iloc[0]
+        unit = col["unit"][first]
         factor = UNITS[unit][1]
         for k in idx[1:]:
-            if df["commanded"].iloc[k] != df["commanded"].iloc[first] or df["target"].iloc[k] != df["target"].iloc[first]:
+            if col["commanded"][k] != col["commanded"][first] or col["target"][k] != col["target"][first]:
                 raise MeasurementError(f"pose {pose!r} was logged with different commanded joints/targets", line=lines[k], column="commanded")
-        values = np.array([v * UNITS[u][1] / factor for v, u in zip(g["value"], g["unit"])])
-        res = np.array([v * UNITS[u][1] / factor for v, u in zip(g["resolution"], g["unit"])])
-        half = np.array([v * UNITS[u][1] / factor for v, u in zip(g["half_range"], g["unit"])])
+        values, res, half = (np.array([col[name][k] * UNITS[col["unit"][k]][1] / factor for k in idx])
+                             for name in ("value", "resolution", "half_range"))
         summary_rows = ~np.isnan(half)
         if summary_rows.any():
-            if len(g) > 1:
+            if len(idx) > 1:
                 k = idx[int(np.argmax(summary_rows))] if summary_rows.sum() == 1 else idx[1]
                 raise MeasurementError(f"pose {pose!r}, quantity {quantity!r}: a summary row (half_range given) must be "
-                           f"the only row of its pose and quantity, got {len(g)} rows", line=lines[k], column="half_range")
-            mean, hr, std, n = values[0], half[0], float("nan"), int(g["n_readings"].iloc[0])
+                           f"the only row of its pose and quantity, got {len(idx)} rows", line=lines[k], column="half_range")
+            mean, hr, std, n = values[0], half[0], float("nan"), int(col["n_readings"][first])
         else:
             mean = values.mean()
             hr = (values.max() - values.min()) / 2
@@ -266,20 +270,31 @@ def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadr
         rel = abs(error) / abs(calc) if abs(calc) >= resolution else float("nan")
         rows.append(dict(
             pose_id=pose, quantity=quantity,
-            command=_command_text(df["commanded"].iloc[first], df["target"].iloc[first], robot),
+            command=_command_text(col["commanded"][first], col["target"][first], robot),
             unit=unit, calculated=calc, mean=mean, n=n, half_range=hr, std=std,
             resolution=resolution, uncertainty=u, error=error, abs_error=abs(error),
             rel_error=rel, inside=bool(abs(error) <= u * (1 + 1e-9)),
         ))
     table = pd.DataFrame(rows)
+    per_quantity = {}
+    for row in rows:
+        per_quantity.setdefault(row["quantity"], []).append(row)
     summary = pd.DataFrame([
-        dict(quantity=q, unit=g["unit"].iloc[0], n_poses=len(g),
-             rms_error=float(np.sqrt(np.mean(g["error"] ** 2))),
-             max_abs_error=float(g["abs_error"].max()), mean_error=float(g["error"].mean()),
-             n_inside=int(g["inside"].sum()))
-        for q, g in table.groupby("quantity", sort=False)
+        dict(quantity=q, unit=g[0]["unit"], n_poses=len(g), **_error_statistics([row["error"] for row in g]),
+             n_inside=sum(row["inside"] for row in g))
+        for q, g in per_quantity.items()
     ]).set_index("quantity")
     return ErrorTable(table=table, summary=summary, combine=combine)
+
+
+def _error_statistics(errors):
+    """RMS, largest magnitude and mean of a quantity's errors, NaN entries left out (all NaN: NaN)."""
+    e = np.array(errors, dtype=float)
+    e = e[~np.isnan(e)]
+    if not e.size:
+        return dict(rms_error=math.nan, max_abs_error=math.nan, mean_error=math.nan)
+    return dict(rms_error=float(np.sqrt(np.mean(e ** 2))), max_abs_error=float(np.abs(e).max()),
+                mean_error=float(e.mean()))
 
 
 def fk_error_table(robot, measurements, **kwargs):

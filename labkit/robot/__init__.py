@@ -11,7 +11,7 @@ from labkit.robot._inertia import LinkInertia, Motor
 from labkit.robot._model import Robot
 from labkit.robot._files import bundled_robots, robot_search_path
 from labkit.robot._edit import edit_bus_calibration
-from labkit.robot._display import joints_from_display, joints_to_display, servo_window, robot_reach
+from labkit.robot._display import joints_from_display, joints_to_display, servo_travel, servo_window, robot_reach
 
 __all__ = [
     "Convention",
@@ -30,6 +30,7 @@ __all__ = [
     "edit_bus_calibration",
     "joints_from_display",
     "joints_to_display",
+    "servo_travel",
     "servo_window",
     "robot_reach",
 ]

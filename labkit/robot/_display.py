@@ -20,8 +20,9 @@ import numpy as np
 
 from labkit.exceptions import LabkitError
 from labkit.robot._model import Robot
+from labkit.robot.types import JointType
 
-__all__ = ["joints_from_display", "joints_to_display", "servo_window", "robot_reach"]
+__all__ = ["joints_from_display", "joints_to_display", "servo_travel", "servo_window", "robot_reach"]
 
 
 def _scale(robot):
@@ -68,6 +69,34 @@ def joints_to_display(robot, q):
     return np.asarray(q, dtype=float) * _scale(robot)
 
 
+def servo_travel(link):
+    """The servo positions a joint's servo reaches, the span the board's pulse range covers.
+
+    A hobby servo turns 0..180 deg (the board's 18000 cdeg: its ``pulse_us`` are extended to
+    those angles); an RC linear servo (a prismatic joint's servo) travels its stroke, the servo
+    table's ``range`` (the rod's positions at the two ends of ``pulse_us``).
+
+    Parameters
+    ----------
+    link : labkit.robot.Link
+        A joint with a servo calibration.
+
+    Returns
+    -------
+    tuple of float
+        ``(lower, upper)`` servo positions [rad | m].
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> servo_travel(Robot.load("arduino_arm_3dof").links[0])
+    (0.0, 3.141592653589793)
+    """
+    if link.joint_type is JointType.REVOLUTE:
+        return 0.0, math.pi
+    return tuple(link.servo.angle_range)
+
+
 def servo_window(robot):
     """The joint range the servos can reach, inside the joint limits, per joint.
 
@@ -86,7 +115,7 @@ def servo_window(robot):
     out = np.array(robot.joint_limits, dtype=float)
     for j, lk in enumerate(robot.links):
         if lk.servo is not None:
-            ends = np.sort([lk.servo.joint_from_servo_angle(0.0), lk.servo.joint_from_servo_angle(math.pi)])
+            ends = np.sort(lk.servo.joint_from_servo_angle(servo_travel(lk)))
             out[j] = [max(out[j, 0], ends[0]), min(out[j, 1], ends[1])]
     return out
 

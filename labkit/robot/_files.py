@@ -37,7 +37,7 @@ _TOP_KEYS = {"format", "name", "title", "source", "convention", "units", "up", "
 _JOINT_KEYS = {"name", "type", "a", "alpha", "d", "theta", "limits", "servo", "max_velocity", "max_acceleration",
                "flip", "bus", "mass", "com", "inertia", "motor"}
 _MOTOR_KEYS = {"inertia", "gear_ratio", "viscous", "coulomb"}
-_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque"}
+_SERVO_KEYS = {"channel", "zero", "direction", "range", "pulse_us", "feedback_adc", "stall_torque", "no_load_speed"}
 _FRAME_KEYS = {"translation", "rpy"}
 _BUS_KEYS = {"protocol", "baudrate", "resolution", "latency"}
 _TORQUES = {"stall_torque": "a torque > 0 N m", "torque_constant": "a torque constant > 0 N m/A"}  # datasheet numbers
@@ -313,23 +313,21 @@ def parse(data, path):
             direction = s.get("direction", 1)
             if isinstance(direction, bool) or not isinstance(direction, int) or direction not in (1, -1):
                 raise RobotFileError(path, f"{where}.servo.direction", f"expected 1 or -1, got {direction!r}")
-            ar = _pair(path, f"{where}.servo.range", s.get("range", [0, 180 if au == "deg" else math.pi]))
+            # a hobby servo's 180 deg; an RC linear servo's stroke: by default the joint's limits
+            default = [0, 180 if au == "deg" else math.pi] if rev else [v / qscale for v in limits]
+            ar = _pair(path, f"{where}.servo.range", s.get("range", default))
             if (ar[1] - ar[0]) * qscale < _MIN_SERVO_SPAN[rev]:
                 raise RobotFileError(path, f"{where}.servo.range", f"expected a range of at least "
                                      f"{_MIN_SERVO_SPAN[rev] / qscale:g} {au if rev else lu}, got {s.get('range')!r}")
             pr = _pair(path, f"{where}.servo.pulse_us", s.get("pulse_us", [500, 2500]))
             _within(path, f"{where}.servo.pulse_us", pr, 400, 2600, "us (RC servo pulses)")
+            adc = _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7]))
             servo = ServoCalibration(
-                channel=ch,
-                zero=_num(path, f"{where}.servo.zero", s.get("zero", 0.0)) * qscale,
-                direction=direction,
-                angle_range=(ar[0] * qscale, ar[1] * qscale),
-                pulse_range=pr,
-                feedback_adc=_within(path, f"{where}.servo.feedback_adc",
-                                     _pair(path, f"{where}.servo.feedback_adc", s.get("feedback_adc", [102.3, 920.7])),
-                                     0, 1023, "ADC counts"),
+                channel=ch, zero=_num(path, f"{where}.servo.zero", s.get("zero", 0.0)) * qscale, direction=direction,
+                angle_range=(ar[0] * qscale, ar[1] * qscale), pulse_range=pr,
+                feedback_adc=_within(path, f"{where}.servo.feedback_adc", adc, 0, 1023, "ADC counts"),
                 stall_torque=_stall(path, f"{where}.servo", s),
-            )
+                no_load_speed=_positive(path, f"{where}.servo.no_load_speed", s.get("no_load_speed"), qscale))
         bus_servo = _bus_servo(path, where, j["bus"], bus) if "bus" in j else None
         if bus_servo is not None and servo is not None:
             raise RobotFileError(path, f"{where}.bus", "expected either a hobby servo (servo = {...}) or a bus servo "
@@ -476,7 +474,8 @@ def dump(robot, length_unit="m", angle_unit="rad"):
                 f"range = [{_fmt(s.angle_range[0] / qs)}, {_fmt(s.angle_range[1] / qs)}], "
                 f"pulse_us = [{_fmt(s.pulse_range[0])}, {_fmt(s.pulse_range[1])}], "
                 f"feedback_adc = [{_fmt(s.feedback_adc[0])}, {_fmt(s.feedback_adc[1])}]"
-                + (f", stall_torque = {_sig(s.stall_torque)}" if s.stall_torque is not None else "") + " }"
+                + (f", stall_torque = {_sig(s.stall_torque)}" if s.stall_torque is not None else "")
+                + (f", no_load_speed = {_fmt(s.no_load_speed / qs)}" if s.no_load_speed is not None else "") + " }"
             )
         if lk.bus:
             stall = f", stall_torque = {_sig(lk.bus.stall_torque)}" if lk.bus.stall_torque is not None else ""

@@ -17,6 +17,7 @@ from enum import Enum
 import numpy as np
 
 from labkit.exceptions import JointLimitError, RobotError
+from labkit.robot._fields import _check_channel, _check_direction, _check_integer, _check_stall_torque, _finite, _limit_pair
 from labkit.robot._inertia import LinkInertia, Motor
 
 __all__ = [
@@ -60,52 +61,6 @@ class JointType(str, Enum):
     PRISMATIC = "prismatic"
 
 
-def _finite(owner, field, value):
-    """``value`` as a float, or :class:`RobotError` worded like the robot-file loader."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
-        raise RobotError(f"{owner}: field '{field}': expected a finite number, got {value!r}", field)
-    return float(value)
-
-
-def _limit_pair(owner, field, value):
-    """``(lower, upper)`` with ``lower < upper`` (infinite bounds allowed), as floats."""
-    try:
-        lo, hi = value
-        lo, hi = float(lo), float(hi)
-    except (TypeError, ValueError):
-        raise RobotError(f"{owner}: field '{field}': expected [lower, upper], got {value!r}", field) from None
-    if math.isnan(lo) or math.isnan(hi) or not lo < hi:
-        raise RobotError(f"{owner}: field '{field}': expected lower < upper, got {value!r}", field)
-    return lo, hi
-
-
-def _check_integer(owner, field, value, low, high, unit=""):
-    """An integer in ``low..high`` (not a bool, not a float; message as the robot-file loader's)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
-        raise RobotError(f"{owner}: field '{field}': expected an integer {low}-{high}{unit}, got {value!r}", field)
-
-
-def _check_channel(owner, field, channel):
-    """A servo channel: an integer 0-5."""
-    _check_integer(owner, field, channel, 0, 5)
-
-
-def _check_direction(owner, direction):
-    """A servo direction: the integer 1 or -1 (``1.0`` and ``True`` are refused)."""
-    if isinstance(direction, (bool, np.bool_)) or not isinstance(direction, (int, np.integer)) or direction not in (1, -1):
-        raise RobotError(f"{owner}: field 'direction': expected 1 or -1, got {direction!r}", "direction")
-
-
-def _check_stall_torque(owner, servo):
-    """A servo's ``stall_torque``: None or a positive finite number [N m] (stored as a float)."""
-    if servo.stall_torque is not None:
-        v = _finite(owner, "stall_torque", servo.stall_torque)
-        if not v > 0:
-            raise RobotError(f"{owner}: field 'stall_torque': expected a torque > 0 N m, got {v:g}", "stall_torque")
-        object.__setattr__(servo, "stall_torque", v)
-
-
 @dataclass(frozen=True)
 class ServoCalibration:
     """Map between a DH joint value and a hobby-servo command.
@@ -130,6 +85,11 @@ class ServoCalibration:
         at the two ends of ``angle_range`` (default 0.5 V -> 4.5 V).
     stall_torque : float or None
         The servo's stall (holding) torque from its datasheet [N m], or None if unknown.
+    no_load_speed : float or None
+        The servo's no-load speed from its datasheet [rad/s], the most the virtual arm moves it at; None if unknown.
+
+    An RC linear servo (a prismatic joint's, e.g. an Actuonix L16-R) has metres for radians: ``angle_range``
+    is its rod's positions at the ends of ``pulse_range`` (its stroke), ``no_load_speed`` [m/s].
     """
 
     channel: int
@@ -139,10 +99,16 @@ class ServoCalibration:
     pulse_range: tuple = (500.0, 2500.0)
     feedback_adc: tuple = (102.3, 920.7)
     stall_torque: float | None = None
+    no_load_speed: float | None = None
 
     def __post_init__(self):
         owner = "ServoCalibration"
         _check_stall_torque(owner, self)
+        if self.no_load_speed is not None:
+            v = _finite(owner, "no_load_speed", self.no_load_speed)
+            if not v > 0:
+                raise RobotError(f"{owner}: field 'no_load_speed': expected a speed > 0, got {v:g}", "no_load_speed")
+            object.__setattr__(self, "no_load_speed", v)
         _check_channel(owner, "channel", self.channel)
         _check_direction(owner, self.direction)
         object.__setattr__(self, "zero", _finite(owner, "zero", self.zero))
@@ -209,8 +175,24 @@ class ServoCalibration:
                 f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg",
                 joint=None,
             )
+        return self.pulse_from_servo_angle(a)
+
+    def pulse_from_servo_angle(self, angle):
+        """Pulse widths at servo angles (or an RC linear servo's positions), not range-checked.
+
+        Parameters
+        ----------
+        angle : array_like, shape (...)
+            Servo angles [rad], or positions along an RC linear servo's stroke [m].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Pulse widths [us], linear in ``angle`` over ``angle_range`` -> ``pulse_range``.
+        """
+        lo, hi = self.angle_range
         p0, p1 = self.pulse_range
-        return p0 + (a - lo) / (hi - lo) * (p1 - p0)
+        return p0 + (np.asarray(angle, dtype=float) - lo) / (hi - lo) * (p1 - p0)
 
     def joint_from_adc(self, counts):
         """Joint value [rad] sensed from feedback ADC ``counts``.

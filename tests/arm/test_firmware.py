@@ -438,3 +438,39 @@ def test_a_failing_on_tick_hook_is_reported_not_swallowed(build_log):
     finally:
         sim.close()
         port.close()
+
+
+# ------------------------------------------------------------------------------ RC linear servos
+def test_an_rc_linear_servo_moves_on_the_firmware_and_a_pulse_past_its_range_is_refused(build_log, tmp_path):
+    """The bundled L16-R rig on the real binary (issue 42): its lift (100 mm) and reach (50 mm) count 1/18000 of
+    their strokes on the wire and the firmware emits their 1000-2000 us; a robot file whose reach limits run past
+    the 50 mm stroke has a position refused on the host, naming the joint and pulse_us, and nothing moves."""
+    import math
+
+    from labkit.arm import Arm
+    from labkit.data import robots_dir
+    from labkit.exceptions import JointLimitError
+
+    src = (robots_dir() / "cylindrical_l16.toml").read_text().replace("limits = [0, 50]", "limits = [0, 60]")
+    path = tmp_path / "cylindrical_l16.toml"
+    path.write_text(src)
+    robot = Robot.load(path)
+    q = np.array([math.radians(30.0), 0.0625, 0.03125])
+    with Arm(robot, f"simavr://?physics={path}&seed=0") as arm:
+        arm.move_joints(q, wait=True, tol=1e-3, max_wait=30.0)
+        assert np.allclose(arm.commanded_joints(), q, rtol=0, atol=1e-9)
+        sim = arm.port.sim
+        pulses = sim.pulses()
+        for j in (1, 2):  # measured on the pins: the calibration's pulse within the firmware's 0.5 us
+            assert abs(pulses[j] - float(robot.links[j].servo.pulse_us(q[j]))) <= 0.5, (j, pulses[j])
+        true = arm.port.physics.model.true_q
+        # within one 0.5 us step of rod travel (50 um of the lift, 25 um of the reach)
+        assert np.all(np.abs(true[1:] - q[1:]) <= 0.5 * np.array([0.100, 0.050]) / 1000), (true - q) * 1000
+        before, t0 = arm.status(), sim.time()
+        with pytest.raises(JointLimitError, match=r"joint 3 \('reach'\): 55 mm needs a pulse of 2100\.0 us, "
+                                                  r"outside its servo's pulse_us 1000\.\.2000 us"):
+            arm.move_joints([q[0], q[1], 0.055])
+        arm.sleep(0.2)
+        after = arm.status()
+        assert after.last == before.last and np.array_equal(after.q, before.q)
+        assert not [e for e in sim.pulse_events(t0) if e.channel == 2], "the reach's pulse never changed"

@@ -16,7 +16,8 @@ FIXTURES = Path(__file__).parents[1] / "labs" / "robots"
 #: a cylindrical RPP arm without servo tables: turn -150..150 deg, lift 50..250 mm, reach 100..300 mm
 RPP = Robot.load(FIXTURES / "cylindrical_rpp.toml")
 
-#: a SCARA whose prismatic quill has an RC linear-servo table (50 mm over 1000-2000 us): issue 42's overflow
+#: a SCARA whose prismatic quill has an RC linear-servo table (50 mm over 1000-2000 us): issue 42's overflow, which
+#: fits the protocol since a linear servo counts 1/18000 of its stroke on the wire
 QUILL_SERVO = """format = "labkit-robot/1"
 name = "quill_servo"
 convention = "standard"
@@ -88,15 +89,20 @@ def test_the_virtual_board_drives_ideal_actuators_over_their_limits_and_reads_th
 def test_a_calibration_that_does_not_fit_the_protocol_is_refused_naming_the_joint_and_the_field(tmp_path):
     path = tmp_path / "quill.toml"
     path.write_text(QUILL_SERVO)
-    robot = Robot.load(path)
     from labkit.arm._protocol import wire_calibrations
 
-    with pytest.raises(RobotError, match=r"joint 'quill': calibration field pmax = 63832 us .*expected 400\.\.2600 us") as err:
+    # issue 42's RC linear servo fits now: its 50 mm stroke is the board's 18000 units at 1000..2000 us
+    assert wire_calibrations(Robot.load(path))[0][1] == [1000, 2000, 0, 1, 0, 18000]
+    # a hobby servo whose 1000..2000 us cover 90 deg would need 3000 us at 180 deg
+    path.write_text(QUILL_SERVO.replace("servo = { channel = 0, zero = 90 }",
+                                        "servo = { channel = 0, zero = 45, range = [0, 90], pulse_us = [1000, 2000] }"))
+    robot = Robot.load(path)
+    with pytest.raises(RobotError, match=r"joint 'shoulder': calibration field pmax = 3000 us .*expected 400\.\.2600 us") as err:
         wire_calibrations(robot)
     assert err.value.field == "servo.pmax"
-    with pytest.raises(RobotError, match="joint 'quill'"):  # the board's EEPROM image: no struct.error
+    with pytest.raises(RobotError, match="joint 'shoulder'"):  # the board's EEPROM image: no struct.error
         VirtualBoard(robot, saved_calibration=True)
-    with pytest.raises(LabkitError, match="joint 'quill': calibration field pmax"):
+    with pytest.raises(LabkitError, match="joint 'shoulder': calibration field pmax"):
         Arm(robot, f"sim://{path}?clock=lockstep&seed=0&calibrated=1")
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from labkit.control import StepFit, fit_step_response, model_response, rate_limited_steps, record_step
 from labkit.control._identify import _discrete
-from labkit.exceptions import LabkitError, MeasurementError, OptionError
+from labkit.exceptions import DeviceError, LabkitError, MeasurementError, OptionError
 
 
 def _truth(order=2, gain=0.5, wn=25.0, zeta=0.6, delay=0.02, offset=0.1):
@@ -132,3 +132,44 @@ def test_record_step_refuses_before_moving():
         with pytest.raises(OptionError, match="amplitude"):
             record_step(arm, 0, 0.0)
         assert np.allclose(arm.commanded_joints(), np.radians([90.0, 170.0, 90.0]))
+
+
+def test_record_step_changes_nothing_of_the_arm_even_when_the_step_fails(monkeypatch):
+    """Issue 39: the step lifts the board's LIMITS through explicit arguments; the arm's robot is never swapped."""
+    from labkit.arm import Arm
+
+    with Arm("arduino_arm_3dof", "sim://?clock=lockstep") as arm:
+        arm.move_joints(np.radians([90.0, 60.0, 90.0]), wait=True)
+        robot, board = arm.robot, arm.port.board.executor
+        limits, timeout = arm.speed_limits(), arm.status().timeout
+        assert (board.vmax, board.amax) == limits and all(v > 0 for v in limits[0])
+        seen = {}
+
+        def failing_stream(duration, *, hz=50):
+            seen.update(robot=arm.robot, vmax=list(board.vmax), timeout=arm.status().timeout)
+            raise DeviceError("the link dropped mid-step")
+
+        monkeypatch.setattr(arm, "stream", failing_stream)
+        with pytest.raises(DeviceError, match="mid-step"):
+            record_step(arm, "shoulder_pitch", math.radians(20))
+        assert seen == {"robot": robot, "vmax": [0, 0, 0], "timeout": 0.0}  # lifted on the board only, during the step
+        assert arm.robot is robot and arm.robot.links[0].max_velocity is not None  # the same robot, untouched
+        assert (board.vmax, board.amax) == limits and arm.status().timeout == timeout  # the board's limits back
+        with pytest.raises(LabkitError, match="speed limit"):  # and the host checks them again
+            arm.move_joints(np.radians([90.0, 80.0, 90.0]), duration=0.01)
+
+
+def test_the_speed_limits_an_arm_sends_and_checks_are_explicit_arguments():
+    from labkit.arm import Arm
+
+    with Arm("arduino_arm_3dof", "sim://?clock=lockstep") as arm:
+        board = arm.port.board.executor
+        for bad in (([0, 0], [0, 0, 0]), "none", ([0, 0, -1], [0, 0, 0]), ([0, 0, 0.5], [0, 0, 0]), ([0] * 3,)):
+            with pytest.raises(OptionError, match="expected"):
+                arm.sync_calibration(speed_limits=bad)
+            with pytest.raises(OptionError, match="expected"):
+                arm.run_trajectory([], speed_limits=bad)
+        assert (board.vmax, board.amax) == arm.speed_limits()  # nothing sent
+        arm.sync_calibration(speed_limits=([0, 1000, 0], [0, 0, 5000]))
+        assert (board.vmax, board.amax) == ([0, 1000, 0], [0, 0, 5000])
+        assert arm.speed_limits() == ([30000] * 3, [150000] * 3)  # the host's robot file limits are unchanged

@@ -66,3 +66,47 @@ SUBMISSIONS = {
 #: points expected per student: public (1: its "on sim://" row is free), hidden x value (2), hidden y (1)
 EXPECTED = {"correct": (4, "ok"), "partly_wrong": (2, "ok"), "raising": (0, "error"),
             "infinite_loop": (0, "cpu-time"), "ten_gigabytes": (1, "memory")}
+
+
+# A lab with a derivation row and no reference cell (the way a lab is first written): the lab's own cell computes
+# q = IK(target) and its frames in the student's kernel; the student derives the steps; the public check compares
+# the steps with that q and proves q by FK(q) - target (target: the trusted parameters cell), a row that passes on
+# the untouched version; the hidden check compares the wrist point with the lab's frames (computed from q).
+IK_NOTEBOOK = "01_ik.ipynb"
+IK_SOLUTION = ("# Hint: the wrist point (x3, y3), cos_t2 by the cosine law, t2 <= 0 (elbow minus), then t1 and t3\n"
+               "x3, y3 = xe - L3 * np.cos(phie), ye - L3 * np.sin(phie)\n"
+               "cos_t2 = (x3**2 + y3**2 - L1**2 - L2**2) / (2 * L1 * L2)\n"
+               "t2 = -np.arccos(cos_t2)\n"
+               "t1 = np.arctan2(y3, x3) - np.arctan2(L2 * np.sin(t2), L1 + L2 * np.cos(t2))\n"
+               "t3 = phie - t1 - t2")
+#: q, the target's steps and the wrist point all faked to agree with each other (q = 0: the arm stretched out)
+IK_FAKED = "q = np.zeros(3)\nx3, y3 = L1 + L2, 0.0\nt1 = t2 = t3 = 0.0\nframes = fk_frames(arm, q)"
+IK_HALF_DONE = IK_SOLUTION.split("cos_t2 =")[0] + "raise NotImplementedError()"
+IK_PUBLIC = ('checks.check("steps (t1, t2, t3) - the lab\'s IK [rad]", [t1, t2, t3], q, tol=1e-9)\n'
+             "T = fk(arm, q)\n"
+             'checks.check("FK(q) - target", [T[0, 3], T[1, 3], np.arctan2(T[1, 0], T[0, 0])], [xe, ye, phie], '
+             "tol=1e-9)\nchecks.assert_all()")
+IK_HIDDEN = 'checks.check("wrist point (x3, y3) [m]", [x3, y3], frames[2, :2, 3], tol=1e-9)\nchecks.assert_all()'
+
+
+def write_ik_lab(folder: Path) -> Path:
+    """Write the derivation lab (one notebook, 2 public points, 1 hidden point) into ``folder``."""
+    import nbformat
+
+    cell = nbformat.v4.new_code_cell
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nb.cells = [
+        cell('robot = "planar3r_seed004"\nxe, ye, phie = 0.30, 0.20, 0.7854\noutput_dir = "out"', id="params",
+             metadata={"tags": ["parameters"]}),
+        cell("import numpy as np\nfrom labkit.kinematics import fk, fk_frames, ik\nfrom labkit.reports import Checks\n"
+             "from labkit.robot import Robot\narm = Robot.load(robot)\nL1, L2, L3 = (float(a) for a in arm.a)\n"
+             "q = ik(arm, [xe, ye, phie], branch='elbow_minus')\nframes = fk_frames(arm, q)\nchecks = Checks('IK steps')",
+             id="setup"),
+        cell(IK_SOLUTION, id="steps", metadata={"tags": ["solution"]}),
+        cell(IK_PUBLIC, id="public", metadata={"tags": ["tests"], "labkit": {"check": "steps and FK", "points": 2}}),
+        cell(IK_HIDDEN, id="hidden", metadata={"tags": ["hidden-tests"], "labkit": {"check": "wrist", "points": 1}}),
+    ]
+    folder.mkdir(parents=True, exist_ok=True)
+    nbformat.write(nb, str(folder / IK_NOTEBOOK))
+    return folder

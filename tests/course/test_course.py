@@ -19,9 +19,10 @@ from tests.course import course_lab as cl
 from conftest import require
 from labkit.exceptions import LabkitError
 
-# every test that grades shares one xdist group: the attack batch checks that no labkit cgroup outlives
-# its run, which a grading test running beside it on the other worker would make look false
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading")]
+# the course loop's grading tests share one xdist group, the attack batches (tests/course/test_attacks.py, which
+# look for their orphan processes by name) another: `pytest -n 2 --dist loadgroup` runs the two side by side
+# (the attack batch's cgroup check ignores cgroups made by a live grader that is not its own)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading-loop")]
 REMOTE = re.compile(r"""<(?:script|link|img)\b[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", re.IGNORECASE)
 LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=120)
 
@@ -59,16 +60,45 @@ def test_assign_writes_the_student_version(course):
     assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code")
 
 
-def test_assign_reports_the_free_rows(tmp_path, capsys):
-    """labkit assign grades the untouched student version and says which rows pass without work, and why."""
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "course.md"
+
+
+def _words(text):
+    return " ".join(text.split())
+
+
+def test_one_maximum_in_assign_grade_gradebook_feedback_and_docs(tmp_path, capsys):
+    """labkit assign grades the untouched student version and says which rows pass without work, and why; the maximum
+    it prints is the one labkit grade prints, the gradebook's max_points, every feedback page's and the docs' (issue 37)."""
     require("nbgrader")
+    pd = require("pandas")
     from labkit.cli import main
 
     lab = cl.write_lab(tmp_path / "lab")
-    assert main(["assign", str(lab), str(tmp_path / "student")]) == 0
+    student = tmp_path / "student"
+    assert main(["assign", str(lab), str(student)]) == 0
     out = capsys.readouterr().out
-    assert "passes 1 check row(s)" in out and "can earn at most 4 points (of the 4 the checks declare" in out, out
-    assert "free: 01_fk.ipynb: x is a number, on sim://" in out and "assertion 2" in out
+    assert "passes 1 check row(s)" in out and "free: 01_fk.ipynb: x is a number, on sim://" in out, out
+    assert "assertion 2" in out
+    summary = out.splitlines()[1]
+    maximum = float(re.search(r"can earn at most ([\d.]+) points \(of the ([\d.]+) the checks declare", summary)[1])
+    assert maximum == 4
+    assert _words(summary) in _words(DOCS.read_text()), "docs/course.md shows another labkit assign output"
+    subs = tmp_path / "subs"
+    cl.write_submission(student, subs / "correct", cl.SOLUTION)
+    shutil.copytree(student, subs / "untouched")
+    gradebook = tmp_path / "g.csv"
+    assert main(["grade", str(subs), "--lab", str(lab), "-o", str(gradebook), "--cpu", "10", "--memory", "2",
+                 "--wall", "60"]) == 0
+    out = capsys.readouterr().out
+    assert f"mean 2.00 / {maximum:g} points" in out, out
+    table = pd.read_csv(gradebook, index_col="student")
+    assert set(table["max_points"]) == {maximum} and table.loc["correct", "points"] == maximum
+    assert table.loc["untouched", "points"] == 0
+    for name in ("correct", "untouched"):
+        page = (tmp_path / "g_feedback" / "students" / name / "index.html").read_text()
+        assert re.search(rf"Score <b>[\d.]+ / {maximum:g}</b>", page), page[:400]
+    assert f"{table.loc['correct', 'points']:g} / {maximum:g}" in (tmp_path / "g_feedback" / "index.html").read_text()
 
 
 def test_assign_rejects_bad_tags(tmp_path):
@@ -343,7 +373,7 @@ def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
     only), a half-done submission (steps 1-2 right, then the stub) earns the hidden check's step rows, the
     instructor's solution earns everything that is not free (Robot, IKSolutions, Trajectory reach the checker)."""
     nbformat = require("nbformat")
-    from labkit.course import Limits, assign, grade
+    from labkit.course import Limits, assign, grade, graded_cells
 
     seed = Path(__file__).resolve().parents[2] / "notebooks" / "seed004_planar3r_ik"
     lab = tmp_path / "seed004"  # part A-C (student work) and D-E (checks of labkit only: free); 03 is like 02
@@ -372,10 +402,19 @@ def test_seed004_untouched_scores_0_half_done_earns_its_steps(tmp_path):
             c.source = ("q = np.zeros(3)\nxe, ye, phie = L1 + L2 + L3, 0.0, 0.0\nx3, y3 = L1 + L2, 0.0\ncos_t2 = 1.0\n"
                         "c1, s1 = 1.0, 0.0\nt1 = t2 = t3 = 0.0\narm = arm")
     nbformat.write(nb, str(subs / "faked" / "01_ik_elbow_minus.ipynb"))
+    shutil.copytree(student, subs / "untouched")
     limits = Limits(cpu_seconds=60, memory_bytes=3 * 2**30, wall_seconds=180)
     results = {r.student: r for r in grade(subs, lab, tmp_path / "fb", limits=limits, jobs=2, progress=False)}
     solved, half = results["solved"], results["half_done"]
     assert solved.points == solved.max_points == 5, solved  # 3 public + 2 hidden; notebook 02's checks are free
+    assert {r.max_points for r in results.values()} == {5}
+    assert results["faked"].points <= results["untouched"].points == 0, results["faked"]
+    # the docs' figures: the full lab declares 9 points; 03 has no student work (no solution cell), so its checks,
+    # which pass untouched and back no row needing work, are free like 02's: the maximum is the one graded here
+    declared = sum(c.points for p in sorted(seed.glob("*.ipynb")) for c in graded_cells(p))
+    assert not any("solution" in tags(c) for c in nbformat.read(str(seed / "03_straight_line.ipynb"), 4).cells)
+    assert f"at most {solved.max_points:g} of the {declared:g} declared points" in _words(DOCS.read_text())
+    assert f"reports a maximum of {solved.max_points:g}" in _words(DOCS.read_text())
     hidden = next(s for s in half.scores if s.name == "A.2 steps")
     assert [r.passed for r in hidden.rows] == [True, True, False, False]  # steps 1 and 2, not steps 3 and 4
     assert half.points == pytest.approx(2 * 2 / 4), half

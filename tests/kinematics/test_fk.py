@@ -8,7 +8,7 @@ from conftest import require
 
 from labkit.robot import Convention, JointType, Link, Robot
 from labkit.exceptions import ShapeError
-from labkit.kinematics import fk, fk_frames, fk_jacobian, fk_position, jacobian
+from labkit.kinematics import fk, fk_frames, fk_frames_with, fk_jacobian, fk_position, fk_position_with, jacobian
 
 
 # -- reference implementation (plain 4x4 products) ------------------------------
@@ -219,6 +219,43 @@ def test_fk_and_frames_match_reference(convention, rng):
         assert np.allclose(F[:, -1], fk(robot, q), atol=1e-14)
         assert np.allclose(fk_position(robot, q), F[:, -1, :3, 3], atol=1e-14)
         assert np.allclose(F[:, 0], robot.base)
+
+
+@pytest.mark.parametrize("convention", [Convention.STANDARD, Convention.MODIFIED])
+def test_fk_position_with_is_the_changed_robot(convention, rng):
+    import dataclasses
+
+    for trial in range(4):
+        robot = _random_robot(rng, convention)
+        if trial == 1:
+            robot = robot.with_link(2, flip=True)
+        n = robot.n
+        theta, a, d = (rng.uniform(-0.5, 0.5, size=n) for _ in range(3))
+        theta[0], a[1] = 0.0, 0.0  # a value that becomes 0 changes the structure: another program
+        base_position, tool_position = rng.uniform(-0.3, 0.3, size=(2, 3))
+        base, tool = robot.base.copy(), robot.tool.copy()
+        base[:3, 3], tool[:3, 3] = base_position, tool_position
+        changed = robot.replace(links=tuple(dataclasses.replace(lk, theta=t, a=x, d=y) for lk, t, x, y
+                                            in zip(robot.links, theta, a, d)), base=base, tool=tool)
+        for batch in (3, 40):  # Python floats and numpy rows
+            q = rng.uniform(-1, 1, size=(batch, n))
+            got = fk_position_with(robot, q, theta=theta, a=a, d=d, base_position=base_position,
+                                   tool_position=tool_position)
+            assert np.array_equal(got, fk_position(changed, q))
+            assert np.array_equal(fk_frames_with(robot, q, theta=theta, a=a, d=d, base_position=base_position,
+                                                 tool_position=tool_position), fk_frames(changed, q))
+            sign = np.where(changed.flip, -1.0, 1.0)  # (a flipped joint's value enters negated)
+            ref = np.array([_reference_frames(changed, sign * qk)[-1, :3, 3] for qk in q])
+            assert np.allclose(got, ref, atol=1e-12)
+        assert np.array_equal(fk_position_with(robot, q[0]), fk_position(robot, q[0]))  # nothing replaced
+    with pytest.raises(ShapeError, match=r"expected a with shape \(6,\), got \(2, 6\)"):
+        fk_position_with(robot, q, a=np.zeros((2, 6)))
+    with pytest.raises(ShapeError, match="expected finite theta"):
+        fk_position_with(robot, q, theta=[0.0, float("nan"), 0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ShapeError, match=r"expected tool_position with shape \(..., 3\)"):
+        fk_position_with(robot, q, tool_position=[0.0, 1.0])
+    with pytest.raises(ShapeError, match=r"expected a with shape \(6,\), got \(2, 6\)"):
+        fk_frames_with(robot, q, a=np.zeros((2, 6)))
 
 
 def test_batch_shapes_and_delegates(rng):

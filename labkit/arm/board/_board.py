@@ -29,10 +29,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from labkit.robot import Robot
-from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
+from labkit.arm._protocol import WireUnits, cdeg, wire_calibrations, wire_speed_limits
 from labkit.arm._actuator import is_ideal, joint_sensor
 from labkit.arm.board._physics import PhysicsConfig
 from labkit.arm.board._model import ArmModel
@@ -46,8 +44,9 @@ def calibration_rows(robot):
     """The board calibration ``[pmin, pmax, zero, direction, lo, hi]`` of every channel of ``robot``.
 
     The rows :meth:`labkit.arm.Arm.sync_calibration` sends with ``CAL``: the pulse widths at
-    servo angles 0 and 180 deg [us], the servo angle at ``q = 0`` and the joint limits [cdeg]
-    (prismatic joints in metres read as radians, as on the wire). Joints without a servo and the
+    the ends of the servo's travel (a hobby servo's 0 and 180 deg, an RC linear servo's stroke) [us],
+    the servo position at ``q = 0`` and the joint limits [wire units: cdeg, or 1/18000 of a linear
+    servo's stroke] (:func:`labkit.arm.wire_calibrations`). Joints without a servo and the
     gripper channel keep the factory row (the gripper: its pulse range).
 
     Parameters
@@ -318,7 +317,7 @@ class VirtualBoard:
     def power_up(self):
         """At power-up the arm rests at the boot position; a reset keeps it where it is."""
         if self.model is None:
-            self.model = ArmModel(self.robot, self.config, q0=np.radians(np.array(self.executor.q) / 100.0))
+            self.model = ArmModel(self.robot, self.config, q0=WireUnits(self.robot).joints(self.executor.q))
 
     def settle(self):
         """Run the physics up to board time."""

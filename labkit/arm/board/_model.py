@@ -61,8 +61,8 @@ class ArmModel:
             self.zero_offsets = _per_joint(config.zero_offsets, robot.n, "zero_offsets")
         else:
             self.zero_offsets = off_rng.normal(0.0, config.zero_offset_std, robot.n)
-            # an ideal actuator (a joint without a servo) has no servo horn to mount one spline off
-            self.zero_offsets[[is_ideal(lk) for lk in robot.links]] = 0.0
+            # an ideal actuator (a joint without a servo) and a linear servo have no servo horn to mount one spline off
+            self.zero_offsets[[is_ideal(lk) or not rev for lk, rev in zip(robot.links, robot.is_revolute)]] = 0.0
         self._noise = _Noise(fb_rng, ruler_rng)
         self._servo_cal = [lk.servo for lk in robot.links]
         #: the feedback of every joint: its servo's pot, or an ideal actuator's encoder (None on a servo bus)

@@ -13,6 +13,10 @@ Model, per joint ``j`` (see ``docs/virtual-arm.md``):
   **second-order transfer function** ``wn^2 / (s^2 + 2 zeta wn s + wn^2)``
   built with :func:`control.tf` and discretised with
   :func:`control.sample_system` (zero-order hold, step ``dt``);
+* an **RC linear servo** (a prismatic joint's servo table, e.g. an Actuonix L16-R) is the same loop in
+  metres: its reference moves at most at the servo's datasheet speed (the table's ``no_load_speed``, else the
+  joint's ``max_velocity``, else 0.1 m/s), its deadband is ``linear_deadband`` and it has no zero offset
+  (no horn to mount one spline off); gravity does not bend a prismatic joint;
 * a joint **without a servo** (no ``servo`` or ``[bus]`` table) is an ideal actuator
   (:mod:`labkit.arm`'s ``_actuator``): it follows its command within the joint limits at the
   joint's ``max_velocity`` and ``max_acceleration`` (defaults 90 deg/s and 360 deg/s^2, 0.1 m/s
@@ -45,8 +49,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.robot import Convention
-from labkit.arm._actuator import ideal_speed_limits, is_ideal
+from labkit.robot import Convention, JointType
+from labkit.arm._actuator import IDEAL_VELOCITY, ideal_speed_limits, is_ideal
 
 __all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "point_mass_links", "ADC_VREF", "ADC_MAX"]
 
@@ -70,10 +74,12 @@ class PhysicsConfig:
     damping_ratio : float
         Closed-loop damping ratio of a servo [1].
     rate_limit : float or None
-        Largest reference speed [rad/s]; ``None`` uses each link's
-        ``max_velocity`` (or 5.24 rad/s = 300 deg/s where unknown).
+        Largest reference speed [rad/s | m/s]; ``None`` uses each servo's datasheet ``no_load_speed``, else the link's
+        ``max_velocity``, else 5.24 rad/s = 300 deg/s (a linear servo: 0.1 m/s).
     deadband : float
         Servo deadband [rad] (about 5 us of pulse on a hobby servo).
+    linear_deadband : float
+        Deadband of an RC linear servo [m] (0.25 mm: the L16's datasheet backlash, 5 us of its pulse over 50 mm).
     zero_offset_std : float
         Standard deviation of the random per-joint zero-offset errors [rad].
     zero_offsets : tuple of float or None
@@ -110,6 +116,7 @@ class PhysicsConfig:
     damping_ratio: float = 0.8
     rate_limit: float | None = None
     deadband: float = math.radians(0.45)
+    linear_deadband: float = 0.25e-3
     zero_offset_std: float = math.radians(1.0)
     zero_offsets: tuple | None = None
     joint_compliance: float | tuple = 0.04
@@ -125,7 +132,7 @@ class PhysicsConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise OptionError(f"expected {name} > 0, got {v!r}")
-        for name in ("deadband", "zero_offset_std", "tool_mass", "feedback_noise", "ruler_resolution", "ruler_noise"):
+        for name in ("deadband", "linear_deadband", "zero_offset_std", "tool_mass", "feedback_noise", "ruler_resolution", "ruler_noise"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise OptionError(f"expected {name} >= 0, got {v!r}")
@@ -144,6 +151,16 @@ class PhysicsConfig:
             numbers on every call with the same seed.
         """
         return tuple(np.random.default_rng(s) for s in np.random.SeedSequence(self.seed).spawn(3))
+
+
+def _servo_speed(link):
+    """A servo's largest speed [rad/s | m/s]: its datasheet ``no_load_speed``, else the joint's ``max_velocity``, else a default
+    (300 deg/s for a hobby servo, an ideal linear actuator's 0.1 m/s for a linear servo)."""
+    if link.servo is not None and link.servo.no_load_speed is not None:
+        return link.servo.no_load_speed
+    if link.max_velocity is not None:
+        return link.max_velocity
+    return math.radians(300) if link.joint_type is JointType.REVOLUTE else IDEAL_VELOCITY[False]
 
 
 def _per_joint(value, n, name):
@@ -277,9 +294,12 @@ class ServoBank:
         self._D = float(np.asarray(ss.D).ravel()[0])
         self._dc = self._dc_state()
         if config.rate_limit is None:
-            rl = [math.radians(300) if lk.max_velocity is None else lk.max_velocity for lk in robot.links]
+            rl = [_servo_speed(lk) for lk in robot.links]
         else:
             rl = [config.rate_limit] * n
+        linear = [lk.joint_type is JointType.PRISMATIC for lk in robot.links]
+        #: each servo's deadband [rad | m]: a hobby servo's, an RC linear servo's
+        self._deadband = [config.linear_deadband if lin else config.deadband for lin in linear]
         # joints without a servo are ideal actuators (labkit.arm): they follow a reference limited in speed and
         # acceleration exactly (no servo lag, no deadband)
         self._ideal = [is_ideal(lk) for lk in robot.links]
@@ -329,10 +349,9 @@ class ServoBank:
             Commanded shaft positions [rad].
         """
         new = [float(v) for v in np.asarray(q, dtype=float).reshape(self.robot.n)]
-        db = self.config.deadband
         for j, c in enumerate(new):
             if c != self._cmd[j]:
-                self._target[j] = c if self._ideal[j] or abs(c - self._y[j]) > db else self._y[j]
+                self._target[j] = c if self._ideal[j] or abs(c - self._y[j]) > self._deadband[j] else self._y[j]
         self._cmd = new
 
     @property
@@ -365,7 +384,7 @@ class ServoBank:
         bool
         """
         err = np.abs(self.position - self.commanded)
-        return bool(np.all(err <= tol + self.config.deadband) and np.all(np.abs(self.velocity) <= speed))
+        return bool(np.all(err <= tol + np.array(self._deadband)) and np.all(np.abs(self.velocity) <= speed))
 
     def step(self, steps=1):
         """Advance the model by ``steps`` steps of ``dt``.

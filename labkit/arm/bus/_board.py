@@ -10,8 +10,9 @@ read the servos' present positions and currents in one sync read.
 
 The servos' range replaces the hobby-servo window: a joint may go anywhere within its limits
 (the robot-file loader checks that the limits map inside the servo's ticks). The board starts
-where the arm is: it reads the present positions, refuses an arm resting outside its limits
-(torque stays off), makes them the goals, sets the motion profiles and turns torque on.
+where the arm is: it reads the present positions until two sync reads in a row agree (a damaged status
+packet that passes Feetech's 8-bit checksum by chance must not become a goal), refuses an arm resting
+outside its limits (torque stays off), makes them the goals, sets the motion profiles and turns torque on.
 
 A bus failure (a servo silent, a corrupt status packet after the retries, a hardware error such
 as an overload) stops the executor, turns torque off on every servo and raises a
@@ -28,6 +29,8 @@ import weakref
 from labkit.exceptions import DeviceError, OptionError
 from labkit.robot import BusGripper, Robot
 from labkit.arm.board import Executor
+from labkit.arm.bus._adapter import advice
+from labkit.arm.bus._confirm import READ_TRIES
 from labkit.arm.bus._driver import BusFault
 from labkit.arm.bus._gains import GainBook
 from labkit.arm.bus._gripper import GripperServo
@@ -37,6 +40,8 @@ __all__ = ["BusBoard", "open_bus_board"]
 
 #: a health read (present position, current, errors) every this many servo frames while nothing else reads
 HEALTH_FRAMES = 5
+#: at power-up two sync reads in a row must agree within this fraction of a turn (1 deg) on every joint
+AGREE_TURN = 1 / 360
 
 
 class _Unpowered:
@@ -363,7 +368,7 @@ class BusBoard:
         driver = self.driver
         driver.ping_all()
         driver.torque(False)
-        reading = self._read()
+        reading = self._agreed_read()
         for j, (lk, q) in enumerate(zip(self.robot.links, reading.q)):
             lo, hi = lk.limits
             if not lo - 1e-9 <= q <= hi + 1e-9:
@@ -437,6 +442,22 @@ class BusBoard:
         self._physics.advance_to(self.executor.time)
         self.reading = self.driver.read_state(self.executor.time)
         return self.reading
+
+    def _agreed_read(self):
+        """A sync read that the next one confirms (every joint within :data:`AGREE_TURN` of a turn), up to
+        :data:`READ_TRIES` reads: the power-up pose becomes the goals, and an 8-bit checksum (Feetech) passes one
+        damaged or misaligned status packet in 256."""
+        tol = AGREE_TURN * self.robot.bus.resolution
+        now = self._read()
+        for _ in range(READ_TRIES):
+            last, now = now, self._read()
+            moved = [self.driver.servo(i) for i, a, b in zip(self.driver.ids, now.ticks, last.ticks)
+                     if abs(int(a) - int(b)) > tol]
+            if not moved:
+                return now
+        raise BusFault(f"{self.driver.name}: the present positions of {', '.join(moved)} differ from one sync read to "
+                       f"the next after {READ_TRIES + 1} reads (is the arm moving, or are status packets damaged?); "
+                       f"hold the arm still; {advice(self.driver)}")
 
     def _write_goals(self, goal):
         # read back from every servo before it returns (a virtual bus has run the write before it answers, so

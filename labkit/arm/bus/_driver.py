@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import BusFault, BusWarning, DeviceError
+from labkit.robot import BusGripper
 from labkit.arm.bus._adapter import advice, latency_note, latency_timer
 from labkit.arm.bus._confirm import READ_TRIES, read_registers, write_confirmed, write_unconfirmed
 
@@ -146,7 +147,7 @@ class BusDriver:
 
     # -- messages ------------------------------------------------------------------------------
     def servo(self, servo_id):
-        """``"servo 12 (joint 'shoulder')"`` for messages.
+        """``"servo 12 (joint 'shoulder')"`` (``"servo 15 (gripper)"`` for a bus gripper) for messages.
 
         Parameters
         ----------
@@ -157,6 +158,8 @@ class BusDriver:
         str
         """
         names = dict(zip(self.ids, self.robot.joint_names))
+        if servo_id not in names and isinstance(self.robot.gripper, BusGripper) and self.robot.gripper.servo.id == servo_id:
+            return f"servo {servo_id} (gripper)"
         return f"servo {servo_id} (joint {names.get(servo_id, '?')!r})"
 
     def describe(self, code):
@@ -186,26 +189,40 @@ class BusDriver:
         dict of int to int
             Servo id -> model number.
         """
-        models = {}
-        for servo_id in self.ids:
-            replies = []
-            for _ in range(self.retries + 1):
-                self.handler.clearPort()
-                try:
-                    model, result, error = self.packets.ping(self.handler, servo_id)
-                except IndexError:  # feetech-servo-sdk takes the model number from a short packet unchecked
-                    result = self.sdk.COMM_RX_CORRUPT
-                if result == self.sdk.COMM_SUCCESS:
-                    break
-                replies.append(self._comm(result))
-            else:
-                damaged = [r for r in replies if r != self._comm(self.sdk.COMM_RX_TIMEOUT)]
-                what = (f"answers only with damaged status packets ({damaged[-1]})" if len(damaged) == len(replies)
-                        else f"does not answer ping ({', '.join(dict.fromkeys(replies))})")
-                raise BusFault(f"{self.name}: {self.servo(servo_id)} {what} after {len(replies)} pings; check its "
-                               f"id; {advice(self)}")
-            models[servo_id] = model
-        return models
+        return {servo_id: self.ping(servo_id) for servo_id in self.ids}
+
+    def ping(self, servo_id):
+        """Ping one servo, again up to ``retries`` times while its status packet is lost or damaged.
+
+        Parameters
+        ----------
+        servo_id : int
+
+        Returns
+        -------
+        int
+            Its model number.
+
+        Raises
+        ------
+        BusFault
+            No intact answer after the retries (the message says what came back, what was tried and what to check).
+        """
+        replies = []
+        for _ in range(self.retries + 1):
+            self.handler.clearPort()
+            try:
+                model, result, error = self.packets.ping(self.handler, servo_id)
+            except IndexError:  # feetech-servo-sdk takes the model number from a short packet unchecked
+                result = self.sdk.COMM_RX_CORRUPT
+            if result == self.sdk.COMM_SUCCESS:
+                return model
+            replies.append(self._comm(result))
+        damaged = [r for r in replies if r != self._comm(self.sdk.COMM_RX_TIMEOUT)]
+        what = (f"answers only with damaged status packets ({damaged[-1]})" if len(damaged) == len(replies)
+                else f"does not answer ping ({', '.join(dict.fromkeys(replies))})")
+        raise BusFault(f"{self.name}: {self.servo(servo_id)} {what} after {len(replies)} pings; check its "
+                       f"id; {advice(self)}")
 
     def write(self, servo_id, field, value, *, check_error=True):
         """Write ``value`` to control-table ``field`` of one servo and check its status packet.
@@ -227,7 +244,8 @@ class BusDriver:
             if result == self.sdk.COMM_SUCCESS:
                 break
         if result != self.sdk.COMM_SUCCESS:
-            raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed: {self._comm(result)}")
+            raise BusFault(f"{self.name}: writing {field} of {self.servo(servo_id)} failed after {self.retries + 1} "
+                           f"writes: {self._comm(result)}; {advice(self)}")
         if error and check_error:
             raise BusFault(f"{self.name}: {self.servo(servo_id)} reports {self._hardware_error(servo_id, error)}")
 

@@ -29,7 +29,8 @@ TABLE = {
     "goal_position": (42, 2), "goal_time": (44, 2), "goal_velocity": (46, 2), "present_position": (56, 2),
     "present_velocity": (58, 2), "present_load": (60, 2), "present_voltage": (62, 1),
     "present_temperature": (63, 1), "status": (65, 1), "moving": (66, 1), "present_current": (69, 2),
-    # the position loop and the torque limit (lerobot's STS_SMS_SERIES_CONTROL_TABLE; Feetech STS memory table)
+    # the position loop and the torque limit (lerobot's STS_SMS_SERIES_CONTROL_TABLE; Feetech STS memory table:
+    # Torque_Limit(48) 0..1000 [0.1 % of the stall torque], see GAINS for the coefficients' range)
     "p_coefficient": (21, 1), "d_coefficient": (22, 1), "i_coefficient": (23, 1), "torque_limit": (48, 2),
 }
 #: what a sync read of the state takes: present position .. present current (15 bytes)
@@ -38,7 +39,8 @@ STATE = (56, 15)
 MODEL = 777
 #: present-current unit of the STS3215 [A per LSB]
 CURRENT_UNIT = 6.5e-3
-#: torque constant used by the virtual bus [N m / A] (STS3215 at 7.4 V: about 1.6 N m stall at 2.7 A)
+#: torque constant used by the virtual bus [N m / A] (ASSUMED: no stall current found in a readable datasheet; the
+#: robot files' bus tables carry none for the STS3215)
 TORQUE_CONSTANT = 0.6
 #: error bits of a status packet (and of the status byte, address 65)
 HARDWARE_ERRORS = {0x01: "input voltage", 0x02: "angle sensor", 0x04: "overheating", 0x08: "overcurrent",
@@ -54,15 +56,22 @@ ADDRESS_BYTES = 1
 ALERT = None
 #: present current, speed and load are sign-magnitude (sign in bit 15)
 SIGN_MAGNITUDE = True
-#: the position loop's gains: name -> (control-table field, largest value, factor to the loop's gain); one-byte
-#: coefficients, taken as 0..254 here (Feetech publishes no conversion: the factor 1 leaves them as they are)
+#: the position loop's gains: name -> (control-table field, largest value, factor to the loop's gain). Position
+#: P / D / I gain at addresses 21 / 22 / 23, one byte each, value range 0..254: Feetech's STS series memory table
+#: (doc.feetech.cn, FT-SMS-STS e-manual; transcribed in vassar-robotics/feetech-servo-sdk,
+#: docs/reference/memory_tables/sts_memory_table.md, "Position P Gain | RW | 1 | - | 0-254"); addresses and sizes
+#: as huggingface/lerobot src/lerobot/motors/feetech/tables.py (P/D/I_Coefficient: (21, 1), (22, 1), (23, 1)).
+#: Feetech publishes no conversion to a loop gain: the factor 1 leaves the register values as they are
 GAINS = {"kp": ("p_coefficient", 254, 1.0), "ki": ("i_coefficient", 254, 1.0), "kd": ("d_coefficient", 254, 1.0)}
 #: the gains of a servo out of the box (STS3215: P 32, D 32, I 0, as lerobot's SO-101 code notes before lowering P)
 DEFAULT_GAINS = {"kp": 32, "ki": 0, "kd": 32}
-#: the motor behind the loop (STS3215 at 7.4 V): stall torque [N m] (TORQUE_CONSTANT times 2.7 A), no-load speed
-#: [rad/s] (0.222 s / 60 deg), gear ratio (1:345), full-scale output of the loop [LSB] (Torque_Limit(48) 1000 = 100 %),
-#: rotor inertia [kg m^2] (ASSUMED, not published: 0.5 g cm^2; 0.006 kg m^2 through the gearbox)
-MOTOR = {"stall_torque": 1.62, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_scale": 1000,
+#: the motor behind the loop (STS3215 at 7.4 V, 1:345): stall torque [N m] (19.5 kgf cm = 1.912 N m at 7.4 V: DFRobot
+#: SER0069 "ST3215 Serial Bus Servo" (ST3215: the STS3215's name at Waveshare and DFRobot), product data "19.5kg.cm
+#: stall torque at 7.4V", "1:345 gear train", as listed by Little Bird Electronics), no-load speed [rad/s] (0.222 s / 60 deg, see
+#: so101.toml [STS]; the same listing gives 0.192 s / 60 deg at 7.4 V), gear ratio (1:345), full-scale output of the
+#: loop [LSB] (Torque_Limit(48) 1000 = 100 %), rotor inertia [kg m^2] (ASSUMED, not published: 0.5 g cm^2; 0.006 kg m^2
+#: through the gearbox)
+MOTOR = {"stall_torque": 1.912, "no_load_speed": 4.7, "gear_ratio": 345.0, "full_scale": 1000,
          "rotor_inertia": 5.0e-8}
 #: the gripper: position mode with its Torque_Limit(48) [0.1 % of the stall torque], 0..1000
 GRIPPER_MODE = None

@@ -2,7 +2,8 @@
 
 A Dynamixel XM430 keeps its position loop's gains in Position P / I / D Gain (addresses 84, 82,
 80, two bytes, 0..16383 each; ROBOTIS e-Manual, XM430-W350 control table); a Feetech STS3215 in
-its P / D / I coefficients (addresses 21, 22, 23, one byte each; lerobot's STS control table).
+its position-loop P / D / I coefficients (addresses 21, 22, 23, one byte each, 0..254; Feetech's STS
+memory table, see ``GAINS`` in :mod:`labkit.arm.bus._feetech` for the sources).
 The bus module's ``GAINS`` names the field and the largest value of each gain (``kp``, ``ki``,
 ``kd``), so that the same code serves every bus. Values are the servo's own register values: a
 gain is a setting of the servo's firmware, and only Dynamixel states a conversion
@@ -10,7 +11,8 @@ gain is a setting of the servo's firmware, and only Dynamixel states a conversio
 
 :class:`GainBook` is what a :class:`BusBoard` holds: it reads a servo's gains, checks new ones
 against their range before anything is written (an :class:`~labkit.exceptions.OptionError`
-naming the servo, its joint and the range), writes them through the driver's register write, and
+naming the servo, its joint, the gain, its register and the range), writes them as confirmed
+writes (read back until the servo holds them, :func:`~labkit.arm.bus._confirm.write_confirmed`), and
 remembers the values each servo had before labkit first changed them, which :meth:`GainBook.restore`
 writes back when the board closes (both registers are RAM on a Dynamixel; on a Feetech labkit
 leaves the EEPROM lock alone, so nothing it writes survives a power cycle either way).
@@ -22,7 +24,9 @@ from dataclasses import dataclass
 
 from labkit.exceptions import BusFault, OptionError
 from labkit.arm.bus._registry import bus_module
-from labkit.arm.bus._confirm import write_confirmed
+from labkit.arm.bus._adapter import advice
+from labkit.arm.bus._confirm import write_confirmed, write_unconfirmed
+from labkit.arm.bus._driver import QUIET_TRIES
 
 __all__ = ["ServoGains", "GainBook", "read_field"]
 
@@ -84,7 +88,8 @@ def read_field(driver, servo_id, field):
         value, result, error = fn(driver.handler, servo_id, address)
         if result == driver.sdk.COMM_SUCCESS:
             return int(value)
-    raise BusFault(f"{driver.name}: reading {field} of {driver.servo(servo_id)} failed: {driver._comm(result)}")
+    raise BusFault(f"{driver.name}: reading {field} of {driver.servo(servo_id)} failed after {driver.retries + 1} "
+                   f"reads: {driver._comm(result)}; {advice(driver)}")
 
 
 class GainBook:
@@ -204,10 +209,13 @@ class GainBook:
         failed = []
         for j, gains in sorted(self.saved.items()):
             servo_id = self.driver.ids[j]
-            try:
-                for name, value in gains.to_dict().items():
-                    self.driver.write(servo_id, self.bus.GAINS[name][0], value, check_error=False)
+            try:  # a few tries each, read back (the same confirmed write as :meth:`write`, not raising)
+                lost = [name for name, value in gains.to_dict().items()
+                        if write_unconfirmed(self.driver, self.bus.GAINS[name][0], {servo_id: value},
+                                             tries=QUIET_TRIES, read_tries=1, check_error=False)]
             except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
+                lost = True
+            if lost:
                 failed.append(servo_id)
         self.saved = {j: g for j, g in self.saved.items() if self.driver.ids[j] in failed}
         return failed

@@ -13,6 +13,13 @@ once: the host writes with it and the virtual bus (:class:`VirtualGripper`) read
 limit (torque off for the mode, an EEPROM field on a Dynamixel), makes the present position the
 goal, turns torque on, checks every position against the robot file's travel and every limit
 against the servo's, and on close turns torque off and writes the mode and limit back.
+
+Every gripper write is a confirmed write, the same one the joints' goals, torque and gains go through
+(:func:`labkit.arm.bus._confirm.write_confirmed`): written, read back and written again until the servo
+holds the value, else a :class:`BusFault` naming the servo (``servo 15 (gripper)``), what it was sent
+and what it holds. A gripper move therefore never returns while the servo's goal or grip limit differs
+from what the host sent. On close the same write is tried a few times without raising
+(:func:`~labkit.arm.bus._confirm.write_unconfirmed`), as the joints' torque off.
 """
 
 from __future__ import annotations
@@ -20,7 +27,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from labkit.exceptions import BusFault, OptionError
+from labkit.exceptions import OptionError
+from labkit.arm.bus._confirm import write_confirmed, write_unconfirmed
+from labkit.arm.bus._driver import QUIET_TRIES
 from labkit.arm.bus._gains import read_field
 from labkit.arm.bus._registry import bus_module
 
@@ -67,7 +76,7 @@ def limit_register(bus, torque):
     --------
     >>> limit_register(bus_module("dynamixel"), 0.5)
     ('goal_current', 104)
-    >>> limit_register(bus_module("feetech"), 0.81)
+    >>> limit_register(bus_module("feetech"), 0.956)
     ('torque_limit', 500)
     """
     if bus.GRIPPER_MODE is not None:
@@ -114,8 +123,9 @@ class GripperServo:
         #: :meth:`start` has reached the servo (what :meth:`close` undoes)
         self.started = False
 
-    def _write(self, field, value, **kwargs):
-        self.driver.write(self.id, field, value, **kwargs)
+    def _write(self, field, value):
+        """Write ``field`` of the gripper servo, read back until it holds ``value`` (else a :class:`BusFault`)."""
+        write_confirmed(self.driver, field, {self.id: int(value)})
 
     def start(self):
         """Ping the servo, set its mode and limit, hold where it is with torque on.
@@ -123,12 +133,9 @@ class GripperServo:
         Raises
         ------
         BusFault
-            The servo does not answer.
+            The servo does not answer (after the driver's retries), or does not hold a value written to it.
         """
-        model, result, _ = self.driver.packets.ping(self.driver.handler, self.id)
-        if result != self.driver.sdk.COMM_SUCCESS:
-            raise BusFault(f"{self.driver.name}: gripper servo {self.id} does not answer ping "
-                           f"({self.driver._comm(result)}); check its id and wiring")
+        self.driver.ping(self.id)
         self.started = True
         self._write("torque_enable", 0)
         if self.bus.GRIPPER_MODE is not None:
@@ -170,6 +177,8 @@ class GripperServo:
         ------
         OptionError
             ``position`` outside the travel or ``max_torque`` outside the servo's range (nothing is written).
+        BusFault
+            The servo does not hold the limit or the goal after the bounded writes and read-backs.
         """
         g = self.gripper
         lo, hi = sorted((g.open, g.closed))
@@ -201,20 +210,21 @@ class GripperServo:
         return GripperState(float(s.joint(ticks)), goal, raw * self.bus.CURRENT_UNIT)
 
     def close(self):
-        """Torque off and the mode and limit written back; never raises.
+        """Torque off and the mode and limit written back, a few tries each, each read back; never raises.
 
         Returns
         -------
         bool
-            Whether everything was acknowledged (``True`` when :meth:`start` never reached the servo).
+            Whether the servo holds every value written (``True`` when :meth:`start` never reached the servo).
         """
         if not self.started:
             return True
         try:
-            self._write("torque_enable", 0, check_error=False)
-            for field, value in self._saved.items():
-                self._write(field, value, check_error=False)
-            return True
+            held = True
+            for field, value in {"torque_enable": 0, **self._saved}.items():
+                held &= not write_unconfirmed(self.driver, field, {self.id: int(value)}, tries=QUIET_TRIES,
+                                              read_tries=1, check_error=False)
+            return held
         except Exception:  # noqa: BLE001 - best effort: the bus may be what failed
             return False
 

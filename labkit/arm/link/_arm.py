@@ -33,14 +33,14 @@ import math
 import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
-from labkit.arm._protocol import cdeg, wire_calibrations, wire_speed_limits
+from labkit.arm._protocol import WireUnits, wire_calibrations, wire_speed_limits
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
                                        move_duration_ms, move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import joints_from_counts, record_stream
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
-from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count
+from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count, speed_limit_lists
 from labkit.arm.link._servos import ServoMethods
 
 __all__ = ["Arm"]
@@ -108,6 +108,8 @@ class Arm(ServoMethods):
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot, port = arm_robot(robot, port)
+        #: the units of the joints' positions on the wire (centidegrees; an RC linear servo: 1/18000 of its stroke)
+        self._units = WireUnits(self.robot)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
         self.check_moves = bool(check_moves)
         opened = self._open(port, baudrate, self.robot)
@@ -238,7 +240,8 @@ class Arm(ServoMethods):
         queue = self.info.queue if self.info is not None else None
         if retries is None:  # the longest reply (about 150 bytes): the first to be hit on a noisy line
             retries = 4 * self.retries + 4
-        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue), retries=retries)
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue, self._units),
+                            retries=retries)
         if self._wire.last_seq is not None:
             self._wire.check_last(st.last)
         return st
@@ -246,7 +249,7 @@ class Arm(ServoMethods):
     def _verify_status(self, seq=None):
         """STATUS with a larger retry budget; with ``seq`` (a request whose reply was lost) settles whether it ran."""
         queue = self.info.queue if self.info is not None else None
-        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue),
+        st = self._transact("STATUS", parse=lambda fields: parse_status(fields, self.robot.n, queue, self._units),
                             retries=4 * self.retries + 4)
         ran = self._wire.check_last(st.last, pending=seq) if self._wire.last_seq is not None else False
         return st, ran
@@ -314,7 +317,7 @@ class Arm(ServoMethods):
 
     # -- configuration ---------------------------------------------------------------------
     def speed_limits(self):
-        """Per-joint speed [cdeg/s] and acceleration [cdeg/s^2] limits as sent to the board (0: unchecked).
+        """Per-joint speed [units/s] and acceleration [units/s^2] limits as sent to the board (0: unchecked).
 
         Returns
         -------
@@ -323,9 +326,16 @@ class Arm(ServoMethods):
         """
         return wire_speed_limits(self.robot)
 
-    def sync_calibration(self):
-        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only)."""
-        vmax, amax = self.speed_limits()
+    def sync_calibration(self, *, speed_limits=None):
+        """Send the robot file's servo calibrations (``CAL``) and speed limits (``LIMITS``) to the board (RAM only).
+
+        Parameters
+        ----------
+        speed_limits : tuple of two lists of int, optional
+            ``(vmax, amax)`` to send instead of the robot file's, in the form :meth:`speed_limits` returns (0: unchecked;
+            ``record_step`` lifts them for a step); nothing on the host changes, pass the same to :meth:`run_trajectory`.
+        """
+        vmax, amax = speed_limit_lists(self.robot, speed_limits)
         for j in range(self.robot.n):
             self._transact("LIMITS", j, vmax[j], amax[j])
         joints, gripper = wire_calibrations(self.robot)
@@ -381,9 +391,9 @@ class Arm(ServoMethods):
             The board rejected or did not acknowledge the move, or (``wait``) the joints did not settle in time.
         """
         q = joint_vector(self.robot, q)
-        target = [cdeg(v) for v in q]
+        target = self._units.positions(q)
         before = self._verify_status()[0]
-        now = [cdeg(v) for v in before.q]
+        now = self._units.positions(before.q)
         if duration is None:
             dur = move_duration_ms(now, target, *self.speed_limits())
         else:
@@ -403,10 +413,10 @@ class Arm(ServoMethods):
         if st.state == "HOLD":
             raise DeviceError(f"{self.name}: the board halted MOVE {' '.join(map(str, target))} (host-silence timeout)")
         if self.check_moves:
-            got = [cdeg(v) for v in st.q]
+            got = self._units.positions(st.q)
             if got != target:
                 self._wire.hold(f"after MOVE {' '.join(map(str, target))} the board is commanded to "
-                                f"{' '.join(map(str, got))} cdeg")
+                                f"{' '.join(map(str, got))} (wire units)")
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
@@ -496,9 +506,9 @@ class Arm(ServoMethods):
         DeviceError
             No valid reply after all retries.
         """
-        return self._transact("STOP", parse=lambda fields: parse_stop(fields, self.robot.n))
+        return self._transact("STOP", parse=lambda fields: parse_stop(fields, self.robot.n, self._units))
 
-    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True):
+    def run_trajectory(self, traj, *, order=3, min_duration=0.05, progress=None, wait=True, speed_limits=None):
         """Stream a trajectory to the board's segment queue, keeping it fed.
 
         Parameters
@@ -514,6 +524,9 @@ class Arm(ServoMethods):
             ``progress(done, total)`` after each queued segment, or ``True`` for a tqdm bar.
         wait : bool
             Wait for the board's ``EV DONE`` after the last segment.
+        speed_limits : tuple of two lists of int, optional
+            ``(vmax, amax)`` the board holds (sent with :meth:`sync_calibration`) to check the segments against
+            instead of the robot file's (:meth:`speed_limits`).
 
         Returns
         -------
@@ -535,9 +548,9 @@ class Arm(ServoMethods):
             self.robot.check_limits(np.asarray(traj.q))
             for row in np.asarray(traj.q):
                 joint_vector(self.robot, row)
-            segs = segments_from_trajectory(traj, order=order, min_duration=min_duration)
+            segs = segments_from_trajectory(traj, order=order, min_duration=min_duration, units=self._units)
         check_segment_positions(self.robot, segs)
-        check_segment_speeds(self.robot, segs, *self.speed_limits())
+        check_segment_speeds(self.robot, segs, *speed_limit_lists(self.robot, speed_limits))
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------

@@ -20,7 +20,9 @@ import math
 import numbers
 
 from labkit.exceptions import JointLimitError, OptionError
+from labkit.robot import JointType
 from labkit.validation import as_vector
+from labkit.arm._protocol import AMAX_MAX, VMAX_MAX, wire_speed_limits
 
 __all__ = []
 
@@ -116,7 +118,14 @@ def joint_vector(robot, q):
             try:
                 lk.servo.pulse_us(q[j])
             except JointLimitError as exc:
-                raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
+                if lk.joint_type is JointType.REVOLUTE:
+                    raise JointLimitError(f"{robot.name}: joint {j + 1}: {exc}", joint=j) from None
+                s = lk.servo  # an RC linear servo: say it in millimetres and microseconds
+                (r0, r1), (p0, p1) = s.angle_range, s.pulse_range
+                raise JointLimitError(
+                    f"{robot.name}: joint {j + 1} ({lk.name!r}): {q[j] * 1000:g} mm needs a pulse of "
+                    f"{float(s.pulse_from_servo_angle(s.servo_angle(q[j]))):.1f} us, outside its servo's pulse_us "
+                    f"{p0:g}..{p1:g} us (range {r0 * 1000:g}..{r1 * 1000:g} mm); nothing was sent", joint=j) from None
     return q
 
 
@@ -156,3 +165,40 @@ def retry_count(value):
     OptionError
     """
     return whole("retries", value, lo=0, hi=1000)
+
+
+def speed_limit_lists(robot, speed_limits):
+    """The per-joint ``LIMITS`` to send or check: the robot file's, or ``speed_limits`` checked.
+
+    Parameters
+    ----------
+    robot : labkit.Robot
+    speed_limits : tuple of two sequences of int, or None
+        ``(vmax, amax)``: per joint [cdeg/s] and [cdeg/s^2] (0: unchecked), as :meth:`labkit.arm.Arm.speed_limits`
+        returns them; ``None``: the robot file's (:func:`labkit.arm._protocol.wire_speed_limits`).
+
+    Returns
+    -------
+    vmax, amax : list of int
+
+    Raises
+    ------
+    OptionError
+        Not two sequences of ``robot.n`` whole numbers within 0..1e6 cdeg/s and 0..1e8 cdeg/s^2 (nothing is sent).
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> speed_limit_lists(Robot.load("arduino_arm_3dof"), ([0, 0, 0], [0, 0, 0]))
+    ([0, 0, 0], [0, 0, 0])
+    """
+    if speed_limits is None:
+        return wire_speed_limits(robot)
+    n = robot.n
+    if isinstance(speed_limits, (str, bytes)) or not hasattr(speed_limits, "__len__") or len(speed_limits) != 2 \
+            or any(isinstance(v, (str, bytes)) or not hasattr(v, "__len__") or len(v) != n for v in speed_limits):
+        raise OptionError(f"expected speed_limits as (vmax, amax), {n} values each [cdeg/s, cdeg/s^2] as "
+                          f"Arm.speed_limits() returns them, got {speed_limits!r}")
+    vmax, amax = speed_limits
+    return ([whole("vmax", v, lo=0, hi=VMAX_MAX, unit="cdeg/s") for v in vmax],
+            [whole("amax", a, lo=0, hi=AMAX_MAX, unit="cdeg/s^2") for a in amax])

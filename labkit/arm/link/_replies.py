@@ -109,8 +109,13 @@ def parse_read(fields, n):
     return np.array(vals)
 
 
-def parse_stop(fields, n):
-    """``STOP`` reply fields -> the held joint values [rad] (sent in centidegrees).
+def _joints(values, units):
+    """Board positions -> joint values [rad | m] through ``units`` (a WireUnits; None: centidegrees)."""
+    return np.radians(np.array(values) / 100.0) if units is None else units.joints(values)
+
+
+def parse_stop(fields, n, units=None):
+    """``STOP`` reply fields -> the held joint values [rad | m] (sent in wire units).
 
     Parameters
     ----------
@@ -118,6 +123,8 @@ def parse_stop(fields, n):
         Reply tokens after ``OK [#seq] STOP``.
     n : int
         Joint count.
+    units : WireUnits, optional
+        The robot's wire units (``labkit.arm``'s protocol module); default centidegrees for every joint.
 
     Returns
     -------
@@ -125,10 +132,10 @@ def parse_stop(fields, n):
     """
     if len(fields) != n:
         raise ProtocolError(f"expected {n} joint values, got {fields!r}")
-    return np.radians(np.array([board_int(v) for v in fields]) / 100.0)
+    return _joints([board_int(v) for v in fields], units)
 
 
-def parse_status(fields, n, queue_depth=None):
+def parse_status(fields, n, queue_depth=None, units=None):
     """``STATUS`` reply fields -> :class:`Status`.
 
     Parameters
@@ -139,6 +146,8 @@ def parse_status(fields, n, queue_depth=None):
         Joint count.
     queue_depth : int, optional
         The board's queue depth (``HELLO``); ``queue + free`` must equal it.
+    units : WireUnits, optional
+        The robot's wire units; default centidegrees for every joint.
 
     Returns
     -------
@@ -151,7 +160,7 @@ def parse_status(fields, n, queue_depth=None):
                             f"got q={kv['q']} state={kv['state']}")
     if not re.fullmatch(r"[0-9A-Fa-f]{1,8}", kv["flags"]):
         raise ProtocolError(f"expected flags as 1 to 8 hex digits, got {kv['flags']!r}")
-    st = Status(kv["state"], np.radians(np.array(q) / 100.0), board_int(kv["grip"]), board_int(kv["queue"]),
+    st = Status(kv["state"], _joints(q, units), board_int(kv["grip"]), board_int(kv["queue"]),
                 board_int(kv["free"]), board_int(kv["done"]), board_int(kv["timeout"]) / 1000.0,
                 board_int(kv["stream"]), int(kv["flags"], 16), board_int(kv["mem"]), board_int(kv["t"]) / 1000.0,
                 board_int(kv["last"]))

@@ -1,7 +1,8 @@
 """Trajectories as protocol segments (private; re-exported by :mod:`labkit.arm`).
 
 The board's ``SEG`` command takes one polynomial per joint over normalised
-time, with integer centidegree coefficients (``docs/protocol.md``).
+time, with integer coefficients in the joint's wire units (centidegrees; an RC linear servo:
+1/18000 of its stroke, :class:`labkit.arm.WireUnits`; ``docs/protocol.md``).
 :func:`segments_from_trajectory` turns a sampled trajectory into such
 segments; :func:`feed_segments` streams them into the board's queue for
 :meth:`labkit.arm.Arm.run_trajectory`, which reports a :class:`TrajectoryReport`.
@@ -16,7 +17,7 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, JointLimitError, OptionError, TrajectoryError
 from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
-from labkit.arm._protocol import CommandRejected, cdeg
+from labkit.arm._protocol import CommandRejected, SERVO_FULL, WireUnits, wire_calibrations
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -32,14 +33,16 @@ class TrajectoryReport:
     duration: float
 
 
-def _hermite(q0, v0, a0, q1, v1, a1, T, order):
-    """Normalised-time polynomial coefficients [cdeg] of one joint over ``T`` s (end point exact)."""
-    d0, d1 = math.degrees(q0) * 100, math.degrees(q1) * 100
-    v0, v1 = math.degrees(v0) * 100 * T, math.degrees(v1) * 100 * T
+def _hermite(q0, v0, a0, q1, v1, a1, T, order, wire):
+    """Normalised-time polynomial coefficients [wire units] of one joint over ``T`` s (end point exact).
+
+    ``wire(x)`` is the joint's value or rate ``x`` [rad | m, per s^k] in wire units (not rounded)."""
+    d0, d1 = wire(q0), wire(q1)
+    v0, v1 = wire(v0) * T, wire(v1) * T
     if order == 3:
         c = [d0, v0, 3 * (d1 - d0) - 2 * v0 - v1, -2 * (d1 - d0) + v0 + v1]
     else:
-        a0, a1 = math.degrees(a0) * 100 * T * T, math.degrees(a1) * 100 * T * T
+        a0, a1 = wire(a0) * T * T, wire(a1) * T * T
         h = d1 - d0
         c = [d0, v0, a0 / 2, 10 * h - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
              -15 * h + 8 * v0 + 7 * v1 + 1.5 * a0 - a1, 6 * h - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1]
@@ -48,13 +51,13 @@ def _hermite(q0, v0, a0, q1, v1, a1, T, order):
     return c
 
 
-def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
+def segments_from_trajectory(traj, *, order=3, min_duration=0.05, units=None):
     """Protocol segments ``(dur_ms, order, coefficients)`` of a sampled trajectory.
 
     Consecutive samples (merged until at least ``min_duration`` apart) become
     one Hermite polynomial each, matching position and velocity (and
-    acceleration for ``order=5``) at both ends; coefficients are integer
-    centidegrees over normalised time, the end point of each segment is the
+    acceleration for ``order=5``) at both ends; coefficients are integers in
+    the joints' wire units over normalised time, the end point of each segment is the
     exact start of the next.
 
     Parameters
@@ -64,6 +67,10 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
     order : {3, 5}
     min_duration : float
         Shortest segment [s].
+    units : WireUnits, optional
+        The robot's wire units (``WireUnits(robot)``; an arm with an RC linear servo needs them, and
+        :meth:`labkit.arm.Arm.run_trajectory` passes its own); default centidegrees for every joint
+        (prismatic joints without a servo: metres read as radians).
 
     Returns
     -------
@@ -91,7 +98,8 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05):
             continue
         coef = []
         for j in range(q.shape[1]):
-            coef += _hermite(q[a, j], qd[a, j], qdd[a, j], q[b, j], qd[b, j], qdd[b, j], T, order)
+            wire = (lambda x: math.degrees(x) * 100) if units is None else (lambda x, j=j: units.value(j, x))
+            coef += _hermite(q[a, j], qd[a, j], qdd[a, j], q[b, j], qd[b, j], qdd[b, j], T, order, wire)
         segs.append((int(round(T * 1000)), order, coef))
     return segs
 
@@ -106,51 +114,49 @@ def check_segment_speeds(robot, segs, vmax, amax):
     robot : labkit.Robot
         For the joint names in the message.
     segs : list of tuple
-        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [cdeg]).
+        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [wire units]).
     vmax, amax : sequence of int
-        Per-joint limits [cdeg/s], [cdeg/s^2] (0: unchecked), as sent with ``LIMITS``.
+        Per-joint limits [units/s], [units/s^2] (0: unchecked), as sent with ``LIMITS``.
 
     Raises
     ------
     TrajectoryError
         Names the segment and joint; nothing has been sent.
     """
+    units = WireUnits(robot)
     for k, (dur, order, coef) in enumerate(segs):
         for j in range(robot.n):
             row = coef[j * (order + 1):(j + 1) * (order + 1)]
             if not segment_speed_ok(row, dur, vmax[j], amax[j]):
                 raise TrajectoryError(
                     f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) exceeds its speed limit "
-                    f"{vmax[j] / 100:g} deg/s or acceleration limit {amax[j] / 100:g} deg/s^2 (0: unchecked); "
+                    f"{units.show(j, vmax[j])}/s or acceleration limit {units.show(j, amax[j])}/s^2 (0: unchecked); "
                     f"nothing was sent - slow the trajectory down")
 
 
 def feasible_ranges(robot):
-    """Each joint's range on the board [cdeg]: its limits within its servo's range (what ``SEG`` checks).
+    """Each joint's range on the board [wire units]: its limits within its servo's travel (what ``SEG`` checks).
 
     Parameters
     ----------
     robot : labkit.Robot
-        Joint limits [rad] and servo calibrations (``zero`` [rad], ``direction``), as
-        :meth:`labkit.arm.Arm.sync_calibration` sends them; a joint without a servo is an ideal
-        actuator over its limits.
+        Joint limits [rad | m] and servo calibrations, as :meth:`labkit.arm.Arm.sync_calibration` sends
+        them (:func:`labkit.arm.wire_calibrations`); a joint without a servo is an ideal actuator over its limits.
 
     Returns
     -------
     list of tuple of int
-        ``(lo, hi)`` per joint [cdeg].
+        ``(lo, hi)`` per joint [wire units: cdeg, or 1/18000 of an RC linear servo's stroke].
     """
+    units, (rows, _) = WireUnits(robot), wire_calibrations(robot)
     ranges = []
-    for lk in robot.links:
-        if lk.bus is not None:  # a servo bus: the robot file's loader checked the limits against the servo's ticks
-            ranges.append((cdeg(lk.limits[0]), cdeg(lk.limits[1])))
+    for j, (lk, row) in enumerate(zip(robot.links, rows)):
+        lo, hi = (int(round(units.value(j, v))) for v in lk.limits)
+        if row is None:  # a servo bus (its limits checked against the ticks at load) or an ideal actuator
+            ranges.append((lo, hi))
             continue
-        if lk.servo is None:  # an ideal actuator (no servo): the robot file's limits
-            ranges.append((cdeg(lk.limits[0]), cdeg(lk.limits[1])))
-            continue
-        lo, hi = (cdeg(v) for v in lk.limits)
-        zero, direction = cdeg(lk.servo.zero), int(lk.servo.direction)
-        a, b = (-zero, 18000 - zero) if direction > 0 else (zero - 18000, zero)
+        zero, direction = row[2], row[3]
+        a, b = (-zero, SERVO_FULL - zero) if direction > 0 else (zero - SERVO_FULL, zero)
         ranges.append((max(a, lo), min(b, hi)))
     return ranges
 
@@ -163,22 +169,22 @@ def check_segment_positions(robot, segs):
     robot : labkit.Robot
         Joint limits, servo calibrations and joint names.
     segs : list of tuple
-        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [cdeg]).
+        ``(dur_ms, order, coefficients)`` (coefficients joint by joint [wire units]).
 
     Raises
     ------
     JointLimitError
         Names the segment and joint; nothing has been sent.
     """
-    ranges = feasible_ranges(robot)
+    ranges, units = feasible_ranges(robot), WireUnits(robot)
     for k, (dur, order, coef) in enumerate(segs):
         for j, (lo, hi) in enumerate(ranges):
             row = coef[j * (order + 1):(j + 1) * (order + 1)]
             if lo > hi or not segment_position_ok(row, lo, hi):
                 raise JointLimitError(
-                    f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) leaves its range {lo / 100:g}.."
-                    f"{hi / 100:g} deg between the trajectory's samples (the board would refuse it); nothing was "
-                    f"sent - keep the trajectory further inside the limits", joint=j)
+                    f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) leaves its range "
+                    f"{units.show(j, lo)}..{units.show(j, hi)} between the trajectory's samples (the board would "
+                    f"refuse it); nothing was sent - keep the trajectory further inside the limits", joint=j)
 
 
 def move_segment(q0, q1, dur_ms):
@@ -220,7 +226,7 @@ def move_duration_ms(q0, q1, vmax, amax):
     q0, q1 : sequence of int, shape (n,)
         Commanded position before the move and its target [cdeg].
     vmax, amax : sequence of int, shape (n,)
-        Per-joint limits [cdeg/s], [cdeg/s^2] (0: unchecked), as sent with ``LIMITS``.
+        Per-joint limits [units/s], [units/s^2] (0: unchecked), as sent with ``LIMITS``.
 
     Returns
     -------

@@ -76,12 +76,16 @@ def task_error(kind, T, target, rows):
         e = np.column_stack((target[:, :2] - T[:, :2, 3], heading))[:, slots]
         return e, _norm(e)
     R = target[:, :3, :3] @ T[:, :3, :3].swapaxes(-1, -2)  # from the pose's orientation to the target's
-    v = 0.5 * (R[:, _UPPER, _LOWER] - R[:, _LOWER, _UPPER])
+    e = np.empty((T.shape[0], 6))
+    np.subtract(target[:, :3, 3], T[:, :3, 3], out=e[:, :3])
+    v = e[:, 3:]
+    np.subtract(R[:, _UPPER, _LOWER], R[:, _LOWER, _UPPER], out=v)
+    v *= 0.5
     sv = _norm(v)
     angle = np.arctan2(sv, 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0))
     big = sv > 1e-12
     v *= np.where(big, angle / np.where(big, sv, 1.0), 1.0)[:, None]  # the rotation vector, axis * angle
-    e = np.concatenate((target[:, :3, 3] - T[:, :3, 3], v), axis=1)[:, slots]
+    e = e[:, slots]
     if position is None:
         return e, _norm(e)
     p = e[:, position]
@@ -107,10 +111,12 @@ def damped_step(J, e, lam):
     """
     m, n = J.shape[-2:]
     Jt = J.swapaxes(-1, -2)
-    if m < n:
-        A = J @ Jt + lam[:, None, None] * np.eye(m)
+    wide = m < n
+    A = J @ Jt if wide else Jt @ J
+    diagonal = np.arange(A.shape[-1])
+    A[:, diagonal, diagonal] += lam[:, None]  # + lam I
+    if wide:
         return (Jt @ np.linalg.solve(A, e[:, :, None]))[:, :, 0]
-    A = Jt @ J + lam[:, None, None] * np.eye(n)
     return np.linalg.solve(A, Jt @ e[:, :, None])[:, :, 0]
 
 

@@ -85,7 +85,7 @@ class _Problem:
         """Jacobian task rows (k, m, n), error (k, m), residual (k,) and ``e.e / 2`` (k,) at ``q`` (k, n)."""
         T, J = self.kernel(q)
         e, res = task_error(self.kind, T, target, self.rows)
-        return J[:, self.rows], e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+        return (J if len(self.rows) == 6 else J[:, self.rows]), e, res, 0.5 * np.einsum("ij,ij->i", e, e)
 
 
 @dataclasses.dataclass

@@ -217,7 +217,10 @@ def _rigid_defects(T):
     for e in (_dot(c1, c1) - 1.0, _dot(c2, c2) - 1.0, _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)):
         err = maximum(err, abs(e))
     det = _dot(_cross(c0, c1), c2)
-    return np.reshape(err, -1), np.reshape(det, -1), np.abs(T[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1)
+    return np.reshape(err, -1), np.reshape(det, -1), np.abs(T[:, 3] - _LAST_ROW).max(axis=1)
+
+
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _is_bad(err, det, last):

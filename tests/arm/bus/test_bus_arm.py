@@ -38,6 +38,39 @@ def test_opening_starts_where_the_arm_rests_with_torque_on(arm):
     assert {"ping", "write", "sync write", "sync read"} <= names and emu.rejected == []
 
 
+@pytest.mark.parametrize("readings", ["one damaged", "never agreeing"])
+def test_a_damaged_reading_at_open_is_never_taken_for_the_pose(robot_file, kind, monkeypatch, readings):
+    """A status packet that passes Feetech's 8-bit checksum by chance (1 in 256 of the damaged or misaligned ones)
+    carries a wrong position: at power-up it would become a goal, or refuse the arm as out of its limits."""
+    import dataclasses
+
+    from labkit.arm.bus import bus_module
+
+    driver = bus_module(kind).Driver
+    real, calls = driver.read_state, []
+
+    def read_state(self, t=0.0):
+        reading = real(self, t)
+        calls.append(t)
+        if len(calls) == 1 or (readings == "never agreeing" and len(calls) % 2):
+            q = reading.q.copy()
+            q[1] += 2.0  # [rad]: far outside the joint's limits
+            return dataclasses.replace(reading, q=q, ticks=reading.ticks + np.eye(len(q), dtype=int)[1] * 1300)
+        return reading
+
+    monkeypatch.setattr(driver, "read_state", read_state)
+    if readings == "never agreeing":
+        with pytest.raises(DeviceError, match=r"the present positions of servo \d+ \(joint '\w+'\) differ from one "
+                                              r"sync read to the next after 9 reads"):
+            Arm(robot_file, _url(robot_file, kind))
+        return
+    with Arm(robot_file, _url(robot_file, kind)) as arm:
+        emu = arm.port.emulator
+        assert len(calls) >= 3  # the damaged read, then two that agree
+        assert np.allclose(arm.commanded_joints(), arm.robot.joint_limits.mean(axis=1), atol=math.radians(0.1))
+        assert [emu.get(i, "goal_position") for i in emu.ids] == [emu.get(i, "present_position") for i in emu.ids]
+
+
 def test_move_joints_then_read_back_through_the_bus(arm):
     emu = arm.port.emulator
     target = np.radians([30.0, 20.0, -10.0, 15.0])

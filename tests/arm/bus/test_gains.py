@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from labkit.arm import Arm
-from labkit.arm.bus import loop_plant, position_loop
+from labkit.arm.bus import bus_module, loop_plant, position_loop
 from labkit.exceptions import DeviceError, OptionError
 
 #: gains tried per bus, and the step [rad] that keeps each loop's output below full scale
@@ -54,6 +54,31 @@ def test_gains_are_read_checked_written_and_restored_on_close(robot_file, kind):
             arm.set_servo_gains("nojoint", kp=1)
         assert arm.servo_gains()[name] == new  # nothing written by the refused calls
     assert emu.get(servo, field) == defaults["kp"] and emu.get(servo, emu.bus.GAINS["kd"][0]) == defaults["kd"]
+
+
+def test_every_gain_range_fits_its_register_and_the_feetech_coefficients_are_one_byte_0_to_254():
+    """Issue 41: the STS3215 position-loop P/D/I (addresses 21/22/23) are one byte each, 0..254 (sources in _feetech.py)."""
+    for name in ("dynamixel", "feetech"):
+        bus = bus_module(name)
+        for gain, (field, top, _) in bus.GAINS.items():
+            assert 0 < top < 2 ** (8 * bus.TABLE[field][1]), (name, gain)
+    fee = bus_module("feetech")
+    assert {g: (fee.TABLE[f], top) for g, (f, top, _) in fee.GAINS.items()} == {
+        "kp": ((21, 1), 254), "kd": ((22, 1), 254), "ki": ((23, 1), 254)}
+
+
+@pytest.mark.parametrize("gain", ["kp", "ki", "kd"])
+def test_a_gain_at_its_limit_is_written_and_one_past_it_is_refused_naming_the_servo_and_field(robot_file, kind, gain):
+    with Arm(robot_file, _url(robot_file, kind)) as arm:
+        emu = arm.port.emulator
+        field, top, _ = emu.bus.GAINS[gain]
+        servo, name = arm.robot.links[2].bus.id, arm.robot.joint_names[2]
+        assert getattr(arm.set_servo_gains(2, **{gain: top}), gain) == top and emu.get(servo, field) == top
+        for bad in (top + 1, -1):
+            with pytest.raises(OptionError, match=rf"^servo {servo} \(joint '{name}'\): expected {gain} \({field}\) a "
+                                                  rf"whole number 0\.\.{top}, got {bad}; nothing was written$"):
+                arm.set_servo_gains(name, **{gain: bad})
+        assert emu.get(servo, field) == top
 
 
 def test_a_hobby_servo_arm_has_no_gains_to_reach():

@@ -89,3 +89,39 @@ def test_a_robot_file_gripper_on_the_bus_round_trips_and_is_checked(tmp_path):
     path.write_text(text.replace("max_torque = 0.5", "max_torque = -1"))
     with pytest.raises(ValueError, match="max_torque"):
         Robot.load(path)
+
+
+def test_gripper_writes_are_read_back_and_sent_again_until_the_servo_holds_them(bus_arm, monkeypatch):
+    """Issue 41: the gripper's goal and limit go through the confirmed write of the joints' goals, torque and gains."""
+    from tests.arm.bus.test_confirm import _ignore_writes
+
+    kind, arm = bus_arm
+    emu = arm.port.emulator
+    g = arm.robot.gripper
+    sid = g.servo.id
+    held = 0.25 * g.open + 0.75 * g.closed
+    _ignore_writes(monkeypatch, emu, sid, "goal_position", times=2)  # two lost writes: sent again, read back
+    field, value = limit_register(emu.bus, 0.4)
+    writes = emu.sync_writes
+    arm.move_gripper(held, max_torque=0.4)
+    assert emu.get(sid, "goal_position") == int(g.servo.ticks(held)) and emu.get(sid, field) == value
+    assert emu.sync_writes - writes == 4  # the limit once, the goal three times
+
+
+@pytest.mark.parametrize("field", ["goal_position", "limit"])
+def test_a_gripper_servo_that_never_holds_a_value_is_a_bus_fault_naming_it(bus_arm, monkeypatch, field):
+    from labkit.arm.bus._confirm import WRITE_TRIES
+    from labkit.exceptions import BusFault
+    from tests.arm.bus.test_confirm import _ignore_writes
+
+    kind, arm = bus_arm
+    emu = arm.port.emulator
+    g = arm.robot.gripper
+    sid = g.servo.id
+    if field == "limit":
+        field = limit_register(emu.bus, 0.3)[0]
+    _ignore_writes(monkeypatch, emu, sid, field)
+    with pytest.raises(BusFault, match=rf"{field} not confirmed after {WRITE_TRIES} sync writes and read-backs "
+                                       rf"\(servo {sid} \(gripper\) was sent \d+, holds \d+\)"):
+        arm.move_gripper(g.closed, max_torque=0.3)
+    assert not any(emu.torque(i) for i in [*emu.ids, sid])  # the arm is stopped, torque off (the gripper too)
