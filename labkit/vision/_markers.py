@@ -33,8 +33,8 @@ from labkit.exceptions import AmbiguousPoseError, MarkerNotFoundError, WrongMark
 from labkit.vision._families import dictionary, family_info
 from labkit.vision._images import as_gray as _gray
 
-__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "DEFAULT_CORNER_SIGMA",
-           "AMBIGUITY_RATIO"]
+__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "quad_bit_width",
+           "DEFAULT_CORNER_SIGMA", "AMBIGUITY_RATIO", "MIN_BIT_WIDTH"]
 
 #: a-priori standard deviation of a refined corner [px] (the floor of the noise model)
 DEFAULT_CORNER_SIGMA = 0.15
@@ -45,6 +45,12 @@ _PROFILE_SAMPLES = 25
 #: images with a side this long [px] or longer are searched at half resolution first
 _DOWNSCALE_ABOVE = 1000
 _EDGE_FRACTIONS = np.linspace(0.12, 0.88, 24)
+#: an edge profile reaches this fraction of a bit into the black border, and at least _MIN_HALF_PROFILE px
+_PROFILE_BIT_FRACTION, _MIN_HALF_PROFILE = 0.45, 1.5
+#: below this bit width across a side [px] the shortest profile reaches more than two thirds of the way across
+#: the black border, within a blur's width of the data bits (corners 2 px off at 2.1 px, 0.07 px at 2.5 px):
+#: a marker seen this obliquely is not used for a measurement
+MIN_BIT_WIDTH = _MIN_HALF_PROFILE / (2.0 / 3.0)
 
 
 def marker_corners(size):
@@ -126,6 +132,17 @@ class MarkerDetection:
         t = self.pose[:3, 3]
         return float(math.acos(min(1.0, abs(float(z @ t)) / float(np.linalg.norm(t)))))
 
+    @property
+    def bit_width(self):
+        """Width of one bit across the marker's narrowest side in the image [px].
+
+        The quad's area over its longest side is its smallest height; a tag of ``bits`` data
+        bits a side spans ``bits + 2`` bits with its black border. Seen obliquely, a marker
+        is a thin quad whose black border is a few pixels across although its sides are long:
+        below :data:`MIN_BIT_WIDTH` its edges cannot be located apart from its data bits.
+        """
+        return quad_bit_width(self.corners, family_info(self.family).bits)
+
     def point_covariance(self, point):
         """Position of a point fixed to the marker, in the camera frame, with its covariance.
 
@@ -158,6 +175,31 @@ class MarkerDetection:
         return self.pose[:3, :3] @ p + self.pose[:3, 3], jac @ self.covariance @ jac.T
 
 
+def quad_bit_width(quad, bits):
+    """Width of one bit across each side of a marker's quad [px], shape (4,) (or the smallest, a float).
+
+    Parameters
+    ----------
+    quad : array_like, shape (4, 2)
+        The marker's corners [px].
+    bits : int
+        Data bits a side (the black border adds one bit each way).
+
+    Returns
+    -------
+    float
+        The smallest width: the quad's area over its longest side, over ``bits + 2``.
+    """
+    return float(np.min(_side_bit_widths(np.asarray(quad, dtype=float), bits)))
+
+
+def _side_bit_widths(quad, bits):
+    ends = np.roll(quad, -1, axis=0)
+    lengths = np.linalg.norm(ends - quad, axis=1)
+    area = 0.5 * abs(float(np.sum(quad[:, 0] * ends[:, 1] - ends[:, 0] * quad[:, 1])))
+    return area / np.maximum(lengths, 1e-12) / (bits + 2)
+
+
 @functools.lru_cache(maxsize=None)
 def _detector(family):
     with needs_extra("vision"):
@@ -185,9 +227,7 @@ def _refine_edges(gray, quad, bits, camera):
     # each profile reaches less than half a bit into the black border (beyond it lie the data bits), a bit
     # measured across its edge: the quad's height over that side, which is far less than the side when the
     # marker is seen obliquely (a thin quad)
-    lengths = np.linalg.norm(ends - quad, axis=1)
-    area = 0.5 * abs(float(np.sum(quad[:, 0] * ends[:, 1] - ends[:, 0] * quad[:, 1])))
-    half = np.clip(0.45 * area / lengths / (bits + 2), 1.5, 4.0)
+    half = np.clip(_PROFILE_BIT_FRACTION * _side_bit_widths(quad, bits), _MIN_HALF_PROFILE, 4.0)
     steps = np.linspace(-1.0, 1.0, _PROFILE_SAMPLES)[None, :] * half[:, None]  # (4, s) [px]
     d = (ends - quad) / np.linalg.norm(ends - quad, axis=1, keepdims=True)
     n = np.column_stack([-d[:, 1], d[:, 0]])
