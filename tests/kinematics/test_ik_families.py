@@ -58,6 +58,31 @@ def _scara_prrr():
     return Robot("scara_prrr", links, base=base, tool=tool)
 
 
+def _gantry_pprp():
+    """A gantry whose wrist turn sits between its carriages (PPRP, modified DH): the last slide turns with it,
+    along the turn's axis, on a base tilted in the world."""
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy([0.2, 0.4, -0.6])
+    tool = np.eye(4)
+    tool[:3, :3] = matrix_from_rpy([np.pi, 0.0, 0.3])
+    tool[:3, 3] = [0.03, -0.02, 0.06]
+    links = (Link(joint_type="prismatic", limits=(0.0, 0.5)),
+             Link(alpha=-np.pi / 2, theta=np.pi / 2, joint_type="prismatic", limits=(-0.2, 0.3), flip=True),
+             Link(a=0.05, alpha=np.pi / 2, d=0.04, limits=(-3.0, 3.0), flip=True),
+             Link(a=0.02, d=0.1, joint_type="prismatic", limits=(0.0, 0.2)))
+    return Robot("gantry_pprp", links, convention="modified", base=base, tool=tool)
+
+
+def _spherical_rrp():
+    """An RRP spherical arm (standard DH) whose tool point lies beside the boom and off the shoulder plane."""
+    tool = np.eye(4)
+    tool[:3, 3] = [0.03, 0.02, 0.05]
+    links = (Link(d=0.3, alpha=np.pi / 2, limits=(-3.0, 3.0)),
+             Link(d=-0.08, alpha=-np.pi / 2, theta=0.4, limits=(-2.5, 2.5), flip=True),
+             Link(a=0.02, theta=np.pi / 2, joint_type="prismatic", limits=(0.2, 0.6)))
+    return Robot("spherical_rrp", links, tool=tool)
+
+
 ROBOTS = {
     "arduino_arm_3dof": (lambda: Robot.load("arduino_arm_3dof"), "yaw_pitch_pitch"),
     "planar3r_seed004": (lambda: Robot.load("planar3r_seed004"), "planar_3r"),
@@ -77,6 +102,10 @@ ROBOTS = {
     "cylindrical_rpp": (_fixture("cylindrical_rpp"), "cylindrical"),
     "rpp_seed002": (lambda: Robot.load("rpp_seed002"), "cylindrical"),
     "gantry_ppp": (_fixture("gantry_ppp"), "cartesian"),
+    "gantry_pppr": (_fixture("gantry_pppr"), "cartesian_yaw"),
+    "gantry_pprp": (_gantry_pprp, "cartesian_yaw"),
+    "spherical_rrp": (_spherical_rrp, "spherical_rrp"),
+    "stanford": (_fixture("stanford"), "stanford"),
 }
 
 

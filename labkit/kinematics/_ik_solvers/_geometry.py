@@ -65,6 +65,9 @@ def floats(v):
 def perpendicular(axis):
     """A unit vector perpendicular to the unit vector ``axis`` (from the world axis least along it).
 
+    Components within :data:`TOL` count as equal (the first such axis wins), so rounding noise of a
+    DH walk (``6e-17`` beside ``0``) does not decide: an axis along world ``z`` gives world ``x``.
+
     Parameters
     ----------
     axis : ndarray, shape (3,)
@@ -74,7 +77,8 @@ def perpendicular(axis):
     -------
     ndarray, shape (3,)
     """
-    t = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    a = np.abs(axis)
+    t = np.eye(3)[int(np.flatnonzero(a <= a.min() + TOL)[0])]
     return unit(t - axis * (t @ axis))
 
 
