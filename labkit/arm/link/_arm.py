@@ -33,12 +33,13 @@ import math
 import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
+from labkit.robot import joints_to_display
 from labkit.arm._protocol import WireUnits, wire_calibrations, wire_speed_limits
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
 from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
                                        move_duration_ms, move_segment, segments_from_trajectory)
-from labkit.arm.link._feedback import joints_from_counts, record_stream
+from labkit.arm.link._feedback import joints_from_counts, record_stream, settle_tolerance
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count, speed_limit_lists
 from labkit.arm.link._servos import ServoMethods
@@ -420,15 +421,16 @@ class Arm(ServoMethods):
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
-    def wait_settled(self, q, *, tol=math.radians(1.0), max_wait=10.0, interval=0.05):
-        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them.
+    def wait_settled(self, q, *, tol=None, max_wait=10.0, interval=0.05):
+        """Wait until the sensed joints stay within ``tol`` of ``q`` for two reads; returns them.
 
         Parameters
         ----------
         q : array_like, shape (n,)
-            Target joint values [rad].
-        tol : float
-            Largest allowed ``|sensed - q|`` per joint [rad].
+            Target joint values [rad | m].
+        tol : float or array_like, shape (n,), optional
+            Largest allowed ``|sensed - q|`` per joint [rad | m]; default :func:`settle_tolerance` (1 deg,
+            1 mm, or three feedback counts where a count is coarser).
         max_wait : float
             Give up after this much board time [s].
         interval : float
@@ -445,7 +447,12 @@ class Arm(ServoMethods):
             The joints did not settle within ``max_wait``.
         """
         q = joint_vector(self.robot, q)
-        tol = finite("tol", tol, lo=0.0, unit="rad")
+        if tol is None:
+            tol = settle_tolerance(self.robot)
+        else:
+            tol = np.array([finite("tol", t, lo=0.0, unit="rad | m") for t in np.ravel(tol)])
+            if tol.size not in (1, self.robot.n):
+                raise OptionError(f"expected tol as one number or {self.robot.n} (one per joint), got {tol.size}")
         max_wait = finite("max_wait", max_wait, lo=0.0, hi=86400.0, unit="s")
         interval = finite("interval", interval, lo=1e-3, hi=60.0, unit="s")
         end = self._clock() + max_wait
@@ -458,7 +465,9 @@ class Arm(ServoMethods):
                 return sensed
             self.sleep(interval)
         raise DeviceError(f"{self.name}: joints did not settle within {max_wait} s at tolerance "
-                          f"{math.degrees(tol):.2f} deg (sensed {np.degrees(sensed).round(2)} deg)")
+                          f"{joints_to_display(self.robot, tol).round(2)} (sensed "
+                          f"{joints_to_display(self.robot, sensed).round(2)}, commanded "
+                          f"{joints_to_display(self.robot, q).round(2)}; deg | mm)")
 
     def move_to(self, target, *, branch=None, wait=False):
         """Move the tool to a Cartesian ``target`` through :func:`labkit.kinematics.ik` (nearest branch by default).
