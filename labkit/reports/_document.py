@@ -238,7 +238,7 @@ def _outputs(cell, entry, show_code_first=None):
             if "<table" in html:
                 html = re.sub(r"<caption>.*?</caption>", "", html, flags=re.DOTALL) if tbls else html
                 html = tidy_numbers(_TH.sub(lambda m: m.group(1) + _breakable(m.group(2)) + m.group(3), html))
-                long = " lk-long" if 'class="lk-report-table lk-long"' in html else ""
+                long = " lk-long" if re.search(r'class="lk-report-table[^"]*\blk-long\b', html) else ""
                 if tbls:
                     item = tbls.pop(0)
                     parts.append(f'<figure class="lk-table{long}" id="{item.anchor}"><figcaption>{_caption_html(item)}'

@@ -4,8 +4,10 @@ One style for every table of a report: no pandas index unless it carries meaning
 column names with their units (a mapping, ``{"shoulder_pitch_ddot": "shoulder accel
 [deg/s^2]"}``), the same number of decimals down a column (chosen from the column's largest
 magnitude for the significant digits asked), booleans as words, vectors as ``(x, y, z)``,
-missing values as a dash, never ``NaN``; a long table may break across pages with its header
-repeated. The result shows itself in a notebook (HTML; ``to_latex()`` gives booktabs,
+missing values as a dash, never ``NaN``; rows may form groups (a label printed once, a little
+space between groups, a group never split across pages); a long table may break across pages
+with its header repeated. :func:`error_report_table` lays out a measured-versus-calculated
+error table (``labkit.measure.error_table``) the way a journal prints one. The result shows itself in a notebook (HTML; ``to_latex()`` gives booktabs,
 ``longtable`` when long); ``labkit report`` takes its HTML into the PDF and the DOCX.
 
 Example
@@ -30,7 +32,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 
-__all__ = ["ReportTable", "report_table", "format_value", "LONG_TABLE_ROWS"]
+__all__ = ["ReportTable", "report_table", "error_report_table", "format_value", "LONG_TABLE_ROWS"]
 
 #: a table with more rows than this may break across pages (its header repeated on each)
 LONG_TABLE_ROWS = 15
@@ -51,12 +53,15 @@ class ReportTable:
         What the table shows ("" = none; a numbered table takes the ``#| tbl-cap`` of its cell).
     numeric : tuple of bool
         Per column: right-aligned numbers (else left-aligned text).
+    groups : tuple of int
+        Rows that start a group (ascending, the first is 0); empty: no groups.
     """
 
     header: tuple
     rows: tuple
     caption: str = ""
     numeric: tuple = ()
+    groups: tuple = ()
 
     @property
     def long(self) -> bool:
@@ -72,11 +77,18 @@ class ReportTable:
         """
         align = [' class="lk-cell-num"' if n else ' class="lk-cell-text"' for n in self._numeric()]
         head = "".join(f"<th{a}>{_html.escape(h)}</th>" for a, h in zip(align, self.header))
-        body = "".join("<tr>" + "".join(f"<td{a}>{_html.escape(c)}</td>" for a, c in zip(align, row)) + "</tr>"
-                       for row in self.rows)
-        cls = "lk-report-table lk-long" if self.long else "lk-report-table"
+        rows = ["<tr>" + "".join(f"<td{a}>{_html.escape(c)}</td>" for a, c in zip(align, row)) + "</tr>"
+                for row in self.rows]
+        body = "".join(f"<tbody>{''.join(rows[a:b])}</tbody>" for a, b in self._spans())
+        cls = "lk-report-table" + (" lk-long" if self.long else "") + (" lk-grouped" if self.groups else "")
         cap = f"<caption>{_html.escape(self.caption)}</caption>" if self.caption else ""
-        return f'<table class="{cls}">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+        return f'<table class="{cls}">{cap}<thead><tr>{head}</tr></thead>{body}</table>'
+
+    def _spans(self):
+        """(first, end) row of each group (one span of every row without groups)."""
+        starts = [s for s in self.groups if 0 < s < len(self.rows)]
+        edges = [0, *starts, len(self.rows)]
+        return list(zip(edges[:-1], edges[1:]))
 
     def to_latex(self) -> str:
         """The table as LaTeX: booktabs rules, ``longtable`` with the header repeated when long.
@@ -89,7 +101,9 @@ class ReportTable:
         """
         spec = "".join("r" if n else "l" for n in self._numeric())
         head = " & ".join(_latex_escape(h) for h in self.header) + r" \\"
-        body = "\n".join(" & ".join(_latex_escape(c) for c in row) + r" \\" for row in self.rows)
+        starts = set(self.groups) - {0}
+        body = "\n".join(("\\addlinespace\n" if k in starts else "") + " & ".join(_latex_escape(c) for c in row) + r" \\"
+                         for k, row in enumerate(self.rows))
         cap = _latex_escape(self.caption)
         if self.long:
             first = (rf"\caption{{{cap}}}\\" + "\n") if cap else ""
@@ -149,6 +163,13 @@ def _is_missing(v) -> bool:
 
 def _is_vector(v) -> bool:
     return isinstance(v, (tuple, list, np.ndarray)) and not isinstance(v, str)
+
+
+def _is_number_text(text) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
 
 
 def _numbers_of(values, zero=0.0):
@@ -212,7 +233,7 @@ def _cell(v, decimals, scientific, words, missing, zero) -> str:
 
 
 def report_table(df, *, columns=None, digits=3, caption="", index=None, units=None, booleans=("yes", "no"),
-                 missing="–", zero=1e-9) -> ReportTable:
+                 missing="–", zero=1e-9, group=None) -> ReportTable:
     """A DataFrame as a report table: human names with units, digits per column, words for booleans.
 
     Parameters
@@ -242,6 +263,10 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         What a missing value (``None``, ``NaN``) prints as.
     zero : float
         Round-off: a magnitude at most this prints as 0 (``5.6e-17`` is 0, never ``5.6e-17``).
+    group : str or list of str, optional
+        A column (or columns) whose runs of equal values form groups of rows: the values
+        printed on a group's first row only, a little space between groups, a group kept on
+        one page.
 
     Returns
     -------
@@ -251,8 +276,8 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
     Raises
     ------
     OptionError
-        ``digits`` is not a positive integer, or ``columns`` / ``digits`` name a column the
-        table does not have.
+        ``digits`` is not a positive integer, or ``columns`` / ``digits`` / ``group`` name a
+        column the table does not have (or, for ``group``, does not print).
     ShapeError
         ``df`` is not a DataFrame or Series.
 
@@ -299,20 +324,118 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
     for value in [default, *per_column.values()]:
         if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
             raise OptionError(f"digits expects positive integers, got {value!r}")
-    header, cells, numeric = [], [], []
+    group = [] if group is None else [group] if isinstance(group, str) else list(group)
+    for name in group:
+        if name not in df.columns or columns.get(name, name) is None:
+            raise OptionError(f"group expects columns the table prints, got {name!r} "
+                              f"(it prints {', '.join(str(c) for c in df.columns if columns.get(c, c) is not None)})")
+    header, cells, numeric, grouped = [], [], [], []
     for name in df.columns:
         label = columns.get(name, ", ".join(map(str, name)) if isinstance(name, tuple) else name)
         if label is None:
             continue
+        if name in group:
+            grouped.append(len(header))
         if units.get(name) and "[" not in str(label):
             label = f"{label} [{units[name]}]"
         values = list(df[name])
         decimals, scientific = _style(values, int(per_column.get(name, default)), zero)
         header.append(str(label))
         cells.append([_cell(v, decimals, scientific, booleans, missing, zero) for v in values])
-        numeric.append(bool(_numbers_of(values)) and not any(isinstance(v, str) for v in values if not _is_missing(v)))
+        present = [v for v in values if not _is_missing(v)]  # numbers kept as printed ("0.024") align as numbers
+        numeric.append(bool(present) and all(_is_number_text(v) if isinstance(v, str) else bool(_numbers_of([v]))
+                                             for v in present))
+    starts = ()
+    if grouped:
+        labels = list(zip(*(cells[g] for g in grouped)))
+        starts = tuple(k for k in range(len(labels)) if k == 0 or labels[k] != labels[k - 1])
+        for g in grouped:
+            cells[g] = [c if k in starts else "" for k, c in enumerate(cells[g])]
     rows = tuple(zip(*cells)) if cells else tuple(() for _ in range(len(df)))
-    return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric))
+    return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric), starts)
+
+
+#: the columns of a measured-versus-calculated error table (``labkit.measure.ErrorTable.table``) a reader needs
+_ERROR_COLUMNS = {"calculated": "calculated", "mean": "measured", "half_range": "±", "error": "error"}
+
+
+def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=None, caption="") -> ReportTable:
+    """A measured-versus-calculated error table as a journal prints it: one row per pose and quantity.
+
+    Columns: the pose, the quantity, calculated, measured (mean of the readings), ± (half
+    their range), error (measured - calculated), each with its unit, and "within U" (yes/no:
+    the error inside the measurement uncertainty). The rows of one pose form a group. The
+    other columns of the error table (counts, spread, resolution, relative error) stay in
+    its CSV; its summary (RMS, largest error) is a table of its own.
+
+    Parameters
+    ----------
+    errors : labkit.measure.ErrorTable or pandas.DataFrame
+        The error table (or its long ``table``: columns ``pose_id, quantity, command, unit,
+        calculated, mean, half_range, error, inside``).
+    unit : str, optional
+        The unit the numbers print in after ``scale`` ("mm"); default: the readings' unit.
+    scale : float
+        Factor from the readings' unit to ``unit`` (1e3 for m -> mm).
+    pose : {"command", "pose_id"}
+        What names a pose: the commanded joints or target ("q = (5, 0, 0) deg") or its id.
+    digits : int or dict of str to int, optional
+        Significant digits of each column's largest magnitude; per column by the names
+        "calculated", "measured", "±", "error", with ``"*"`` for the rest. Default: 2 for
+        ±, 3 for the rest.
+    caption : str
+        What the table shows.
+
+    Returns
+    -------
+    ReportTable
+
+    Raises
+    ------
+    OptionError
+        ``pose`` is not "command" or "pose_id"; ``scale`` is not a positive number; the
+        readings are in several units and ``unit`` / ``scale`` would print them as one.
+    ShapeError
+        ``errors`` lacks a column the layout needs.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> long = pd.DataFrame({"pose_id": ["p1", "p1"], "quantity": ["x", "y"], "command": ["q = (5, 0) deg"] * 2,
+    ...                      "unit": ["m", "m"], "calculated": [0.2733, 0.0239], "mean": [0.26, 0.065],
+    ...                      "half_range": [0.02, 0.05], "error": [-0.0133, 0.0411], "inside": [True, True]})
+    >>> print(error_report_table(long, unit="mm", scale=1e3).to_text())
+    pose            quantity  calculated [mm]  measured [mm]  ± [mm]  error [mm]  within U
+    q = (5, 0) deg  x                     273            260      20       -13.3  yes
+                    y                      24             65      50        41.1  yes
+    """
+    import pandas as pd
+
+    if pose not in ("command", "pose_id"):
+        raise OptionError(f"pose expects 'command' or 'pose_id', got {pose!r}")
+    if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not scale > 0:
+        raise OptionError(f"scale expects a positive number, got {scale!r}")
+    table = getattr(errors, "table", errors)
+    if not isinstance(table, pd.DataFrame):
+        raise ShapeError(f"expected an ErrorTable or its DataFrame, got {type(errors).__name__}")
+    needed = [pose, "quantity", "unit", *_ERROR_COLUMNS, "inside"]
+    lacking = [c for c in needed if c not in table.columns]
+    if lacking:
+        raise ShapeError(f"expected an error table with columns {', '.join(needed)}; it lacks {', '.join(lacking)}")
+    units = list(dict.fromkeys(table["unit"]))
+    if len(units) > 1 and (unit is not None or scale != 1.0):
+        raise OptionError(f"unit and scale convert readings of one unit; these are in {', '.join(units)}")
+    shown = unit if unit is not None else (units[0] if len(units) == 1 else "")
+    suffix = f" [{shown}]" if shown else ""
+    frame = pd.DataFrame({"pose": table[pose].to_numpy(), "quantity": table["quantity"].to_numpy(),
+                          **{f"{name}{suffix}": table[column].to_numpy(float) * float(scale)
+                             for column, name in _ERROR_COLUMNS.items()},
+                          "within U": table["inside"].to_numpy(bool)})
+    if digits is None:
+        digits = {"±": 2, "*": 3}
+    if isinstance(digits, dict):
+        digits = {(f"{k}{suffix}" if k in _ERROR_COLUMNS.values() else k): v for k, v in digits.items()}
+    return report_table(frame, digits=digits, caption=caption, group="pose")
 
 
 def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:

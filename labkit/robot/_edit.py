@@ -16,7 +16,7 @@ from pathlib import Path
 
 from labkit.exceptions import OptionError, RobotFileError, needs_extra
 from labkit.robot.types import _ANGLE_UNITS
-from labkit.robot._files import _resolve, parse, read_text
+from labkit.robot._files import _read_text, _resolve, parse
 from labkit.robot._model import Robot
 
 __all__ = ["edit_bus_calibration"]
@@ -85,7 +85,7 @@ def edit_bus_calibration(source, changes, *, out=None, backup=True):
     target = path if out is None else Path(os.fspath(out))
     if target.exists() and not target.is_file():
         raise OptionError(f"expected a regular file to write the robot file to, got {str(target)!r}")
-    before = read_text(path)
+    before = _read_text(path)
     with needs_extra("bus"):
         import tomlkit
         from tomlkit.exceptions import TOMLKitError

@@ -557,7 +557,7 @@ def _resolve(name_or_path):
     )
 
 
-def read_text(path):
+def _read_text(path):
     """The text of robot file ``path``: UTF-8, a leading byte-order mark (as Notepad writes) dropped; else a
     :class:`RobotFileError` (unreadable; not UTF-8, naming the first bad byte and its line)."""
     try:
@@ -590,7 +590,7 @@ def load_fields(name_or_path):
         The file is missing, unreadable, not TOML, or malformed.
     """
     path = _resolve(name_or_path)
-    text = read_text(path)
+    text = _read_text(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

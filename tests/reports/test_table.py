@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.reports import LONG_TABLE_ROWS, report_table
+from labkit.reports import LONG_TABLE_ROWS, error_report_table, report_table
 
 
 def test_no_default_index_but_a_meaningful_one_is_kept():
@@ -129,3 +129,65 @@ def test_the_dh_table_records_its_units_for_the_header():
     t = report_table(Robot.load("arduino_arm_3dof").dh_table(), columns={"i": "link i"})
     assert t.header[:4] == ("link i", "joint", "type", "a_{i-1} [mm]")
     assert "alpha_{i-1} [deg]" in t.header and "lower [deg]" in t.header
+
+
+def test_grouped_rows_print_their_label_once_and_stay_together():
+    df = pd.DataFrame({"pose": ["a", "a", "b", "b", "b", "a"], "axis": list("xyxyzx"), "v [mm]": [1.0] * 6})
+    t = report_table(df, group="pose")
+    assert [r[0] for r in t.rows] == ["a", "", "b", "", "", "a"]  # a run of equal labels is a group
+    assert t.groups == (0, 2, 5)
+    html = t.to_html()
+    assert html.count("<tbody>") == 3 and 'class="lk-report-table lk-grouped"' in html
+    assert t.to_latex().count(r"\addlinespace") == 2
+    plain = report_table(df)
+    assert plain.groups == () and plain.to_html().count("<tbody>") == 1 and plain.rows[1][0] == "a"
+    with pytest.raises(OptionError, match="group expects columns the table prints, got 'axis'"):
+        report_table(df, group="axis", columns={"axis": None})
+    two = report_table(df.assign(target=["p", "p", "q", "q", "r", "r"]), group=["pose", "target"])
+    assert two.groups == (0, 2, 4, 5)  # a group ends where either label changes
+    assert [r[3] for r in two.rows] == ["p", "", "q", "", "r", "r"] and [r[0] for r in two.rows] == ["a", "", "b", "", "b", "a"]
+
+
+def test_numbers_kept_as_printed_text_align_as_numbers():
+    t = report_table(pd.DataFrame({"published": ["0.27", "0.024"], "pose": ["t1", "t2"]}))
+    assert t.numeric == (True, False)
+
+
+def test_error_report_table_is_a_journal_table_of_the_seed_tables():
+    from labkit.data import measurement_file
+    from labkit.measure import error_table, load_measurements
+
+    readings = load_measurements(measurement_file("seed000_fk_tables1-3.csv"))
+    errors = error_table("arduino_arm_3dof", readings[readings.pose_id.str.startswith("t1_")])
+    t = error_report_table(errors, unit="mm", scale=1e3)
+    assert t.header == ("pose", "quantity", "calculated [mm]", "measured [mm]", "± [mm]", "error [mm]", "within U")
+    assert len(t.rows) == 15 and t.groups == (0, 3, 6, 9, 12)  # five poses of x, y, z
+    first = dict(zip(t.header, t.rows[0]))
+    assert first["pose"] == "q = (5, 0, 0) deg" and first["quantity"] == "x"
+    # independent of labkit's FK: the arm's x at joint 1 = 5 deg is (L1 + L2) cos 5 deg, L1 + L2 = 274 mm
+    assert float(first["calculated [mm]"]) == pytest.approx(274.0 * np.cos(np.radians(5.0)), abs=0.5)
+    for row in t.rows:  # the printed error is the printed measured - calculated, to the printed precision
+        cells = dict(zip(t.header, row))
+        assert float(cells["error [mm]"]) == pytest.approx(float(cells["measured [mm]"]) - float(cells["calculated [mm]"]),
+                                                           abs=1.0)
+        assert cells["within U"] in ("yes", "no")
+    assert [dict(zip(t.header, r))["within U"] for r in t.rows].count("no") == 15 - int(errors.table.inside.sum())
+    text = t.to_text() + t.to_html()
+    assert not re.search(r"\b(True|False|NaN|nan)\b", text)
+    by_id = error_report_table(errors.table, unit="mm", scale=1e3, pose="pose_id", digits={"error": 2, "*": 3})
+    assert by_id.rows[0][0] == "t1_j1_5deg" and by_id.rows[0][5] == "7"
+
+
+def test_error_report_table_says_what_it_expected():
+    with pytest.raises(ShapeError, match="lacks calculated"):
+        error_report_table(pd.DataFrame({"pose_id": ["a"], "quantity": ["x"], "command": ["q"], "unit": ["m"]}))
+    mixed = pd.DataFrame({"pose_id": ["a", "a"], "quantity": ["x", "theta"], "command": ["q"] * 2, "unit": ["m", "deg"],
+                          "calculated": [1.0, 2.0], "mean": [1.0, 2.0], "half_range": [0.0, 0.0], "error": [0.0, 0.0],
+                          "inside": [True, True]})
+    with pytest.raises(OptionError, match="these are in m, deg"):
+        error_report_table(mixed, unit="mm", scale=1e3)
+    assert error_report_table(mixed).header[2] == "calculated"  # several units, none claimed
+    with pytest.raises(OptionError, match="pose expects 'command' or 'pose_id', got 'row'"):
+        error_report_table(mixed, pose="row")
+    with pytest.raises(OptionError, match="scale expects a positive number"):
+        error_report_table(mixed, scale=0)
