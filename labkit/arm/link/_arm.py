@@ -34,11 +34,11 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
 from labkit.robot import joints_to_display
-from labkit.arm._protocol import WireUnits, wire_calibrations, wire_speed_limits
+from labkit.arm._protocol import WireUnits, check_joint_count, wire_calibrations, wire_speed_limits
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
-from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
-                                       move_duration_ms, move_segment, segments_from_trajectory)
+from labkit.arm.link._segments import (check_segment_lines, check_segment_positions, check_segment_speeds,
+                                       feed_segments, move_duration_ms, move_segment, segments_from_trajectory)
 from labkit.arm.link._feedback import joints_from_counts, record_stream, settle_tolerance
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count, speed_limit_lists
@@ -99,6 +99,9 @@ class Arm(ServoMethods):
     ------
     OptionError
         ``robot`` is ``None`` and the port is not a ``sim://<robot>`` URL.
+    RobotError
+        The robot has more joints than the board protocol carries (:data:`labkit.arm.MAX_JOINTS`); nothing is
+        opened.
     DeviceError
         No port found, the port cannot be opened, no handshake, wrong protocol version or joint count.
     """
@@ -109,6 +112,7 @@ class Arm(ServoMethods):
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot, port = arm_robot(robot, port)
+        check_joint_count(self.robot)  # more joints than a request line carries: refused before the port is opened
         #: the units of the joints' positions on the wire (centidegrees; an RC linear servo: 1/18000 of its stroke)
         self._units = WireUnits(self.robot)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
@@ -548,6 +552,8 @@ class Arm(ServoMethods):
             (the board's check; nothing is sent).
         TrajectoryError
             A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
+        OptionError
+            A segment's ``SEG`` line longer than the protocol's limit (``MAX_LINE``; nothing is sent).
         DeviceError
             A segment rejected or lost, or the board held (host-silence timeout).
         """
@@ -560,6 +566,7 @@ class Arm(ServoMethods):
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration, units=self._units)
         check_segment_positions(self.robot, segs)
         check_segment_speeds(self.robot, segs, *speed_limit_lists(self.robot, speed_limits))
+        check_segment_lines(segs)
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------
