@@ -10,9 +10,10 @@ segment check the firmware, the virtual board and the host all run, fault inject
 for tests, and the pyserial URL handlers (:mod:`labkit.arm.urlhandler`).
 """
 
-from labkit.arm._protocol import checksum, CommandRejected, PROTOCOL_VERSION, MAX_LINE, ERRORS, WireUnits
+from labkit.arm._protocol import (checksum, CommandRejected, PROTOCOL_VERSION, MAX_LINE, MAX_JOINTS, ERRORS, WireUnits,
+                                  max_joints, check_joint_count)
 from labkit.arm._board_port import BoardPort
-from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, ArduinoPort, PortInfo, list_ports, find_ports, Arm, calibrate_bus
+from labkit.arm.link import BoardInfo, Status, LinkStats, TrajectoryReport, segments_from_trajectory, ArduinoPort, PortInfo, list_ports, find_ports, Arm, settle_tolerance, calibrate_bus
 from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, ADC_MAX, ArmModel, FirmwareAdapter, FW_VERSION, Executor, Servos, VirtualBoard, make_board, serve_pty
 from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
 from labkit.exceptions import PortURLError, PortError, PortClosedError
@@ -23,6 +24,9 @@ __all__ = [
     "CommandRejected",
     "PROTOCOL_VERSION",
     "MAX_LINE",
+    "MAX_JOINTS",
+    "max_joints",
+    "check_joint_count",
     "ERRORS",
     "WireUnits",
     "BoardPort",
@@ -36,6 +40,7 @@ __all__ = [
     "list_ports",
     "find_ports",
     "Arm",
+    "settle_tolerance",
     "calibrate_bus",
     "PhysicsConfig",
     "ServoBank",

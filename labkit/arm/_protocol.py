@@ -33,10 +33,11 @@ import zlib
 
 import numpy as np
 
-from labkit.exceptions import CommandRejected, ProtocolError, RobotError
+from labkit.exceptions import CommandRejected, OptionError, ProtocolError, RobotError
 from labkit.robot import JointType, servo_travel
 
-__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "ERRORS", "READ_ONLY", "WireUnits"]
+__all__ = ["checksum", "CommandRejected", "PROTOCOL_VERSION", "MAX_LINE", "MAX_JOINTS", "ERRORS", "READ_ONLY",
+           "WireUnits", "max_joints", "check_joint_count"]
 
 #: protocol version spoken by both ends (``HELLO`` ``proto=``, ``READY labkit-arm <version>``); 3: CRC-32
 PROTOCOL_VERSION = 3
@@ -64,6 +65,12 @@ NOT_EXECUTED = frozenset({1, 2, 3, 4})
 #: code of a sealed request refused as stale (its seq is not newer than the newest accepted one): not run, and
 #: not to be resent under that seq (docs/protocol.md 2.1)
 STALE = 12
+
+#: the widest sequence id a request carries (``#65535``), duration (``MOVE``, ``SEG``: 60000 ms) and joint position
+#: (a calibration's ``lo``/``hi``: -32000) as the protocol writes them
+SEQ_MAX = 65535
+DURATION_MAX_MS = 60000
+POSITION_WIDEST = -32000
 
 #: a board line without its CR LF: printable body, ``*``, eight upper-case hex digits (CRC-32)
 BOARD_LINE = re.compile(rb"^([\x20-\x7e]*)\*([0-9A-F]{8})$")
@@ -109,6 +116,147 @@ def checksum(text):
     '8983EB3B'
     """
     return zlib.crc32(text.encode("ascii") if isinstance(text, str) else bytes(text))
+
+
+def request_body(seq, command, args):
+    """The text of a sealed request before its checksum: ``"#<seq> NAME a0 a1 ... "`` (trailing space).
+
+    Parameters
+    ----------
+    seq : int
+        Sequence id, 1..65535.
+    command : str
+        Upper-case command name.
+    args : sequence of int
+
+    Returns
+    -------
+    str
+        :func:`seal` of it is the line labkit sends (without the end of line).
+    """
+    return " ".join([f"#{seq}", command, *(str(int(a)) for a in args)]) + " "
+
+
+def request_length(command, args, seq=SEQ_MAX):
+    """Length [bytes] of the sealed request line ``command args`` (without the end of line; ``docs/protocol.md`` 2.1).
+
+    Parameters
+    ----------
+    command : str
+    args : sequence of int
+    seq : int
+        Its sequence id; default the widest, ``#65535``.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> request_length("PING", [], seq=7), len("#7 PING *8983EB3B")
+    (17, 17)
+    """
+    return len(request_body(seq, command, args)) + 9  # "*HHHHHHHH"
+
+
+def _widest_args(command, joints, order=3):
+    """The arguments of ``command`` for ``joints`` joints held still at the widest position (section 4)."""
+    if command == "MOVE":
+        return [POSITION_WIDEST] * joints + [DURATION_MAX_MS]
+    if command == "SEG":
+        return [DURATION_MAX_MS, order] + ([POSITION_WIDEST] + [0] * order) * joints
+    raise OptionError(f"expected MOVE or SEG, got {command!r}")
+
+
+def max_joints(command="SEG", order=5):
+    """The most joints whose request ``command`` fits in :data:`MAX_LINE` when they hold still at the widest position.
+
+    A ``MOVE`` carries one position per joint, a ``SEG`` of order ``k`` ``k + 1`` coefficients per joint
+    (``docs/protocol.md`` 4.3). Every joint's position is at least as wide as the widest a calibration allows
+    (``-32000``, 6 characters) and every other coefficient at least one character (``0``, a joint at rest), with
+    the widest ``#seq`` (``#65535``) and duration (``60000``): more joints than this never fit in one line. A
+    moving joint's coefficients are wider, so a ``SEG`` may need fewer joints (or shorter segments: the
+    coefficients but the first scale with the segment's duration).
+
+    Parameters
+    ----------
+    command : {"SEG", "MOVE"}
+    order : {3, 5}
+        The ``SEG`` polynomial order (ignored for ``MOVE``).
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> max_joints("SEG", 5), max_joints("SEG", 3), max_joints("MOVE")
+    (8, 10, 19)
+    """
+    joints = 0
+    while request_length(command, _widest_args(command, joints + 1, order)) <= MAX_LINE:
+        joints += 1
+    return joints
+
+
+#: the most joints the board protocol carries: the widest request per joint, a quintic ``SEG`` (six coefficients
+#: a joint), held still at the widest position, fits :data:`MAX_LINE` for this many joints (:func:`max_joints`)
+MAX_JOINTS = min(max_joints("MOVE"), max_joints("SEG", 3), max_joints("SEG", 5))
+
+
+def check_joint_count(robot):
+    """Refuse a robot with more joints than the board protocol carries (:data:`MAX_JOINTS`).
+
+    Parameters
+    ----------
+    robot : labkit.robot.Robot
+
+    Raises
+    ------
+    RobotError
+        ``robot.n > MAX_JOINTS``: names the robot, its joints and the limit (nothing is opened or sent).
+    """
+    if robot.n > MAX_JOINTS:
+        where = f"{robot.name} ({robot.path})" if getattr(robot, "path", None) else robot.name
+        raise RobotError(
+            f"{where}: {robot.n} joints, but the arm board protocol carries at most {MAX_JOINTS} "
+            f"(a request line is at most {MAX_LINE} bytes; a quintic SEG carries 6 coefficients a joint, "
+            f"docs/protocol.md 2.1 and 4.3): such an arm cannot run on a labkit board (sim://, an Arduino, a servo "
+            f"bus); use a robot file with at most {MAX_JOINTS} joints")
+
+
+def check_request(command, args, seq=SEQ_MAX):
+    """Refuse a request whose sealed line would be longer than :data:`MAX_LINE` (the board discards it: ``ERR 4``).
+
+    Parameters
+    ----------
+    command : str
+        Upper-case command name.
+    args : sequence of int
+    seq : int
+        The sequence id it would carry (default the widest, so the answer does not depend on it).
+
+    Raises
+    ------
+    OptionError
+        The line is too long: names the command, its number of values, the line length and the limit, and
+        what to do. Nothing has been sent.
+    """
+    length = request_length(command, args, seq)
+    if length <= MAX_LINE:
+        return
+    advice = "send fewer values per request"
+    if command == "SEG" and len(args) >= 2 and int(args[1]) in (3, 5) and (len(args) - 2) % (int(args[1]) + 1) == 0:
+        order = int(args[1])
+        joints = (len(args) - 2) // (order + 1)
+        advice = (f"this segment carries {joints} joints of order {order}; a SEG of order {order} fits at most "
+                  f"{max_joints('SEG', order)} joints even at rest, fewer while they move: use shorter segments "
+                  f"(smaller coefficients: a smaller min_duration), order 3 instead of 5, or fewer joints")
+    elif command == "MOVE":
+        advice = f"a MOVE carries at most {max_joints('MOVE')} joints: use fewer joints"
+    raise OptionError(f"{command} with {len(args)} values would be a {length}-byte request line, longer than the "
+                      f"board protocol's limit of {MAX_LINE} bytes (docs/protocol.md 2.1; the board would discard it "
+                      f"as garbled, ERR 4): nothing was sent - {advice}")
 
 
 def seal(body):

@@ -10,7 +10,7 @@ Targets, by :func:`target_kind`:
   yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
 * ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
   5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D);
-* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms; these three also take
+* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms, gantries with a wrist turn; these three also take
   ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch,
   roll and yaw are defined in ``docs/ik.md``);
 * ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
@@ -18,8 +18,8 @@ Targets, by :func:`target_kind`:
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
 ``docs/ik.md``): the first family of the registry that fits (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
-``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``, ``scara``, ``cylindrical``,
-``cartesian``). Other robots use :func:`ik_numeric`, which also takes every kind above.
+``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``, ``scara``, ``scara_rrp``, ``cylindrical``,
+``cartesian``, ``cartesian_yaw``, ``spherical_rrp``, ``stanford``). Other robots use :func:`ik_numeric`, which also takes every kind above.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration

@@ -542,11 +542,11 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     Raises
     ------
     LabkitError
-        The folder exists and is not empty (without ``force``), the robot cannot be loaded,
-        or no defaults fit it.
+        The folder exists and is not empty (without ``force``), the robot cannot be loaded, no defaults fit it,
+        or it has more joints than the board protocol carries (``labkit.arm.MAX_JOINTS``; the notebooks drive it).
     """
     import shutil
-
+    from labkit.arm import check_joint_count
     with needs_extra("reports"):
         import nbformat
 
@@ -554,6 +554,7 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     if folder.exists() and any(folder.iterdir()) and not force:
         raise LabkitError(f"expected a new or empty lab folder, got {str(folder)!r} (not empty; use --force)")
     user = model = Robot.load(robot)
+    check_joint_count(model)  # every notebook drives the arm: one the board protocol cannot carry gets no lab
     notes = _actuator_notes(user)
     defaults = lab_defaults(model)
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))

@@ -170,8 +170,9 @@ class MeasurementSession:
     source : {"ruler", "feedback", "manual"}
     readings : int
         Repeated readings per pose and quantity (seed 000: 3).
-    settle_tol : float
-        Sensed joints within this of the command count as arrived [rad].
+    settle_tol : float or array_like, shape (n,), optional
+        Sensed joints within this of the command count as arrived [rad | m]; default the arm's
+        :func:`labkit.arm.settle_tolerance` (1 deg, 1 mm, or three coarser feedback counts).
     settle_time : float
         Extra wait after arrival, for the servos to stop [s].
     unit : {"mm", "cm", "m"}
@@ -181,7 +182,7 @@ class MeasurementSession:
     operator : str
     """
 
-    def __init__(self, arm, log, *, source="ruler", readings=3, settle_tol=math.radians(1.0), settle_time=0.5,
+    def __init__(self, arm, log, *, source="ruler", readings=3, settle_tol=None, settle_time=0.5,
                  unit="mm", input=input, operator=""):
         from labkit.measure._log import MeasurementLog
 

@@ -382,7 +382,8 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
     digits : int or dict of str to int, optional
         Significant digits of each column's largest magnitude; per column by the names
         "calculated", "measured", "±", "error", with ``"*"`` for the rest. Default: 2 for
-        ±, 3 for the rest.
+        ±, 3 for the error, and calculated and measured with the error's decimals (so that
+        the printed error is the printed measured minus calculated).
     caption : str
         What the table shows.
 
@@ -406,8 +407,8 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
     ...                      "half_range": [0.02, 0.05], "error": [-0.0133, 0.0411], "inside": [True, True]})
     >>> print(error_report_table(long, unit="mm", scale=1e3).to_text())
     pose            quantity  calculated [mm]  measured [mm]  ± [mm]  error [mm]  within U
-    q = (5, 0) deg  x                     273            260      20       -13.3  yes
-                    y                      24             65      50        41.1  yes
+    q = (5, 0) deg  x                   273.3          260.0      20       -13.3  yes
+                    y                    23.9           65.0      50        41.1  yes
     """
     import pandas as pd
 
@@ -431,8 +432,14 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
                           **{f"{name}{suffix}": table[column].to_numpy(float) * float(scale)
                              for column, name in _ERROR_COLUMNS.items()},
                           "within U": table["inside"].to_numpy(bool)})
-    if digits is None:
+    if digits is None:  # error = measured - calculated: the three print with the error's decimals (3 digits)
         digits = {"±": 2, "*": 3}
+        err = np.abs(frame[f"error{suffix}"].to_numpy(float))
+        if np.isfinite(err).any() and np.nanmax(err) > 0:
+            decimals = 2 - math.floor(math.log10(np.nanmax(err)))
+            for name in ("calculated", "measured"):
+                big = np.nanmax(np.abs(frame[f"{name}{suffix}"].to_numpy(float)), initial=0.0)
+                digits[name] = max(1, decimals + 1 + math.floor(math.log10(big))) if big > 0 else 3
     if isinstance(digits, dict):
         digits = {(f"{k}{suffix}" if k in _ERROR_COLUMNS.values() else k): v for k, v in digits.items()}
     return report_table(frame, digits=digits, caption=caption, group="pose")

@@ -114,3 +114,27 @@ def test_limits_past_the_int16_field_are_refused(tmp_path):
 
     with pytest.raises(RobotError, match=r"joint 'shoulder': calibration field lo = -34000 cdeg"):
         wire_calibrations(Robot.load(path))
+
+
+def test_a_long_prismatic_axis_settles_within_a_millimetre_or_its_feedback_counts():
+    """wait_settled's default tolerance is per joint, in the joint's own unit: 1 deg, 1 mm, or three counts of a
+    coarser feedback (a 10-bit encoder over 600 mm: 0.59 mm a count), never a radian figure read as metres."""
+    from labkit.arm import settle_tolerance
+    from labkit.exceptions import OptionError
+
+    gantry = Robot.load(Path(__file__).parents[1] / "kinematics" / "robots" / "gantry_pppr.toml")
+    tol = settle_tolerance(gantry)
+    travel = np.diff(np.array(gantry.joint_limits), axis=1)[:, 0]
+    np.testing.assert_allclose(tol[:3], np.maximum(1e-3, 3 * travel[:3] / 1023), rtol=1e-9)
+    assert tol[3] == pytest.approx(max(math.radians(1.0), 3 * travel[3] / 1023))
+    np.testing.assert_allclose(settle_tolerance(Robot.load("arduino_arm_3dof")), math.radians(1.0))
+    lim = np.array(gantry.joint_limits)
+    with Arm(gantry, "sim://") as arm:
+        for f in (0.1, 0.3, 0.45):
+            q = lim.mean(axis=1) + f * (lim[:, 1] - lim[:, 0])
+            arm.move_joints(q, wait=True)
+            sensed = arm.wait_settled(q)
+            assert np.all(np.abs(sensed - q) <= tol), (f, (sensed - q) * 1e3)
+        arm.wait_settled(q, tol=[0.01, 0.01, 0.01, 0.1])  # one tolerance per joint [m, m, m, rad]
+        with pytest.raises(OptionError, match="expected tol as one number or 4"):
+            arm.wait_settled(q, tol=[0.01, 0.01])

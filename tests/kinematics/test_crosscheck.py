@@ -354,3 +354,113 @@ def test_rtb_cobra600_scara_closed_form():
     assert res.success.all()
     gap = np.abs(sols.q[:10] - res.q[:, None]).max(axis=-1).min(axis=-1)
     assert gap.max() < 1e-6
+
+
+def _stanford_labkit(ref):
+    """A labkit Robot with the DH rows and limits of an rtb DHRobot (standard DH, no base or tool)."""
+    return Robot(ref.name, tuple(
+        Link(a=lk.a, alpha=lk.alpha, d=lk.d, theta=lk.offset, limits=tuple(ref.qlim[:, j])) if lk.isrevolute
+        else Link(a=lk.a, alpha=lk.alpha, theta=lk.theta, d=lk.offset, joint_type="prismatic",
+                  limits=tuple(ref.qlim[:, j]))
+        for j, lk in enumerate(ref.links)))
+
+
+def test_rtb_stanford_arm_closed_form():
+    """roboticstoolbox's Stanford arm (RRPRRR) and the bundled-style fixture: the same FK; the closed form
+    ``stanford`` returns 8 branches (front/back shoulder x boom out/in x wrist flip), every one reaching
+    rtb's pose to 1e-9 through rtb's ``fkine``, pairwise different, the configuration the pose came from a
+    valid branch; the boom-in branches run the boom negative (outside the 0.3-1.27 m travel), so at most 4
+    are valid; numeric IK of the same pose lands on a branch."""
+    from pathlib import Path
+
+    from labkit.kinematics import ik_numeric, solver_for
+
+    rtb = require("roboticstoolbox")
+    ref = rtb.models.DH.Stanford()
+    arm = _stanford_labkit(ref)
+    fixture = Robot.load(Path(__file__).resolve().parent / "robots" / "stanford.toml")
+    assert solver_for(arm).value == "stanford" and solver_for(fixture).value == "stanford"
+    rng = np.random.default_rng(44)
+    q = rng.uniform(ref.qlim[0], ref.qlim[1], size=(40, 6))
+    T = np.array([ref.fkine(qk).A for qk in q])
+    assert np.abs(fk(fixture, q) - T).max() < 1e-12 and np.abs(fk(arm, q) - T).max() < 1e-12
+    sols = ik_all(arm, T)
+    assert sols.branches == tuple(f"{s}_{b}_{w}" for s in ("front", "back") for b in ("out", "in")
+                                  for w in ("noflip", "flip"))
+    assert sols.reachable.all()
+    for i in range(len(q)):
+        for qb in sols.q[i]:
+            assert np.abs(ref.fkine(qb).A - T[i]).max() < 1e-9
+    diff = np.abs(sols.q[:, :, None] - sols.q[:, None, :]).max(axis=-1) + np.eye(8) * 1e3
+    assert diff.min() > 1e-6  # 8 different configurations per pose
+    boom_in = np.array(["_in_" in b for b in sols.branches])
+    assert (sols.q[:, boom_in, 2] < 0).all() and not sols.valid[:, boom_in].any()
+    assert (sols.valid.sum(axis=1) >= 1).all() and (sols.valid.sum(axis=1) <= 4).all()
+    gap = np.abs(np.remainder(sols.q - q[:, None] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
+    assert np.where(sols.valid, gap, np.inf).min(axis=1).max() < 1e-7
+    res = ik_numeric(arm, T[:10])
+    assert res.success.all()
+    assert np.abs(sols.q[:10] - res.q[:, None]).max(axis=-1).min(axis=-1).max() < 1e-6
+
+
+def _random_spherical(rng, convention, wrist):
+    """A spherical arm (yaw, pitch meeting it, a boom perpendicular to the pitch axis; with ``wrist`` three
+    more revolute axes meeting in a point) of random lengths, offsets, twists of +-90 deg and flips, on a
+    random base with a random tool."""
+    def right():
+        return float(rng.choice([np.pi / 2, -np.pi / 2]))
+
+    def length(lo=-0.3, hi=0.3):
+        return float(rng.uniform(lo, hi)) if rng.random() < 0.7 else 0.0
+
+    def theta():
+        return float(rng.uniform(-np.pi, np.pi)) if rng.random() < 0.5 else 0.0
+
+    def joint(a, alpha, d, prismatic=False):
+        return Link(a=a, alpha=alpha, d=d, theta=theta(), flip=bool(rng.random() < 0.3),
+                    joint_type=JointType.PRISMATIC if prismatic else JointType.REVOLUTE,
+                    limits=(-1.0, 1.0) if prismatic else (-np.pi, np.pi))
+
+    if convention is Convention.STANDARD:  # a, alpha of link i lead from axis i to axis i + 1
+        links = [joint(0.0, right(), length(0.1, 0.5)), joint(length(), right(), length()),
+                 joint(length(), right(), length(), prismatic=True)]
+        if wrist:
+            links += [joint(0.0, right(), 0.0), joint(0.0, right(), 0.0), joint(length(), theta(), length())]
+    else:  # a, alpha of link i lead from axis i - 1 to axis i
+        links = [joint(length(), theta(), length(0.1, 0.5)), joint(0.0, right(), length()),
+                 joint(length(), right(), length(), prismatic=True)]
+        if wrist:
+            links += [joint(length(), theta(), length()), joint(0.0, right(), 0.0), joint(0.0, right(), 0.0)]
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy(rng.uniform(-0.4, 0.4, 3))
+    base[:3, 3] = rng.uniform(-0.3, 0.3, 3)
+    return Robot(name="spherical", links=tuple(links), convention=convention, base=base,
+                 tool=_random_transform(rng))
+
+
+@pytest.mark.parametrize("wrist", [False, True])
+@pytest.mark.parametrize("convention", [Convention.STANDARD, Convention.MODIFIED])
+def test_spherical_arms_closed_form_reaches_roboticstoolbox_poses(convention, wrist):
+    """Random spherical RRP arms (x y z targets, 4 branches) and RRP arms with a spherical wrist (poses, 8
+    branches) built in roboticstoolbox: every branch labkit returns, through rtb's ``fkine``, reaches the
+    target to 1e-9, the branches differ, and the configuration the target came from is one of them."""
+    from labkit.kinematics import solver_for
+
+    rng = np.random.default_rng(50 + 2 * wrist + (convention is Convention.MODIFIED))
+    family, m = ("stanford", 8) if wrist else ("spherical_rrp", 4)
+    for _ in range(8):
+        robot = _random_spherical(rng, convention, wrist)
+        assert solver_for(robot).value == family
+        ref = _rtb_model(robot)
+        q = rng.uniform(robot.joint_limits[:, 0], robot.joint_limits[:, 1], size=(20, robot.n))
+        T = np.array([ref.fkine(qk).A for qk in q])
+        sols = ik_all(robot, T if wrist else T[:, :3, 3])
+        assert len(sols.branches) == m and sols.reachable.all()
+        for i in range(len(q)):
+            for qb in sols.q[i]:
+                Tb = ref.fkine(qb).A
+                assert np.abs((Tb - T[i]) if wrist else (Tb[:3, 3] - T[i, :3, 3])).max() < 1e-9
+        diff = np.abs(sols.q[:, :, None] - sols.q[:, None, :]).max(axis=-1) + np.eye(m) * 1e3
+        assert diff.min() > 1e-9
+        gap = np.abs(np.remainder(sols.q - q[:, None] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
+        assert gap.min(axis=1).max() < 1e-7

@@ -12,7 +12,7 @@ import pytest
 
 from labkit.exceptions import OptionError, ShapeError, UnreachableError
 from labkit.kinematics import (
-    fk, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_from_pose, target_kind,
+    fk, fk_frames, ik, ik_all, ik_numeric, pose_from_position_pitch, solver_for, target_from_pose, target_kind,
 )
 from labkit.kinematics._ik_solvers import FAMILIES, REDUCED
 from labkit.robot import Link, Robot
@@ -58,6 +58,31 @@ def _scara_prrr():
     return Robot("scara_prrr", links, base=base, tool=tool)
 
 
+def _gantry_pprp():
+    """A gantry whose wrist turn sits between its carriages (PPRP, modified DH): the last slide turns with it,
+    along the turn's axis, on a base tilted in the world."""
+    base = np.eye(4)
+    base[:3, :3] = matrix_from_rpy([0.2, 0.4, -0.6])
+    tool = np.eye(4)
+    tool[:3, :3] = matrix_from_rpy([np.pi, 0.0, 0.3])
+    tool[:3, 3] = [0.03, -0.02, 0.06]
+    links = (Link(joint_type="prismatic", limits=(0.0, 0.5)),
+             Link(alpha=-np.pi / 2, theta=np.pi / 2, joint_type="prismatic", limits=(-0.2, 0.3), flip=True),
+             Link(a=0.05, alpha=np.pi / 2, d=0.04, limits=(-3.0, 3.0), flip=True),
+             Link(a=0.02, d=0.1, joint_type="prismatic", limits=(0.0, 0.2)))
+    return Robot("gantry_pprp", links, convention="modified", base=base, tool=tool)
+
+
+def _spherical_rrp():
+    """An RRP spherical arm (standard DH) whose tool point lies beside the boom and off the shoulder plane."""
+    tool = np.eye(4)
+    tool[:3, 3] = [0.03, 0.02, 0.05]
+    links = (Link(d=0.3, alpha=np.pi / 2, limits=(-3.0, 3.0)),
+             Link(d=-0.08, alpha=-np.pi / 2, theta=0.4, limits=(-2.5, 2.5), flip=True),
+             Link(a=0.02, theta=np.pi / 2, joint_type="prismatic", limits=(0.2, 0.6)))
+    return Robot("spherical_rrp", links, tool=tool)
+
+
 ROBOTS = {
     "arduino_arm_3dof": (lambda: Robot.load("arduino_arm_3dof"), "yaw_pitch_pitch"),
     "planar3r_seed004": (lambda: Robot.load("planar3r_seed004"), "planar_3r"),
@@ -77,6 +102,10 @@ ROBOTS = {
     "cylindrical_rpp": (_fixture("cylindrical_rpp"), "cylindrical"),
     "rpp_seed002": (lambda: Robot.load("rpp_seed002"), "cylindrical"),
     "gantry_ppp": (_fixture("gantry_ppp"), "cartesian"),
+    "gantry_pppr": (_fixture("gantry_pppr"), "cartesian_yaw"),
+    "gantry_pprp": (_gantry_pprp, "cartesian_yaw"),
+    "spherical_rrp": (_spherical_rrp, "spherical_rrp"),
+    "stanford": (_fixture("stanford"), "stanford"),
 }
 
 
@@ -348,3 +377,32 @@ def test_arm_move_to_takes_the_target_the_arm_needs():
         with pytest.raises(ShapeError, match="this arm takes x y z pitch roll; roll missing"):
             arm.move_to(target[:4])
         assert np.array_equal(arm.commanded_joints(), before)
+
+
+def test_spherical_arm_branches_front_back_and_boom_out_in():
+    """``stanford``: the three-letter aliases pick the branches; the boom-in branches run the boom back through
+    the shoulder (negative, outside the fixture's travel) and the back ones turn the waist by half a turn less
+    twice the angle of the lateral offset seen from axis 1.
+    ``spherical_rrp``: a point nearer the shoulder than the boom's offsets is out of reach by the gap."""
+    arm = _fixture("stanford")()
+    q = np.radians([20.0, 40.0, 0.0, 30.0, -50.0, 60.0])
+    q[2] = 0.6
+    T = fk(arm, q)
+    sols = ik_all(arm, T)
+    assert np.abs(ik(arm, T, branch="fon") - sols["front_out_noflip"]).max() == 0.0
+    boom = sols.q[:, 2]
+    out = np.array(["_out_" in b for b in sols.branches])
+    assert (boom[out] > 0).all() and (boom[~out] < 0).all() and not sols.valid[~out].any()
+    front = np.array([b.startswith("front") for b in sols.branches])
+    # the wrist centre W (the tool point: d6 = 0) lies beside the arm plane (through axis 1, perpendicular to
+    # axis 2 = z1 of frame 1, whose origin is the shoulder) by an offset off; both planes through W keep it
+    F1 = fk_frames(arm, q)[1]
+    r, off = np.hypot(*T[:2, 3]), (T[:3, 3] - F1[:3, 3]) @ F1[:3, 2]
+    turn = np.pi - 2 * np.arctan2(off, np.sqrt(r * r - off * off))
+    assert np.abs(np.abs(wrap_angle(sols.q[~front, 0] - sols.q[front, 0])) - turn).max() < 1e-12
+    rrp = _spherical_rrp()
+    S = np.array([0.0, 0.0, 0.3])  # the shoulder: on axis 1 (world z), d1 up
+    sols = ik_all(rrp, S + [0.0, 0.0, 0.01])
+    assert not sols.reachable.any() and sols.distance > 0.05
+    with pytest.raises(UnreachableError, match="out of reach by"):
+        ik(rrp, S + [0.0, 0.0, 0.01])

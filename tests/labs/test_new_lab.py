@@ -345,3 +345,20 @@ def test_lab_defaults_pick_poses_within_a_turn_either_side_of_an_endless_joint(t
     d = lab_defaults(endless)
     wrist = np.array(d.parameters["poses"])[:, 3]
     assert np.all(np.abs(wrist) <= 360) and np.ptp(wrist) >= 0.39 * 720
+
+
+def test_new_lab_refuses_an_arm_with_more_joints_than_the_board_protocol_carries(tmp_path, capsys):
+    from labkit.arm import MAX_JOINTS
+    from labkit.cli import main
+    from labkit.labs import new_lab
+
+    joints = "".join(f'\n[[joint]]\nname = "j{i}"\na = 100\nlimits = [-150, 150]\n' for i in range(MAX_JOINTS + 2))
+    robot = tmp_path / "chain10.toml"
+    robot.write_text('format = "labkit-robot/1"\nname = "chain10"\nconvention = "standard"\n'
+                     'units = { length = "mm", angle = "deg" }\n' + joints)
+    with pytest.raises(LabkitError, match=rf"chain10 .*: {MAX_JOINTS + 2} joints, .* at most {MAX_JOINTS} "):
+        new_lab(robot, tmp_path / "lab")
+    assert not (tmp_path / "lab").exists(), "no lab folder written"
+    assert main(["new", str(tmp_path / "lab"), "--robot", str(robot)]) == 2
+    err = capsys.readouterr().err
+    assert f"at most {MAX_JOINTS}" in err and "chain10" in err and not (tmp_path / "lab").exists()

@@ -10,6 +10,7 @@ from labkit.arm.link._wire import LinkStats
 from labkit.arm.link._segments import TrajectoryReport, segments_from_trajectory
 from labkit.arm.link._ports import ArduinoPort, PortInfo, list_ports, find_ports
 from labkit.arm.link._arm import Arm
+from labkit.arm.link._feedback import settle_tolerance
 from labkit.arm.link._calibrate import calibrate_bus
 
 __all__ = [
@@ -23,5 +24,6 @@ __all__ = [
     "list_ports",
     "find_ports",
     "Arm",
+    "settle_tolerance",
     "calibrate_bus",
 ]

@@ -33,12 +33,13 @@ import math
 import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError
-from labkit.arm._protocol import WireUnits, wire_calibrations, wire_speed_limits
+from labkit.robot import joints_to_display
+from labkit.arm._protocol import WireUnits, check_joint_count, wire_calibrations, wire_speed_limits
 from labkit.arm.link._replies import parse_ping, parse_read, parse_status, parse_stop
 from labkit.arm.link._wire import Wire
-from labkit.arm.link._segments import (check_segment_positions, check_segment_speeds, feed_segments,
-                                       move_duration_ms, move_segment, segments_from_trajectory)
-from labkit.arm.link._feedback import joints_from_counts, record_stream
+from labkit.arm.link._segments import (check_segment_lines, check_segment_positions, check_segment_speeds,
+                                       feed_segments, move_duration_ms, move_segment, segments_from_trajectory)
+from labkit.arm.link._feedback import joints_from_counts, record_stream, settle_tolerance
 from labkit.arm.link._ports import arm_robot, board_port, first_arduino, handshake, open_port
 from labkit.arm.link._inputs import finite, joint_vector, reply_timeout, retry_count, speed_limit_lists
 from labkit.arm.link._servos import ServoMethods
@@ -98,6 +99,9 @@ class Arm(ServoMethods):
     ------
     OptionError
         ``robot`` is ``None`` and the port is not a ``sim://<robot>`` URL.
+    RobotError
+        The robot has more joints than the board protocol carries (:data:`labkit.arm.MAX_JOINTS`); nothing is
+        opened.
     DeviceError
         No port found, the port cannot be opened, no handshake, wrong protocol version or joint count.
     """
@@ -108,6 +112,7 @@ class Arm(ServoMethods):
         boot_wait = finite("boot_wait", boot_wait, lo=0.0, hi=600.0, unit="s")
         #: the robot file whose servo calibrations and limits the host enforces
         self.robot, port = arm_robot(robot, port)
+        check_joint_count(self.robot)  # more joints than a request line carries: refused before the port is opened
         #: the units of the joints' positions on the wire (centidegrees; an RC linear servo: 1/18000 of its stroke)
         self._units = WireUnits(self.robot)
         #: read the commanded joints back after every MOVE (besides the echo of the reply)
@@ -420,15 +425,16 @@ class Arm(ServoMethods):
         if wait:
             self.wait_settled(q, tol=tol, max_wait=max_wait)
 
-    def wait_settled(self, q, *, tol=math.radians(1.0), max_wait=10.0, interval=0.05):
-        """Wait until the sensed joints stay within ``tol`` of ``q`` [rad] for two reads; returns them.
+    def wait_settled(self, q, *, tol=None, max_wait=10.0, interval=0.05):
+        """Wait until the sensed joints stay within ``tol`` of ``q`` for two reads; returns them.
 
         Parameters
         ----------
         q : array_like, shape (n,)
-            Target joint values [rad].
-        tol : float
-            Largest allowed ``|sensed - q|`` per joint [rad].
+            Target joint values [rad | m].
+        tol : float or array_like, shape (n,), optional
+            Largest allowed ``|sensed - q|`` per joint [rad | m]; default :func:`settle_tolerance` (1 deg,
+            1 mm, or three feedback counts where a count is coarser).
         max_wait : float
             Give up after this much board time [s].
         interval : float
@@ -445,7 +451,12 @@ class Arm(ServoMethods):
             The joints did not settle within ``max_wait``.
         """
         q = joint_vector(self.robot, q)
-        tol = finite("tol", tol, lo=0.0, unit="rad")
+        if tol is None:
+            tol = settle_tolerance(self.robot)
+        else:
+            tol = np.array([finite("tol", t, lo=0.0, unit="rad | m") for t in np.ravel(tol)])
+            if tol.size not in (1, self.robot.n):
+                raise OptionError(f"expected tol as one number or {self.robot.n} (one per joint), got {tol.size}")
         max_wait = finite("max_wait", max_wait, lo=0.0, hi=86400.0, unit="s")
         interval = finite("interval", interval, lo=1e-3, hi=60.0, unit="s")
         end = self._clock() + max_wait
@@ -458,7 +469,9 @@ class Arm(ServoMethods):
                 return sensed
             self.sleep(interval)
         raise DeviceError(f"{self.name}: joints did not settle within {max_wait} s at tolerance "
-                          f"{math.degrees(tol):.2f} deg (sensed {np.degrees(sensed).round(2)} deg)")
+                          f"{joints_to_display(self.robot, tol).round(2)} (sensed "
+                          f"{joints_to_display(self.robot, sensed).round(2)}, commanded "
+                          f"{joints_to_display(self.robot, q).round(2)}; deg | mm)")
 
     def move_to(self, target, *, branch=None, wait=False):
         """Move the tool to a Cartesian ``target`` through :func:`labkit.kinematics.ik` (nearest branch by default).
@@ -539,6 +552,8 @@ class Arm(ServoMethods):
             (the board's check; nothing is sent).
         TrajectoryError
             A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
+        OptionError
+            A segment's ``SEG`` line longer than the protocol's limit (``MAX_LINE``; nothing is sent).
         DeviceError
             A segment rejected or lost, or the board held (host-silence timeout).
         """
@@ -551,6 +566,7 @@ class Arm(ServoMethods):
             segs = segments_from_trajectory(traj, order=order, min_duration=min_duration, units=self._units)
         check_segment_positions(self.robot, segs)
         check_segment_speeds(self.robot, segs, *speed_limit_lists(self.robot, speed_limits))
+        check_segment_lines(segs)
         return feed_segments(self, segs, progress=progress, wait=wait)
 
     # -- feedback ---------------------------------------------------------------------------

@@ -63,6 +63,45 @@ def joints_from_counts(robot, counts):
     return np.stack([joint_sensor(robot, j).joint_from_adc(counts[..., j]) for j in range(robot.n)], axis=-1)
 
 
+#: a settled joint is within this of its command, before the feedback's own resolution widens it [rad | m]
+SETTLE_REVOLUTE = math.radians(1.0)
+SETTLE_PRISMATIC = 1e-3
+
+
+def settle_tolerance(robot, counts=3.0):
+    """How close each joint's feedback must come to a command to count as settled [rad | m].
+
+    1 deg for a revolute joint and 1 mm for a prismatic one, widened to ``counts`` feedback counts where one
+    count is coarser (an ideal actuator's 10-bit encoder over a long axis, an RC linear servo's pot; a servo
+    bus's present position is read in ticks, finer than both).
+
+    Parameters
+    ----------
+    robot : labkit.robot.Robot
+    counts : float
+        Feedback counts the reading may be off by (noise and quantisation).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Tolerance per joint [rad | m].
+
+    Examples
+    --------
+    >>> from labkit.robot import Robot
+    >>> settle_tolerance(Robot.load("gantry_ppp")).round(4)   # 10-bit encoders: 3 counts of a short axis < 1 mm
+    array([0.001, 0.001, 0.001])
+    >>> settle_tolerance(Robot.load("arduino_arm_3dof")).round(4)   # hobby servos: 1 deg [rad]
+    array([0.0175, 0.0175, 0.0175])
+    """
+    base = np.where(robot.is_revolute, SETTLE_REVOLUTE, SETTLE_PRISMATIC)
+    if robot.bus is not None:
+        return base
+    step = np.array([abs(float(joint_sensor(robot, j).joint_from_adc(counts) - joint_sensor(robot, j).joint_from_adc(0.0)))
+                     for j in range(robot.n)])
+    return np.maximum(base, step)
+
+
 class FrameFilter:
     """Accepts a feedback frame only when a neighbouring frame confirms it.
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, JointLimitError, OptionError, TrajectoryError
 from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
-from labkit.arm._protocol import CommandRejected, SERVO_FULL, WireUnits, wire_calibrations
+from labkit.arm._protocol import CommandRejected, SERVO_FULL, WireUnits, check_request, wire_calibrations
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -132,6 +132,30 @@ def check_segment_speeds(robot, segs, vmax, amax):
                     f"segment {k} ({dur} ms): joint {j + 1} ({robot.links[j].name}) exceeds its speed limit "
                     f"{units.show(j, vmax[j])}/s or acceleration limit {units.show(j, amax[j])}/s^2 (0: unchecked); "
                     f"nothing was sent - slow the trajectory down")
+
+
+def check_segment_lines(segs):
+    """Raise if a segment's ``SEG`` request would be longer than the protocol's line limit (before any is sent).
+
+    Checked with the widest sequence id (``#65535``), so whether a trajectory is refused does not depend on
+    how many requests were sent before it.
+
+    Parameters
+    ----------
+    segs : list of tuple
+        ``(dur_ms, order, coefficients)``.
+
+    Raises
+    ------
+    OptionError
+        Names the segment, the command, its number of values, the line length, the limit and what to do;
+        nothing has been sent.
+    """
+    for k, (dur, order, coef) in enumerate(segs):
+        try:
+            check_request("SEG", [dur, order, *coef])
+        except OptionError as exc:
+            raise OptionError(f"segment {k} of {len(segs)} ({dur} ms): {exc}") from None
 
 
 def feasible_ranges(robot):

@@ -25,8 +25,10 @@ from labkit.arm._protocol import (
     STALE,
     STRICT_INT,
     CommandRejected,
+    check_request,
     echo,
     old_protocol,
+    request_body,
     seal,
     unseal,
 )
@@ -497,6 +499,9 @@ class Wire:
 
         Raises
         ------
+        OptionError
+            The sealed line would be longer than the protocol's ``MAX_LINE`` (the board would discard it): nothing
+            is sent (:func:`labkit.arm._protocol.check_request`).
         CommandRejected
             The board answered ``ERR`` for a request that arrived intact.
         DeviceError
@@ -512,8 +517,11 @@ class Wire:
         # every attempt carries the same #seq: a board that ran it answers a resent copy with its reply and does
         # not run it again (docs/protocol.md 2.1, firmware 2.2.0 on), so a lost reply costs a resend, never a replay;
         # an old copy arriving after newer requests is refused as stale (ERR 12, firmware 2.3.0)
+        # a line longer than the board's limit would be discarded as garbled (ERR 4) however often it is sent:
+        # refused here, before anything is sent or numbered
+        check_request(command, args, seq=(self._seq % 65535) + 1)
         seq = self._next_seq()
-        body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
+        body = request_body(seq, command, args)
         for attempt in range(retries + 1):
             self._drain()
             line = ("\n" if attempt else "") + seal(body) + "\n"
@@ -564,8 +572,9 @@ class Wire:
             newest = reply.tokens[-1]
             if code == STALE and renumber_stale and newest[:1] == "#" and newest[1:].isdigit():
                 self.follow(int(newest[1:]))  # "ERR 12 STALE after #<newest>": it did not run
+                check_request(command, args, seq=(self._seq % 65535) + 1)
                 seq = self._next_seq()
-                body = " ".join([f"#{seq}", command, *(str(a) for a in args)]) + " "
+                body = request_body(seq, command, args)
                 last = _NoReply(" ".join(reply.tokens))
                 continue
             if code == STALE:

@@ -65,6 +65,9 @@ def floats(v):
 def perpendicular(axis):
     """A unit vector perpendicular to the unit vector ``axis`` (from the world axis least along it).
 
+    Components within :data:`TOL` count as equal (the first such axis wins), so rounding noise of a
+    DH walk (``6e-17`` beside ``0``) does not decide: an axis along world ``z`` gives world ``x``.
+
     Parameters
     ----------
     axis : ndarray, shape (3,)
@@ -74,7 +77,8 @@ def perpendicular(axis):
     -------
     ndarray, shape (3,)
     """
-    t = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    a = np.abs(axis)
+    t = np.eye(3)[int(np.flatnonzero(a <= a.min() + TOL)[0])]
     return unit(t - axis * (t @ axis))
 
 
@@ -178,22 +182,24 @@ def need_parallel(u, v, reason):
         raise NotThisFamily(reason)
 
 
-def wrist_branches(shoulder):
-    """Branch names and their three-letter aliases of an 8-solution 6R arm.
+def wrist_branches(shoulder, elbow=("up", "down")):
+    """Branch names and their three-letter aliases of an 8-solution arm with a spherical wrist.
 
     Parameters
     ----------
     shoulder : tuple of str
         The two shoulder names, in the family's order (e.g. ``("right", "left")``).
+    elbow : tuple of str
+        The two names of the arm's second choice (elbow ``up``/``down``, a boom ``out``/``in``).
 
     Returns
     -------
     branches : tuple of str
-        ``"<shoulder>_<up|down>_<noflip|flip>"``, shoulder slowest.
+        ``"<shoulder>_<elbow>_<noflip|flip>"``, shoulder slowest.
     aliases : dict
         ``{"run": "right_up_noflip", ...}``.
     """
-    names = [(s, e, w) for s in shoulder for e in ("up", "down") for w in ("noflip", "flip")]
+    names = [(s, e, w) for s in shoulder for e in elbow for w in ("noflip", "flip")]
     return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
 
 

@@ -10,7 +10,9 @@ A target leaves the active set when it converges, when it stalls (squared
 error not down 100x in 8 iterations; from a closed-form start, also in its
 first 4) or after ``max_iter`` iterations; it then restarts (an *attempt* per
 start) from the next closed-form start (jittered) or a random configuration
-inside the limits. Odd-numbered attempts ignore the revolute limits and wrap
+inside the limits, revolute joints within half a turn of the point of their
+range nearest 0 (:func:`labkit.kinematics._ik_solvers._starts.start_window`:
+continuous or huge ranges start near 0, not at 1e297 rad). Odd-numbered attempts ignore the revolute limits and wrap
 the solution by 2 pi afterwards (accepted only if it then lies inside), which
 escapes minima pinned against a limit. Finally the stragglers are copied up
 to 64 times and the copies iterate together from independent random starts.
@@ -30,7 +32,7 @@ import numpy as np
 from labkit.kinematics._forward import fk_jacobian_kernel
 from labkit.kinematics._ik_solvers._lm import damped_step, damping, task_error
 from labkit.kinematics._ik_solvers._solve import finish
-from labkit.kinematics._ik_solvers._starts import analytic_seeds
+from labkit.kinematics._ik_solvers._starts import analytic_seeds, start_window
 
 #: iterations between stall tests; damping of a random start and of a closed-form one
 CHECK_EVERY, LAMBDA_RANDOM, LAMBDA_NEAR = 8, 1e-2, 1e-6
@@ -74,11 +76,10 @@ class _Problem:
     hi: np.ndarray
 
     def random_q(self, size):
-        """``(size, n)`` uniform inside the limits (infinite ones as +-2 pi); no draw for ``size = 0``."""
+        """``(size, n)`` uniform in the start window (:func:`start_window`); no draw for ``size = 0``."""
         if size == 0:
             return np.empty((0, self.lo.size))
-        lo = np.where(np.isfinite(self.lo), self.lo, -2 * np.pi)
-        hi = np.where(np.isfinite(self.hi), self.hi, 2 * np.pi)
+        lo, hi = start_window(self.robot)
         return lo + (hi - lo) * self.rng.random((size, lo.size))
 
     def evaluate(self, q, target):

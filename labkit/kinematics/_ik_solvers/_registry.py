@@ -10,10 +10,12 @@ plain frozen data). Adding a family: one module with a
 from __future__ import annotations
 
 from labkit.kinematics._chain import by_content
+from labkit.kinematics._ik_solvers._cartesian_yaw import CartesianYaw
 from labkit.kinematics._ik_solvers._planar_2r import Planar2R
 from labkit.kinematics._ik_solvers._planar_3r import Planar3R
 from labkit.kinematics._ik_solvers._prismatic import Cartesian, Cylindrical
 from labkit.kinematics._ik_solvers._scara import Scara, ScaraRRP
+from labkit.kinematics._ik_solvers._spherical_arm import SphericalRRP, Stanford
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
 from labkit.kinematics._ik_solvers._three_parallel import ThreeParallel
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import YawPitchPitch
@@ -22,7 +24,7 @@ from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch_roll import YawPitchPi
 
 #: the families, in the order they are tried
 FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitchPitchRoll, SphericalWrist,
-            ThreeParallel, Scara, ScaraRRP, Cylindrical, Cartesian)
+            ThreeParallel, Scara, ScaraRRP, Cylindrical, Cartesian, CartesianYaw, SphericalRRP, Stanford)
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 

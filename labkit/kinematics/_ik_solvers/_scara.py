@@ -63,59 +63,27 @@ def up_axis(robot, z):
     return k, u, np.cross(k, u)
 
 
-class Scara(Family):
-    """Closed-form IK of a SCARA arm (three revolute and one prismatic joint, axes parallel): two elbows."""
+class YawTarget:
+    """Targets ``(x, y, z, yaw)`` of an arm whose tool turns only about the constant axis ``k`` (a mixin).
 
-    name = "scara"
-    kind = "position_yaw"
-    joints, prismatic = 4, 1
-    branches = ("elbow_left", "elbow_right")
-    aliases = {"left": "elbow_left", "right": "elbow_right", "lefty": "elbow_left", "righty": "elbow_right"}
+    Set by :meth:`yaw_reference` from the family's ``k``, ``u``, ``v`` (:func:`up_axis`)
+    and the tool frame at ``q = 0``; the yaw is the module docstring's.
+    """
 
-    def __init__(self, robot, z, o, tool):
-        k, u, v = up_axis(robot, z)
-        for j in range(1, robot.n):
-            need_parallel(k, unit(z[j]), "all joint axes must be parallel")
-        rev = np.flatnonzero(robot.is_revolute)
-        self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, [wrist,] quill
-        self.signs = tuple(1.0 if z[j] @ k > 0 else -1.0 for j in self.order)
-        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev[0]])
-        P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
-        pt = tool[:3, 3] - o[rev[0]]
-        P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
-        e, f = np.subtract(P[1], P[0]), np.subtract(P[2], P[1])
-        self.L1, self.L2 = math.hypot(*e), math.hypot(*f)
-        if min(self.L1, self.L2) < TOL * length_scale(robot):
-            raise NotThisFamily("the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
-        self.law = CosineLaw(self.L1, self.L2)
-        self.g1, self.g2 = math.atan2(e[1], e[0]), math.atan2(f[1], f[0])
-        self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
-        self.h0 = float(pt @ k)  # its height along k at q = 0
+    def yaw_reference(self, tool):
+        """Read the yaw's reference axis and its yaw at ``q = 0`` from the tool frame ``tool`` (4, 4).
+
+        Parameters
+        ----------
+        tool : ndarray, shape (4, 4)
+            ``world_from_tool`` at ``q = 0`` [m].
+        """
+        k, u, v = (np.array(a) for a in (self.k, self.u, self.v))
         R0 = tool[:3, :3]
         self.ref = R0[:, 1] if abs(R0[:, 0] @ k) > 1.0 - 1e-9 else R0[:, 0]
         self.ref_tool = R0.T @ self.ref  # the yaw's reference axis in tool coordinates
         self.yaw0 = math.atan2(float(self.ref @ v), float(self.ref @ u))
         self.R0 = R0.copy()
-
-    @documented
-    def solve(self, t):
-        d = tuple(t[i] - self.O[i] for i in range(3))
-        rot = t[3] - self.yaw0 if len(t) == 4 else 0.0  # the total turn of the revolute joints about k
-        c, s = np.cos(rot), np.sin(rot)
-        t0x, t0y = self.t0
-        x, y = _dot(self.u, d), _dot(self.v, d)
-        ok, distance, elbow, shoulder, direction = self.law.solve(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
-        quill = self.signs[-1] * (_dot(self.k, d) - self.h0)
-        q = []
-        for sign in (-1.0, 1.0):  # elbow left: the relative angle of link 2 is negative about k
-            q1 = direction - sign * shoulder - self.g1
-            q2 = sign * elbow - (self.g2 - self.g1)
-            branch = [None] * len(self.order)
-            for j, sj, value in zip(self.order[:-1], self.signs, (q1, q2, rot - q1 - q2)):
-                branch[j] = sj * value
-            branch[self.order[-1]] = quill
-            q.append(tuple(branch))
-        return q, [ok, ok], distance
 
     def pose(self, target):
         """Tool poses of targets ``(x, y, z, yaw)``.
@@ -165,6 +133,58 @@ class Scara(Family):
         ndarray, shape (N, 1, 4, 4)
         """
         return self.pose(target)[:, None]
+
+
+
+class Scara(YawTarget, Family):
+    """Closed-form IK of a SCARA arm (three revolute and one prismatic joint, axes parallel): two elbows."""
+
+    name = "scara"
+    kind = "position_yaw"
+    joints, prismatic = 4, 1
+    branches = ("elbow_left", "elbow_right")
+    aliases = {"left": "elbow_left", "right": "elbow_right", "lefty": "elbow_left", "righty": "elbow_right"}
+
+    def __init__(self, robot, z, o, tool):
+        k, u, v = up_axis(robot, z)
+        for j in range(1, robot.n):
+            need_parallel(k, unit(z[j]), "all joint axes must be parallel")
+        rev = np.flatnonzero(robot.is_revolute)
+        self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, [wrist,] quill
+        self.signs = tuple(1.0 if z[j] @ k > 0 else -1.0 for j in self.order)
+        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev[0]])
+        P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
+        pt = tool[:3, 3] - o[rev[0]]
+        P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
+        e, f = np.subtract(P[1], P[0]), np.subtract(P[2], P[1])
+        self.L1, self.L2 = math.hypot(*e), math.hypot(*f)
+        if min(self.L1, self.L2) < TOL * length_scale(robot):
+            raise NotThisFamily("the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
+        self.law = CosineLaw(self.L1, self.L2)
+        self.g1, self.g2 = math.atan2(e[1], e[0]), math.atan2(f[1], f[0])
+        self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
+        self.h0 = float(pt @ k)  # its height along k at q = 0
+        self.yaw_reference(tool)
+
+    @documented
+    def solve(self, t):
+        d = tuple(t[i] - self.O[i] for i in range(3))
+        rot = t[3] - self.yaw0 if len(t) == 4 else 0.0  # the total turn of the revolute joints about k
+        c, s = np.cos(rot), np.sin(rot)
+        t0x, t0y = self.t0
+        x, y = _dot(self.u, d), _dot(self.v, d)
+        ok, distance, elbow, shoulder, direction = self.law.solve(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
+        quill = self.signs[-1] * (_dot(self.k, d) - self.h0)
+        q = []
+        for sign in (-1.0, 1.0):  # elbow left: the relative angle of link 2 is negative about k
+            q1 = direction - sign * shoulder - self.g1
+            q2 = sign * elbow - (self.g2 - self.g1)
+            branch = [None] * len(self.order)
+            for j, sj, value in zip(self.order[:-1], self.signs, (q1, q2, rot - q1 - q2)):
+                branch[j] = sj * value
+            branch[self.order[-1]] = quill
+            q.append(tuple(branch))
+        return q, [ok, ok], distance
 
 
 class ScaraRRP(Scara):

@@ -32,6 +32,8 @@ class SphericalWrist(Family):
     name = "spherical_wrist"
     kind = "pose"
     joints = 6
+    #: the arm placing the wrist centre (joints 1-3), and the names of its shoulder and elbow branches
+    arm_type, arm_branches = Arm, (("right", "left"), ("up", "down"))
 
     def __init__(self, robot, z, o, tool):
         a4, a5, a6 = (unit(v) for v in z[3:])
@@ -48,7 +50,7 @@ class SphericalWrist(Family):
         for d, p in zip((a4, a5, a6), o[3:]):
             if np.linalg.norm(np.cross(C - p, d)) > TOL * scale:
                 raise NotThisFamily("wrist axes 4, 5, 6 do not meet in one point")
-        self.arm = Arm(robot, z, o, C)
+        self.arm = self.arm_type(robot, z, o, C)
         self.a4, self.a5, self.a6 = floats(a4), floats(a5), floats(a6)
         self.R0 = [floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
         self.w_tool = floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
@@ -59,7 +61,7 @@ class SphericalWrist(Family):
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
-        self.branches, self.aliases = wrist_branches(("right", "left"))
+        self.branches, self.aliases = wrist_branches(*self.arm_branches)
 
     @documented
     def solve(self, t):
@@ -69,12 +71,12 @@ class SphericalWrist(Family):
         # M = R123^T R R0^T; the wrist only needs its action on a6 and on x6 (perpendicular to a6)
         RR0t = (_matvec(self.R0, R[0]), _matvec(self.R0, R[1]), _matvec(self.R0, R[2]))
         m, mx = _matvec(RR0t, self.a6), _matvec(RR0t, self.x6)
-        a2, a4, a5, a6, x6p, n6, s3 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.n6, self.arm.s3
+        a2, a4, a5, a6, x6p, n6 = self.arm.a2, self.a4, self.a5, self.a6, self.x6p, self.n6
         subproblem2 = self.wrist.solve
 
         def wrist(q23, m0, m1, m2, x0, x1, x2):
             """Joints 4-6 (noflip, then flip) for one arm branch, joint 1 undone on ``m`` and ``mx``."""
-            m6, MX = rotate(a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3
+            m6, MX = rotate(a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3 (the arm's pitch)
             (t4, t5), (u4, u5) = subproblem2(m6)
             Y, = rotate(a5, -t5, *rotate(a4, -t4, MX))
             Z, = rotate(a5, -u5, *rotate(a4, -u4, MX))
@@ -86,7 +88,7 @@ class SphericalWrist(Family):
         # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)
         undone = [rotate(self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
-        wrists = per_branch(wrist, [(q2 + s3 * q3, *undone[b // 2][0], *undone[b // 2][1])
+        wrists = per_branch(wrist, [(self.arm.pitch(q2, q3), *undone[b // 2][0], *undone[b // 2][1])
                                        for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
         for (q1, q2, q3), (t4, t5, t6, u4, u5, u6), ok in zip(arm_q, wrists, arm_ok):

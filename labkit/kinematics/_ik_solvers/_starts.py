@@ -55,6 +55,33 @@ def snapped(robot, fraction):
 
 
 @by_content
+def start_window(robot):
+    """Where random starts of numeric IK are drawn: the limits, revolute joints within half a turn of 0.
+
+    A revolute joint's window is its limits cut to ``c +- pi``, ``c`` the point of
+    its range nearest 0 (0 when the range holds it): one turn, every angle
+    once, whether the range is continuous (infinite), +-1e300 deg or a few
+    degrees off 0. A prismatic joint's window is its limits (infinite ones as
+    +-2 pi [m]). Cached by the robot's content.
+
+    Parameters
+    ----------
+    robot : Robot
+        The arm.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (n,)
+        The window's ends [rad, m].
+    """
+    lim, rev = robot.joint_limits, robot.is_revolute
+    centre = np.clip(0.0, lim[:, 0], lim[:, 1])
+    lo = np.where(rev, np.maximum(lim[:, 0], centre - np.pi), np.where(np.isfinite(lim[:, 0]), lim[:, 0], -2 * np.pi))
+    hi = np.where(rev, np.minimum(lim[:, 1], centre + np.pi), np.where(np.isfinite(lim[:, 1]), lim[:, 1], 2 * np.pi))
+    return lo, hi
+
+
+@by_content
 def near_family(robot):
     """The closed-form solver of the nearest idealised copy of ``robot`` (cached by content), or ``(None, None)``.
 

@@ -32,7 +32,68 @@ from labkit.kinematics._ik_solvers._geometry import (
 )
 
 
-class Arm:
+class Shoulder:
+    """Joint 1 of an arm whose axis 2 is perpendicular to axis 1: the two arm planes through a point.
+
+    Attributes read: ``S`` (the shoulder's foot on axis 1), ``planes_frame``
+    (rows: the radial direction ``a2 x a1``, ``a2`` and ``a1`` at ``q = 0``),
+    ``off`` (the point's lateral offset along axis 2) and ``front`` (the sign of
+    the radial coordinate on the front side).
+    """
+
+    def planes(self, P):
+        """The two arm planes through the point ``P`` (components): front side, then back side.
+
+        Parameters
+        ----------
+        P : tuple
+            3 components of a point at the lateral offset of ``W`` [m].
+
+        Returns
+        -------
+        sides : list of tuple
+            ``(side, q1, u)`` per side: ``side`` the sign (a float constant) of
+            ``u``, the radial coordinate of ``P`` in that plane [m] (from axis 1,
+            along the plane's radial direction), and ``q1`` [rad].
+        w : ndarray or float
+            Height of ``P`` along axis 1 from the shoulder's foot on it [m].
+        shoulder_ok : ndarray of bool or bool
+            ``P`` lies at least the lateral offset from axis 1.
+        lateral : ndarray or float
+            How far it lies inside that offset [m].
+        """
+        S = self.S
+        d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
+        hr, hn, w = _matvec(self.planes_frame, d)
+        off = self.off
+        rho2 = hr * hr + hn * hn
+        u0 = sqrt(maximum(rho2 - off * off, 0.0))
+        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
+        lateral = maximum(abs(off) - sqrt(rho2), 0.0)
+        az = arctan2(hn, hr)
+        sides = []
+        for side in (self.front, -self.front):
+            u = side * u0
+            sides.append((side, az - arctan2(off, u), u))
+        return sides, w, shoulder_ok, lateral
+
+
+    def pitch(self, q2, q3):
+        """The turn about axis 2 of the joints after joint 1 (joints 2 and 3: their axes are parallel) [rad].
+
+        Parameters
+        ----------
+        q2, q3 : ndarray or float
+            Joints 2 and 3 [rad] in the chain's sense.
+
+        Returns
+        -------
+        ndarray or float
+        """
+        return q2 + self.s3 * q3
+
+
+class Arm(Shoulder):
     """Geometry of joints 1-3: base yaw, two parallel pitch axes, a point ``W`` they place.
 
     Parameters
@@ -85,42 +146,6 @@ class Arm:
         self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
-
-    def planes(self, P):
-        """The two arm planes through the point ``P`` (components): front side, then back side.
-
-        Parameters
-        ----------
-        P : tuple
-            3 components of a point at the lateral offset of ``W`` [m].
-
-        Returns
-        -------
-        sides : list of tuple
-            ``(side, q1, u)`` per side: ``side`` the sign (a float constant) of
-            ``u``, the radial coordinate of ``P`` in that plane [m] (from axis 1,
-            along the plane's radial direction), and ``q1`` [rad].
-        w : ndarray or float
-            Height of ``P`` along axis 1 from the shoulder's foot on it [m].
-        shoulder_ok : ndarray of bool or bool
-            ``P`` lies at least the lateral offset from axis 1.
-        lateral : ndarray or float
-            How far it lies inside that offset [m].
-        """
-        S = self.S
-        d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
-        hr, hn, w = _matvec(self.planes_frame, d)
-        off = self.off
-        rho2 = hr * hr + hn * hn
-        u0 = sqrt(maximum(rho2 - off * off, 0.0))
-        shoulder_ok = rho2 >= off * off * (1.0 - 1e-12) - REACH_TOL
-        lateral = maximum(abs(off) - sqrt(rho2), 0.0)
-        az = arctan2(hn, hr)
-        sides = []
-        for side in (self.front, -self.front):
-            u = side * u0
-            sides.append((side, az - arctan2(off, u), u))
-        return sides, w, shoulder_ok, lateral
 
     def elbows(self, side, ur, w):
         """Joints 2-3 placing ``W`` at ``(ur, w)`` in an arm plane, seen from the shoulder: both elbows.
