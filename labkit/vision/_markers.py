@@ -9,8 +9,10 @@ the marker is unknown (it is seen too face-on, too small or too blurred): that
 is reported as an ambiguous pose rather than guessed.
 
 Each detection carries a covariance of its pose from the corner noise
-(``sigma^2 (J^T J)^-1``, J the Jacobian of the corners' reprojection), so a
-position comes with its uncertainty.
+(``sigma^2 (J^T W J)^-1``, J the Jacobian of the corners' reprojection, W per
+corner ``N^T N`` of the unit normals of its two edges: a sharp corner of a marker
+seen obliquely is the crossing of two nearly parallel edges), so a position
+comes with its uncertainty.
 
 Coordinates: the marker frame has its origin at the centre of the black square,
 x to the right, y up (towards the top of the printed marker), z out of the
@@ -31,8 +33,8 @@ from labkit.exceptions import AmbiguousPoseError, MarkerNotFoundError, WrongMark
 from labkit.vision._families import dictionary, family_info
 from labkit.vision._images import as_gray as _gray
 
-__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "DEFAULT_CORNER_SIGMA",
-           "AMBIGUITY_RATIO"]
+__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "quad_bit_width",
+           "DEFAULT_CORNER_SIGMA", "AMBIGUITY_RATIO", "MIN_BIT_WIDTH"]
 
 #: a-priori standard deviation of a refined corner [px] (the floor of the noise model)
 DEFAULT_CORNER_SIGMA = 0.15
@@ -43,6 +45,12 @@ _PROFILE_SAMPLES = 25
 #: images with a side this long [px] or longer are searched at half resolution first
 _DOWNSCALE_ABOVE = 1000
 _EDGE_FRACTIONS = np.linspace(0.12, 0.88, 24)
+#: an edge profile reaches this fraction of a bit into the black border, and at least _MIN_HALF_PROFILE px
+_PROFILE_BIT_FRACTION, _MIN_HALF_PROFILE = 0.45, 1.5
+#: below this bit width across a side [px] the shortest profile reaches more than two thirds of the way across
+#: the black border, within a blur's width of the data bits (corners 2 px off at 2.1 px, 0.07 px at 2.5 px):
+#: a marker seen this obliquely is not used for a measurement
+MIN_BIT_WIDTH = _MIN_HALF_PROFILE / (2.0 / 3.0)
 
 
 def marker_corners(size):
@@ -124,6 +132,17 @@ class MarkerDetection:
         t = self.pose[:3, 3]
         return float(math.acos(min(1.0, abs(float(z @ t)) / float(np.linalg.norm(t)))))
 
+    @property
+    def bit_width(self):
+        """Width of one bit across the marker's narrowest side in the image [px].
+
+        The quad's area over its longest side is its smallest height; a tag of ``bits`` data
+        bits a side spans ``bits + 2`` bits with its black border. Seen obliquely, a marker
+        is a thin quad whose black border is a few pixels across although its sides are long:
+        below :data:`MIN_BIT_WIDTH` its edges cannot be located apart from its data bits.
+        """
+        return quad_bit_width(self.corners, family_info(self.family).bits)
+
     def point_covariance(self, point):
         """Position of a point fixed to the marker, in the camera frame, with its covariance.
 
@@ -156,6 +175,31 @@ class MarkerDetection:
         return self.pose[:3, :3] @ p + self.pose[:3, 3], jac @ self.covariance @ jac.T
 
 
+def quad_bit_width(quad, bits):
+    """Width of one bit across each side of a marker's quad [px], shape (4,) (or the smallest, a float).
+
+    Parameters
+    ----------
+    quad : array_like, shape (4, 2)
+        The marker's corners [px].
+    bits : int
+        Data bits a side (the black border adds one bit each way).
+
+    Returns
+    -------
+    float
+        The smallest width: the quad's area over its longest side, over ``bits + 2``.
+    """
+    return float(np.min(_side_bit_widths(np.asarray(quad, dtype=float), bits)))
+
+
+def _side_bit_widths(quad, bits):
+    ends = np.roll(quad, -1, axis=0)
+    lengths = np.linalg.norm(ends - quad, axis=1)
+    area = 0.5 * abs(float(np.sum(quad[:, 0] * ends[:, 1] - ends[:, 0] * quad[:, 1])))
+    return area / np.maximum(lengths, 1e-12) / (bits + 2)
+
+
 @functools.lru_cache(maxsize=None)
 def _detector(family):
     with needs_extra("vision"):
@@ -180,15 +224,17 @@ def _refine_edges(gray, quad, bits, camera):
 
     quad = np.asarray(quad, dtype=float)
     ends = np.roll(quad, -1, axis=0)
-    side = float(np.mean(np.linalg.norm(ends - quad, axis=1)))
-    half = float(np.clip(0.45 * side / (bits + 2), 1.5, 4.0))
-    steps = np.linspace(-half, half, _PROFILE_SAMPLES)
+    # each profile reaches less than half a bit into the black border (beyond it lie the data bits), a bit
+    # measured across its edge: the quad's height over that side, which is far less than the side when the
+    # marker is seen obliquely (a thin quad)
+    half = np.clip(_PROFILE_BIT_FRACTION * _side_bit_widths(quad, bits), _MIN_HALF_PROFILE, 4.0)
+    steps = np.linspace(-1.0, 1.0, _PROFILE_SAMPLES)[None, :] * half[:, None]  # (4, s) [px]
     d = (ends - quad) / np.linalg.norm(ends - quad, axis=1, keepdims=True)
     n = np.column_stack([-d[:, 1], d[:, 0]])
     outward = np.sum(n * (quad - quad.mean(axis=0)), axis=1) < 0
     n[outward] *= -1  # from the black border to the white quiet zone
     base = quad[:, None, :] + _EDGE_FRACTIONS[None, :, None] * (ends - quad)[:, None, :]  # (4, m, 2)
-    pts = base[:, :, None, :] + steps[None, None, :, None] * n[:, None, None, :]  # (4, m, s, 2)
+    pts = base[:, :, None, :] + steps[:, None, :, None] * n[:, None, None, :]  # (4, m, s, 2)
     flat = pts.reshape(-1, _PROFILE_SAMPLES, 2).astype(np.float32)
     prof = cv2.remap(gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     lo = prof[:, :4].mean(axis=1, keepdims=True)
@@ -201,7 +247,8 @@ def _refine_edges(gray, quad, bits, camera):
     i = np.maximum(idx, 1)
     p0, p1 = prof[rows, i - 1], prof[rows, i]
     frac = (mid[:, 0] - p0) / np.maximum(p1 - p0, 1e-6)
-    off = steps[i - 1] + frac * (steps[1] - steps[0])
+    side = rows // len(_EDGE_FRACTIONS)
+    off = steps[side, i - 1] + frac * (steps[side, 1] - steps[side, 0])
     edge = base.reshape(-1, 2) + off[:, None] * np.repeat(n, len(_EDGE_FRACTIONS), axis=0)
     good = good.reshape(4, -1)
     if np.any(good.sum(axis=1) < 6):
@@ -289,8 +336,17 @@ def _pose_from_corners(corners, camera, size, corner_sigma):
     uv, jac = cv2.projectPoints(obj.reshape(4, 1, 3), rvec, tvec, camera.matrix, camera.distortion)
     J = jac[:, :6]
     sigma = max(corner_sigma, err)
+    # a corner is the crossing of two edge lines, each off by sigma across itself: its covariance is
+    # sigma^2 (N^T N)^-1, N the two edges' unit normals (the identity at a right angle), so the sharp
+    # corners of a marker seen obliquely (a thin quad) are uncertain along their bisector
+    edges = np.roll(corners, -1, axis=0) - corners  # edge k runs from corner k to corner k + 1
+    normals = np.column_stack([-edges[:, 1], edges[:, 0]]) / np.maximum(np.linalg.norm(edges, axis=1), 1e-12)[:, None]
+    pair = np.stack([np.roll(normals, 1, axis=0), normals], axis=1)  # (4, 2, 2): the edges meeting at each corner
+    information = np.zeros((8, 8))
+    for k in range(4):
+        information[2 * k:2 * k + 2, 2 * k:2 * k + 2] = pair[k].T @ pair[k]
     try:
-        cov = sigma ** 2 * np.linalg.inv(J.T @ J)
+        cov = sigma ** 2 * np.linalg.inv(J.T @ information @ J)
     except np.linalg.LinAlgError:
         cov = np.full((6, 6), np.inf)
     R = cv2.Rodrigues(rvec)[0]

@@ -27,7 +27,7 @@ from labkit.exceptions import DeviceError, OptionError, needs_extra
 from labkit.measure import MeasurementSession
 from labkit.exceptions import MarkerNotFoundError, VisionError, WrongMarkerError
 from labkit.vision._locate import locate_camera
-from labkit.vision._markers import marker_poses
+from labkit.vision._markers import MIN_BIT_WIDTH, marker_poses
 
 __all__ = ["CameraSession", "VideoSource", "FolderSource", "tool_point_in_base"]
 
@@ -216,7 +216,8 @@ class FolderSource:
 def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0, 0.0)):
     """The tool point in the base frame from the gripper's markers in one frame, with its covariance.
 
-    Markers with an ambiguous pose are left out; several markers are combined by
+    Markers with an ambiguous pose, or seen so obliquely that a bit is narrower than
+    ``MIN_BIT_WIDTH`` across a side, are left out; several markers are combined by
     inverse-covariance weighting (their errors are taken as independent; the camera
     location's part, common to all, is added once).
 
@@ -245,7 +246,7 @@ def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0,
     """
     estimates = []
     for d in detections:
-        if d.id not in tool_markers or d.ambiguous:
+        if d.id not in tool_markers or d.ambiguous or d.bit_width < MIN_BIT_WIDTH:
             continue
         marker_from_tool = np.linalg.inv(tool_markers[d.id])
         point = marker_from_tool[:3, :3] @ np.asarray(tool_point, float) + marker_from_tool[:3, 3]
@@ -254,7 +255,7 @@ def tool_point_in_base(detections, location, tool_markers, tool_point=(0.0, 0.0,
     if not estimates:
         seen = sorted(d.id for d in detections)
         raise WrongMarkerError(f"expected a clear view of gripper marker(s) {sorted(tool_markers)}, "
-                               f"saw {seen} (ambiguous ones left out)")
+                               f"saw {seen} (ambiguous ones and ones seen nearly edge-on left out)")
     info = sum(np.linalg.inv(c) for _, _, c in estimates)
     cov_cam = np.linalg.inv(info)
     p_cam = cov_cam @ sum(np.linalg.inv(c) @ p for _, p, c in estimates)

@@ -36,7 +36,8 @@ def test_camera_readings_agree_with_the_true_gripper_within_their_uncertainty(tm
     ratio = np.abs(df.value.to_numpy() - true) / df.resolution.to_numpy()
     # the stated uncertainty is k = 2 (about 95 %): nearly all inside, none far outside
     assert np.mean(ratio <= 1.0) >= 0.95 and ratio.max() <= 1.5
-    assert df.resolution.max() < 3.0  # mm: a camera, not a ruler
+    # mm: a camera, not a ruler (3.3 mm at the most oblique tag, whose sharp corners are stated as less certain)
+    assert df.resolution.max() < 3.5
     # the log is the ruler's schema: the error table reads it unchanged
     table = error_table("arduino_arm_3dof", df)
     assert len(table.table) == len(PLAN) * 3
@@ -66,3 +67,24 @@ def test_folder_source_pairs_by_pose_id(tmp_path):
     assert len(source.frames("j1_5", 3)) == 1
     with pytest.raises(VisionError, match="j1_45_<k>.png"):
         source.frames("j1_45", 3)
+
+
+def test_a_gripper_tag_seen_nearly_edge_on_is_left_out():
+    from labkit.vision import CameraLocation, MarkerDetection, tool_point_in_base
+    from labkit.vision._markers import MIN_BIT_WIDTH
+
+    pose = np.eye(4)
+    pose[2, 3] = 1.0
+    location = CameraLocation(np.eye(4), np.eye(6) * 1e-10, 0.1, 16)
+    tool_markers = {4: np.eye(4)}
+
+    def seen(height):  # a 64 px long quad, `height` px across: a bit is height / 8 px wide
+        corners = np.array([[600.0, 480.0], [664.0, 480.0], [664.0, 480.0 + height], [600.0, 480.0 + height]])
+        return MarkerDetection(4, pose, corners, np.eye(6) * 1e-8, 0.01, np.inf, False, 0.1, "tag36h11")
+
+    wide, thin = seen(8 * (MIN_BIT_WIDTH + 0.1)), seen(8 * (MIN_BIT_WIDTH - 0.1))
+    assert thin.bit_width == pytest.approx(MIN_BIT_WIDTH - 0.1)
+    p, _, used = tool_point_in_base([wide], location, tool_markers)
+    assert used == [4] and np.allclose(p, [0.0, 0.0, 1.0])
+    with pytest.raises(WrongMarkerError, match="edge-on"):
+        tool_point_in_base([thin], location, tool_markers)
