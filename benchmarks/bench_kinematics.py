@@ -417,7 +417,8 @@ def numeric_ik(args):
         print(f"rtb ik_LM on the first {m} targets: mean iterations {lm_it:.1f}, max residual {lm_res:.1e} "
               f"(its own measure: E = e^T W e)")
         print(f"one target (same {n1} targets, taking turns): labkit {one * 1e3:.3f} ms, ik_LM {same * 1e3:.3f} ms: "
-              f"{one / same:.2f}x slower (target <= 2.5x: {verdict(one <= 2.5 * same)})")
+              f"{one / same:.2f}x slower (for information: issue 35 retired this ratio as a goal; the goal is "
+              f"<= 1 ms a target: {verdict(one <= 1e-3)})")
         # ik_LM's tol bounds its own E (half the squared error): at 1e-10 its solutions miss by up to ~1e-5 m,
         # labkit's by at most 1e-10 (its tol bounds the residual); for information, ik_LM to labkit's accuracy
         tight = 5e-21
