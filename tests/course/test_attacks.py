@@ -30,9 +30,9 @@ from labkit.course import _safefs
 from tests.course import attacks as at
 from tests.course import course_lab as cl
 
-# the attack batches share one xdist group (with tests/course/test_cgroup.py): they look for the orphan processes
-# they planted by name. The course loop's grading tests run beside them (group "grading-loop"): the cgroup check
-# below ignores cgroups made by a live grader that is not this test's
+# the attack batches share one xdist group with every grading test (tests/course/test_cgroup.py, test_course.py,
+# test_points.py): they look for the orphan processes they planted by name, and grading runs one batch at a time;
+# the cgroup check below still ignores cgroups made by a live grader that is not this test's
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading")]
 LIMITS = dict(cpu_seconds=10, wall_seconds=25)
 HONEST = ("honest_a", "honest_b", "honest_c")
