@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, floats, rotation_matrices, unit
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, floats, in_chain_order, rotation_matrices, unit
 from labkit.kinematics._ik_solvers._scara import YawTarget, up_axis
 
 
@@ -60,12 +60,11 @@ class CartesianYaw(YawTarget, Family):
         self.yaw_reference(tool)
 
     def E(self, turn):
-        """The prismatic directions ``(N, 3, 3)`` (columns, in the order of the chain) at turns ``turn`` (N,) [rad].
+        """The prismatic directions (columns, in the chain's order) at turns of the revolute joint about ``k`` [rad].
 
         Parameters
         ----------
         turn : ndarray, shape (N,)
-            Turns of the revolute joint about ``k`` [rad].
 
         Returns
         -------
@@ -81,9 +80,5 @@ class CartesianYaw(YawTarget, Family):
         R = rotation_matrices(self.k, turn)
         rhs = t[:3].T - self.O - R @ self.arm0
         slide = np.linalg.solve(self.E(turn), rhs[..., None])[..., 0]
-        branch = [None] * 4
-        branch[self.rev] = self.s * turn
-        for i, j in enumerate(self.slides):
-            branch[j] = slide[:, i]
-        ok = np.full(turn.shape, True)
-        return [tuple(branch)], [ok], np.zeros(turn.shape)
+        q = in_chain_order((self.rev, *self.slides), (self.s * turn, *slide.T))
+        return [q], [np.full(turn.shape, True)], np.zeros(turn.shape)

@@ -15,6 +15,8 @@ targets); constant vectors (axes of the robot) are tuples of floats.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, clip, cos, maximum, sin, sqrt
@@ -32,12 +34,11 @@ class NotThisFamily(Exception):
 
 
 def unit(v):
-    """``v`` divided by its norm, as a float array of shape (3,).
+    """``v`` divided by its norm.
 
     Parameters
     ----------
     v : array_like, shape (3,)
-        A non-zero vector.
 
     Returns
     -------
@@ -53,7 +54,6 @@ def floats(v):
     Parameters
     ----------
     v : array_like, shape (3,)
-        A vector.
 
     Returns
     -------
@@ -63,15 +63,14 @@ def floats(v):
 
 
 def perpendicular(axis):
-    """A unit vector perpendicular to the unit vector ``axis`` (from the world axis least along it).
+    """A unit vector perpendicular to the unit ``axis``: from the world axis least along it.
 
-    Components within :data:`TOL` count as equal (the first such axis wins), so rounding noise of a
-    DH walk (``6e-17`` beside ``0``) does not decide: an axis along world ``z`` gives world ``x``.
+    Components within :data:`TOL` count as equal (the first wins), so rounding noise does not
+    decide: an axis along world ``z`` gives world ``x``.
 
     Parameters
     ----------
     axis : ndarray, shape (3,)
-        A unit vector.
 
     Returns
     -------
@@ -83,19 +82,16 @@ def perpendicular(axis):
 
 
 def feet(p1, d1, p2, d2):
-    """Feet of the common normal of two non-parallel lines: the closest point on each.
+    """The closest points on two non-parallel lines (points ``p`` [m], unit directions ``d``).
 
     Parameters
     ----------
-    p1, d1 : ndarray, shape (3,)
-        A point on line 1 [m] and its unit direction.
-    p2, d2 : ndarray, shape (3,)
-        The same for line 2.
+    p1, d1, p2, d2 : ndarray, shape (3,)
 
     Returns
     -------
     f1, f2 : ndarray, shape (3,)
-        The closest points on line 1 and on line 2 [m].
+        On line 1 and on line 2 [m].
     """
     w = p1 - p2
     b = d1 @ d2
@@ -106,23 +102,21 @@ def feet(p1, d1, p2, d2):
 
 
 def joint_axes(robot):
-    """Joint axes (unit directions) and a point on each at ``q = 0``, plus the tool frame.
+    """Joint axes, a point on each and the tool frame at ``q = 0``, in the world frame.
+
+    Read by the one DH walk on floats (nothing is compiled for a robot's geometry).
 
     Parameters
     ----------
     robot : Robot
-        The arm whose axes are read (from FK at ``q = 0``).
 
     Returns
     -------
-    z : ndarray, shape (n, 3)
-        Axis directions in the world frame.
-    o : ndarray, shape (n, 3)
-        A point on each axis [m].
+    z, o : ndarray, shape (n, 3)
+        Unit axis directions and a point on each [m].
     tool : ndarray, shape (4, 4)
-        ``world_from_tool`` at ``q = 0``.
+        ``world_from_tool`` [m].
     """
-    # the DH walk on floats at q = 0 (a robot's geometry is read once: nothing is compiled for it)
     c = chain(robot)
     revolute = [(cth, sth) for rev, _, _, _, _, _, cth, sth in c.steps if rev]
     steps = [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth in c.steps]
@@ -136,32 +130,26 @@ def joint_axes(robot):
 
 
 def length_scale(robot):
-    """A length that scales the structure tolerances [m] (at least 1).
+    """The length the structure tolerances scale with: sum of ``|a|``, ``|d|`` and the tool offset, at least 1 [m].
 
     Parameters
     ----------
     robot : Robot
-        The arm measured.
 
     Returns
     -------
     float
-        Sum of the absolute DH lengths and the tool offset [m], at least 1.
     """
     return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
 
 
 def need_joints(robot, n, prismatic=0):
-    """Raise :class:`NotThisFamily` unless ``robot`` has exactly ``n`` joints, ``prismatic`` of them prismatic.
+    """Raise :class:`NotThisFamily` unless ``robot`` has ``n`` joints, ``prismatic`` of them prismatic.
 
     Parameters
     ----------
     robot : Robot
-        The arm tried.
-    n : int
-        Number of joints the family needs.
-    prismatic : int
-        How many of them are prismatic (the others revolute).
+    n, prismatic : int
     """
     if robot.n != n or int(np.count_nonzero(~robot.is_revolute)) != prismatic:
         raise NotThisFamily(f"needs exactly {n} joints, {prismatic} of them prismatic" if prismatic
@@ -169,38 +157,69 @@ def need_joints(robot, n, prismatic=0):
 
 
 def need_parallel(u, v, reason):
-    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u`` and ``v`` are parallel.
+    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u``, ``v`` are parallel.
 
     Parameters
     ----------
     u, v : ndarray, shape (3,)
-        Two joint axes.
     reason : str
-        What the family needs, for the message.
     """
     if np.linalg.norm(np.cross(u, v)) > TOL:
         raise NotThisFamily(reason)
 
 
 def wrist_branches(shoulder, elbow=("up", "down")):
-    """Branch names and their three-letter aliases of an 8-solution arm with a spherical wrist.
+    """Branch names ``<shoulder>_<elbow>_<noflip|flip>`` (shoulder slowest) and aliases (``"run"``).
 
     Parameters
     ----------
-    shoulder : tuple of str
-        The two shoulder names, in the family's order (e.g. ``("right", "left")``).
-    elbow : tuple of str
-        The two names of the arm's second choice (elbow ``up``/``down``, a boom ``out``/``in``).
+    shoulder, elbow : tuple of str
+        The names of the arm's two choices, in the family's order.
 
     Returns
     -------
     branches : tuple of str
-        ``"<shoulder>_<elbow>_<noflip|flip>"``, shoulder slowest.
     aliases : dict
-        ``{"run": "right_up_noflip", ...}``.
     """
     names = [(s, e, w) for s in shoulder for e in elbow for w in ("noflip", "flip")]
     return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
+
+
+def in_chain_order(order, values):
+    """Values of the joints ``order`` (indices, a permutation), as a tuple in the chain's order.
+
+    Parameters
+    ----------
+    order : sequence of int
+    values : sequence
+
+    Returns
+    -------
+    tuple
+    """
+    q = [None] * len(order)
+    for j, v in zip(order, values):
+        q[j] = v
+    return tuple(q)
+
+
+def pose_matrices(R, p):
+    """Homogeneous transforms from rotations ``R`` (..., 3, 3) and translations ``p`` (..., 3) [m].
+
+    Parameters
+    ----------
+    R : ndarray, shape (..., 3, 3)
+    p : array_like, shape (..., 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 4, 4)
+    """
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p
+    T[..., 3, 3] = 1.0
+    return T
 
 
 # -- vectors as component tuples ------------------------------------------------------------
@@ -224,23 +243,21 @@ def _reject(k, v):
 
 
 def rotate(k, angle, *vectors):
-    """Rodrigues: vectors rotated by ``angle`` about the unit axis ``k`` (its sine and cosine taken once).
-
-    ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
+    """Rodrigues, ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``, for each of ``vectors``.
 
     Parameters
     ----------
     k : tuple of float
-        The rotation axis (unit).
+        Unit axis.
     angle : ndarray or float
-        Rotation angle [rad].
+        [rad]
     *vectors : tuple
         3 components each.
 
     Returns
     -------
     list of tuple
-        The rotated vectors, 3 components each, in order.
+        The rotated vectors.
     """
     k0, k1, k2 = k
     s, c1 = sin(angle), 1.0 - cos(angle)
@@ -262,45 +279,46 @@ def _matvec(M, v):
 # -- the shared subproblems -----------------------------------------------------------------
 
 class CosineLaw:
-    """A two-link chain of lengths ``L1``, ``L2`` (its constants computed once per robot).
+    """A two-link chain in a plane, its links ``e``, ``f`` given as in-plane ``(x, y)`` vectors at ``q = 0`` [m].
 
     Parameters
     ----------
-    L1, L2 : float
-        Link lengths [m].
+    e, f : sequence of float
+        Link 1 (joint 1 to joint 2) and link 2 (joint 2 to the point placed).
+    shortest : float
+        Raise :class:`NotThisFamily` with ``reason`` where a link is shorter [m].
+    reason : str
     """
 
-    def __init__(self, L1, L2):
-        self.L1, self.L2 = L1, L2
+    def __init__(self, e, f, shortest, reason):
+        self.L1, self.L2 = L1, L2 = math.hypot(*e), math.hypot(*f)
+        if L1 < shortest or L2 < shortest:
+            raise NotThisFamily(reason)
+        self.g1 = math.atan2(e[1], e[0])  # link 1's angle, and link 2's relative to it, at q = 0
+        self.g21 = math.atan2(f[1], f[0]) - self.g1
         self.L1L1, self.L2L2, self.den = L1 * L1, L2 * L2, 2 * L1 * L2
         self.longest, self.shortest = L1 + L2, abs(L1 - L2)
         self.ok_below = 1.0 + REACH_TOL
 
     def solve(self, x, y):
-        """The chain reaching the point ``(x, y)`` of its plane.
+        """The chain reaching the point ``(x, y)`` [m] of its plane, from joint 1.
+
+        The branch of sign ``s = -1, +1`` has link 1 at ``direction - s shoulder`` and link 2 at
+        ``s elbow`` relative to it.
 
         Parameters
         ----------
         x, y : ndarray or float
-            The point, relative to the first joint [m].
 
         Returns
         -------
         reachable : ndarray of bool or bool
             The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
         distance : ndarray or float
-            How far the point lies outside the annulus the chain reaches [m].
-        elbow : ndarray or float
-            The magnitude of the relative angle of link 2 [rad] (argument clipped).
-        shoulder : ndarray or float
-            The interior angle at joint 1 between the line to the point and link 1 [rad].
-        direction : ndarray or float
-            The angle of the point, ``atan2(y, x)`` [rad].
-
-        Notes
-        -----
-        The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
-        ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
+            How far the point lies outside the annulus reached [m].
+        elbow, shoulder, direction : ndarray or float
+            ``|`` relative angle of link 2 ``|`` (argument clipped), the angle at joint 1 between
+            the line to the point and link 1, and ``atan2(y, x)`` [rad].
         """
         L1, L2 = self.L1, self.L2
         r2 = x * x + y * y
@@ -312,43 +330,56 @@ class CosineLaw:
         sb = sqrt(1.0 - cb * cb)
         return ok, distance, arctan2(sb, cb), arctan2(L2 * sb, L1 + L2 * cb), arctan2(y, x)
 
+    def branches(self, x, y):
+        """Joints 1 and 2 [rad] reaching ``(x, y)`` [m]: elbow up (link 2 turned negatively), then down.
+
+        Parameters
+        ----------
+        x, y : ndarray or float
+
+        Returns
+        -------
+        reachable, distance
+            As :meth:`solve`.
+        q : list of tuple
+            ``(q1, q2)`` per branch, about the plane's normal from the links at ``q = 0``.
+        """
+        ok, distance, elbow, shoulder, direction = self.solve(x, y)
+        return ok, distance, [(direction - s * shoulder - self.g1, s * elbow - self.g21) for s in (-1.0, 1.0)]
+
 
 def angle_about(k, v, w):
-    """Paden-Kahan subproblem 1: the angle rotating ``v`` onto ``w`` about the constant unit axis ``k``.
+    """Paden-Kahan subproblem 1: the angle [rad] about the constant unit axis ``k`` turning ``v`` onto ``w``.
 
-    Both vectors are projected perpendicular to ``k`` first (explicitly, so the
-    result keeps its precision when the projections are tiny).
+    Both are projected perpendicular to ``k`` first (explicitly: precise where the projections are tiny).
 
     Parameters
     ----------
     k : tuple of float
-        Unit axis.
     v, w : tuple
         3 components each.
 
     Returns
     -------
     ndarray or float
-        The angle [rad] in (-pi, pi].
+        In (-pi, pi].
     """
     vp, wp = _reject(k, v), _reject(k, w)
     return angle_between(_cross(k, vp), vp, wp)
 
 
 def angle_between(n, vp, wp):
-    """:func:`angle_about` from the projections (computed once where they are used again).
+    """:func:`angle_about` from the parts ``vp``, ``wp`` perpendicular to ``k`` and ``n = k x vp``.
 
     Parameters
     ----------
-    n : tuple
-        ``k x vp``, 3 components (a constant where ``vp`` is one).
-    vp, wp : tuple
-        The vectors' parts perpendicular to the axis ``k``, 3 components each (``_reject(k, v)``).
+    n, vp, wp : tuple
+        3 components each.
 
     Returns
     -------
     ndarray or float
-        The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
+        [rad] in (-pi, pi].
     """
     w0, w1, w2 = wp
     return arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
@@ -360,7 +391,7 @@ class Subproblem2:
     Parameters
     ----------
     a4, a5, p : array_like, shape (3,)
-        The two axes and the vector rotated (unit vectors, constants of the robot).
+        The two axes and the unit vector rotated.
     """
 
     def __init__(self, a4, a5, p):
@@ -374,17 +405,17 @@ class Subproblem2:
         self.k12a5p = self.k12 * self.a5p
 
     def solve(self, m):
-        """Both solutions for the target direction ``m`` (components).
-
-        Returns
-        -------
-        list of (t4, t5)
-            The solution with ``+gamma`` then the one with ``-gamma`` [rad].
+        """Both solutions for the unit target direction ``m``.
 
         Parameters
         ----------
         m : tuple
-            3 components of the target direction (unit).
+            3 components.
+
+        Returns
+        -------
+        list of (t4, t5)
+            With ``+gamma``, then ``-gamma`` [rad].
         """
         (a40, a41, a42), (a50, a51, a52), (c0, c1, c2) = self.a4, self.a5, self.cr
         k12, a5p, den = self.k12, self.a5p, self.den
@@ -420,21 +451,19 @@ class Subproblem2:
 
 
 def per_branch(f, branches, shared):
-    """``f(*branch, *shared)`` for every branch in one call, on the branches' rows end to end.
+    """``f(*branch, *shared)`` for every branch in one call, on the branches' ``(N,)`` rows end to end.
 
     Parameters
     ----------
     f : callable
-        The formulas of one branch, on ``(N,)`` rows.
     branches : list of tuple
-        Per branch its arguments, ``(N,)`` rows or scalars.
+        Per branch its arguments, rows or scalars.
     shared : tuple
-        Arguments common to every branch.
 
     Returns
     -------
     list of tuple
-        Per branch the outputs of ``f``, ``(N,)`` rows each.
+        Per branch the outputs of ``f``.
     """
     k = len(branches)
     n = max((np.size(v) for v in (*branches[0], *shared) if type(v) is not float), default=1)
@@ -449,14 +478,12 @@ def per_branch(f, branches, shared):
 
 
 def rotation_matrices(axis, angle):
-    """Rotation matrices about a constant unit axis, ``angle (N,) -> (N, 3, 3)`` (numpy).
+    """Rotation matrices about a constant unit axis (3,) by ``angle`` [rad].
 
     Parameters
     ----------
     axis : sequence of float
-        Unit axis (3,).
     angle : ndarray, shape (N,)
-        Angles [rad].
 
     Returns
     -------

@@ -27,7 +27,9 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, _dot, floats, need_parallel, unit
+from labkit.kinematics._ik_solvers._geometry import (
+    TOL, NotThisFamily, _dot, floats, in_chain_order, need_parallel, unit,
+)
 from labkit.kinematics._ik_solvers._scara import up_axis
 
 
@@ -72,10 +74,7 @@ class Cylindrical(Family):
         for sign in (1.0, -1.0):
             along = sign * rho  # c + q: the tool point's distance along the radial direction
             turn = np.arctan2(y, x) - np.arctan2(along * ev + b * fv, along * eu + b * fu)
-            branch = [None] * 3
-            for j, value in zip(self.order, (self.s_rev * turn, lift, along - self.c)):
-                branch[j] = value
-            q.append(tuple(branch))
+            q.append(in_chain_order(self.order, (self.s_rev * turn, lift, along - self.c)))
         return q, [ok, ok], distance
 
 

@@ -38,24 +38,23 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, NotThisFamily, _dot, floats, length_scale, need_parallel, perpendicular, rotation_matrices, unit,
+    TOL, CosineLaw, _dot, floats, in_chain_order, length_scale, need_parallel, perpendicular, pose_matrices,
+    rotation_matrices, unit,
 )
 
 
 def up_axis(robot, z):
-    """The unit axis ``k`` of parallel joint axes on the side of the robot's ``up`` (see the module docstring).
+    """The unit axis ``k`` along ``z[0]`` on the side of the robot's ``up``, ``u`` perpendicular, ``v = k x u``.
 
     Parameters
     ----------
     robot : Robot
-        The arm (its ``up``).
     z : ndarray, shape (n, 3)
-        Joint axes; the first gives the direction.
+        Joint axes.
 
     Returns
     -------
     k, u, v : ndarray, shape (3,)
-        ``k``, the reference ``u`` perpendicular to it and ``v = k x u``.
     """
     k = unit(z[0])
     k = -k if float(np.dot(robot.up, k)) < -TOL else k
@@ -71,12 +70,11 @@ class YawTarget:
     """
 
     def yaw_reference(self, tool):
-        """Read the yaw's reference axis and its yaw at ``q = 0`` from the tool frame ``tool`` (4, 4).
+        """Read the yaw's reference axis and its yaw at ``q = 0`` from ``world_from_tool`` there.
 
         Parameters
         ----------
         tool : ndarray, shape (4, 4)
-            ``world_from_tool`` at ``q = 0`` [m].
         """
         k, u, v = (np.array(a) for a in (self.k, self.u, self.v))
         R0 = tool[:3, :3]
@@ -86,31 +84,24 @@ class YawTarget:
         self.R0 = R0.copy()
 
     def pose(self, target):
-        """Tool poses of targets ``(x, y, z, yaw)``.
+        """Tool poses ``world_from_tool`` [m] of targets ``(x, y, z, yaw)`` [m, rad].
 
         Parameters
         ----------
         target : ndarray, shape (N, 4)
-            Targets [m, rad].
 
         Returns
         -------
         ndarray, shape (N, 4, 4)
-            ``world_from_tool`` [m].
         """
-        T = np.zeros((target.shape[0], 4, 4))
-        T[:, :3, :3] = rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0
-        T[:, :3, 3] = target[:, :3]
-        T[:, 3, 3] = 1.0
-        return T
+        return pose_matrices(rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0, target[:, :3])
 
     def target_of(self, T):
-        """The targets ``(x, y, z, yaw)`` [m, rad] of tool poses ``T`` (N, 4, 4); yaw in (-pi, pi].
+        """The targets ``(x, y, z, yaw)`` [m, rad] of tool poses [m]; yaw in (-pi, pi].
 
         Parameters
         ----------
         T : ndarray, shape (N, 4, 4)
-            Tool poses [m].
 
         Returns
         -------
@@ -121,19 +112,17 @@ class YawTarget:
         return np.concatenate([T[:, :3, 3], yaw[:, None]], axis=1)
 
     def poses(self, target):
-        """Every tool pose that reaches targets (one: the yaw fixes the orientation), ``(N, 1, 4, 4)`` [m].
+        """Every tool pose [m] that reaches targets [m, rad] (one: the yaw fixes the orientation).
 
         Parameters
         ----------
         target : ndarray, shape (N, 4)
-            Targets [m, rad].
 
         Returns
         -------
         ndarray, shape (N, 1, 4, 4)
         """
         return self.pose(target)[:, None]
-
 
 
 class Scara(YawTarget, Family):
@@ -156,12 +145,8 @@ class Scara(YawTarget, Family):
         P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
         pt = tool[:3, 3] - o[rev[0]]
         P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
-        e, f = np.subtract(P[1], P[0]), np.subtract(P[2], P[1])
-        self.L1, self.L2 = math.hypot(*e), math.hypot(*f)
-        if min(self.L1, self.L2) < TOL * length_scale(robot):
-            raise NotThisFamily("the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
-        self.law = CosineLaw(self.L1, self.L2)
-        self.g1, self.g2 = math.atan2(e[1], e[0]), math.atan2(f[1], f[0])
+        self.law = CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * length_scale(robot),
+                             "the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
         self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
         self.h0 = float(pt @ k)  # its height along k at q = 0
         self.yaw_reference(tool)
@@ -173,17 +158,13 @@ class Scara(YawTarget, Family):
         c, s = np.cos(rot), np.sin(rot)
         t0x, t0y = self.t0
         x, y = _dot(self.u, d), _dot(self.v, d)
-        ok, distance, elbow, shoulder, direction = self.law.solve(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
+        # elbow left: the relative angle of link 2 is negative about k
+        ok, distance, arm = self.law.branches(x - (c * t0x - s * t0y), y - (s * t0x + c * t0y))
         quill = self.signs[-1] * (_dot(self.k, d) - self.h0)
         q = []
-        for sign in (-1.0, 1.0):  # elbow left: the relative angle of link 2 is negative about k
-            q1 = direction - sign * shoulder - self.g1
-            q2 = sign * elbow - (self.g2 - self.g1)
-            branch = [None] * len(self.order)
-            for j, sj, value in zip(self.order[:-1], self.signs, (q1, q2, rot - q1 - q2)):
-                branch[j] = sj * value
-            branch[self.order[-1]] = quill
-            q.append(tuple(branch))
+        for q1, q2 in arm:
+            turns = (q1, q2, rot - q1 - q2)[:len(self.order) - 1]  # shoulder, elbow, [wrist]
+            q.append(in_chain_order(self.order, (*(sj * v for sj, v in zip(self.signs, turns)), quill)))
         return q, [ok, ok], distance
 
 

@@ -31,12 +31,11 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, sqrt
-from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, NotThisFamily, feet, floats, length_scale, rotate, unit,
 )
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder, YawPitchPitch, joint2_middle
 
 
 class SphericalArm(Shoulder):
@@ -44,12 +43,8 @@ class SphericalArm(Shoulder):
 
     Parameters
     ----------
-    robot : Robot
-        The arm (its joint types and joint 2 limits).
-    z, o : ndarray, shape (n, 3)
-        Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
-    W0 : ndarray, shape (3,)
-        The point placed (tool point, wrist centre), at ``q = 0`` [m].
+    robot, z, o, W0
+        As :class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Arm`.
 
     Raises
     ------
@@ -75,20 +70,16 @@ class SphericalArm(Shoulder):
         self.planes_frame = (floats(er), self.a2, self.a1)
         # in the plane perpendicular to a2, coordinates along (er, -a1), in which joint 2 turns positively
         self.e2, self.n2 = (float(e @ er), float(-(e @ a1))), (float(n @ er), float(-(n @ a1)))
-        lim = robot.joint_limits[1]
-        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
-        mid = -mid if robot.links[1].flip else mid  # the limits are on q, the geometry on the chain's theta
-        radial, = rotate(self.a2, mid, floats(e))
+        radial, = rotate(self.a2, joint2_middle(robot), floats(e))
         radial = float(np.dot(radial, er))
         self.front = -1.0 if radial < -0.2 else 1.0
 
     def pitch(self, q2, q3):
-        """The turn about axis 2 of the joints after joint 1: joint 2's (the boom only slides) [rad].
+        """The turn [rad] about axis 2 of the joints after joint 1: joint 2's (the boom ``q3`` [m] slides).
 
         Parameters
         ----------
         q2, q3 : ndarray or float
-            Joint 2 [rad] and the boom [m] in the chain's sense.
 
         Returns
         -------
@@ -97,19 +88,16 @@ class SphericalArm(Shoulder):
         return q2
 
     def solve(self, W):
-        """Joints 1-3 placing ``W`` (components), four branches.
+        """Joints 1-3 [rad, rad, m] placing ``W`` (3 components) [m]: front out, front in, back out, back in.
 
         Parameters
         ----------
         W : tuple
-            3 components of the point to place [m].
 
         Returns
         -------
         q : list of tuple
-            ``(q1, q2, q3)`` [rad, rad, m] per branch: front out, front in, back out, back in.
         reachable : list
-            Per branch.
         distance : ndarray or float
             How far ``W`` lies out of reach [m].
         """
@@ -130,21 +118,14 @@ class SphericalArm(Shoulder):
         return q, reach, distance
 
 
-class SphericalRRP(Family):
+class SphericalRRP(YawPitchPitch):
     """Closed-form position IK of a spherical (RRP) arm: four branches."""
 
     name = "spherical_rrp"
-    kind = "position"
     joints, prismatic = 3, 1
     branches = ("front_out", "front_in", "back_out", "back_in")
     aliases = {"front": "front_out", "back": "back_out"}
-
-    def __init__(self, robot, z, o, tool):
-        self.arm = SphericalArm(robot, z, o, tool[:3, 3])
-
-    @documented
-    def solve(self, t):
-        return self.arm.solve(t)
+    arm_type = SphericalArm
 
 
 class Stanford(SphericalWrist):

@@ -33,27 +33,19 @@ import numpy as np
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, CosineLaw, NotThisFamily, angle_about, feet, floats, length_scale, need_parallel,
-    perpendicular, rotation_matrices, unit, wrist_branches,
+    perpendicular, pose_matrices, rotation_matrices, unit, wrist_branches,
 )
 
 
 def _screw(axis, point, angle):
     """Homogeneous transforms ``e^[S] angle`` of a rotation about a line, (N,) -> (N, 4, 4)."""
     R = rotation_matrices(axis, angle)
-    E = np.zeros(angle.shape + (4, 4))
-    E[..., :3, :3] = R
-    E[..., :3, 3] = point - R @ point
-    E[..., 3, 3] = 1.0
-    return E
+    return pose_matrices(R, point - R @ point)
 
 
 def _inverse(E):
-    Ei = np.zeros_like(E)
     Rt = np.swapaxes(E[..., :3, :3], -1, -2)
-    Ei[..., :3, :3] = Rt
-    Ei[..., :3, 3] = -(Rt @ E[..., :3, 3, None])[..., 0]
-    Ei[..., 3, 3] = 1.0
-    return Ei
+    return pose_matrices(Rt, -(Rt @ E[..., :3, 3, None])[..., 0])
 
 
 class ThreeParallel(Family):
@@ -91,12 +83,8 @@ class ThreeParallel(Family):
         self.u = perpendicular(n)
         self.v = np.cross(n, self.u)
         e, f = o[2] - o[1], o[3] - o[2]
-        ex, ey, fx, fy = e @ self.u, e @ self.v, f @ self.u, f @ self.v
-        self.L1, self.L2 = math.hypot(ex, ey), math.hypot(fx, fy)
-        if self.L1 < TOL * scale or self.L2 < TOL * scale:
-            raise NotThisFamily("axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
-        self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
-        self.law = CosineLaw(self.L1, self.L2)
+        self.law = CosineLaw((e @ self.u, e @ self.v), (f @ self.u, f @ self.v), TOL * scale,
+                             "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.branches, self.aliases = wrist_branches(("left", "right"))
 
     @documented
@@ -127,23 +115,25 @@ class ThreeParallel(Family):
             ok5 = np.abs(c5) <= 1.0 + 1e-9
             acos5 = np.arccos(np.clip(c5, -1.0, 1.0))
             E1inv = _inverse(_screw(w[0], o[0], q1))
-            for elbow in (-1.0, 1.0):  # elbow up: relative angle < 0
-                for sign5 in (1.0, -1.0):
-                    q5 = base5 + sign5 * acos5
-                    # q6: Rot(w6, q6) v = Rot(w5, -q5) n with v = R^T n(q1)
-                    v = (np.swapaxes(X[:, :3, :3], -1, -2) @ nq[:, :, None])[:, :, 0]
-                    m = rotation_matrices(w[4], -q5) @ n
-                    q6 = angle_about(w6, tuple(v.T), tuple(m.T))
-                    vp = v - np.outer(v @ w[5], w[5])
-                    q6 = np.where(np.sqrt((vp * vp).sum(axis=1)) < 1e-12, 0.0, q6)  # wrist singularity
-                    G = E1inv @ X @ _inverse(_screw(w[5], o[5], q6)) @ _inverse(_screw(w[4], o[4], q5))
-                    # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
-                    phi = angle_about(nf, uf, tuple((G[:, :3, :3] @ self.u).T))
-                    p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
-                    ok, dist, bend, shoulder, direction = self.law.solve(p4 @ self.u, p4 @ self.v)
-                    distance = np.minimum(distance, np.maximum(dist1, dist))
-                    r2_ = direction - elbow * shoulder - self.g1  # rotations about n
-                    r3_ = elbow * bend - (self.g2 - self.g1)
-                    q.append((q1, self.s[0] * r2_, self.s[1] * r3_, self.s[2] * (phi - r2_ - r3_), q5, q6))
-                    reach.append(ok1 & ok5 & ok)
+            wrists = []
+            for sign5 in (1.0, -1.0):
+                q5 = base5 + sign5 * acos5
+                # q6: Rot(w6, q6) v = Rot(w5, -q5) n with v = R^T n(q1)
+                v = (np.swapaxes(X[:, :3, :3], -1, -2) @ nq[:, :, None])[:, :, 0]
+                m = rotation_matrices(w[4], -q5) @ n
+                q6 = angle_about(w6, tuple(v.T), tuple(m.T))
+                vp = v - np.outer(v @ w[5], w[5])
+                q6 = np.where(np.sqrt((vp * vp).sum(axis=1)) < 1e-12, 0.0, q6)  # wrist singularity
+                G = E1inv @ X @ _inverse(_screw(w[5], o[5], q6)) @ _inverse(_screw(w[4], o[4], q5))
+                # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
+                phi = angle_about(nf, uf, tuple((G[:, :3, :3] @ self.u).T))
+                p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
+                ok, dist, elbows = self.law.branches(p4 @ self.u, p4 @ self.v)  # rotations about n
+                distance = np.minimum(distance, np.maximum(dist1, dist))
+                wrists.append((q5, q6, phi, ok1 & ok5 & ok, elbows))
+            for elbow in range(2):  # elbow up, then down; noflip, then flip for each
+                for q5, q6, phi, ok, elbows in wrists:
+                    r2, r3 = elbows[elbow]
+                    q.append((q1, self.s[0] * r2, self.s[1] * r3, self.s[2] * (phi - r2 - r3), q5, q6))
+                    reach.append(ok)
         return q, reach, distance

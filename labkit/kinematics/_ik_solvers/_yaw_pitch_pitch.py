@@ -32,6 +32,13 @@ from labkit.kinematics._ik_solvers._geometry import (
 )
 
 
+def joint2_middle(robot):
+    """The middle of joint 2's range in the chain's sense (0 for an unbounded range) [rad]."""
+    lim = robot.joint_limits[1]
+    mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+    return -mid if robot.links[1].flip else mid  # the limits are on q, the geometry on the chain's theta
+
+
 class Shoulder:
     """Joint 1 of an arm whose axis 2 is perpendicular to axis 1: the two arm planes through a point.
 
@@ -42,25 +49,23 @@ class Shoulder:
     """
 
     def planes(self, P):
-        """The two arm planes through the point ``P`` (components): front side, then back side.
+        """The two arm planes through the point ``P`` (3 components) [m]: front side, then back side.
 
         Parameters
         ----------
         P : tuple
-            3 components of a point at the lateral offset of ``W`` [m].
 
         Returns
         -------
         sides : list of tuple
-            ``(side, q1, u)`` per side: ``side`` the sign (a float constant) of
-            ``u``, the radial coordinate of ``P`` in that plane [m] (from axis 1,
-            along the plane's radial direction), and ``q1`` [rad].
+            ``(side, q1, u)`` per side: ``side`` the sign (a float) of ``u``, the radial
+            coordinate of ``P`` in that plane from axis 1 [m], and ``q1`` [rad].
         w : ndarray or float
             Height of ``P`` along axis 1 from the shoulder's foot on it [m].
         shoulder_ok : ndarray of bool or bool
-            ``P`` lies at least the lateral offset from axis 1.
+            ``P`` lies at least the lateral offset from axis 1,
         lateral : ndarray or float
-            How far it lies inside that offset [m].
+            and how far inside it [m].
         """
         S = self.S
         d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
@@ -77,14 +82,12 @@ class Shoulder:
             sides.append((side, az - arctan2(off, u), u))
         return sides, w, shoulder_ok, lateral
 
-
     def pitch(self, q2, q3):
-        """The turn about axis 2 of the joints after joint 1 (joints 2 and 3: their axes are parallel) [rad].
+        """The turn [rad] about axis 2 of the joints after joint 1, from joints 2 and 3 in the chain's sense.
 
         Parameters
         ----------
         q2, q3 : ndarray or float
-            Joints 2 and 3 [rad] in the chain's sense.
 
         Returns
         -------
@@ -99,11 +102,10 @@ class Arm(Shoulder):
     Parameters
     ----------
     robot : Robot
-        The arm (for its joint 2 limits).
     z, o : ndarray, shape (n, 3)
         Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
     W0 : ndarray, shape (3,)
-        The point placed (tool point, wrist centre), at ``q = 0`` [m].
+        The point placed (tool point, wrist centre) at ``q = 0`` [m].
 
     Raises
     ------
@@ -129,42 +131,31 @@ class Arm(Shoulder):
         Wd = W0 - S1
         Wr, Wv = Wd @ er, Wd @ a1
         self.off = float(Wd @ a2)
-        self.L1 = float(math.hypot(Er, Ev))
-        self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
-        if self.L1 < TOL * scale or self.L2 < TOL * scale:
-            raise NotThisFamily("the elbow must be away from the shoulder and the wrist")
-        self.law = CosineLaw(self.L1, self.L2)
-        self.g1 = math.atan2(Ev, Er)
-        self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
+        self.law = law = CosineLaw((Er, Ev), (Wr - self.Sr - Er, Wv - Ev), TOL * scale,
+                                   "the elbow must be away from the shoulder and the wrist")
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -TOL * scale else 1.0
-        lim = robot.joint_limits[1]
-        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
-        if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
-            mid = -mid
-        self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
-        self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
+        self.up = -1.0 if law.L1 * math.sin(law.g1 - joint2_middle(robot)) < -0.2 * law.L1 else 1.0
+        self.up_positive = self.up > 0
         self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def elbows(self, side, ur, w):
-        """Joints 2-3 placing ``W`` at ``(ur, w)`` in an arm plane, seen from the shoulder: both elbows.
+        """Joints 2-3 [rad] placing ``W`` at ``(ur, w)`` [m] from the shoulder in an arm plane of ``side``.
 
         Parameters
         ----------
         side : float
-            The plane's side (``planes``), for a point straight above the shoulder.
+            The plane's side (:meth:`planes`), for a point straight above the shoulder.
         ur, w : ndarray or float
-            Radial coordinate from the shoulder and height of ``W`` [m].
+            Radial coordinate and height.
 
         Returns
         -------
-        ok : ndarray of bool or bool
-            The cosine law reaches it.
-        distance : ndarray or float
-            How far it lies out of reach [m].
+        ok, distance : ndarray or float
+            Reached by the cosine law, and how far out of reach [m].
         pairs : list of tuple
-            ``(q2, q3)`` [rad], elbow up then elbow down.
+            ``(q2, q3)``: elbow up, then elbow down.
         """
         ok, dist, elbow, shoulder, direction = self.law.solve(ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
@@ -172,26 +163,23 @@ class Arm(Shoulder):
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
         sign = where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
         ss, se = sign * shoulder, sign * elbow
-        g1, g21, s3 = self.g1, self.g21, self.s3
+        g1, g21, s3 = self.law.g1, self.law.g21, self.s3
         return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
     def solve(self, W):
-        """Joints 1-3 placing ``W`` (components), four branches.
-
-        Returns
-        -------
-        q : list of tuple
-            ``(q1, q2, q3)`` [rad] per branch: front elbow up, front elbow down,
-            back elbow up, back elbow down.
-        reachable : list
-            Per branch.
-        distance : ndarray or float
-            How far ``W`` lies out of reach [m].
+        """Joints 1-3 [rad] placing ``W`` (3 components) [m]: front elbow up, front down, back up, back down.
 
         Parameters
         ----------
         W : tuple
-            3 components of the point to place [m].
+
+        Returns
+        -------
+        q : list of tuple
+            ``(q1, q2, q3)`` per branch.
+        reachable : list
+        distance : ndarray or float
+            How far ``W`` lies out of reach [m].
         """
         sides, w, shoulder_ok, lateral = self.planes(W)
         q, reach, distance = [], [], None
@@ -207,16 +195,18 @@ class Arm(Shoulder):
 
 
 class YawPitchPitch(Family):
-    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm)."""
+    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm); the tool point placed
+    by ``arm_type`` (also the base of ``spherical_rrp``)."""
 
     name = "yaw_pitch_pitch"
     kind = "position"
     joints = 3
     branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
     aliases = {"up": "elbow_up", "down": "elbow_down"}
+    arm_type = Arm
 
     def __init__(self, robot, z, o, tool):
-        self.arm = Arm(robot, z, o, tool[:3, 3])
+        self.arm = self.arm_type(robot, z, o, tool[:3, 3])
 
     @documented
     def solve(self, t):

@@ -35,7 +35,9 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, angle_about, need_parallel, rotation_matrices, unit
+from labkit.kinematics._ik_solvers._geometry import (
+    TOL, NotThisFamily, angle_about, need_parallel, pose_matrices, rotation_matrices, unit,
+)
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
 
@@ -112,33 +114,26 @@ class YawPitchPitchPitch(Family):
             self.arm.a2, self.psi0 - (math.pi - pitch if back else pitch))
 
     def pose(self, target, back=False):
-        """Tool poses of targets, on the side facing them or over the back (see the module docstring for pitch).
+        """Tool poses [m] of targets ``(x, y, z, pitch[, roll])`` [m, rad], facing them or over the back.
 
         Parameters
         ----------
         target : ndarray, shape (N, k)
-            ``(x, y, z, pitch)`` [m, rad] (``k = 4``; the 5-DOF family adds roll).
         back : bool
             The pose of the branches reaching over the back (base turned by half a turn).
 
         Returns
         -------
         ndarray, shape (N, 4, 4)
-            ``world_from_tool`` [m].
         """
-        T = np.zeros((target.shape[0], 4, 4))
-        T[:, :3, :3] = self._rest(target, back) @ self.R0
-        T[:, :3, 3] = target[:, :3]
-        T[:, 3, 3] = 1.0
-        return T
+        return pose_matrices(self._rest(target, back) @ self.R0, target[:, :3])
 
     def poses(self, target):
-        """Every tool pose that reaches targets: facing them, then over the back, ``(N, 2, 4, 4)`` [m].
+        """Every tool pose [m] that reaches targets [m, rad]: facing them, then over the back.
 
         Parameters
         ----------
         target : ndarray, shape (N, k)
-            Targets [m, rad].
 
         Returns
         -------
@@ -147,17 +142,15 @@ class YawPitchPitchPitch(Family):
         return np.stack([self.pose(target), self.pose(target, back=True)], axis=1)
 
     def target_of(self, T):
-        """The targets that tool poses ``T`` reach (inverse of :meth:`pose` on the poses the arm takes).
+        """The targets [m, rad] (angles in (-pi, pi]) that tool poses [m] reach: :meth:`pose` inverted.
 
         Parameters
         ----------
         T : ndarray, shape (N, 4, 4)
-            Tool poses [m].
 
         Returns
         -------
         ndarray, shape (N, k)
-            ``(x, y, z, pitch)`` [m, rad] (and roll for the 5-DOF family), angles in (-pi, pi].
         """
         p = T[:, :3, 3]
         app = T[:, :3, :3] @ self.approach_tool
@@ -182,12 +175,11 @@ class YawPitchPitchPitch(Family):
 
 
 def roll_about(app, reference, actual):
-    """The angle about the approach directions ``app`` (N, 3) turning ``reference`` onto ``actual`` (N, 3) [rad].
+    """The angle [rad] about the unit approach directions ``app`` turning ``reference`` onto ``actual``.
 
     Parameters
     ----------
     app, reference, actual : ndarray, shape (N, 3)
-        Unit approach directions and two vectors perpendicular to them.
 
     Returns
     -------
