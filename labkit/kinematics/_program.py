@@ -86,28 +86,21 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     Parameters
     ----------
     c : Chain
-        From :func:`labkit.kinematics._chain.chain`.
     output : {"pose", "position", "frames", "jacobian"}
-        The pose of the point (16 rows, row-major (4, 4)), its position (3
-        rows), every frame (base, frames 1..n, tool: 16 rows each) or the
-        Jacobian (6 n rows, row-major (6, n), then the pose's 16 rows if
-        ``want_T``).
+        The point's pose (16 rows, row-major), its position (3 rows), every frame (base, 1..n,
+        tool: 16 rows each) or the Jacobian (6 n rows, row-major (6, n), then the pose if ``want_T``).
     point_offset : ndarray, shape (3,) or None
-        Origin of the output frame in frame-n coordinates [m]
-        (``_forward._tool_offset``); None for frame n's origin.
-    tool_frame : bool
-        Jacobian only: express the velocities in the tool frame (``R^T J``).
-    want_T : bool
-        Jacobian only: also write the pose.
+        Origin of the output frame in frame-n coordinates [m] (None: frame n's origin).
+    tool_frame, want_T : bool
+        Jacobian only: velocities in the tool frame (``R^T J``); also write the pose.
     structure : tuple, optional
         :func:`chain_structure` of the chain and ``point_offset``, if known.
 
     Returns
     -------
     Bound
-        Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (rows
-        ``r .. 2r-1``), then the prismatic joints' values (rows ``2r ..``), in
-        joint order. Flipped joints' Jacobian columns are already negated.
+        Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (``r .. 2r-1``), then the
+        prismatic joints' values, in joint order. Flipped joints' Jacobian columns come negated.
     """
     if output != JACOBIAN:
         tool_frame = want_T = None
@@ -140,10 +133,10 @@ def chain_structure(steps, base, tool, off):
     Returns
     -------
     skeleton : tuple
-        ``(steps, base columns, tool rotation columns or None, point or None)``
-        with every number other than 0 and +-1 replaced by :data:`NUMBER`.
+        ``(steps, base columns, tool rotation columns or None, point or None)``, every number but
+        0 and +-1 replaced by :data:`NUMBER`,
     numbers : list of float
-        Those numbers, in order.
+        and those numbers, in order.
     """
     numbers = []
 
@@ -182,8 +175,7 @@ def walk(b, modified, base, steps, trig, joint_value):
     Parameters
     ----------
     b : algebra
-        ``mul``, ``add``, ``comb``, ``axpy`` and ``neg`` on its values
-        (:class:`_Builder`, or sympy's in :mod:`labkit.kinematics.symbolic`).
+        ``mul``, ``add``, ``comb``, ``axpy`` and ``neg`` on its values (:class:`_Builder`, :data:`PLAIN`).
     modified : bool
         Modified (Craig) DH convention, else standard.
     base : tuple
