@@ -51,19 +51,17 @@ class Family(ABC):
 
     @classmethod
     def fits(cls, robot):
-        """The family's solver for ``robot``, or why it does not fit.
+        """The family built on ``robot``'s geometry, or None and what the robot lacks.
 
         Parameters
         ----------
         robot : Robot
-            The arm whose geometry is tried.
 
         Returns
         -------
         solver : Family or None
-            The family built on the robot's geometry.
         reason : str
-            Empty when it fits, else what the robot lacks.
+            Empty when it fits.
         """
         try:
             need_joints(robot, cls.joints, cls.prismatic)
@@ -73,37 +71,33 @@ class Family(ABC):
 
     @abstractmethod
     def solve(self, t):
-        """Every branch of targets ``t``.
+        """Every branch of targets ``t``: their components as ``(N,)`` rows (``t[i]``, a pose's ``t[i][j]``).
 
         Parameters
         ----------
         t : sequence
-            The targets' components as ``(N,)`` rows: ``t[i]`` for a position
-            or planar target, ``t[i][j]`` for a pose.
 
         Returns
         -------
         q : list of tuple
-            Per branch, the ``n`` joint values [rad] in the chain's sense.
+            Per branch, the ``n`` joint values [rad, m] in the chain's sense.
         reachable : list
-            Per branch, whether it reaches the target.
+            Per branch.
         distance : ndarray, shape (N,)
             How far the target lies out of reach [m].
         """
 
 
 def documented(method):
-    """Give a family's method the protocol's docstring of the method of that name (a decorator).
+    """Give a family's method the docstring of the protocol's method of that name (a decorator).
 
     Parameters
     ----------
     method : function
-        A method of a family class.
 
     Returns
     -------
     function
-        ``method`` itself.
     """
     method.__doc__ = getattr(Family, method.__name__).__doc__
     return method

@@ -10,12 +10,11 @@ A target leaves the active set when it converges, when it stalls (squared
 error not down 100x in 8 iterations; from a closed-form start, also in its
 first 4) or after ``max_iter`` iterations; it then restarts (an *attempt* per
 start) from the next closed-form start (jittered) or a random configuration
-inside the limits, revolute joints within half a turn of the point of their
-range nearest 0 (:func:`labkit.kinematics._ik_solvers._starts.start_window`:
-continuous or huge ranges start near 0, not at 1e297 rad). Odd-numbered attempts ignore the revolute limits and wrap
-the solution by 2 pi afterwards (accepted only if it then lies inside), which
-escapes minima pinned against a limit. Finally the stragglers are copied up
-to 64 times and the copies iterate together from independent random starts.
+in the start window (:func:`labkit.kinematics._ik_solvers._starts.start_window`).
+Odd-numbered attempts ignore the revolute limits and wrap the solution by 2 pi
+afterwards (accepted only if it then lies inside), which escapes minima pinned
+against a limit. Finally the stragglers are copied up to :data:`MULTISTART`
+times and the copies iterate together from independent random starts.
 
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (for an arm a little off a
@@ -36,19 +35,13 @@ from labkit.kinematics._ik_solvers._starts import analytic_seeds, start_window
 
 #: iterations between stall tests; damping of a random start and of a closed-form one
 CHECK_EVERY, LAMBDA_RANDOM, LAMBDA_NEAR = 8, 1e-2, 1e-6
+#: most copies of a failing target in a multi-start round (at most about 8192 copies in all)
+MULTISTART = 64
 
 
 class LazyGenerator:
-    """``numpy.random.default_rng(seed)``, created when first drawn from.
-
-    Creating a generator costs more than polishing one target that starts on a
-    closed-form branch, which never draws.
-
-    Parameters
-    ----------
-    seed : int
-        Seed of the generator.
-    """
+    """``numpy.random.default_rng(seed)``, created when first drawn from (that costs more than polishing one
+    target that starts on a closed-form branch, which never draws)."""
 
     def __init__(self, seed):
         self._seed = seed
@@ -141,38 +134,25 @@ class _Active:
         return _Active(*(getattr(self, f.name)[mask] for f in dataclasses.fields(self)))
 
 
-def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
-    """Batched LM with restarts, then batched multi-start for the stragglers.
-
-    After ``restarts`` sequential restarts, every target still failing is
-    copied ``K`` times (``K <= multistart``, at most ~8192 copies in all) and
-    the copies iterate together from independent random starts, for up to
-    ``restarts`` more rounds; the first copy that succeeds wins.
+def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
+    """Batched LM with restarts, then up to ``restarts`` multi-start rounds for the stragglers.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     kind : {"position", "planar", "pose"}
-        What the targets fix.
     target : ndarray, shape (N, 3) or (N, 4, 4)
         Targets [m, rad].
     q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None starts from closed-form
-        branches where a closed-form family fits the robot or its idealised
-        copy, else from random in-limit configurations.
+        Starting configurations [rad, m]; None: closed-form starts, else random ones.
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
     tol : float
         Residual at which a target counts as solved [m, rad].
-    max_iter : int
-        Levenberg-Marquardt iterations per attempt.
-    restarts : int
-        Sequential restarts, then multi-start rounds, for failing targets.
+    max_iter, restarts : int
+        LM iterations per attempt; sequential restarts, then multi-start rounds.
     rng : numpy.random.Generator
-        Draws the random starts (seeded by the caller).
-    multistart : int
-        Most copies per failing target in a multi-start round.
+        Draws the random starts.
 
     Returns
     -------
@@ -193,16 +173,16 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     elif q0 is None:
         q0 = p.random_q(target.shape[0])
     out = _attempts(p, np.clip(q0, p.lo, p.hi), restarts, starts)
-    for _ in range(restarts if multistart > 1 else 0):
-        if out.success.all() or not _multistart_round(p, out, multistart):
+    for _ in range(restarts):
+        if out.success.all() or not _multistart_round(p, out):
             break
     return out.q, out.success, out.iterations, out.residual
 
 
-def _multistart_round(p, out, multistart):
+def _multistart_round(p, out):
     """One multi-start round for the failing targets (updates ``out``); False when there are too many."""
     fail = (~out.success).nonzero()[0]
-    K = int(min(multistart, max(1, 8192 // fail.size)))
+    K = int(min(MULTISTART, max(1, 8192 // fail.size)))
     if K < 2:
         return False
     copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))

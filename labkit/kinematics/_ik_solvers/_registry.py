@@ -28,19 +28,18 @@ FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitch
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 
+
 @by_content
 def detect(robot):
-    """The closed-form solver for ``robot`` (the first family that fits) or None, cached by content.
+    """The first family that fits ``robot``, built on it (or None), cached by content.
 
     Parameters
     ----------
     robot : Robot
-        The arm whose geometry is inspected.
 
     Returns
     -------
     solver : Family or None
-        The family built on the robot.
     reasons : dict
         For every family tried before, why it does not fit.
     """
@@ -54,19 +53,16 @@ def detect(robot):
 
 
 def build(robot, name):
-    """The family ``name`` on ``robot``, or why it does not fit.
+    """The family ``name`` on ``robot``, or why it does not fit (:meth:`Family.fits`).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     name : str
-        A family name (``FAMILIES[k].name``).
 
     Returns
     -------
     solver : Family or None
     reason : str
-        Empty when it fits.
     """
     return _BY_NAME[name].fits(robot)

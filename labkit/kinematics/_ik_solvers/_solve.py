@@ -32,25 +32,21 @@ _SLACK = 1e-9
 
 
 def finish(robot, q, *, flipped=True, copy=True):
-    """Joint values from a solver as the robot's joint values.
+    """A solver's joint values [rad, m] as the robot's: revolute angles wrapped into (-pi, pi], then a turn
+    up or down where that enters the joint's limits; non-finite values replaced by 0.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     q : array_like, shape (..., n)
-        Joint values [rad, m], in the chain's sense with ``flipped`` (from a
-        closed-form family), else already the robot's (numeric IK).
     flipped : bool
-        Negate the flipped joints (``Link.flip``).
+        ``q`` is in the chain's sense (a closed-form family's): negate the flipped joints.
     copy : bool
-        Return a new array; False: overwrite ``q`` where it is a float array.
+        False: overwrite ``q`` where it is a float array.
 
     Returns
     -------
     ndarray, shape (..., n)
-        Revolute angles wrapped into (-pi, pi], then a turn up or down where
-        that enters the joint's limits; non-finite values replaced by 0.
     """
     q = np.array(q, dtype=float) if copy else np.asarray(q, dtype=float)
     flip, any_flip, rev, lo, hi, up, down = _joints(robot)
@@ -84,24 +80,20 @@ def _joints(robot):
 
 
 def solve(robot, family, flat):
-    """Every branch of validated targets, finished.
+    """Every branch of validated targets (:func:`~labkit.kinematics._ik_solvers._targets.validate_targets`), finished.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     family : Family
-        Its closed-form solver.
     flat : ndarray, shape (N, k) or (N, 4, 4)
-        Validated targets (:func:`labkit.kinematics._ik_solvers._targets.validate_targets`).
 
     Returns
     -------
     q : ndarray, shape (N, m, n)
         Joint values [rad, m] per branch (unreachable: a finite fill).
-    reachable : ndarray of bool, shape (N, m)
-    valid : ndarray of bool, shape (N, m)
-        Reachable and inside the joint limits.
+    reachable, valid : ndarray of bool, shape (N, m)
+        Valid: reachable and inside the joint limits.
     distance : ndarray, shape (N,)
         How far each target lies out of reach [m] (0 if any branch reaches it).
     """
@@ -147,18 +139,16 @@ def nearest(robot, q, valid, q_near):
     Parameters
     ----------
     robot : Robot
-        The arm.
     q : ndarray, shape (N, m, n)
-        Joint values of every branch [rad, m].
+        Every branch [rad, m].
     valid : ndarray of bool, shape (N, m)
-        Which branches may be picked.
     q_near : ndarray, shape (N, n) or None
         Preferred configurations [rad, m]; None: the first valid branch.
 
     Returns
     -------
     ndarray of int, shape (N,)
-        The branch picked per target (0 where none is valid).
+        0 where none is valid.
     """
     if q_near is None or q.shape[1] == 1:
         return np.argmax(valid, axis=1)

@@ -1,9 +1,6 @@
-"""IK targets: the task rows of each target kind, validation, batch indices and
-descriptions for error messages (private; :func:`task_rows` is public from
-:mod:`labkit.kinematics`).
-
-Every solver, closed-form or numeric, takes its targets through
-:func:`validate_targets`.
+"""IK targets: the task rows of each target kind, validation (every solver's targets pass
+:func:`validate_targets`), batch indices and descriptions for error messages (private;
+:func:`task_rows` and :func:`target_components` are public from :mod:`labkit.kinematics`).
 """
 
 from __future__ import annotations
@@ -50,7 +47,6 @@ def target_words(kind):
     Parameters
     ----------
     kind : str
-        A target kind (:func:`labkit.kinematics.target_kind`).
 
     Returns
     -------
@@ -123,29 +119,25 @@ def task_rows(kind):
 
 
 def validate_targets(target, kind):
-    """Validate IK targets of one kind; flatten the batch.
+    """Validate IK targets of ``kind`` [m, rad] (poses also for the :data:`REDUCED` kinds); flatten the batch.
 
     Parameters
     ----------
     target : array_like, shape (..., k) or (..., 4, 4)
-        Positions or planar ``(x, y, phi)`` [m, rad], ``(x, y, z, pitch[, roll])``
-        [m, rad], or tool poses (also taken by the ``position_pitch[_roll]`` kinds).
     kind : str
-        What the targets fix (:func:`labkit.kinematics.target_kind`).
 
     Returns
     -------
     flat : ndarray, shape (N, k) or (N, 4, 4)
-        The targets, one per row.
     lead : tuple of int
         The batch shape.
 
     Raises
     ------
     ShapeError
-        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a
-        pose that is not a rigid transform (rotation columns orthonormal to
-        1e-6, det > 0, last row ``[0, 0, 0, 1]`` to 1e-12).
+        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a pose that is not a
+        rigid transform (rotation columns orthonormal to 1e-6, det > 0, last row ``[0, 0, 0, 1]``
+        to 1e-12).
     """
     try:
         target = np.asarray(target, dtype=float)
@@ -228,19 +220,16 @@ def _is_bad(err, det, last):
 
 
 def batch_index(i, lead):
-    """Index of flat row ``i`` in the batch shape ``lead``.
+    """Index of flat row ``i`` in the batch shape ``lead`` (None for one target, ``lead = ()``).
 
     Parameters
     ----------
     i : int
-        Row of the flattened batch.
     lead : tuple of int
-        The batch shape (``()`` for one target).
 
     Returns
     -------
     tuple of int or None
-        None for a single target.
     """
     if not lead:
         return None
@@ -248,14 +237,12 @@ def batch_index(i, lead):
 
 
 def describe_target(kind, t):
-    """A target in words for an error message (metres and degrees).
+    """A target [m, rad] in words for an error message (metres and degrees).
 
     Parameters
     ----------
     kind : str
-        What the target fixes.
     t : ndarray, shape (k,) or (4, 4)
-        The target [m, rad].
 
     Returns
     -------
