@@ -3,7 +3,7 @@
 Three prismatic joints and one revolute joint anywhere in the chain, either
 DH convention, any signs. The prismatic joints never turn the tool, so it
 turns only about the revolute axis ``k`` (on the side of the robot's
-``up``, :func:`~labkit.kinematics._ik_solvers._scara.up_axis`): the targets are
+``up``, :func:`~labkit.kinematics._ik_solvers._scara._up_axis`): the targets are
 ``(x, y, z, yaw)`` [m, rad] with the SCARA's yaw
 (:class:`~labkit.kinematics._ik_solvers._scara.YawTarget`: the turn about
 ``k`` of the tool ``x`` axis, or ``y`` where ``x`` lies along ``k``).
@@ -31,8 +31,8 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, floats, in_chain_order, rotation_matrices, unit
-from labkit.kinematics._ik_solvers._scara import YawTarget, up_axis
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, _floats, _in_chain_order, _rotation_matrices, _unit
+from labkit.kinematics._ik_solvers._scara import YawTarget, _up_axis
 
 
 class CartesianYaw(YawTarget, Family):
@@ -46,10 +46,10 @@ class CartesianYaw(YawTarget, Family):
     def __init__(self, robot, z, o, tool):
         self.rev = rev = int(np.flatnonzero(robot.is_revolute)[0])
         self.slides = tuple(int(j) for j in np.flatnonzero(~robot.is_revolute))
-        k, u, v = up_axis(robot, z[rev:])
-        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), o[rev].copy()
+        k, u, v = _up_axis(robot, z[rev:])
+        self.k, self.u, self.v, self.O = _floats(k), _floats(u), _floats(v), o[rev].copy()
         self.s = 1.0 if z[rev] @ k > 0 else -1.0
-        self.E0 = np.column_stack([unit(z[j]) for j in self.slides])
+        self.E0 = np.column_stack([_unit(z[j]) for j in self.slides])
         self.after = np.array([j > rev for j in self.slides])
         self.arm0 = tool[:3, 3] - self.O  # the tool point from the revolute axis at q = 0
         d0, d1, d2 = (np.linalg.det(self.E(np.array([a]))[0]) for a in (0.0, math.pi, 0.5 * math.pi))
@@ -70,15 +70,15 @@ class CartesianYaw(YawTarget, Family):
         -------
         ndarray, shape (N, 3, 3)
         """
-        R = rotation_matrices(self.k, turn)
+        R = _rotation_matrices(self.k, turn)
         return np.where(self.after, R @ self.E0, self.E0)
 
     @documented
     def solve(self, t):
         t = np.array(t, dtype=float).reshape(4, -1)
         turn = t[3] - self.yaw0  # the tool's turn about k, the revolute joint's in the chain's sense times s
-        R = rotation_matrices(self.k, turn)
+        R = _rotation_matrices(self.k, turn)
         rhs = t[:3].T - self.O - R @ self.arm0
         slide = np.linalg.solve(self.E(turn), rhs[..., None])[..., 0]
-        q = in_chain_order((self.rev, *self.slides), (self.s * turn, *slide.T))
+        q = _in_chain_order((self.rev, *self.slides), (self.s * turn, *slide.T))
         return [q], [np.full(turn.shape, True)], np.zeros(turn.shape)

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, need_joints
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, _need_joints
 
 
 #: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
@@ -64,7 +64,7 @@ class Family(ABC):
             Empty when it fits.
         """
         try:
-            need_joints(robot, cls.joints, cls.prismatic)
+            _need_joints(robot, cls.joints, cls.prismatic)
             return cls(robot, *joint_axes(robot)), ""
         except NotThisFamily as exc:
             return None, str(exc)

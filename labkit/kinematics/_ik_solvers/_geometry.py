@@ -5,8 +5,8 @@
   for either DH convention, base and tool included;
 * the cosine law of a two-link chain (:class:`CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
-  another (:func:`angle_about`), and subproblem 2, two rotations about
-  intersecting axes (:func:`subproblem2`);
+  another (:func:`_angle_about`), and subproblem 2, two rotations about
+  intersecting axes (:class:`Subproblem2`);
 * Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array (a batch of
@@ -33,66 +33,27 @@ class NotThisFamily(Exception):
     """The robot does not have the structure a family needs (the reason in args)."""
 
 
-def unit(v):
-    """``v`` divided by its norm.
-
-    Parameters
-    ----------
-    v : array_like, shape (3,)
-
-    Returns
-    -------
-    ndarray, shape (3,)
-    """
+def _unit(v):
+    """``v`` (3,) divided by its norm, as a float array."""
     v = np.asarray(v, dtype=float)
     return v / np.linalg.norm(v)
 
 
-def floats(v):
-    """A constant vector as a tuple of Python floats.
-
-    Parameters
-    ----------
-    v : array_like, shape (3,)
-
-    Returns
-    -------
-    tuple of float
-    """
+def _floats(v):
+    """A constant vector as a tuple of Python floats."""
     return tuple(float(x) for x in v)
 
 
-def perpendicular(axis):
-    """A unit vector perpendicular to the unit ``axis``: from the world axis least along it.
-
-    Components within :data:`TOL` count as equal (the first wins), so rounding noise does not
-    decide: an axis along world ``z`` gives world ``x``.
-
-    Parameters
-    ----------
-    axis : ndarray, shape (3,)
-
-    Returns
-    -------
-    ndarray, shape (3,)
-    """
+def _perpendicular(axis):
+    """A unit vector (3,) perpendicular to the unit ``axis``, from the world axis least along it (components
+    within :data:`TOL` count as equal, the first wins: an axis along world ``z`` gives world ``x``)."""
     a = np.abs(axis)
     t = np.eye(3)[int(np.flatnonzero(a <= a.min() + TOL)[0])]
-    return unit(t - axis * (t @ axis))
+    return _unit(t - axis * (t @ axis))
 
 
-def feet(p1, d1, p2, d2):
-    """The closest points on two non-parallel lines (points ``p`` [m], unit directions ``d``).
-
-    Parameters
-    ----------
-    p1, d1, p2, d2 : ndarray, shape (3,)
-
-    Returns
-    -------
-    f1, f2 : ndarray, shape (3,)
-        On line 1 and on line 2 [m].
-    """
+def _feet(p1, d1, p2, d2):
+    """The closest points [m] on two non-parallel lines (point ``p`` [m], unit direction ``d`` each)."""
     w = p1 - p2
     b = d1 @ d2
     den = 1.0 - b * b
@@ -129,92 +90,40 @@ def joint_axes(robot):
     return axes[:, 2].copy(), axes[:, 3].copy(), last @ robot.tool
 
 
-def length_scale(robot):
-    """The length the structure tolerances scale with: sum of ``|a|``, ``|d|`` and the tool offset, at least 1 [m].
-
-    Parameters
-    ----------
-    robot : Robot
-
-    Returns
-    -------
-    float
-    """
+def _length_scale(robot):
+    """The length structure tolerances scale with: sum of ``|a|``, ``|d|`` and tool offset, at least 1 [m]."""
     return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
 
 
-def need_joints(robot, n, prismatic=0):
-    """Raise :class:`NotThisFamily` unless ``robot`` has ``n`` joints, ``prismatic`` of them prismatic.
-
-    Parameters
-    ----------
-    robot : Robot
-    n, prismatic : int
-    """
+def _need_joints(robot, n, prismatic=0):
+    """Raise :class:`NotThisFamily` unless ``robot`` has ``n`` joints, ``prismatic`` of them prismatic."""
     if robot.n != n or int(np.count_nonzero(~robot.is_revolute)) != prismatic:
         raise NotThisFamily(f"needs exactly {n} joints, {prismatic} of them prismatic" if prismatic
                             else f"needs exactly {n} revolute joints")
 
 
-def need_parallel(u, v, reason):
-    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u``, ``v`` are parallel.
-
-    Parameters
-    ----------
-    u, v : ndarray, shape (3,)
-    reason : str
-    """
+def _need_parallel(u, v, reason):
+    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u``, ``v`` (3,) are parallel."""
     if np.linalg.norm(np.cross(u, v)) > TOL:
         raise NotThisFamily(reason)
 
 
-def wrist_branches(shoulder, elbow=("up", "down")):
-    """Branch names ``<shoulder>_<elbow>_<noflip|flip>`` (shoulder slowest) and aliases (``"run"``).
-
-    Parameters
-    ----------
-    shoulder, elbow : tuple of str
-        The names of the arm's two choices, in the family's order.
-
-    Returns
-    -------
-    branches : tuple of str
-    aliases : dict
-    """
+def _wrist_branches(shoulder, elbow=("up", "down")):
+    """Branch names ``<shoulder>_<elbow>_<noflip|flip>`` (shoulder slowest) and their aliases (``"run"``)."""
     names = [(s, e, w) for s in shoulder for e in elbow for w in ("noflip", "flip")]
     return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
 
 
-def in_chain_order(order, values):
-    """Values of the joints ``order`` (indices, a permutation), as a tuple in the chain's order.
-
-    Parameters
-    ----------
-    order : sequence of int
-    values : sequence
-
-    Returns
-    -------
-    tuple
-    """
+def _in_chain_order(order, values):
+    """Values of the joints ``order`` (indices, a permutation) as a tuple in the chain's order."""
     q = [None] * len(order)
     for j, v in zip(order, values):
         q[j] = v
     return tuple(q)
 
 
-def pose_matrices(R, p):
-    """Homogeneous transforms from rotations ``R`` (..., 3, 3) and translations ``p`` (..., 3) [m].
-
-    Parameters
-    ----------
-    R : ndarray, shape (..., 3, 3)
-    p : array_like, shape (..., 3)
-
-    Returns
-    -------
-    ndarray, shape (..., 4, 4)
-    """
+def _pose_matrices(R, p):
+    """Homogeneous transforms (..., 4, 4) from rotations (..., 3, 3) and translations ``p`` (..., 3) [m]."""
     T = np.zeros(R.shape[:-2] + (4, 4))
     T[..., :3, :3] = R
     T[..., :3, 3] = p
@@ -348,39 +257,15 @@ class CosineLaw:
         return ok, distance, [(direction - s * shoulder - self.g1, s * elbow - self.g21) for s in (-1.0, 1.0)]
 
 
-def angle_about(k, v, w):
-    """Paden-Kahan subproblem 1: the angle [rad] about the constant unit axis ``k`` turning ``v`` onto ``w``.
-
-    Both are projected perpendicular to ``k`` first (explicitly: precise where the projections are tiny).
-
-    Parameters
-    ----------
-    k : tuple of float
-    v, w : tuple
-        3 components each.
-
-    Returns
-    -------
-    ndarray or float
-        In (-pi, pi].
-    """
+def _angle_about(k, v, w):
+    """Paden-Kahan subproblem 1: the angle in (-pi, pi] about the constant unit axis ``k`` turning ``v`` onto
+    ``w`` (component 3-tuples), both projected perpendicular to ``k`` first (precise where that is tiny)."""
     vp, wp = _reject(k, v), _reject(k, w)
-    return angle_between(_cross(k, vp), vp, wp)
+    return _angle_between(_cross(k, vp), vp, wp)
 
 
-def angle_between(n, vp, wp):
-    """:func:`angle_about` from the parts ``vp``, ``wp`` perpendicular to ``k`` and ``n = k x vp``.
-
-    Parameters
-    ----------
-    n, vp, wp : tuple
-        3 components each.
-
-    Returns
-    -------
-    ndarray or float
-        [rad] in (-pi, pi].
-    """
+def _angle_between(n, vp, wp):
+    """:func:`_angle_about` [rad] from the parts ``vp``, ``wp`` perpendicular to ``k`` and ``n = k x vp``."""
     w0, w1, w2 = wp
     return arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
@@ -395,11 +280,11 @@ class Subproblem2:
     """
 
     def __init__(self, a4, a5, p):
-        self.a4, self.a5, self.p = floats(a4), floats(a5), floats(p)
+        self.a4, self.a5, self.p = _floats(a4), _floats(a5), _floats(p)
         self.k12, self.a5p = float(np.dot(a4, a5)), float(np.dot(a5, p))
-        self.cr = floats(np.cross(a4, a5))
+        self.cr = _floats(np.cross(a4, a5))
         self.cr2 = float(np.dot(self.cr, self.cr))
-        self.c5 = floats(np.cross(a5, p))
+        self.c5 = _floats(np.cross(a5, p))
         self.orthogonal = abs(self.k12) < 1e-12
         self.den = self.k12 * self.k12 - 1.0
         self.k12a5p = self.k12 * self.a5p
@@ -446,25 +331,12 @@ class Subproblem2:
             a4C = a40 * C0 + a41 * C1 + a42 * C2
             v0, v1, v2 = C0 - a40 * a4C, C1 - a41 * a4C, C2 - a42 * a4C
             n = (a41 * v2 - a42 * v1, a42 * v0 - a40 * v2, a40 * v1 - a41 * v0)  # a4 x v
-            out.append((angle_between(n, (v0, v1, v2), mp), t5))
+            out.append((_angle_between(n, (v0, v1, v2), mp), t5))
         return out
 
 
-def per_branch(f, branches, shared):
-    """``f(*branch, *shared)`` for every branch in one call, on the branches' ``(N,)`` rows end to end.
-
-    Parameters
-    ----------
-    f : callable
-    branches : list of tuple
-        Per branch its arguments, rows or scalars.
-    shared : tuple
-
-    Returns
-    -------
-    list of tuple
-        Per branch the outputs of ``f``.
-    """
+def _per_branch(f, branches, shared):
+    """``f(*branch, *shared)`` of every branch in one call, on the branches' ``(N,)`` rows end to end."""
     k = len(branches)
     n = max((np.size(v) for v in (*branches[0], *shared) if type(v) is not float), default=1)
     if n == 1:  # one target: branch by branch on floats (cheaper than numpy rows of k elements)
@@ -477,18 +349,8 @@ def per_branch(f, branches, shared):
     return [tuple(o[j * n:(j + 1) * n] for o in out) for j in range(k)]
 
 
-def rotation_matrices(axis, angle):
-    """Rotation matrices about a constant unit axis (3,) by ``angle`` [rad].
-
-    Parameters
-    ----------
-    axis : sequence of float
-    angle : ndarray, shape (N,)
-
-    Returns
-    -------
-    ndarray, shape (N, 3, 3)
-    """
+def _rotation_matrices(axis, angle):
+    """Rotation matrices (N, 3, 3) about a constant unit axis (3,) by ``angle`` (N,) [rad]."""
     x, y, z = axis
     c, s = np.cos(angle), np.sin(angle)
     C = 1.0 - c

@@ -14,7 +14,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, _dot, floats, length_scale, need_parallel, perpendicular, unit,
+    TOL, CosineLaw, _dot, _floats, _length_scale, _need_parallel, _perpendicular, _unit,
 )
 
 
@@ -28,12 +28,12 @@ class Planar2R(Family):
     aliases = ELBOW_ALIASES
 
     def __init__(self, robot, z, o, tool):
-        a1, a2 = unit(z[0]), unit(z[1])
-        need_parallel(a1, a2, "axes 1 and 2 must be parallel")
-        scale = length_scale(robot)
-        u = perpendicular(a1)
+        a1, a2 = _unit(z[0]), _unit(z[1])
+        _need_parallel(a1, a2, "axes 1 and 2 must be parallel")
+        scale = _length_scale(robot)
+        u = _perpendicular(a1)
         v = np.cross(a1, u)
-        self.n, self.u, self.v, self.O = floats(a1), floats(u), floats(v), floats(o[0])
+        self.n, self.u, self.v, self.O = _floats(a1), _floats(u), _floats(v), _floats(o[0])
         self.s2 = 1.0 if a1 @ a2 > 0 else -1.0
         self.h = float(a1 @ (tool[:3, 3] - o[0]))  # height of the tool point along axis 1 (constant)
         e, f = o[1] - o[0], tool[:3, 3] - o[1]

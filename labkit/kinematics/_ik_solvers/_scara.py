@@ -12,7 +12,7 @@ Up
     when it is horizontal).
 Yaw
     The angle about ``k`` from the reference ``u`` (world ``x`` when ``k`` is
-    world ``z``; in general :func:`~labkit.kinematics._ik_solvers._geometry.perpendicular`
+    world ``z``; in general :func:`~labkit.kinematics._ik_solvers._geometry._perpendicular`
     of ``k``) to the tool ``x`` axis projected on the plane perpendicular to
     ``k`` (the tool ``y`` axis where ``x`` lies along ``k``).
 
@@ -38,34 +38,23 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, _dot, floats, in_chain_order, length_scale, need_parallel, perpendicular, pose_matrices,
-    rotation_matrices, unit,
+    TOL, CosineLaw, _dot, _floats, _in_chain_order, _length_scale, _need_parallel, _perpendicular, _pose_matrices,
+    _rotation_matrices, _unit,
 )
 
 
-def up_axis(robot, z):
-    """The unit axis ``k`` along ``z[0]`` on the side of the robot's ``up``, ``u`` perpendicular, ``v = k x u``.
-
-    Parameters
-    ----------
-    robot : Robot
-    z : ndarray, shape (n, 3)
-        Joint axes.
-
-    Returns
-    -------
-    k, u, v : ndarray, shape (3,)
-    """
-    k = unit(z[0])
+def _up_axis(robot, z):
+    """The unit axis ``k`` along ``z[0]`` on the side of the robot's ``up``, ``u`` perpendicular, ``v = k x u``."""
+    k = _unit(z[0])
     k = -k if float(np.dot(robot.up, k)) < -TOL else k
-    u = perpendicular(k)
+    u = _perpendicular(k)
     return k, u, np.cross(k, u)
 
 
 class YawTarget:
     """Targets ``(x, y, z, yaw)`` of an arm whose tool turns only about the constant axis ``k`` (a mixin).
 
-    Set by :meth:`yaw_reference` from the family's ``k``, ``u``, ``v`` (:func:`up_axis`)
+    Set by :meth:`yaw_reference` from the family's ``k``, ``u``, ``v`` (:func:`_up_axis`)
     and the tool frame at ``q = 0``; the yaw is the module docstring's.
     """
 
@@ -94,7 +83,7 @@ class YawTarget:
         -------
         ndarray, shape (N, 4, 4)
         """
-        return pose_matrices(rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0, target[:, :3])
+        return _pose_matrices(_rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0, target[:, :3])
 
     def target_of(self, T):
         """The targets ``(x, y, z, yaw)`` [m, rad] of tool poses [m]; yaw in (-pi, pi].
@@ -135,17 +124,17 @@ class Scara(YawTarget, Family):
     aliases = {"left": "elbow_left", "right": "elbow_right", "lefty": "elbow_left", "righty": "elbow_right"}
 
     def __init__(self, robot, z, o, tool):
-        k, u, v = up_axis(robot, z)
+        k, u, v = _up_axis(robot, z)
         for j in range(1, robot.n):
-            need_parallel(k, unit(z[j]), "all joint axes must be parallel")
+            _need_parallel(k, _unit(z[j]), "all joint axes must be parallel")
         rev = np.flatnonzero(robot.is_revolute)
         self.order = (*rev, int(np.flatnonzero(~robot.is_revolute)[0]))  # shoulder, elbow, [wrist,] quill
         self.signs = tuple(1.0 if z[j] @ k > 0 else -1.0 for j in self.order)
-        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev[0]])
+        self.k, self.u, self.v, self.O = _floats(k), _floats(u), _floats(v), _floats(o[rev[0]])
         P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
         pt = tool[:3, 3] - o[rev[0]]
         P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
-        self.law = CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * length_scale(robot),
+        self.law = CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * _length_scale(robot),
                              "the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
         self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
         self.h0 = float(pt @ k)  # its height along k at q = 0
@@ -164,7 +153,7 @@ class Scara(YawTarget, Family):
         q = []
         for q1, q2 in arm:
             turns = (q1, q2, rot - q1 - q2)[:len(self.order) - 1]  # shoulder, elbow, [wrist]
-            q.append(in_chain_order(self.order, (*(sj * v for sj, v in zip(self.signs, turns)), quill)))
+            q.append(_in_chain_order(self.order, (*(sj * v for sj, v in zip(self.signs, turns)), quill)))
         return q, [ok, ok], distance
 
 

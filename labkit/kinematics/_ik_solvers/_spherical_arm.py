@@ -32,10 +32,10 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, sqrt
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, NotThisFamily, feet, floats, length_scale, rotate, unit,
+    REACH_TOL, TOL, NotThisFamily, _feet, _floats, _length_scale, rotate, _unit,
 )
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder, YawPitchPitch, joint2_middle
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder, YawPitchPitch, _joint2_middle
 
 
 class SphericalArm(Shoulder):
@@ -55,22 +55,22 @@ class SphericalArm(Shoulder):
     def __init__(self, robot, z, o, W0):
         if not (robot.is_revolute[0] and robot.is_revolute[1]) or robot.is_revolute[2]:
             raise NotThisFamily("joints 1 and 2 must be revolute and joint 3 prismatic")
-        a1, a2, e = (unit(v) for v in z[:3])
+        a1, a2, e = (_unit(v) for v in z[:3])
         if abs(a1 @ a2) > TOL:
             raise NotThisFamily("axis 2 must be perpendicular to axis 1")
-        S1, S2 = feet(o[0], a1, o[1], a2)
-        if np.linalg.norm(S2 - S1) > TOL * length_scale(robot):
+        S1, S2 = _feet(o[0], a1, o[1], a2)
+        if np.linalg.norm(S2 - S1) > TOL * _length_scale(robot):
             raise NotThisFamily("axes 1 and 2 must meet (the shoulder)")
         if abs(e @ a2) > TOL:
             raise NotThisFamily("the boom (joint 3) must be perpendicular to axis 2")
         er, n = np.cross(a2, a1), np.cross(a2, e)
         Wd = W0 - S1
         self.off, self.c_e, self.c_n = float(Wd @ a2), float(Wd @ e), float(Wd @ n)
-        self.S, self.a1, self.a2 = floats(S1), floats(a1), floats(a2)
-        self.planes_frame = (floats(er), self.a2, self.a1)
+        self.S, self.a1, self.a2 = _floats(S1), _floats(a1), _floats(a2)
+        self.planes_frame = (_floats(er), self.a2, self.a1)
         # in the plane perpendicular to a2, coordinates along (er, -a1), in which joint 2 turns positively
         self.e2, self.n2 = (float(e @ er), float(-(e @ a1))), (float(n @ er), float(-(n @ a1)))
-        radial, = rotate(self.a2, joint2_middle(robot), floats(e))
+        radial, = rotate(self.a2, _joint2_middle(robot), _floats(e))
         radial = float(np.dot(radial, er))
         self.front = -1.0 if radial < -0.2 else 1.0
 

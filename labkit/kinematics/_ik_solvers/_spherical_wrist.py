@@ -19,8 +19,8 @@ import numpy as np
 from labkit.kinematics._ik_solvers._elementwise import sin, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, NotThisFamily, Subproblem2, angle_between, _cross, floats, length_scale, _matvec, perpendicular,
-    _reject, per_branch, rotate, unit, wrist_branches,
+    TOL, NotThisFamily, Subproblem2, _angle_between, _cross, _floats, _length_scale, _matvec, _perpendicular,
+    _reject, _per_branch, rotate, _unit, _wrist_branches,
 )
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm
 from labkit.robot.types import Convention
@@ -36,7 +36,7 @@ class SphericalWrist(Family):
     arm_type, arm_branches = Arm, (("right", "left"), ("up", "down"))
 
     def __init__(self, robot, z, o, tool):
-        a4, a5, a6 = (unit(v) for v in z[3:])
+        a4, a5, a6 = (_unit(v) for v in z[3:])
         if np.linalg.norm(np.cross(a4, a5)) < 1e-6 or np.linalg.norm(np.cross(a5, a6)) < 1e-6:
             raise NotThisFamily("wrist axes 4-5 and 5-6 must not be parallel")
         # wrist centre: least-squares intersection of axes 4, 5, 6
@@ -46,22 +46,22 @@ class SphericalWrist(Family):
             A += P
             b += P @ p
         C = np.linalg.solve(A, b)
-        scale = length_scale(robot)
+        scale = _length_scale(robot)
         for d, p in zip((a4, a5, a6), o[3:]):
             if np.linalg.norm(np.cross(C - p, d)) > TOL * scale:
                 raise NotThisFamily("wrist axes 4, 5, 6 do not meet in one point")
         self.arm = self.arm_type(robot, z, o, C)
-        self.a4, self.a5, self.a6 = floats(a4), floats(a5), floats(a6)
-        self.R0 = [floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
-        self.w_tool = floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
-        self.x6 = floats(perpendicular(a6))  # perpendicular to axis 6, to recover q6
+        self.a4, self.a5, self.a6 = _floats(a4), _floats(a5), _floats(a6)
+        self.R0 = [_floats(row) for row in tool[:3, :3]]  # tool orientation at q = 0
+        self.w_tool = _floats(tool[:3, :3].T @ (C - tool[:3, 3]))  # wrist centre in tool coordinates
+        self.x6 = _floats(_perpendicular(a6))  # perpendicular to axis 6, to recover q6
         self.x6p = _reject(self.a6, self.x6)  # its part perpendicular to a6, as angle_about takes it,
         self.n6 = _cross(self.a6, self.x6p)  # and a6 x that
         self.wrist = Subproblem2(a4, a5, a6)
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
-        self.branches, self.aliases = wrist_branches(*self.arm_branches)
+        self.branches, self.aliases = _wrist_branches(*self.arm_branches)
 
     @documented
     def solve(self, t):
@@ -80,7 +80,7 @@ class SphericalWrist(Family):
             (t4, t5), (u4, u5) = subproblem2(m6)
             Y, = rotate(a5, -t5, *rotate(a4, -t4, MX))
             Z, = rotate(a5, -u5, *rotate(a4, -u4, MX))
-            t6, u6 = angle_between(n6, x6p, _reject(a6, Y)), angle_between(n6, x6p, _reject(a6, Z))
+            t6, u6 = _angle_between(n6, x6p, _reject(a6, Y)), _angle_between(n6, x6p, _reject(a6, Z))
             swap = (sin(t5) * self.noflip_sign) < 0  # noflip first
             return (where(swap, u4, t4), where(swap, u5, t5), where(swap, u6, t6),
                     where(swap, t4, u4), where(swap, t5, u5), where(swap, t6, u6))
@@ -88,7 +88,7 @@ class SphericalWrist(Family):
         # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)
         undone = [rotate(self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
-        wrists = per_branch(wrist, [(self.arm.pitch(q2, q3), *undone[b // 2][0], *undone[b // 2][1])
+        wrists = _per_branch(wrist, [(self.arm.pitch(q2, q3), *undone[b // 2][0], *undone[b // 2][1])
                                        for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
         for (q1, q2, q3), (t4, t5, t6, u4, u5, u6), ok in zip(arm_q, wrists, arm_ok):

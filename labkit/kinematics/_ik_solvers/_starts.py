@@ -19,23 +19,13 @@ from labkit.kinematics._ik_solvers._solve import solve as solve_family
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
 SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
-#: largest twist-angle error snapped to a multiple of pi/2 [rad] (3 deg)
+#: largest twist-angle error _snapped to a multiple of pi/2 [rad] (3 deg)
 SNAP_ALPHA = np.radians(3.0)
 
 
-def snapped(robot, fraction):
+def _snapped(robot, fraction):
     """Copy of ``robot`` with DH lengths up to ``fraction`` of the sum of all ``|a| + |d|`` set to 0 and twists
-    within :data:`SNAP_ALPHA` of a multiple of pi/2 made that multiple; None when nothing changed.
-
-    Parameters
-    ----------
-    robot : Robot
-    fraction : float
-
-    Returns
-    -------
-    Robot or None
-    """
+    within :data:`SNAP_ALPHA` of a multiple of pi/2 made that multiple; None when nothing changed."""
     scale = sum(abs(link.a) + abs(link.d) for link in robot.links)
     links, changed = [], False
     for link in robot.links:
@@ -78,7 +68,7 @@ def near_family(robot):
     """The nearest idealised copy of ``robot`` that has a closed form, and that family, or ``(None, None)``.
 
     A calibrated arm (small link offsets, twists a fraction of a degree off 90) has no closed form,
-    but its idealised copy (:func:`snapped`, the smallest of :data:`SNAP_FRACTIONS` that works)
+    but its idealised copy (:func:`_snapped`, the smallest of :data:`SNAP_FRACTIONS` that works)
     often has; its solutions land millimetres from the target, for LM to polish. Cached by content.
 
     Parameters
@@ -92,7 +82,7 @@ def near_family(robot):
     """
     result = (None, None)
     for fraction in SNAP_FRACTIONS:
-        ideal = snapped(robot, fraction)
+        ideal = _snapped(robot, fraction)
         if ideal is None:
             continue
         found, _ = detect(ideal)

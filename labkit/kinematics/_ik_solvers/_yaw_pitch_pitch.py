@@ -28,11 +28,11 @@ import numpy as np
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, minimum, sqrt, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
+    REACH_TOL, TOL, CosineLaw, NotThisFamily, _feet, _matvec, _floats, _length_scale, _need_parallel, _unit,
 )
 
 
-def joint2_middle(robot):
+def _joint2_middle(robot):
     """The middle of joint 2's range in the chain's sense (0 for an unbounded range) [rad]."""
     lim = robot.joint_limits[1]
     mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
@@ -114,16 +114,16 @@ class Arm(Shoulder):
     """
 
     def __init__(self, robot, z, o, W0):
-        a1, a2, a3 = (unit(v) for v in z[:3])
+        a1, a2, a3 = (_unit(v) for v in z[:3])
         if abs(a1 @ a2) > TOL:
             raise NotThisFamily("axis 2 must be perpendicular to axis 1")
-        need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
-        scale = length_scale(robot)
+        _need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
+        scale = _length_scale(robot)
         er = np.cross(a2, a1)
         # the shoulder: foot of the common normal of axes 1 and 2 on axis 2, at the radial
         # distance Sr from axis 1 (the shoulder offset a_1 of IRB140 / KR5 arms; 0 for a PUMA)
-        S1, S2 = feet(o[0], a1, o[1], a2)
-        self.S = floats(S1)
+        S1, S2 = _feet(o[0], a1, o[1], a2)
+        self.S = _floats(S1)
         self.Sr = float((S2 - S1) @ er)
         self.s3 = 1.0 if a3 @ a2 > 0 else -1.0
         E = o[2] - S2
@@ -135,9 +135,9 @@ class Arm(Shoulder):
                                    "the elbow must be away from the shoulder and the wrist")
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -TOL * scale else 1.0
-        self.up = -1.0 if law.L1 * math.sin(law.g1 - joint2_middle(robot)) < -0.2 * law.L1 else 1.0
+        self.up = -1.0 if law.L1 * math.sin(law.g1 - _joint2_middle(robot)) < -0.2 * law.L1 else 1.0
         self.up_positive = self.up > 0
-        self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
+        self.a1, self.a2, self.er = _floats(a1), _floats(a2), _floats(er)
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def elbows(self, side, ur, w):

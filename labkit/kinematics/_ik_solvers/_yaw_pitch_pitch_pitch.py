@@ -36,7 +36,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, NotThisFamily, angle_about, need_parallel, pose_matrices, rotation_matrices, unit,
+    TOL, NotThisFamily, _angle_about, _need_parallel, _pose_matrices, _rotation_matrices, _unit,
 )
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
@@ -52,8 +52,8 @@ class YawPitchPitchPitch(Family):
     aliases = {"up": "elbow_up", "down": "elbow_down"}
 
     def __init__(self, robot, z, o, tool):
-        a2, a4 = unit(z[1]), unit(z[3])
-        need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
+        a2, a4 = _unit(z[1]), _unit(z[3])
+        _need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
         pt = tool[:3, 3]
         W0 = o[3] + a4 * ((pt - o[3]) @ a4)  # the wrist point: the tool point's foot on axis 4
         self.arm = arm = Arm(robot, z, o, W0)
@@ -73,7 +73,7 @@ class YawPitchPitchPitch(Family):
 
     def _approach(self, robot, z, o, tool):
         """The approach direction at ``q = 0`` (world): the tool x axis."""
-        return unit(tool[:3, 0])
+        return _unit(tool[:3, 0])
 
     def _arm_joints(self, x, y, z, pitch):
         """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
@@ -110,7 +110,7 @@ class YawPitchPitchPitch(Family):
         sides, _, _, _ = self.arm.planes(tuple(target[:, :3].T))
         q1 = next(q1 for side, q1, _ in sides if (side < 0) == back)
         pitch = self.sign * target[:, 3]
-        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(
+        return _rotation_matrices(self.arm.a1, q1) @ _rotation_matrices(
             self.arm.a2, self.psi0 - (math.pi - pitch if back else pitch))
 
     def pose(self, target, back=False):
@@ -126,7 +126,7 @@ class YawPitchPitchPitch(Family):
         -------
         ndarray, shape (N, 4, 4)
         """
-        return pose_matrices(self._rest(target, back) @ self.R0, target[:, :3])
+        return _pose_matrices(self._rest(target, back) @ self.R0, target[:, :3])
 
     def poses(self, target):
         """Every tool pose [m] that reaches targets [m, rad]: facing them, then over the back.
@@ -156,11 +156,11 @@ class YawPitchPitchPitch(Family):
         app = T[:, :3, :3] @ self.approach_tool
         sides, _, _, _ = self.arm.planes(tuple(p.T))
         (s_a, q1_a, _), (_, q1_b, _) = sides
-        normals = [rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
+        normals = [_rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
         first = np.abs((app * normals[0]).sum(-1)) <= np.abs((app * normals[1]).sum(-1)) + 1e-12
         q1 = np.where(first, q1_a, q1_b)
         ahead = first == (s_a > 0)  # the target lies along +er of the chosen plane
-        er = rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
+        er = _rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
         psi = np.arctan2(app @ np.array(self.arm.a1), (app * er).sum(-1))
         pitch = wrap_angle(self.sign * np.where(ahead, psi, math.pi - psi))
         out = [p, pitch[:, None]]
@@ -174,15 +174,6 @@ class YawPitchPitchPitch(Family):
         return None
 
 
-def roll_about(app, reference, actual):
-    """The angle [rad] about the unit approach directions ``app`` turning ``reference`` onto ``actual``.
-
-    Parameters
-    ----------
-    app, reference, actual : ndarray, shape (N, 3)
-
-    Returns
-    -------
-    ndarray, shape (N,)
-    """
-    return angle_about(tuple(app.T), tuple(reference.T), tuple(actual.T))
+def _roll_about(app, reference, actual):
+    """The angle [rad] about the unit approach directions ``app`` (N, 3) turning ``reference`` onto ``actual``."""
+    return _angle_about(tuple(app.T), tuple(reference.T), tuple(actual.T))
