@@ -5,7 +5,7 @@ DH convention, any signs. The prismatic joints never turn the tool, so it
 turns only about the revolute axis ``k`` (on the side of the robot's
 ``up``, :func:`~labkit.kinematics._ik_solvers._scara._up_axis`): the targets are
 ``(x, y, z, yaw)`` [m, rad] with the SCARA's yaw
-(:class:`~labkit.kinematics._ik_solvers._scara.YawTarget`: the turn about
+(:class:`~labkit.kinematics._ik_solvers._scara._YawTarget`: the turn about
 ``k`` of the tool ``x`` axis, or ``y`` where ``x`` lies along ``k``).
 
 The yaw gives the revolute joint, ``theta = s (yaw - yaw0)`` (``s`` the sign
@@ -32,10 +32,10 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import NotThisFamily, _floats, _in_chain_order, _rotation_matrices, _unit
-from labkit.kinematics._ik_solvers._scara import YawTarget, _up_axis
+from labkit.kinematics._ik_solvers._scara import _YawTarget, _up_axis
 
 
-class CartesianYaw(YawTarget, Family):
+class CartesianYaw(_YawTarget, Family):
     """Closed-form IK of three prismatic joints and a wrist turn (targets x y z yaw): one branch."""
 
     name = "cartesian_yaw"

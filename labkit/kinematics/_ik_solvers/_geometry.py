@@ -3,10 +3,10 @@
 * the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), from the one DH walk
   (:func:`labkit.kinematics._program.walk`) on floats, so every family works in the world frame
   for either DH convention, base and tool included;
-* the cosine law of a two-link chain (:class:`CosineLaw`);
+* the cosine law of a two-link chain (:class:`_CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
   another (:func:`_angle_about`), and subproblem 2, two rotations about
-  intersecting axes (:class:`Subproblem2`);
+  intersecting axes (:class:`_Subproblem2`);
 * Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array (a batch of
@@ -187,17 +187,10 @@ def _matvec(M, v):
 
 # -- the shared subproblems -----------------------------------------------------------------
 
-class CosineLaw:
-    """A two-link chain in a plane, its links ``e``, ``f`` given as in-plane ``(x, y)`` vectors at ``q = 0`` [m].
-
-    Parameters
-    ----------
-    e, f : sequence of float
-        Link 1 (joint 1 to joint 2) and link 2 (joint 2 to the point placed).
-    shortest : float
-        Raise :class:`NotThisFamily` with ``reason`` where a link is shorter [m].
-    reason : str
-    """
+class _CosineLaw:
+    """A two-link chain in a plane: link 1 (joint 1 to joint 2) and link 2 (to the point placed) as in-plane
+    ``(x, y)`` vectors ``e``, ``f`` at ``q = 0`` [m]; :class:`NotThisFamily` with ``reason`` where a link is
+    shorter than ``shortest`` [m]."""
 
     def __init__(self, e, f, shortest, reason):
         self.L1, self.L2 = L1, L2 = math.hypot(*e), math.hypot(*f)
@@ -210,25 +203,11 @@ class CosineLaw:
         self.ok_below = 1.0 + REACH_TOL
 
     def solve(self, x, y):
-        """The chain reaching the point ``(x, y)`` [m] of its plane, from joint 1.
-
-        The branch of sign ``s = -1, +1`` has link 1 at ``direction - s shoulder`` and link 2 at
-        ``s elbow`` relative to it.
-
-        Parameters
-        ----------
-        x, y : ndarray or float
-
-        Returns
-        -------
-        reachable : ndarray of bool or bool
-            The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
-        distance : ndarray or float
-            How far the point lies outside the annulus reached [m].
-        elbow, shoulder, direction : ndarray or float
-            ``|`` relative angle of link 2 ``|`` (argument clipped), the angle at joint 1 between
-            the line to the point and link 1, and ``atan2(y, x)`` [rad].
-        """
+        """The chain reaching the point ``(x, y)`` [m] from joint 1: ``reachable`` (the cosine-law argument
+        in [-1, 1], slack :data:`REACH_TOL`), ``distance`` outside the annulus reached [m], and [rad] the
+        ``elbow`` (magnitude of link 2's relative angle, argument clipped), the ``shoulder`` angle between
+        the line to the point and link 1, and the point's ``direction``. The branch of sign ``s = -1, +1``
+        has link 1 at ``direction - s shoulder`` and link 2 at ``s elbow`` relative to it."""
         L1, L2 = self.L1, self.L2
         r2 = x * x + y * y
         r = sqrt(r2)
@@ -240,19 +219,8 @@ class CosineLaw:
         return ok, distance, arctan2(sb, cb), arctan2(L2 * sb, L1 + L2 * cb), arctan2(y, x)
 
     def branches(self, x, y):
-        """Joints 1 and 2 [rad] reaching ``(x, y)`` [m]: elbow up (link 2 turned negatively), then down.
-
-        Parameters
-        ----------
-        x, y : ndarray or float
-
-        Returns
-        -------
-        reachable, distance
-            As :meth:`solve`.
-        q : list of tuple
-            ``(q1, q2)`` per branch, about the plane's normal from the links at ``q = 0``.
-        """
+        """``reachable``, ``distance`` (as :meth:`solve`) and ``[(q1, q2) elbow up, (q1, q2) elbow down]``
+        [rad] reaching ``(x, y)`` [m], turned from the links at ``q = 0`` (elbow up: link 2 turned negatively)."""
         ok, distance, elbow, shoulder, direction = self.solve(x, y)
         return ok, distance, [(direction - s * shoulder - self.g1, s * elbow - self.g21) for s in (-1.0, 1.0)]
 
@@ -270,14 +238,9 @@ def _angle_between(n, vp, wp):
     return arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
-class Subproblem2:
-    """Paden-Kahan subproblem 2: ``Rot(a4, t4) Rot(a5, t5) p = m`` for unit axes meeting in a point.
-
-    Parameters
-    ----------
-    a4, a5, p : array_like, shape (3,)
-        The two axes and the unit vector rotated.
-    """
+class _Subproblem2:
+    """Paden-Kahan subproblem 2, ``Rot(a4, t4) Rot(a5, t5) p = m``, for unit axes ``a4``, ``a5`` (3,) meeting in
+    a point and a unit vector ``p`` (3,)."""
 
     def __init__(self, a4, a5, p):
         self.a4, self.a5, self.p = _floats(a4), _floats(a5), _floats(p)
@@ -290,18 +253,7 @@ class Subproblem2:
         self.k12a5p = self.k12 * self.a5p
 
     def solve(self, m):
-        """Both solutions for the unit target direction ``m``.
-
-        Parameters
-        ----------
-        m : tuple
-            3 components.
-
-        Returns
-        -------
-        list of (t4, t5)
-            With ``+gamma``, then ``-gamma`` [rad].
-        """
+        """Both solutions ``[(t4, t5) with +gamma, (t4, t5) with -gamma]`` [rad] for the unit direction ``m``."""
         (a40, a41, a42), (a50, a51, a52), (c0, c1, c2) = self.a4, self.a5, self.cr
         k12, a5p, den = self.k12, self.a5p, self.den
         m0, m1, m2 = m

@@ -14,7 +14,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, _dot, _floats, _length_scale, _need_parallel, _perpendicular, _unit,
+    TOL, _CosineLaw, _dot, _floats, _length_scale, _need_parallel, _perpendicular, _unit,
 )
 
 
@@ -37,7 +37,7 @@ class Planar2R(Family):
         self.s2 = 1.0 if a1 @ a2 > 0 else -1.0
         self.h = float(a1 @ (tool[:3, 3] - o[0]))  # height of the tool point along axis 1 (constant)
         e, f = o[1] - o[0], tool[:3, 3] - o[1]
-        self.law = CosineLaw((e @ u, e @ v), (f @ u, f @ v), TOL * scale,
+        self.law = _CosineLaw((e @ u, e @ v), (f @ u, f @ v), TOL * scale,
                              "axis 2 must be away from axis 1 and the tool point away from axis 2")
         self.height_tol = 1e-9 * scale
 

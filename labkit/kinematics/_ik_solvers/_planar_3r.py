@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, CosineLaw, NotThisFamily
+from labkit.kinematics._ik_solvers._geometry import TOL, _CosineLaw, NotThisFamily
 
 
 class Planar3R(Family):
@@ -33,7 +33,7 @@ class Planar3R(Family):
             raise NotThisFamily("the tool z axis must be world +z")
         P = o[:, :2]
         self.base = (float(P[0, 0]), float(P[0, 1]))
-        self.law = CosineLaw(P[1] - P[0], P[2] - P[1], TOL, "links 1 and 2 must have non-zero length")
+        self.law = _CosineLaw(P[1] - P[0], P[2] - P[1], TOL, "links 1 and 2 must have non-zero length")
         self.psi0 = math.atan2(tool[1, 0], tool[0, 0])
         t0 = tool[:2, 3] - P[2]  # tool point relative to axis 3 at q = 0
         self.t0 = (float(t0[0]), float(t0[1]))

@@ -38,7 +38,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, _dot, _floats, _in_chain_order, _length_scale, _need_parallel, _perpendicular, _pose_matrices,
+    TOL, _CosineLaw, _dot, _floats, _in_chain_order, _length_scale, _need_parallel, _perpendicular, _pose_matrices,
     _rotation_matrices, _unit,
 )
 
@@ -51,7 +51,7 @@ def _up_axis(robot, z):
     return k, u, np.cross(k, u)
 
 
-class YawTarget:
+class _YawTarget:
     """Targets ``(x, y, z, yaw)`` of an arm whose tool turns only about the constant axis ``k`` (a mixin).
 
     Set by :meth:`yaw_reference` from the family's ``k``, ``u``, ``v`` (:func:`_up_axis`)
@@ -59,12 +59,7 @@ class YawTarget:
     """
 
     def yaw_reference(self, tool):
-        """Read the yaw's reference axis and its yaw at ``q = 0`` from ``world_from_tool`` there.
-
-        Parameters
-        ----------
-        tool : ndarray, shape (4, 4)
-        """
+        """Read the yaw's reference axis and its yaw at ``q = 0`` from ``world_from_tool`` (4, 4) there."""
         k, u, v = (np.array(a) for a in (self.k, self.u, self.v))
         R0 = tool[:3, :3]
         self.ref = R0[:, 1] if abs(R0[:, 0] @ k) > 1.0 - 1e-9 else R0[:, 0]
@@ -73,48 +68,21 @@ class YawTarget:
         self.R0 = R0.copy()
 
     def pose(self, target):
-        """Tool poses ``world_from_tool`` [m] of targets ``(x, y, z, yaw)`` [m, rad].
-
-        Parameters
-        ----------
-        target : ndarray, shape (N, 4)
-
-        Returns
-        -------
-        ndarray, shape (N, 4, 4)
-        """
+        """Tool poses ``world_from_tool`` (N, 4, 4) [m] of targets ``(x, y, z, yaw)`` (N, 4) [m, rad]."""
         return _pose_matrices(_rotation_matrices(self.k, target[:, 3] - self.yaw0) @ self.R0, target[:, :3])
 
     def target_of(self, T):
-        """The targets ``(x, y, z, yaw)`` [m, rad] of tool poses [m]; yaw in (-pi, pi].
-
-        Parameters
-        ----------
-        T : ndarray, shape (N, 4, 4)
-
-        Returns
-        -------
-        ndarray, shape (N, 4)
-        """
+        """The targets ``(x, y, z, yaw)`` (N, 4) [m, rad] of tool poses (N, 4, 4) [m]; yaw in (-pi, pi]."""
         ref = T[:, :3, :3] @ self.ref_tool
         yaw = np.arctan2(ref @ np.array(self.v), ref @ np.array(self.u))
         return np.concatenate([T[:, :3, 3], yaw[:, None]], axis=1)
 
     def poses(self, target):
-        """Every tool pose [m] that reaches targets [m, rad] (one: the yaw fixes the orientation).
-
-        Parameters
-        ----------
-        target : ndarray, shape (N, 4)
-
-        Returns
-        -------
-        ndarray, shape (N, 1, 4, 4)
-        """
+        """Every tool pose (N, 1, 4, 4) [m] that reaches targets (N, 4) [m, rad]: the yaw fixes the orientation."""
         return self.pose(target)[:, None]
 
 
-class Scara(YawTarget, Family):
+class Scara(_YawTarget, Family):
     """Closed-form IK of a SCARA arm (three revolute and one prismatic joint, axes parallel): two elbows."""
 
     name = "scara"
@@ -134,7 +102,7 @@ class Scara(YawTarget, Family):
         P = [(float((o[j] - o[rev[0]]) @ u), float((o[j] - o[rev[0]]) @ v)) for j in rev]
         pt = tool[:3, 3] - o[rev[0]]
         P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
-        self.law = CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * _length_scale(robot),
+        self.law = _CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * _length_scale(robot),
                              "the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
         self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
         self.h0 = float(pt @ k)  # its height along k at q = 0

@@ -9,7 +9,7 @@ centre of ``stanford``) may lie off the boom: at ``q = 0``,
 ``d2`` is ``off``, its ``a3`` is ``c_n``).
 
 Joint 1 as ``yaw_pitch_pitch``: the two arm planes through ``W`` at the
-lateral offset ``off`` (:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Shoulder`),
+lateral offset ``off`` (:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch._Shoulder`),
 ``front`` then ``back``. In a plane, ``W`` lies ``rho`` from the shoulder's
 line, ``rho^2 = (c_e + q3)^2 + c_n^2``: the boom ``out`` (``c_e + q3 > 0``,
 ``W`` on the boom's positive side) or ``in`` (run back through the
@@ -35,22 +35,12 @@ from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, NotThisFamily, _feet, _floats, _length_scale, rotate, _unit,
 )
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder, YawPitchPitch, _joint2_middle
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Shoulder, YawPitchPitch, _joint2_middle
 
 
-class SphericalArm(Shoulder):
-    """Geometry of joints 1-3 of a spherical (RRP) arm: yaw, pitch, boom, placing a point ``W``.
-
-    Parameters
-    ----------
-    robot, z, o, W0
-        As :class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Arm`.
-
-    Raises
-    ------
-    NotThisFamily
-        Joints 1-3 are not such an arm.
-    """
+class _SphericalArm(_Shoulder):
+    """Geometry of joints 1-3 of a spherical (RRP) arm, yaw, pitch and boom, placing a point ``W`` (arguments
+    and :class:`NotThisFamily` as :class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch._Arm`)."""
 
     def __init__(self, robot, z, o, W0):
         if not (robot.is_revolute[0] and robot.is_revolute[1]) or robot.is_revolute[2]:
@@ -75,32 +65,12 @@ class SphericalArm(Shoulder):
         self.front = -1.0 if radial < -0.2 else 1.0
 
     def pitch(self, q2, q3):
-        """The turn [rad] about axis 2 of the joints after joint 1: joint 2's (the boom ``q3`` [m] slides).
-
-        Parameters
-        ----------
-        q2, q3 : ndarray or float
-
-        Returns
-        -------
-        ndarray or float
-        """
+        """The turn [rad] about axis 2 of the joints after joint 1: joint 2's (the boom ``q3`` [m] slides)."""
         return q2
 
     def solve(self, W):
-        """Joints 1-3 [rad, rad, m] placing ``W`` (3 components) [m]: front out, front in, back out, back in.
-
-        Parameters
-        ----------
-        W : tuple
-
-        Returns
-        -------
-        q : list of tuple
-        reachable : list
-        distance : ndarray or float
-            How far ``W`` lies out of reach [m].
-        """
+        """``(q1, q2, q3)`` [rad, rad, m] placing ``W`` (3 components) [m] per branch (front out, front in, back
+        out, back in), whether each reaches it, and how far ``W`` lies out of reach [m]."""
         sides, w, shoulder_ok, lateral = self.planes(W)
         c_n, (ex, ey), (nx, ny) = self.c_n, self.e2, self.n2
         u = sides[0][2]
@@ -125,7 +95,7 @@ class SphericalRRP(YawPitchPitch):
     joints, prismatic = 3, 1
     branches = ("front_out", "front_in", "back_out", "back_in")
     aliases = {"front": "front_out", "back": "back_out"}
-    arm_type = SphericalArm
+    arm_type = _SphericalArm
 
 
 class Stanford(SphericalWrist):
@@ -133,5 +103,5 @@ class Stanford(SphericalWrist):
 
     name = "stanford"
     prismatic = 1
-    arm_type, arm_branches = SphericalArm, (("front", "back"), ("out", "in"))
+    arm_type, arm_branches = _SphericalArm, (("front", "back"), ("out", "in"))
 

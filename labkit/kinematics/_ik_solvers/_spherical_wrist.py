@@ -4,7 +4,7 @@ Six revolute joints; joints 1-3 as ``yaw_pitch_pitch`` (with or without a
 shoulder offset: PUMA 560/600, IRB140, KR5) and axes 4, 5, 6 meeting in one
 point (the wrist centre), 4 not parallel to 5 and 5 not parallel to 6.
 Target: tool pose. Joints 1-3 place the wrist centre
-(:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Arm`), joints 4-6 are a
+(:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch._Arm`), joints 4-6 are a
 Paden-Kahan subproblem 2 and a subproblem 1. Eight branches
 ``{right|left}_{up|down}_{noflip|flip}`` ("no flip" as roboticstoolbox-python:
 ``sign(q5) = -sign(alpha_4)``).
@@ -19,10 +19,10 @@ import numpy as np
 from labkit.kinematics._ik_solvers._elementwise import sin, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, NotThisFamily, Subproblem2, _angle_between, _cross, _floats, _length_scale, _matvec, _perpendicular,
+    TOL, NotThisFamily, _Subproblem2, _angle_between, _cross, _floats, _length_scale, _matvec, _perpendicular,
     _reject, _per_branch, rotate, _unit, _wrist_branches,
 )
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Arm
 from labkit.robot.types import Convention
 
 
@@ -33,7 +33,7 @@ class SphericalWrist(Family):
     kind = "pose"
     joints = 6
     #: the arm placing the wrist centre (joints 1-3), and the names of its shoulder and elbow branches
-    arm_type, arm_branches = Arm, (("right", "left"), ("up", "down"))
+    arm_type, arm_branches = _Arm, (("right", "left"), ("up", "down"))
 
     def __init__(self, robot, z, o, tool):
         a4, a5, a6 = (_unit(v) for v in z[3:])
@@ -57,7 +57,7 @@ class SphericalWrist(Family):
         self.x6 = _floats(_perpendicular(a6))  # perpendicular to axis 6, to recover q6
         self.x6p = _reject(self.a6, self.x6)  # its part perpendicular to a6, as angle_about takes it,
         self.n6 = _cross(self.a6, self.x6p)  # and a6 x that
-        self.wrist = Subproblem2(a4, a5, a6)
+        self.wrist = _Subproblem2(a4, a5, a6)
         # "no flip" as roboticstoolbox-python: sign(q5) = -sign(alpha_4) (alpha between axes 4 and 5)
         alpha4 = robot.links[4].alpha if robot.convention is Convention.MODIFIED else robot.links[3].alpha
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0

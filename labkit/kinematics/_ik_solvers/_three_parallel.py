@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, CosineLaw, NotThisFamily, _angle_about, _feet, _floats, _length_scale, _need_parallel,
+    REACH_TOL, TOL, _CosineLaw, NotThisFamily, _angle_about, _feet, _floats, _length_scale, _need_parallel,
     _perpendicular, _pose_matrices, _rotation_matrices, _unit, _wrist_branches,
 )
 
@@ -83,7 +83,7 @@ class ThreeParallel(Family):
         self.u = _perpendicular(n)
         self.v = np.cross(n, self.u)
         e, f = o[2] - o[1], o[3] - o[2]
-        self.law = CosineLaw((e @ self.u, e @ self.v), (f @ self.u, f @ self.v), TOL * scale,
+        self.law = _CosineLaw((e @ self.u, e @ self.v), (f @ self.u, f @ self.v), TOL * scale,
                              "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.branches, self.aliases = _wrist_branches(("left", "right"))
 

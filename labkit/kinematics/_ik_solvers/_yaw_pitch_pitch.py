@@ -4,7 +4,7 @@ Three revolute joints: axis 1, axis 2 perpendicular to axis 1 and either
 intersecting it or offset from it along their common normal (a *shoulder
 offset*, ``a_1`` of IRB140 / KR5 arms), axis 3 parallel to axis 2; the tool
 point may lie off the arm plane by a constant lateral offset. Target: tool
-position. :class:`Arm` (joints 1-3 placing a point) is also the first half of
+position. :class:`_Arm` (joints 1-3 placing a point) is also the first half of
 ``yaw_pitch_pitch_pitch`` and ``spherical_wrist``.
 
 Branch naming (geometric, so it does not depend on sign conventions):
@@ -28,7 +28,7 @@ import numpy as np
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, minimum, sqrt, where
 from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, CosineLaw, NotThisFamily, _feet, _matvec, _floats, _length_scale, _need_parallel, _unit,
+    REACH_TOL, TOL, _CosineLaw, NotThisFamily, _feet, _matvec, _floats, _length_scale, _need_parallel, _unit,
 )
 
 
@@ -39,7 +39,7 @@ def _joint2_middle(robot):
     return -mid if robot.links[1].flip else mid  # the limits are on q, the geometry on the chain's theta
 
 
-class Shoulder:
+class _Shoulder:
     """Joint 1 of an arm whose axis 2 is perpendicular to axis 1: the two arm planes through a point.
 
     Attributes read: ``S`` (the shoulder's foot on axis 1), ``planes_frame``
@@ -49,24 +49,11 @@ class Shoulder:
     """
 
     def planes(self, P):
-        """The two arm planes through the point ``P`` (3 components) [m]: front side, then back side.
-
-        Parameters
-        ----------
-        P : tuple
-
-        Returns
-        -------
-        sides : list of tuple
-            ``(side, q1, u)`` per side: ``side`` the sign (a float) of ``u``, the radial
-            coordinate of ``P`` in that plane from axis 1 [m], and ``q1`` [rad].
-        w : ndarray or float
-            Height of ``P`` along axis 1 from the shoulder's foot on it [m].
-        shoulder_ok : ndarray of bool or bool
-            ``P`` lies at least the lateral offset from axis 1,
-        lateral : ndarray or float
-            and how far inside it [m].
-        """
+        """The two arm planes through the point ``P`` (3 components) [m], front side then back side:
+        ``sides`` ``[(side, q1, u), ...]`` (``side`` the sign of ``u``, the radial coordinate of ``P`` in
+        that plane from axis 1 [m]; ``q1`` [rad]), ``w`` the height of ``P`` along axis 1 from the
+        shoulder [m], ``shoulder_ok`` (``P`` at least the lateral offset from axis 1) and ``lateral``
+        (how far inside it [m])."""
         S = self.S
         d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
         hr, hn, w = _matvec(self.planes_frame, d)
@@ -83,35 +70,14 @@ class Shoulder:
         return sides, w, shoulder_ok, lateral
 
     def pitch(self, q2, q3):
-        """The turn [rad] about axis 2 of the joints after joint 1, from joints 2 and 3 in the chain's sense.
-
-        Parameters
-        ----------
-        q2, q3 : ndarray or float
-
-        Returns
-        -------
-        ndarray or float
-        """
+        """The turn [rad] about axis 2 of the joints after joint 1, from joints 2 and 3 in the chain's sense."""
         return q2 + self.s3 * q3
 
 
-class Arm(Shoulder):
-    """Geometry of joints 1-3: base yaw, two parallel pitch axes, a point ``W`` they place.
-
-    Parameters
-    ----------
-    robot : Robot
-    z, o : ndarray, shape (n, 3)
-        Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
-    W0 : ndarray, shape (3,)
-        The point placed (tool point, wrist centre) at ``q = 0`` [m].
-
-    Raises
-    ------
-    NotThisFamily
-        Axes 1-3 are not yaw-pitch-pitch.
-    """
+class _Arm(_Shoulder):
+    """Geometry of joints 1-3: base yaw, two parallel pitch axes, the point ``W`` (3,) they place (tool point,
+    wrist centre; ``W0`` at ``q = 0`` [m]), from the joint axes ``z`` and points ``o`` on them (n, 3) at
+    ``q = 0``; raises :class:`NotThisFamily` unless axes 1-3 are yaw-pitch-pitch."""
 
     def __init__(self, robot, z, o, W0):
         a1, a2, a3 = (_unit(v) for v in z[:3])
@@ -131,7 +97,7 @@ class Arm(Shoulder):
         Wd = W0 - S1
         Wr, Wv = Wd @ er, Wd @ a1
         self.off = float(Wd @ a2)
-        self.law = law = CosineLaw((Er, Ev), (Wr - self.Sr - Er, Wv - Ev), TOL * scale,
+        self.law = law = _CosineLaw((Er, Ev), (Wr - self.Sr - Er, Wv - Ev), TOL * scale,
                                    "the elbow must be away from the shoulder and the wrist")
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -TOL * scale else 1.0
@@ -141,22 +107,8 @@ class Arm(Shoulder):
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def elbows(self, side, ur, w):
-        """Joints 2-3 [rad] placing ``W`` at ``(ur, w)`` [m] from the shoulder in an arm plane of ``side``.
-
-        Parameters
-        ----------
-        side : float
-            The plane's side (:meth:`planes`), for a point straight above the shoulder.
-        ur, w : ndarray or float
-            Radial coordinate and height.
-
-        Returns
-        -------
-        ok, distance : ndarray or float
-            Reached by the cosine law, and how far out of reach [m].
-        pairs : list of tuple
-            ``(q2, q3)``: elbow up, then elbow down.
-        """
+        """Joints 2-3 [rad] placing ``W`` at ``(ur, w)`` [m] from the shoulder in the arm plane of ``side``:
+        ``ok``, ``distance`` out of reach [m] and ``[(q2, q3) elbow up, (q2, q3) elbow down]``."""
         ok, dist, elbow, shoulder, direction = self.law.solve(ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
         forward = where(abs(ur) > 1e-12, ur > 0, side > 0)
@@ -167,20 +119,8 @@ class Arm(Shoulder):
         return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
     def solve(self, W):
-        """Joints 1-3 [rad] placing ``W`` (3 components) [m]: front elbow up, front down, back up, back down.
-
-        Parameters
-        ----------
-        W : tuple
-
-        Returns
-        -------
-        q : list of tuple
-            ``(q1, q2, q3)`` per branch.
-        reachable : list
-        distance : ndarray or float
-            How far ``W`` lies out of reach [m].
-        """
+        """``(q1, q2, q3)`` [rad] placing ``W`` (3 components) [m] per branch (front elbow up, front down,
+        back up, back down), whether each reaches it, and how far ``W`` lies out of reach [m]."""
         sides, w, shoulder_ok, lateral = self.planes(W)
         q, reach, distance = [], [], None
         for side, q1, u in sides:
@@ -203,7 +143,7 @@ class YawPitchPitch(Family):
     joints = 3
     branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
     aliases = {"up": "elbow_up", "down": "elbow_down"}
-    arm_type = Arm
+    arm_type = _Arm
 
     def __init__(self, robot, z, o, tool):
         self.arm = self.arm_type(robot, z, o, tool[:3, 3])

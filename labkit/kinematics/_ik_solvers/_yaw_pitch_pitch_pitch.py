@@ -38,7 +38,7 @@ from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, _angle_about, _need_parallel, _pose_matrices, _rotation_matrices, _unit,
 )
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm, YawPitchPitch
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
 
 
@@ -56,7 +56,7 @@ class YawPitchPitchPitch(Family):
         _need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
         pt = tool[:3, 3]
         W0 = o[3] + a4 * ((pt - o[3]) @ a4)  # the wrist point: the tool point's foot on axis 4
-        self.arm = arm = Arm(robot, z, o, W0)
+        self.arm = arm = _Arm(robot, z, o, W0)
         self.s4 = 1.0 if a4 @ a2 > 0 else -1.0
         x0 = self._approach(robot, z, o, tool)
         if abs(x0 @ a2) > TOL:
