@@ -2,17 +2,12 @@
 
 :func:`walk` is the one place the Denavit-Hartenberg chain is written (both
 conventions, prismatic and revolute joints, base and tool). It runs on an
-*algebra*: :class:`_Builder` records it on *symbols*, where every vector
-component is a literal ``0``, ``+1`` or ``-1`` (``cos alpha = 0``, ``a = 0``,
-the base's columns ...), a robot *number* (a length, a twist's cosine: an
-input of the program, :class:`_Number`) or a signed reference to a row of
-per-chunk scratch. Arithmetic on literals is folded, multiplications by 0 and
-+-1 and additions of 0 vanish, negations are carried as a sign instead of
-computed, repeated products are shared, arithmetic on numbers alone becomes a
-short prologue evaluated once per robot, and whatever the outputs do not need
-(the last joint's rotation when only the Jacobian is asked for ...) is
-dropped (:mod:`labkit.kinematics._straight_line`).
-:mod:`labkit.kinematics.symbolic` runs the same walk on sympy expressions.
+*algebra*: on floats and on sympy expressions (:data:`PLAIN`,
+:mod:`labkit.kinematics.symbolic`) it is plain arithmetic; on the symbols of
+:mod:`labkit.kinematics._straight_line` (literals ``0``, ``+-1``, the robot's
+*numbers*, signed scratch rows) it is recorded, with the constants folded,
+signs carried, repeated products shared and what the outputs do not need (the
+last joint's rotation when only the Jacobian is asked for ...) dropped.
 
 What is left, a :class:`Program`, depends only on the robot's structure
 (convention, joint types, flips, which numbers are 0 or +-1) and on the
@@ -21,13 +16,12 @@ pose). Programs are kept in one cache keyed by that structure, so a freshly
 loaded robot, a ``with_link`` copy or the robots of a calibration with other
 numbers compile nothing; a robot's numbers are bound to the program
 (:meth:`Program.bound`, microseconds). A bound program is evaluated two ways:
-
-* on numpy: a list of ufunc calls on ``(m,)`` rows with ``out=`` (no
-  temporaries), scratch rows reused as soon as a value is dead so a chunk's
-  working set stays in the L2 cache, each output row written once;
-* on Python floats: the same calls as generated straight-line Python code
-  (:meth:`Program.scalar`), for a handful of configurations, where numpy's
-  per-call overhead would cost more than the arithmetic.
+on numpy, as ufunc calls on ``(m,)`` rows with ``out=`` (no temporaries,
+scratch rows reused as soon as a value is dead so a chunk's working set stays
+in the L2 cache, each output row written once), and on Python floats, as the
+same calls in generated straight-line Python code (:meth:`Program.scalar`),
+for a handful of configurations, where numpy's per-call overhead would cost
+more than the arithmetic.
 
 For the PUMA 560 the Jacobian needs about a third of the elementwise work of a
 generic block walk: the first joints' frames are mostly zeros and ones.

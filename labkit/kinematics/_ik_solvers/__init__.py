@@ -4,11 +4,9 @@ The public functions (:func:`labkit.kinematics.ik`, ``ik_all``, ``ik_numeric``,
 ``solver_for`` ...) live in :mod:`labkit.kinematics`; this subpackage holds
 what they run on, every part on numpy rows (one target is a batch of one):
 
-* one module per closed-form family (``_planar_2r``, ``_planar_3r``,
-  ``_yaw_pitch_pitch``, ``_yaw_pitch_pitch_pitch``, ``_yaw_pitch_pitch_pitch_roll``,
-  ``_spherical_wrist``, ``_three_parallel``, ``_scara``, ``_prismatic``) following the protocol of
-  :mod:`~labkit.kinematics._ik_solvers._family`;
-* the one ordered registry of the families (:data:`FAMILIES`, :func:`detect`);
+* one module per closed-form family, following the protocol of
+  :mod:`~labkit.kinematics._ik_solvers._family`, and their one ordered
+  registry (:data:`FAMILIES`, :func:`detect`);
 * the geometry they share once (:mod:`~labkit.kinematics._ik_solvers._geometry`:
   cosine law, Paden-Kahan subproblems);
 * the one finishing step (flip, wrap) and branch pick (:func:`solve_closed_form`,

@@ -13,14 +13,12 @@ A family is a class with
     how many joints it needs, and how many of them are prismatic (the others revolute);
 ``__init__(robot, z, o, tool)``
     reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
-    tool frame at ``q = 0``, from
-    :func:`~labkit.kinematics._ik_solvers._geometry.joint_axes`) and raises
-    :class:`~labkit.kinematics._ik_solvers._geometry.NotThisFamily` with the reason when
-    the robot lacks the structure (:meth:`Family.fits` checks the joints, reads
-    the axes and turns that into an answer);
+    tool frame at ``q = 0``: :func:`~labkit.kinematics._ik_solvers._geometry.joint_axes`),
+    raising :class:`~labkit.kinematics._ik_solvers._geometry.NotThisFamily` with
+    the reason when the robot lacks the structure (:meth:`Family.fits` answers);
 ``solve(t)``
-    every branch of the targets ``t``, in the chain's sense (flipped joints
-    not yet negated, angles not yet wrapped: :mod:`labkit.kinematics._ik_solvers._finish`
+    every branch of the targets ``t``, in the chain's sense (flipped joints not
+    yet negated, angles not yet wrapped: :func:`~labkit.kinematics._ik_solvers._solve.finish`
     does that for every family).
 
 A new family is one module with such a class and one line in
