@@ -2,8 +2,8 @@
 
 :func:`chain` turns a robot's DH rows into the per-link constants the
 compiled programs of :mod:`labkit.kinematics._program` are built from, cached
-per robot object (:func:`per_robot`, the keyed cache every per-robot constant
-of the kinematics uses; :func:`by_content` for what depends on the robot's
+per robot object (:func:`_per_robot`, the keyed cache every per-robot constant
+of the kinematics uses; :func:`_by_content` for what depends on the robot's
 content alone). :func:`prepare` is the one place joint values enter the chain:
 it validates ``q`` and returns the effective joint values, shape ``(N, n)``,
 that every evaluator runs on.
@@ -18,26 +18,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from labkit.kinematics._program import chain_structure
+from labkit.kinematics._program import _chain_structure
 from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
 
-#: contents a :func:`by_content` cache keeps
+#: contents a :func:`_by_content` cache keeps
 CONTENTS_KEPT = 64
 
 
-def per_robot(func):
-    """``func(robot)`` cached per robot object in a weak keyed cache (``Robot`` stays plain frozen data).
-
-    Parameters
-    ----------
-    func : callable
-
-    Returns
-    -------
-    callable
-    """
+def _per_robot(func):
+    """``func(robot)`` cached per robot object in a weak keyed cache (``Robot`` stays plain frozen data)."""
     cache = weakref.WeakKeyDictionary()
 
     @functools.wraps(func)
@@ -51,23 +42,12 @@ def per_robot(func):
     return cached
 
 
-def by_content(func):
-    """``func(robot)`` cached by the robot's content (links, convention, base, tool, up), and per object.
-
-    A freshly loaded robot or a copy with the same content finds the value of an earlier one; the
-    most recent :data:`CONTENTS_KEPT` contents are kept.
-
-    Parameters
-    ----------
-    func : callable
-
-    Returns
-    -------
-    callable
-    """
+def _by_content(func):
+    """``func(robot)`` cached by the robot's content (links, convention, base, tool, up: a fresh load or a copy
+    finds an earlier value; the last :data:`CONTENTS_KEPT` are kept), and per robot object."""
     cache = {}
 
-    @per_robot
+    @_per_robot
     @functools.wraps(func)
     def cached(robot):
         key = (robot.convention, robot.links, robot.base.tobytes(), robot.tool.tobytes(),
@@ -117,7 +97,7 @@ class Chain:
     base, tool : ndarray, shape (4, 4) or None
         World-from-base and frame-n-from-tool transforms [m] (None: identity).
     structure : tuple
-        :func:`labkit.kinematics._program.chain_structure` for the tool point.
+        :func:`labkit.kinematics._program._chain_structure` for the tool point.
     programs : dict
         The tool point's programs bound to the chain's numbers (filled by
         :mod:`labkit.kinematics._forward` on first use).
@@ -136,7 +116,7 @@ class Chain:
     programs: dict = field(default_factory=dict, repr=False)
 
 
-@per_robot
+@_per_robot
 def chain(robot):
     """The chain constants of ``robot`` (cached per robot object).
 
@@ -175,26 +155,13 @@ def _assemble(modified, steps, rev, flipped, base, tool):
         half_theta=half if half.any() else None,
         base=base,
         tool=tool,
-        structure=chain_structure(steps, base, tool, None if tool is None else tool[:3, 3]),
+        structure=_chain_structure(steps, base, tool, None if tool is None else tool[:3, 3]),
     )
 
 
-def varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None):
-    """The chain ``c`` with DH columns [rad, m] or the base's or tool's translation [m] replaced (None: kept).
-
-    Number for number :func:`chain` of the robot with those values; its programs are those of
-    ``c``'s structure (unless a value becomes 0 or +-1): nothing is compiled.
-
-    Parameters
-    ----------
-    c : Chain
-    theta, a, d : sequence of float, length n, optional
-    base_position, tool_position : sequence of float, length 3, optional
-
-    Returns
-    -------
-    Chain
-    """
+def _varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None):
+    """The chain ``c`` with DH columns [rad, m] or the base's or tool's translation [m] replaced (None: kept):
+    number for number :func:`chain` of the robot with those values, its programs those of ``c``'s structure."""
     steps = []
     for i, step in enumerate(c.steps):
         rev, old_a, ca, sa, old_d, old_theta = step[:6]

@@ -29,7 +29,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import _program
-from labkit.kinematics._chain import chain, prepare, varied
+from labkit.kinematics._chain import chain, prepare, _varied
 from labkit.validation import as_vector
 
 __all__ = ["fk", "fk_position", "fk_position_with", "fk_frames", "fk_frames_with", "jacobian", "fk_jacobian"]
@@ -204,7 +204,7 @@ def _varied_chain(robot, theta, a, d, base_position, tool_position):
                                   and all(type(x) is float and math.isfinite(x) for x in v)):
             v = _as_point(v, length, name).tolist()
         columns[name] = v
-    return varied(c, **columns)
+    return _varied(c, **columns)
 
 
 def fk_frames(robot, q):
@@ -369,19 +369,9 @@ def _jacobian_result(c, prog, q2, lead, want_T, out_T=None, out_J=None):
     return T, J
 
 
-def fk_jacobian_kernel(robot):
-    """``f(q)``: :func:`fk_jacobian` without the checks, for a solver's own values (numeric IK).
-
-    Parameters
-    ----------
-    robot : Robot
-
-    Returns
-    -------
-    callable
-        ``f(q)`` for a finite float64 array ``q`` (N, n) [rad, m]: poses (N, 4, 4) and base-frame
-        Jacobians of the tool point (N, 6, n).
-    """
+def _fk_jacobian_kernel(robot):
+    """``f(q)``: :func:`fk_jacobian` without the checks, for a solver's own finite float64 ``q`` (N, n):
+    poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n)."""
     c = chain(robot)
     prog = _default_program(c, _program.JACOBIAN, False, True)
 

@@ -38,8 +38,8 @@ from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik_solvers import (
-    FAMILIES, REDUCED, LazyGenerator, batch_index, build, describe_target, detect, nearest, solve_closed_form,
-    solve_numeric, target_words, task_rows, validate_targets,
+    FAMILIES, REDUCED, LazyGenerator, _batch_index, build, _describe_target, detect, nearest, solve_closed_form,
+    solve_numeric, _target_words, task_rows, validate_targets,
 )
 
 __all__ = ["Solver", "IKSolutions", "IKResult", "target_kind", "solver_for", "ik", "ik_all", "ik_numeric",
@@ -393,7 +393,7 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
         return out.reshape(lead + (n,))
     reach_t = reach[:, idx] if idx is not None else reach.any(axis=1)
     i = int(np.flatnonzero(~(valid_t if reach_t.all() else reach_t))[0])
-    target, where = describe_target(kind, flat[i]), "" if not lead else f" (target {batch_index(i, lead)})"
+    target, where = _describe_target(kind, flat[i]), "" if not lead else f" (target {_batch_index(i, lead)})"
     if not reach_t.all():
         distance = dist[i]
         if family is None:
@@ -404,10 +404,10 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
                                   f"{', '.join(b for b, r in zip(branches, reach[i]) if r)}")
         elif not (np.isfinite(dist[i]) and dist[i] > 0.0):  # the point is in reach: the orientation is not
             distance, why = 0.0, (f"no configuration takes the orientation of target {target}{where}; this arm "
-                                  f"takes {target_words(kind)}")
+                                  f"takes {_target_words(kind)}")
         else:
             why = f"target {target}{where} is out of reach by {dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)"
-        raise UnreachableError(f"{robot.name}: {why}", distance=distance, index=batch_index(i, lead))
+        raise UnreachableError(f"{robot.name}: {why}", distance=distance, index=_batch_index(i, lead))
     cols = [idx] if idx is not None else [k for k in range(len(branches)) if reach[i, k]]
     reasons, joint = [], None
     for k in cols:
@@ -417,7 +417,7 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
             joint = exc.joint if joint is None else joint
             reasons.append(f"{branches[k]}: {str(exc).split(': ', 1)[-1]}")
     raise JointLimitError(f"{robot.name}: target {target}{where} is reachable only outside the joint limits: "
-                          + "; ".join(reasons), joint=joint, index=batch_index(i, lead))
+                          + "; ".join(reasons), joint=joint, index=_batch_index(i, lead))
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
@@ -451,8 +451,8 @@ def _reduced_family(robot, kind):
     """The closed-form family that defines ``kind``'s angles (pitch, roll, yaw) on ``robot``."""
     found, _ = detect(robot)
     if found is None or found.kind != kind:
-        raise OptionError(f"{robot.name}: {target_words(kind)} targets are defined by the closed form of arms "
-                          f"that take them; this arm takes {target_words(target_kind(robot))} (or use kind='pose')")
+        raise OptionError(f"{robot.name}: {_target_words(kind)} targets are defined by the closed form of arms "
+                          f"that take them; this arm takes {_target_words(target_kind(robot))} (or use kind='pose')")
     return found
 
 
@@ -566,5 +566,5 @@ def pose_from_position_pitch(robot, target):
         )
     t, lead = validate_targets(np.asarray(target, dtype=float), found.kind)
     if t.ndim == 3:
-        raise ShapeError(f"expected {target_words(found.kind)} targets, got poses")
+        raise ShapeError(f"expected {_target_words(found.kind)} targets, got poses")
     return found.pose(t).reshape(lead + (4, 4))

@@ -88,7 +88,7 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     tool_frame, want_T : bool
         Jacobian only: velocities in the tool frame (``R^T J``); also write the pose.
     structure : tuple, optional
-        :func:`chain_structure` of the chain and ``point_offset``, if known.
+        :func:`_chain_structure` of the chain and ``point_offset``, if known.
 
     Returns
     -------
@@ -98,7 +98,7 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     """
     if output != JACOBIAN:
         tool_frame = want_T = None
-    skeleton, numbers = structure or chain_structure(c.steps, c.base, c.tool, point_offset)
+    skeleton, numbers = structure or _chain_structure(c.steps, c.base, c.tool, point_offset)
     key = (output, tool_frame, want_T, c.modified, tuple(c.flipped.tolist()), skeleton)
     prog = _PROGRAMS.get(key)
     if prog is None:
@@ -108,30 +108,14 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     return prog.bound(numbers)
 
 
-#: where a skeleton has a robot number (see :func:`chain_structure`)
+#: where a skeleton has a robot number (see :func:`_chain_structure`)
 NUMBER = "#"
 
 
-def chain_structure(steps, base, tool, off):
-    """A chain as a structure (the key of its programs), and its numbers.
-
-    Parameters
-    ----------
-    steps : tuple of tuple
-        :attr:`labkit.kinematics._chain.Chain.steps`.
-    base, tool : ndarray, shape (4, 4) or None
-        World-from-base and frame-n-from-tool transforms (None: identity).
-    off : ndarray, shape (3,) or None
-        The output point in frame-n coordinates [m] (None: frame n's origin).
-
-    Returns
-    -------
-    skeleton : tuple
-        ``(steps, base columns, tool rotation columns or None, point or None)``, every number but
-        0 and +-1 replaced by :data:`NUMBER`,
-    numbers : list of float
-        and those numbers, in order.
-    """
+def _chain_structure(steps, base, tool, off):
+    """A chain as a structure, the key of its programs: ``(steps, base columns, tool rotation columns or
+    None, output point or None)`` with every number but 0 and +-1 replaced by :data:`NUMBER`, and those
+    numbers in order. ``steps`` as :attr:`Chain.steps`, ``base``, ``tool`` (4, 4) or None, ``off`` (3,) [m] or None."""
     numbers = []
 
     def v(x):

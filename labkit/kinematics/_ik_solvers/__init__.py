@@ -21,12 +21,11 @@ from labkit.kinematics._ik_solvers._registry import FAMILIES, build, detect
 from labkit.kinematics._ik_solvers._solve import nearest, solve as solve_closed_form
 from labkit.kinematics._ik_solvers._numeric import LazyGenerator, solve as solve_numeric
 from labkit.kinematics._ik_solvers._targets import (
-    COMPONENTS, REDUCED, batch_index, describe_target, target_components, target_words, task_rows,
+    COMPONENTS, REDUCED, _batch_index, _describe_target, target_components, _target_words, task_rows,
     validate_targets,
 )
 
 __all__ = [
     "FAMILIES", "detect", "build", "solve_closed_form", "nearest", "solve_numeric", "LazyGenerator",
-    "validate_targets", "task_rows", "target_components", "batch_index", "describe_target", "target_words",
-    "COMPONENTS", "REDUCED",
+    "validate_targets", "task_rows", "target_components", "COMPONENTS", "REDUCED",
 ]

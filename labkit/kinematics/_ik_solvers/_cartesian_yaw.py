@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import NotThisFamily, _floats, _in_chain_order, _rotation_matrices, _unit
 from labkit.kinematics._ik_solvers._scara import _YawTarget, _up_axis
 
@@ -73,7 +73,7 @@ class CartesianYaw(_YawTarget, Family):
         R = _rotation_matrices(self.k, turn)
         return np.where(self.after, R @ self.E0, self.E0)
 
-    @documented
+    @_documented
     def solve(self, t):
         t = np.array(t, dtype=float).reshape(4, -1)
         turn = t[3] - self.yaw0  # the tool's turn about k, the revolute joint's in the chain's sense times s

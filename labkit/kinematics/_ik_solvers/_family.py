@@ -86,16 +86,7 @@ class Family(ABC):
         """
 
 
-def documented(method):
-    """Give a family's method the docstring of the protocol's method of that name (a decorator).
-
-    Parameters
-    ----------
-    method : function
-
-    Returns
-    -------
-    function
-    """
+def _documented(method):
+    """Give a family's method the docstring of the protocol's method of that name (a decorator)."""
     method.__doc__ = getattr(Family, method.__name__).__doc__
     return method

@@ -2,7 +2,7 @@
 
 All targets iterate together on numpy rows; one target is a batch of one.
 Per iteration the targets still active make one
-:func:`labkit.kinematics._forward.fk_jacobian_kernel` call and one batched
+:func:`labkit.kinematics._forward._fk_jacobian_kernel` call and one batched
 linear solve (:mod:`labkit.kinematics._ik_solvers._lm`: the task error, the
 damped step and the damping rule). Steps are clipped into the joint limits.
 
@@ -28,7 +28,7 @@ import dataclasses
 
 import numpy as np
 
-from labkit.kinematics._forward import fk_jacobian_kernel
+from labkit.kinematics._forward import _fk_jacobian_kernel
 from labkit.kinematics._ik_solvers._lm import damped_step, damping, task_error
 from labkit.kinematics._ik_solvers._solve import finish
 from labkit.kinematics._ik_solvers._starts import analytic_seeds, start_window
@@ -164,7 +164,7 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
         Final task-space error norm [m, rad].
     """
     lim = robot.joint_limits
-    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, fk_jacobian_kernel(robot),
+    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, _fk_jacobian_kernel(robot),
                  lim[:, 0], lim[:, 1])
     starts = analytic_seeds(robot, kind, target) if q0 is None else None
     if starts is not None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, _CosineLaw, _dot, _floats, _length_scale, _need_parallel, _perpendicular, _unit,
 )
@@ -41,7 +41,7 @@ class Planar2R(Family):
                              "axis 2 must be away from axis 1 and the tool point away from axis 2")
         self.height_tol = 1e-9 * scale
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[k] - self.O[k] for k in range(3))
         dz = _dot(self.n, d) - self.h

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, _documented
 from labkit.kinematics._ik_solvers._geometry import TOL, _CosineLaw, NotThisFamily
 
 
@@ -38,7 +38,7 @@ class Planar3R(Family):
         t0 = tool[:2, 3] - P[2]  # tool point relative to axis 3 at q = 0
         self.t0 = (float(t0[0]), float(t0[1]))
 
-    @documented
+    @_documented
     def solve(self, t):
         x, y, phi = t[0], t[1], t[2]
         rot = phi - self.psi0  # q1 + q2 + q3

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, _dot, _floats, _in_chain_order, _need_parallel, _unit,
 )
@@ -59,7 +59,7 @@ class Cylindrical(Family):
         self.c, self.b, self.h0 = float(p0 @ e), float(p0 @ f), float(p0 @ k)
         self.E, self.F = (float(e @ u), float(e @ v)), (float(f @ u), float(f @ v))
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[i] - self.O[i] for i in range(3))
         x, y = _dot(self.u, d), _dot(self.v, d)
@@ -93,7 +93,7 @@ class Cartesian(Family):
         self.inverse = tuple(_floats(row) for row in np.linalg.inv(E))
         self.p0 = _floats(tool[:3, 3])
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[i] - self.p0[i] for i in range(3))
         ok = np.full(np.shape(t[0]), True)

@@ -9,7 +9,7 @@ plain frozen data). Adding a family: one module with a
 
 from __future__ import annotations
 
-from labkit.kinematics._chain import by_content
+from labkit.kinematics._chain import _by_content
 from labkit.kinematics._ik_solvers._cartesian_yaw import CartesianYaw
 from labkit.kinematics._ik_solvers._planar_2r import Planar2R
 from labkit.kinematics._ik_solvers._planar_3r import Planar3R
@@ -29,7 +29,7 @@ FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitch
 _BY_NAME = {f.name: f for f in FAMILIES}
 
 
-@by_content
+@_by_content
 def detect(robot):
     """The first family that fits ``robot``, built on it (or None), cached by content.
 

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, _CosineLaw, _dot, _floats, _in_chain_order, _length_scale, _need_parallel, _perpendicular, _pose_matrices,
     _rotation_matrices, _unit,
@@ -108,7 +108,7 @@ class Scara(_YawTarget, Family):
         self.h0 = float(pt @ k)  # its height along k at q = 0
         self.yaw_reference(tool)
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[i] - self.O[i] for i in range(3))
         rot = t[3] - self.yaw0 if len(t) == 4 else 0.0  # the total turn of the revolute joints about k

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._chain import per_robot
+from labkit.kinematics._chain import _per_robot
 from labkit.rotations import wrap_angle
 
 #: targets per numpy call of a family
@@ -68,7 +68,7 @@ def finish(robot, q, *, flipped=True, copy=True):
     return q
 
 
-@per_robot
+@_per_robot
 def _joints(robot):
     """Flipped joints (and whether any), revolute ones (a slice of all when all are: a view, not a copy),
     their limits with slack [rad], and whether a wrapped angle v can go a turn up (v < lo needs lo > -pi;

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import sin, where
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, _Subproblem2, _angle_between, _cross, _floats, _length_scale, _matvec, _perpendicular,
     _reject, _per_branch, rotate, _unit, _wrist_branches,
@@ -63,7 +63,7 @@ class SphericalWrist(Family):
         self.noflip_sign = -1.0 if math.sin(alpha4) > 0 else 1.0
         self.branches, self.aliases = _wrist_branches(*self.arm_branches)
 
-    @documented
+    @_documented
     def solve(self, t):
         R = (t[0][:3], t[1][:3], t[2][:3])
         Rw = _matvec(R, self.w_tool)

@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from labkit.kinematics._chain import by_content
+from labkit.kinematics._chain import _by_content
 from labkit.kinematics._ik_solvers._registry import detect
 from labkit.kinematics._ik_solvers._solve import solve as solve_family
 
@@ -40,7 +40,7 @@ def _snapped(robot, fraction):
     return robot.replace(links=tuple(links)) if changed else None
 
 
-@by_content
+@_by_content
 def start_window(robot):
     """Where random starts of numeric IK are drawn [rad, m] (cached by content).
 
@@ -63,7 +63,7 @@ def start_window(robot):
     return lo, hi
 
 
-@by_content
+@_by_content
 def near_family(robot):
     """The nearest idealised copy of ``robot`` that has a closed form, and that family, or ``(None, None)``.
 

@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, _CosineLaw, NotThisFamily, _angle_about, _feet, _floats, _length_scale, _need_parallel,
     _perpendicular, _pose_matrices, _rotation_matrices, _unit, _wrist_branches,
@@ -87,7 +87,7 @@ class ThreeParallel(Family):
                              "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.branches, self.aliases = _wrist_branches(("left", "right"))
 
-    @documented
+    @_documented
     def solve(self, t):
         T = np.moveaxis(np.atleast_3d(t), -1, 0)  # (one target's components are scalars)
         N = T.shape[0]

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, minimum, sqrt, where
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     REACH_TOL, TOL, _CosineLaw, NotThisFamily, _feet, _matvec, _floats, _length_scale, _need_parallel, _unit,
 )
@@ -148,6 +148,6 @@ class YawPitchPitch(Family):
     def __init__(self, robot, z, o, tool):
         self.arm = self.arm_type(robot, z, o, tool[:3, 3])
 
-    @documented
+    @_documented
     def solve(self, t):
         return self.arm.solve(t)

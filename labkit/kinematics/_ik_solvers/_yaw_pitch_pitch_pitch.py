@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, _angle_about, _need_parallel, _pose_matrices, _rotation_matrices, _unit,
 )
@@ -97,7 +97,7 @@ class YawPitchPitchPitch(Family):
                 signs.append(side)
         return q, reach, signs, distance
 
-    @documented
+    @_documented
     def solve(self, t):
         q, reach, _, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         return q, reach, distance

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import documented
+from labkit.kinematics._ik_solvers._family import _documented
 from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, _length_scale, _rotation_matrices, _unit
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch, _roll_about
 from labkit.rotations import wrap_angle
@@ -57,7 +57,7 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
         self.a5 = self.s5 * a5
         return self.a5
 
-    @documented
+    @_documented
     def solve(self, t):
         q, reach, signs, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         roll = self.s5 * t[4]  # q5 about +axis 5
