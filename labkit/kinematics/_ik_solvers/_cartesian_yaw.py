@@ -52,24 +52,15 @@ class CartesianYaw(_YawTarget, Family):
         self.E0 = np.column_stack([_unit(z[j]) for j in self.slides])
         self.after = np.array([j > rev for j in self.slides])
         self.arm0 = tool[:3, 3] - self.O  # the tool point from the revolute axis at q = 0
-        d0, d1, d2 = (np.linalg.det(self.E(np.array([a]))[0]) for a in (0.0, math.pi, 0.5 * math.pi))
+        d0, d1, d2 = (np.linalg.det(self._directions(np.array([a]))[0]) for a in (0.0, math.pi, 0.5 * math.pi))
         alpha, beta, gamma = 0.5 * (d0 + d1), 0.5 * (d0 - d1), d2 - 0.5 * (d0 + d1)
         if abs(alpha) - math.hypot(beta, gamma) < 1e-6 * max(1.0, abs(alpha)):
             raise NotThisFamily("the three prismatic axes must stay linearly independent at every turn of the "
                                 "revolute joint")
         self.yaw_reference(tool)
 
-    def E(self, turn):
-        """The prismatic directions (columns, in the chain's order) at turns of the revolute joint about ``k`` [rad].
-
-        Parameters
-        ----------
-        turn : ndarray, shape (N,)
-
-        Returns
-        -------
-        ndarray, shape (N, 3, 3)
-        """
+    def _directions(self, turn):
+        """The prismatic directions (N, 3, 3) (columns, in the chain's order) at turns (N,) about ``k`` [rad]."""
         R = _rotation_matrices(self.k, turn)
         return np.where(self.after, R @ self.E0, self.E0)
 
@@ -79,6 +70,6 @@ class CartesianYaw(_YawTarget, Family):
         turn = t[3] - self.yaw0  # the tool's turn about k, the revolute joint's in the chain's sense times s
         R = _rotation_matrices(self.k, turn)
         rhs = t[:3].T - self.O - R @ self.arm0
-        slide = np.linalg.solve(self.E(turn), rhs[..., None])[..., 0]
+        slide = np.linalg.solve(self._directions(turn), rhs[..., None])[..., 0]
         q = _in_chain_order((self.rev, *self.slides), (self.s * turn, *slide.T))
         return [q], [np.full(turn.shape, True)], np.zeros(turn.shape)

@@ -17,6 +17,7 @@ target again on numpy scalars.
 from __future__ import annotations
 
 import math
+import operator
 
 import numpy as np
 
@@ -76,8 +77,18 @@ def where(condition, a, b):
     return (a if condition else b) if type(condition) is bool else np.where(condition, a, b)
 
 
-def maximum(a, b):
-    """``np.maximum(a, b)`` (a nan in either is the result); a float for two floats.
+def _extreme(name, keep_a):
+    """``np.<name>`` (a nan in either argument is the result), or on two Python floats ``a`` where
+    ``keep_a(a, b)`` holds or ``a`` is nan, else ``b`` (a public function of this module)."""
+    on_arrays = getattr(np, name)
+
+    def f(a, b):
+        if type(a) is float and type(b) is float:
+            return a if keep_a(a, b) or a != a else b
+        return on_arrays(a, b)
+
+    f.__name__ = f.__qualname__ = name
+    f.__doc__ = f"""``np.{name}(a, b)`` (a nan in either is the result); a float for two floats.
 
     Parameters
     ----------
@@ -87,25 +98,10 @@ def maximum(a, b):
     -------
     ndarray or float
     """
-    if type(a) is float and type(b) is float:
-        return a if a >= b or a != a else b
-    return np.maximum(a, b)
+    return f
 
 
-def minimum(a, b):
-    """``np.minimum(a, b)`` (a nan in either is the result); a float for two floats.
-
-    Parameters
-    ----------
-    a, b : ndarray or float
-
-    Returns
-    -------
-    ndarray or float
-    """
-    if type(a) is float and type(b) is float:
-        return a if a <= b or a != a else b
-    return np.minimum(a, b)
+maximum, minimum = _extreme("maximum", operator.ge), _extreme("minimum", operator.le)
 
 
 def clip(x, lo, hi):
