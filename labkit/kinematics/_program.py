@@ -9,17 +9,17 @@ conventions, prismatic and revolute joints, base and tool). It runs on an
 signs carried, repeated products shared and what the outputs do not need (the
 last joint's rotation when only the Jacobian is asked for ...) dropped.
 
-What is left, a :class:`Program`, depends only on the robot's structure
+What is left, a :class:`_Program`, depends only on the robot's structure
 (convention, joint types, flips, which numbers are 0 or +-1) and on the
 output asked for (pose, position, every frame, Jacobian with or without the
 pose). Programs are kept in one cache keyed by that structure, so a freshly
 loaded robot, a ``with_link`` copy or the robots of a calibration with other
 numbers compile nothing; a robot's numbers are bound to the program
-(:meth:`Program.bound`, microseconds). A bound program is evaluated two ways:
+(:meth:`_Program.bound`, microseconds). A bound program is evaluated two ways:
 on numpy, as ufunc calls on ``(m,)`` rows with ``out=`` (no temporaries,
 scratch rows reused as soon as a value is dead so a chunk's working set stays
 in the L2 cache, each output row written once), and on Python floats, as the
-same calls in generated straight-line Python code (:meth:`Program.scalar`),
+same calls in generated straight-line Python code (:meth:`_Program.scalar`),
 for a handful of configurations, where numpy's per-call overhead would cost
 more than the arithmetic.
 
@@ -35,7 +35,7 @@ import numpy as np
 
 from labkit.kinematics._straight_line import _Builder, _Number, _Sym, _compile, _neg
 
-#: compiled programs by structure and output: {key: Program} (see :func:`program`); cleared when full
+#: compiled programs by structure and output: {key: _Program} (see :func:`program`); cleared when full
 _PROGRAMS = {}
 _MAX_PROGRAMS = 256
 #: literals folded into a program's structure; any other number is an input
@@ -92,7 +92,7 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
 
     Returns
     -------
-    Bound
+    _Bound
         Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (``r .. 2r-1``), then the
         prismatic joints' values, in joint order. Flipped joints' Jacobian columns come negated.
     """

@@ -8,8 +8,8 @@ multiplications by 0 and +-1 and additions of 0 vanish, negations are carried
 as a sign, repeated products are shared, and arithmetic on numbers alone
 becomes a prologue evaluated once per robot. :func:`_compile` drops what the
 outputs do not need, places outputs and allocates scratch rows into a
-:class:`Program`; :meth:`Program.bound` binds a robot's numbers
-(:class:`Bound`), evaluated as ufunc calls on rows or as generated Python code
+:class:`_Program`; :meth:`_Program.bound` binds a robot's numbers
+(:class:`_Bound`), evaluated as ufunc calls on rows or as generated Python code
 on floats.
 """
 
@@ -163,7 +163,7 @@ class _Builder:
         return p if p is not None else (0.0, 0.0, 0.0)
 
 
-class Program:
+class _Program:
     """A compiled chunk kernel of one robot structure: ``n_inputs`` input rows (trig rows, prismatic
     values) -> ``n_rows`` output rows (:func:`labkit.kinematics._program.program`), using ``n_scratch`` rows."""
 
@@ -196,31 +196,16 @@ class Program:
         self._scalar = None
 
     def bound(self, numbers):
-        """The program with a robot's numbers (in the order :func:`program` found them); runs the prologue.
-
-        Parameters
-        ----------
-        numbers : sequence of float
-
-        Returns
-        -------
-        Bound
-        """
+        """The program with a robot's ``numbers`` (in the order :func:`program` found them); runs the prologue."""
         values = list(numbers)
         for func, a, b in self.prologue:
             values.append(func(_value(a, values), _value(b, values)))
-        return Bound(self, [v if k is None else v * values[k] for k, v in self._operands])
+        return _Bound(self, [v if k is None else v * values[k] for k, v in self._operands])
 
     def scalar(self):
-        """The program as generated Python code (generated once, kept).
-
-        Returns
-        -------
-        callable
-            ``f(q, c)``: the ``n_rows`` outputs of one configuration from its effective joint values
-            ``q`` (floats) and the bound operands ``c``, by the same operations in the same order as
-            the ufunc calls (the half-angle trigonometry of ``_forward._program_inputs`` included).
-        """
+        """The program as generated Python code ``f(q, c)`` (generated once, kept): the ``n_rows`` outputs of
+        one configuration from its effective joint values ``q`` (floats) and the bound operands ``c``, by the
+        same operations in the same order as the ufunc calls (with ``_forward._program_inputs``'s trigonometry)."""
         if self._scalar is None:
             self._scalar = _python_function(self)
         return self._scalar
@@ -231,14 +216,8 @@ def _value(v, values):
     return v.sign * values[v.k] if isinstance(v, _Number) else v
 
 
-class Bound:
-    """A :class:`Program` bound to one robot's numbers, its ``operands`` (kept per robot on its chain).
-
-    Parameters
-    ----------
-    program : Program
-    operands : list of float
-    """
+class _Bound:
+    """A :class:`_Program` bound to one robot's numbers, its ``operands`` (kept per robot on its chain)."""
 
     def __init__(self, program, operands):
         self.program = program
@@ -249,31 +228,15 @@ class Bound:
         self._scalar = None
 
     def scalar(self):
-        """``f(q) -> list of float``: :meth:`Program.scalar` with this robot's numbers.
-
-        Returns
-        -------
-        callable
-        """
+        """``f(q) -> list of float``: :meth:`_Program.scalar` with this robot's numbers."""
         if self._scalar is None:
             f, operands = self.program.scalar(), self.operands
             self._scalar = lambda q: f(q, operands)
         return self._scalar
 
     def bind(self, inputs, out_rows, scratch):
-        """The calls ``(ufunc, a, b, out)`` on one set of buffers, in order; the constant outputs are filled.
-
-        Parameters
-        ----------
-        inputs : ndarray, shape (n_inputs, m)
-        out_rows : sequence of ndarray, n_rows rows of shape (m,)
-            Contiguous rows, or strided columns of the result.
-        scratch : ndarray, shape (n_scratch, m)
-
-        Returns
-        -------
-        list of tuple
-        """
+        """The calls ``(ufunc, a, b, out)`` in order on ``inputs`` (n_inputs, m), ``out_rows`` (n_rows rows (m,):
+        contiguous rows or strided columns of the result; the constant ones are filled here) and ``scratch``."""
         rows = list(inputs) + list(out_rows) + list(scratch) + self.operands
         for row, value in self.constants:
             out_rows[row][...] = value
@@ -284,7 +247,7 @@ _OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
 
 
 def _python_function(prog):
-    """Generate and compile the straight-line Python code ``f(q, c)`` of a :class:`Program`."""
+    """Generate and compile the straight-line Python code ``f(q, c)`` of a :class:`_Program`."""
     n_in, n_out, n_s = prog.n_inputs, prog.n_rows, prog.n_scratch
     r = sum(half is not False for _, half in prog.joints)
 
@@ -411,4 +374,4 @@ def _compile(b, outputs, n_rows, joints):
                     n_scratch += 1
             o = loc[o]
         program.append((f, args[0], args[1], o))
-    return Program(program, constants, n_rows, n_scratch, b.n_inputs, joints, tuple(b.prologue))
+    return _Program(program, constants, n_rows, n_scratch, b.n_inputs, joints, tuple(b.prologue))

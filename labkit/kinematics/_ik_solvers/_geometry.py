@@ -7,7 +7,7 @@
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
   another (:func:`_angle_about`), and subproblem 2, two rotations about
   intersecting axes (:class:`_Subproblem2`);
-* Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
+* Rodrigues' rotation of vectors about a constant axis (:func:`_rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array (a batch of
 targets); constant vectors (axes of the robot) are tuples of floats.
@@ -151,23 +151,9 @@ def _reject(k, v):
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
 
-def rotate(k, angle, *vectors):
-    """Rodrigues, ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``, for each of ``vectors``.
-
-    Parameters
-    ----------
-    k : tuple of float
-        Unit axis.
-    angle : ndarray or float
-        [rad]
-    *vectors : tuple
-        3 components each.
-
-    Returns
-    -------
-    list of tuple
-        The rotated vectors.
-    """
+def _rotate(k, angle, *vectors):
+    """Rodrigues: ``vectors`` (component 3-tuples) turned by ``angle`` [rad] about the unit axis ``k``,
+    ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``, as a list."""
     k0, k1, k2 = k
     s, c1 = sin(angle), 1.0 - cos(angle)
     out = []

@@ -32,7 +32,7 @@ import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, sqrt
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, NotThisFamily, _feet, _floats, _length_scale, rotate, _unit,
+    REACH_TOL, TOL, NotThisFamily, _feet, _floats, _length_scale, _rotate, _unit,
 )
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Shoulder, YawPitchPitch, _joint2_middle
@@ -60,7 +60,7 @@ class _SphericalArm(_Shoulder):
         self.planes_frame = (_floats(er), self.a2, self.a1)
         # in the plane perpendicular to a2, coordinates along (er, -a1), in which joint 2 turns positively
         self.e2, self.n2 = (float(e @ er), float(-(e @ a1))), (float(n @ er), float(-(n @ a1)))
-        radial, = rotate(self.a2, _joint2_middle(robot), _floats(e))
+        radial, = _rotate(self.a2, _joint2_middle(robot), _floats(e))
         radial = float(np.dot(radial, er))
         self.front = -1.0 if radial < -0.2 else 1.0
 

@@ -20,7 +20,7 @@ from labkit.kinematics._ik_solvers._elementwise import sin, where
 from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
     TOL, NotThisFamily, _Subproblem2, _angle_between, _cross, _floats, _length_scale, _matvec, _perpendicular,
-    _reject, _per_branch, rotate, _unit, _wrist_branches,
+    _reject, _per_branch, _rotate, _unit, _wrist_branches,
 )
 from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Arm
 from labkit.robot.types import Convention
@@ -76,10 +76,10 @@ class SphericalWrist(Family):
 
         def wrist(q23, m0, m1, m2, x0, x1, x2):
             """Joints 4-6 (noflip, then flip) for one arm branch, joint 1 undone on ``m`` and ``mx``."""
-            m6, MX = rotate(a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3 (the arm's pitch)
+            m6, MX = _rotate(a2, -q23, (m0, m1, m2), (x0, x1, x2))  # undo joints 2 and 3 (the arm's pitch)
             (t4, t5), (u4, u5) = subproblem2(m6)
-            Y, = rotate(a5, -t5, *rotate(a4, -t4, MX))
-            Z, = rotate(a5, -u5, *rotate(a4, -u4, MX))
+            Y, = _rotate(a5, -t5, *_rotate(a4, -t4, MX))
+            Z, = _rotate(a5, -u5, *_rotate(a4, -u4, MX))
             t6, u6 = _angle_between(n6, x6p, _reject(a6, Y)), _angle_between(n6, x6p, _reject(a6, Z))
             swap = (sin(t5) * self.noflip_sign) < 0  # noflip first
             return (where(swap, u4, t4), where(swap, u5, t5), where(swap, u6, t6),
@@ -87,7 +87,7 @@ class SphericalWrist(Family):
 
         # joint 1 undone once per side (arm branches 0-1 are the front side, 2-3 the back side), then
         # the four arm branches at once (one call on numpy rows four times as long)
-        undone = [rotate(self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
+        undone = [_rotate(self.arm.a1, -arm_q[b][0], m, mx) for b in (0, 2)]
         wrists = _per_branch(wrist, [(self.arm.pitch(q2, q3), *undone[b // 2][0], *undone[b // 2][1])
                                        for b, (_, q2, q3) in enumerate(arm_q)], ())
         q, reach = [], []
