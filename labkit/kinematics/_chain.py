@@ -188,11 +188,8 @@ def prepare(robot, q, c=None):
 
     Returns
     -------
-    chain : Chain
-    q : ndarray, shape (N, n)
-        Effective joint values (flipped joints negated) [rad, m].
-    lead : tuple of int
-        The batch shape ``...``.
+    chain, q, lead : Chain, ndarray (N, n), tuple of int
+        The chain, the effective joint values (flipped joints negated) [rad, m] and the batch shape.
 
     Raises
     ------

@@ -65,13 +65,14 @@ def _as_point(point, length=3, name="point"):
 
 
 def _output(out, shape):
-    """A new array of ``shape``, or the caller's ``out`` checked (float64, C-contiguous, writeable, that shape)."""
+    """A new array of ``shape``, or the caller's ``out`` checked (float64, C-contiguous, writeable, shaped)."""
     if out is None:
         return np.empty(shape)
     if not isinstance(out, np.ndarray) or out.dtype != np.float64 or not out.flags.c_contiguous \
             or not out.flags.writeable or out.shape != tuple(shape):
         got = f"{type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')}".strip()
-        raise ShapeError(f"expected out as a writeable C-contiguous float64 array of shape {tuple(shape)}, got {got}")
+        raise ShapeError(f"expected out as a writeable C-contiguous float64 array of shape {tuple(shape)}, "
+                         f"got {got}")
     return out
 
 
@@ -356,7 +357,7 @@ def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
 
 
 def _jacobian_result(c, prog, q2, lead, want_T, out_T=None, out_J=None):
-    """Pose (or None) and Jacobian of a Jacobian program over ``q2`` (N, n), into ``out_T``, ``out_J`` if given."""
+    """Pose (or None) and Jacobian of a Jacobian program over ``q2`` (N, n) (into ``out_T``, ``out_J``)."""
     N, n = q2.shape[0], c.n
     if N <= SMALL_BATCH and out_T is None and out_J is None:
         rows = _small(prog, q2)

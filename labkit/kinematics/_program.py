@@ -115,7 +115,8 @@ NUMBER = "#"
 def _chain_structure(steps, base, tool, off):
     """A chain as a structure, the key of its programs: ``(steps, base columns, tool rotation columns or
     None, output point or None)`` with every number but 0 and +-1 replaced by :data:`NUMBER`, and those
-    numbers in order. ``steps`` as :attr:`Chain.steps`, ``base``, ``tool`` (4, 4) or None, ``off`` (3,) [m] or None."""
+    numbers in order; ``steps`` as :attr:`Chain.steps`, ``base``, ``tool`` (4, 4) and the point ``off`` (3,)
+    [m] or None."""
     numbers = []
 
     def v(x):

@@ -31,7 +31,9 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._family import Family, _documented
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, _floats, _in_chain_order, _rotation_matrices, _unit
+from labkit.kinematics._ik_solvers._geometry import (
+    NotThisFamily, _floats, _in_chain_order, _rotation_matrices, _unit,
+)
 from labkit.kinematics._ik_solvers._scara import _YawTarget, _up_axis
 
 

@@ -147,21 +147,13 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
         Starting configurations [rad, m]; None: closed-form starts, else random ones.
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
-    tol : float
-        Residual at which a target counts as solved [m, rad].
-    max_iter, restarts : int
-        LM iterations per attempt; sequential restarts, then multi-start rounds.
-    rng : numpy.random.Generator
-        Draws the random starts.
+    tol, max_iter, restarts, rng
+        Residual of success [m, rad], LM iterations per attempt, restarts, the random generator.
 
     Returns
     -------
-    q : ndarray, shape (N, n)
-        Joint values [rad, m].
-    success : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    residual : ndarray, shape (N,)
-        Final task-space error norm [m, rad].
+    q, success, iterations, residual : ndarray, shape (N, n), (N,), (N,), (N,)
+        Joint values [rad, m], converged, iterations, final task error norm [m, rad].
     """
     lim = robot.joint_limits
     p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, _fk_jacobian_kernel(robot),
@@ -179,6 +171,21 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
     return out.q, out.success, out.iterations, out.residual
 
 
+def first_success(ok, res):
+    """Per row of copies of a target the first that succeeded, else the one of least residual.
+
+    Parameters
+    ----------
+    ok, res : ndarray, shape (N, K)
+        Success and residual [m, rad] of each copy.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+    """
+    return np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+
+
 def _multistart_round(p, out):
     """One multi-start round for the failing targets (updates ``out``); False when there are too many."""
     fail = (~out.success).nonzero()[0]
@@ -188,7 +195,7 @@ def _multistart_round(p, out):
     copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))
     got = _attempts(copies, copies.random_q(fail.size * K), 1, None, group=K)
     ok, res = got.success.reshape(-1, K), got.residual.reshape(-1, K)
-    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+    pick = first_success(ok, res)
     each = np.arange(fail.size)
     q, res = got.q.reshape(-1, K, got.q.shape[1])[each, pick], res[each, pick]
     out.iterations[fail] += got.iterations.reshape(-1, K)[each, pick]

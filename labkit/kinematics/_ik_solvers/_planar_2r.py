@@ -38,7 +38,7 @@ class Planar2R(Family):
         self.h = float(a1 @ (tool[:3, 3] - o[0]))  # height of the tool point along axis 1 (constant)
         e, f = o[1] - o[0], tool[:3, 3] - o[1]
         self.law = _CosineLaw((e @ u, e @ v), (f @ u, f @ v), TOL * scale,
-                             "axis 2 must be away from axis 1 and the tool point away from axis 2")
+                              "axis 2 must be away from axis 1 and the tool point away from axis 2")
         self.height_tol = 1e-9 * scale
 
     @_documented

@@ -44,7 +44,7 @@ from labkit.kinematics._ik_solvers._geometry import (
 
 
 def _up_axis(robot, z):
-    """The unit axis ``k`` along ``z[0]`` on the side of the robot's ``up``, ``u`` perpendicular, ``v = k x u``."""
+    """The unit axis ``k`` along ``z[0]`` on the side of the robot's ``up``, ``u`` normal to it, ``v = k x u``."""
     k = _unit(z[0])
     k = -k if float(np.dot(robot.up, k)) < -TOL else k
     u = _perpendicular(k)
@@ -78,7 +78,7 @@ class _YawTarget:
         return np.concatenate([T[:, :3, 3], yaw[:, None]], axis=1)
 
     def poses(self, target):
-        """Every tool pose (N, 1, 4, 4) [m] that reaches targets (N, 4) [m, rad]: the yaw fixes the orientation."""
+        """Every tool pose (N, 1, 4, 4) [m] reaching targets (N, 4) [m, rad]: the yaw fixes the orientation."""
         return self.pose(target)[:, None]
 
 
@@ -103,7 +103,8 @@ class Scara(_YawTarget, Family):
         pt = tool[:3, 3] - o[rev[0]]
         P.append((float(pt @ u), float(pt @ v)))  # the tool point: the wrist of an arm without one
         self.law = _CosineLaw(np.subtract(P[1], P[0]), np.subtract(P[2], P[1]), TOL * _length_scale(robot),
-                             "the elbow axis must be away from the shoulder axis and the wrist axis from the elbow")
+                              "the elbow axis must be away from the shoulder axis and the wrist axis from "
+                              "the elbow")
         self.t0 = (P[3][0] - P[2][0], P[3][1] - P[2][1]) if len(rev) == 3 else (0.0, 0.0)  # tool from the wrist
         self.h0 = float(pt @ k)  # its height along k at q = 0
         self.yaw_reference(tool)

@@ -1,17 +1,14 @@
 """Running a closed-form family on targets, and the one finishing step (private).
 
 :func:`solve` runs a family's formulas on the validated targets as numpy rows
-(one target is a batch of one) in cache-sized chunks, then every joint value
-goes through :func:`finish`: flipped joints negated, revolute angles wrapped
-into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and shifted by a turn
-where that enters the limits. Whether a configuration lies inside the limits
-is :meth:`labkit.robot.Robot.within_limits`, and which valid branch is nearest
-a preferred configuration is :func:`nearest`, both for every solver.
-
-No NaN ever leaves: where a branch cannot reach a target its ``reachable``
-flag is False and its ``q`` holds the finite configuration obtained by
-clipping the cosine-law arguments to [-1, 1] (the arm stretched or folded
-towards the target), a fill, not a solution.
+in cache-sized chunks (one target on Python floats, :mod:`._elementwise`), then
+every joint value goes through :func:`finish`: flipped joints negated, revolute
+angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
+shifted by a turn where that enters the limits; no NaN leaves (an unreachable
+branch is a finite fill, :mod:`labkit.kinematics._ik`). Whether a configuration
+lies inside the limits is :meth:`labkit.robot.Robot.within_limits`, and which
+valid branch is nearest a preferred configuration is :func:`nearest`, both for
+every solver.
 """
 
 from __future__ import annotations
@@ -80,7 +77,7 @@ def _joints(robot):
 
 
 def solve(robot, family, flat):
-    """Every branch of validated targets (:func:`~labkit.kinematics._ik_solvers._targets.validate_targets`), finished.
+    """Every branch of validated targets (``_targets.validate_targets``), finished.
 
     Parameters
     ----------

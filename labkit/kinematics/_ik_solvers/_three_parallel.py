@@ -84,7 +84,7 @@ class ThreeParallel(Family):
         self.v = np.cross(n, self.u)
         e, f = o[2] - o[1], o[3] - o[2]
         self.law = _CosineLaw((e @ self.u, e @ self.v), (f @ self.u, f @ self.v), TOL * scale,
-                             "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
+                              "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
         self.branches, self.aliases = _wrist_branches(("left", "right"))
 
     @_documented

@@ -98,7 +98,7 @@ class _Arm(_Shoulder):
         Wr, Wv = Wd @ er, Wd @ a1
         self.off = float(Wd @ a2)
         self.law = law = _CosineLaw((Er, Ev), (Wr - self.Sr - Er, Wv - Ev), TOL * scale,
-                                   "the elbow must be away from the shoulder and the wrist")
+                                    "the elbow must be away from the shoulder and the wrist")
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -TOL * scale else 1.0
         self.up = -1.0 if law.L1 * math.sin(law.g1 - _joint2_middle(robot)) < -0.2 * law.L1 else 1.0

@@ -66,7 +66,8 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
 
     def _rest(self, target, back=False):
         """``Rot(a1, q1) Rot(a2, theta) Rot(a5, q5)`` of targets (N, 5) on one side, (N, 3, 3)."""
-        return super()._rest(target, back) @ _rotation_matrices(tuple(self.a5), target[:, 4] + (math.pi if back else 0.0))
+        roll = target[:, 4] + (math.pi if back else 0.0)
+        return super()._rest(target, back) @ _rotation_matrices(tuple(self.a5), roll)
 
     def _roll_of(self, T, app, q1, psi, ahead):
         """Roll of poses: from the reference orientation (``q5 = 0``, the target ahead) about the approach."""
