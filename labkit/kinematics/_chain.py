@@ -83,15 +83,13 @@ class Chain:
 
     Attributes
     ----------
-    modified : bool
-        Modified (Craig) DH convention, else standard.
-    n : int
+    modified, n : bool, int
+        Modified (Craig) DH convention, else standard; the number of joints.
     steps : tuple of tuple
         Per link ``(revolute, a [m], cos alpha, sin alpha, d [m], theta [rad],
         cos theta, sin theta)``; the last two are used for prismatic joints.
-    revolute, flipped : ndarray of int
-        Indices of the revolute joints, and of those entering negated (``Link.flip``).
-    all_revolute : bool
+    revolute, flipped, all_revolute : ndarray of int, ndarray of int, bool
+        Indices of the revolute joints, and of those entering negated (``Link.flip``); all revolute.
     half_theta : ndarray, shape (r, 1) or None
         Half the revolute joints' DH ``theta`` offsets [rad] (None: all zero).
     base, tool : ndarray, shape (4, 4) or None

@@ -38,8 +38,8 @@ from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik_solvers import (
-    FAMILIES, REDUCED, LazyGenerator, build, detect, first_success, nearest, solve_closed_form, solve_numeric,
-    task_rows, validate_targets, _batch_index, _describe_target, _target_words,
+    FAMILIES, REDUCED, LazyGenerator, build, detect, nearest, solve_closed_form, solve_numeric, task_rows,
+    validate_targets, _batch_index, _describe_target, _first_success, _target_words,
 )
 
 __all__ = ["Solver", "IKSolutions", "IKResult", "target_kind", "solver_for", "ik", "ik_all", "ik_numeric",
@@ -442,7 +442,7 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
     if sides == 1:
         return q, ok, it, res
     q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
-    pick = first_success(ok, res)  # the first pose reached
+    pick = _first_success(ok, res)  # the first pose reached
     each = np.arange(q.shape[0])
     return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
 

@@ -169,10 +169,8 @@ def walk(b, modified, base, steps, trig, joint_value):
 
     Returns
     -------
-    frames : list of tuple
-        Frames 1..n as columns ``(x, y, z, origin)``.
-    axes : list of tuple
-        Per joint ``(direction, point)`` of its axis, in world coordinates.
+    frames, axes : list of tuple
+        Frames 1..n as columns ``(x, y, z, origin)``; per joint ``(direction, point)`` of its axis.
     """
     c0, c1, c2, p = base
     frames, axes, j = [], [], 0

@@ -19,7 +19,7 @@ what they run on, every part on numpy rows (one target is a batch of one):
 
 from labkit.kinematics._ik_solvers._registry import FAMILIES, build, detect
 from labkit.kinematics._ik_solvers._solve import nearest, solve as solve_closed_form
-from labkit.kinematics._ik_solvers._numeric import LazyGenerator, first_success, solve as solve_numeric
+from labkit.kinematics._ik_solvers._numeric import LazyGenerator, _first_success, solve as solve_numeric
 from labkit.kinematics._ik_solvers._targets import (
     COMPONENTS, REDUCED, _batch_index, _describe_target, target_components, _target_words, task_rows,
     validate_targets,
@@ -27,6 +27,5 @@ from labkit.kinematics._ik_solvers._targets import (
 
 __all__ = [
     "FAMILIES", "detect", "build", "solve_closed_form", "nearest", "solve_numeric", "LazyGenerator",
-    "first_success",
     "validate_targets", "task_rows", "target_components", "COMPONENTS", "REDUCED",
 ]

@@ -57,9 +57,8 @@ class Family(ABC):
 
         Returns
         -------
-        solver : Family or None
-        reason : str
-            Empty when it fits.
+        solver, reason : Family or None, str
+            The family, or None and the reason.
         """
         try:
             _need_joints(robot, cls.joints, cls.prismatic)
@@ -77,12 +76,9 @@ class Family(ABC):
 
         Returns
         -------
-        q : list of tuple
-            Per branch, the ``n`` joint values [rad, m] in the chain's sense.
-        reachable : list
-            Per branch.
-        distance : ndarray, shape (N,)
-            How far the target lies out of reach [m].
+        q, reachable, distance : list of tuple, list, ndarray (N,)
+            Per branch the ``n`` joint values [rad, m] in the chain's sense and whether it reaches the
+            target; how far the target lies out of reach [m].
         """
 
 

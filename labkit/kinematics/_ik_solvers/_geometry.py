@@ -73,10 +73,8 @@ def joint_axes(robot):
 
     Returns
     -------
-    z, o : ndarray, shape (n, 3)
-        Unit axis directions and a point on each [m].
-    tool : ndarray, shape (4, 4)
-        ``world_from_tool`` [m].
+    z, o, tool : ndarray, shape (n, 3), (n, 3), (4, 4)
+        Unit axis directions, a point on each [m], ``world_from_tool`` [m].
     """
     c = chain(robot)
     revolute = [(cth, sth) for rev, _, _, _, _, _, cth, sth in c.steps if rev]

@@ -1,14 +1,8 @@
 """The arithmetic of one Levenberg-Marquardt iteration, each rule written once (private).
 
-On a batch of targets as numpy rows (one target is a batch of one):
-
-* :func:`task_error` - the error of poses against targets, on the task rows,
-  and its norm (the residual a target converges on);
-* :func:`damped_step` - ``(J^T J + lam I)^-1 J^T e`` (or ``J^T (J J^T + lam I)^-1 e``
-  when there are fewer task rows than joints);
-* :func:`damping` - the damping after a step: divided by 10 where the step
-  was accepted, multiplied by 10 where it was rejected.
-
+On a batch of targets as numpy rows (one target is a batch of one): the task
+error and residual (:func:`task_error`), the damped least-squares step
+(:func:`damped_step`) and the damping rule (:func:`damping`);
 :func:`labkit.kinematics._ik_solvers._numeric.solve` runs the loop around them.
 """
 

@@ -171,18 +171,8 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
     return out.q, out.success, out.iterations, out.residual
 
 
-def first_success(ok, res):
-    """Per row of copies of a target the first that succeeded, else the one of least residual.
-
-    Parameters
-    ----------
-    ok, res : ndarray, shape (N, K)
-        Success and residual [m, rad] of each copy.
-
-    Returns
-    -------
-    ndarray of int, shape (N,)
-    """
+def _first_success(ok, res):
+    """Per row of copies (N, K) of a target the first that succeeded, else the one of least residual."""
     return np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
 
 
@@ -195,7 +185,7 @@ def _multistart_round(p, out):
     copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))
     got = _attempts(copies, copies.random_q(fail.size * K), 1, None, group=K)
     ok, res = got.success.reshape(-1, K), got.residual.reshape(-1, K)
-    pick = first_success(ok, res)
+    pick = _first_success(ok, res)
     each = np.arange(fail.size)
     q, res = got.q.reshape(-1, K, got.q.shape[1])[each, pick], res[each, pick]
     out.iterations[fail] += got.iterations.reshape(-1, K)[each, pick]

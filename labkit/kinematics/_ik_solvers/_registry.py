@@ -39,9 +39,8 @@ def detect(robot):
 
     Returns
     -------
-    solver : Family or None
-    reasons : dict
-        For every family tried before, why it does not fit.
+    solver, reasons : Family or None, dict
+        The family, and why each family tried before does not fit.
     """
     reasons, found = {}, None
     for family in FAMILIES:
@@ -62,7 +61,6 @@ def build(robot, name):
 
     Returns
     -------
-    solver : Family or None
-    reason : str
+    solver, reason : Family or None, str
     """
     return _BY_NAME[name].fits(robot)

@@ -87,12 +87,9 @@ def solve(robot, family, flat):
 
     Returns
     -------
-    q : ndarray, shape (N, m, n)
-        Joint values [rad, m] per branch (unreachable: a finite fill).
-    reachable, valid : ndarray of bool, shape (N, m)
-        Valid: reachable and inside the joint limits.
-    distance : ndarray, shape (N,)
-        How far each target lies out of reach [m] (0 if any branch reaches it).
+    q, reachable, valid, distance : ndarray, shape (N, m, n), (N, m), (N, m), (N,)
+        Joint values [rad, m] per branch (unreachable: a finite fill), reachable, valid (reachable and
+        inside the limits), and how far each target lies out of reach [m] (0 if a branch reaches it).
     """
     N, m, n = flat.shape[0], len(family.branches), robot.n
     q, reach, distance = np.empty((N, m, n)), np.empty((N, m), dtype=bool), np.empty(N)

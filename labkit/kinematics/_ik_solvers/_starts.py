@@ -77,8 +77,7 @@ def near_family(robot):
 
     Returns
     -------
-    ideal : Robot or None
-    solver : Family or None
+    ideal, solver : Robot or None, Family or None
     """
     result = (None, None)
     for fraction in SNAP_FRACTIONS:
