@@ -81,7 +81,7 @@ def _result(c, prog, q2, shape, out=None):
     if out is None and q2.shape[0] <= SMALL_BATCH:
         return _small(prog, q2).reshape(shape)
     res = _output(out, shape)
-    _evaluate(c, prog, q2, (res.reshape(q2.shape[0], -1),))
+    _evaluate(c, prog, q2, (res.reshape(q2.shape[0], prog.n_rows),))
     return res
 
 
@@ -296,6 +296,8 @@ def _run(bound):
 
 def _small(prog, q2):
     """The outputs (N, n_rows) of a few configurations ``q2`` (N, n) from the program's Python code."""
+    if not len(q2):  # (an empty batch)
+        return np.empty((0, prog.n_rows))
     f = prog.scalar()
     return np.array([f(x) for x in q2.tolist()])
 
