@@ -1,10 +1,8 @@
 """IK targets in display units (mm, deg) and how far FK is from a target, for lab notebooks.
 
-A target row reads ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg]
-(planar), ``x, y, z`` [mm] and ``pitch`` [deg] (4-DOF) or ``pitch, roll`` [deg] (5-DOF),
-or ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY);
-:func:`target_from_display` turns it into the target :func:`labkit.kinematics.ik_all`
-takes, :func:`target_to_display` goes back. :func:`target_from_pose` is the target a
+A target row reads the target's lengths [mm], then its angles [deg] (a 6-DOF pose's
+as fixed-axis roll, pitch, yaw); :func:`target_from_display` turns it into the target
+:func:`labkit.kinematics.ik_all` takes, :func:`target_to_display` goes back. :func:`target_from_pose` is the target a
 tool pose reaches (the target of FK), in SI units.
 
 Example

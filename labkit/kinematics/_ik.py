@@ -1,19 +1,12 @@
 """Inverse kinematics: every closed-form solution with its branch name, or batched numeric IK.
 
-Targets, by :func:`target_kind`:
-
-* ``"position"`` ``(..., 3)`` [m] - 3-DOF arms such as the Arduino arm of seed 000
-  and any robot with fewer than 6 joints that is not a planar 3R;
-* ``"planar"`` ``(..., 3)`` ``(x [m], y [m], phi [rad])`` - planar 3R arms
-  (seeds 003 and 004), ``phi`` the angle of the tool ``x`` axis from world ``x``;
-* ``"position_pitch"`` ``(..., 4)`` ``(x, y, z [m], pitch [rad])`` - 4-DOF
-  yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
-* ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
-  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D);
-* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms, gantries with a wrist turn; these three also take
-  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch,
-  roll and yaw are defined in ``docs/ik.md``);
-* ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
+Targets, by :func:`target_kind`: ``"position"`` ``(..., 3)`` [m]; ``"planar"``
+``(x, y, phi)`` [m, rad] of planar 3R arms; ``"position_pitch"``,
+``"position_pitch_roll"`` and ``"position_yaw"`` ``(x, y, z, angles)`` [m, rad]
+of 4- and 5-DOF arms, SCARAs and gantries with a wrist turn, which also take
+``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation
+(the angles are defined in ``docs/ik.md``); ``"pose"`` ``(..., 4, 4)``
+``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see

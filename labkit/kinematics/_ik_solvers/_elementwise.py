@@ -1,17 +1,13 @@
 """Elementwise functions the closed-form families write their formulas with (private).
 
 A family's formulas run on ``(N,)`` numpy rows for a batch and on Python
-floats for one target (:func:`labkit.kinematics._ik_solvers._solve.solve`).
-On a float numpy returns a numpy scalar, costs 0.2-2 us a call and makes every
-later operation slower, so each function here is the numpy function of the
-same name except that on Python floats (bools for :func:`where`) it returns
-what :mod:`math` returns: one target stays on floats throughout, and the
-formulas stay written once.
-
-On floats the results agree with numpy's to a unit or two in the last place;
-where numpy would give ``nan`` or ``inf`` (``sqrt`` of a negative number) the
-float path raises ``ValueError`` or ``ArithmeticError`` and the caller runs the
-target again on numpy scalars.
+floats for one target (:func:`labkit.kinematics._ik_solvers._solve.solve`):
+on a float numpy returns a numpy scalar, costs 0.2-2 us a call and slows every
+later operation, so each function here is the numpy function of the same name
+but returns what :mod:`math` returns on Python floats (bools for :func:`where`).
+The results agree with numpy's to a unit or two in the last place; where numpy
+would give ``nan`` or ``inf`` the float path raises ``ValueError`` or
+``ArithmeticError`` and the caller runs the target again on numpy scalars.
 """
 
 from __future__ import annotations
