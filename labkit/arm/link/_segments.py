@@ -4,7 +4,8 @@ The board's ``SEG`` command takes one polynomial per joint over normalised
 time, with integer coefficients in the joint's wire units (centidegrees; an RC linear servo:
 1/18000 of its stroke, :class:`labkit.arm.WireUnits`; ``docs/protocol.md``).
 :func:`segments_from_trajectory` turns a sampled trajectory into such
-segments; :func:`feed_segments` streams them into the board's queue for
+segments (a polynomial too wide for one request line as pieces of it in time);
+:func:`feed_segments` streams them into the board's queue for
 :meth:`labkit.arm.Arm.run_trajectory`, which reports a :class:`TrajectoryReport`.
 """
 
