@@ -1,6 +1,7 @@
 """Trajectories as SEG segments (labkit/arm/link/_segments.py): a segment too wide for one request line is split
 in time into pieces of the same polynomial, and the wire units of the default are right for the robot."""
 
+import ctypes
 import math
 
 import numpy as np
@@ -12,6 +13,7 @@ from labkit.exceptions import OptionError
 from labkit.motion import joint_trajectory
 from labkit.robot import Robot
 from tests.arm.test_line_limit import chain_robot
+from tests.arm.test_motion import host_core
 
 
 def line_length(seg):
@@ -136,3 +138,36 @@ def test_the_default_units_are_centidegrees_for_revolute_joints_and_refused_for_
     assert end[2] == 16200
     with pytest.raises(OptionError, match="expected units of 3 joints .* got units of 6"):
         segments_from_trajectory(traj, units=WireUnits(Robot.load("puma560")))
+
+
+@pytest.fixture(scope="module")
+def firmware_poly(tmp_path_factory):
+    """q [cdeg] of one joint's row ``el_ms`` into a segment of ``dur_ms``, as the firmware's servo frame computes it."""
+    core = host_core(tmp_path_factory.mktemp("core"))
+    core.lk_poly.restype = ctypes.c_int32
+    core.lk_poly.argtypes = [ctypes.POINTER(ctypes.c_int32), ctypes.c_uint8, ctypes.c_int32]
+
+    def run(row, el_ms, dur_ms):
+        s24 = (el_ms << 24) // dur_ms  # lk_frame: s = floor(el 2^24 / dur) for el < dur, 2^24 at the end
+        return core.lk_poly((ctypes.c_int32 * len(row))(*row), len(row) - 1, s24)
+
+    return run
+
+
+@pytest.mark.firmware
+def test_the_firmware_runs_the_pieces_of_a_split_quintic_on_the_plan(robot_named, firmware_poly):
+    """Every millisecond of an 8-joint quintic split into 76 pieces, evaluated by the firmware's integer Horner
+    (``lk_poly``, 1/16 cdeg, rounded to a centidegree) as its servo frames do, against the quintic law."""
+    robot = robot_named("chain8")
+    q0, q1 = np.radians(np.linspace(10.0, 15.0, 8)), np.radians(np.linspace(80.0, 75.0, 8))
+    segs = segments_from_trajectory(joint_trajectory(robot, q0, q1, 1.0, law="quintic", dt=0.01), order=5)
+    assert len(segs) > 20
+    got, start = [], 0
+    for dur, order, coef in segs:
+        rows = np.reshape(coef, (8, order + 1)).tolist()
+        got += [[firmware_poly(row, el, dur) for row in rows] for el in range(dur)]
+        start += dur
+    got.append([firmware_poly(row, dur, dur) for row in rows])  # the last segment's end, held
+    plan = np.degrees(quintic_plan(q0, q1, 1.0, np.arange(start + 1) / 1000.0)) * 100
+    assert start == 1000 and np.abs(np.array(got) - plan).max() <= 3.0
+    np.testing.assert_array_equal(got[-1], np.round(np.degrees(q1) * 100))
