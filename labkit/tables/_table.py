@@ -1,14 +1,15 @@
-"""Tables people read: :func:`report_table` turns a DataFrame into a report table.
+"""Tables people read: :func:`report_table` turns a DataFrame into a :class:`ReportTable`.
 
-One style for every table of a report: no pandas index unless it carries meaning, human
-column names with their units (a mapping, ``{"shoulder_pitch_ddot": "shoulder accel
-[deg/s^2]"}``), the same number of decimals down a column (chosen from the column's largest
-magnitude for the significant digits asked), booleans as words, vectors as ``(x, y, z)``,
-missing values as a dash, never ``NaN``; rows may form groups (a label printed once, a little
-space between groups, a group never split across pages); a long table may break across pages
-with its header repeated. :func:`error_report_table` lays out a measured-versus-calculated
-error table (``labkit.measure.error_table``) the way a journal prints one. The result shows itself in a notebook (HTML; ``to_latex()`` gives booktabs,
-``longtable`` when long); ``labkit report`` takes its HTML into the PDF and the DOCX.
+One style for every table labkit prints, in a lab report and in a notebook alike: no pandas
+index unless it carries meaning, human column names with their units (a mapping,
+``{"shoulder_pitch_ddot": "shoulder accel [deg/s^2]"}``), the same number of decimals down a
+column (chosen from the column's largest magnitude for the significant digits asked, the rule of
+:mod:`labkit.tables._cells`), booleans as words, vectors as ``(x, y, z)``, missing values as a
+dash, never ``NaN``; rows may form groups (a label printed once, a little space between groups,
+a group never split across pages); a long table may break across pages with its header
+repeated; cells may be marked (a highlight, :meth:`ReportTable.mark`). The result shows itself
+in a notebook (HTML; ``to_latex()`` gives booktabs, ``longtable`` when long; ``to_styler()`` a
+pandas Styler of the same cells); ``labkit report`` takes its HTML into the PDF and the DOCX.
 
 Example
 -------
@@ -23,20 +24,23 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
 import html as _html
-import math
 import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
+from labkit.tables._cells import (BOOLEANS, MISSING, cell_text, check_digits, column_style, css_to_latex, is_missing,
+                                  is_number_text, latex_escape, numbers_of)
 
-__all__ = ["ReportTable", "report_table", "error_report_table", "format_value", "LONG_TABLE_ROWS"]
+__all__ = ["ReportTable", "report_table", "LONG_TABLE_ROWS", "HIGHLIGHT"]
 
 #: a table with more rows than this may break across pages (its header repeated on each)
 LONG_TABLE_ROWS = 15
-_MINUS = "-"
+#: CSS of a marked cell unless the caller says otherwise (a light red background)
+HIGHLIGHT = "background-color: #f8c4c4"
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,9 @@ class ReportTable:
         Per column: right-aligned numbers (else left-aligned text).
     groups : tuple of int
         Rows that start a group (ascending, the first is 0); empty: no groups.
+    marks : tuple of (int, int, str)
+        Marked cells: (row, column, CSS) by position (:meth:`mark`); HTML carries the CSS, LaTeX
+        its colours and weight (:func:`labkit.tables.css_to_latex`), text shows no marks.
     """
 
     header: tuple
@@ -62,11 +69,70 @@ class ReportTable:
     caption: str = ""
     numeric: tuple = ()
     groups: tuple = ()
+    marks: tuple = ()
 
     @property
     def long(self) -> bool:
         """True when the table may break across pages (more than :data:`LONG_TABLE_ROWS` rows)."""
         return len(self.rows) > LONG_TABLE_ROWS
+
+    def mark(self, rows, columns=None, css=HIGHLIGHT) -> ReportTable:
+        """The same table with some cells marked (highlighted).
+
+        Parameters
+        ----------
+        rows : iterable of int or of bool
+            Row positions, or one flag per row.
+        columns : iterable of str or int, optional
+            Printed column names (as in :attr:`header`) or positions; default: every column.
+        css : str
+            CSS of a marked cell (:data:`HIGHLIGHT`: a light red background).
+
+        Returns
+        -------
+        ReportTable
+
+        Raises
+        ------
+        OptionError
+            A row or column the table does not have, or ``css`` not a string.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> t = report_table(pd.DataFrame({"x [m]": [0.1, 0.25]})).mark([False, True])
+        >>> t.marks
+        ((1, 0, 'background-color: #f8c4c4'),)
+        """
+        if not isinstance(css, str):
+            raise OptionError(f"css expects a string ('background-color: #f8c4c4'), got {type(css).__name__}")
+        css_to_latex(css)  # says what it expected of malformed CSS
+        rows = list(rows)
+        if rows and all(isinstance(r, (bool, np.bool_)) for r in rows):
+            if len(rows) != len(self.rows):
+                raise OptionError(f"rows expects one flag per row ({len(self.rows)}), got {len(rows)}")
+            rows = [k for k, flag in enumerate(rows) if flag]
+        bad = [r for r in rows if isinstance(r, (bool, np.bool_)) or not isinstance(r, numbers.Integral)
+               or not 0 <= r < len(self.rows)]
+        if bad:
+            raise OptionError(f"rows expects positions 0..{len(self.rows) - 1} (or one flag per row), got {bad[:5]!r}")
+        positions = []
+        for c in range(len(self.header)) if columns is None else ([columns] if isinstance(columns, str) else columns):
+            if isinstance(c, str) and c in self.header:
+                positions.append(self.header.index(c))
+            elif isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c < len(self.header):
+                positions.append(int(c))
+            else:
+                raise OptionError(f"columns expects printed column names or positions of this table "
+                                  f"({', '.join(self.header)}), got {c!r}")
+        return dataclasses.replace(self, marks=self.marks + tuple((int(r), c, css) for r in rows for c in positions))
+
+    def _css(self):
+        """{(row, column): CSS} of the marked cells (marks on one cell joined)."""
+        out = {}
+        for r, c, css in self.marks:
+            out[(r, c)] = f"{out[(r, c)]}; {css}" if (r, c) in out else css
+        return out
 
     def to_html(self) -> str:
         """The table as HTML (``<table class="lk-report-table">``, a ``<thead>`` that repeats on each page).
@@ -74,15 +140,23 @@ class ReportTable:
         Returns
         -------
         str
+            Marked cells carry their CSS in a ``style`` attribute.
         """
         align = [' class="lk-cell-num"' if n else ' class="lk-cell-text"' for n in self._numeric()]
+        marks = self._css()
         head = "".join(f"<th{a}>{_html.escape(h)}</th>" for a, h in zip(align, self.header))
-        rows = ["<tr>" + "".join(f"<td{a}>{_html.escape(c)}</td>" for a, c in zip(align, row)) + "</tr>"
-                for row in self.rows]
+        rows = ["<tr>" + "".join(f"<td{a}{self._style_attribute(marks, k, j)}>{_html.escape(c)}</td>"
+                                 for j, (a, c) in enumerate(zip(align, row))) + "</tr>"
+                for k, row in enumerate(self.rows)]
         body = "".join(f"<tbody>{''.join(rows[a:b])}</tbody>" for a, b in self._spans())
         cls = "lk-report-table" + (" lk-long" if self.long else "") + (" lk-grouped" if self.groups else "")
         cap = f"<caption>{_html.escape(self.caption)}</caption>" if self.caption else ""
         return f'<table class="{cls}">{cap}<thead><tr>{head}</tr></thead>{body}</table>'
+
+    @staticmethod
+    def _style_attribute(marks, row, column):
+        css = marks.get((row, column))
+        return f' style="{_html.escape(css, quote=True)}"' if css else ""
 
     def _spans(self):
         """(first, end) row of each group (one span of every row without groups)."""
@@ -91,20 +165,22 @@ class ReportTable:
         return list(zip(edges[:-1], edges[1:]))
 
     def to_latex(self) -> str:
-        """The table as LaTeX: booktabs rules, ``longtable`` with the header repeated when long.
+        r"""The table as LaTeX: booktabs rules, ``longtable`` with the header repeated when long.
 
         Returns
         -------
         str
             A ``table``/``tabular`` (or a ``longtable``) environment; needs ``booktabs``
-            (and ``longtable``).
+            (and ``longtable``; marked cells ``\cellcolor``: ``xcolor`` with its ``table`` option).
         """
         spec = "".join("r" if n else "l" for n in self._numeric())
-        head = " & ".join(_latex_escape(h) for h in self.header) + r" \\"
+        marks = {cell: css_to_latex(css) for cell, css in self._css().items()}
+        head = " & ".join(latex_escape(h) for h in self.header) + r" \\"
         starts = set(self.groups) - {0}
-        body = "\n".join(("\\addlinespace\n" if k in starts else "") + " & ".join(_latex_escape(c) for c in row) + r" \\"
+        body = "\n".join(("\\addlinespace\n" if k in starts else "")
+                         + " & ".join(marks.get((k, j), "") + latex_escape(c) for j, c in enumerate(row)) + r" \\"
                          for k, row in enumerate(self.rows))
-        cap = _latex_escape(self.caption)
+        cap = latex_escape(self.caption)
         if self.long:
             first = (rf"\caption{{{cap}}}\\" + "\n") if cap else ""
             return (f"\\begin{{longtable}}{{{spec}}}\n{first}\\toprule\n{head}\n\\midrule\n\\endfirsthead\n"
@@ -113,8 +189,43 @@ class ReportTable:
         return (f"\\begin{{table}}\n\\centering\n{caption}\\begin{{tabular}}{{{spec}}}\n\\toprule\n{head}\n"
                 f"\\midrule\n{body}\n\\bottomrule\n\\end{{tabular}}\n\\end{{table}}")
 
+    def to_styler(self, escape=None):
+        """The same cells as a pandas Styler (no index; the marked cells styled with their CSS).
+
+        Parameters
+        ----------
+        escape : {None, "html", "latex"}
+            Escaping of the header and the cells, as :meth:`to_html` / :meth:`to_latex` escape
+            them (``None``: the text as it is).
+
+        Returns
+        -------
+        pandas.io.formats.style.Styler
+            Its data are the printed cells (text), its columns the positions 0, 1, ...
+            shown with the printed header.
+
+        Raises
+        ------
+        OptionError
+            ``escape`` is not None, "html" or "latex".
+        """
+        import pandas as pd
+
+        escapes = {None: str, "html": _html.escape, "latex": latex_escape}
+        if escape not in escapes:
+            raise OptionError(f"escape expects None, 'html' or 'latex', got {escape!r}")
+        text = escapes[escape]
+        data = pd.DataFrame(list(self.rows), columns=range(len(self.header)), dtype=object)
+        css = pd.DataFrame("", index=data.index, columns=data.columns)
+        for (r, c), style in self._css().items():
+            css.iloc[r, c] = style
+        styler = data.style.hide(axis="index").format(text).format_index(lambda k: text(self.header[k]), axis=1)
+        if self.caption:
+            styler = styler.set_caption(text(self.caption))
+        return styler.apply(lambda _: css, axis=None)
+
     def to_text(self) -> str:
-        """The table as aligned plain text (what a terminal shows).
+        """The table as aligned plain text (what a terminal shows; marks are not shown).
 
         Returns
         -------
@@ -139,101 +250,8 @@ class ReportTable:
         return self.to_text()
 
 
-def _latex_escape(text) -> str:
-    out = str(text)
-    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("$", r"\$"), ("#", r"\#"),
-                 ("_", r"\_"), ("{", r"\{"), ("}", r"\}"), ("~", r"\textasciitilde{}"), ("^", r"\^{}"),
-                 ("–", "--"), ("±", r"$\pm$"), ("°", r"$^\circ$")):
-        out = out.replace(a, b)
-    return out
-
-
-def _is_missing(v) -> bool:
-    if v is None:
-        return True
-    try:
-        import pandas as pd
-
-        if v is pd.NA or v is pd.NaT:
-            return True
-    except ImportError:  # pragma: no cover - pandas is a dependency of the table's callers
-        pass
-    return isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isnan(float(v))
-
-
-def _is_vector(v) -> bool:
-    return isinstance(v, (tuple, list, np.ndarray)) and not isinstance(v, str)
-
-
-def _is_number_text(text) -> bool:
-    try:
-        return math.isfinite(float(text))
-    except ValueError:
-        return False
-
-
-def _numbers_of(values, zero=0.0):
-    """Every finite real number in a column (vectors flattened), as floats; round-off (``<= zero``) as 0."""
-    out = []
-    for v in values:
-        items = np.asarray(v, dtype=object).ravel() if _is_vector(v) else [v]
-        for x in items:
-            if isinstance(x, (bool, np.bool_)) or _is_missing(x) or not isinstance(x, numbers.Real):
-                continue
-            if math.isfinite(float(x)):
-                out.append(0.0 if abs(float(x)) <= zero else float(x))
-    return out
-
-
-def _style(values, digits, zero):
-    """(decimals, scientific) for a column: ``digits`` significant digits on its largest magnitude."""
-    nums = _numbers_of(values, zero)
-    if all(float(x).is_integer() for x in nums) and all(
-            isinstance(x, (numbers.Integral, np.integer)) for v in values if not _is_missing(v)
-            for x in (np.asarray(v, dtype=object).ravel() if _is_vector(v) else [v])
-            if isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_))):
-        return 0, False
-    big = max((abs(x) for x in nums), default=0.0)
-    if big == 0.0:
-        return 0, False  # a column of zeros (round-off) prints 0
-    if big >= 1e6 or big < 1e-3:
-        return digits - 1, True
-    exponent = math.floor(math.log10(big))
-    return max(digits - 1 - exponent, 0), False
-
-
-def _number(x, decimals, scientific, zero) -> str:
-    x = 0.0 if abs(float(x)) <= zero else float(x)
-    if math.isinf(x):
-        return "∞" if x > 0 else "-∞"
-    if scientific:
-        if x == 0.0:
-            return "0"
-        mant, exp = f"{x:.{decimals}e}".split("e")
-        return f"{mant}e{int(exp)}"
-    text = f"{x:.{decimals}f}"
-    if text.startswith("-") and float(text) == 0.0:
-        text = text[1:]  # -0.00 is round-off
-    return text
-
-
-def _cell(v, decimals, scientific, words, missing, zero) -> str:
-    if _is_missing(v):
-        return missing
-    if isinstance(v, (bool, np.bool_)):
-        return words[0] if v else words[1]
-    if _is_vector(v):
-        items = np.asarray(v, dtype=object).ravel()
-        return "(" + ", ".join(_cell(x, decimals, scientific, words, missing, zero) for x in items) + ")"
-    if isinstance(v, (numbers.Integral, np.integer)):
-        return str(int(v)) if decimals == 0 and not scientific else _number(v, decimals, scientific, zero)
-    if isinstance(v, numbers.Real):
-        return _number(v, decimals, scientific, zero)
-    return str(v)
-
-
-def report_table(df, *, columns=None, digits=3, caption="", index=None, units=None, booleans=("yes", "no"),
-                 missing="–", zero=1e-9, group=None) -> ReportTable:
+def report_table(df, *, columns=None, digits=3, caption="", index=None, units=None, booleans=BOOLEANS,
+                 missing=MISSING, zero=1e-9, group=None) -> ReportTable:
     """A DataFrame as a report table: human names with units, digits per column, words for booleans.
 
     Parameters
@@ -339,11 +357,11 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         if units.get(name) and "[" not in str(label):
             label = f"{label} [{units[name]}]"
         values = list(df[name])
-        decimals, scientific = _style(values, int(per_column.get(name, default)), zero)
+        decimals, scientific = column_style(values, int(per_column.get(name, default)), zero)
         header.append(str(label))
-        cells.append([_cell(v, decimals, scientific, booleans, missing, zero) for v in values])
-        present = [v for v in values if not _is_missing(v)]  # numbers kept as printed ("0.024") align as numbers
-        numeric.append(bool(present) and all(_is_number_text(v) if isinstance(v, str) else bool(_numbers_of([v]))
+        cells.append([cell_text(v, decimals, scientific, booleans, missing, zero) for v in values])
+        present = [v for v in values if not is_missing(v)]  # numbers kept as printed ("0.024") align as numbers
+        numeric.append(bool(present) and all(is_number_text(v) if isinstance(v, str) else bool(numbers_of([v]))
                                              for v in present))
     starts = ()
     if grouped:
@@ -353,145 +371,3 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
             cells[g] = [c if k in starts else "" for k, c in enumerate(cells[g])]
     rows = tuple(zip(*cells)) if cells else tuple(() for _ in range(len(df)))
     return ReportTable(tuple(header), tuple(tuple(r) for r in rows), str(caption or ""), tuple(numeric), starts)
-
-
-#: the columns of a measured-versus-calculated error table (``labkit.measure.ErrorTable.table``) a reader needs
-_ERROR_COLUMNS = {"calculated": "calculated", "mean": "measured", "half_range": "±", "error": "error"}
-
-
-def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=None, caption="") -> ReportTable:
-    """A measured-versus-calculated error table as a journal prints it: one row per pose and quantity.
-
-    Columns: the pose, the quantity, calculated, measured (mean of the readings), ± (half
-    their range), error (measured - calculated), each with its unit, and "within U" (yes/no:
-    the error inside the measurement uncertainty). The rows of one pose form a group. The
-    other columns of the error table (counts, spread, resolution, relative error) stay in
-    its CSV; its summary (RMS, largest error) is a table of its own.
-
-    Parameters
-    ----------
-    errors : labkit.measure.ErrorTable or pandas.DataFrame
-        The error table (or its long ``table``: columns ``pose_id, quantity, command, unit,
-        calculated, mean, half_range, error, inside``).
-    unit : str, optional
-        The unit the numbers print in after ``scale`` ("mm"); default: the readings' unit.
-    scale : float
-        Factor from the readings' unit to ``unit`` (1e3 for m -> mm).
-    pose : {"command", "pose_id"}
-        What names a pose: the commanded joints or target ("q = (5, 0, 0) deg") or its id.
-    digits : int or dict of str to int, optional
-        Significant digits of each column's largest magnitude; per column by the names
-        "calculated", "measured", "±", "error", with ``"*"`` for the rest. Default: 2 for
-        ±, 3 for the error, and calculated and measured with the error's decimals (so that
-        the printed error is the printed measured minus calculated).
-    caption : str
-        What the table shows.
-
-    Returns
-    -------
-    ReportTable
-
-    Raises
-    ------
-    OptionError
-        ``pose`` is not "command" or "pose_id"; ``scale`` is not a positive number; the
-        readings are in several units and ``unit`` / ``scale`` would print them as one.
-    ShapeError
-        ``errors`` lacks a column the layout needs.
-
-    Examples
-    --------
-    >>> import pandas as pd
-    >>> long = pd.DataFrame({"pose_id": ["p1", "p1"], "quantity": ["x", "y"], "command": ["q = (5, 0) deg"] * 2,
-    ...                      "unit": ["m", "m"], "calculated": [0.2733, 0.0239], "mean": [0.26, 0.065],
-    ...                      "half_range": [0.02, 0.05], "error": [-0.0133, 0.0411], "inside": [True, True]})
-    >>> print(error_report_table(long, unit="mm", scale=1e3).to_text())
-    pose            quantity  calculated [mm]  measured [mm]  ± [mm]  error [mm]  within U
-    q = (5, 0) deg  x                   273.3          260.0      20       -13.3  yes
-                    y                    23.9           65.0      50        41.1  yes
-    """
-    import pandas as pd
-
-    if pose not in ("command", "pose_id"):
-        raise OptionError(f"pose expects 'command' or 'pose_id', got {pose!r}")
-    if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not scale > 0:
-        raise OptionError(f"scale expects a positive number, got {scale!r}")
-    table = getattr(errors, "table", errors)
-    if not isinstance(table, pd.DataFrame):
-        raise ShapeError(f"expected an ErrorTable or its DataFrame, got {type(errors).__name__}")
-    needed = [pose, "quantity", "unit", *_ERROR_COLUMNS, "inside"]
-    lacking = [c for c in needed if c not in table.columns]
-    if lacking:
-        raise ShapeError(f"expected an error table with columns {', '.join(needed)}; it lacks {', '.join(lacking)}")
-    units = list(dict.fromkeys(table["unit"]))
-    if len(units) > 1 and (unit is not None or scale != 1.0):
-        raise OptionError(f"unit and scale convert readings of one unit; these are in {', '.join(units)}")
-    shown = unit if unit is not None else (units[0] if len(units) == 1 else "")
-    suffix = f" [{shown}]" if shown else ""
-    frame = pd.DataFrame({"pose": table[pose].to_numpy(), "quantity": table["quantity"].to_numpy(),
-                          **{f"{name}{suffix}": table[column].to_numpy(float) * float(scale)
-                             for column, name in _ERROR_COLUMNS.items()},
-                          "within U": table["inside"].to_numpy(bool)})
-    if digits is None:  # error = measured - calculated: the three print with the error's decimals (3 digits)
-        digits = {"±": 2, "*": 3}
-        err = np.abs(frame[f"error{suffix}"].to_numpy(float))
-        if np.isfinite(err).any() and np.nanmax(err) > 0:
-            decimals = 2 - math.floor(math.log10(np.nanmax(err)))
-            for name in ("calculated", "measured"):
-                big = np.nanmax(np.abs(frame[f"{name}{suffix}"].to_numpy(float)), initial=0.0)
-                digits[name] = max(1, decimals + 1 + math.floor(math.log10(big))) if big > 0 else 3
-    if isinstance(digits, dict):
-        digits = {(f"{k}{suffix}" if k in _ERROR_COLUMNS.values() else k): v for k, v in digits.items()}
-    return report_table(frame, digits=digits, caption=caption, group="pose")
-
-
-def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
-    """A number or a vector as prose prints it, the way :func:`report_table` prints a cell.
-
-    Parameters
-    ----------
-    value : float or array_like
-        A number, or numbers (printed as ``(a, b, c)``; a matrix row by row).
-    digits : int
-        Significant digits of the largest magnitude; every number gets the same decimals.
-    decimals : int, optional
-        Fixed decimals instead of ``digits``.
-    unit : str
-        Appended after a space ("mm", "deg").
-    zero : float
-        Round-off: a magnitude at most this prints as 0.
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    OptionError
-        ``digits`` or ``decimals`` is not a non-negative integer (``digits`` positive).
-
-    Examples
-    --------
-    >>> format_value([0.523599, 0.149718, -5.6e-17], decimals=4, unit="rad")
-    '(0.5236, 0.1497, 0.0000) rad'
-    >>> format_value(1.1e-13, unit="mm")
-    '0 mm'
-    """
-    if isinstance(digits, bool) or not isinstance(digits, numbers.Integral) or digits < 1:
-        raise OptionError(f"digits expects a positive integer, got {digits!r}")
-    if decimals is not None and (isinstance(decimals, bool) or not isinstance(decimals, numbers.Integral) or decimals < 0):
-        raise OptionError(f"decimals expects a non-negative integer, got {decimals!r}")
-    arr = np.asarray(value, dtype=object)
-    flat = list(arr.ravel()) if arr.ndim else [value]
-    if decimals is None:
-        dec, scientific = _style(flat, int(digits), zero)
-    else:
-        dec, scientific = int(decimals), False
-    if arr.ndim == 0:
-        text = _cell(value, dec, scientific, ("yes", "no"), "–", zero)
-    elif arr.ndim == 1:
-        text = _cell(list(arr), dec, scientific, ("yes", "no"), "–", zero)
-    else:
-        text = "(" + ", ".join(_cell(list(row), dec, scientific, ("yes", "no"), "–", zero)
-                               for row in arr.reshape(-1, arr.shape[-1])) + ")"
-    return f"{text} {unit}" if unit else text
