@@ -99,7 +99,7 @@ def css_to_latex(css) -> str:
     return "".join(out) + (" " if out else "")
 
 
-def is_missing(v) -> bool:
+def _is_missing(v) -> bool:
     """True for ``None``, ``NaN``, ``pd.NA`` and ``pd.NaT``."""
     if v is None:
         return True
@@ -117,7 +117,7 @@ def _is_vector(v) -> bool:
     return isinstance(v, (tuple, list, np.ndarray)) and not isinstance(v, str)
 
 
-def is_number_text(text) -> bool:
+def _is_number_text(text) -> bool:
     """True for text that reads as a finite number (``"0.024"``: kept as printed, aligned as a number)."""
     try:
         return math.isfinite(float(text))
@@ -129,23 +129,23 @@ def _items(v):
     return np.asarray(v, dtype=object).ravel() if _is_vector(v) else [v]
 
 
-def numbers_of(values, zero=0.0):
+def _numbers_of(values, zero=0.0):
     """Every finite real number in a column (vectors flattened), as floats; round-off (``<= zero``) as 0."""
     out = []
     for v in values:
         for x in _items(v):
-            if isinstance(x, (bool, np.bool_)) or is_missing(x) or not isinstance(x, numbers.Real):
+            if isinstance(x, (bool, np.bool_)) or _is_missing(x) or not isinstance(x, numbers.Real):
                 continue
             if math.isfinite(float(x)):
                 out.append(0.0 if abs(float(x)) <= zero else float(x))
     return out
 
 
-def column_style(values, digits, zero):
+def _column_style(values, digits, zero):
     """(decimals, scientific) for a column: ``digits`` significant digits on its largest magnitude."""
-    nums = numbers_of(values, zero)
+    nums = _numbers_of(values, zero)
     if all(float(x).is_integer() for x in nums) and all(
-            isinstance(x, (numbers.Integral, np.integer)) for v in values if not is_missing(v) for x in _items(v)
+            isinstance(x, (numbers.Integral, np.integer)) for v in values if not _is_missing(v) for x in _items(v)
             if isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_))):
         return 0, False
     big = max((abs(x) for x in nums), default=0.0)
@@ -172,15 +172,15 @@ def _number(x, decimals, scientific, zero) -> str:
     return text
 
 
-def cell_text(v, decimals, scientific, words=BOOLEANS, missing=MISSING, zero=1e-9) -> str:
-    """One cell as printed, with its column's ``(decimals, scientific)`` from :func:`column_style`."""
-    if is_missing(v):
+def _cell_text(v, decimals, scientific, words=BOOLEANS, missing=MISSING, zero=1e-9) -> str:
+    """One cell as printed, with its column's ``(decimals, scientific)`` from :func:`_column_style`."""
+    if _is_missing(v):
         return missing
     if isinstance(v, (bool, np.bool_)):
         return words[0] if v else words[1]
     if _is_vector(v):
         items = np.asarray(v, dtype=object).ravel()
-        return "(" + ", ".join(cell_text(x, decimals, scientific, words, missing, zero) for x in items) + ")"
+        return "(" + ", ".join(_cell_text(x, decimals, scientific, words, missing, zero) for x in items) + ")"
     if isinstance(v, (numbers.Integral, np.integer)):
         return str(int(v)) if decimals == 0 and not scientific else _number(v, decimals, scientific, zero)
     if isinstance(v, numbers.Real):
@@ -188,7 +188,7 @@ def cell_text(v, decimals, scientific, words=BOOLEANS, missing=MISSING, zero=1e-
     return str(v)
 
 
-def check_digits(value, name="digits", least=1):
+def _check_digits(value, name="digits", least=1):
     """``value`` as an int of at least ``least``; else an OptionError saying what was expected."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < least:
         kind = "a positive integer" if least == 1 else "a non-negative integer"
@@ -228,20 +228,20 @@ def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
     >>> format_value(1.1e-13, unit="mm")
     '0 mm'
     """
-    check_digits(digits)
+    _check_digits(digits)
     if decimals is not None:
-        check_digits(decimals, "decimals", least=0)
+        _check_digits(decimals, "decimals", least=0)
     arr = np.asarray(value, dtype=object)
     flat = list(arr.ravel()) if arr.ndim else [value]
     if decimals is None:
-        dec, scientific = column_style(flat, int(digits), zero)
+        dec, scientific = _column_style(flat, int(digits), zero)
     else:
         dec, scientific = int(decimals), False
     if arr.ndim == 0:
-        text = cell_text(value, dec, scientific, zero=zero)
+        text = _cell_text(value, dec, scientific, zero=zero)
     elif arr.ndim == 1:
-        text = cell_text(list(arr), dec, scientific, zero=zero)
+        text = _cell_text(list(arr), dec, scientific, zero=zero)
     else:
-        text = "(" + ", ".join(cell_text(list(row), dec, scientific, zero=zero)
+        text = "(" + ", ".join(_cell_text(list(row), dec, scientific, zero=zero)
                                for row in arr.reshape(-1, arr.shape[-1])) + ")"
     return f"{text} {unit}" if unit else text

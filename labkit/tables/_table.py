@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.tables._cells import (BOOLEANS, MISSING, cell_text, check_digits, column_style, css_to_latex, is_missing,
-                                  is_number_text, latex_escape, numbers_of)
+from labkit.tables._cells import (BOOLEANS, MISSING, _cell_text, _check_digits, _column_style, css_to_latex, _is_missing,
+                                  _is_number_text, latex_escape, _numbers_of)
 
 __all__ = ["ReportTable", "report_table", "LONG_TABLE_ROWS", "HIGHLIGHT"]
 
@@ -340,8 +340,7 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         raise OptionError(f"digits names {', '.join(map(str, unknown))}, which the table does not have")
     default = per_column.get("*", 3)
     for value in [default, *per_column.values()]:
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-            raise OptionError(f"digits expects positive integers, got {value!r}")
+        _check_digits(value)
     group = [] if group is None else [group] if isinstance(group, str) else list(group)
     for name in group:
         if name not in df.columns or columns.get(name, name) is None:
@@ -357,11 +356,11 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         if units.get(name) and "[" not in str(label):
             label = f"{label} [{units[name]}]"
         values = list(df[name])
-        decimals, scientific = column_style(values, int(per_column.get(name, default)), zero)
+        decimals, scientific = _column_style(values, int(per_column.get(name, default)), zero)
         header.append(str(label))
-        cells.append([cell_text(v, decimals, scientific, booleans, missing, zero) for v in values])
-        present = [v for v in values if not is_missing(v)]  # numbers kept as printed ("0.024") align as numbers
-        numeric.append(bool(present) and all(is_number_text(v) if isinstance(v, str) else bool(numbers_of([v]))
+        cells.append([_cell_text(v, decimals, scientific, booleans, missing, zero) for v in values])
+        present = [v for v in values if not _is_missing(v)]  # numbers kept as printed ("0.024") align as numbers
+        numeric.append(bool(present) and all(_is_number_text(v) if isinstance(v, str) else bool(_numbers_of([v]))
                                              for v in present))
     starts = ()
     if grouped:

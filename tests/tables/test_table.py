@@ -90,7 +90,7 @@ def test_bad_input_says_what_was_expected():
         report_table([1, 2])
     with pytest.raises(OptionError, match="columns names b, which the table does not have"):
         report_table(df, columns={"b": "B"})
-    with pytest.raises(OptionError, match="digits expects positive integers, got 0"):
+    with pytest.raises(OptionError, match="digits expects a positive integer, got 0"):
         report_table(df, digits=0)
     with pytest.raises(OptionError, match="digits names c"):
         report_table(df, digits={"c": 2})
