@@ -51,18 +51,23 @@ def _calibrate_arguments(sp):
 
 
 def _cmd_errors(args):
-    import pandas as pd
-
     from labkit.measure import error_table
+    from labkit.tables import report_table
 
     result = error_table(args.robot, args.file, branch=args.branch, combine=args.combine)
-    with pd.option_context("display.width", 200, "display.max_columns", 50):
-        print(result.wide().to_string(float_format=lambda v: f"{v:.4g}"))
+    print(result.report_table(pose="pose_id").to_text())  # the table the HTML, the LaTeX and a report print
+    print()
+    print(report_table(result.summary, columns=_SUMMARY_COLUMNS, digits=3).to_text())
     if args.html:
         result.to_html(args.html)
     if args.latex:
         result.to_latex(args.latex)
     return 0
+
+
+#: the summary of an error table, as ``labkit errors`` prints it
+_SUMMARY_COLUMNS = {"n_poses": "poses", "rms_error": "RMS error", "max_abs_error": "max |error|",
+                    "mean_error": "mean error", "n_inside": "within U"}
 
 
 def _cmd_audit(args):

@@ -29,6 +29,7 @@ import numpy as np
 from labkit.exceptions import MeasurementError
 from labkit.measure._calculated import _frame, _robot, _wrap_deg_or_rad, calculated_si
 from labkit.measure._schema import UNITS, parse_numbers, quantity_dimension
+from labkit.tables import HIGHLIGHT, format_value, report_table
 
 # labkit.measure re-exports this module's names, so its helpers are imported
 # inside the functions (no import cycle whichever module is imported first).
@@ -156,8 +157,41 @@ class AuditResult:
         """
         return self.cells.copy()
 
-    def style(self, highlight="background-color: #f8c4c4"):
-        """Styler with the disagreeing rows highlighted.
+    def report_table(self, *, highlight=HIGHLIGHT, caption=""):
+        """The cell table as a report prints it, the rows that disagree highlighted.
+
+        Published values print as published (the text kept); the recomputed value, the
+        difference and the tolerance print in the unit of their row by the rule of every
+        labkit table (:func:`labkit.tables.format_value`: 4, 2 and 1 significant digits;
+        the rows mix units, so each row has its own decimals); ``agrees`` as yes / no.
+
+        Parameters
+        ----------
+        highlight : str
+            CSS of a cell in a row that does not agree.
+        caption : str
+            What the table shows.
+
+        Returns
+        -------
+        labkit.tables.ReportTable
+
+        Raises
+        ------
+        OptionError
+            ``highlight`` is not CSS text.
+        """
+        import pandas as pd
+
+        frame = self.cells.copy()
+        for column, digits in _AUDIT_DIGITS.items():
+            frame[column] = pd.Series([format_value(v, digits=digits) for v in frame[column]], index=frame.index,
+                                      dtype=object)
+        return report_table(frame, caption=caption, index=False).mark(~self.cells["agrees"].to_numpy(bool),
+                                                                      css=highlight)
+
+    def style(self, highlight=HIGHLIGHT):
+        """A pandas Styler of :meth:`report_table`: the same cells, disagreeing rows highlighted.
 
         Parameters
         ----------
@@ -168,10 +202,11 @@ class AuditResult:
         -------
         pandas.io.formats.style.Styler
         """
-        cells = self.cells
-        return cells.style.apply(
-            lambda row: [highlight if not row["agrees"] else "" for _ in row], axis=1
-        ).format({"recomputed": "{:.4g}", "difference": "{:.2g}", "tolerance": "{:.2g}"})
+        return self.report_table(highlight=highlight).to_styler()
+
+
+#: significant digits of the numbers an audit prints (the published value keeps its own text)
+_AUDIT_DIGITS = {"recomputed": 4, "difference": 2, "tolerance": 1}
 
 
 def audit_published(robot, published, *, branch=None):

@@ -80,13 +80,6 @@ def decimals_for_resolution(resolution):
     return max(0, -math.floor(math.log10(resolution) + 1e-12))
 
 
-def _fixed(decimals):
-    def fmt(v):
-        return f"{round(float(v), decimals) + 0.0:.{decimals}f}"
-
-    return fmt
-
-
 def _frame(data, loader, required):
     """DataFrame from a path (via ``loader``) or a user-built frame, optional columns filled in."""
     import pandas as pd

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError
+from labkit.exceptions import MeasurementError, OptionError
 from labkit.measure._schema import UNITS, quantity_dimension
 from labkit.measure._csv import load_measurements
-from labkit.measure._calculated import COMBINE_RULES, _command_text, _fixed, _frame, _robot, _wrap_deg_or_rad, calculated_si, decimals_for_resolution
+from labkit.measure._calculated import COMBINE_RULES, _command_text, _frame, _robot, _wrap_deg_or_rad, calculated_si
+from labkit.tables import HIGHLIGHT, error_report_table
 
 __all__ = ["ErrorTable", "error_table", "fk_error_table", "ik_error_table"]
 
@@ -100,96 +102,172 @@ class ErrorTable:
         summary.columns = pd.MultiIndex.from_tuples(summary.columns)
         return pd.concat([wide, summary.reindex(columns=wide.columns)])
 
-    def style(self, *, tolerance=None, highlight="background-color: #f8c4c4", escape=None, caption=None):
-        """A pandas Styler of :meth:`wide` for reports.
+    def flagged(self, tolerance=None):
+        """Which rows are out of tolerance: the readings an error report highlights.
 
-        Numbers are shown to the decimal place of the instrument resolution
-        (:func:`decimals_for_resolution`); the measured and error cells of
-        readings whose calculated value lies outside the measurement
-        uncertainty (or, with ``tolerance``, whose ``|error|`` exceeds it) are
+        Parameters
+        ----------
+        tolerance : float or dict of str to float, optional
+            Largest acceptable ``|error|`` in SI units (m, rad), one value or
+            ``{quantity: value}`` (a quantity not named is never flagged); default: the
+            measurement uncertainty (a row is flagged when ``inside`` is false).
+
+        Returns
+        -------
+        numpy.ndarray of bool, shape (n_rows,)
+            One flag per row of :attr:`table`.
+
+        Raises
+        ------
+        OptionError
+            ``tolerance`` is not a non-negative number or a mapping of this table's
+            quantities to such numbers.
+        """
+        if tolerance is None:
+            return ~self.table["inside"].to_numpy(bool)
+        quantities = list(dict.fromkeys(self.table["quantity"]))
+        limits = dict(tolerance) if isinstance(tolerance, dict) else dict.fromkeys(quantities, tolerance)
+        unknown = [q for q in limits if q not in quantities]
+        if unknown:
+            raise OptionError(f"tolerance names quantities {', '.join(map(repr, unknown))}, which the table does "
+                              f"not have (it has {', '.join(quantities)})")
+        for q, value in limits.items():
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not value >= 0:
+                raise OptionError(f"tolerance expects a non-negative number in m or rad (or {{quantity: number}}), "
+                                  f"got {value!r} for {q!r}")
+        si = self.table["abs_error"].to_numpy(float) * np.array([UNITS[u][1] for u in self.table["unit"]])
+        limit = np.array([limits.get(q, np.inf) for q in self.table["quantity"]], dtype=float)
+        return si > limit
+
+    def report_table(self, *, tolerance=None, highlight=HIGHLIGHT, caption="", unit=None, scale=1.0, pose="command",
+                     digits=None):
+        """The table as a report prints it, the readings out of tolerance highlighted.
+
+        :func:`labkit.tables.error_report_table` of this table (one row per pose and quantity:
+        calculated, measured, ±, error with their unit, within U), the measured and error
+        cells of the rows :meth:`flagged` marks highlighted. :meth:`to_html`, :meth:`to_latex`
+        and :meth:`style` print this table, so a notebook shows what the report shows.
+
+        Parameters
+        ----------
+        tolerance : float or dict of str to float, optional
+            Largest acceptable ``|error|`` in SI units (m, rad), as :meth:`flagged`;
+            default: the measurement uncertainty.
+        highlight : str
+            CSS of a highlighted cell.
+        caption : str
+            What the table shows (``None`` as "").
+        unit, scale, pose, digits
+            The layout of :func:`labkit.tables.error_report_table`: the unit the numbers
+            print in and the factor to it (``unit="mm", scale=1e3``), what names a pose
+            ("command" or "pose_id"), significant digits per column.
+
+        Returns
+        -------
+        labkit.tables.ReportTable
+
+        Raises
+        ------
+        OptionError
+            A value the options do not accept (the message says what they expect).
+
+        Examples
+        --------
+        >>> from labkit.data import measurement_file
+        >>> errors = error_table("arduino_arm_3dof", measurement_file("seed000_ik_table4.csv"), branch="elbow_up")
+        >>> t = errors.report_table(pose="pose_id")
+        >>> t.header[2:6], t.rows[1][:6]
+        (('calculated [deg]', 'measured [deg]', '± [deg]', 'error [deg]'), ('', 'theta2', '113.9', '115.0', '1.0', '1.1'))
+        >>> sorted({r for r, _, _ in t.marks}) == sorted(np.flatnonzero(~errors.table["inside"]))
+        True
+        """
+        return error_report_table(self, unit=unit, scale=scale, pose=pose, digits=digits, caption=caption or "",
+                                  flagged=self.flagged(tolerance), highlight=highlight)
+
+    @staticmethod
+    def _options(options):
+        """The options of :meth:`report_table` given by name to a method that passes them on."""
+        unknown = sorted(set(options) - set(_REPORT_OPTIONS))
+        if unknown:
+            raise OptionError(f"expected options among {', '.join(_REPORT_OPTIONS)}, got {', '.join(unknown)}")
+        return options
+
+    def style(self, *, escape=None, **options):
+        """A pandas Styler of :meth:`report_table`: the same cells, the same highlights.
+
+        Numbers print as the lab report prints them (calculated and measured with the
+        error's decimals, units in the headers, words for booleans, a dash for a missing
+        value); the measured and error cells of readings whose calculated value lies outside
+        the measurement uncertainty (or, with ``tolerance``, whose ``|error|`` exceeds it) are
         highlighted.
 
         Parameters
         ----------
-        tolerance : float or mapping, optional
-            Maximum acceptable ``|error|`` in SI units (m, rad), one value or
-            ``{quantity: value}``; default: the measurement uncertainty.
-        highlight : str
-            CSS of an out-of-tolerance cell.
         escape : {None, "html", "latex"}
-            Escaping of text cells and labels (``to_latex`` uses "latex").
-        caption : str, optional
-            Table caption.
+            Escaping of the header and the cells.
+        **options
+            As :meth:`report_table`: ``tolerance`` (in m, rad; one value or
+            ``{quantity: value}``), ``highlight`` (CSS), ``caption``, ``unit``, ``scale``,
+            ``pose``, ``digits``.
 
         Returns
         -------
         pandas.io.formats.style.Styler
+
+        Raises
+        ------
+        OptionError
+            An option or value :meth:`report_table` does not accept, or a bad ``escape``.
         """
-        import pandas as pd
+        return self.report_table(**self._options(options)).to_styler(escape=escape)
 
-        wide = self.wide()
-        css = pd.DataFrame("", index=wide.index, columns=wide.columns)
-        formatters = {}
-        for q, g in self.table.groupby("quantity", sort=False):
-            unit = g["unit"].iloc[0]
-            top = f"{q} [{unit}]"
-            dec = decimals_for_resolution(g["resolution"].min())
-            for field in ("calculated", "measured", "±", "error"):
-                formatters[(top, field)] = _fixed(dec)
-            if tolerance is None:
-                bad = ~g["inside"].to_numpy(bool)
-            else:
-                tol = tolerance.get(q, np.inf) if isinstance(tolerance, dict) else tolerance
-                bad = g["abs_error"].to_numpy(float) * UNITS[unit][1] > float(tol)
-            for pose in g["pose_id"][bad]:
-                css.loc[pose, (top, "measured")] = highlight
-                css.loc[pose, (top, "error")] = highlight
-        styler = wide.style.set_caption(caption) if caption else wide.style
-        return (styler.format(formatters, na_rep="", escape=escape)
-                .format_index(escape=escape, axis=0)
-                .format_index(escape=escape, axis=1)
-                .apply(lambda _: css, axis=None))
-
-    def to_html(self, path=None, **style_kwargs):
-        """HTML of :meth:`style` (written to ``path`` if given).
+    def to_html(self, path=None, **options):
+        """HTML of :meth:`report_table` (written to ``path`` if given): the report's table.
 
         Parameters
         ----------
         path : str or os.PathLike, optional
             File to write; nothing is written if omitted.
-        **style_kwargs
-            Passed to :meth:`style` (``tolerance``, ``highlight``, ``caption``).
+        **options
+            As :meth:`report_table` (``tolerance``, ``highlight``, ``caption``, ``unit``,
+            ``scale``, ``pose``, ``digits``).
 
         Returns
         -------
         str
-            The HTML table.
+            The HTML table (``<table class="lk-report-table">``; highlighted cells carry
+            their CSS in a ``style`` attribute).
         """
-        html = self.style(escape="html", **style_kwargs).to_html()
+        html = self.report_table(**self._options(options)).to_html()
         if path is not None:
-            Path(path).write_text(html)
+            Path(path).write_text(html, encoding="utf-8")
         return html
 
-    def to_latex(self, path=None, **style_kwargs):
-        r"""LaTeX of :meth:`style` (``\cellcolor`` highlights need ``xcolor``/``colortbl``).
+    def to_latex(self, path=None, **options):
+        r"""LaTeX of :meth:`report_table` (booktabs; ``\cellcolor`` highlights need ``xcolor`` with ``table``).
 
         Parameters
         ----------
         path : str or os.PathLike, optional
             File to write; nothing is written if omitted.
-        **style_kwargs
-            Passed to :meth:`style` (``tolerance``, ``highlight``, ``caption``).
+        **options
+            As :meth:`report_table` (``tolerance``, ``highlight``, ``caption``, ``unit``,
+            ``scale``, ``pose``, ``digits``).
 
         Returns
         -------
         str
-            The LaTeX ``tabular`` (with ``\cellcolor`` for highlighted cells).
+            A ``table``/``tabular`` (a ``longtable`` when long), ``\cellcolor`` on
+            highlighted cells.
         """
-        tex = self.style(escape="latex", **style_kwargs).to_latex(convert_css=True, hrules=True,
-                                                 multicol_align="c")
+        tex = self.report_table(**self._options(options)).to_latex()
         if path is not None:
-            Path(path).write_text(tex)
+            Path(path).write_text(tex, encoding="utf-8")
         return tex
+
+
+#: what :meth:`ErrorTable.report_table` accepts
+_REPORT_OPTIONS = ("tolerance", "highlight", "caption", "unit", "scale", "pose", "digits")
 
 
 def error_table(robot, measurements, *, mode="auto", branch=None, combine="quadrature"):

@@ -137,3 +137,59 @@ def test_seven_joints_run_a_trajectory_and_a_too_wide_segment_is_refused_whole(c
             arm.run_trajectory(segs)
         assert arm.stats.sent == sent and len(arm.events) == events, "not even the first segment was sent"
         assert np.allclose(arm.commanded_joints(), q1, atol=1e-3)
+
+
+def test_an_eight_joint_status_longer_than_a_request_line_round_trips(chain_file):
+    """STATUS is the one board line longer than MAX_LINE (``docs/protocol.md`` 2.2): the host reads and parses it."""
+    from labkit.arm import Arm
+
+    with Arm(chain_file(8), "sim://?clock=lockstep") as arm:
+        target = np.radians(np.linspace(-140.0, -147.0, 8))  # -14000 .. -14700 cdeg: six characters a joint
+        arm.move_joints(target, wait=True)
+        board = arm.port.board
+        sent, take = [], board.take_output
+        board.take_output = lambda size=None: (out := take(size), sent.append(out))[0]
+        bad, retries = arm.stats.bad_lines, arm.stats.retries
+        st = arm.status()
+        lines = b"".join(sent).split(b"\r\n")
+        status = [ln for ln in lines if b" STATUS state=" in ln]
+        assert len(status) == 1 and len(status[0]) > 164, status
+        np.testing.assert_array_equal(arm._units.positions(st.q), arm._units.positions(target))
+        assert st.state == "IDLE" and st.queue + st.free == arm.info.queue
+        assert arm.stats.bad_lines == bad and arm.stats.retries == retries
+
+
+def test_the_widest_status_is_as_long_as_the_host_reckons(chain_file):
+    from labkit.arm import Arm
+    from labkit.arm._protocol import seal, unseal
+    from labkit.arm.link._replies import longest_status, parse_status
+
+    with Arm(chain_file(8), "sim://?clock=lockstep") as arm:
+        ex = arm.port.board.executor
+        ex.take_output()
+        ex.q = [-32000.0] * 8
+        ex.state, ex.done, ex.timeout_ms, ex.stream_hz, ex.flags, ex.mem = "HOLD", 2**32 - 1, 60000, 200, 0xFF, 65535
+        ex.grip, ex.last_seq = 2600, 65535
+        ex.boot_time, ex.time = 0.0, (2**32 - 0.5) / 1000
+        ex.receive((seal("#65535 STATUS ") + "\r\n").encode())
+        line = ex.take_output().rstrip(b"\r\n")
+    assert len(line) == longest_status(8) == 203 > 164
+    tokens = unseal(line).decode().split()
+    st = parse_status(tokens[3:], 8)
+    assert tokens[:3] == ["OK", "#65535", "STATUS"] and st.t == pytest.approx(4294967.295) and st.done == 2**32 - 1
+
+
+def test_a_lockstep_reply_wait_covers_the_longest_status():
+    """On a lockstep board a reply not begun within its wire-time bound is taken as lost: the bound must cover the
+    longest board line, an 8-joint STATUS (203 bytes), not a request line's 164."""
+    from labkit.arm import MAX_JOINTS, Arm
+    from labkit.arm._protocol import request_length
+    from labkit.arm.link._replies import longest_status
+    from labkit.arm.link._wire import _BOARD_REPLY_S
+
+    byte_s = 10 / 115200
+    with Arm("arduino_arm_3dof", "sim://?clock=lockstep", timeout=1.0) as arm:
+        assert arm.port.clock == "lockstep"
+        request = request_length("STATUS", []) + 1  # with its end of line
+        assert arm._wire.reply_wait("STATUS", request) >= ((request + longest_status(MAX_JOINTS) + 2) * byte_s
+                                                           + _BOARD_REPLY_S)

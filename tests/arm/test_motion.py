@@ -118,15 +118,20 @@ def test_the_host_refuses_a_segment_leaving_the_range_between_samples_like_the_b
     assert info.value.joint == 0
 
 
-@pytest.fixture(scope="module")
-def firmware_check(tmp_path_factory):
-    """The firmware's lk_check, built for the host as a shared library."""
+def host_core(directory):
+    """The firmware's core (``labkit_core.c``), built for the host as a shared library in ``directory`` (ctypes)."""
     cc = shutil.which("cc") or shutil.which("gcc")
-    lib = tmp_path_factory.mktemp("core") / "labkit_core.so"
+    lib = directory / "labkit_core.so"
     subprocess.run([cc, "-shared", "-fPIC", "-O1", "-std=c99", f"-I{FIRMWARE_DIR / 'labkit_arm'}",
                     str(FIRMWARE_DIR / "labkit_arm" / "labkit_core.c"), str(FIRMWARE_DIR / "tests" / "hw_stub.c"),
                     "-o", str(lib)], check=True, capture_output=True)
-    core = ctypes.CDLL(str(lib))
+    return ctypes.CDLL(str(lib))
+
+
+@pytest.fixture(scope="module")
+def firmware_check(tmp_path_factory):
+    """The firmware's lk_check, built for the host as a shared library."""
+    core = host_core(tmp_path_factory.mktemp("core"))
     core.lk_check.restype = ctypes.c_uint8
     core.lk_check.argtypes = [ctypes.POINTER(ctypes.c_int32), ctypes.c_uint8, ctypes.c_uint8, ctypes.c_int32,
                               ctypes.c_int32, ctypes.c_uint32, ctypes.c_uint32, ctypes.POINTER(ctypes.c_int32)]

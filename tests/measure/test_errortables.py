@@ -1,6 +1,8 @@
 """Tests of labkit.measure error tables: FK/IK error tables, styled output, published-table audit."""
 
+import html as _html
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -16,6 +18,7 @@ from labkit.measure import (
     load_published,
 )
 from labkit.data import measurement_file
+from labkit.reports import error_report_table
 from labkit.exceptions import MeasurementError
 from labkit.measure import MeasurementLog
 
@@ -165,24 +168,49 @@ def test_decimals_from_resolution():
         decimals_for_resolution(0.0)
 
 
-def test_styled_output_html_and_latex(arm):
-    result = error_table(arm, IK_SEED)
+def _html_cells(html):
+    """(text, style or None) of every body cell of an HTML table, row by row."""
+    return [[(_html.unescape(text), style) for style, text in re.findall(r'<td[^>]*?(?: style="([^"]*)")?>(.*?)</td>', row)]
+            for row in re.findall(r"<tr>(.*?)</tr>", html.split("</thead>", 1)[1])]
+
+
+@pytest.mark.parametrize("seed", [FK_SEED, IK_SEED])
+def test_error_table_prints_what_the_report_prints(arm, seed):
+    """to_html, to_latex and style show the cells and headers of the report's error table, nothing else."""
+    result = error_table(arm, seed, branch="elbow_up")
+    report = error_report_table(result)  # what a lab report shows (labkit.reports)
     html = result.to_html()
-    assert "109.4" in html and "113.9" in html  # 1 decimal from the 0.5 deg protractor
-    assert "113.86" not in html
+    assert re.findall(r"<th class=\"[^\"]*\">(.*?)</th>", html) == [_html.escape(h) for h in report.header]
+    cells = _html_cells(html)
+    assert [[text for text, _ in row] for row in cells] == [list(r) for r in report.rows]
+    assert result.to_latex().replace(r"\cellcolor[HTML]{F8C4C4} ", "") == report.to_latex()
     styler = result.style()
+    assert styler.data.values.tolist() == [list(r) for r in report.rows]
+    assert re.findall(r'<th [^>]*class="col_heading[^"]*"[^>]*>(.*?)</th>', styler.to_html()) == list(report.header)
+    assert not re.search(r"\b(True|False|NaN|nan)\b", html)
+
+
+def test_out_of_uncertainty_readings_are_highlighted(arm):
+    result = error_table(arm, IK_SEED, branch="elbow_up")
+    table = result.table
+    html = result.to_html(pose="pose_id")
+    cells = _html_cells(html)
+    marked = {(k, j) for k, row in enumerate(cells) for j, (_, style) in enumerate(row) if style}
+    # independent of the inside column: |mean - calculated| against U = sqrt(resolution^2 + half_range^2)
+    outside = np.abs(table["mean"] - table["calculated"]) > np.hypot(table["resolution"], table["half_range"]) * (1 + 1e-9)
+    assert marked == {(k, j) for k in np.flatnonzero(outside) for j in (3, 5)}  # measured and error
+    row5 = table.index[(table.pose_id == "t4_row5") & (table.quantity == "theta1")][0]
+    row1 = table.index[(table.pose_id == "t4_row1") & (table.quantity == "theta1")][0]
+    assert (row5, 5) in marked and (row1, 5) not in marked
+    assert cells[row5][5][1] == "background-color: #f8c4c4"
+    assert cells[row5][2][0] == "111.8" and cells[row5][5][0] == "-81.8"  # IK's 111.8 deg vs the read 30 deg
+    tex = result.to_latex(caption="Table 4", pose="pose_id")
+    assert "\\caption{Table 4}" in tex and "t4\\_row5" in tex
+    assert tex.count("\\cellcolor[HTML]{F8C4C4}") == 2 * int(outside.sum())
+    styler = result.style(highlight="background-color: yellow")
     styler._compute()
-    highlighted = {(r, c) for (r, c), props in styler.ctx.items() if props}
-    wide = result.wide()
-    cols = list(wide.columns)
-    row5 = list(wide.index).index("t4_row5")
-    assert (row5, cols.index(("theta1 [deg]", "error"))) in highlighted
-    row1 = list(wide.index).index("t4_row1")
-    assert (row1, cols.index(("theta1 [deg]", "error"))) not in highlighted
-    tex = result.to_latex(caption="Table 4")
-    assert "\\caption{Table 4}" in tex
-    assert "\\cellcolor" in tex and "t4\\_row5" in tex
-    assert tex.count("\\cellcolor") == 2 * int((~result.table["inside"]).sum())
+    assert {k for k, v in styler.ctx.items() if v} == marked
+    assert result.to_latex(highlight="background-color: yellow").count("\\cellcolor{yellow}") == 2 * int(outside.sum())
 
 
 def test_style_with_explicit_tolerance(arm):
@@ -192,6 +220,44 @@ def test_style_with_explicit_tolerance(arm):
     n_bad = int((result.table["abs_error"] > 0.03).sum())
     assert sum(1 for props in styler.ctx.values() if props) == 2 * n_bad
     assert n_bad == 2  # t1 5deg y (41 mm), t3 5deg x (33 mm)
+    flagged = result.table[result.flagged(0.03)]
+    assert set(zip(flagged.pose_id, flagged.quantity)) == {("t1_j1_5deg", "y"), ("t3_j3_5deg", "x")}
+    ik = error_table(arm, IK_SEED, branch="elbow_up")
+    per = ik.flagged({"theta1": np.radians(5.0)})  # a quantity not named is never flagged
+    expected = (ik.table.quantity == "theta1") & (ik.table.error.abs() > 5.0)
+    assert per.tolist() == expected.tolist() and per.sum() == 1  # t4_row5 (81.8 deg); row 6 is off by 3 deg
+
+
+def test_error_table_output_says_what_it_expected(arm):
+    from labkit.exceptions import OptionError
+
+    result = error_table(arm, IK_SEED, branch="elbow_up")
+    with pytest.raises(OptionError, match="expected options among tolerance, highlight, caption, unit, scale, pose, digits, got tol"):
+        result.to_html(tol=0.1)
+    with pytest.raises(OptionError, match="expected options among .* got escape"):
+        result.to_latex(escape="latex")
+    with pytest.raises(OptionError, match="tolerance names quantities 'x', which the table does not have .*theta1"):
+        result.style(tolerance={"x": 0.01})
+    with pytest.raises(OptionError, match="tolerance expects a non-negative number .* got -1 for 'theta1'"):
+        result.to_html(tolerance=-1)
+    with pytest.raises(OptionError, match="got 'a lot'"):
+        result.report_table(tolerance="a lot")
+    with pytest.raises(OptionError, match="escape expects None, 'html' or 'latex', got 'rtf'"):
+        result.style(escape="rtf")
+    with pytest.raises(OptionError, match="pose expects 'command' or 'pose_id', got 'row'"):
+        result.to_html(pose="row")
+
+
+def test_error_table_with_missing_values_prints_a_dash(arm):
+    from labkit.measure import ErrorTable
+
+    result = error_table(arm, IK_SEED, branch="elbow_up")
+    table = result.table.copy()
+    table.loc[0, ["mean", "error", "abs_error"]] = np.nan  # a reading that was never taken
+    holed = ErrorTable(table=table, summary=result.summary)
+    row = _html_cells(holed.to_html())[0]
+    assert [text for text, _ in row][3:6] == ["–", "2.0", "–"] and row[6][0] == "yes"
+    assert [list(r) for r in error_report_table(holed).rows] == [[t for t, _ in r] for r in _html_cells(holed.to_html())]
 
 
 def test_no_negative_zero_in_report(arm):
@@ -268,7 +334,9 @@ def test_cli_errors_and_audit(tmp_path, capsys):
     assert main(["errors", str(IK_SEED), "--html", str(html)]) == 0
     out = capsys.readouterr().out
     assert "t4_row5" in out and "RMS" in out
-    assert html.read_text().startswith("<style")
+    written = html.read_text()
+    assert written.startswith('<table class="lk-report-table') and 'style="background-color: #f8c4c4"' in written
+    assert "theta1" in out and "max |error|" in out
     assert main(["audit", str(PUBLISHED), "--robot", "arduino_arm_3dof"]) == 1
     out = capsys.readouterr().out
     assert out.startswith("57 of 63 published values agree")
@@ -308,3 +376,22 @@ def test_measurements_in_the_robots_place_get_a_clear_error():
     arm = Robot.load("arduino_arm_3dof")
     with pytest.raises(LabkitError, match="expected measurements as a DataFrame or the path of a CSV file, got Robot"):
         error_table(arm, arm)
+
+
+def test_audit_style_marks_the_disagreeing_rows_and_prints_words(arm):
+    audit = audit_published(arm, PUBLISHED, branch="elbow_up")
+    t = audit.report_table()
+    bad = sorted({r for r, _, _ in t.marks})
+    assert bad == list(np.flatnonzero(~audit.cells["agrees"].to_numpy(bool))) and len(bad) == len(audit.flagged) == 6
+    assert len(t.marks) == 6 * len(t.header)  # the whole row
+    row = dict(zip(t.header, t.rows[bad[0]]))
+    assert row["agrees"] == "no" and row["published"] == audit.cells.loc[bad[0], "published"]  # kept as printed
+    text = t.to_text() + t.to_html()
+    assert not re.search(r"\b(True|False|NaN|nan)\b", text)
+    styler = audit.style()
+    styler._compute()
+    assert sorted({r for (r, _), v in styler.ctx.items() if v}) == bad
+    assert styler.data.values.tolist() == [list(r) for r in t.rows]
+    # each number in its row's unit: 4 significant digits of the recomputed value (t4_row5 theta1 = 111.8 deg)
+    t4 = dict(zip(t.header, t.rows[int(np.flatnonzero((audit.cells.pose_id == "t4_row5") & (audit.cells.quantity == "theta1"))[0])]))
+    assert t4["recomputed"] == "111.8" and t4["unit"] == "deg"

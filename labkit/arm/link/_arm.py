@@ -553,7 +553,8 @@ class Arm(ServoMethods):
         TrajectoryError
             A segment faster than a joint's speed or acceleration limit (the board's check; nothing is sent).
         OptionError
-            A segment's ``SEG`` line longer than the protocol's limit (``MAX_LINE``; nothing is sent).
+            A segment's ``SEG`` line longer than ``MAX_LINE`` (a sampled trajectory's are split to fit, down to
+            pieces of 1 ms: :func:`segments_from_trajectory`); nothing is sent.
         DeviceError
             A segment rejected or lost, or the board held (host-silence timeout).
         """

@@ -15,9 +15,39 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import ProtocolError
-from labkit.arm._protocol import board_int
+from labkit.arm._protocol import CAL_FIELDS, POSITION_WIDEST, SEQ_MAX, board_int, seal
 
 __all__ = ["BoardInfo", "Status"]
+
+#: the widest value of each ``STATUS`` field after ``q`` (docs/protocol.md 4.1 and 4.4-4.6): the widest gripper
+#: pulse (``CAL`` ``pmax``), a queue of at most 9 segments, ``done`` and ``t`` as uint32, ``timeout`` 60000 ms,
+#: ``stream`` 200 Hz, two hex digits of flags, ``mem`` as uint16 and the widest ``last``
+_STATUS_WIDEST_TAIL = (f"grip={CAL_FIELDS[1][2]} queue=9 free=0 done={2 ** 32 - 1} timeout=60000 stream=200 flags=FF "
+                       f"mem=65535 t={2 ** 32 - 1} last={SEQ_MAX}")
+
+
+def longest_status(joints):
+    """Length [bytes] of the longest ``STATUS`` reply of a board of ``joints`` joints, without its end of line.
+
+    Every field at its widest, every joint at the widest position (``-32000``): ``147 + 7 J`` bytes, longer
+    than a request line (``MAX_LINE``) from 3 joints on. ``STATUS`` is the only board line that can be
+    (``docs/protocol.md`` 2.2); the host reads lines of any length up to four times ``MAX_LINE``.
+
+    Parameters
+    ----------
+    joints : int
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> longest_status(3), longest_status(8)
+    (168, 203)
+    """
+    q = ",".join([str(POSITION_WIDEST)] * joints)
+    return len(seal(f"OK #{SEQ_MAX} STATUS state=HOLD q={q} {_STATUS_WIDEST_TAIL}"))
 
 
 @dataclass(frozen=True)

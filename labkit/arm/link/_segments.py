@@ -4,7 +4,8 @@ The board's ``SEG`` command takes one polynomial per joint over normalised
 time, with integer coefficients in the joint's wire units (centidegrees; an RC linear servo:
 1/18000 of its stroke, :class:`labkit.arm.WireUnits`; ``docs/protocol.md``).
 :func:`segments_from_trajectory` turns a sampled trajectory into such
-segments; :func:`feed_segments` streams them into the board's queue for
+segments (a polynomial too wide for one request line as pieces of it in time);
+:func:`feed_segments` streams them into the board's queue for
 :meth:`labkit.arm.Arm.run_trajectory`, which reports a :class:`TrajectoryReport`.
 """
 
@@ -17,7 +18,8 @@ import numpy as np
 
 from labkit.exceptions import DeviceError, JointLimitError, OptionError, TrajectoryError
 from labkit.arm._segment_check import segment_position_ok, segment_speed_ok
-from labkit.arm._protocol import CommandRejected, SERVO_FULL, WireUnits, check_request, wire_calibrations
+from labkit.arm._protocol import (CommandRejected, MAX_LINE, SERVO_FULL, WireUnits, check_request, request_length,
+                                  wire_calibrations)
 
 __all__ = ["TrajectoryReport", "segments_from_trajectory"]
 
@@ -33,22 +35,91 @@ class TrajectoryReport:
     duration: float
 
 
-def _hermite(q0, v0, a0, q1, v1, a1, T, order, wire):
-    """Normalised-time polynomial coefficients [wire units] of one joint over ``T`` s (end point exact).
+def _hermite(d0, v0, a0, d1, v1, a1, order):
+    """Hermite polynomials over normalised time, one row a joint, shape (n, order + 1) [wire units], not rounded.
 
-    ``wire(x)`` is the joint's value or rate ``x`` [rad | m, per s^k] in wire units (not rounded)."""
-    d0, d1 = wire(q0), wire(q1)
-    v0, v1 = wire(v0) * T, wire(v1) * T
+    ``d0``, ``d1`` are the end positions, ``v0``, ``v1`` the rates times the duration ``T`` and ``a0``, ``a1``
+    the accelerations times ``T^2`` (shape (n,), wire units); ``order`` 3 matches position and velocity, 5 also
+    acceleration."""
+    h = d1 - d0
     if order == 3:
-        c = [d0, v0, 3 * (d1 - d0) - 2 * v0 - v1, -2 * (d1 - d0) + v0 + v1]
-    else:
-        a0, a1 = wire(a0) * T * T, wire(a1) * T * T
-        h = d1 - d0
-        c = [d0, v0, a0 / 2, 10 * h - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
-             -15 * h + 8 * v0 + 7 * v1 + 1.5 * a0 - a1, 6 * h - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1]
-    c = [int(round(v)) for v in c]
-    c[-1] = int(round(d1)) - sum(c[:-1])
+        return np.stack([d0, v0, 3 * h - 2 * v0 - v1, -2 * h + v0 + v1], axis=1)
+    return np.stack([d0, v0, a0 / 2, 10 * h - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1,
+                     -15 * h + 8 * v0 + 7 * v1 + 1.5 * a0 - a1, 6 * h - 3 * v0 - 3 * v1 - 0.5 * a0 + 0.5 * a1], axis=1)
+
+
+def _piece(rows, s0, s1):
+    """The polynomials ``rows`` (n, k + 1) on ``s0 <= s <= s1`` over their own normalised time: ``p(s0 + (s1 - s0) u)``."""
+    k = rows.shape[1] - 1
+    w = s1 - s0
+    shift = np.zeros((k + 1, k + 1))  # shift[i, m]: coefficient of u^m in (s0 + w u)^i
+    for i in range(k + 1):
+        for m in range(i + 1):
+            shift[i, m] = math.comb(i, m) * s0 ** (i - m) * w ** m
+    return rows @ shift
+
+
+def _integer_rows(rows, start, end):
+    """``rows`` rounded to integers, shape (n, k + 1), starting at ``start`` and ending at ``end`` exactly (shape (n,))."""
+    c = np.round(rows).astype(np.int64)
+    c[:, 0] = start
+    c[:, -1] = end - c[:, :-1].sum(axis=1)
     return c
+
+
+def _split(rows, dur_ms, order, start, end, pieces):
+    """``SEG`` segments of ``rows`` (n, order + 1) over ``dur_ms`` in ``pieces`` of whole milliseconds, as equal as can be.
+
+    Each piece is the same polynomial over its own normalised time (exact but for rounding its coefficients to
+    integers), its end the next one's start; the first starts at ``start``, the last ends at ``end``. A generator:
+    whoever only checks the pieces stops at the first that fails."""
+    cuts = [dur_ms * i // pieces for i in range(pieces + 1)]
+    begin = start
+    for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+        finish = end if i == pieces - 1 else np.round(np.polynomial.polynomial.polyval(b / dur_ms, rows.T)).astype(
+            np.int64)
+        yield b - a, order, _integer_rows(_piece(rows, a / dur_ms, b / dur_ms), begin, finish).ravel().tolist()
+        begin = finish
+
+
+def _line_fits(seg):
+    return request_length("SEG", [seg[0], seg[1], *seg[2]]) <= MAX_LINE
+
+
+def _fitting_pieces(rows, dur_ms, order, start, end):
+    """The fewest equal pieces of ``rows`` over ``dur_ms`` whose ``SEG`` lines all fit :data:`MAX_LINE` (1 if it fits).
+
+    Pieces of a polynomial have smaller coefficients (all but the first scale with the duration), so the count is
+    searched by doubling, then bisected; ``None`` if even pieces of 1 ms (the shortest ``SEG``) do not fit."""
+    fits = lambda m: all(_line_fits(seg) for seg in _split(rows, dur_ms, order, start, end, m))  # noqa: E731
+    low, high = 0, 1  # low does not fit (0 pieces: nothing tried yet)
+    while high < dur_ms and not fits(high):
+        low, high = high, min(2 * high, dur_ms)
+    if not fits(high):
+        return None
+    while high - low > 1:
+        mid = (low + high) // 2
+        low, high = (low, mid) if fits(mid) else (mid, high)
+    return list(_split(rows, dur_ms, order, start, end, high))
+
+
+def _wire_units(traj, n, units):
+    """Joint values or rates [rad | m, per s^k], shape (..., n) -> wire units (not rounded), as a function.
+
+    ``units`` (a :class:`WireUnits`) or, when ``None``, centidegrees, which is right for revolute joints only."""
+    if units is None:
+        revolute = tuple(getattr(traj, "revolute", ()) or ())
+        prismatic = [j + 1 for j, r in enumerate(revolute) if not r]
+        if prismatic:
+            raise OptionError(
+                f"expected units=WireUnits(robot) for a trajectory with prismatic joints, got units=None and "
+                f"prismatic joint(s) {prismatic}: a prismatic joint's wire unit depends on its actuator (an RC linear "
+                f"servo: 1/18000 of its stroke; none: metres read as radians, docs/protocol.md 3); "
+                f"Arm.run_trajectory passes its robot's units")
+        return lambda x: np.degrees(x) * 100
+    if len(units.metres) != n:
+        raise OptionError(f"expected units of {n} joints (the trajectory's), got units of {len(units.metres)}")
+    return lambda x: np.array([units.value(j, v) for j, v in enumerate(x)])
 
 
 def segments_from_trajectory(traj, *, order=3, min_duration=0.05, units=None):
@@ -57,20 +128,24 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05, units=None):
     Consecutive samples (merged until at least ``min_duration`` apart) become
     one Hermite polynomial each, matching position and velocity (and
     acceleration for ``order=5``) at both ends; coefficients are integers in
-    the joints' wire units over normalised time, the end point of each segment is the
-    exact start of the next.
+    the joints' wire units over normalised time, the end point of each segment is
+    the exact start of the next. A polynomial whose ``SEG`` line would be longer than the
+    protocol's :data:`~labkit.arm.MAX_LINE` (a fast quintic of 6 to 8 joints) is sent as
+    the fewest equal pieces of whole milliseconds whose lines fit: the same polynomial over
+    each piece's own normalised time, so the board runs the same motion (to within rounding
+    the coefficients to integers, a few wire units at most; ``docs/protocol.md`` 4.3).
 
     Parameters
     ----------
     traj : labkit.motion.Trajectory
-        Samples ``t`` (m,), ``q``/``qd``/``qdd`` (m, n) [s, rad, rad/s, rad/s^2].
+        Samples ``t`` (m,), ``q``/``qd``/``qdd`` (m, n) [s, rad | m, per s, per s^2].
     order : {3, 5}
     min_duration : float
-        Shortest segment [s].
+        Shortest segment [s] (before splitting one whose line is too long).
     units : WireUnits, optional
-        The robot's wire units (``WireUnits(robot)``; an arm with an RC linear servo needs them, and
-        :meth:`labkit.arm.Arm.run_trajectory` passes its own); default centidegrees for every joint
-        (prismatic joints without a servo: metres read as radians).
+        The robot's wire units (``WireUnits(robot)``; :meth:`labkit.arm.Arm.run_trajectory` passes its
+        own). Default centidegrees, right for every revolute joint; a trajectory with a prismatic joint
+        (``traj.revolute``) needs them: its unit depends on the joint's actuator.
 
     Returns
     -------
@@ -80,13 +155,23 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05, units=None):
     Raises
     ------
     OptionError
-        ``order`` is neither 3 nor 5.
+        ``order`` is neither 3 nor 5; ``units`` missing for a trajectory with a prismatic joint, or of
+        another number of joints; a segment whose line does not fit even in pieces of 1 ms (the
+        shortest ``SEG``).
+
+    Examples
+    --------
+    >>> from labkit.motion import joint_trajectory
+    >>> traj = joint_trajectory(None, [0.0], [math.pi / 2], 1.0, law="quintic", dt=0.5)
+    >>> segments_from_trajectory(traj, order=5, min_duration=1.0)
+    [(1000, 5, [0, 0, 0, 90000, -135000, 54000])]
     """
     if order not in (3, 5):
         raise OptionError(f"expected order 3 or 5, got {order!r}")
     t = np.asarray(traj.t, float)
     q, qd = np.asarray(traj.q, float), np.asarray(traj.qd, float)
     qdd = np.asarray(traj.qdd, float) if traj.qdd is not None else np.zeros_like(q)
+    wire = _wire_units(traj, q.shape[1], units)
     keep = [0]
     for k in range(1, len(t)):
         if t[k] - t[keep[-1]] >= min_duration - 1e-9 or k == len(t) - 1:
@@ -96,14 +181,20 @@ def segments_from_trajectory(traj, *, order=3, min_duration=0.05, units=None):
         T = round((t[b] - t[a]) * 1000) / 1000
         if T <= 0:
             continue
-        coef = []
-        for j in range(q.shape[1]):
-            wire = (lambda x: math.degrees(x) * 100) if units is None else (lambda x, j=j: units.value(j, x))
-            coef += _hermite(q[a, j], qd[a, j], qdd[a, j], q[b, j], qd[b, j], qdd[b, j], T, order, wire)
-        segs.append((int(round(T * 1000)), order, coef))
+        d0, d1 = wire(q[a]), wire(q[b])
+        rows = _hermite(d0, wire(qd[a]) * T, wire(qdd[a]) * T * T, d1, wire(qd[b]) * T, wire(qdd[b]) * T * T, order)
+        dur_ms = int(round(T * 1000))
+        start, end = np.round(d0).astype(np.int64), np.round(d1).astype(np.int64)
+        pieces = _fitting_pieces(rows, dur_ms, order, start, end)
+        if pieces is None:
+            widest = max(request_length("SEG", [d, o, *c]) for d, o, c in _split(rows, dur_ms, order, start, end,
+                                                                                dur_ms))
+            raise OptionError(
+                f"expected SEG lines of at most {MAX_LINE} bytes (docs/protocol.md 2.1), got the segment at "
+                f"t = {t[a]:g}..{t[b]:g} s ({dur_ms} ms, {q.shape[1]} joints of order {order}) {widest} bytes wide "
+                f"even in pieces of 1 ms (the shortest SEG): nothing was sent - use order=3, or fewer joints")
+        segs += pieces
     return segs
-
-
 
 
 def check_segment_speeds(robot, segs, vmax, amax):

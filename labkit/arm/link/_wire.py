@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from labkit.exceptions import DeviceError, ProtocolError
 from labkit.arm.bus import BusFault
 from labkit.arm._protocol import (
+    MAX_JOINTS,
     MAX_LINE,
     NOT_EXECUTED,
     READ_ONLY,
@@ -32,6 +33,7 @@ from labkit.arm._protocol import (
     seal,
     unseal,
 )
+from labkit.arm.link._replies import longest_status
 
 __all__ = ["LinkStats"]
 
@@ -40,8 +42,10 @@ _READ_CHUNK = 4096
 _DRAIN_READS = 16
 #: wire time of one byte at 115200 baud, 8N1 [s]
 _BYTE_S = 10 / 115200
+#: the longest board line [bytes, with CR LF]: a STATUS of the most joints (longer than a request line)
+_LONGEST_REPLY = max(MAX_LINE, longest_status(MAX_JOINTS)) + 2
 #: how long a reply is still awaited after a damaged line arrived [s]: the wire time of a longest line at 115200 baud
-_AFTER_BAD_LINE = (MAX_LINE + 2) * _BYTE_S
+_AFTER_BAD_LINE = _LONGEST_REPLY * _BYTE_S
 #: the board's own time to answer an intact request [s] (docs/protocol.md 2.3: 2 ms; a margin for the motion checks),
 #: and the commands that may take longer (``SAVE`` writes the EEPROM: up to 0.5 s)
 _BOARD_REPLY_S = 0.005
@@ -328,7 +332,7 @@ class Wire:
         """
         if not self._wire_timed(command):
             return self.timeout
-        return min(self.timeout, (request_bytes + MAX_LINE + 2) * _BYTE_S + _BOARD_REPLY_S)
+        return min(self.timeout, (request_bytes + _LONGEST_REPLY) * _BYTE_S + _BOARD_REPLY_S)
 
     def reply_quiet(self, command, request_bytes):
         """When silence on a lockstep port means no reply is coming [s after sending], or ``None``.

@@ -1,5 +1,6 @@
-"""report_table: the one style of the tables a report prints."""
+"""labkit.tables: the one style of the tables labkit prints (report tables, marked cells, prose values)."""
 
+import html as _html
 import re
 
 import numpy as np
@@ -7,7 +8,7 @@ import pandas as pd
 import pytest
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.reports import LONG_TABLE_ROWS, error_report_table, report_table
+from labkit.tables import HIGHLIGHT, LONG_TABLE_ROWS, css_to_latex, error_report_table, report_table
 
 
 def test_no_default_index_but_a_meaningful_one_is_kept():
@@ -89,7 +90,7 @@ def test_bad_input_says_what_was_expected():
         report_table([1, 2])
     with pytest.raises(OptionError, match="columns names b, which the table does not have"):
         report_table(df, columns={"b": "B"})
-    with pytest.raises(OptionError, match="digits expects positive integers, got 0"):
+    with pytest.raises(OptionError, match="digits expects a positive integer, got 0"):
         report_table(df, digits=0)
     with pytest.raises(OptionError, match="digits names c"):
         report_table(df, digits={"c": 2})
@@ -113,7 +114,7 @@ def test_a_two_level_index_prints_as_columns_named_by_its_levels():
 
 
 def test_format_value_prints_prose_numbers_like_the_table_cells():
-    from labkit.reports import format_value
+    from labkit.tables import format_value
 
     assert format_value([0.0, 94.00000001], digits=3) == "(0.0, 94.0)"  # not [ 0. 94.]
     assert format_value(5.6e-17, unit="m") == "0 m"  # round-off, not 5.6e-17
@@ -194,3 +195,76 @@ def test_error_report_table_says_what_it_expected():
         error_report_table(mixed, pose="row")
     with pytest.raises(OptionError, match="scale expects a positive number"):
         error_report_table(mixed, scale=0)
+
+
+def test_reports_prints_through_the_same_tables():
+    import labkit.reports
+    import labkit.tables
+
+    for name in ("ReportTable", "report_table", "error_report_table", "format_value", "LONG_TABLE_ROWS"):
+        assert getattr(labkit.reports, name) is getattr(labkit.tables, name)
+
+
+def _cells(html):
+    """(text, style or None) of every body cell of an HTML table, row by row."""
+    return [[(_html.unescape(text), style) for style, text in re.findall(r'<td[^>]*?(?: style="([^"]*)")?>(.*?)</td>', row)]
+            for row in re.findall(r"<tr>(.*?)</tr>", html.split("</thead>", 1)[1])]
+
+
+def test_marked_cells_show_in_html_latex_and_the_styler():
+    df = pd.DataFrame({"pose": ["a", "b", "c"], "x [m]": [0.1, float("nan"), 0.25], "ok": [True, False, True]})
+    plain = report_table(df)
+    t = plain.mark([False, True, False], ["x [m]"]).mark([2], [0, 2], css="color: #00f; font-weight: bold")
+    assert t.rows == plain.rows and t.header == plain.header  # marks change no text
+    assert t.marks == ((1, 1, HIGHLIGHT), (2, 0, "color: #00f; font-weight: bold"), (2, 2, "color: #00f; font-weight: bold"))
+    cells = _cells(t.to_html())
+    assert [[c for c, _ in row] for row in cells] == [list(r) for r in t.rows] == [["a", "0.100", "yes"], ["b", "–", "no"],
+                                                                                  ["c", "0.250", "yes"]]
+    assert {(k, j): s for k, row in enumerate(cells) for j, (_, s) in enumerate(row) if s} == {
+        (1, 1): HIGHLIGHT, (2, 0): "color: #00f; font-weight: bold", (2, 2): "color: #00f; font-weight: bold"}
+    tex = t.to_latex()
+    assert r"b & \cellcolor[HTML]{F8C4C4} -- & no \\" in tex
+    assert r"\color[HTML]{0000FF}\bfseries c & 0.250 & \color[HTML]{0000FF}\bfseries yes" in tex
+    assert t.to_text() == plain.to_text()
+    styler = t.to_styler()
+    assert styler.data.values.tolist() == [list(r) for r in t.rows]
+    styler._compute()
+    assert sorted(k for k, v in styler.ctx.items() if v) == [(1, 1), (2, 0), (2, 2)]
+    assert "x [m]" in styler.to_html() and "nan" not in styler.to_html().lower()
+
+
+def test_marks_and_css_say_what_they_expected():
+    t = report_table(pd.DataFrame({"x [m]": [0.1, 0.2]}))
+    with pytest.raises(OptionError, match=r"rows expects one flag per row \(2\), got 3"):
+        t.mark([True, False, True])
+    with pytest.raises(OptionError, match=r"rows expects positions 0..1 .*got \[5\]"):
+        t.mark([5])
+    with pytest.raises(OptionError, match=r"columns expects printed column names or positions of this table \(x \[m\]\), got 'y'"):
+        t.mark([0], ["y"])
+    with pytest.raises(OptionError, match="css expects a string"):
+        t.mark([0], css=None)
+    with pytest.raises(OptionError, match="expected CSS declarations 'property: value', got 'red'"):
+        t.mark([0], css="red")
+    with pytest.raises(OptionError, match="escape expects None, 'html' or 'latex', got 'rtf'"):
+        t.to_styler(escape="rtf")
+    assert css_to_latex("background: #abc; border: 1px solid red") == r"\cellcolor[HTML]{AABBCC} "
+    assert css_to_latex("background-color: yellow") == r"\cellcolor{yellow} " and css_to_latex("") == ""
+
+
+def test_styler_escapes_as_the_table_does():
+    t = report_table(pd.DataFrame({"a_b & <c> [%]": ["x_1 <b>"]}), caption="50 % of <rows>")
+    assert "&lt;c&gt;" in t.to_styler(escape="html").to_html() and "x_1 &lt;b&gt;" in t.to_styler(escape="html").to_html()
+    tex = t.to_styler(escape="latex").to_latex()
+    assert r"a\_b \& <c> [\%]" in tex and r"x\_1 <b>" in tex and r"50 \% of" in tex
+
+
+def test_error_report_table_marks_the_flagged_rows_and_names_units_of_mixed_readings():
+    long = pd.DataFrame({"pose_id": ["a", "a"], "quantity": ["x", "theta1"], "command": ["q"] * 2, "unit": ["m", "deg"],
+                         "calculated": [0.25, 30.0], "mean": [0.26, float("nan")], "half_range": [0.01, 0.5],
+                         "error": [0.01, float("nan")], "inside": [True, False]})
+    t = error_report_table(long, flagged=[True, False])
+    assert [r[1] for r in t.rows] == ["x [m]", "theta1 [deg]"]  # no one unit for the header: each quantity says its own
+    assert t.rows[1][3] == "–" and t.rows[1][6] == "no"
+    assert sorted((r, c) for r, c, _ in t.marks) == [(0, 3), (0, 5)]  # measured and error of the flagged row
+    with pytest.raises(ShapeError, match=r"flagged as one bool per row of the error table, shape \(2,\), got int64 with shape \(3,\)"):
+        error_report_table(long, flagged=[1, 0, 1])
