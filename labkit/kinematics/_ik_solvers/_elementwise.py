@@ -13,7 +13,6 @@ would give ``nan`` or ``inf`` the float path raises ``ValueError`` or
 from __future__ import annotations
 
 import math
-import operator
 
 import numpy as np
 
@@ -73,18 +72,8 @@ def where(condition, a, b):
     return (a if condition else b) if type(condition) is bool else np.where(condition, a, b)
 
 
-def _extreme(name, keep_a):
-    """``np.<name>`` (a nan in either argument is the result), or on two Python floats ``a`` where
-    ``keep_a(a, b)`` holds or ``a`` is nan, else ``b`` (a public function of this module)."""
-    on_arrays = getattr(np, name)
-
-    def f(a, b):
-        if type(a) is float and type(b) is float:
-            return a if keep_a(a, b) or a != a else b
-        return on_arrays(a, b)
-
-    f.__name__ = f.__qualname__ = name
-    f.__doc__ = f"""``np.{name}(a, b)`` (a nan in either is the result); a float for two floats.
+def maximum(a, b):
+    """``np.maximum(a, b)`` (a nan in either is the result); a float for two floats.
 
     Parameters
     ----------
@@ -94,10 +83,25 @@ def _extreme(name, keep_a):
     -------
     ndarray or float
     """
-    return f
+    if type(a) is float and type(b) is float:
+        return a if a >= b or a != a else b
+    return np.maximum(a, b)
 
 
-maximum, minimum = _extreme("maximum", operator.ge), _extreme("minimum", operator.le)
+def minimum(a, b):
+    """``np.minimum(a, b)`` (a nan in either is the result); a float for two floats.
+
+    Parameters
+    ----------
+    a, b : ndarray or float
+
+    Returns
+    -------
+    ndarray or float
+    """
+    if type(a) is float and type(b) is float:
+        return a if a <= b or a != a else b
+    return np.minimum(a, b)
 
 
 def clip(x, lo, hi):
