@@ -30,6 +30,8 @@ generic block walk: the first joints' frames are mostly zeros and ones.
 from __future__ import annotations
 
 import itertools
+import operator
+import types
 
 import numpy as np
 
@@ -154,7 +156,7 @@ def walk(b, modified, base, steps, trig, joint_value):
     Parameters
     ----------
     b : algebra
-        ``mul``, ``add``, ``comb``, ``axpy`` and ``neg`` on its values (:class:`_Builder`, :data:`PLAIN`).
+        ``comb``, ``axpy`` and ``neg`` on its values (:class:`_Builder`, :data:`PLAIN`).
     modified : bool
         Modified (Craig) DH convention, else standard.
     base : tuple
@@ -201,33 +203,13 @@ def walk(b, modified, base, steps, trig, joint_value):
     return frames, axes
 
 
-class _Plain:
-    """The algebra :func:`walk` runs on as plain arithmetic: on Python floats (one configuration, evaluated
-    at once, nothing compiled) or on sympy expressions (:mod:`labkit.kinematics.symbolic`)."""
-
-    @staticmethod
-    def mul(x, y):
-        return x * y
-
-    @staticmethod
-    def add(x, y):
-        return x + y
-
-    @staticmethod
-    def neg(x):
-        return -x
-
-    @staticmethod
-    def comb(x, cx, y, cy):
-        return tuple(x[k] * cx + y[k] * cy for k in range(3))
-
-    @staticmethod
-    def axpy(p, v, w):
-        return tuple(p[k] + v[k] * w for k in range(3))
-
-
-#: :func:`walk`'s plain-arithmetic algebra
-PLAIN = _Plain()
+#: :func:`walk`'s algebra as plain arithmetic: on Python floats (one configuration, evaluated at once, nothing
+#: compiled) or on sympy expressions (:mod:`labkit.kinematics.symbolic`)
+PLAIN = types.SimpleNamespace(
+    neg=operator.neg,
+    comb=lambda x, cx, y, cy: tuple(x[k] * cx + y[k] * cy for k in range(3)),
+    axpy=lambda p, v, w: tuple(p[k] + v[k] * w for k in range(3)),
+)
 
 
 def _pose_rows(first, cols):

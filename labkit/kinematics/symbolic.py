@@ -242,8 +242,7 @@ def _frame_matrix(T, L, prefix):
 
 
 def _simplify_matrix(M):
-    sp = _sp()
-    return M.applyfunc(sp.trigsimp)
+    return M.applyfunc(_sp().trigsimp)
 
 
 def _walk(robot, q, lengths, length_unit):

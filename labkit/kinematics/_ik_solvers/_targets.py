@@ -139,11 +139,11 @@ def validate_targets(target, kind):
         T = _finite_and_near(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        defects = _rigid_defects(T)
-        bad = _is_bad(*defects).nonzero()[0]
+        err, det, last = _rigid_defects(T)
+        bad = ((err > 1e-6) | (det < 0) | (last > 1e-12)).nonzero()[0]
         if len(bad):
             i = int(bad[0])
-            err, det, _ = (d[i] for d in defects)
+            err, det = err[i], det[i]
             which = "the target" if not lead else f"target {_batch_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
@@ -202,10 +202,6 @@ def _rigid_defects(T):
 
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-
-
-def _is_bad(err, det, last):
-    return (err > 1e-6) | (det < 0) | (last > 1e-12)
 
 
 def _batch_index(i, lead):
