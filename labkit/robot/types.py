@@ -16,7 +16,7 @@ from enum import Enum
 
 import numpy as np
 
-from labkit.exceptions import JointLimitError, RobotError
+from labkit.exceptions import JointLimitError, OptionError, RobotError
 from labkit.robot._fields import _check_channel, _check_direction, _check_integer, _check_stall_torque, _finite, _limit_pair
 from labkit.robot._inertia import LinkInertia, Motor
 
@@ -40,6 +40,13 @@ _PROTOCOL_NAME = re.compile(r"[a-z][a-z0-9_]{0,31}")
 FORMAT = "labkit-robot/1"
 _LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 _ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+
+
+def _unit_scale(units, unit, name):
+    """The SI factor of ``unit`` in ``units`` (``_LENGTH_UNITS`` or ``_ANGLE_UNITS``), else an OptionError."""
+    if not isinstance(unit, str) or unit not in units:
+        raise OptionError(f"expected {name} one of {sorted(units)}, got {unit!r}")
+    return units[unit]
 
 
 class Convention(str, Enum):
