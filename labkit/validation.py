@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from labkit.exceptions import OptionError, RobotError, ShapeError
+from labkit.exceptions import OptionError, RobotError, ShapeError, TrajectoryError
 
 
 def as_batch(x, last, name, *, finite=True):
@@ -117,6 +117,15 @@ def as_number(x, name, *, unit="", positive=False, error=ShapeError):
     return out
 
 
+def _received(x):
+    """``repr(x)`` for a message, or its type (and shape) where the repr is long."""
+    text = repr(x)
+    if len(text) <= 80:
+        return text
+    shape = getattr(x, "shape", None)
+    return f"a {type(x).__name__}" + (f" of shape {tuple(shape)}" if shape is not None else "")
+
+
 def as_count(x, name, *, minimum=0, maximum=None, error=OptionError):
     """Return ``x`` as an int within ``minimum..maximum`` (``True`` and ``2.5`` are not counts).
 
@@ -175,8 +184,37 @@ def check_robot(robot, name="robot", *, optional=False):
         return None
     if not all(hasattr(robot, attr) for attr in ("links", "n", "joint_limits")):
         hint = " (Robot.load(name) loads a bundled robot or a robot file)" if isinstance(robot, str) else ""
-        raise RobotError(f"expected {name} as a labkit Robot{' or None' if optional else ''}{hint}, got {robot!r}")
+        raise RobotError(f"expected {name} as a labkit Robot{' or None' if optional else ''}{hint}, "
+                         f"got {_received(robot)}")
     return robot
+
+
+def check_trajectory(traj, name="traj", *, error=TrajectoryError):
+    """Return ``traj`` if it is a joint trajectory (samples ``t``, ``q``, ``qd``, ``qdd``), else a TrajectoryError.
+
+    Duck-typed, like :func:`check_robot`, so that plotting (below motion) can check one too.
+
+    Parameters
+    ----------
+    traj : labkit.motion.Trajectory
+        Input.
+    name : str
+        Argument name used in the error message.
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    TrajectoryError (or ``error``)
+        With what was expected and what was received.
+    """
+    if not all(hasattr(traj, attr) for attr in ("t", "q", "qd", "qdd", "law")):
+        raise error(f"expected {name} as a Trajectory (joint_trajectory, via_trajectory ...), got {_received(traj)}")
+    return traj
 
 
 def readonly(a):

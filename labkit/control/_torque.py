@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import ShapeError
-from labkit.validation import as_batch, as_number, as_vector, check_robot, readonly
+from labkit.validation import as_batch, as_number, as_vector, check_robot, check_trajectory, readonly
 
 __all__ = ["computed_torque_controller", "pd_controller", "TrackingResult", "simulate_tracking"]
 
@@ -31,11 +31,7 @@ __all__ = ["computed_torque_controller", "pd_controller", "TrackingResult", "sim
 def _desired(trajectory):
     """``t -> (q_d, qd_d, qdd_d)``: the trajectory's time law where it has one (exact), else linear
     interpolation of its samples (held at the ends)."""
-    from labkit.motion import Trajectory
-
-    if not isinstance(trajectory, Trajectory):
-        raise ShapeError(f"expected a joint Trajectory (labkit.motion), got {trajectory!r}")
-    law = trajectory.law
+    law = check_trajectory(trajectory, "trajectory").law
     if law is not None and law.shape == (np.shape(trajectory.q)[1],):
         def exact(time):
             time = min(max(time, law.t0), law.tf)

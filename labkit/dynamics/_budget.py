@@ -8,7 +8,7 @@ import numpy as np
 
 from labkit.dynamics._rne import gravity_torques, inverse_dynamics
 from labkit.exceptions import RobotError, ShapeError, TorqueWarning
-from labkit.validation import as_batch, as_number, check_robot, readonly
+from labkit.validation import as_batch, as_number, check_robot, check_trajectory, readonly
 
 __all__ = ["TorqueBudget", "torque_budget", "stall_torques", "torques_from_current", "check_torque_budget"]
 
@@ -219,10 +219,8 @@ def check_torque_budget(robot, trajectory, *, payload=0.0, payload_com=(0.0, 0.0
     import warnings
 
     check_robot(robot)
-    try:
-        t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
-    except AttributeError:
-        raise ShapeError(f"expected a trajectory with samples t, q, qd, qdd, got {type(trajectory).__name__}") from None
+    check_trajectory(trajectory, "trajectory", error=ShapeError)
+    t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
     if q.ndim != 2 or q.shape[1] != robot.n or qd.shape != q.shape or qdd.shape != q.shape or t.shape != q.shape[:1]:
         raise ShapeError(f"expected a trajectory of {robot.n} joints (t (m,), q, qd, qdd (m, {robot.n})), got "
                          f"t {t.shape}, q {q.shape}, qd {qd.shape}, qdd {qdd.shape}")

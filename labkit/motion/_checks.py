@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError
-from labkit.validation import as_number, check_robot
+from labkit.validation import as_number, check_robot, check_trajectory
 
 __all__ = ["check_joint_limits", "check_speed", "speed_scale"]
 
@@ -23,13 +23,6 @@ def _robot_bounds(robot):
 
 
 # -- checks ---------------------------------------------------------------------
-
-def _trajectory(traj):
-    """``traj`` if it is a trajectory (samples ``t``, ``q``, ``qd``, ``qdd``), else a TrajectoryError."""
-    if not all(hasattr(traj, name) for name in ("t", "q", "qd", "qdd", "n")):
-        raise TrajectoryError(f"expected a Trajectory (joint_trajectory, via_trajectory ...), got {traj!r}")
-    return traj
-
 
 def _checked(traj, robot, limits, speed):
     """``traj`` after the requested joint-limit and speed checks against ``robot``."""
@@ -57,7 +50,7 @@ def check_joint_limits(robot, traj):
         Naming the time, sample index and joint; ``.joint`` and ``.index`` set.
     """
     check_robot(robot)
-    ok = robot.within_limits(_trajectory(traj).q)
+    ok = robot.within_limits(check_trajectory(traj).q)
     if np.all(ok):
         return
     i = int(np.argmin(ok))
@@ -98,7 +91,7 @@ def speed_scale(robot, traj):
         The trajectory and the robot differ in the number of joints.
     """
     v, a = _robot_bounds(robot)
-    if _trajectory(traj).n != robot.n:
+    if check_trajectory(traj).n != robot.n:
         raise ShapeError(f"{robot.name} has {robot.n} joints; trajectory has {traj.n}")
     if traj.law is not None and traj.law.shape == (robot.n,):
         vpk, apk = traj.law.peak(1), traj.law.peak(2)
