@@ -35,11 +35,14 @@ def as_batch(x, last, name, *, finite=True):
     """
     try:
         arr = np.asarray(x)
-        if arr.dtype.kind == "b":
-            raise TypeError("booleans are not numbers")
-        arr = arr.astype(float, copy=False)
+        why = ("booleans are not numbers" if arr.dtype.kind == "b" else
+               "None is not a number" if arr.dtype.kind == "O" and any(v is None for v in arr.flat) else None)
+        if why is None:
+            arr = arr.astype(float, copy=False)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(f"expected {name} as numbers, got {x!r} ({exc})") from None
+        why = str(exc)
+    if why is not None:
+        raise ShapeError(f"expected {name} as numbers, got {_received(x)} ({why})")
     last = tuple(last)
     k = len(last)
     if arr.ndim < k or arr.shape[arr.ndim - k:] != last:
@@ -107,11 +110,9 @@ def as_number(x, name, *, unit="", positive=False, error=ShapeError):
     """
     what = f"{name} as a {'positive ' if positive else ''}finite number" + (f" [{unit}]" if unit else "")
     try:
-        if isinstance(x, (bool, np.bool_, str, bytes)):
-            raise TypeError
-        out = float(x)
+        out = math.nan if isinstance(x, (bool, np.bool_, str, bytes)) else float(x)
     except (TypeError, ValueError):
-        raise error(f"expected {what}, got {x!r}") from None
+        out = math.nan
     if not math.isfinite(out) or (positive and out <= 0.0):
         raise error(f"expected {what}, got {x!r}")
     return out

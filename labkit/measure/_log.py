@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from labkit.exceptions import MeasurementError, StorageError
-from labkit.measure._schema import COLUMNS, MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
+from labkit.measure._schema import _path, COLUMNS, MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
 from labkit.measure._csv import _check_quantity_unit, _check_ranges, _line_state, _read_rows, load_measurements
 
 try:  # advisory lock against a second writer (POSIX only)
@@ -94,7 +94,7 @@ class MeasurementLog:
     """
 
     def __init__(self, robot, path, *, session=None, operator=None, poses=None):
-        self.path = Path(path)
+        self.path = _path(path, "the log")
         self._lock = threading.Lock()
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
         self._robot_obj = robot if hasattr(robot, "fk") else None
