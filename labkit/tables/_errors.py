@@ -121,7 +121,10 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
     printed = report_table(frame, digits=digits, caption=caption, group="pose")
     if flagged is None:
         return printed
-    flags = np.asarray(flagged)
+    try:
+        flags = np.asarray(flagged)
+    except ValueError:  # ragged
+        flags = np.asarray(None)
     if flags.shape != (len(table),) or flags.dtype != bool:
         raise ShapeError(f"expected flagged as one bool per row of the error table, shape ({len(table)},), "
                          f"got {flags.dtype} with shape {flags.shape}")
