@@ -516,7 +516,8 @@ class Robot:
         """
         from labkit.robot._files import dump
 
-        length_unit, angle_unit = length_unit or self.length_unit, angle_unit or self.angle_unit
+        length_unit = self.length_unit if length_unit is None else length_unit
+        angle_unit = self.angle_unit if angle_unit is None else angle_unit
         _unit_scale(_LENGTH_UNITS, length_unit, "length_unit")
         _unit_scale(_ANGLE_UNITS, angle_unit, "angle_unit")
         text = dump(self, length_unit, angle_unit)
@@ -548,7 +549,7 @@ class Robot:
         """
         import pandas as pd
 
-        scale = _unit_scale(_LENGTH_UNITS, length_unit or self.length_unit, "length_unit")
+        scale = _unit_scale(_LENGTH_UNITS, self.length_unit if length_unit is None else length_unit, "length_unit")
         ang = math.degrees if degrees else float
         mod = self.convention is Convention.MODIFIED
         rows = []

@@ -267,6 +267,9 @@ class Gripper:
         _check_channel("Gripper", "channel", self.channel)
         for field in ("open_us", "closed_us"):
             object.__setattr__(self, field, _finite("Gripper", field, getattr(self, field)))
+            if getattr(self, field) <= 0:
+                raise RobotError(f"Gripper: field '{field}': expected a pulse width > 0 us, got {getattr(self, field):g}",
+                                 field)
         if self.open_us == self.closed_us:
             raise RobotError(f"Gripper: field 'closed_us': expected a pulse other than open_us = {self.open_us:g} us "
                              f"(the gripper would never move), got {self.closed_us:g}", "closed_us")
@@ -447,6 +450,7 @@ class Bus:
                 or not 9600 <= self.baudrate <= 4_500_000:
             raise RobotError(f"Bus: field 'baudrate': expected an integer 9600..4500000 bit/s, got {self.baudrate!r}",
                              "baudrate")
+        _check_integer("Bus", "resolution", self.resolution, 16, 1_048_576, " ticks/turn")
         if self.latency is not None:
             if isinstance(self.latency, bool) or not isinstance(self.latency, (int, float, np.integer, np.floating)) \
                     or not 0 <= self.latency <= 1000:

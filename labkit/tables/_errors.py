@@ -89,6 +89,8 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
     if pose not in ("command", "pose_id"):
         raise OptionError(f"pose expects 'command' or 'pose_id', got {pose!r}")
     scale = _check_positive(scale, "scale")
+    if unit is not None and not isinstance(unit, str):
+        raise OptionError(f"unit expects the printed unit as a string ('mm'), got {unit!r}")
     table = getattr(errors, "table", errors)
     if not isinstance(table, pd.DataFrame):
         raise ShapeError(f"expected an ErrorTable or its DataFrame, got {type(errors).__name__}")
