@@ -99,7 +99,7 @@ def _read_rows(path):
     try:
         raw = path.read_bytes()
     except OSError as exc:
-        raise MeasurementError(f"cannot read measurement file {path}: {exc}") from None
+        raise MeasurementError(f"expected a readable measurement file, got {path}: {exc}") from None
     lines = raw.split(b"\n")
     complete_tail = raw.endswith(b"\n")
     if complete_tail:
