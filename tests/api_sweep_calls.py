@@ -314,6 +314,7 @@ def _tables(f):
     ]
 
 
+@functools.cache
 def all_calls():
     """Every working call of the sweep, by subpackage."""
     f = fixtures()
