@@ -11,7 +11,6 @@ import secrets
 import threading
 import warnings
 from datetime import datetime, timezone
-from pathlib import Path
 
 import numpy as np
 

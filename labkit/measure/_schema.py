@@ -31,10 +31,10 @@ import csv
 import dataclasses
 import io
 import math
+import os
 import re
 import zlib
-
-import numpy as np
+from pathlib import Path
 
 from labkit.exceptions import MeasurementError, MeasurementWarning
 from labkit.validation import as_batch
@@ -149,9 +149,6 @@ def _unit(unit, **where):
 
 def _path(path, what):
     """``path`` as a :class:`pathlib.Path`; anything but a str or os.PathLike is a MeasurementError."""
-    import os
-    from pathlib import Path
-
     if not isinstance(path, (str, os.PathLike)):
         raise MeasurementError(f"expected {what} as a file path (str or os.PathLike), got {path!r}")
     return Path(path)
