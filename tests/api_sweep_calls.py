@@ -6,7 +6,9 @@ with its bus servos), short trajectories and coarse grids, so that the whole swe
 
 from __future__ import annotations
 
+import atexit
 import functools
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -43,6 +45,7 @@ def fixtures():
     published = measure.load_published(measurement_file("seed000_published_calculated.csv"))
     errors = measure.error_table(arm, fk_log)
     tmp = Path(tempfile.mkdtemp(prefix="labkit-sweep-"))
+    atexit.register(shutil.rmtree, tmp, True)  # built once per test process, at collection
     return dict(arm=arm, puma=puma, omx=omx, traj=traj, ptraj=ptraj, p0=p0, path=path, ctraj=ctraj,
                 fk_log=fk_log, published=published, errors=errors, tmp=tmp)
 
@@ -205,6 +208,7 @@ def _control(f):
 def _measure(f):
     arm, tmp = f["arm"], f["tmp"]
     log = measure.MeasurementLog(arm, tmp / "log.csv", session="s1")
+    atexit.register(log.close)  # (registered after the folder's removal: runs first)
     names = measure.parameter_names(arm, ("joint_offsets",))
     return [
         call("quantity_dimension", measure.quantity_dimension, "theta2", kinds="quantity:text"),
