@@ -138,8 +138,8 @@ def target_error(robot, q, target):
     """
     from labkit.rotations import wrap_angle
 
-    T, kind = fk(robot, q), target_kind(robot)
-    if as_batch(target, (), "target").shape == (4, 4):
+    T, kind, target = fk(robot, q), target_kind(robot), as_batch(target, (), "target")
+    if target.shape == (4, 4):
         return float(np.abs(T - target).max())
     target = as_batch(target, (len(COMPONENTS[kind]) if kind == "planar" or kind in REDUCED else 3,), "target",
                       batch=False)
