@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 
 from labkit.rotations import skew
-from labkit.validation import as_batch, as_number
+from labkit.validation import as_batch, as_number, as_option
 from labkit.exceptions import OptionError, ShapeError
 
 __all__ = ["joint_torques", "wrench_transform_matrix", "transform_wrench", "singular_values", "manipulability",
@@ -56,9 +56,7 @@ def _jac(J, rows=6):
 
 
 def _select(J, part):
-    if not isinstance(part, str) or part not in _PARTS:
-        raise OptionError(f"expected part in {sorted(_PARTS)}, got {part!r}")
-    return _jac(J)[..., _PARTS[part], :]
+    return _jac(J)[..., _PARTS[as_option(part, _PARTS, "part")], :]
 
 
 def joint_torques(J, wrench):

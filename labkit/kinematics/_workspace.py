@@ -17,7 +17,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics._forward import fk_position
-from labkit.validation import as_batch, as_count, as_option, as_seed, check_robot
+from labkit.validation import as_batch, as_count, as_option, as_seed, as_vector, check_robot
 
 __all__ = ["Workspace", "workspace_points", "PlanarRegion", "planar_region"]
 
@@ -173,9 +173,7 @@ class PlanarRegion:
         -------
         inside : ndarray of bool, shape (...)
         """
-        xy = np.asarray(xy, dtype=float)
-        if xy.shape[-1:] != (2,):
-            raise ShapeError(f"expected xy with shape (..., 2), got {xy.shape}")
+        xy = as_vector(xy, 2, "xy", finite=False)  # a non-finite point is in no cell
         i = np.searchsorted(self.x_edges, xy[..., 0], side="right") - 1
         j = np.searchsorted(self.y_edges, xy[..., 1], side="right") - 1
         ny, nx = self.occupied.shape
