@@ -350,8 +350,8 @@ def lab_defaults(robot) -> LabDefaults:
             directions = [radial, -radial, up, -up]
             arc_normals = [np.cross(radial, up)]
     # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
-    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane)
-    digits = 6 if in_plane else 1
+    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane),
+    digits = 6 if in_plane or n == 1 else 1  # a 1-DOF arm's targets lie on one curve: a rounded point leaves it too
     line_pts = arc_spec = None  # a 1-DOF arm gets neither (its notebooks that need them are left out)
     for length in (0.15, 0.1, 0.05) if n > 1 else ():
         for u in directions:
@@ -515,8 +515,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
     ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
-    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
-    with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos; neither it nor
+    ``04_trajectory`` for a 1-DOF arm, whose tool has no Cartesian line to follow) with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal
     actuator on the virtual arm (within the file's limits, at its speed limits; no servo window is

@@ -34,6 +34,16 @@ def _marker_sizes(camera, dist, marker_size, reference_size, standoff):
     return size, reference, texture_extent("tag36h11", size) / 2 if standoff is None else standoff
 
 
+def _sheet(middle, low, up, x_axis, y_axis, reference):
+    """Centres (list of 4 of shape (3,)) and corners (shape (16, 3)) of the reference tags [m]: a sheet at height
+    ``low`` [m] along ``up``, under ``middle``, with tags of side ``reference`` [m] facing up."""
+    sheet = middle - (middle @ up) * up + low * up
+    ext = texture_extent("tag36h11", reference)
+    spots = [sheet + max(0.1, 1.2 * ext) * (sx * x_axis + sy * y_axis) for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    corners = np.array([c + ext / 2 * (ex * x_axis + ey * y_axis) for c in spots for ex in (-1, 1) for ey in (-1, 1)])
+    return spots, corners
+
+
 def _fit_distance(camera, centre, direction, up, points, radii, margin):
     """How far from ``centre`` along ``direction`` a camera looking at it must stand for every point (a ball of
     its radius) to lie inside its image, whose half-widths are divided by ``margin`` [m].
@@ -203,35 +213,30 @@ class CameraRig:
             centre = pts.mean(axis=0)
             radius = float(np.percentile(np.linalg.norm(pts - centre, axis=1), 90))
             dist = distance_factor * radius / np.tan(camera.field_of_view()[1] / 2)
+            sizes = _marker_sizes(camera, dist, marker_size, reference_size, standoff)
+            spots, _ = _sheet(centre, float(np.min(pts @ up)) - 0.02, up, x_axis, y_axis, sizes[1])
         else:
             q = np.asarray(poses, dtype=float)
             if q.ndim != 2 or q.shape[1] != robot.n or len(q) == 0 or not np.all(np.isfinite(q)):
                 raise ShapeError(f"expected poses of shape (k, {robot.n}) with k >= 1 finite joint values, "
                                  f"got shape {q.shape}")
             pts = fk_position(robot, q)
-            centre = (pts.min(axis=0) + pts.max(axis=0)) / 2
-            dist = None
-        if poses is not None:
-            # the markers' sizes follow the distance that fits the tool points with their cubes (a few rounds);
-            # the reference sheet below them, at those sizes, then sets the distance (the tags a little smaller in px)
-            dist, radii = None, np.zeros(len(pts))
-            for _ in range(6):
-                sizes = _marker_sizes(camera, dist, marker_size, reference_size, standoff)
-                radii[:] = math.hypot(sizes[2], texture_extent("tag36h11", sizes[0]) / math.sqrt(2))  # point to a tag corner
-                needed = _fit_distance(camera, centre, direction, up, pts, radii, distance_factor)
-                if dist is not None and abs(needed - dist) <= 1e-3 * dist:
+            middle = (pts.min(axis=0) + pts.max(axis=0)) / 2
+            # the gripper tags follow the distance (80 px), the distance their cubes; the reference tags are sized for
+            # the poses alone, then their sheet below the poses joins what the camera must see
+            dist, reference, with_sheet = None, reference_size, False
+            for _ in range(50):
+                sizes = _marker_sizes(camera, dist, marker_size, reference, standoff)
+                cube = math.hypot(sizes[2], texture_extent("tag36h11", sizes[0]) / math.sqrt(2))  # to a tag corner
+                spots, corners = _sheet(middle, float(np.min(pts @ up)) - cube - 0.02, up, x_axis, y_axis, sizes[1])
+                seen = np.vstack([pts, corners]) if with_sheet else pts
+                radii = np.r_[np.full(len(pts), cube), np.zeros(len(seen) - len(pts))]
+                centre = (np.min(seen - radii[:, None], axis=0) + np.max(seen + radii[:, None], axis=0)) / 2
+                needed = _fit_distance(camera, centre, direction, up, seen, radii, distance_factor)
+                settled, dist = dist is not None and abs(needed - dist) <= 1e-3 * dist, needed
+                if settled and with_sheet:
                     break
-                dist = needed
-        sizes = _marker_sizes(camera, dist, marker_size, reference_size, standoff)
-        low = float(np.min(pts @ up)) - (radii[0] if poses is not None else 0.0) - 0.02
-        sheet = centre - (centre @ up) * up + low * up
-        ext = texture_extent("tag36h11", sizes[1])
-        spots = [sheet + max(0.1, 1.2 * ext) * (sx * x_axis + sy * y_axis) for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-        if poses is not None:
-            corners = np.array([c + ext / 2 * (ex * x_axis + ey * y_axis) for c in spots for ex in (-1, 1) for ey in (-1, 1)])
-            seen, radii = np.vstack([pts, corners]), np.r_[radii, np.zeros(len(corners))]
-            centre = (np.min(seen - radii[:, None], axis=0) + np.max(seen + radii[:, None], axis=0)) / 2
-            dist = _fit_distance(camera, centre, direction, up, seen, radii, distance_factor)
+                with_sheet, reference = (True, sizes[1]) if settled else (with_sheet, reference)
         marker_size, reference_size, standoff = sizes
         eye = centre + dist * direction
         base_from_camera = look_at(eye, centre, up)
@@ -266,7 +271,11 @@ class CameraRig:
         w, h = self.camera.image_size
         inside = (uv[..., 0] >= margin - 0.5) & (uv[..., 0] <= w - 0.5 - margin)
         inside &= (uv[..., 1] >= margin - 0.5) & (uv[..., 1] <= h - 0.5 - margin)
-        return inside & (local[..., 2] > 0)
+        # a ray wider than the image's corners can fold back into the image through the distortion polynomial
+        corners = self.camera.undistort_points(np.array([[-0.5, -0.5], [w - 0.5, -0.5], [-0.5, h - 0.5], [w - 0.5, h - 0.5]]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ray = np.linalg.norm(local[..., :2] / local[..., 2:], axis=-1)
+        return inside & (local[..., 2] > 0) & (ray <= np.linalg.norm(corners, axis=-1).max())
 
     def virtual_camera(self, arm, **options):
         """A :class:`VirtualCamera` of this rig on a virtual arm.
