@@ -17,7 +17,7 @@ import numpy as np
 
 from labkit.exceptions import ShapeError
 from labkit.robot import Robot
-from labkit.kinematics import fk_position
+from labkit.kinematics import fk, fk_position
 from labkit.vision._camera import Camera
 from labkit.vision._families import texture_extent
 
@@ -32,6 +32,35 @@ def _marker_sizes(camera, dist, marker_size, reference_size, standoff):
     size = size if marker_size is None else marker_size
     reference = 1.5 * size if reference_size is None else reference_size
     return size, reference, texture_extent("tag36h11", size) / 2 if standoff is None else standoff
+
+
+#: the normals of the gripper cube's tags in the tool frame (ids 1-5: -z, -y, +z, +y, +x; none towards the arm)
+_FACES = np.array([[0, 0, -1], [0, -1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], dtype=float)
+
+
+def _place(camera, pts, up, x_axis, y_axis, direction, given, margin):
+    """Where a camera looking back along ``direction`` sees the tool points ``pts`` (shape (k, 3) [m]) with their tag
+    cubes and the reference sheet below them: ``(centre, distance, sizes, spots)``.
+
+    The gripper tags follow the distance (80 px, :func:`_marker_sizes` with the ``given`` sizes and standoff), the
+    distance their cubes; the reference tags are sized for the poses alone, then their sheet joins what the camera
+    must see (:func:`_fit_distance` with ``margin``)."""
+    marker_size, reference, standoff = given
+    middle = (pts.min(axis=0) + pts.max(axis=0)) / 2
+    dist, with_sheet = None, False
+    for _ in range(50):
+        sizes = _marker_sizes(camera, dist, marker_size, reference, standoff)
+        cube = math.hypot(sizes[2], texture_extent("tag36h11", sizes[0]) / math.sqrt(2))  # to a tag corner
+        spots, corners = _sheet(middle, float(np.min(pts @ up)) - cube - 0.02, up, x_axis, y_axis, sizes[1])
+        seen = np.vstack([pts, corners]) if with_sheet else pts
+        radii = np.r_[np.full(len(pts), cube), np.zeros(len(seen) - len(pts))]
+        centre = (np.min(seen - radii[:, None], axis=0) + np.max(seen + radii[:, None], axis=0)) / 2
+        needed = _fit_distance(camera, centre, direction, up, seen, radii, margin)
+        settled, dist = dist is not None and abs(needed - dist) <= 1e-3 * dist, needed
+        if settled and with_sheet:
+            break
+        with_sheet, reference = (True, sizes[1]) if settled else (with_sheet, reference)
+    return centre, dist, sizes, spots
 
 
 def _sheet(middle, low, up, x_axis, y_axis, reference):
@@ -161,11 +190,14 @@ class CameraRig:
         Five markers on the gripper sit on the faces of a cube around the tool point
         (ids 1-5 facing the tool's -z, -y, +z, +y and +x axes; ``standoff`` from the tool
         point), so one faces the camera in most orientations; four reference markers
-        (ids 10-13) lie on a sheet below the tool, facing up. The camera looks along the base's
-        +y and down. Given ``poses``, it stands back just far enough for every pose's marker cube
+        (ids 10-13) lie on a sheet below the tool, facing up. The camera stands on the base's +y
+        side, above, looking down at the poses. Given ``poses``, it stands back just far enough for every pose's marker cube
         and the reference sheet to lie inside its image, ``distance_factor`` inside the edges
-        (:meth:`in_view` checks a point); without them, far enough for the sphere holding 90 %
-        of a sample of the workspace (an outstretched pose of a long arm may leave the view).
+        (:meth:`in_view` checks a point), on the side (the default one, or turned about up in 45-degree
+        steps) from which the most poses show a gripper tag 20 to 70 degrees off its face (a tag seen
+        head-on has an ambiguous pose, one seen edge-on too few pixels per bit); without ``poses``, far
+        enough for the sphere holding 90 % of a sample of the workspace (an outstretched pose of a
+        long arm may leave the view).
 
         Parameters
         ----------
@@ -220,31 +252,31 @@ class CameraRig:
             if q.ndim != 2 or q.shape[1] != robot.n or len(q) == 0 or not np.all(np.isfinite(q)):
                 raise ShapeError(f"expected poses of shape (k, {robot.n}) with k >= 1 finite joint values, "
                                  f"got shape {q.shape}")
-            pts = fk_position(robot, q)
-            middle = (pts.min(axis=0) + pts.max(axis=0)) / 2
-            # the gripper tags follow the distance (80 px), the distance their cubes; the reference tags are sized for
-            # the poses alone, then their sheet below the poses joins what the camera must see
-            dist, reference, with_sheet = None, reference_size, False
-            for _ in range(50):
-                sizes = _marker_sizes(camera, dist, marker_size, reference, standoff)
-                cube = math.hypot(sizes[2], texture_extent("tag36h11", sizes[0]) / math.sqrt(2))  # to a tag corner
-                spots, corners = _sheet(middle, float(np.min(pts @ up)) - cube - 0.02, up, x_axis, y_axis, sizes[1])
-                seen = np.vstack([pts, corners]) if with_sheet else pts
-                radii = np.r_[np.full(len(pts), cube), np.zeros(len(seen) - len(pts))]
-                centre = (np.min(seen - radii[:, None], axis=0) + np.max(seen + radii[:, None], axis=0)) / 2
-                needed = _fit_distance(camera, centre, direction, up, seen, radii, distance_factor)
-                settled, dist = dist is not None and abs(needed - dist) <= 1e-3 * dist, needed
-                if settled and with_sheet:
-                    break
-                with_sheet, reference = (True, sizes[1]) if settled else (with_sheet, reference)
+            T = fk(robot, q)
+            pts = T[:, :3, 3]
+            # the default side first; another where it sees more poses with a gripper tag at a readable angle
+            best = None
+            for turn in np.radians([0, 45, -45, 90, -90, 135, -135, 180]):
+                c, s_ = math.cos(turn), math.sin(turn)
+                d = direction * c + np.cross(up, direction) * s_ + up * (up @ direction) * (1 - c)  # Rodrigues about up
+                centre_, dist_, sizes_, spots_ = _place(camera, pts, up, x_axis, y_axis, d,
+                                                        (marker_size, reference_size, standoff), distance_factor)
+                eye = centre_ + dist_ * d
+                normals = np.einsum("kij,mj->kmi", T[:, :3, :3], _FACES)  # (k, 5, 3): the tags' normals in the base
+                rays = eye - pts
+                cosine = np.einsum("kmi,ki->km", normals, rays / np.linalg.norm(rays, axis=1, keepdims=True))
+                score = int(np.sum(np.any((cosine > math.cos(math.radians(70))) & (cosine < math.cos(math.radians(20))),
+                                          axis=1)))
+                if best is None or score > best[0]:
+                    best = (score, centre_, dist_, sizes_, spots_, d)
+            _, centre, dist, sizes, spots, direction = best
         marker_size, reference_size, standoff = sizes
         eye = centre + dist * direction
         base_from_camera = look_at(eye, centre, up)
         base_markers = {10 + k: face_marker(up, x_axis, c) for k, c in enumerate(spots)}
         # a cube around the tool point, a tag on each face but the one towards the arm (-x)
-        faces = {1: ([0, 0, -1], [1, 0, 0]), 2: ([0, -1, 0], [1, 0, 0]), 3: ([0, 0, 1], [1, 0, 0]),
-                 4: ([0, 1, 0], [1, 0, 0]), 5: ([1, 0, 0], [0, 1, 0])}
-        tool_markers = {k: face_marker(n, a, standoff * np.asarray(n, float)) for k, (n, a) in faces.items()}
+        along = {1: [1, 0, 0], 2: [1, 0, 0], 3: [1, 0, 0], 4: [1, 0, 0], 5: [0, 1, 0]}
+        tool_markers = {k: face_marker(n, along[k], standoff * n) for k, n in zip(along, _FACES)}
         size = {**{k: float(marker_size) for k in tool_markers}, **{k: float(reference_size) for k in base_markers}}
         return cls(camera, base_from_camera, tool_markers, base_markers, size)
 

@@ -25,7 +25,7 @@ MODELS = {"ur10": "UR10", "panda": "Panda", "orion5": "Orion5", "stanford": "Sta
 TEMPLATES = ["01_robot_dh", "02_fk_check", "03_ik_check", "04_trajectory", "05_calibration", "06_camera_fk_check",
              "07_dynamics", "08_control"]
 #: the notebooks that failed on these arms before (sag, the camera placement, no 1-DOF lab), executed below
-BROKEN = {"ur10": ["02_fk_check", "06_camera_fk_check", "07_dynamics"], "panda": ["02_fk_check"], "stanford": ["07_dynamics"],
+BROKEN = {"ur10": ["02_fk_check", "06_camera_fk_check", "07_dynamics"], "panda": ["02_fk_check", "06_camera_fk_check"], "stanford": ["07_dynamics"],
           "pendulum1": ["01_robot_dh", "02_fk_check", "03_ik_check", "05_calibration", "06_camera_fk_check",
                         "07_dynamics"]}
 
