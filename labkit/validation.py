@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from labkit.exceptions import ShapeError
+from labkit.exceptions import OptionError, RobotError, ShapeError, TrajectoryError
 
 
 def as_batch(x, last, name, *, finite=True):
@@ -32,9 +34,15 @@ def as_batch(x, last, name, *, finite=True):
         With the expected and the received shape.
     """
     try:
-        arr = np.asarray(x, dtype=float)
+        arr = np.asarray(x)
+        why = ("booleans are not numbers" if arr.dtype.kind == "b" else
+               "None is not a number" if arr.dtype.kind == "O" and any(v is None for v in arr.flat) else None)
+        if why is None:
+            arr = arr.astype(float, copy=False)
     except (TypeError, ValueError) as exc:
-        raise ShapeError(f"expected {name} as numbers, got {x!r} ({exc})") from None
+        why = str(exc)
+    if why is not None:
+        raise ShapeError(f"expected {name} as numbers, got {_received(x)} ({why})")
     last = tuple(last)
     k = len(last)
     if arr.ndim < k or arr.shape[arr.ndim - k:] != last:
@@ -73,6 +81,141 @@ def as_vector(x, n, name, *, finite=True):
         With the expected and the received shape.
     """
     return as_batch(x, (n,), name, finite=finite)
+
+
+def as_number(x, name, *, unit="", positive=False, error=ShapeError):
+    """Return ``x`` as one finite float (``True`` and ``False`` are not numbers).
+
+    Parameters
+    ----------
+    x : float
+        Input.
+    name : str
+        Argument name used in the error message.
+    unit : str
+        Its unit, shown in the message ("s").
+    positive : bool
+        Also reject zero and negative values.
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ShapeError (or ``error``)
+        With what was expected and what was received.
+    """
+    what = f"{name} as a {'positive ' if positive else ''}finite number" + (f" [{unit}]" if unit else "")
+    try:
+        out = math.nan if isinstance(x, (bool, np.bool_, str, bytes)) else float(x)
+    except (TypeError, ValueError):
+        out = math.nan
+    if not math.isfinite(out) or (positive and out <= 0.0):
+        raise error(f"expected {what}, got {x!r}")
+    return out
+
+
+def _received(x):
+    """``repr(x)`` for a message, or its type (and shape) where the repr is long."""
+    text = repr(x)
+    if len(text) <= 80:
+        return text
+    shape = getattr(x, "shape", None)
+    return f"a {type(x).__name__}" + (f" of shape {tuple(shape)}" if shape is not None else "")
+
+
+def as_count(x, name, *, minimum=0, maximum=None, error=OptionError):
+    """Return ``x`` as an int within ``minimum..maximum`` (``True`` and ``2.5`` are not counts).
+
+    Parameters
+    ----------
+    x : int
+        Input.
+    name : str
+        Argument name used in the error message.
+    minimum, maximum : int or None
+        Bounds (inclusive); ``None``: unbounded.
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    OptionError (or ``error``)
+        With what was expected and what was received.
+    """
+    ok = isinstance(x, (int, np.integer)) and not isinstance(x, (bool, np.bool_))
+    if not ok or (minimum is not None and x < minimum) or (maximum is not None and x > maximum):
+        span = f"{minimum}..{maximum}" if maximum is not None else f">= {minimum}" if minimum is not None else ""
+        raise error(f"expected {name} as an integer {span}".rstrip() + f", got {x!r}")
+    return int(x)
+
+
+def check_robot(robot, name="robot", *, optional=False):
+    """Return ``robot`` if it is a labkit ``Robot`` (``None`` too where ``optional``), else a RobotError.
+
+    Duck-typed on what every robot has (``links``, ``n``, ``joint_limits``), so that this layer
+    needs nothing of :mod:`labkit.robot`.
+
+    Parameters
+    ----------
+    robot : Robot or None
+        Input.
+    name : str
+        Argument name used in the error message.
+    optional : bool
+        Accept ``None`` ("no robot").
+
+    Returns
+    -------
+    Robot or None
+
+    Raises
+    ------
+    RobotError
+        With what was expected and what was received.
+    """
+    if robot is None and optional:
+        return None
+    if not all(hasattr(robot, attr) for attr in ("links", "n", "joint_limits")):
+        hint = " (Robot.load(name) loads a bundled robot or a robot file)" if isinstance(robot, str) else ""
+        raise RobotError(f"expected {name} as a labkit Robot{' or None' if optional else ''}{hint}, "
+                         f"got {_received(robot)}")
+    return robot
+
+
+def check_trajectory(traj, name="traj", *, error=TrajectoryError):
+    """Return ``traj`` if it is a joint trajectory (samples ``t``, ``q``, ``qd``, ``qdd``), else a TrajectoryError.
+
+    Duck-typed, like :func:`check_robot`, so that plotting (below motion) can check one too.
+
+    Parameters
+    ----------
+    traj : labkit.motion.Trajectory
+        Input.
+    name : str
+        Argument name used in the error message.
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    TrajectoryError (or ``error``)
+        With what was expected and what was received.
+    """
+    if not all(hasattr(traj, attr) for attr in ("t", "q", "qd", "qdd", "law")):
+        raise error(f"expected {name} as a Trajectory (joint_trajectory, via_trajectory ...), got {_received(traj)}")
+    return traj
 
 
 def readonly(a):

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.control._identify import fit_step_response
-from labkit.exceptions import OptionError
-from labkit.validation import readonly
+from labkit.exceptions import OptionError, ShapeError
+from labkit.validation import as_batch, as_number, readonly
 
 __all__ = ["StepRecord", "record_step", "rate_limited_steps"]
 
@@ -115,9 +115,14 @@ def rate_limited_steps(t, start, edges, rate_limit):
     >>> rate_limited_steps([0.0, 0.05, 0.1, 0.2], 0.0, [(0.0, 1.0)], 10.0).round(3).tolist()
     [0.0, 0.5, 1.0, 1.0]
     """
-    t = np.asarray(t, dtype=float)
-    u = np.full(t.shape, float(start))
-    level = float(start)
+    t = as_batch(t, (), "t (times, s)")
+    level = as_number(start, "start")
+    u = np.full(t.shape, level)
+    edges = as_batch(edges, (2,), "edges ((time [s], value) pairs)")
+    if edges.ndim != 2:
+        raise ShapeError(f"expected edges as a sequence of (time [s], value) pairs, got shape {edges.shape}")
+    if rate_limit is not None:
+        rate_limit = as_number(rate_limit, "rate_limit", positive=True)
     for k, (t_edge, value) in enumerate(edges):
         end = edges[k + 1][0] if k + 1 < len(edges) else np.inf
         span = (t >= t_edge) & (t < end)

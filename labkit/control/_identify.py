@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError, OptionError
+from labkit.exceptions import MeasurementError, OptionError, ShapeError
+from labkit.validation import as_batch, as_number
 
 __all__ = ["StepFit", "fit_step_response", "model_response"]
 
@@ -156,8 +157,8 @@ def _num_den(order, gain, wn, zeta):
 
 def _signals(t, y, u):
     """Validated ``t, y, u`` (u: a unit step at t = 0 when None) as float arrays."""
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
+    t = as_batch(t, (), "t", finite=False)
+    y = as_batch(y, (), "y", finite=False)
     if t.ndim != 1 or y.shape != t.shape:
         raise MeasurementError(f"expected t and y with the same shape (N,), got {t.shape} and {y.shape}")
     if len(t) < 8:
@@ -170,7 +171,7 @@ def _signals(t, y, u):
         if t[0] > 0:
             raise MeasurementError(f"expected the step at t = 0 within the record (t[0] <= 0), got t[0] = {t[0]:g} s")
     else:
-        u = np.asarray(u, dtype=float)
+        u = as_batch(u, (), "u", finite=False)
         if u.shape != t.shape or not np.all(np.isfinite(u)):
             raise MeasurementError(f"expected a finite command u with shape {t.shape}, got shape {u.shape}")
     return t, y, u
@@ -204,6 +205,21 @@ def model_response(t, u, order, gain, wn, zeta, delay, offset):
     """
     from scipy.signal import lfilter
 
+    t = as_batch(t, (), "t (sample times, s)")
+    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0):
+        raise ShapeError(f"expected t as increasing sample times of shape (N,), N >= 2, got {t!r}")
+    if u is not None:
+        u = as_batch(u, t.shape, "u (the command at the times t)")
+        if u.shape != t.shape:
+            raise ShapeError(f"expected u with shape {t.shape}, got {u.shape}")
+    if isinstance(order, bool) or order not in (1, 2):
+        raise OptionError(f"expected order 1 or 2, got {order!r}")
+    gain, delay, offset = (as_number(v, name) for v, name in ((gain, "gain"), (delay, "delay"), (offset, "offset")))
+    wn = as_number(wn, "wn", unit="rad/s", positive=True)
+    if order == 2:
+        zeta = as_number(zeta, "zeta")
+        if zeta < 0:
+            raise OptionError(f"expected a damping ratio zeta >= 0, got {zeta!r}")
     h = float(np.min(np.diff(t))) / _REFINE
     h = max(h, (t[-1] - t[0]) / 200_000)
     if u is None:  # a step at t = 0: a grid point at 0, the command held from there (exact)

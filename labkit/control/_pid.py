@@ -62,8 +62,9 @@ def joint_plant(robot, q, joint, *, gravity=None):
     import control
 
     from labkit.dynamics import gravity_torques, mass_matrix
-    from labkit.validation import as_vector
+    from labkit.validation import as_vector, check_robot
 
+    check_robot(robot)
     if isinstance(joint, bool) or not isinstance(joint, (int, np.integer)) or not 0 <= joint < robot.n:
         raise OptionError(f"expected a joint index 0..{robot.n - 1}, got {joint!r}")
     q = as_vector(q, robot.n, "q (the pose, rad)")
@@ -203,6 +204,9 @@ def design_pid(plant, kp, ki=0.0, kd=0.0, *, derivative_filter=None):
 
     if hasattr(plant, "transfer_function"):
         plant = plant.transfer_function()
+    if not isinstance(plant, control.LTI):
+        raise OptionError(f"expected plant as a python-control system (control.tf, joint_plant) or a StepFit, "
+                          f"got {plant!r}")
     for name, value in (("kp", kp), ("ki", ki), ("kd", kd)):
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(value) or value < 0:
@@ -210,7 +214,7 @@ def design_pid(plant, kp, ki=0.0, kd=0.0, *, derivative_filter=None):
     if kp == 0:
         raise OptionError("expected kp > 0, got 0")
     tf_d = (kd / kp / 10.0 if kd > 0 else 1e-3) if derivative_filter is None else derivative_filter
-    if not (isinstance(tf_d, (int, float)) and np.isfinite(tf_d) and tf_d > 0):
+    if isinstance(tf_d, bool) or not (isinstance(tf_d, (int, float)) and np.isfinite(tf_d) and tf_d > 0):
         raise OptionError(f"expected derivative_filter > 0 s, got {derivative_filter!r}")
     s = control.tf("s")
     C = control.tf([float(kp)], [1.0])

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import OptionError
-from labkit.validation import as_vector, readonly
+from labkit.validation import as_number, as_vector, check_robot, readonly
 
 __all__ = ["resolved_rate_trajectory", "PathTracking", "track_on_arm"]
 
@@ -72,11 +72,12 @@ def resolved_rate_trajectory(robot, path, duration, q0, *, law="quintic", gain=2
     from labkit.kinematics import fk_position, jacobian, joint_rates
     from labkit.motion import Trajectory, path_law, time_grid
 
-    for name, value in (("duration", duration), ("dt", dt)):
-        if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-            raise OptionError(f"expected {name} > 0 s, got {value!r}")
-    if not (isinstance(gain, (int, float)) and np.isfinite(gain) and gain >= 0):
+    duration, dt = (as_number(v, name, unit="s", positive=True, error=OptionError)
+                    for name, v in (("duration", duration), ("dt", dt)))
+    gain = as_number(gain, "gain", unit="1/s", error=OptionError)
+    if gain < 0:
         raise OptionError(f"expected gain >= 0 [1/s], got {gain!r}")
+    check_robot(robot)
     q = as_vector(q0, robot.n, "q0 (start joints, rad)").copy()
     s_law = path_law(path, float(duration), law)
     t = time_grid(0.0, float(duration), float(dt))

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import ShapeError
-from labkit.validation import as_vector, readonly
+from labkit.validation import as_batch, as_number, as_vector, check_robot, check_trajectory, readonly
 
 __all__ = ["computed_torque_controller", "pd_controller", "TrackingResult", "simulate_tracking"]
 
@@ -31,7 +31,7 @@ __all__ = ["computed_torque_controller", "pd_controller", "TrackingResult", "sim
 def _desired(trajectory):
     """``t -> (q_d, qd_d, qdd_d)``: the trajectory's time law where it has one (exact), else linear
     interpolation of its samples (held at the ends)."""
-    law = trajectory.law
+    law = check_trajectory(trajectory, "trajectory").law
     if law is not None and law.shape == (np.shape(trajectory.q)[1],):
         def exact(time):
             time = min(max(time, law.t0), law.tf)
@@ -49,8 +49,10 @@ def _desired(trajectory):
 
 def _gains(model, kp, kd):
     """``kp, kd`` as (n,) arrays (a scalar for every joint); a wrong shape is a ShapeError."""
+    check_robot(model, "model")
+
     def gain(value, name):
-        value = np.asarray(value, dtype=float)
+        value = as_batch(value, (), name)
         return as_vector(np.full(model.n, float(value)) if value.ndim == 0 else value, model.n, name)
 
     return gain(kp, "kp (1/s^2)"), gain(kd, "kd (1/s)")
@@ -99,6 +101,8 @@ def computed_torque_controller(model, trajectory, kp, kd, *, gravity=None, frict
         qdd_ref = qdd_d + kd * (qd_d - qd) + kp * (q_d - q)
         return inverse_dynamics(model, q, qd, qdd_ref, gravity=gravity, friction=friction)
 
+    q_start, qd_start, _ = desired(float(trajectory.t[0]))
+    controller(float(trajectory.t[0]), q_start, qd_start)  # bad gravity or a model without inertia: raise now
     return controller
 
 
@@ -145,6 +149,8 @@ def pd_controller(model, trajectory, kp, kd, *, gravity_compensation=False, grav
         tau = inertia * (kp * (q_d - q) + kd * (qd_d - qd))
         return tau + gravity_torques(model, q, gravity=gravity) if gravity_compensation else tau
 
+    q_start, qd_start, _ = desired(float(trajectory.t[0]))
+    controller(float(trajectory.t[0]), q_start, qd_start)  # bad gravity: raise now, not inside the simulation
     return controller
 
 
@@ -232,16 +238,18 @@ def simulate_tracking(robot, trajectory, controller, *, dt=0.005, gravity=None, 
     """
     from labkit.dynamics import simulate
 
+    check_robot(robot)
+    desired = _desired(trajectory)
+    if not callable(controller):
+        raise ShapeError(f"expected controller as a function tau(t, q, qd), got {controller!r}")
+    dt = as_number(dt, "dt", unit="s", positive=True)
     Q = np.asarray(trajectory.q, dtype=float)
     if Q.ndim != 2 or Q.shape[1] != robot.n:
         raise ShapeError(f"expected a trajectory of {robot.n} joints, got q with shape {Q.shape}")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"expected dt > 0 s, got {dt!r}")
     t0, tf = float(trajectory.t[0]), float(trajectory.t[-1])
     t = np.linspace(t0, tf, max(2, int(round((tf - t0) / dt)) + 1))
     run = simulate(robot, Q[0], np.zeros(robot.n), t, torque=controller, gravity=gravity, friction=friction,
                    solver=solver, rtol=rtol, atol=atol)
-    desired = _desired(trajectory)
     q_d = np.array([desired(tk)[0] for tk in t])
     return TrackingResult(readonly(t), readonly(np.asarray(run.q)), readonly(q_d), readonly(np.asarray(run.tau)),
                           tuple(robot.joint_names))

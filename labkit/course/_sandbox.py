@@ -511,13 +511,29 @@ def _execute(nb, work, limits, hide, private, cgroup):
                     f"in the cell(s) with id {', '.join(ids[:5])}{' ...' if len(ids) > 5 else ''}")
 
         timed_out = ("timeout", f"stopped after the wall-clock limit of {limits.wall_seconds:g} s")
+
+        def died(crash, wait):
+            """(status, detail) of a kernel that died or never answered: the limit it hit (the watchdog's reason,
+            the wall clock, ``RLIMIT_CPU``, a ``MemoryError``), else ``crash(exit status)``."""
+            if reason():
+                return reason()
+            if time.monotonic() - t0 >= limits.wall_seconds:
+                return timed_out
+            try:
+                code = launched[0].wait(timeout=wait) if launched and hasattr(launched[0], "wait") else None
+            except subprocess.TimeoutExpired:
+                code = None
+            if code == 128 + signal.SIGXCPU or (dogs and dogs[0].cpu >= 0.9 * limits.cpu_seconds):
+                return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
+            return ("memory" if _memory_error(nb) else "crash"), crash(code)
+
         t0 = time.monotonic()
         try:
             try:
                 run()
-            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more, afresh
-                if "kernel" not in str(exc).lower() or any(c.get("execution_count") for c in nb.cells
-                                                           if c.cell_type == "code"):
+            except RuntimeError as exc:  # the kernel did not start (a busy machine): once more, afresh, if no limit hit
+                if "kernel" not in str(exc).lower() or reason() or (cgroup is not None and cgroup.oom_kills()) \
+                        or any(c.get("execution_count") for c in nb.cells if c.cell_type == "code"):
                     raise
                 _stop(launched, dogs, client.monitors)
                 remove_tree(runtime / "sockets")
@@ -532,19 +548,10 @@ def _execute(nb, work, limits, hide, private, cgroup):
         except (asyncio.TimeoutError, CellTimeoutError):
             return (reason() or timed_out)
         except DeadKernelError:
-            if reason():
-                return reason()
-            if time.monotonic() - t0 >= limits.wall_seconds:
-                return timed_out
-            try:
-                code = launched[0].wait(timeout=10) if launched and hasattr(launched[0], "wait") else None
-            except subprocess.TimeoutExpired:
-                code = None
-            if code == 128 + signal.SIGXCPU or (dogs and dogs[0].cpu >= 0.9 * limits.cpu_seconds):
-                return "cpu-time", f"killed at the CPU-time limit of {limits.cpu_seconds:g} s"
-            return ("memory" if _memory_error(nb) else "crash"), f"the kernel died (exit status {code})"
-        except RuntimeError as exc:  # kernel failed to start
-            return "crash", f"the kernel did not start: {type(exc).__name__}: {exc} {_tail(log)}"[:400]
+            return died(lambda code: f"the kernel died (exit status {code})", wait=10)
+        except RuntimeError as exc:  # the kernel did not start: the limit it hit on the way, else a crash
+            return died(lambda code: f"the kernel did not start: {type(exc).__name__}: {exc} {_tail(log)}"[:400],
+                        wait=0)
         if reason():
             return reason()
         if client.closed():

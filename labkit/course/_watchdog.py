@@ -47,13 +47,41 @@ def _cpu(pid) -> float:
         return 0.0
 
 
+def _used(root, names) -> int:
+    """Bytes used on the file system of folder ``names`` below the folder ``root`` (a descriptor), links refused."""
+    fd = os.dup(root)
+    try:
+        for name in names:
+            fd, parent = os.open(name, os.O_PATH | os.O_DIRECTORY | os.O_NOFOLLOW, dir_fd=fd), fd
+            os.close(parent)
+        st = os.fstatvfs(fd)
+    finally:
+        os.close(fd)
+    return (st.f_blocks - st.f_bfree) * st.f_frsize
+
+
 def _ram_disks(pids) -> int:
-    for pid in pids[1:]:  # the first is bwrap outside the sandbox
+    """What the sandbox's ``/tmp`` and ``/dev/shm`` hold [bytes], seen through the first process inside its root.
+
+    The first pid is bwrap outside the sandbox. A process bwrap has not yet moved into the sandbox's root (a
+    busy machine stretches that moment) still sees the grader's root, whose ``/tmp`` is the host's (a disk
+    of many GiB): it is skipped. Before any process is inside, 0.
+    """
+    host = os.stat("/")
+    for pid in pids[1:]:
         try:
-            return sum((st.f_blocks - st.f_bfree) * st.f_frsize
-                       for st in (os.statvfs(f"/proc/{pid}/root/tmp"), os.statvfs(f"/proc/{pid}/root/dev/shm")))
+            root = os.open(f"/proc/{pid}/root", os.O_PATH | os.O_DIRECTORY)
         except OSError:
             continue
+        try:
+            seen = os.fstat(root)
+            if (seen.st_dev, seen.st_ino) == (host.st_dev, host.st_ino):
+                continue
+            return sum(_used(root, path) for path in (("tmp",), ("dev", "shm")))
+        except OSError:
+            continue
+        finally:
+            os.close(root)
     return 0
 
 

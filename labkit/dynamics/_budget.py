@@ -8,7 +8,7 @@ import numpy as np
 
 from labkit.dynamics._rne import gravity_torques, inverse_dynamics
 from labkit.exceptions import RobotError, ShapeError, TorqueWarning
-from labkit.validation import as_batch, readonly
+from labkit.validation import as_batch, as_number, check_robot, check_trajectory, readonly
 
 __all__ = ["TorqueBudget", "torque_budget", "stall_torques", "torques_from_current", "check_torque_budget"]
 
@@ -37,7 +37,7 @@ def stall_torques(robot):
     [0.92, 0.92, 0.92]
     """
     out = []
-    for i, lk in enumerate(robot.links, start=1):
+    for i, lk in enumerate(check_robot(robot).links, start=1):
         servo = lk.servo or lk.bus
         if servo is None or servo.stall_torque is None:
             raise RobotError(f"robot {robot.name!r}: joint {i} ({robot.joint_names[i - 1]}): expected a servo with "
@@ -79,7 +79,7 @@ def torques_from_current(robot, current):
     [0.0, -0.89, 0.356, 0.178]
     """
     gains = []
-    for i, lk in enumerate(robot.links, start=1):
+    for i, lk in enumerate(check_robot(robot).links, start=1):
         if lk.bus is None or lk.bus.torque_constant is None:
             raise RobotError(f"robot {robot.name!r}: joint {i} ({robot.joint_names[i - 1]}): expected a bus servo with "
                              f"torque_constant [N m/A] in its bus table, got none", f"joint[{i}].torque_constant")
@@ -152,6 +152,7 @@ def torque_budget(robot, q, *, qd=None, qdd=None, payload=0.0, payload_com=(0.0,
     (True, 1, 2.4)
     """
     stall = stall_torques(robot)
+    payload = as_number(payload, "payload", unit="kg")
     held = robot.with_payload(payload, payload_com) if payload else robot
     if qd is None and qdd is None:
         tau = gravity_torques(held, q, gravity=gravity)
@@ -217,10 +218,9 @@ def check_torque_budget(robot, trajectory, *, payload=0.0, payload_com=(0.0, 0.0
     """
     import warnings
 
-    try:
-        t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
-    except AttributeError:
-        raise ShapeError(f"expected a trajectory with samples t, q, qd, qdd, got {type(trajectory).__name__}") from None
+    check_robot(robot)
+    check_trajectory(trajectory, "trajectory", error=ShapeError)
+    t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
     if q.ndim != 2 or q.shape[1] != robot.n or qd.shape != q.shape or qdd.shape != q.shape or t.shape != q.shape[:1]:
         raise ShapeError(f"expected a trajectory of {robot.n} joints (t (m,), q, qd, qdd (m, {robot.n})), got "
                          f"t {t.shape}, q {q.shape}, qd {qd.shape}, qdd {qdd.shape}")

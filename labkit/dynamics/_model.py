@@ -16,8 +16,8 @@ import numpy as np
 
 from labkit.exceptions import RobotError, ShapeError
 from labkit.kinematics import fk_frames
-from labkit.robot import Convention, Robot
-from labkit.validation import as_batch, as_vector
+from labkit.robot import Convention
+from labkit.validation import as_batch, as_vector, check_robot
 
 __all__ = ["STANDARD_GRAVITY", "CHUNK", "Body", "Geometry", "body", "geometry", "default_gravity", "joint_arrays",
            "cross", "by_chunks"]
@@ -72,8 +72,7 @@ def body(robot):
     RobotError
         No link carries ``mass``/``com``/``inertia`` (the dynamics of such a robot is zero).
     """
-    if not isinstance(robot, Robot):
-        raise RobotError(f"expected a Robot (labkit.robot.Robot), got {type(robot).__name__}", "robot")
+    check_robot(robot)
     if all(lk.inertial is None for lk in robot.links):
         raise RobotError(f"robot {robot.name!r} has no inertial parameters: expected mass, com and inertia on its "
                          f"[[joint]] tables (docs/robot-files.md), got none", "inertial")
@@ -236,6 +235,7 @@ def joint_arrays(robot, **arrays):
     ShapeError
         An array does not end in ``n``, holds a non-finite value, or the batch shapes differ.
     """
+    check_robot(robot)
     checked = {name: as_vector(value, robot.n, name) for name, value in arrays.items()}
     try:
         shape = np.broadcast_shapes(*(a.shape for a in checked.values()))

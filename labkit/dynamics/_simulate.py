@@ -9,7 +9,7 @@ import numpy as np
 from labkit.dynamics._model import body, by_chunks, default_gravity, geometry, joint_arrays
 from labkit.dynamics._rne import composite_mass, inverse
 from labkit.exceptions import DynamicsError, OptionError, ShapeError
-from labkit.validation import as_batch, readonly
+from labkit.validation import as_batch, as_number, readonly
 
 __all__ = ["forward_dynamics", "Simulation", "simulate", "INTEGRATORS"]
 
@@ -204,9 +204,10 @@ def simulate(robot, q0, qd0, t, *, torque=None, gravity=None, friction=True, sol
     if solver not in INTEGRATORS:
         raise OptionError(f"expected solver one of {', '.join(INTEGRATORS)}, got {solver!r}")
     q0, qd0 = joint_arrays(robot, q0=q0, qd0=qd0)
-    times = as_batch(t, (), "t (sample times, s)").reshape(-1) if np.ndim(t) <= 1 else None
-    if times is None or times.size < 2 or not np.all(np.diff(times) > 0):
-        raise ShapeError(f"expected t as increasing sample times of shape (m,) with m >= 2, got {np.asarray(t)!r}")
+    times = as_batch(t, (), "t (sample times, s)")
+    if times.ndim != 1 or times.size < 2 or not np.all(np.diff(times) > 0):
+        raise ShapeError(f"expected t as increasing sample times of shape (m,) with m >= 2, got {t!r}")
+    rtol, atol = (as_number(v, name, positive=True) for v, name in ((rtol, "rtol"), (atol, "atol")))
     shape = q0.shape
     drive = _torque_function(robot, torque, shape)
     parts, g = body(robot), default_gravity(robot, gravity)

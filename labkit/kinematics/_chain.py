@@ -2,17 +2,11 @@
 
 :func:`chain` turns a robot's DH rows into the per-link constants the
 compiled programs of :mod:`labkit.kinematics._program` are built from, cached
-per robot object (:func:`per_robot`, the keyed cache every per-robot constant
-of the kinematics uses). :func:`prepare` is the one place joint values enter
-the chain: it validates ``q`` and returns the effective joint values, shape
-``(N, n)``, that every evaluator runs on.
-
-Joint angles enter through the half-angle tangent ``t = tan(theta / 2)``:
-``cos theta = 2 / (1 + t^2) - 1`` and ``sin theta = t * 2 / (1 + t^2)``. One
-``tan`` per joint instead of a ``sin`` and a ``cos``: NumPy evaluates float64
-``tan`` with SIMD but ``sin``/``cos`` one element at a time on AVX2 machines,
-so this is about 5x cheaper, and it agrees with ``sin``/``cos`` to a few
-units in the last place.
+per robot object (:func:`_per_robot`, the keyed cache every per-robot constant
+of the kinematics uses; :func:`_by_content` for what depends on the robot's
+content alone). :func:`prepare` is the one place joint values enter the chain:
+it validates ``q`` and returns the effective joint values, shape ``(N, n)``,
+that every evaluator runs on.
 """
 
 from __future__ import annotations
@@ -24,27 +18,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from labkit.exceptions import ShapeError
-from labkit.kinematics._program import chain_structure
+from labkit.kinematics._program import _chain_structure
 from labkit.robot.types import Convention
 from labkit.validation import as_vector
 
 
-def per_robot(func):
-    """Cache ``func(robot)`` per robot object, in a keyed cache (``Robot`` stays plain frozen data).
+#: contents a :func:`_by_content` cache keeps
+CONTENTS_KEPT = 64
 
-    Entries die with the robot.
 
-    Parameters
-    ----------
-    func : callable
-        ``func(robot)``, a pure function of the robot.
-
-    Returns
-    -------
-    callable
-        The cached ``func``.
-    """
+def _per_robot(func):
+    """``func(robot)`` cached per robot object in a weak keyed cache (``Robot`` stays plain frozen data)."""
     cache = weakref.WeakKeyDictionary()
 
     @functools.wraps(func)
@@ -58,28 +42,12 @@ def per_robot(func):
     return cached
 
 
-def by_content(func, size=64):
-    """Cache ``func(robot)`` by what the robot is (its links, convention, base, tool and up direction).
-
-    A freshly loaded robot or a copy with the same content finds the value of
-    an earlier one; the most recent ``size`` contents are kept. Each robot
-    object also remembers its own value (:func:`per_robot`).
-
-    Parameters
-    ----------
-    func : callable
-        ``func(robot)``, a pure function of that content.
-    size : int
-        Contents kept.
-
-    Returns
-    -------
-    callable
-        The cached ``func``.
-    """
+def _by_content(func):
+    """``func(robot)`` cached by the robot's content (links, convention, base, tool, up: a fresh load or a copy
+    finds an earlier value; the last :data:`CONTENTS_KEPT` are kept), and per robot object."""
     cache = {}
 
-    @per_robot
+    @_per_robot
     @functools.wraps(func)
     def cached(robot):
         key = (robot.convention, robot.links, robot.base.tobytes(), robot.tool.tobytes(),
@@ -87,7 +55,7 @@ def by_content(func, size=64):
         try:
             return cache[key]
         except KeyError:
-            if len(cache) >= size:
+            if len(cache) >= CONTENTS_KEPT:
                 cache.pop(next(iter(cache)))
             value = cache[key] = func(robot)
             return value
@@ -115,33 +83,22 @@ class Chain:
 
     Attributes
     ----------
-    modified : bool
-        Modified (Craig) DH convention, else standard.
-    n : int
-        Number of joints.
+    modified, n : bool, int
+        Modified (Craig) DH convention, else standard; the number of joints.
     steps : tuple of tuple
         Per link ``(revolute, a [m], cos alpha, sin alpha, d [m], theta [rad],
         cos theta, sin theta)``; the last two are used for prismatic joints.
-    revolute : ndarray of int, shape (r,)
-        Indices of the revolute joints.
-    all_revolute : bool
-        Every joint is revolute (``revolute`` is ``0 .. n-1``).
-    flipped : ndarray of int, shape (f,)
-        Indices of the joints whose variable enters the chain negated
-        (``Link.flip``); empty for most robots.
+    revolute, flipped, all_revolute : ndarray of int, ndarray of int, bool
+        Indices of the revolute joints, and of those entering negated (``Link.flip``); all revolute.
     half_theta : ndarray, shape (r, 1) or None
-        Half the DH ``theta`` offsets of the revolute joints [rad]; ``None``
-        when all are zero.
+        Half the revolute joints' DH ``theta`` offsets [rad] (None: all zero).
     base, tool : ndarray, shape (4, 4) or None
-        World-from-base and frame-n-from-tool transforms [m]; ``None`` when
-        the identity (skipped).
+        World-from-base and frame-n-from-tool transforms [m] (None: identity).
     structure : tuple
-        The chain's structure and numbers for the tool point
-        (:func:`labkit.kinematics._program.chain_structure`).
+        :func:`labkit.kinematics._program._chain_structure` for the tool point.
     programs : dict
-        The programs of the tool point bound to the chain's numbers, by
-        output and options (filled by :mod:`labkit.kinematics._forward` on
-        first use).
+        The tool point's programs bound to the chain's numbers (filled by
+        :mod:`labkit.kinematics._forward` on first use).
     """
 
     modified: bool
@@ -157,19 +114,17 @@ class Chain:
     programs: dict = field(default_factory=dict, repr=False)
 
 
-@per_robot
+@_per_robot
 def chain(robot):
     """The chain constants of ``robot`` (cached per robot object).
 
     Parameters
     ----------
     robot : Robot
-        The arm whose DH rows are read.
 
     Returns
     -------
     Chain
-        Its per-link constants.
     """
     steps = tuple(_step(lk.is_revolute, lk.a, _clean(math.cos(lk.alpha)), _clean(math.sin(lk.alpha)), lk.d, lk.theta)
                   for lk in robot.links)
@@ -198,30 +153,13 @@ def _assemble(modified, steps, rev, flipped, base, tool):
         half_theta=half if half.any() else None,
         base=base,
         tool=tool,
-        structure=chain_structure(steps, base, tool, None if tool is None else tool[:3, 3]),
+        structure=_chain_structure(steps, base, tool, None if tool is None else tool[:3, 3]),
     )
 
 
-def varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None):
-    """The chain ``c`` with DH columns and the base's or tool's translation replaced.
-
-    The same chain, number for number, as :func:`chain` of the robot with
-    those values; its programs are found in the cache of ``c``'s structure
-    (unless a value becomes 0 or +-1), so nothing is compiled.
-
-    Parameters
-    ----------
-    c : Chain
-        The robot's chain.
-    theta, a, d : sequence of float, length n, optional
-        DH columns [rad, m] (None: keep).
-    base_position, tool_position : sequence of float, length 3, optional
-        Translation of the base (world-from-frame-0) and tool (frame-n-from-tool) transforms [m].
-
-    Returns
-    -------
-    Chain
-    """
+def _varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None):
+    """The chain ``c`` with DH columns [rad, m] or the base's or tool's translation [m] replaced (None: kept):
+    number for number :func:`chain` of the robot with those values, its programs those of ``c``'s structure."""
     steps = []
     for i, step in enumerate(c.steps):
         rev, old_a, ca, sa, old_d, old_theta = step[:6]
@@ -237,28 +175,19 @@ def varied(c, theta=None, a=None, d=None, base_position=None, tool_position=None
 
 
 def prepare(robot, q, c=None):
-    """Validate joint values and return the chain, the effective ``q`` and the batch shape.
-
-    The one place where joint values enter the chain: both FK kernels run on
-    the array this returns.
+    """Validate joint values: the chain (``c``, default the robot's), the effective ``q`` and the batch shape.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     q : array_like, shape (..., n)
-        Joint values [rad for revolute, m for prismatic joints].
+        Joint values [rad, m].
     c : Chain, optional
-        The chain to use (default the robot's).
 
     Returns
     -------
-    chain : Chain
-        The robot's chain constants (or ``c``).
-    q : ndarray, shape (N, n)
-        Effective joint values [rad, m], batch dimensions flattened.
-    lead : tuple of int
-        The batch shape ``...`` of the input.
+    chain, q, lead : Chain, ndarray (N, n), tuple of int
+        The chain, the effective joint values (flipped joints negated) [rad, m] and the batch shape.
 
     Raises
     ------
@@ -276,57 +205,3 @@ def prepare(robot, q, c=None):
         arr = arr.copy()
         arr[:, c.flipped] *= -1.0
     return c, arr, lead
-
-
-def half_angle_trig(t, cos_out=None):
-    """Cosine and sine from half-angle tangents, in place of a ``sin`` and a ``cos``.
-
-    Parameters
-    ----------
-    t : ndarray
-        ``tan(theta / 2)``; overwritten with ``sin theta``.
-    cos_out : ndarray, optional
-        Array of ``t``'s shape to write the cosine into (default: a new one).
-
-    Returns
-    -------
-    cos, sin : ndarray
-        Same shape as ``t``; ``sin`` is ``t`` itself.
-    """
-    w = np.multiply(t, t, out=cos_out)
-    w += 1.0
-    np.divide(2.0, w, out=w)
-    t *= w
-    w -= 1.0
-    return w, t
-
-
-def check_out(out, shape, name="out"):
-    """Validate a caller's output array (float64, C-contiguous, exact shape).
-
-    Parameters
-    ----------
-    out : ndarray
-        The array to write into.
-    shape : tuple of int
-        Required shape.
-    name : str
-        Argument name used in the error message.
-
-    Returns
-    -------
-    ndarray
-        ``out`` itself.
-
-    Raises
-    ------
-    ShapeError
-        With what was expected and what was received.
-    """
-    if not isinstance(out, np.ndarray) or out.dtype != np.float64 or not out.flags.c_contiguous \
-            or not out.flags.writeable or out.shape != tuple(shape):
-        got = f"{type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')}".strip()
-        raise ShapeError(
-            f"expected {name} as a writeable C-contiguous float64 array of shape {tuple(shape)}, got {got}"
-        )
-    return out

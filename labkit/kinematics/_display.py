@@ -1,10 +1,8 @@
 """IK targets in display units (mm, deg) and how far FK is from a target, for lab notebooks.
 
-A target row reads ``x, y, z`` [mm] (position robots), ``x, y`` [mm] and ``phi`` [deg]
-(planar), ``x, y, z`` [mm] and ``pitch`` [deg] (4-DOF) or ``pitch, roll`` [deg] (5-DOF),
-or ``x, y, z`` [mm] and ``roll, pitch, yaw`` [deg] (6-DOF pose, fixed-axis RPY);
-:func:`target_from_display` turns it into the target :func:`labkit.kinematics.ik_all`
-takes, :func:`target_to_display` goes back. :func:`target_from_pose` is the target a
+A target row reads the target's lengths [mm], then its angles [deg] (a 6-DOF pose's
+as fixed-axis roll, pitch, yaw); :func:`target_from_display` turns it into the target
+:func:`labkit.kinematics.ik_all` takes, :func:`target_to_display` goes back. :func:`target_from_pose` is the target a
 tool pose reaches (the target of FK), in SI units.
 
 Example
@@ -16,8 +14,6 @@ Example
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -88,12 +84,9 @@ def target_from_display(robot, row):
     names = target_components(kind)
     if row.shape != (len(names),):
         raise LabkitError(f"{robot.name} takes {' '.join(names)} ({len(names)} numbers), got shape {row.shape}")
-    if kind == "position":
-        return row / 1000.0
-    if kind in REDUCED:
-        return np.concatenate([row[:3] / 1000.0, np.radians(row[3:])])
-    if kind == "planar":
-        return np.array([row[0] / 1000.0, row[1] / 1000.0, math.radians(row[2])])
+    if kind != "pose":  # lengths, then angles
+        n = 2 if kind == "planar" else 3
+        return np.concatenate([row[:n] / 1000.0, np.radians(row[n:])])
     T = np.eye(4)
     T[:3, :3] = matrix_from_rpy(np.radians(row[3:]))
     T[:3, 3] = row[:3] / 1000.0
@@ -120,15 +113,11 @@ def target_to_display(robot, T):
 
     kind = target_kind(robot)
     T = np.asarray(T, dtype=float)
-    p = T[:3, 3] * 1000.0
-    if kind == "position":
-        return p
-    if kind in REDUCED:
-        return np.concatenate([p, np.degrees(target_from_pose(robot, T)[3:])])
-    if kind == "planar":
-        return np.array([p[0], p[1], math.degrees(math.atan2(T[1, 0], T[0, 0]))])
+    if kind != "pose":  # lengths, then angles
+        t, n = target_from_pose(robot, T), 2 if kind == "planar" else 3
+        return np.concatenate([t[:n] * 1000.0, np.degrees(t[n:])])
     rpy = np.degrees(np.asarray(rpy_from_matrix(T[:3, :3]), dtype=float))
-    return np.concatenate([p, rpy])
+    return np.concatenate([T[:3, 3] * 1000.0, rpy])
 
 
 def target_error(robot, q, target):
@@ -155,13 +144,11 @@ def target_error(robot, q, target):
     target = np.asarray(target, dtype=float)
     if target.shape == (4, 4):
         return float(np.abs(T - target).max())
-    if target_kind(robot) in REDUCED:
+    kind = target_kind(robot)
+    if kind == "planar" or kind in REDUCED:
         d = target_from_pose(robot, T) - target
-        d[3:] = wrap_angle(d[3:])
-        return float(np.abs(d).max())
-    if target_kind(robot) == "planar":
-        d = np.array([T[0, 3] - target[0], T[1, 3] - target[1],
-                      wrap_angle(math.atan2(T[1, 0], T[0, 0]) - target[2])])
+        angles = slice(2 if kind == "planar" else 3, None)
+        d[angles] = wrap_angle(d[angles])
         return float(np.abs(d).max())
     return float(np.abs(T[:3, 3] - target).max())
 

@@ -1,25 +1,18 @@
 """Inverse kinematics: every closed-form solution with its branch name, or batched numeric IK.
 
-Targets, by :func:`target_kind`:
-
-* ``"position"`` ``(..., 3)`` [m] - 3-DOF arms such as the Arduino arm of seed 000
-  and any robot with fewer than 6 joints that is not a planar 3R;
-* ``"planar"`` ``(..., 3)`` ``(x [m], y [m], phi [rad])`` - planar 3R arms
-  (seeds 003 and 004), ``phi`` the angle of the tool ``x`` axis from world ``x``;
-* ``"position_pitch"`` ``(..., 4)`` ``(x, y, z [m], pitch [rad])`` - 4-DOF
-  yaw-pitch-pitch-pitch arms (OpenMANIPULATOR-X, MeArm, Dobot);
-* ``"position_pitch_roll"`` ``(..., 5)`` ``(x, y, z [m], pitch, roll [rad])`` -
-  5-DOF yaw-pitch-pitch-pitch-roll arms (SO-101, AL5D);
-* ``"position_yaw"`` ``(..., 4)`` ``(x, y, z [m], yaw [rad])`` - SCARA arms, gantries with a wrist turn; these three also take
-  ``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation (pitch,
-  roll and yaw are defined in ``docs/ik.md``);
-* ``"pose"`` ``(..., 4, 4)`` - ``world_from_tool`` transforms for 6-DOF arms.
+Targets, by :func:`target_kind`: ``"position"`` ``(..., 3)`` [m]; ``"planar"``
+``(x, y, phi)`` [m, rad] of planar 3R arms; ``"position_pitch"``,
+``"position_pitch_roll"`` and ``"position_yaw"`` ``(x, y, z, angles)`` [m, rad]
+of 4- and 5-DOF arms, SCARAs and gantries with a wrist turn, which also take
+``(..., 4, 4)`` poses, reached where a branch's FK has the pose's orientation
+(the angles are defined in ``docs/ik.md``); ``"pose"`` ``(..., 4, 4)``
+``world_from_tool`` transforms for 6-DOF arms.
 
 The closed-form family is chosen from the robot's geometry (joint axes at
 ``q = 0``, so either DH convention, base and tool transforms included; see
-``docs/ik.md``): the first family of the registry that fits (``planar_2r``, ``planar_3r``, ``yaw_pitch_pitch``, ``yaw_pitch_pitch_pitch``,
-``yaw_pitch_pitch_pitch_roll``, ``spherical_wrist``, ``three_parallel``, ``scara``, ``scara_rrp``, ``cylindrical``,
-``cartesian``, ``cartesian_yaw``, ``spherical_rrp``, ``stanford``). Other robots use :func:`ik_numeric`, which also takes every kind above.
+``docs/ik.md``): the first family of the registry that fits (:class:`Solver`
+lists them in order). Other robots use :func:`ik_numeric`, which also takes
+every kind above.
 
 No NaN ever leaves this module. Where a branch cannot reach a target its
 ``reachable`` flag is False and its ``q`` holds the finite configuration
@@ -38,8 +31,8 @@ from labkit.validation import as_batch
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik_solvers import (
-    FAMILIES, REDUCED, LazyGenerator, batch_index, build, describe_target, detect, nearest, solve_closed_form,
-    solve_numeric, target_words, task_rows, validate_targets,
+    FAMILIES, REDUCED, LazyGenerator, build, detect, nearest, solve_closed_form, solve_numeric, task_rows,
+    validate_targets, _batch_index, _describe_target, _first_success, _target_words,
 )
 
 __all__ = ["Solver", "IKSolutions", "IKResult", "target_kind", "solver_for", "ik", "ik_all", "ik_numeric",
@@ -127,16 +120,9 @@ class IKSolutions:
         ShapeError
             The solutions hold more than one target (``q`` is not (m, n)).
         """
-        import pandas as pd
-
         if self.q.ndim != 2:
             raise ShapeError(f"to_dataframe needs one target (q of shape (m, n)), got {self.q.shape}")
-        q = np.degrees(self.q) if degrees else self.q
-        cols = {f"q{j + 1}" + (" [deg]" if degrees else ""): q[:, j] for j in range(q.shape[1])}
-        df = pd.DataFrame(cols, index=pd.Index(self.branches, name="branch"))
-        df["reachable"] = self.reachable
-        df["valid"] = self.valid
-        return df
+        return _joint_table(self.q, degrees, self.branches, reachable=self.reachable, valid=self.valid)
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,15 +156,17 @@ class IKResult:
             Columns ``q1 .. qn`` [rad, m], ``success``, ``iterations`` and
             ``residual`` [m, rad]; batch dimensions flattened in C order.
         """
-        import pandas as pd
+        return _joint_table(self.q.reshape(-1, self.q.shape[-1]), success=self.success.reshape(-1),
+                            iterations=self.iterations.reshape(-1), residual=self.residual.reshape(-1))
 
-        n = self.q.shape[-1]
-        q = self.q.reshape(-1, n)
-        df = pd.DataFrame({f"q{j + 1}": q[:, j] for j in range(n)})
-        df["success"] = self.success.reshape(-1)
-        df["iterations"] = self.iterations.reshape(-1)
-        df["residual"] = self.residual.reshape(-1)
-        return df
+
+def _joint_table(q, degrees=False, branches=None, **columns):
+    """A table of joint values ``q`` (N, n) (``q1 [deg]`` ... in degrees, else ``q1`` ...), then ``columns``."""
+    import pandas as pd
+
+    unit, q = (" [deg]", np.degrees(q)) if degrees else ("", q)
+    return pd.DataFrame({**{f"q{j + 1}{unit}": q[:, j] for j in range(q.shape[1])}, **columns},
+                        index=None if branches is None else pd.Index(branches, name="branch"))
 
 
 def target_kind(robot):
@@ -326,6 +314,11 @@ def ik_all(robot, target, *, solver="auto"):
     )
 
 
+def _per_target(q, n, lead, name):
+    """Joint values [rad, m] given once or per target, validated, as one row (N, n) per target."""
+    return np.broadcast_to(as_batch(q, (n,), name), lead + (n,)).reshape(-1, n)
+
+
 def _branch_index(impl_branches, aliases, branch):
     name = aliases.get(branch, branch)
     if name not in impl_branches:
@@ -385,41 +378,29 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     else:
         idx = None if branch is None else _branch_index(family.branches, family.aliases, branch)
     flat, lead = validate_targets(target, kind)
-    qn = None if q_near is None else np.broadcast_to(as_batch(q_near, (n,), "q_near"), lead + (n,)).reshape(-1, n)
+    qn = None if q_near is None else _per_target(q_near, n, lead, "q_near")
     q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)
     valid_t = valid[:, idx] if idx is not None else valid.any(axis=1)
     if valid_t.all():  # (valid implies reachable: the usual case needs no more checks)
         out = q[:, idx] if idx is not None else q[np.arange(q.shape[0]), nearest(robot, q, valid, qn)]
         return out.reshape(lead + (n,))
     reach_t = reach[:, idx] if idx is not None else reach.any(axis=1)
+    i = int(np.flatnonzero(~(valid_t if reach_t.all() else reach_t))[0])
+    target, where = _describe_target(kind, flat[i]), "" if not lead else f" (target {_batch_index(i, lead)})"
     if not reach_t.all():
-        i = int(np.flatnonzero(~reach_t)[0])
-        where = "" if not lead else f" (target {batch_index(i, lead)})"
+        distance = dist[i]
         if family is None:
-            raise UnreachableError(
-                f"{robot.name}: numeric IK found no solution inside the joint limits for "
-                f"{describe_target(kind, flat[i])}{where}; the closest configuration found misses it by "
-                f"{dist[i]:.4g} (m and rad combined)",
-                distance=dist[i], index=batch_index(i, lead),
-            )
-        if idx is not None and reach[i].any():
-            raise UnreachableError(
-                f"{robot.name}: branch {branches[idx]!r} cannot reach {describe_target(kind, flat[i])}{where}; "
-                f"reachable branches: {', '.join(b for b, r in zip(branches, reach[i]) if r)}",
-                distance=0.0, index=batch_index(i, lead),
-            )
-        if not (np.isfinite(dist[i]) and dist[i] > 0.0):  # the point is in reach: the orientation is not
-            raise UnreachableError(
-                f"{robot.name}: no configuration takes the orientation of target {describe_target(kind, flat[i])}"
-                f"{where}; this arm takes {target_words(kind)}",
-                distance=0.0, index=batch_index(i, lead),
-            )
-        raise UnreachableError(
-            f"{robot.name}: target {describe_target(kind, flat[i])}{where} is out of reach by "
-            f"{dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)",
-            distance=dist[i], index=batch_index(i, lead),
-        )
-    i = int(np.flatnonzero(~valid_t)[0])
+            why = (f"numeric IK found no solution inside the joint limits for {target}{where}; the closest "
+                   f"configuration found misses it by {dist[i]:.4g} (m and rad combined)")
+        elif idx is not None and reach[i].any():
+            distance, why = 0.0, (f"branch {branches[idx]!r} cannot reach {target}{where}; reachable branches: "
+                                  f"{', '.join(b for b, r in zip(branches, reach[i]) if r)}")
+        elif not (np.isfinite(dist[i]) and dist[i] > 0.0):  # the point is in reach: the orientation is not
+            distance, why = 0.0, (f"no configuration takes the orientation of target {target}{where}; this arm "
+                                  f"takes {_target_words(kind)}")
+        else:
+            why = f"target {target}{where} is out of reach by {dist[i]:.4g} m ({dist[i] * 1e3:.1f} mm)"
+        raise UnreachableError(f"{robot.name}: {why}", distance=distance, index=_batch_index(i, lead))
     cols = [idx] if idx is not None else [k for k in range(len(branches)) if reach[i, k]]
     reasons, joint = [], None
     for k in cols:
@@ -428,12 +409,8 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
         except JointLimitError as exc:
             joint = exc.joint if joint is None else joint
             reasons.append(f"{branches[k]}: {str(exc).split(': ', 1)[-1]}")
-    where = "" if not lead else f" (target {batch_index(i, lead)})"
-    raise JointLimitError(
-        f"{robot.name}: target {describe_target(kind, flat[i])}{where} is reachable only outside the "
-        f"joint limits: " + "; ".join(reasons),
-        joint=joint, index=batch_index(i, lead),
-    )
+    raise JointLimitError(f"{robot.name}: target {target}{where} is reachable only outside the joint limits: "
+                          + "; ".join(reasons), joint=joint, index=_batch_index(i, lead))
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
@@ -458,7 +435,7 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
     if sides == 1:
         return q, ok, it, res
     q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
-    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))  # the first pose reached
+    pick = _first_success(ok, res)  # the first pose reached
     each = np.arange(q.shape[0])
     return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
 
@@ -467,8 +444,9 @@ def _reduced_family(robot, kind):
     """The closed-form family that defines ``kind``'s angles (pitch, roll, yaw) on ``robot``."""
     found, _ = detect(robot)
     if found is None or found.kind != kind:
-        raise OptionError(f"{robot.name}: {target_words(kind)} targets are defined by the closed form of arms "
-                          f"that take them; this arm takes {target_words(target_kind(robot))} (or use kind='pose')")
+        raise OptionError(f"{robot.name}: {_target_words(kind)} targets are defined by the closed form of arms "
+                          f"that take them; this arm takes {_target_words(target_kind(robot))} (or use "
+                          f"kind='pose')")
     return found
 
 
@@ -535,7 +513,7 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
     flat, lead = validate_targets(target, kind)
     n = robot.n
     if q0 is not None:
-        q0 = np.broadcast_to(as_batch(q0, (n,), "q0"), lead + (n,)).reshape(-1, n)
+        q0 = _per_target(q0, n, lead, "q0")
     q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=tol, max_iter=max_iter, restarts=restarts, seed=seed)
     return IKResult(q.reshape(lead + (n,)), ok.reshape(lead), it.reshape(lead), res.reshape(lead))
 
@@ -582,5 +560,5 @@ def pose_from_position_pitch(robot, target):
         )
     t, lead = validate_targets(np.asarray(target, dtype=float), found.kind)
     if t.ndim == 3:
-        raise ShapeError(f"expected {target_words(found.kind)} targets, got poses")
+        raise ShapeError(f"expected {_target_words(found.kind)} targets, got poses")
     return found.pose(t).reshape(lead + (4, 4))

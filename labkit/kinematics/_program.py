@@ -2,32 +2,26 @@
 
 :func:`walk` is the one place the Denavit-Hartenberg chain is written (both
 conventions, prismatic and revolute joints, base and tool). It runs on an
-*algebra*: :class:`_Builder` records it on *symbols*, where every vector
-component is a literal ``0``, ``+1`` or ``-1`` (``cos alpha = 0``, ``a = 0``,
-the base's columns ...), a robot *number* (a length, a twist's cosine: an
-input of the program, :class:`_Number`) or a signed reference to a row of
-per-chunk scratch. Arithmetic on literals is folded, multiplications by 0 and
-+-1 and additions of 0 vanish, negations are carried as a sign instead of
-computed, repeated products are shared, arithmetic on numbers alone becomes a
-short prologue evaluated once per robot, and whatever the outputs do not need
-(the last joint's rotation when only the Jacobian is asked for ...) is
-dropped (:mod:`labkit.kinematics._straight_line`).
-:mod:`labkit.kinematics.symbolic` runs the same walk on sympy expressions.
+*algebra*: on floats and on sympy expressions (:data:`PLAIN`,
+:mod:`labkit.kinematics.symbolic`) it is plain arithmetic; on the symbols of
+:mod:`labkit.kinematics._straight_line` (literals ``0``, ``+-1``, the robot's
+*numbers*, signed scratch rows) it is recorded, with the constants folded,
+signs carried, repeated products shared and what the outputs do not need (the
+last joint's rotation when only the Jacobian is asked for ...) dropped.
 
-What is left, a :class:`Program`, depends only on the robot's structure
+What is left, a :class:`_Program`, depends only on the robot's structure
 (convention, joint types, flips, which numbers are 0 or +-1) and on the
 output asked for (pose, position, every frame, Jacobian with or without the
 pose). Programs are kept in one cache keyed by that structure, so a freshly
 loaded robot, a ``with_link`` copy or the robots of a calibration with other
 numbers compile nothing; a robot's numbers are bound to the program
-(:meth:`Program.bound`, microseconds). A bound program is evaluated two ways:
-
-* on numpy: a list of ufunc calls on ``(m,)`` rows with ``out=`` (no
-  temporaries), scratch rows reused as soon as a value is dead so a chunk's
-  working set stays in the L2 cache, each output row written once;
-* on Python floats: the same calls as generated straight-line Python code
-  (:meth:`Program.scalar`), for a handful of configurations, where numpy's
-  per-call overhead would cost more than the arithmetic.
+(:meth:`_Program.bound`, microseconds). A bound program is evaluated two ways:
+on numpy, as ufunc calls on ``(m,)`` rows with ``out=`` (no temporaries,
+scratch rows reused as soon as a value is dead so a chunk's working set stays
+in the L2 cache, each output row written once), and on Python floats, as the
+same calls in generated straight-line Python code (:meth:`_Program.scalar`),
+for a handful of configurations, where numpy's per-call overhead would cost
+more than the arithmetic.
 
 For the PUMA 560 the Jacobian needs about a third of the elementwise work of a
 generic block walk: the first joints' frames are mostly zeros and ones.
@@ -36,12 +30,14 @@ generic block walk: the first joints' frames are mostly zeros and ones.
 from __future__ import annotations
 
 import itertools
+import operator
+import types
 
 import numpy as np
 
 from labkit.kinematics._straight_line import _Builder, _Number, _Sym, _compile, _neg
 
-#: compiled programs by structure and output: {key: Program} (see :func:`program`); cleared when full
+#: compiled programs by structure and output: {key: _Program} (see :func:`program`); cleared when full
 _PROGRAMS = {}
 _MAX_PROGRAMS = 256
 #: literals folded into a program's structure; any other number is an input
@@ -86,32 +82,25 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     Parameters
     ----------
     c : Chain
-        From :func:`labkit.kinematics._chain.chain`.
     output : {"pose", "position", "frames", "jacobian"}
-        The pose of the point (16 rows, row-major (4, 4)), its position (3
-        rows), every frame (base, frames 1..n, tool: 16 rows each) or the
-        Jacobian (6 n rows, row-major (6, n), then the pose's 16 rows if
-        ``want_T``).
+        The point's pose (16 rows, row-major), its position (3 rows), every frame (base, 1..n,
+        tool: 16 rows each) or the Jacobian (6 n rows, row-major (6, n), then the pose if ``want_T``).
     point_offset : ndarray, shape (3,) or None
-        Origin of the output frame in frame-n coordinates [m]
-        (``_forward._tool_offset``); None for frame n's origin.
-    tool_frame : bool
-        Jacobian only: express the velocities in the tool frame (``R^T J``).
-    want_T : bool
-        Jacobian only: also write the pose.
+        Origin of the output frame in frame-n coordinates [m] (None: frame n's origin).
+    tool_frame, want_T : bool
+        Jacobian only: velocities in the tool frame (``R^T J``); also write the pose.
     structure : tuple, optional
-        :func:`chain_structure` of the chain and ``point_offset``, if known.
+        :func:`_chain_structure` of the chain and ``point_offset``, if known.
 
     Returns
     -------
-    Bound
-        Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (rows
-        ``r .. 2r-1``), then the prismatic joints' values (rows ``2r ..``), in
-        joint order. Flipped joints' Jacobian columns are already negated.
+    _Bound
+        Inputs: the revolute joints' cosines (rows ``0 .. r-1``), sines (``r .. 2r-1``), then the
+        prismatic joints' values, in joint order. Flipped joints' Jacobian columns come negated.
     """
     if output != JACOBIAN:
         tool_frame = want_T = None
-    skeleton, numbers = structure or chain_structure(c.steps, c.base, c.tool, point_offset)
+    skeleton, numbers = structure or _chain_structure(c.steps, c.base, c.tool, point_offset)
     key = (output, tool_frame, want_T, c.modified, tuple(c.flipped.tolist()), skeleton)
     prog = _PROGRAMS.get(key)
     if prog is None:
@@ -121,30 +110,15 @@ def program(c, output, point_offset=None, tool_frame=False, want_T=False, *, str
     return prog.bound(numbers)
 
 
-#: where a skeleton has a robot number (see :func:`chain_structure`)
+#: where a skeleton has a robot number (see :func:`_chain_structure`)
 NUMBER = "#"
 
 
-def chain_structure(steps, base, tool, off):
-    """A chain as a structure (the key of its programs), and its numbers.
-
-    Parameters
-    ----------
-    steps : tuple of tuple
-        :attr:`labkit.kinematics._chain.Chain.steps`.
-    base, tool : ndarray, shape (4, 4) or None
-        World-from-base and frame-n-from-tool transforms (None: identity).
-    off : ndarray, shape (3,) or None
-        The output point in frame-n coordinates [m] (None: frame n's origin).
-
-    Returns
-    -------
-    skeleton : tuple
-        ``(steps, base columns, tool rotation columns or None, point or None)``
-        with every number other than 0 and +-1 replaced by :data:`NUMBER`.
-    numbers : list of float
-        Those numbers, in order.
-    """
+def _chain_structure(steps, base, tool, off):
+    """A chain as a structure, the key of its programs: ``(steps, base columns, tool rotation columns or
+    None, output point or None)`` with every number but 0 and +-1 replaced by :data:`NUMBER`, and those
+    numbers in order; ``steps`` as :attr:`Chain.steps`, ``base``, ``tool`` (4, 4) and the point ``off`` (3,)
+    [m] or None."""
     numbers = []
 
     def v(x):
@@ -182,8 +156,7 @@ def walk(b, modified, base, steps, trig, joint_value):
     Parameters
     ----------
     b : algebra
-        ``mul``, ``add``, ``comb``, ``axpy`` and ``neg`` on its values
-        (:class:`_Builder`, or sympy's in :mod:`labkit.kinematics.symbolic`).
+        ``comb``, ``axpy`` and ``neg`` on its values (:class:`_Builder`, :data:`PLAIN`).
     modified : bool
         Modified (Craig) DH convention, else standard.
     base : tuple
@@ -198,10 +171,8 @@ def walk(b, modified, base, steps, trig, joint_value):
 
     Returns
     -------
-    frames : list of tuple
-        Frames 1..n as columns ``(x, y, z, origin)``.
-    axes : list of tuple
-        Per joint ``(direction, point)`` of its axis, in world coordinates.
+    frames, axes : list of tuple
+        Frames 1..n as columns ``(x, y, z, origin)``; per joint ``(direction, point)`` of its axis.
     """
     c0, c1, c2, p = base
     frames, axes, j = [], [], 0
@@ -232,33 +203,13 @@ def walk(b, modified, base, steps, trig, joint_value):
     return frames, axes
 
 
-class _Plain:
-    """The algebra :func:`walk` runs on as plain arithmetic: on Python floats (one configuration, evaluated
-    at once, nothing compiled) or on sympy expressions (:mod:`labkit.kinematics.symbolic`)."""
-
-    @staticmethod
-    def mul(x, y):
-        return x * y
-
-    @staticmethod
-    def add(x, y):
-        return x + y
-
-    @staticmethod
-    def neg(x):
-        return -x
-
-    @staticmethod
-    def comb(x, cx, y, cy):
-        return tuple(x[k] * cx + y[k] * cy for k in range(3))
-
-    @staticmethod
-    def axpy(p, v, w):
-        return tuple(p[k] + v[k] * w for k in range(3))
-
-
-#: :func:`walk`'s plain-arithmetic algebra
-PLAIN = _Plain()
+#: :func:`walk`'s algebra as plain arithmetic: on Python floats (one configuration, evaluated at once, nothing
+#: compiled) or on sympy expressions (:mod:`labkit.kinematics.symbolic`)
+PLAIN = types.SimpleNamespace(
+    neg=operator.neg,
+    comb=lambda x, cx, y, cy: tuple(x[k] * cx + y[k] * cy for k in range(3)),
+    axpy=lambda p, v, w: tuple(p[k] + v[k] * w for k in range(3)),
+)
 
 
 def _pose_rows(first, cols):

@@ -40,13 +40,6 @@ Part = Literal["full", "linear", "angular"]
 _PARTS = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}
 
 
-def _matrix(J, name="J"):
-    try:
-        return np.asarray(J, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"expected {name} as a matrix of numbers, got {J!r}") from None
-
-
 def _positive(value, name, *, zero=False):
     """A finite number > 0 (``zero``: >= 0), else :class:`OptionError` saying what came."""
     try:
@@ -58,11 +51,15 @@ def _positive(value, name, *, zero=False):
     return out
 
 
-def _jac(J, name="J"):
-    J = _matrix(J, name)
-    if J.ndim < 2 or J.shape[-2] != 6:
-        raise ShapeError(f"expected {name} with shape (..., 6, n), got {J.shape}")
-    return as_batch(J, J.shape[-2:], name)
+def _jac(J, rows=6):
+    """``J`` (..., rows, n) as a float array (any number of rows for ``rows=None``), validated."""
+    try:
+        J = np.asarray(J, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"expected J as a matrix of numbers, got {J!r}") from None
+    if J.ndim < 2 or rows is not None and J.shape[-2] != rows:
+        raise ShapeError(f"expected J with shape (..., {rows or 'm'}, n), got {J.shape}")
+    return as_batch(J, J.shape[-2:], "J")
 
 
 def _select(J, part):
@@ -349,11 +346,8 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     >>> np.allclose(Jv @ qd, [0.01, 0.0, 0.0])
     True
     """
-    J = _matrix(J)
-    if J.ndim < 2:
-        raise ShapeError(f"expected J with shape (..., m, n), got {J.shape}")
+    J = _jac(J, rows=None)
     _positive(epsilon, "epsilon"), _positive(max_damping, "max_damping", zero=True)
-    J = as_batch(J, J.shape[-2:], "J")
     v = as_batch(twist, (J.shape[-2],), "twist")
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     lam = damping_factor(s, epsilon, max_damping)  # per singular direction: zero where s_i >= epsilon

@@ -8,8 +8,8 @@ multiplications by 0 and +-1 and additions of 0 vanish, negations are carried
 as a sign, repeated products are shared, and arithmetic on numbers alone
 becomes a prologue evaluated once per robot. :func:`_compile` drops what the
 outputs do not need, places outputs and allocates scratch rows into a
-:class:`Program`; :meth:`Program.bound` binds a robot's numbers
-(:class:`Bound`), evaluated as ufunc calls on rows or as generated Python code
+:class:`_Program`; :meth:`_Program.bound` binds a robot's numbers
+(:class:`_Bound`), evaluated as ufunc calls on rows or as generated Python code
 on floats.
 """
 
@@ -23,8 +23,8 @@ import numpy as np
 _COMMUTATIVE = (np.multiply, np.add)
 
 
-class _Number:
-    """A robot number (entry ``k`` of the values a program is bound to), times ``sign`` (+1.0 or -1.0)."""
+class _Signed:
+    """Entry ``k`` of something, times ``sign`` (+1.0 or -1.0)."""
 
     __slots__ = ("k", "sign")
 
@@ -33,10 +33,16 @@ class _Number:
         self.sign = sign
 
     def __neg__(self):
-        return _Number(self.k, -self.sign)
+        return type(self)(self.k, -self.sign)
 
     def scaled(self, sign):
-        return self if sign == 1.0 else _Number(self.k, -self.sign)
+        return self if sign == 1.0 else -self
+
+
+class _Number(_Signed):
+    """A robot number: entry ``k`` of the values a program is bound to, signed."""
+
+    __slots__ = ()
 
     def __eq__(self, other):  # (never equal to a literal: a number is neither 0 nor +-1)
         return isinstance(other, _Number) and self.k == other.k and self.sign == other.sign
@@ -44,29 +50,19 @@ class _Number:
     def __hash__(self):
         return hash((self.k, self.sign))
 
-    def __repr__(self):
-        return f"{'-' if self.sign < 0 else ''}n{self.k}"
 
+class _Sym(_Signed):
+    """Row ``k`` of the scratch (a register), signed."""
 
-class _Sym:
-    """A row of the scratch, times ``sign`` (+1.0 or -1.0)."""
-
-    __slots__ = ("reg", "sign")
-
-    def __init__(self, reg, sign=1.0):
-        self.reg = reg
-        self.sign = sign
-
-    def __neg__(self):
-        return _Sym(self.reg, -self.sign)
+    __slots__ = ()
 
 
 def _neg(x):
-    return -x if isinstance(x, (_Sym, _Number)) else -float(x)
+    return -x if isinstance(x, _Signed) else -float(x)
 
 
 def _is_literal(x):
-    return not isinstance(x, (_Sym, _Number))
+    return not isinstance(x, _Signed)
 
 
 class _Builder:
@@ -110,15 +106,15 @@ class _Builder:
             if x == 0.0:
                 return 0.0
             if x == 1.0 or x == -1.0:
-                return y.scaled(x) if isinstance(y, _Number) else (_Sym(y.reg, y.sign * x)
+                return y.scaled(x) if isinstance(y, _Number) else (_Sym(y.k, y.sign * x)
                                                                     if isinstance(y, _Sym) else x * float(y))
         if not isinstance(x, _Sym):
             if not isinstance(y, _Sym):
                 return self.number_op(operator.mul, x, y)
             x, y = y, x
         if not isinstance(y, _Sym):
-            return _Sym(self.emit(np.multiply, x.reg, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign))
-        return _Sym(self.emit(np.multiply, x.reg, y.reg), x.sign * y.sign)
+            return _Sym(self.emit(np.multiply, x.k, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign))
+        return _Sym(self.emit(np.multiply, x.k, y.k), x.sign * y.sign)
 
     def add(self, x, y):
         if not isinstance(x, _Sym):
@@ -134,13 +130,13 @@ class _Builder:
                 y = float(y)
                 if y == 0.0:
                     return x
-            return _Sym(self.emit(np.add, x.reg, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign),
+            return _Sym(self.emit(np.add, x.k, y.scaled(x.sign) if isinstance(y, _Number) else y * x.sign),
                         x.sign)
         if x.sign == y.sign:
-            return _Sym(self.emit(np.add, x.reg, y.reg), x.sign)
+            return _Sym(self.emit(np.add, x.k, y.k), x.sign)
         if x.sign > 0:
-            return _Sym(self.emit(np.subtract, x.reg, y.reg))
-        return _Sym(self.emit(np.subtract, y.reg, x.reg))
+            return _Sym(self.emit(np.subtract, x.k, y.k))
+        return _Sym(self.emit(np.subtract, y.k, x.k))
 
     def sub(self, x, y):
         return self.add(x, _neg(y))
@@ -167,20 +163,9 @@ class _Builder:
         return p if p is not None else (0.0, 0.0, 0.0)
 
 
-class Program:
-    """A compiled chunk kernel of one robot structure: inputs (trig rows, prismatic values) -> output rows.
-
-    Attributes
-    ----------
-    n_rows : int
-        Output rows: ``6 n`` Jacobian entries (row-major ``(6, n)``), then 16
-        pose entries (row-major ``(4, 4)``) if the pose is wanted; or the 3
-        coordinates of a position program.
-    n_scratch : int
-        Scratch rows needed.
-    n_inputs : int
-        Input rows.
-    """
+class _Program:
+    """A compiled chunk kernel of one robot structure: ``n_inputs`` input rows (trig rows, prismatic
+    values) -> ``n_rows`` output rows (:func:`labkit.kinematics._program.program`), using ``n_scratch`` rows."""
 
     def __init__(self, ops, constants, n_rows, n_scratch, n_inputs, joints, prologue):
         self.n_rows = n_rows
@@ -211,35 +196,16 @@ class Program:
         self._scalar = None
 
     def bound(self, numbers):
-        """The program with a robot's numbers: a :class:`Bound` (evaluates the prologue once).
-
-        Parameters
-        ----------
-        numbers : sequence of float
-            The robot's numbers in the order :func:`program` found them.
-
-        Returns
-        -------
-        Bound
-        """
+        """The program with a robot's ``numbers`` (in the order :func:`program` found them); runs the prologue."""
         values = list(numbers)
         for func, a, b in self.prologue:
             values.append(func(_value(a, values), _value(b, values)))
-        return Bound(self, [v if k is None else v * values[k] for k, v in self._operands])
+        return _Bound(self, [v if k is None else v * values[k] for k, v in self._operands])
 
     def scalar(self):
-        """The program as generated Python code ``f(q, c) -> list of float`` (generated once, kept).
-
-        Returns
-        -------
-        callable
-            ``f(q, c)``: the ``n_rows`` outputs of one configuration from its
-            ``n`` effective joint values ``q`` (a sequence of floats, flipped
-            joints already negated) and the bound operands ``c``
-            (:attr:`Bound.operands`), by the same operations in the same
-            order as the ufunc calls, the half-angle trigonometry of
-            :func:`labkit.kinematics._chain.half_angle_trig` included.
-        """
+        """The program as generated Python code ``f(q, c)`` (generated once, kept): the ``n_rows`` outputs of
+        one configuration from its effective joint values ``q`` (floats) and the bound operands ``c``, by the
+        same operations in the same order as the ufunc calls (with ``_forward._program_inputs``'s trigonometry)."""
         if self._scalar is None:
             self._scalar = _python_function(self)
         return self._scalar
@@ -250,16 +216,8 @@ def _value(v, values):
     return v.sign * values[v.k] if isinstance(v, _Number) else v
 
 
-class Bound:
-    """A :class:`Program` bound to one robot's numbers (kept per robot on its chain).
-
-    Parameters
-    ----------
-    program : Program
-        The structure's program.
-    operands : list of float
-        Its operands with this robot's values.
-    """
+class _Bound:
+    """A :class:`_Program` bound to one robot's numbers, its ``operands`` (kept per robot on its chain)."""
 
     def __init__(self, program, operands):
         self.program = program
@@ -270,35 +228,15 @@ class Bound:
         self._scalar = None
 
     def scalar(self):
-        """The program's Python code with this robot's numbers (generated when first asked for).
-
-        Returns
-        -------
-        callable
-            ``f(q) -> list of float`` (see :meth:`Program.scalar`).
-        """
+        """``f(q) -> list of float``: :meth:`_Program.scalar` with this robot's numbers."""
         if self._scalar is None:
             f, operands = self.program.scalar(), self.operands
             self._scalar = lambda q: f(q, operands)
         return self._scalar
 
     def bind(self, inputs, out_rows, scratch):
-        """The calls for one buffer set: a list of ``(ufunc, a, b, out)`` with arrays bound.
-
-        Parameters
-        ----------
-        inputs : ndarray, shape (n_inputs, m)
-            Filled per chunk (``_forward._program_inputs``).
-        out_rows : sequence of ndarray, n_rows rows of shape (m,)
-            Where the outputs go (contiguous rows, or strided columns of the
-            result); the constant rows are filled here.
-        scratch : ndarray, shape (n_scratch, m)
-
-        Returns
-        -------
-        list of tuple
-            The calls in order; run each as ``ufunc(a, b, out)``.
-        """
+        """The calls ``(ufunc, a, b, out)`` in order on ``inputs`` (n_inputs, m), ``out_rows`` (n_rows rows (m,):
+        contiguous rows or strided columns of the result; the constant ones are filled here) and ``scratch``."""
         rows = list(inputs) + list(out_rows) + list(scratch) + self.operands
         for row, value in self.constants:
             out_rows[row][...] = value
@@ -309,7 +247,7 @@ _OPERATOR = {np.multiply: "*", np.add: "+", np.subtract: "-"}
 
 
 def _python_function(prog):
-    """Generate and compile the straight-line Python code ``f(q, c)`` of a :class:`Program`."""
+    """Generate and compile the straight-line Python code ``f(q, c)`` of a :class:`_Program`."""
     n_in, n_out, n_s = prog.n_inputs, prog.n_rows, prog.n_scratch
     r = sum(half is not False for _, half in prog.joints)
 
@@ -382,7 +320,7 @@ def _compile(b, outputs, n_rows, joints):
     """Dead-code elimination, output placement and scratch allocation of a recorded walk."""
     producer = {op[3]: k for k, op in enumerate(b.ops)}
     live = set()
-    stack = [v.reg for _, v in outputs if isinstance(v, _Sym)]
+    stack = [v.k for _, v in outputs if isinstance(v, _Sym)]
     while stack:
         r = stack.pop()
         if r in live:
@@ -402,18 +340,18 @@ def _compile(b, outputs, n_rows, joints):
                 used[v] = used.get(v, 0) + 1
     for _, v in outputs:
         if isinstance(v, _Sym):
-            used[v.reg] = used.get(v.reg, 0) + 1
+            used[v.k] = used.get(v.k, 0) + 1
     constants, tail = [], []
     for row, v in outputs:
         if not isinstance(v, _Sym):
             constants.append((row, v if isinstance(v, _Number) else float(v)))
             continue
-        if v.reg not in loc and v.sign < 0 and _negate(ops, producer, used, v.reg):
-            v = _Sym(v.reg)
-        if v.sign > 0 and v.reg not in loc:
-            loc[v.reg] = ("o", row)
+        if v.k not in loc and v.sign < 0 and _negate(ops, producer, used, v.k):
+            v = _Sym(v.k)
+        if v.sign > 0 and v.k not in loc:
+            loc[v.k] = ("o", row)
         else:
-            tail.append((np.multiply, v.reg, v.sign, ("o", row)))  # a copy, negated or not (exact)
+            tail.append((np.multiply, v.k, v.sign, ("o", row)))  # a copy, negated or not (exact)
     seq = [(f, x, y, o) for f, x, y, o in ops] + tail
     last = {}
     for k, (_, x, y, _) in enumerate(seq):
@@ -436,4 +374,4 @@ def _compile(b, outputs, n_rows, joints):
                     n_scratch += 1
             o = loc[o]
         program.append((f, args[0], args[1], o))
-    return Program(program, constants, n_rows, n_scratch, b.n_inputs, joints, tuple(b.prologue))
+    return _Program(program, constants, n_rows, n_scratch, b.n_inputs, joints, tuple(b.prologue))

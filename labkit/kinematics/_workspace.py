@@ -250,13 +250,10 @@ def planar_region(
         bins = int(np.clip(0.5 * np.sqrt(len(xy)), 20, 400))
     cell = span / int(bins)
     pad = (int(close_gaps) + 2) * cell
-    counts = []
     edges = []
     for k in range(2):
         m = int(np.ceil((hi[k] - lo[k] + 2 * pad) / cell))
-        start = 0.5 * (lo[k] + hi[k]) - 0.5 * m * cell
-        edges.append(start + cell * np.arange(m + 1))
-        counts.append(m)
+        edges.append(0.5 * (lo[k] + hi[k]) - 0.5 * m * cell + cell * np.arange(m + 1))
     H, _, _ = np.histogram2d(xy[:, 0], xy[:, 1], bins=edges)
     occ = H.T > 0
     if close_gaps:

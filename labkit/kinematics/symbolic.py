@@ -54,26 +54,17 @@ def _sp():
     return sympy
 
 
-def _exact_angle(x):
-    """A float angle [rad] as an exact multiple of pi when it is one (denominator <= 360)."""
+def _exact(x, angle=False):
+    """A float as an exact rational when it is one (denominator <= 10^6), an ``angle`` [rad] as a multiple of
+    pi (denominator <= 360); else a sympy Float (sympy values pass unchanged)."""
     sp = _sp()
     if isinstance(x, sp.Basic):
         return x
     x = float(x)
-    r = Fraction(x / np.pi).limit_denominator(360)
-    if abs(float(r) * np.pi - x) <= 1e-12 * max(1.0, abs(x)):
-        return sp.Rational(r.numerator, r.denominator) * sp.pi
-    return sp.Float(x)
-
-
-def _exact_length(x):
-    sp = _sp()
-    if isinstance(x, sp.Basic):
-        return x
-    x = float(x)
-    r = Fraction(x).limit_denominator(10**6)
-    if abs(float(r) - x) <= 1e-12 * max(1.0, abs(x)):
-        return sp.Rational(r.numerator, r.denominator)
+    unit, most = (np.pi, 360) if angle else (1.0, 10**6)
+    r = Fraction(x / unit).limit_denominator(most)
+    if abs(float(r) * unit - x) <= 1e-12 * max(1.0, abs(x)):
+        return sp.Rational(r.numerator, r.denominator) * (sp.pi if angle else 1)
     return sp.Float(x)
 
 
@@ -104,8 +95,7 @@ def dh_matrix(a, alpha, d, theta, convention="standard"):
     """
     sp = _sp()
     conv = Convention(convention)
-    a, d = _exact_length(a), _exact_length(d)
-    alpha, theta = _exact_angle(alpha), _exact_angle(theta)
+    a, d, alpha, theta = _exact(a), _exact(d), _exact(alpha, angle=True), _exact(theta, angle=True)
     identity = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0))
     step = (True, a, sp.cos(alpha), sp.sin(alpha), d, None, None)
     frames, _ = walk(PLAIN, conv is Convention.MODIFIED, identity, [step],
@@ -156,6 +146,8 @@ def joint_symbols(robot, q=None):
 
 def _length_mapper(lengths, unit):
     """Function (value_in_m, default_name) -> sympy length in ``unit``."""
+    if unit not in _LENGTH_SCALE:
+        raise OptionError(f"expected length_unit in {sorted(_LENGTH_SCALE)}, got {unit!r}")
     sp = _sp()
     scale = _LENGTH_SCALE[unit]
     named = {}
@@ -175,14 +167,9 @@ def _length_mapper(lengths, unit):
                 return sym if value > 0 else -sym
         if lengths == "symbolic":
             return sp.Symbol(name, real=True)
-        return _exact_length(value * scale)
+        return _exact(value * scale)
 
     return f
-
-
-def _check_unit(length_unit):
-    if length_unit not in _LENGTH_SCALE:
-        raise OptionError(f"expected length_unit in {sorted(_LENGTH_SCALE)}, got {length_unit!r}")
 
 
 def link_transforms(robot, *, q=None, lengths=None, length_unit="m"):
@@ -217,24 +204,24 @@ def link_transforms(robot, *, q=None, lengths=None, length_unit="m"):
     [       0,        0, -1,  0],
     [       0,        0,  0,  1]])
     """
-    _check_unit(length_unit)
-    qs = joint_symbols(robot, q)
-    L = _length_mapper(lengths, length_unit)
+    return tuple(dh_matrix(a, alpha, d, theta, robot.convention)
+                 for _, a, alpha, d, theta in _links(robot, q, _length_mapper(lengths, length_unit)))
+
+
+def _links(robot, q, L):
+    """Per link ``(revolute, a, alpha, d, theta)`` on sympy, the joint variable in ``theta`` or ``d``."""
     mod = robot.convention is Convention.MODIFIED
     out = []
-    for i, (lk, qi) in enumerate(zip(robot.links, qs), start=1):
-        ia = i - 1 if mod else i
+    for i, (lk, qi) in enumerate(zip(robot.links, joint_symbols(robot, q)), start=1):
         if lk.flip:  # the variable enters negated (Link.flip)
             qi = -qi
-        a = L(lk.a, f"a_{ia}")
+        a, theta = L(lk.a, f"a_{i - 1 if mod else i}"), _exact(lk.theta, angle=True)
         if lk.is_revolute:
-            d = L(lk.d, f"d_{i}")
-            theta = qi + _exact_angle(lk.theta)
+            d, theta = L(lk.d, f"d_{i}"), qi + theta
         else:
             d = qi + L(lk.d, f"d0_{i}")
-            theta = _exact_angle(lk.theta)
-        out.append(dh_matrix(a, _exact_angle(lk.alpha), d, theta, robot.convention))
-    return tuple(out)
+        out.append((lk.is_revolute, a, _exact(lk.alpha, angle=True), d, theta))
+    return out
 
 
 def _frame_matrix(T, L, prefix):
@@ -245,7 +232,7 @@ def _frame_matrix(T, L, prefix):
     T = np.asarray(T, dtype=float)
     if np.allclose(T, np.eye(4), atol=0, rtol=0):
         return sp.eye(4)
-    roll, pitch, yaw = (_exact_angle(v) for v in rpy_from_matrix(T[:3, :3]))
+    roll, pitch, yaw = (_exact(v, angle=True) for v in rpy_from_matrix(T[:3, :3]))
     R = sp.rot_axis3(-yaw) * sp.rot_axis2(-pitch) * sp.rot_axis1(-roll)  # sympy's rot_axis are transposed
     M = sp.eye(4)
     M[:3, :3] = R
@@ -255,32 +242,19 @@ def _frame_matrix(T, L, prefix):
 
 
 def _simplify_matrix(M):
-    sp = _sp()
-    return M.applyfunc(sp.trigsimp)
+    return M.applyfunc(_sp().trigsimp)
 
 
 def _walk(robot, q, lengths, length_unit):
     """The DH walk on sympy: frames 1..n, the joint axes, and the tool transform."""
     sp = _sp()
-    _check_unit(length_unit)
-    qs = joint_symbols(robot, q)
     L = _length_mapper(lengths, length_unit)
-    mod = robot.convention is Convention.MODIFIED
-    steps, angles, values = [], [], {}
-    for i, (lk, qi) in enumerate(zip(robot.links, qs), start=1):
-        if lk.flip:  # the variable enters negated (Link.flip)
-            qi = -qi
-        alpha, theta = _exact_angle(lk.alpha), _exact_angle(lk.theta)
-        a = L(lk.a, f"a_{i - 1 if mod else i}")
-        if lk.is_revolute:
-            angles.append(qi + theta)
-            steps.append((True, a, sp.cos(alpha), sp.sin(alpha), L(lk.d, f"d_{i}"), None, None))
-        else:
-            values[i - 1] = qi
-            steps.append((False, a, sp.cos(alpha), sp.sin(alpha), L(lk.d, f"d0_{i}"), sp.cos(theta), sp.sin(theta)))
+    steps = [(rev, a, sp.cos(alpha), sp.sin(alpha), d, sp.cos(theta), sp.sin(theta))
+             for rev, a, alpha, d, theta in _links(robot, q, L)]
+    trig = [step[5:] for step in steps if step[0]]
     base = _frame_matrix(robot.base, L, "base")
-    frames, axes = walk(PLAIN, mod, _columns(base), steps, lambda j: (sp.cos(angles[j]), sp.sin(angles[j])),
-                        lambda i, d: values[i] + d)
+    frames, axes = walk(PLAIN, robot.convention is Convention.MODIFIED, _columns(base), steps, trig.__getitem__,
+                        lambda i, d: d)
     last = _matrix(frames[-1]) if frames else base
     return last, axes, _frame_matrix(robot.tool, L, "t")
 
@@ -350,7 +324,7 @@ def _point(point, length_unit):
     if len(point) != 3:
         raise ShapeError(f"expected point with 3 coordinates, got {len(point)}")
     scale = _LENGTH_SCALE[length_unit]
-    vals = [v if isinstance(v, sp.Basic) else _exact_length(float(v) * scale) for v in point]
+    vals = [v if isinstance(v, sp.Basic) else _exact(float(v) * scale) for v in point]
     return sp.Matrix([*vals, 1])
 
 

@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 
 from labkit.exceptions import MeasurementError
 from labkit.measure._calculated import _frame, _robot, _wrap_deg_or_rad, calculated_si
-from labkit.measure._schema import UNITS, parse_numbers, quantity_dimension
+from labkit.measure._schema import UNITS, _path, _unit, parse_numbers, quantity_dimension
 from labkit.tables import HIGHLIGHT, format_value, report_table
 
 # labkit.measure re-exports this module's names, so its helpers are imported
@@ -67,14 +66,14 @@ def load_published(path):
     """
     import pandas as pd
 
-    path = Path(path)
+    path = _path(path, "the published-values CSV")
     try:
         df = pd.read_csv(path, dtype=str, keep_default_na=False)
     except (OSError, UnicodeDecodeError, pd.errors.ParserError) as exc:
         raise MeasurementError(f"expected a readable published-values CSV, got: {exc}", path=path) from None
     missing = [c for c in _AUDIT_REQUIRED if c not in df.columns]
     if missing:
-        raise MeasurementError(f"{path}: missing column(s) {missing}; found {list(df.columns)}", line=1, column=missing[0])
+        raise MeasurementError(f"{path}: expected the column(s) {missing}; found {list(df.columns)}", line=1, column=missing[0])
     df["line"] = np.arange(len(df)) + 2
     for col in ("commanded", "target"):
         if col not in df:
@@ -245,10 +244,8 @@ def audit_published(robot, published, *, branch=None):
 
     df = _frame(published, load_published, _AUDIT_REQUIRED)
     robot = _robot(robot, df)
-    for col in ("unit",):
-        for u, line in zip(df[col], df["line"]):
-            if u not in UNITS:
-                raise MeasurementError(f"unknown unit {u!r}; expected one of {sorted(UNITS)}", line=line, column="unit")
+    for u, line in zip(df["unit"], df["line"]):
+        _unit(u, line=line, column="unit")
     calc = calculated_si(df, robot, branch=branch)
     rows = []
     for k, r in enumerate(df.itertuples(index=False)):

@@ -40,6 +40,7 @@ import numpy as np
 
 from labkit.rotations import wrap_angle
 from labkit.exceptions import MeasurementError, UnreachableError
+from labkit.validation import as_number
 
 __all__ = ["COMBINE_RULES", "decimals_for_resolution"]
 
@@ -74,9 +75,7 @@ def decimals_for_resolution(resolution):
     >>> decimals_for_resolution(0.0005), decimals_for_resolution(0.5), decimals_for_resolution(2.0)
     (4, 1, 0)
     """
-    resolution = float(resolution)
-    if not math.isfinite(resolution) or resolution <= 0:
-        raise MeasurementError(f"expected a positive finite resolution, got {resolution!r}")
+    resolution = as_number(resolution, "resolution", positive=True, error=MeasurementError)
     return max(0, -math.floor(math.log10(resolution) + 1e-12))
 
 
@@ -91,7 +90,7 @@ def _frame(data, loader, required):
         return loader(data)
     missing = [c for c in ("pose_id", "quantity", *required) if c not in data]
     if missing:
-        raise MeasurementError(f"missing column(s) {missing}; found {list(data.columns)}")
+        raise MeasurementError(f"expected the column(s) {missing}; found {list(data.columns)}")
     df = data.reset_index(drop=True).copy()
     defaults = {"line": np.arange(len(df)) + 2, "half_range": np.nan, "n_readings": 1,
                 "commanded": None, "target": None, "precision": "", "table": "", "robot": ""}
@@ -159,8 +158,10 @@ def calculated_si(df, robot, *, mode="auto", branch=None):
     """
     from labkit.kinematics import fk_position
 
-    if mode not in _MODES:
+    if not isinstance(mode, str) or mode not in _MODES:
         raise MeasurementError(f"unknown mode {mode!r}; expected one of {_MODES}")
+    if branch is not None and not isinstance(branch, str):
+        raise MeasurementError(f"expected branch as an IK branch name (or None: the first that reaches), got {branch!r}")
     lines = df["line"].tolist() if "line" in df else [i + 2 for i in range(len(df))]
     out = np.empty(len(df))
     cache = {}

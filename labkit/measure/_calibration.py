@@ -48,6 +48,7 @@ import warnings
 import numpy as np
 
 from labkit.exceptions import MeasurementError, OptionError
+from labkit.validation import as_batch, as_number
 from labkit.measure._errormodels import ERROR_MODELS, _covariance, _shared_variance
 from labkit.measure._parameters import (_NAME, GROUPS, _nominal, _numbers, _position_derivatives, apply_parameters,
                                         parameter_names)
@@ -99,7 +100,10 @@ def predict_positions(robot, q, sag=None, gravity=None):
     """
     from labkit.kinematics import fk_position
 
-    q = np.asarray(q, dtype=float)
+    from labkit.robot import Robot
+
+    robot = Robot.load(robot)
+    q = as_batch(q, (robot.n,), "q")
     if sag is not None and np.any(np.asarray(sag) != 0):
         g = -np.asarray(robot.up, dtype=float) if gravity is None else np.asarray(gravity, dtype=float)
         g = g / np.linalg.norm(g)
@@ -395,9 +399,9 @@ def calibrate(robot, measurements, *, params=("joint_offsets", "link_lengths"),
         pose_ids, q, measured, sigma = _pose_data(measurements, robot)
     if q.ndim != 2 or q.shape[1] != robot.n or measured.shape != (len(q), 3):
         raise MeasurementError(f"expected q (P, {robot.n}) and positions (P, 3), got {q.shape} and {measured.shape}")
-    if not 0 < confidence < 1:
+    if not 0 < as_number(confidence, "confidence", error=MeasurementError) < 1:
         raise MeasurementError(f"expected confidence in (0, 1), got {confidence!r}")
-    if errors not in ERROR_MODELS:
+    if not isinstance(errors, str) or errors not in ERROR_MODELS:
         raise MeasurementError(f"unknown errors={errors!r}; expected one of {ERROR_MODELS}")
     names = parameter_names(robot, params)
     nominal = np.array([_nominal(robot, nm) for nm in names])

@@ -24,6 +24,8 @@ from labkit.measure._schema import (
     UNITS,
     MeasurementWarning,
     _checksum,
+    _path,
+    _unit,
     parse_numbers,
     quantity_dimension,
 )
@@ -36,9 +38,7 @@ def _check_quantity_unit(quantity, unit, **where):
         dim = quantity_dimension(quantity)
     except MeasurementError as exc:
         raise MeasurementError(str(exc), column="quantity", **where) from None
-    if unit not in UNITS:
-        raise MeasurementError(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}", column="unit", **where)
-    if UNITS[unit][0] != dim:
+    if _unit(unit, column="unit", **where)[0] != dim:
         raise MeasurementError(f"unit {unit!r} is a {UNITS[unit][0]} but quantity {quantity!r} is a {dim}",
                      column="unit", **where)
 
@@ -89,7 +89,7 @@ def load_measurements(path, *, poses=None, validate=True):
         checksum) which a resuming writer terminated. A complete line whose
         checksum does not match is an error (column ``check``), not skipped.
     """
-    path = Path(path)
+    path = _path(path, "the measurement log")
     return _to_frame(path, _read_rows(path), poses, validate)
 
 
@@ -99,7 +99,7 @@ def _read_rows(path):
     try:
         raw = path.read_bytes()
     except OSError as exc:
-        raise MeasurementError(f"cannot read measurement file {path}: {exc}") from None
+        raise MeasurementError(f"expected a readable measurement file, got {path}: {exc}") from None
     lines = raw.split(b"\n")
     complete_tail = raw.endswith(b"\n")
     if complete_tail:
@@ -125,7 +125,7 @@ def _read_rows(path):
                 continue
             missing = [c for c in REQUIRED_COLUMNS if c not in fields]
             if missing:
-                raise MeasurementError(f"missing column(s) {missing}; found {fields}", path=path, line=lineno, column=missing[0])
+                raise MeasurementError(f"expected the column(s) {missing}; found {fields}", path=path, line=lineno, column=missing[0])
             header = fields
             continue
         if text is not None and not text.strip():

@@ -6,18 +6,17 @@ from __future__ import annotations
 import csv
 import dataclasses
 import errno
-import math
 import os
 import secrets
 import threading
 import warnings
 from datetime import datetime, timezone
-from pathlib import Path
 
 import numpy as np
 
-from labkit.exceptions import MeasurementError, StorageError
-from labkit.measure._schema import COLUMNS, MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
+from labkit.exceptions import MeasurementError, ShapeError, StorageError
+from labkit.validation import as_number
+from labkit.measure._schema import _path, COLUMNS, MeasurementRecord, MeasurementWarning, _HEADER_LINE, _encode_line, _one_line
 from labkit.measure._csv import _check_quantity_unit, _check_ranges, _line_state, _read_rows, load_measurements
 
 try:  # advisory lock against a second writer (POSIX only)
@@ -94,9 +93,11 @@ class MeasurementLog:
     """
 
     def __init__(self, robot, path, *, session=None, operator=None, poses=None):
-        self.path = Path(path)
+        self.path = _path(path, "the log")
         self._lock = threading.Lock()
         self.poses = None if poses is None else {str(k): dict(v) for k, v in poses.items()}
+        if robot is not None and not isinstance(robot, str) and not hasattr(robot, "fk"):
+            raise MeasurementError(f"expected robot as a Robot, a robot name or None, got {robot!r}")
         self._robot_obj = robot if hasattr(robot, "fk") else None
         raw = b""
         if self.path.exists():
@@ -370,12 +371,9 @@ def _int_or_none(text):
 
 def _finite(value, column):
     try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise MeasurementError(f"expected a number, got {value!r}", column=column) from None
-    if not math.isfinite(out):
-        raise MeasurementError(f"expected a finite number, got {value!r}", column=column)
-    return out
+        return as_number(value, column)
+    except ShapeError as exc:
+        raise MeasurementError(str(exc), column=column) from None
 
 
 def _vector(values, column):

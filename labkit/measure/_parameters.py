@@ -13,6 +13,8 @@ import re
 import numpy as np
 
 from labkit.exceptions import MeasurementError
+from labkit.robot import Robot
+from labkit.validation import as_batch
 
 GROUPS = ("joint_offsets", "link_lengths", "base_offset", "gravity_sag")
 _NAME = re.compile(r"^(offset|a|d|sag)\[(\d+)\]$|^(tool|base)_([xyz])$")
@@ -48,8 +50,12 @@ def parameter_names(robot, params=("joint_offsets", "link_lengths")):
     >>> parameter_names(Robot.load("arduino_arm_3dof"), ("joint_offsets", "link_lengths", "gravity_sag"))
     ('offset[1]', 'offset[2]', 'offset[3]', 'a[3]', 'tool_x', 'sag[2]', 'sag[3]')
     """
+    robot = Robot.load(robot)
     if isinstance(params, str):
         params = (params,)
+    if not isinstance(params, (list, tuple)):
+        raise MeasurementError(f"expected params as a group name or a sequence of groups and names "
+                               f"({', '.join(GROUPS)}, 'offset[1]' ...), got {params!r}")
     names = []
     for p in params:
         if p == "joint_offsets":
@@ -91,9 +97,14 @@ def _horizontal_axes(robot):
 
 def _slot(robot, name):
     """Where parameter ``name`` sits: (key of :func:`_numbers`, index), or None (a sag)."""
-    m = _NAME.match(name)
+    m = _NAME.match(name) if isinstance(name, str) else None
+    if m is None:
+        raise MeasurementError(f"expected a parameter name such as 'offset[1]', 'a[2]', 'tool_x' or 'sag[2]', "
+                               f"got {name!r}")
     if m.group(1) in ("offset", "a", "d"):
         i = int(m.group(2)) - 1
+        if not 0 <= i < robot.n:
+            raise MeasurementError(f"expected a joint index 1..{robot.n} in {name!r}, got {i + 1}")
         return ("theta" if robot.links[i].is_revolute else "d") if m.group(1) == "offset" else m.group(1), i
     return (f"{m.group(3)}_position", "xyz".index(m.group(4))) if m.group(3) else None
 
@@ -123,6 +134,12 @@ def apply_parameters(robot, names, values):
     -------
     Robot
     """
+    robot = Robot.load(robot)
+    if isinstance(names, str) or not isinstance(names, (list, tuple)):
+        raise MeasurementError(f"expected names as a sequence of parameter names (parameter_names), got {names!r}")
+    values = as_batch(values, (len(names),), "values (one per name)")
+    if values.shape != (len(names),):
+        raise MeasurementError(f"expected values with shape ({len(names)},), got {values.shape}")
     numbers = _numbers(robot, names, values)
     links = tuple(lk if (lk.theta, lk.a, lk.d) == row else dataclasses.replace(lk, theta=row[0], a=row[1], d=row[2])
                   for lk, row in zip(robot.links, zip(numbers["theta"], numbers["a"], numbers["d"])))

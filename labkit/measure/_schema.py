@@ -31,12 +31,13 @@ import csv
 import dataclasses
 import io
 import math
+import os
 import re
 import zlib
-
-import numpy as np
+from pathlib import Path
 
 from labkit.exceptions import MeasurementError, MeasurementWarning
+from labkit.validation import as_batch
 
 try:  # advisory lock against a second writer (POSIX only)
     import fcntl
@@ -134,12 +135,23 @@ def to_si(value, unit):
     >>> to_si(180.0, "deg")
     3.141592653589793
     """
-    if unit not in UNITS:
-        raise MeasurementError(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}")
-    factor = UNITS[unit][1]
-    if np.ndim(value):
-        return np.asarray(value, dtype=float) * factor
-    return float(value) * factor
+    factor = _unit(unit)[1]
+    value = as_batch(value, (), "value", finite=False)  # NaN stays NaN: a missing reading
+    return value * factor if value.ndim else float(value) * factor
+
+
+def _unit(unit, **where):
+    """``UNITS[unit]`` (its dimension and SI factor); an unknown unit is a MeasurementError listing the valid ones."""
+    if not isinstance(unit, str) or unit not in UNITS:
+        raise MeasurementError(f"unknown unit {unit!r}; expected one of {sorted(UNITS)}", **where)
+    return UNITS[unit]
+
+
+def _path(path, what):
+    """``path`` as a :class:`pathlib.Path`; anything but a str or os.PathLike is a MeasurementError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise MeasurementError(f"expected {what} as a file path (str or os.PathLike), got {path!r}")
+    return Path(path)
 
 
 def parse_numbers(text):

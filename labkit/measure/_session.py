@@ -31,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from labkit.robot import Robot
 from labkit.exceptions import DeviceError, MeasurementError, OptionError, needs_extra
+from labkit.validation import as_batch, as_count, as_vector
 
 __all__ = [
     "Source",
@@ -93,7 +95,9 @@ def joint_sweep_plan(robot, sweeps, *, rest=None):
     ['j3_5', 'j3_20']
     """
     robot = Robot.load(robot)
-    rest = np.zeros(robot.n) if rest is None else np.asarray(rest, dtype=float)
+    rest = np.zeros(robot.n) if rest is None else as_vector(rest, robot.n, "rest")
+    if not isinstance(sweeps, Mapping):
+        raise OptionError(f"expected sweeps as a mapping {{joint number: angles [deg]}}, got {sweeps!r}")
     plan = []
     for joint, angles in sweeps.items():
         if not 1 <= int(joint) <= robot.n:
@@ -150,6 +154,11 @@ def prompt_reading(label, unit, *, lo=-math.inf, hi=math.inf, input=input, attem
     expected a number, got 'abc'; try again
     12.5
     """
+    attempts = as_count(attempts, "attempts", minimum=1)
+    low, high = (as_batch(v, (), name, finite=False) for v, name in ((lo, "lo"), (hi, "hi")))
+    if low.ndim or high.ndim or not low < high:
+        raise OptionError(f"expected numbers lo < hi (inf: no bound), got lo={lo!r}, hi={hi!r}")
+    lo, hi = float(low), float(high)
     for _ in range(attempts):
         text = input(f"{label} [{unit}]: ")
         try:

@@ -26,7 +26,7 @@ __all__ = ["height_above", "approach_point", "PickPlaceLeg", "pick_and_place_leg
 def _up(robot):
     up = getattr(robot, "up", None)
     if up is None:
-        raise OptionError(f"expected a Robot with an 'up' direction, got {type(robot).__name__}")
+        raise OptionError(f"expected a Robot with an 'up' direction, got {robot!r}")
     return np.asarray(up, dtype=float)
 
 
@@ -93,7 +93,7 @@ def approach_point(robot, target, height):
     array([ 0.1 ,  0.15, -0.25])
     """
     p = as_batch(target, (3,), "target")
-    h = np.asarray(height, dtype=float)
+    h = as_batch(height, (), "height", finite=False)
     if not (np.all(np.isfinite(h)) and np.all(h > 0)):
         raise OptionError(f"expected a positive approach height [m], got {np.asarray(height).tolist()!r}")
     try:

@@ -21,11 +21,12 @@ import numpy as np
 from scipy.interpolate import PPoly
 
 from labkit.exceptions import ShapeError, TrajectoryError
+from labkit.validation import as_batch, as_number
 from labkit.motion._timelaw import LawName, TimeLaw
 from labkit.motion._checks import _checked, _robot_bounds
 from labkit.motion._trajectory import Trajectory, _robot_info, law_trajectory
 from labkit.motion._paths import waypoint_path
-from labkit.motion._cartesian import _choose_branch, _solve
+from labkit.motion._cartesian import _choose_branch, _solve, _target_kind
 from labkit.motion._rates import joint_rates_and_accelerations
 from labkit.motion._laws import _bounds, time_grid
 from labkit import kinematics
@@ -34,7 +35,7 @@ __all__ = ["blended_law", "blended_trajectory", "cartesian_blended_trajectory"]
 
 
 def _points(points):
-    P = np.asarray(points, dtype=float)
+    P = as_batch(points, (), "points", finite=False)
     if P.ndim == 1:
         P = P[:, None]
     if P.ndim != 2 or P.shape[0] < 2:
@@ -55,23 +56,26 @@ def _timing(P, v_max, a_max, durations, blend_time):
     m, n = P.shape
     dP = np.abs(np.diff(P, axis=0))
     if durations is not None:
-        d = np.broadcast_to(np.asarray(durations, dtype=float), (m - 1,)).copy()
+        d = as_batch(durations, (), "durations", finite=False)
+        if d.shape not in ((), (m - 1,)):
+            raise ShapeError(f"expected one duration or {m - 1} segment durations, got shape {d.shape}")
+        d = np.broadcast_to(d, (m - 1,)).copy()
         if not np.all(np.isfinite(d)) or np.any(d <= 0):
             raise TrajectoryError(f"expected positive segment durations [s], got {d.tolist()}")
     else:
         if not np.all(np.isfinite(v_max)):
-            raise TrajectoryError("give durations, or v_max (or a robot with max_velocity) for every coordinate")
+            raise TrajectoryError("expected durations, or a finite v_max (or a robot with max_velocity) for every "
+                                  f"coordinate, got v_max = {np.asarray(v_max).tolist()}")
         d = np.max(dP / v_max, axis=1)
         d = np.where(d > 0, d, 1e-3)
     if blend_time is not None:
-        tau = float(blend_time)
-        if not np.isfinite(tau) or tau <= 0:
-            raise TrajectoryError(f"expected blend_time > 0 [s], got {blend_time!r}")
+        tau = as_number(blend_time, "blend_time", unit="s", positive=True, error=TrajectoryError)
         if durations is None:
             d = np.maximum(d, tau)
         return d, tau
     if not np.all(np.isfinite(a_max)):
-        raise TrajectoryError("give blend_time, or a_max (or a robot with max_acceleration) for every coordinate")
+        raise TrajectoryError("expected blend_time, or a finite a_max (or a robot with max_acceleration) for every "
+                              f"coordinate, got a_max = {np.asarray(a_max).tolist()}")
     tau = 0.0
     for _ in range(50):  # tau needs the velocities, which need the durations (>= tau): fixed point
         dv = np.abs(np.diff(_velocities(P, d), axis=0))
@@ -246,13 +250,13 @@ def cartesian_blended_trajectory(robot, points, *, durations=None, v_max=None, a
     >>> bool(np.allclose(traj.x[0], P[0])), bool(np.allclose(traj.x[-1], P[-1]))
     (True, True)
     """
-    kind = kinematics.target_kind(robot)
+    kind, q_start = _target_kind(robot, q_start)
     if kind == "pose":
         raise ShapeError(f"{robot.name}: blended Cartesian paths take position or planar targets, not poses")
     law = blended_law(None, points, durations=durations, v_max=v_max, a_max=a_max, blend_time=blend_time)
     if law.shape != (3,):
         raise ShapeError(f"expected via targets with shape (m, 3), got {np.shape(points)}")
-    ts = time_grid(law.t0, law.tf, dt) if t is None else np.asarray(t, dtype=float)
+    ts = time_grid(law.t0, law.tf, dt) if t is None else as_batch(t, (), "times t")
     x = np.asarray(law.position(ts))
     xd = np.asarray(law.velocity(ts))
     xdd = np.asarray(law.evaluate(ts, 2))

@@ -30,8 +30,8 @@ import numpy as np
 from scipy.interpolate import PPoly
 from scipy.spatial.transform import Rotation, Slerp
 
-from labkit.motion._paths import waypoint_path
-from labkit.validation import as_batch
+from labkit.motion._paths import CartesianPath, waypoint_path
+from labkit.validation import as_batch, as_number, check_robot
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError, UnreachableError
 from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import make_law, time_grid
@@ -74,14 +74,16 @@ def path_law(path, duration, law="cubic", *, t0=0.0, **options):
     >>> path_law(line_path([0, 0, 0], [1, 0, 0]), 2.0).coefficients[0]
     array([ 0.  ,  0.  ,  0.75, -0.25])
     """
+    if not isinstance(path, CartesianPath):
+        raise TrajectoryError(f"expected path as a CartesianPath (line_path, arc_path ...), got {path!r}")
     if isinstance(law, TimeLaw):
         if law.shape != () or abs(law.position(law.t0) - 0) > 1e-12 or abs(law.position(law.tf) - path.s_max) > 1e-9:
             raise TrajectoryError(f"expected a scalar time law from s = 0 to s = {path.s_max:g}, got {law!r}")
         return law
     m = int(round(path.s_max))
     if path.shape != "waypoints" or m == 1:
-        return make_law(law, 0.0, path.s_max, float(np.sum(duration)), t0=t0, **options)
-    d = np.asarray(duration, dtype=float)
+        return make_law(law, 0.0, path.s_max, float(np.sum(as_batch(duration, (), "duration"))), t0=t0, **options)
+    d = as_batch(duration, (), "duration")
     if d.ndim == 0:
         seg = np.linalg.norm(np.diff(path.points, axis=0), axis=-1)
         d = float(d) * (seg / seg.sum() if seg.sum() > 0 else np.full(m, 1.0 / m))
@@ -133,6 +135,16 @@ def _pose_orientation(orientation, s, path):
 
 
 # -- the trajectory --------------------------------------------------------------
+
+def _target_kind(robot, q_start):
+    """The robot's target kind and ``q_start`` (shape (n,) or None), both checked."""
+    kind = kinematics.target_kind(check_robot(robot))
+    if q_start is not None:
+        q_start = as_batch(q_start, (robot.n,), "q_start")
+        if q_start.shape != (robot.n,):
+            raise ShapeError(f"expected q_start with shape ({robot.n},), got {q_start.shape}")
+    return kind, q_start
+
 
 def _choose_branch(robot, target0, q_start):
     sols = kinematics.ik_all(robot, target0)
@@ -272,9 +284,10 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     >>> traj.q.shape, round(float(np.linalg.norm(traj.xd, axis=1).max()), 4)
     ((51, 3), 0.0446)
     """
-    kind = kinematics.target_kind(robot)
+    kind, q_start = _target_kind(robot, q_start)
+    max_joint_step = as_number(max_joint_step, "max_joint_step", unit="rad", positive=True, error=TrajectoryError)
     s_law = path_law(path, duration, law, **law_options)
-    t = time_grid(s_law.t0, s_law.tf, dt) if t is None else np.asarray(t, dtype=float).reshape(-1)
+    t = time_grid(s_law.t0, s_law.tf, dt) if t is None else as_batch(t, (), "times t").reshape(-1)
     s, sd, sdd = s_law.position(t), s_law.velocity(t), s_law.acceleration(t)
     p, dp, ddp = path.evaluate(s)
     pd = dp * sd[:, None]
@@ -282,7 +295,7 @@ def cartesian_trajectory(robot, path, duration=None, *, law="cubic", dt=0.01, t=
     if orientation is None and kind != "position":
         if q_start is None:
             raise TrajectoryError(f"{robot.name} needs an orientation (or q_start to hold its orientation)")
-        T0 = robot.fk(np.asarray(q_start, dtype=float))
+        T0 = robot.fk(q_start)
         orientation = math.atan2(T0[1, 0], T0[0, 0]) if kind == "planar" else T0[:3, :3]
     if kind == "position":
         targets, x, xd, xdd = p, p, pd, pdd
@@ -399,17 +412,20 @@ def cartesian_via_trajectory(robot, points, times=None, *, durations=None, law="
     """
     from labkit.motion._via import via_trajectory
 
-    kind = kinematics.target_kind(robot)
-    targets = np.asarray(points, dtype=float)
+    kind, q_start = _target_kind(robot, q_start)
+    targets = as_batch(points, (), "points")
     m = targets.shape[0] if targets.ndim else 0
     if m < 2:
         raise ShapeError(f"expected at least 2 via points, got shape {targets.shape}")
     where = waypoint_path(targets[:, :3, 3] if targets.ndim == 3 else
                       (np.column_stack([targets[:, :2], np.zeros(m)]) if kind == "planar" else targets[:, :3]))
     if times is not None:
-        tv = np.asarray(times, dtype=float)
+        tv = as_batch(times, (), "times")
     elif durations is not None:
-        tv = np.concatenate([[0.0], np.cumsum(np.broadcast_to(np.asarray(durations, dtype=float), (m - 1,)))])
+        d = as_batch(durations, (), "durations")
+        if d.shape not in ((), (m - 1,)):
+            raise ShapeError(f"expected one duration or {m - 1} segment durations, got shape {d.shape}")
+        tv = np.concatenate([[0.0], np.cumsum(np.broadcast_to(d, (m - 1,)))])
     else:
         tv = np.full(m, np.nan)
     if branch is None and kinematics.solver_for(robot).value != "numeric":

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import JointLimitError, ShapeError, TrajectoryError
+from labkit.validation import as_number, check_robot, check_trajectory
 
 __all__ = ["check_joint_limits", "check_speed", "speed_scale"]
 
@@ -15,6 +16,7 @@ __all__ = ["check_joint_limits", "check_speed", "speed_scale"]
 
 def _robot_bounds(robot):
     """Per-joint ``max_velocity`` and ``max_acceleration`` as arrays, ``inf`` where a joint has none."""
+    check_robot(robot)
     v = np.array([math.inf if lk.max_velocity is None else lk.max_velocity for lk in robot.links], dtype=float)
     a = np.array([math.inf if lk.max_acceleration is None else lk.max_acceleration for lk in robot.links], dtype=float)
     return v, a
@@ -47,7 +49,8 @@ def check_joint_limits(robot, traj):
     JointLimitError
         Naming the time, sample index and joint; ``.joint`` and ``.index`` set.
     """
-    ok = robot.within_limits(traj.q)
+    check_robot(robot)
+    ok = robot.within_limits(check_trajectory(traj).q)
     if np.all(ok):
         return
     i = int(np.argmin(ok))
@@ -88,7 +91,7 @@ def speed_scale(robot, traj):
         The trajectory and the robot differ in the number of joints.
     """
     v, a = _robot_bounds(robot)
-    if traj.n != robot.n:
+    if check_trajectory(traj).n != robot.n:
         raise ShapeError(f"{robot.name} has {robot.n} joints; trajectory has {traj.n}")
     if traj.law is not None and traj.law.shape == (robot.n,):
         vpk, apk = traj.law.peak(1), traj.law.peak(2)
@@ -125,6 +128,9 @@ def check_speed(robot, traj, *, tol=1e-9):
     ShapeError
         The trajectory and the robot differ in the number of joints.
     """
+    tol = as_number(tol, "tol", error=TrajectoryError)
+    if tol < 0:
+        raise TrajectoryError(f"expected tol >= 0, got {tol!r}")
     k, j, what = speed_scale(robot, traj)
     if k <= 1.0 + tol:
         return

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.interpolate import BPoly, CubicHermiteSpline, PPoly
 
 from labkit.exceptions import ShapeError, TrajectoryError
+from labkit.validation import as_batch, as_number
 from labkit.motion._timelaw import LawName, TimeLaw, _ALIASES, _POINT_LAWS
 
 __all__ = ["cubic_law", "quintic_law", "lspb_law", "linear_law", "make_law", "minimum_duration", "time_grid"]
@@ -24,18 +25,12 @@ _MAX_SAMPLES = 10_000_000
 
 def _number(value, name, unit="s", error=TrajectoryError):
     """``value`` as a finite float, else ``error`` saying what was expected and what came."""
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise error(f"expected {name} as a finite number [{unit}], got {value!r}") from None
-    if not math.isfinite(out):
-        raise error(f"expected {name} as a finite number [{unit}], got {value!r}")
-    return out
+    return as_number(value, name, unit=unit, error=error)
 
 
 def _check_duration(duration, t0):
     try:
-        d = float(duration)
+        d = math.nan if isinstance(duration, (bool, np.bool_)) else float(duration)
     except (TypeError, ValueError):
         d = math.nan
     if not _MIN_DURATION <= d <= _MAX_DURATION:
@@ -50,13 +45,7 @@ def _values(*arrays, names):
     """Broadcast boundary values to one shape, checking finiteness."""
     out = []
     for a, name in zip(arrays, names):
-        try:
-            arr = np.asarray(a, dtype=float)
-        except (TypeError, ValueError):
-            raise ShapeError(f"expected {name} as finite numbers, got {a!r}") from None
-        if not np.all(np.isfinite(arr)):
-            raise ShapeError(f"expected finite {name}, got {a!r}")
-        out.append(arr)
+        out.append(as_batch(a, (), name))
     try:
         return np.broadcast_arrays(*out)
     except ValueError:
@@ -72,8 +61,8 @@ def _bounds(value, name, shape):
     if value is None:
         return np.full(shape, math.inf)
     try:
-        arr = np.broadcast_to(np.asarray(value, dtype=float), shape)
-    except (TypeError, ValueError):
+        arr = np.broadcast_to(as_batch(value, (), name, finite=False), shape)
+    except (ShapeError, ValueError):
         raise TrajectoryError(f"expected {name} as positive numbers (None: unbounded) of shape {shape}, "
                               f"got {value!r}") from None
     if np.any(np.isnan(arr)) or np.any(arr <= 0):
@@ -222,8 +211,8 @@ def _lspb_unit_blend(T, v_max, a_max, blend_time, distance):
         return T - 1.0 / sdot
     if a_max is not None:
         am = _bounds(a_max, "a_max", D.shape)
-        if np.any(am <= 0):
-            raise TrajectoryError(f"expected positive a_max, got {a_max!r}")
+        if np.any(am <= 0) or not np.all(np.isfinite(am)):
+            raise TrajectoryError(f"expected a positive finite a_max (an LSPB law blends with it), got {a_max!r}")
         moving = D > 0
         sdd = float(np.min(am[moving] / D[moving]))
         disc = sdd**2 * T**2 - 4 * sdd

@@ -18,14 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_number
 from labkit.exceptions import ShapeError
 
 __all__ = ["CartesianPath", "line_path", "arc_path", "circle_path", "waypoint_path"]
 
 
 def _point3(p, name):
-    p = np.asarray(p, dtype=float)
+    p = as_batch(p, (), name, finite=False)
     if p.shape == (2,):
         p = np.append(p, 0.0)  # planar: the x-y plane
     return as_batch(p, (3,), name).reshape(3)
@@ -91,7 +91,7 @@ class CartesianPath:
         p, dp, ddp : ndarray, shape (N, 3)
             ``p(s)`` [m], ``dp/ds`` and ``d2p/ds2`` [m].
         """
-        s = np.asarray(s, dtype=float).reshape(-1)
+        s = as_batch(s, (), "s").reshape(-1)
         if self.shape in ("arc", "circle"):
             u, v = self.plane_axes
             th = self.start_angle + s * self.sweep
@@ -141,7 +141,7 @@ class CartesianPath:
         ndarray, shape (N,)
             Shortest distance of each point from the path [m].
         """
-        x = np.asarray(x, dtype=float).reshape(-1, 3)
+        x = as_batch(x, (3,), "x").reshape(-1, 3)
         if self.shape in ("arc", "circle"):
             rel = x - self.center
             n = self.normal
@@ -181,7 +181,7 @@ def _plane_axes(normal, plane_axes):
     if plane_axes is not None:
         if normal is not None:
             raise ShapeError("give the arc plane by normal or by plane_axes, not both")
-        A = np.asarray(plane_axes, dtype=float)
+        A = as_batch(plane_axes, (), "plane_axes", finite=False)
         if A.shape == (2, 2):
             A = np.concatenate([A, np.zeros((2, 1))], axis=1)
         A = as_batch(A, (2, 3), "plane_axes")
@@ -235,11 +235,9 @@ def arc_path(center, radius, start_angle, sweep, *, normal=None, plane_axes=None
            [0.35, 0.25, 0.  ]])
     """
     c = _point3(center, "center")
-    r = float(radius)
-    if not math.isfinite(r) or r <= 0:
-        raise ShapeError(f"expected a positive radius [m], got {radius!r}")
-    th0, sw = float(start_angle), float(sweep)
-    if not (math.isfinite(th0) and math.isfinite(sw)) or sw == 0:
+    r = as_number(radius, "radius", unit="m", positive=True)
+    th0, sw = as_number(start_angle, "start_angle", unit="rad"), as_number(sweep, "sweep", unit="rad")
+    if sw == 0:
         raise ShapeError(f"expected finite angles and a non-zero sweep [rad], got {start_angle!r}, {sweep!r}")
     A = _plane_axes(normal, plane_axes)
     shape = "circle" if abs(abs(sw) - 2 * math.pi) < 1e-12 else "arc"
@@ -301,7 +299,7 @@ def waypoint_path(points):
     >>> waypoint_path([[0, 0.2, 0.1], [0.1, 0.2, 0.1], [0.1, 0.2, 0.0]]).s_max
     2.0
     """
-    P = np.asarray(points, dtype=float)
+    P = as_batch(points, (), "points", finite=False)
     if P.ndim == 2 and P.shape[1] == 2:
         P = np.concatenate([P, np.zeros((P.shape[0], 1))], axis=1)
     P = as_batch(P, (3,), "points")

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.interpolate import PPoly
 
 from labkit.exceptions import OptionError, ShapeError
+from labkit.validation import as_batch, as_count
 
 __all__ = ["LawName", "TimeLaw"]
 
@@ -197,9 +198,8 @@ class TimeLaw:
         -------
         ndarray, shape (..., *shape)
         """
-        t = np.asarray(t, dtype=float)
-        if not np.all(np.isfinite(t)):
-            raise ShapeError("expected finite times t, got NaN or inf")
+        t = as_batch(t, (), "times t")
+        derivative = as_count(derivative, "derivative")
         tc = np.clip(t, self.t0, self.tf)
         out = self.ppoly(tc, nu=derivative) if derivative else self.ppoly(tc)
         if derivative:
@@ -287,7 +287,7 @@ class TimeLaw:
         ndarray, shape (*shape)
             Peak magnitude per value [units/s^k].
         """
-        t = np.linspace(self.t0, self.tf, samples)
+        t = np.linspace(self.t0, self.tf, as_count(samples, "samples", minimum=2))
         t = np.union1d(t, self.breaks)
         return np.max(np.abs(self.evaluate(t, derivative)), axis=0)
 

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
-from labkit.validation import as_batch, readonly
+from labkit.validation import as_batch, check_robot, readonly
 from labkit.exceptions import ShapeError, TrajectoryError
 from labkit.motion._timelaw import TimeLaw
 from labkit.motion._laws import _number, make_law, minimum_duration, time_grid
@@ -283,9 +283,11 @@ def law_trajectory(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
     ShapeError
         The law's values are not of shape (n,).
     """
+    if not isinstance(law, TimeLaw):
+        raise TrajectoryError(f"expected law as a TimeLaw (cubic_law, via_law ...), got {law!r}")
     if len(law.shape) != 1:
         raise ShapeError(f"expected a law with values of shape (n,), got {law.shape}")
-    t = time_grid(law.t0, law.tf, dt) if t is None else np.asarray(t, dtype=float)
+    t = time_grid(law.t0, law.tf, dt) if t is None else as_batch(t, (), "times t")
     return Trajectory(
         t,
         law.position(t),
@@ -298,7 +300,7 @@ def law_trajectory(law, t=None, *, dt=0.01, joint_names=(), revolute=()):
 
 
 def _robot_info(robot, n):
-    if robot is None:
+    if check_robot(robot, optional=True) is None:
         return (), ()
     if robot.n != n:
         raise ShapeError(f"{robot.name} has {robot.n} joints; expected q with shape (..., {robot.n}), got (..., {n})")

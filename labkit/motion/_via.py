@@ -9,6 +9,7 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline, PPoly
 
 from labkit.exceptions import OptionError, ShapeError, TrajectoryError
+from labkit.validation import as_batch
 from labkit.motion._timelaw import LawName, TimeLaw
 from labkit.motion._laws import _law_name, minimum_duration
 from labkit.motion._checks import _checked, _robot_bounds
@@ -29,10 +30,16 @@ class SplineEnds(str, Enum):
 
 def _floats(value, name):
     """``value`` as a float array, else :class:`ShapeError` saying what came."""
+    return as_batch(value, (), name, finite=False)
+
+
+def _end_velocity(value, n, name):
+    """An end velocity: one finite number for every coordinate, or ``n`` of them."""
+    v = as_batch(value, (), name)
     try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"expected {name} as numbers, got {value!r}") from None
+        return np.broadcast_to(v, (n,))
+    except ValueError:
+        raise ShapeError(f"expected {name} as a number or with shape ({n},), got shape {v.shape}") from None
 
 
 def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
@@ -60,8 +67,13 @@ def heuristic_velocities(points, times, *, v0=0.0, vf=0.0):
     >>> heuristic_velocities([[0.0], [1.0], [3.0], [2.0]], [0.0, 1.0, 2.0, 3.0])[:, 0]
     array([0. , 1.5, 0. , 0. ])
     """
-    P = _floats(points, "points")
-    t = _floats(times, "times")
+    P = as_batch(points, (), "points")
+    if P.ndim != 2 or P.shape[0] < 2:
+        raise ShapeError(f"expected via points with shape (m, n), m >= 2, got {P.shape}")
+    t = as_batch(times, (P.shape[0],), "times")
+    if t.ndim != 1 or not np.all(np.diff(t) > 0):
+        raise TrajectoryError(f"expected increasing times of shape ({P.shape[0]},), got {np.round(t, 6).tolist()}")
+    v0, vf = _end_velocity(v0, P.shape[1], "v0"), _end_velocity(vf, P.shape[1], "vf")
     slopes = np.diff(P, axis=0) / np.diff(t)[:, None]
     V = np.zeros_like(P)
     if P.shape[0] > 2:
@@ -146,23 +158,22 @@ def via_law(robot, points, times=None, *, durations=None, law="via_cubic", veloc
     if not np.all(np.isfinite(P)):
         raise ShapeError("expected finite via points")
     name = _law_name(law, (LawName.VIA_CUBIC, LawName.SPLINE))
+    try:
+        end = SplineEnds(ends)
+    except ValueError:
+        raise OptionError(f"expected ends in {{'clamped', 'natural'}}, got {ends!r}") from None
     t = _via_times(P, times, durations, robot)
     n = P.shape[1]
-    v0 = np.broadcast_to(_floats(v0, "v0"), (n,))
-    vf = np.broadcast_to(_floats(vf, "vf"), (n,))
+    v0, vf = _end_velocity(v0, n, "v0"), _end_velocity(vf, n, "vf")
     if name is LawName.VIA_CUBIC:
         if velocities is None:
             V = heuristic_velocities(P, t, v0=v0, vf=vf)
         else:
-            V = _floats(velocities, "velocities")
+            V = as_batch(velocities, (), "velocities")
             if V.shape != P.shape:
                 raise ShapeError(f"expected velocities with shape {P.shape}, got {V.shape}")
         spl = CubicHermiteSpline(t, P, V, axis=0)
     else:
-        try:
-            end = SplineEnds(ends)
-        except ValueError:
-            raise OptionError(f"expected ends in {{'clamped', 'natural'}}, got {ends!r}") from None
         bc = ((1, v0), (1, vf)) if end is SplineEnds.CLAMPED else "natural"
         spl = CubicSpline(t, P, axis=0, bc_type=bc)
     return TimeLaw(PPoly(spl.c, spl.x), name)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.exceptions import LabkitError, OptionError, ShapeError
+from labkit.validation import as_batch, as_count, as_number
 from labkit.plotting._figures import (
     END_COLOR,
     START_COLOR,
@@ -77,9 +78,12 @@ def animate_arm(robot, traj, ax=None, *, t=None, max_frames=80, interval=None, d
 
     Q = getattr(traj, "q", traj)
     Q = _configs(robot, Q)
+    max_frames = as_count(max_frames, "max_frames", minimum=1)
+    if interval is not None:
+        interval = as_number(interval, "interval", unit="ms", positive=True)
     T = getattr(traj, "t", None)
     if T is None:
-        T = np.arange(len(Q)) * 0.1 if t is None else np.asarray(t, dtype=float)
+        T = np.arange(len(Q)) * 0.1 if t is None else as_batch(t, (), "t (sample times, s)")
     if len(T) != len(Q):
         raise ShapeError(f"expected {len(Q)} sample times, got {len(T)}")
     idx = np.unique(np.linspace(0, len(Q) - 1, min(int(max_frames), len(Q))).round().astype(int))

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_count, as_number, check_robot, check_trajectory
 from labkit.exceptions import OptionError, ShapeError
 
 __all__ = [
@@ -44,7 +44,7 @@ _FRAME_COLORS = ("tab:red", "tab:green", "tab:blue")  # x, y, z axes of a triad
 def _scale(units):
     try:
         return _UNITS[units]
-    except KeyError:
+    except (KeyError, TypeError):
         raise OptionError(f"expected units in {{'mm', 'm'}}, got {units!r}") from None
 
 
@@ -80,7 +80,8 @@ def is_planar(robot, q=None):
     """
     from labkit.kinematics import fk_frames
 
-    q = np.zeros(robot.n) if q is None else np.asarray(q, dtype=float).reshape(-1, robot.n)[0]
+    check_robot(robot)
+    q = np.zeros(robot.n) if q is None else as_batch(q, (robot.n,), "q").reshape(-1, robot.n)[0]
     F = fk_frames(robot, q)
     z_axes = F[:-1, :3, 2]
     return bool(np.allclose(np.abs(z_axes[:, 2]), 1.0, atol=1e-9)
@@ -96,8 +97,7 @@ def _dims(robot, q, dims):
 
 
 def _configs(robot, q):
-    q = as_batch(np.atleast_2d(np.asarray(q, dtype=float)), (robot.n,), "q")
-    return q.reshape(-1, robot.n)
+    return as_batch(q, (check_robot(robot).n,), "q").reshape(-1, robot.n)
 
 
 def _unique_chain(origins):
@@ -159,6 +159,8 @@ def plot_arm(robot, q, ax=None, *, dims="auto", frames=False, frame_length=None,
     from labkit.kinematics import fk_frames
 
     Q = _configs(robot, q)
+    if alpha is not None and not 0.0 <= as_number(alpha, "alpha", error=OptionError) <= 1.0:
+        raise OptionError(f"expected alpha from 0 to 1, got {alpha!r}")
     d = _dims(robot, Q[0], dims)
     s = _scale(units)
     ax = _new_axes(ax, d == 3)
@@ -166,7 +168,8 @@ def plot_arm(robot, q, ax=None, *, dims="auto", frames=False, frame_length=None,
         raise OptionError(f"expected {'3-D' if d == 3 else '2-D'} axes for dims={d}")
     F = fk_frames(robot, Q)  # (k, n + 2, 4, 4)
     reach = float(np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d)) + np.linalg.norm(robot.tool[:3, 3])) or 1.0
-    L = (frame_length if frame_length is not None else 0.15 * reach) * s
+    L = (as_number(frame_length, "frame_length", unit="m", positive=True) if frame_length is not None
+         else 0.15 * reach) * s
     k = len(Q)
     for c in range(k):
         if k > 1 and start_end and c == 0:
@@ -322,7 +325,13 @@ def plot_workspace(robot, joint_ranges=None, ax=None, *, n=30_000, style="scatte
     if style not in ("scatter", "filled"):
         raise OptionError(f"expected style in {{'scatter', 'filled'}}, got {style!r}")
     planes = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
-    if plane not in planes:
+    check_robot(robot)
+    n = as_count(n, "n (the number of samples)", minimum=1)
+    if joint_ranges is not None:
+        joint_ranges = as_batch(joint_ranges, (2,), "joint_ranges ((lower, upper) per joint)")
+        if joint_ranges.shape != (robot.n, 2):
+            raise ShapeError(f"expected joint_ranges with shape ({robot.n}, 2), got {joint_ranges.shape}")
+    if not isinstance(plane, str) or plane not in planes:
         raise OptionError(f"expected plane in {sorted(planes)}, got {plane!r}")
     d = _dims(robot, None, dims)
     if style == "filled" and d == 3:
@@ -401,9 +410,9 @@ def plot_time_series(traj, quantity="q", ax=None, *, degrees=True, units="mm", n
     """
     try:
         attr, order, word = _QUANTITIES[quantity]
-    except KeyError:
+    except (KeyError, TypeError):
         raise OptionError(f"expected quantity in {sorted(_QUANTITIES)}, got {quantity!r}") from None
-    data = getattr(traj, attr)
+    data = getattr(check_trajectory(traj), attr)
     if data is None:
         raise OptionError(f"this trajectory has no {attr!r} (Cartesian quantities need a Cartesian trajectory)")
     ax = _new_axes(ax, False, figsize=(6.4, 3.6))
@@ -466,6 +475,7 @@ def plot_trajectory(traj, ax=None, *, space="joint", degrees=True, units="mm", t
     """
     if space not in ("joint", "cartesian"):
         raise OptionError(f"expected space in {{'joint', 'cartesian'}}, got {space!r}")
+    check_trajectory(traj)
     own = ax is None
     if own:
         import matplotlib.pyplot as plt
@@ -524,7 +534,7 @@ def plot_path_3d(path, ax=None, *, units="mm", start_end=True, color="tab:blue",
     pts = getattr(path, "x", path)
     if pts is None:
         raise ShapeError("expected a Cartesian trajectory (with x) or points (N, 3)")
-    pts = np.asarray(pts, dtype=float)
+    pts = as_batch(pts, (), "points")
     if pts.ndim != 2 or pts.shape[1] < 2:
         raise ShapeError(f"expected points with shape (N, 3), got {pts.shape}")
     if pts.shape[1] == 2 or getattr(path, "axis_names", ())[2:3] == ("phi",):

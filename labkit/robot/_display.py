@@ -18,9 +18,10 @@ import math
 
 import numpy as np
 
-from labkit.exceptions import LabkitError
+from labkit.exceptions import RobotError
 from labkit.robot._model import Robot
-from labkit.robot.types import JointType
+from labkit.robot.types import JointType, Link
+from labkit.validation import as_batch
 
 __all__ = ["joints_from_display", "joints_to_display", "servo_travel", "servo_window", "robot_reach"]
 
@@ -45,10 +46,7 @@ def joints_from_display(robot, values):
         Joint values [rad | m].
     """
     robot = Robot.load(robot)
-    values = np.asarray(values, dtype=float)
-    if values.shape[-1:] != (robot.n,):
-        raise LabkitError(f"expected joint values with shape (..., {robot.n}) for {robot.name}, got {values.shape}")
-    return values / _scale(robot)
+    return as_batch(values, (robot.n,), f"joint values of {robot.name}") / _scale(robot)
 
 
 def joints_to_display(robot, q):
@@ -66,7 +64,7 @@ def joints_to_display(robot, q):
         Joint values [deg | mm].
     """
     robot = Robot.load(robot)
-    return np.asarray(q, dtype=float) * _scale(robot)
+    return as_batch(q, (robot.n,), f"q of {robot.name}") * _scale(robot)
 
 
 def servo_travel(link):
@@ -92,6 +90,8 @@ def servo_travel(link):
     >>> servo_travel(Robot.load("arduino_arm_3dof").links[0])
     (0.0, 3.141592653589793)
     """
+    if not isinstance(link, Link):
+        raise RobotError(f"expected a Link, got {link!r}")
     if link.joint_type is JointType.REVOLUTE:
         return 0.0, math.pi
     return tuple(link.servo.angle_range)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import RobotError
+from labkit.validation import as_batch
 
 __all__ = ["LinkInertia", "Motor", "lump"]
 
@@ -106,11 +107,11 @@ class LinkInertia:
         -------
         LinkInertia
         """
-        I = np.asarray(matrix, dtype=float)
+        I = as_batch(matrix, (3, 3), "LinkInertia: field 'inertia' (a (3, 3) tensor)", finite=False)
         if I.shape != (3, 3):
             raise RobotError(f"LinkInertia: field 'inertia': expected a (3, 3) tensor, got shape {I.shape}", "inertia")
         I = 0.5 * (I + I.T)
-        return cls(float(mass), tuple(float(v) for v in np.asarray(com, dtype=float).reshape(3)),
+        return cls(mass, _numbers("LinkInertia", "com", com, 3),
                    (I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[1, 2], I[0, 2]))
 
 

@@ -9,15 +9,16 @@ closes no import cycle).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
-from labkit.validation import readonly
+from labkit.validation import as_batch, as_number, readonly
 from labkit.exceptions import JointLimitError, LabkitError, RobotError, RobotFileError, ShapeError
-from labkit.robot.types import Bus, BusGripper, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS
+from labkit.robot.types import Bus, BusGripper, Convention, Gripper, Link, _ANGLE_UNITS, _LENGTH_UNITS, _unit_scale
 from labkit.robot._files import load_fields
 from labkit.robot._bus import check_bus
 
@@ -162,7 +163,7 @@ class Robot:
         if touched("links", "bus", "gripper"):
             check_bus(owner, self.bus, links, self.gripper)
         if touched("up"):
-            up = np.asarray(self.up, dtype=float)
+            up = as_batch(self.up, (), "up (a direction in world coordinates)", finite=False)
             if up.shape != (3,):
                 raise ShapeError(f"expected up with shape (3,) (a direction in world coordinates), got {up.shape}")
             norm = float(np.linalg.norm(up))
@@ -230,7 +231,8 @@ class Robot:
         -------
         ok : ndarray of bool, shape (...)
         """
-        q = np.asarray(q, dtype=float)
+        q = as_batch(q, (self.n,), "q", finite=False)
+        tol = as_number(tol, "tol")
         lim = self.joint_limits
         return np.logical_and.reduce((q >= lim[:, 0] - tol) & (q <= lim[:, 1] + tol), axis=-1)
 
@@ -250,7 +252,8 @@ class Robot:
             With ``joint`` (0-based) and ``index`` (batch index) of the first
             violation; the message gives the value and limits in deg or m.
         """
-        q = np.asarray(q, dtype=float)
+        q = as_batch(q, (self.n,), "q")
+        tol = as_number(tol, "tol")
         lim = self.joint_limits
         bad = (q < lim[:, 0] - tol) | (q > lim[:, 1] + tol)
         if np.any(bad):
@@ -377,6 +380,8 @@ class Robot:
         Robot
         """
         links = list(self.links)
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or not -self.n <= index < self.n:
+            raise RobotError(f"expected a link index from 0 to {self.n - 1}, got {index!r}")
         links[index] = replace(links[index], **changes)
         return self.replace(links=tuple(links))
 
@@ -408,7 +413,10 @@ class Robot:
         if isinstance(mass, bool) or not isinstance(mass, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(mass) or mass < 0:
             raise RobotError(f"{owner}: expected a mass >= 0 kg, got {mass!r}", "mass")
-        c = np.asarray(com, dtype=float) if np.asarray(com).dtype.kind in "iuf" else None
+        try:
+            c = as_batch(com, (3,), "com", finite=False)
+        except ShapeError:
+            c = None
         if c is None or c.shape != (3,) or not np.all(np.isfinite(c)):
             raise ShapeError(f"{owner}: expected com with shape (3,) (finite numbers in the tool frame, m), "
                              f"got {com!r}")
@@ -441,6 +449,8 @@ class Robot:
         """
         if isinstance(name_or_path, Robot):
             return name_or_path
+        if not isinstance(name_or_path, (str, os.PathLike)):
+            raise RobotError(f"expected a Robot, a bundled robot name or a robot file path, got {name_or_path!r}")
         fields = load_fields(name_or_path)
         try:
             return cls(**fields)
@@ -506,7 +516,11 @@ class Robot:
         """
         from labkit.robot._files import dump
 
-        text = dump(self, length_unit or self.length_unit, angle_unit or self.angle_unit)
+        length_unit = self.length_unit if length_unit is None else length_unit
+        angle_unit = self.angle_unit if angle_unit is None else angle_unit
+        _unit_scale(_LENGTH_UNITS, length_unit, "length_unit")
+        _unit_scale(_ANGLE_UNITS, angle_unit, "angle_unit")
+        text = dump(self, length_unit, angle_unit)
         if path is not None:
             Path(path).write_text(text)
         return text
@@ -535,7 +549,7 @@ class Robot:
         """
         import pandas as pd
 
-        scale = _LENGTH_UNITS[length_unit or self.length_unit]
+        scale = _unit_scale(_LENGTH_UNITS, self.length_unit if length_unit is None else length_unit, "length_unit")
         ang = math.degrees if degrees else float
         mod = self.convention is Convention.MODIFIED
         rows = []

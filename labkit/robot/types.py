@@ -16,7 +16,7 @@ from enum import Enum
 
 import numpy as np
 
-from labkit.exceptions import JointLimitError, RobotError
+from labkit.exceptions import JointLimitError, OptionError, RobotError
 from labkit.robot._fields import _check_channel, _check_direction, _check_integer, _check_stall_torque, _finite, _limit_pair
 from labkit.robot._inertia import LinkInertia, Motor
 
@@ -40,6 +40,13 @@ _PROTOCOL_NAME = re.compile(r"[a-z][a-z0-9_]{0,31}")
 FORMAT = "labkit-robot/1"
 _LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 _ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
+
+
+def _unit_scale(units, unit, name):
+    """The SI factor of ``unit`` in ``units`` (``_LENGTH_UNITS`` or ``_ANGLE_UNITS``), else an OptionError."""
+    if not isinstance(unit, str) or unit not in units:
+        raise OptionError(f"expected {name} one of {sorted(units)}, got {unit!r}")
+    return units[unit]
 
 
 class Convention(str, Enum):
@@ -260,6 +267,9 @@ class Gripper:
         _check_channel("Gripper", "channel", self.channel)
         for field in ("open_us", "closed_us"):
             object.__setattr__(self, field, _finite("Gripper", field, getattr(self, field)))
+            if getattr(self, field) <= 0:
+                raise RobotError(f"Gripper: field '{field}': expected a pulse width > 0 us, got {getattr(self, field):g}",
+                                 field)
         if self.open_us == self.closed_us:
             raise RobotError(f"Gripper: field 'closed_us': expected a pulse other than open_us = {self.open_us:g} us "
                              f"(the gripper would never move), got {self.closed_us:g}", "closed_us")
@@ -440,6 +450,7 @@ class Bus:
                 or not 9600 <= self.baudrate <= 4_500_000:
             raise RobotError(f"Bus: field 'baudrate': expected an integer 9600..4500000 bit/s, got {self.baudrate!r}",
                              "baudrate")
+        _check_integer("Bus", "resolution", self.resolution, 16, 1_048_576, " ticks/turn")
         if self.latency is not None:
             if isinstance(self.latency, bool) or not isinstance(self.latency, (int, float, np.integer, np.floating)) \
                     or not 0 <= self.latency <= 1000:

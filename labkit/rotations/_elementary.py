@@ -42,7 +42,7 @@ _AXES = {"x": 0, "y": 1, "z": 2}
 
 
 def _elementary(angle, axis):
-    angle = np.asarray(angle, dtype=float)
+    angle = as_batch(angle, (), "angle")
     c, s = np.cos(angle), np.sin(angle)
     R = np.zeros(angle.shape + (3, 3))
     i, j = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[axis]
@@ -146,6 +146,8 @@ def rotation_about(axis, angle):
 
 
 def _sequence(sequence, angles):
+    if not isinstance(sequence, (str, list, tuple)):
+        raise OptionError(f"expected a sequence of axes such as 'zyx' or ('z', 'y', 'x'), got {sequence!r}")
     axes = [_axis_index(a) for a in sequence]
     if not axes:
         raise ShapeError("expected a non-empty sequence of axes such as 'zyx', got an empty one")
@@ -257,7 +259,7 @@ def wrap_angle(angle):
         if _INSIDE < angle <= _PI:  # (most angles: returned as the formula would, without computing it)
             return angle
         return _wrap(angle, math.ceil)
-    return _wrap(np.asarray(angle, dtype=float), np.ceil)
+    return _wrap(as_batch(angle, (), "angle", finite=False), np.ceil)
 
 
 def _wrap(a, ceil):

@@ -45,7 +45,7 @@ from enum import Enum
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_number
 from labkit.exceptions import OptionError
 from labkit.rotations._elementary import (
     compose_fixed_frame,
@@ -399,6 +399,7 @@ def euler_from_matrix(R, convention, *, tol=1e-9):
     """
     conv = _convention(convention)
     R = as_batch(R, (3, 3), "R")
+    tol = as_number(tol, "tol", positive=True)
     # the representative at gimbal lock zeroes the third angle of the triple (as scipy)
     sol, lock = _solve_intrinsic(R, *_intrinsic(conv), tol, zero_gamma=not conv.extrinsic)
     if conv.extrinsic:
@@ -424,7 +425,7 @@ def matrix_from_rpy(rpy):
     >>> np.round(R[0], 4)
     array([0.866 , 0.3536, 0.3536])
     """
-    rpy = np.asarray(rpy, dtype=float)
+    rpy = as_batch(rpy, (3,), "rpy")
     return rotation_z(rpy[..., 2]) @ rotation_y(rpy[..., 1]) @ rotation_x(rpy[..., 0])
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_number
 from labkit.exceptions import RotationMatrixError
 
 __all__ = ["is_rotation", "check_rotation", "nearest_rotation"]
@@ -42,6 +42,7 @@ def is_rotation(R, tol=1e-6):
     (True, False)
     """
     R = as_batch(R, (3, 3), "R", finite=False)
+    tol = as_number(tol, "tol", positive=True)
     finite = np.all(np.isfinite(R), axis=(-2, -1))
     Rf = np.where(finite[..., None, None], R, 0.0)
     return finite & (_orthonormality_error(Rf) <= tol) & (np.abs(np.linalg.det(Rf) - 1.0) <= tol)
@@ -75,6 +76,7 @@ def check_rotation(R, tol=1e-6):
     (3, 3)
     """
     R = _as_matrices(R)
+    tol = as_number(tol, "tol", positive=True)
     err = _orthonormality_error(R)
     det = np.linalg.det(R)
     bad = err > tol

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_number
 from labkit.exceptions import RotationMatrixError, ShapeError
 from labkit.rotations._matrix import check_rotation
 
@@ -105,6 +105,7 @@ def matrix_from_quaternion(q, *, normalize=False, tol=1e-6):
     array([ 0.8776, -0.4794,  0.    ])
     """
     q = as_batch(q, (4,), "quaternion (w, x, y, z)")
+    tol = as_number(tol, "tol", positive=True)
     lead = q.shape[:-1]
     q = q.reshape(-1, 4)
     norm = np.sqrt((q * q).sum(axis=1))
@@ -225,9 +226,7 @@ def matrix_from_axis_angle(axis, angle):
     True
     """
     axis = as_batch(axis, (3,), "axis")
-    angle = np.asarray(angle, dtype=float)
-    if not np.all(np.isfinite(angle)):
-        raise ShapeError("expected finite angle, got a non-finite value")
+    angle = as_batch(angle, (), "angle")
     norm = np.sqrt((axis * axis).sum(axis=-1))
     if np.any(norm == 0.0):
         raise ShapeError("expected a non-zero rotation axis, got (0, 0, 0)")
@@ -291,6 +290,7 @@ def matrix_exp(S, *, tol=1e-9):
     True
     """
     S = as_batch(S, (3, 3), "S")
+    tol = as_number(tol, "tol", positive=True)
     asym = np.abs(S + np.swapaxes(S, -1, -2)).max(initial=0.0)
     if asym > tol:
         raise ShapeError(f"expected skew-symmetric matrices (max |S + S^T| <= {tol:g}), got {asym:.3g}")
@@ -364,7 +364,7 @@ def slerp(R_start, R_end, s, *, tol=1e-6):
             ends.append(check_rotation(R, tol=tol))
         except RotationMatrixError as exc:
             raise RotationMatrixError(f"{name}: {exc}") from None
-    s = np.asarray(s, dtype=float)
+    s = as_batch(s, (), "s", finite=False)
     if not np.all(np.isfinite(s)) or np.any((s < 0) | (s > 1)):
         raise ShapeError(f"expected s in [0, 1], got values from {s.min():.4g} to {s.max():.4g}")
     interp = Slerp([0.0, 1.0], _rotation().from_matrix(np.stack(ends)))

@@ -188,6 +188,13 @@ def _cell_text(v, decimals, scientific, words=BOOLEANS, missing=MISSING, zero=1e
     return str(v)
 
 
+def _check_positive(value, name):
+    """``value`` as a positive finite float; else an OptionError saying what was expected."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
+        raise OptionError(f"{name} expects a positive number, got {value!r}")
+    return float(value)
+
+
 def _check_digits(value, name="digits", least=1):
     """``value`` as an int of at least ``least``; else an OptionError saying what was expected."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < least:
@@ -219,7 +226,8 @@ def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
     Raises
     ------
     OptionError
-        ``digits`` or ``decimals`` is not a non-negative integer (``digits`` positive).
+        ``digits`` or ``decimals`` is not a non-negative integer (``digits`` positive), ``zero`` not a
+        positive number.
 
     Examples
     --------
@@ -229,6 +237,7 @@ def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
     '0 mm'
     """
     _check_digits(digits)
+    zero = _check_positive(zero, "zero")
     if decimals is not None:
         _check_digits(decimals, "decimals", least=0)
     arr = np.asarray(value, dtype=object)

@@ -8,13 +8,13 @@ tolerance marked, so a notebook and the lab report show the same numbers under t
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.tables._table import HIGHLIGHT, ReportTable, report_table
 
+from labkit.tables._cells import _check_positive
 __all__ = ["error_report_table"]
 
 #: the columns of a measured-versus-calculated error table (``labkit.measure.ErrorTable.table``) a reader needs
@@ -88,8 +88,9 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
 
     if pose not in ("command", "pose_id"):
         raise OptionError(f"pose expects 'command' or 'pose_id', got {pose!r}")
-    if isinstance(scale, bool) or not isinstance(scale, numbers.Real) or not scale > 0:
-        raise OptionError(f"scale expects a positive number, got {scale!r}")
+    scale = _check_positive(scale, "scale")
+    if unit is not None and not isinstance(unit, str):
+        raise OptionError(f"unit expects the printed unit as a string ('mm'), got {unit!r}")
     table = getattr(errors, "table", errors)
     if not isinstance(table, pd.DataFrame):
         raise ShapeError(f"expected an ErrorTable or its DataFrame, got {type(errors).__name__}")
@@ -122,7 +123,10 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
     printed = report_table(frame, digits=digits, caption=caption, group="pose")
     if flagged is None:
         return printed
-    flags = np.asarray(flagged)
+    try:
+        flags = np.asarray(flagged)
+    except ValueError:  # ragged
+        flags = np.asarray(None)
     if flags.shape != (len(table),) or flags.dtype != bool:
         raise ShapeError(f"expected flagged as one bool per row of the error table, shape ({len(table)},), "
                          f"got {flags.dtype} with shape {flags.shape}")

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import html as _html
 import numbers
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,6 +108,8 @@ class ReportTable:
         if not isinstance(css, str):
             raise OptionError(f"css expects a string ('background-color: #f8c4c4'), got {type(css).__name__}")
         css_to_latex(css)  # says what it expected of malformed CSS
+        if isinstance(rows, str) or not isinstance(rows, Iterable):
+            raise OptionError(f"rows expects row positions or one flag per row, got {rows!r}")
         rows = list(rows)
         if rows and all(isinstance(r, (bool, np.bool_)) for r in rows):
             if len(rows) != len(self.rows):
@@ -116,6 +119,8 @@ class ReportTable:
                or not 0 <= r < len(self.rows)]
         if bad:
             raise OptionError(f"rows expects positions 0..{len(self.rows) - 1} (or one flag per row), got {bad[:5]!r}")
+        if columns is not None and not isinstance(columns, (str, Iterable)):
+            raise OptionError(f"columns expects printed column names or positions of this table, got {columns!r}")
         positions = []
         for c in range(len(self.header)) if columns is None else ([columns] if isinstance(columns, str) else columns):
             if isinstance(c, str) and c in self.header:
@@ -318,6 +323,10 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         raise ShapeError(f"expected a pandas DataFrame or Series, got {type(df).__name__}")
     if len(booleans) != 2 or not all(isinstance(b, str) for b in booleans):
         raise OptionError(f"booleans expects two words (true, false), got {booleans!r}")
+    if not isinstance(caption, str):
+        raise OptionError(f"caption expects a string, got {caption!r}")
+    if columns is not None and not isinstance(columns, Mapping):
+        raise OptionError(f"columns expects a mapping {{column: printed name}}, got {columns!r}")
     columns = dict(columns or {})
     unknown = [k for k in columns if k not in df.columns and k not in df.index.names]
     if unknown:

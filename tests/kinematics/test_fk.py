@@ -266,6 +266,11 @@ def test_batch_shapes_and_delegates(rng):
     assert np.allclose(T[1, 2], fk(puma, q[1, 2]))
     assert fk(puma, np.zeros(6)).shape == (4, 4)
     assert fk(puma, np.zeros((0, 6))).shape == (0, 4, 4)
+    empty = np.zeros((0, 6))  # an empty batch, also into a caller's arrays and for the Jacobian
+    assert fk(puma, empty, out=np.empty((0, 4, 4))).shape == (0, 4, 4)
+    assert fk_position(puma, empty, out=np.empty((0, 3))).shape == (0, 3)
+    assert jacobian(puma, empty).shape == jacobian(puma, empty, out=np.empty((0, 6, 6))).shape == (0, 6, 6)
+    assert [a.shape for a in fk_jacobian(puma, empty)] == [(0, 4, 4), (0, 6, 6)]
     assert fk_position(puma, q).shape == (2, 3, 3)
     assert fk_frames(puma, q).shape == (2, 3, 8, 4, 4)
     assert jacobian(puma, q).shape == (2, 3, 6, 6)

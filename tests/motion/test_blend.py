@@ -82,7 +82,7 @@ def test_robot_bounds_limits_and_beside_the_through_points_trajectory():
         blended_law(None, Q, durations=[1.0, 0.1, 1.0], blend_time=0.5)
     with pytest.raises(TrajectoryError, match=r"blend at via point 1 coordinate \d needs .* > a_max"):
         blended_law(arm, Q, durations=1.0, blend_time=0.01)
-    with pytest.raises(TrajectoryError, match="give durations, or v_max"):
+    with pytest.raises(TrajectoryError, match="expected durations, or a finite v_max"):
         blended_law(None, Q)
     with pytest.raises(ShapeError, match="m >= 2"):
         blended_law(None, [[0.0, 1.0]], durations=1.0, blend_time=0.1)

@@ -195,7 +195,7 @@ def test_resample_is_exact(seed000, arduino):
 
 
 def test_path_errors():
-    with pytest.raises(ShapeError, match="positive radius"):
+    with pytest.raises(ShapeError, match="expected radius as a positive"):
         arc_path([0, 0], -1.0, 0.0, 1.0)
     with pytest.raises(ShapeError, match="not both"):
         arc_path([0, 0, 0], 1.0, 0.0, 1.0, normal=[0, 0, 1], plane_axes=[[1, 0, 0], [0, 1, 0]])

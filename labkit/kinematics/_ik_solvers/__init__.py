@@ -4,11 +4,9 @@ The public functions (:func:`labkit.kinematics.ik`, ``ik_all``, ``ik_numeric``,
 ``solver_for`` ...) live in :mod:`labkit.kinematics`; this subpackage holds
 what they run on, every part on numpy rows (one target is a batch of one):
 
-* one module per closed-form family (``_planar_2r``, ``_planar_3r``,
-  ``_yaw_pitch_pitch``, ``_yaw_pitch_pitch_pitch``, ``_yaw_pitch_pitch_pitch_roll``,
-  ``_spherical_wrist``, ``_three_parallel``, ``_scara``, ``_prismatic``) following the protocol of
-  :mod:`~labkit.kinematics._ik_solvers._family`;
-* the one ordered registry of the families (:data:`FAMILIES`, :func:`detect`);
+* one module per closed-form family, following the protocol of
+  :mod:`~labkit.kinematics._ik_solvers._family`, and their one ordered
+  registry (:data:`FAMILIES`, :func:`detect`);
 * the geometry they share once (:mod:`~labkit.kinematics._ik_solvers._geometry`:
   cosine law, Paden-Kahan subproblems);
 * the one finishing step (flip, wrap) and branch pick (:func:`solve_closed_form`,
@@ -21,14 +19,13 @@ what they run on, every part on numpy rows (one target is a batch of one):
 
 from labkit.kinematics._ik_solvers._registry import FAMILIES, build, detect
 from labkit.kinematics._ik_solvers._solve import nearest, solve as solve_closed_form
-from labkit.kinematics._ik_solvers._numeric import LazyGenerator, solve as solve_numeric
+from labkit.kinematics._ik_solvers._numeric import LazyGenerator, _first_success, solve as solve_numeric
 from labkit.kinematics._ik_solvers._targets import (
-    COMPONENTS, REDUCED, batch_index, describe_target, target_components, target_words, task_rows,
+    COMPONENTS, REDUCED, _batch_index, _describe_target, target_components, _target_words, task_rows,
     validate_targets,
 )
 
 __all__ = [
     "FAMILIES", "detect", "build", "solve_closed_form", "nearest", "solve_numeric", "LazyGenerator",
-    "validate_targets", "task_rows", "target_components", "batch_index", "describe_target", "target_words",
-    "COMPONENTS", "REDUCED",
+    "validate_targets", "task_rows", "target_components", "COMPONENTS", "REDUCED",
 ]

@@ -13,14 +13,12 @@ A family is a class with
     how many joints it needs, and how many of them are prismatic (the others revolute);
 ``__init__(robot, z, o, tool)``
     reads the robot's geometry (joint axes ``z``, points ``o`` on them and the
-    tool frame at ``q = 0``, from
-    :func:`~labkit.kinematics._ik_solvers._geometry.joint_axes`) and raises
-    :class:`~labkit.kinematics._ik_solvers._geometry.NotThisFamily` with the reason when
-    the robot lacks the structure (:meth:`Family.fits` checks the joints, reads
-    the axes and turns that into an answer);
+    tool frame at ``q = 0``: :func:`~labkit.kinematics._ik_solvers._geometry.joint_axes`),
+    raising :class:`~labkit.kinematics._ik_solvers._geometry.NotThisFamily` with
+    the reason when the robot lacks the structure (:meth:`Family.fits` answers);
 ``solve(t)``
-    every branch of the targets ``t``, in the chain's sense (flipped joints
-    not yet negated, angles not yet wrapped: :mod:`labkit.kinematics._ik_solvers._finish`
+    every branch of the targets ``t``, in the chain's sense (flipped joints not
+    yet negated, angles not yet wrapped: :func:`~labkit.kinematics._ik_solvers._solve.finish`
     does that for every family).
 
 A new family is one module with such a class and one line in
@@ -31,7 +29,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, need_joints
+from labkit.kinematics._ik_solvers._geometry import NotThisFamily, joint_axes, _need_joints
 
 
 #: the two branches of a planar elbow, and the names seeds 003/004 and roboticstoolbox use for them
@@ -51,59 +49,40 @@ class Family(ABC):
 
     @classmethod
     def fits(cls, robot):
-        """The family's solver for ``robot``, or why it does not fit.
+        """The family built on ``robot``'s geometry, or None and what the robot lacks.
 
         Parameters
         ----------
         robot : Robot
-            The arm whose geometry is tried.
 
         Returns
         -------
-        solver : Family or None
-            The family built on the robot's geometry.
-        reason : str
-            Empty when it fits, else what the robot lacks.
+        solver, reason : Family or None, str
+            The family, or None and the reason.
         """
         try:
-            need_joints(robot, cls.joints, cls.prismatic)
+            _need_joints(robot, cls.joints, cls.prismatic)
             return cls(robot, *joint_axes(robot)), ""
         except NotThisFamily as exc:
             return None, str(exc)
 
     @abstractmethod
     def solve(self, t):
-        """Every branch of targets ``t``.
+        """Every branch of targets ``t``: their components as ``(N,)`` rows (``t[i]``, a pose's ``t[i][j]``).
 
         Parameters
         ----------
         t : sequence
-            The targets' components as ``(N,)`` rows: ``t[i]`` for a position
-            or planar target, ``t[i][j]`` for a pose.
 
         Returns
         -------
-        q : list of tuple
-            Per branch, the ``n`` joint values [rad] in the chain's sense.
-        reachable : list
-            Per branch, whether it reaches the target.
-        distance : ndarray, shape (N,)
-            How far the target lies out of reach [m].
+        q, reachable, distance : list of tuple, list, ndarray (N,)
+            Per branch the ``n`` joint values [rad, m] in the chain's sense and whether it reaches the
+            target; how far the target lies out of reach [m].
         """
 
 
-def documented(method):
-    """Give a family's method the protocol's docstring of the method of that name (a decorator).
-
-    Parameters
-    ----------
-    method : function
-        A method of a family class.
-
-    Returns
-    -------
-    function
-        ``method`` itself.
-    """
+def _documented(method):
+    """Give a family's method the docstring of the protocol's method of that name (a decorator)."""
     method.__doc__ = getattr(Family, method.__name__).__doc__
     return method

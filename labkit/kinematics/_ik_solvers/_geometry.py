@@ -3,17 +3,19 @@
 * the joint axes of a robot at ``q = 0`` (:func:`joint_axes`), from the one DH walk
   (:func:`labkit.kinematics._program.walk`) on floats, so every family works in the world frame
   for either DH convention, base and tool included;
-* the cosine law of a two-link chain (:class:`CosineLaw`);
+* the cosine law of a two-link chain (:class:`_CosineLaw`);
 * Paden-Kahan subproblem 1, the angle about an axis taking one vector onto
-  another (:func:`angle_about`), and subproblem 2, two rotations about
-  intersecting axes (:func:`subproblem2`);
-* Rodrigues' rotation of vectors about a constant axis (:func:`rotate`).
+  another (:func:`_angle_about`), and subproblem 2, two rotations about
+  intersecting axes (:class:`_Subproblem2`);
+* Rodrigues' rotation of vectors about a constant axis (:func:`_rotate`).
 
 Vectors are 3-tuples of components, each an ``(N,)`` array (a batch of
 targets); constant vectors (axes of the robot) are tuples of floats.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -31,72 +33,27 @@ class NotThisFamily(Exception):
     """The robot does not have the structure a family needs (the reason in args)."""
 
 
-def unit(v):
-    """``v`` divided by its norm, as a float array of shape (3,).
-
-    Parameters
-    ----------
-    v : array_like, shape (3,)
-        A non-zero vector.
-
-    Returns
-    -------
-    ndarray, shape (3,)
-    """
+def _unit(v):
+    """``v`` (3,) divided by its norm, as a float array."""
     v = np.asarray(v, dtype=float)
     return v / np.linalg.norm(v)
 
 
-def floats(v):
-    """A constant vector as a tuple of Python floats.
-
-    Parameters
-    ----------
-    v : array_like, shape (3,)
-        A vector.
-
-    Returns
-    -------
-    tuple of float
-    """
+def _floats(v):
+    """A constant vector as a tuple of Python floats."""
     return tuple(float(x) for x in v)
 
 
-def perpendicular(axis):
-    """A unit vector perpendicular to the unit vector ``axis`` (from the world axis least along it).
-
-    Components within :data:`TOL` count as equal (the first such axis wins), so rounding noise of a
-    DH walk (``6e-17`` beside ``0``) does not decide: an axis along world ``z`` gives world ``x``.
-
-    Parameters
-    ----------
-    axis : ndarray, shape (3,)
-        A unit vector.
-
-    Returns
-    -------
-    ndarray, shape (3,)
-    """
+def _perpendicular(axis):
+    """A unit vector (3,) perpendicular to the unit ``axis``, from the world axis least along it (components
+    within :data:`TOL` count as equal, the first wins: an axis along world ``z`` gives world ``x``)."""
     a = np.abs(axis)
     t = np.eye(3)[int(np.flatnonzero(a <= a.min() + TOL)[0])]
-    return unit(t - axis * (t @ axis))
+    return _unit(t - axis * (t @ axis))
 
 
-def feet(p1, d1, p2, d2):
-    """Feet of the common normal of two non-parallel lines: the closest point on each.
-
-    Parameters
-    ----------
-    p1, d1 : ndarray, shape (3,)
-        A point on line 1 [m] and its unit direction.
-    p2, d2 : ndarray, shape (3,)
-        The same for line 2.
-
-    Returns
-    -------
-    f1, f2 : ndarray, shape (3,)
-        The closest points on line 1 and on line 2 [m].
-    """
+def _feet(p1, d1, p2, d2):
+    """The closest points [m] on two non-parallel lines (point ``p`` [m], unit direction ``d`` each)."""
     w = p1 - p2
     b = d1 @ d2
     den = 1.0 - b * b
@@ -106,23 +63,19 @@ def feet(p1, d1, p2, d2):
 
 
 def joint_axes(robot):
-    """Joint axes (unit directions) and a point on each at ``q = 0``, plus the tool frame.
+    """Joint axes, a point on each and the tool frame at ``q = 0``, in the world frame.
+
+    Read by the one DH walk on floats (nothing is compiled for a robot's geometry).
 
     Parameters
     ----------
     robot : Robot
-        The arm whose axes are read (from FK at ``q = 0``).
 
     Returns
     -------
-    z : ndarray, shape (n, 3)
-        Axis directions in the world frame.
-    o : ndarray, shape (n, 3)
-        A point on each axis [m].
-    tool : ndarray, shape (4, 4)
-        ``world_from_tool`` at ``q = 0``.
+    z, o, tool : ndarray, shape (n, 3), (n, 3), (4, 4)
+        Unit axis directions, a point on each [m], ``world_from_tool`` [m].
     """
-    # the DH walk on floats at q = 0 (a robot's geometry is read once: nothing is compiled for it)
     c = chain(robot)
     revolute = [(cth, sth) for rev, _, _, _, _, _, cth, sth in c.steps if rev]
     steps = [(rev, a, ca, sa, d, cth, sth) for rev, a, ca, sa, d, _, cth, sth in c.steps]
@@ -135,72 +88,45 @@ def joint_axes(robot):
     return axes[:, 2].copy(), axes[:, 3].copy(), last @ robot.tool
 
 
-def length_scale(robot):
-    """A length that scales the structure tolerances [m] (at least 1).
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm measured.
-
-    Returns
-    -------
-    float
-        Sum of the absolute DH lengths and the tool offset [m], at least 1.
-    """
+def _length_scale(robot):
+    """The length structure tolerances scale with: sum of ``|a|``, ``|d|`` and tool offset, at least 1 [m]."""
     return max(1.0, float(np.abs(robot.a).sum() + np.abs(robot.d).sum() + np.abs(robot.tool[:3, 3]).sum()))
 
 
-def need_joints(robot, n, prismatic=0):
-    """Raise :class:`NotThisFamily` unless ``robot`` has exactly ``n`` joints, ``prismatic`` of them prismatic.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm tried.
-    n : int
-        Number of joints the family needs.
-    prismatic : int
-        How many of them are prismatic (the others revolute).
-    """
+def _need_joints(robot, n, prismatic=0):
+    """Raise :class:`NotThisFamily` unless ``robot`` has ``n`` joints, ``prismatic`` of them prismatic."""
     if robot.n != n or int(np.count_nonzero(~robot.is_revolute)) != prismatic:
         raise NotThisFamily(f"needs exactly {n} joints, {prismatic} of them prismatic" if prismatic
                             else f"needs exactly {n} revolute joints")
 
 
-def need_parallel(u, v, reason):
-    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u`` and ``v`` are parallel.
-
-    Parameters
-    ----------
-    u, v : ndarray, shape (3,)
-        Two joint axes.
-    reason : str
-        What the family needs, for the message.
-    """
+def _need_parallel(u, v, reason):
+    """Raise :class:`NotThisFamily` with ``reason`` unless the unit vectors ``u``, ``v`` (3,) are parallel."""
     if np.linalg.norm(np.cross(u, v)) > TOL:
         raise NotThisFamily(reason)
 
 
-def wrist_branches(shoulder, elbow=("up", "down")):
-    """Branch names and their three-letter aliases of an 8-solution arm with a spherical wrist.
-
-    Parameters
-    ----------
-    shoulder : tuple of str
-        The two shoulder names, in the family's order (e.g. ``("right", "left")``).
-    elbow : tuple of str
-        The two names of the arm's second choice (elbow ``up``/``down``, a boom ``out``/``in``).
-
-    Returns
-    -------
-    branches : tuple of str
-        ``"<shoulder>_<elbow>_<noflip|flip>"``, shoulder slowest.
-    aliases : dict
-        ``{"run": "right_up_noflip", ...}``.
-    """
+def _wrist_branches(shoulder, elbow=("up", "down")):
+    """Branch names ``<shoulder>_<elbow>_<noflip|flip>`` (shoulder slowest) and their aliases (``"run"``)."""
     names = [(s, e, w) for s in shoulder for e in elbow for w in ("noflip", "flip")]
     return tuple(f"{s}_{e}_{w}" for s, e, w in names), {f"{s[0]}{e[0]}{w[0]}": f"{s}_{e}_{w}" for s, e, w in names}
+
+
+def _in_chain_order(order, values):
+    """Values of the joints ``order`` (indices, a permutation) as a tuple in the chain's order."""
+    q = [None] * len(order)
+    for j, v in zip(order, values):
+        q[j] = v
+    return tuple(q)
+
+
+def _pose_matrices(R, p):
+    """Homogeneous transforms (..., 4, 4) from rotations (..., 3, 3) and translations ``p`` (..., 3) [m]."""
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p
+    T[..., 3, 3] = 1.0
+    return T
 
 
 # -- vectors as component tuples ------------------------------------------------------------
@@ -223,25 +149,9 @@ def _reject(k, v):
     return (v[0] - k[0] * s, v[1] - k[1] * s, v[2] - k[2] * s)
 
 
-def rotate(k, angle, *vectors):
-    """Rodrigues: vectors rotated by ``angle`` about the unit axis ``k`` (its sine and cosine taken once).
-
-    ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``.
-
-    Parameters
-    ----------
-    k : tuple of float
-        The rotation axis (unit).
-    angle : ndarray or float
-        Rotation angle [rad].
-    *vectors : tuple
-        3 components each.
-
-    Returns
-    -------
-    list of tuple
-        The rotated vectors, 3 components each, in order.
-    """
+def _rotate(k, angle, *vectors):
+    """Rodrigues: ``vectors`` (component 3-tuples) turned by ``angle`` [rad] about the unit axis ``k``,
+    ``v + sin(a) k x v + (1 - cos(a)) k x (k x v)``, as a list."""
     k0, k1, k2 = k
     s, c1 = sin(angle), 1.0 - cos(angle)
     out = []
@@ -261,47 +171,27 @@ def _matvec(M, v):
 
 # -- the shared subproblems -----------------------------------------------------------------
 
-class CosineLaw:
-    """A two-link chain of lengths ``L1``, ``L2`` (its constants computed once per robot).
+class _CosineLaw:
+    """A two-link chain in a plane: link 1 (joint 1 to joint 2) and link 2 (to the point placed) as in-plane
+    ``(x, y)`` vectors ``e``, ``f`` at ``q = 0`` [m]; :class:`NotThisFamily` with ``reason`` where a link is
+    shorter than ``shortest`` [m]."""
 
-    Parameters
-    ----------
-    L1, L2 : float
-        Link lengths [m].
-    """
-
-    def __init__(self, L1, L2):
-        self.L1, self.L2 = L1, L2
+    def __init__(self, e, f, shortest, reason):
+        self.L1, self.L2 = L1, L2 = math.hypot(*e), math.hypot(*f)
+        if L1 < shortest or L2 < shortest:
+            raise NotThisFamily(reason)
+        self.g1 = math.atan2(e[1], e[0])  # link 1's angle, and link 2's relative to it, at q = 0
+        self.g21 = math.atan2(f[1], f[0]) - self.g1
         self.L1L1, self.L2L2, self.den = L1 * L1, L2 * L2, 2 * L1 * L2
         self.longest, self.shortest = L1 + L2, abs(L1 - L2)
         self.ok_below = 1.0 + REACH_TOL
 
     def solve(self, x, y):
-        """The chain reaching the point ``(x, y)`` of its plane.
-
-        Parameters
-        ----------
-        x, y : ndarray or float
-            The point, relative to the first joint [m].
-
-        Returns
-        -------
-        reachable : ndarray of bool or bool
-            The cosine-law argument lies in [-1, 1] (slack :data:`REACH_TOL`).
-        distance : ndarray or float
-            How far the point lies outside the annulus the chain reaches [m].
-        elbow : ndarray or float
-            The magnitude of the relative angle of link 2 [rad] (argument clipped).
-        shoulder : ndarray or float
-            The interior angle at joint 1 between the line to the point and link 1 [rad].
-        direction : ndarray or float
-            The angle of the point, ``atan2(y, x)`` [rad].
-
-        Notes
-        -----
-        The branch of sign ``s`` (``-1`` or ``+1``) has link 1 at angle
-        ``direction - s * shoulder`` and link 2 at relative angle ``s * elbow``.
-        """
+        """The chain reaching the point ``(x, y)`` [m] from joint 1: ``reachable`` (the cosine-law argument
+        in [-1, 1], slack :data:`REACH_TOL`), ``distance`` outside the annulus reached [m], and [rad] the
+        ``elbow`` (magnitude of link 2's relative angle, argument clipped), the ``shoulder`` angle between
+        the line to the point and link 1, and the point's ``direction``. The branch of sign ``s = -1, +1``
+        has link 1 at ``direction - s shoulder`` and link 2 at ``s elbow`` relative to it."""
         L1, L2 = self.L1, self.L2
         r2 = x * x + y * y
         r = sqrt(r2)
@@ -312,80 +202,42 @@ class CosineLaw:
         sb = sqrt(1.0 - cb * cb)
         return ok, distance, arctan2(sb, cb), arctan2(L2 * sb, L1 + L2 * cb), arctan2(y, x)
 
+    def branches(self, x, y):
+        """``reachable``, ``distance`` (as :meth:`solve`) and ``[(q1, q2) elbow up, (q1, q2) elbow down]``
+        [rad] reaching ``(x, y)`` [m], turned from the links at ``q = 0`` (elbow up: link 2 turned negatively)."""
+        ok, distance, elbow, shoulder, direction = self.solve(x, y)
+        return ok, distance, [(direction - s * shoulder - self.g1, s * elbow - self.g21) for s in (-1.0, 1.0)]
 
-def angle_about(k, v, w):
-    """Paden-Kahan subproblem 1: the angle rotating ``v`` onto ``w`` about the constant unit axis ``k``.
 
-    Both vectors are projected perpendicular to ``k`` first (explicitly, so the
-    result keeps its precision when the projections are tiny).
-
-    Parameters
-    ----------
-    k : tuple of float
-        Unit axis.
-    v, w : tuple
-        3 components each.
-
-    Returns
-    -------
-    ndarray or float
-        The angle [rad] in (-pi, pi].
-    """
+def _angle_about(k, v, w):
+    """Paden-Kahan subproblem 1: the angle in (-pi, pi] about the constant unit axis ``k`` turning ``v`` onto
+    ``w`` (component 3-tuples), both projected perpendicular to ``k`` first (precise where that is tiny)."""
     vp, wp = _reject(k, v), _reject(k, w)
-    return angle_between(_cross(k, vp), vp, wp)
+    return _angle_between(_cross(k, vp), vp, wp)
 
 
-def angle_between(n, vp, wp):
-    """:func:`angle_about` from the projections (computed once where they are used again).
-
-    Parameters
-    ----------
-    n : tuple
-        ``k x vp``, 3 components (a constant where ``vp`` is one).
-    vp, wp : tuple
-        The vectors' parts perpendicular to the axis ``k``, 3 components each (``_reject(k, v)``).
-
-    Returns
-    -------
-    ndarray or float
-        The angle [rad] about ``k`` from ``vp`` to ``wp``, in (-pi, pi].
-    """
+def _angle_between(n, vp, wp):
+    """:func:`_angle_about` [rad] from the parts ``vp``, ``wp`` perpendicular to ``k`` and ``n = k x vp``."""
     w0, w1, w2 = wp
     return arctan2(n[0] * w0 + n[1] * w1 + n[2] * w2, vp[0] * w0 + vp[1] * w1 + vp[2] * w2)
 
 
-class Subproblem2:
-    """Paden-Kahan subproblem 2: ``Rot(a4, t4) Rot(a5, t5) p = m`` for unit axes meeting in a point.
-
-    Parameters
-    ----------
-    a4, a5, p : array_like, shape (3,)
-        The two axes and the vector rotated (unit vectors, constants of the robot).
-    """
+class _Subproblem2:
+    """Paden-Kahan subproblem 2, ``Rot(a4, t4) Rot(a5, t5) p = m``, for unit axes ``a4``, ``a5`` (3,) meeting in
+    a point and a unit vector ``p`` (3,)."""
 
     def __init__(self, a4, a5, p):
-        self.a4, self.a5, self.p = floats(a4), floats(a5), floats(p)
+        self.a4, self.a5, self.p = _floats(a4), _floats(a5), _floats(p)
         self.k12, self.a5p = float(np.dot(a4, a5)), float(np.dot(a5, p))
-        self.cr = floats(np.cross(a4, a5))
+        self.cr = _floats(np.cross(a4, a5))
         self.cr2 = float(np.dot(self.cr, self.cr))
-        self.c5 = floats(np.cross(a5, p))
+        self.c5 = _floats(np.cross(a5, p))
         self.orthogonal = abs(self.k12) < 1e-12
         self.den = self.k12 * self.k12 - 1.0
         self.k12a5p = self.k12 * self.a5p
 
     def solve(self, m):
-        """Both solutions for the target direction ``m`` (components).
-
-        Returns
-        -------
-        list of (t4, t5)
-            The solution with ``+gamma`` then the one with ``-gamma`` [rad].
-
-        Parameters
-        ----------
-        m : tuple
-            3 components of the target direction (unit).
-        """
+        """Both solutions ``[(t4, t5) with +gamma, (t4, t5) with -gamma]`` [rad] for the unit direction ``m``."""
         (a40, a41, a42), (a50, a51, a52), (c0, c1, c2) = self.a4, self.a5, self.cr
         k12, a5p, den = self.k12, self.a5p, self.den
         m0, m1, m2 = m
@@ -415,27 +267,12 @@ class Subproblem2:
             a4C = a40 * C0 + a41 * C1 + a42 * C2
             v0, v1, v2 = C0 - a40 * a4C, C1 - a41 * a4C, C2 - a42 * a4C
             n = (a41 * v2 - a42 * v1, a42 * v0 - a40 * v2, a40 * v1 - a41 * v0)  # a4 x v
-            out.append((angle_between(n, (v0, v1, v2), mp), t5))
+            out.append((_angle_between(n, (v0, v1, v2), mp), t5))
         return out
 
 
-def per_branch(f, branches, shared):
-    """``f(*branch, *shared)`` for every branch in one call, on the branches' rows end to end.
-
-    Parameters
-    ----------
-    f : callable
-        The formulas of one branch, on ``(N,)`` rows.
-    branches : list of tuple
-        Per branch its arguments, ``(N,)`` rows or scalars.
-    shared : tuple
-        Arguments common to every branch.
-
-    Returns
-    -------
-    list of tuple
-        Per branch the outputs of ``f``, ``(N,)`` rows each.
-    """
+def _per_branch(f, branches, shared):
+    """``f(*branch, *shared)`` of every branch in one call, on the branches' ``(N,)`` rows end to end."""
     k = len(branches)
     n = max((np.size(v) for v in (*branches[0], *shared) if type(v) is not float), default=1)
     if n == 1:  # one target: branch by branch on floats (cheaper than numpy rows of k elements)
@@ -448,20 +285,8 @@ def per_branch(f, branches, shared):
     return [tuple(o[j * n:(j + 1) * n] for o in out) for j in range(k)]
 
 
-def rotation_matrices(axis, angle):
-    """Rotation matrices about a constant unit axis, ``angle (N,) -> (N, 3, 3)`` (numpy).
-
-    Parameters
-    ----------
-    axis : sequence of float
-        Unit axis (3,).
-    angle : ndarray, shape (N,)
-        Angles [rad].
-
-    Returns
-    -------
-    ndarray, shape (N, 3, 3)
-    """
+def _rotation_matrices(axis, angle):
+    """Rotation matrices (N, 3, 3) about a constant unit axis (3,) by ``angle`` (N,) [rad]."""
     x, y, z = axis
     c, s = np.cos(angle), np.sin(angle)
     C = 1.0 - c

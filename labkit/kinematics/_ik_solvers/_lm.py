@@ -1,14 +1,8 @@
 """The arithmetic of one Levenberg-Marquardt iteration, each rule written once (private).
 
-On a batch of targets as numpy rows (one target is a batch of one):
-
-* :func:`task_error` - the error of poses against targets, on the task rows,
-  and its norm (the residual a target converges on);
-* :func:`damped_step` - ``(J^T J + lam I)^-1 J^T e`` (or ``J^T (J J^T + lam I)^-1 e``
-  when there are fewer task rows than joints);
-* :func:`damping` - the damping after a step: divided by 10 where the step
-  was accepted, multiplied by 10 where it was rejected.
-
+On a batch of targets as numpy rows (one target is a batch of one): the task
+error and residual (:func:`task_error`), the damped least-squares step
+(:func:`damped_step`) and the damping rule (:func:`damping`);
 :func:`labkit.kinematics._ik_solvers._numeric.solve` runs the loop around them.
 """
 
@@ -44,28 +38,23 @@ def _norm(e):
 
 
 def task_error(kind, T, target, rows):
-    """Task error and residual of poses against targets.
+    """Task error and residual of poses [m] against targets [m, rad] on the task ``rows`` of ``[v; w]``.
 
     Parameters
     ----------
     kind : {"position", "planar", "pose"}
-        What the targets fix.
     T : ndarray, shape (N, 4, 4)
-        Poses [m].
     target : ndarray, shape (N, 3) or (N, 4, 4)
-        Targets [m, rad]: points, planar ``(x, y, phi)`` or poses.
     rows : tuple of int
-        Rows of ``[vx, vy, vz, wx, wy, wz]`` the task constrains.
 
     Returns
     -------
     e : ndarray, shape (N, len(rows))
-        Task error [m, rad]: position error, then the rotation vector taking
-        the pose's orientation to the target's (``phi`` error of a planar
-        target, wrapped).
+        Position error, then the rotation vector taking the pose's orientation to the target's
+        (a planar target's ``phi`` error, wrapped) [m, rad].
     residual : ndarray, shape (N,)
-        Norm of the position error and, for a whole orientation,
-        ``2 sin(angle / 2)`` (robust near pi) [m, rad]; else the norm of ``e``.
+        Norm of the position error and, for a whole orientation, ``2 sin(angle / 2)`` (robust
+        near pi); else the norm of ``e`` [m, rad].
     """
     slots, position = _plan(kind, tuple(rows))
     if kind == "position":
@@ -93,21 +82,18 @@ def task_error(kind, T, target, rows):
 
 
 def damped_step(J, e, lam):
-    """Damped least-squares step: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` when ``J`` is wide.
+    """Damped least-squares step [rad, m]: ``(J^T J + lam I)^-1 J^T e``, or ``J^T (J J^T + lam I)^-1 e`` for a
+    wide ``J``, from the task rows ``J``, the task error ``e`` [m, rad] and the damping ``lam``.
 
     Parameters
     ----------
     J : ndarray, shape (N, m, n)
-        Task rows of the Jacobian.
     e : ndarray, shape (N, m)
-        Task error [m, rad].
     lam : ndarray, shape (N,)
-        Damping.
 
     Returns
     -------
     ndarray, shape (N, n)
-        Joint step [rad, m].
     """
     m, n = J.shape[-2:]
     Jt = J.swapaxes(-1, -2)
@@ -121,14 +107,12 @@ def damped_step(J, e, lam):
 
 
 def damping(lam, accepted):
-    """The damping after a step: ``lam / 10`` (at least 1e-12) where accepted, else ``lam * 10`` (at most 1e8).
+    """The damping after a step: ``lam / 10`` (at least 1e-12) where ``accepted``, else ``lam * 10`` (at most 1e8).
 
     Parameters
     ----------
     lam : ndarray, shape (N,)
-        Damping before the step.
     accepted : ndarray of bool, shape (N,)
-        The step lowered the error.
 
     Returns
     -------

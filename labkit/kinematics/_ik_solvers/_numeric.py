@@ -2,7 +2,7 @@
 
 All targets iterate together on numpy rows; one target is a batch of one.
 Per iteration the targets still active make one
-:func:`labkit.kinematics._forward.fk_jacobian_kernel` call and one batched
+:func:`labkit.kinematics._forward._fk_jacobian_kernel` call and one batched
 linear solve (:mod:`labkit.kinematics._ik_solvers._lm`: the task error, the
 damped step and the damping rule). Steps are clipped into the joint limits.
 
@@ -10,12 +10,11 @@ A target leaves the active set when it converges, when it stalls (squared
 error not down 100x in 8 iterations; from a closed-form start, also in its
 first 4) or after ``max_iter`` iterations; it then restarts (an *attempt* per
 start) from the next closed-form start (jittered) or a random configuration
-inside the limits, revolute joints within half a turn of the point of their
-range nearest 0 (:func:`labkit.kinematics._ik_solvers._starts.start_window`:
-continuous or huge ranges start near 0, not at 1e297 rad). Odd-numbered attempts ignore the revolute limits and wrap
-the solution by 2 pi afterwards (accepted only if it then lies inside), which
-escapes minima pinned against a limit. Finally the stragglers are copied up
-to 64 times and the copies iterate together from independent random starts.
+in the start window (:func:`labkit.kinematics._ik_solvers._starts.start_window`).
+Odd-numbered attempts ignore the revolute limits and wrap the solution by 2 pi
+afterwards (accepted only if it then lies inside), which escapes minima pinned
+against a limit. Finally the stragglers are copied up to :data:`MULTISTART`
+times and the copies iterate together from independent random starts.
 
 Without a caller's ``q0``, targets start from closed-form branches: the
 robot's own family, or that of its idealised copy (for an arm a little off a
@@ -29,26 +28,20 @@ import dataclasses
 
 import numpy as np
 
-from labkit.kinematics._forward import fk_jacobian_kernel
+from labkit.kinematics._forward import _fk_jacobian_kernel
 from labkit.kinematics._ik_solvers._lm import damped_step, damping, task_error
 from labkit.kinematics._ik_solvers._solve import finish
 from labkit.kinematics._ik_solvers._starts import analytic_seeds, start_window
 
 #: iterations between stall tests; damping of a random start and of a closed-form one
 CHECK_EVERY, LAMBDA_RANDOM, LAMBDA_NEAR = 8, 1e-2, 1e-6
+#: most copies of a failing target in a multi-start round (at most about 8192 copies in all)
+MULTISTART = 64
 
 
 class LazyGenerator:
-    """``numpy.random.default_rng(seed)``, created when first drawn from.
-
-    Creating a generator costs more than polishing one target that starts on a
-    closed-form branch, which never draws.
-
-    Parameters
-    ----------
-    seed : int
-        Seed of the generator.
-    """
+    """``numpy.random.default_rng(seed)``, created when first drawn from (that costs more than polishing one
+    target that starts on a closed-form branch, which never draws)."""
 
     def __init__(self, seed):
         self._seed = seed
@@ -141,50 +134,29 @@ class _Active:
         return _Active(*(getattr(self, f.name)[mask] for f in dataclasses.fields(self)))
 
 
-def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multistart=64):
-    """Batched LM with restarts, then batched multi-start for the stragglers.
-
-    After ``restarts`` sequential restarts, every target still failing is
-    copied ``K`` times (``K <= multistart``, at most ~8192 copies in all) and
-    the copies iterate together from independent random starts, for up to
-    ``restarts`` more rounds; the first copy that succeeds wins.
+def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
+    """Batched LM with restarts, then up to ``restarts`` multi-start rounds for the stragglers.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     kind : {"position", "planar", "pose"}
-        What the targets fix.
     target : ndarray, shape (N, 3) or (N, 4, 4)
         Targets [m, rad].
     q0 : ndarray, shape (N, n) or None
-        Starting configurations [rad, m]; None starts from closed-form
-        branches where a closed-form family fits the robot or its idealised
-        copy, else from random in-limit configurations.
+        Starting configurations [rad, m]; None: closed-form starts, else random ones.
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
-    tol : float
-        Residual at which a target counts as solved [m, rad].
-    max_iter : int
-        Levenberg-Marquardt iterations per attempt.
-    restarts : int
-        Sequential restarts, then multi-start rounds, for failing targets.
-    rng : numpy.random.Generator
-        Draws the random starts (seeded by the caller).
-    multistart : int
-        Most copies per failing target in a multi-start round.
+    tol, max_iter, restarts, rng
+        Residual of success [m, rad], LM iterations per attempt, restarts, the random generator.
 
     Returns
     -------
-    q : ndarray, shape (N, n)
-        Joint values [rad, m].
-    success : ndarray of bool, shape (N,)
-    iterations : ndarray of int, shape (N,)
-    residual : ndarray, shape (N,)
-        Final task-space error norm [m, rad].
+    q, success, iterations, residual : ndarray, shape (N, n), (N,), (N,), (N,)
+        Joint values [rad, m], converged, iterations, final task error norm [m, rad].
     """
     lim = robot.joint_limits
-    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, fk_jacobian_kernel(robot),
+    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, _fk_jacobian_kernel(robot),
                  lim[:, 0], lim[:, 1])
     starts = analytic_seeds(robot, kind, target) if q0 is None else None
     if starts is not None:
@@ -193,22 +165,27 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng, multis
     elif q0 is None:
         q0 = p.random_q(target.shape[0])
     out = _attempts(p, np.clip(q0, p.lo, p.hi), restarts, starts)
-    for _ in range(restarts if multistart > 1 else 0):
-        if out.success.all() or not _multistart_round(p, out, multistart):
+    for _ in range(restarts):
+        if out.success.all() or not _multistart_round(p, out):
             break
     return out.q, out.success, out.iterations, out.residual
 
 
-def _multistart_round(p, out, multistart):
+def _first_success(ok, res):
+    """Per row of copies (N, K) of a target the first that succeeded, else the one of least residual."""
+    return np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+
+
+def _multistart_round(p, out):
     """One multi-start round for the failing targets (updates ``out``); False when there are too many."""
     fail = (~out.success).nonzero()[0]
-    K = int(min(multistart, max(1, 8192 // fail.size)))
+    K = int(min(MULTISTART, max(1, 8192 // fail.size)))
     if K < 2:
         return False
     copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))
     got = _attempts(copies, copies.random_q(fail.size * K), 1, None, group=K)
     ok, res = got.success.reshape(-1, K), got.residual.reshape(-1, K)
-    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+    pick = _first_success(ok, res)
     each = np.arange(fail.size)
     q, res = got.q.reshape(-1, K, got.q.shape[1])[each, pick], res[each, pick]
     out.iterations[fail] += got.iterations.reshape(-1, K)[each, pick]

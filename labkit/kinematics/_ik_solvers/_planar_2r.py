@@ -10,14 +10,11 @@ otherwise it is unreachable by the height difference. Branches ``elbow_up``
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
-    TOL, CosineLaw, NotThisFamily, _dot, floats, length_scale, need_parallel,
-    perpendicular, unit,
+    TOL, _CosineLaw, _dot, _floats, _length_scale, _need_parallel, _perpendicular, _unit,
 )
 
 
@@ -31,32 +28,25 @@ class Planar2R(Family):
     aliases = ELBOW_ALIASES
 
     def __init__(self, robot, z, o, tool):
-        a1, a2 = unit(z[0]), unit(z[1])
-        need_parallel(a1, a2, "axes 1 and 2 must be parallel")
-        scale = length_scale(robot)
-        u = perpendicular(a1)
+        a1, a2 = _unit(z[0]), _unit(z[1])
+        _need_parallel(a1, a2, "axes 1 and 2 must be parallel")
+        scale = _length_scale(robot)
+        u = _perpendicular(a1)
         v = np.cross(a1, u)
-        self.n, self.u, self.v, self.O = floats(a1), floats(u), floats(v), floats(o[0])
+        self.n, self.u, self.v, self.O = _floats(a1), _floats(u), _floats(v), _floats(o[0])
         self.s2 = 1.0 if a1 @ a2 > 0 else -1.0
         self.h = float(a1 @ (tool[:3, 3] - o[0]))  # height of the tool point along axis 1 (constant)
         e, f = o[1] - o[0], tool[:3, 3] - o[1]
-        ex, ey, fx, fy = e @ u, e @ v, f @ u, f @ v
-        self.L1, self.L2 = math.hypot(ex, ey), math.hypot(fx, fy)
-        if self.L1 < TOL * scale or self.L2 < TOL * scale:
-            raise NotThisFamily("axis 2 must be away from axis 1 and the tool point away from axis 2")
-        self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
-        self.law = CosineLaw(self.L1, self.L2)
+        self.law = _CosineLaw((e @ u, e @ v), (f @ u, f @ v), TOL * scale,
+                              "axis 2 must be away from axis 1 and the tool point away from axis 2")
         self.height_tol = 1e-9 * scale
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[k] - self.O[k] for k in range(3))
         dz = _dot(self.n, d) - self.h
-        ok, in_plane, elbow, shoulder, direction = self.law.solve(_dot(self.u, d), _dot(self.v, d))
+        ok, in_plane, q = self.law.branches(_dot(self.u, d), _dot(self.v, d))
         off_plane = np.abs(dz) > self.height_tol
         distance = np.hypot(in_plane, np.where(off_plane, dz, 0.0))
         ok = ok & np.logical_not(off_plane)
-        q = []
-        for sign in (-1.0, 1.0):  # elbow up: relative angle < 0
-            q.append((direction - sign * shoulder - self.g1, self.s2 * (sign * elbow - (self.g2 - self.g1))))
-        return q, [ok, ok], distance
+        return [(q1, self.s2 * q2) for q1, q2 in q], [ok, ok], distance

@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, CosineLaw, NotThisFamily
+from labkit.kinematics._ik_solvers._family import ELBOW_ALIASES, ELBOWS, Family, _documented
+from labkit.kinematics._ik_solvers._geometry import TOL, _CosineLaw, NotThisFamily
 
 
 class Planar3R(Family):
@@ -32,30 +32,18 @@ class Planar3R(Family):
         if abs(tool[2, 2] - 1.0) > TOL:
             raise NotThisFamily("the tool z axis must be world +z")
         P = o[:, :2]
-        e, f = P[1] - P[0], P[2] - P[1]
         self.base = (float(P[0, 0]), float(P[0, 1]))
-        self.L1, self.L2 = float(np.hypot(*e)), float(np.hypot(*f))
-        if self.L1 < TOL or self.L2 < TOL:
-            raise NotThisFamily("links 1 and 2 must have non-zero length")
-        self.law = CosineLaw(self.L1, self.L2)
-        self.g1 = math.atan2(e[1], e[0])
-        self.g2 = math.atan2(f[1], f[0])
+        self.law = _CosineLaw(P[1] - P[0], P[2] - P[1], TOL, "links 1 and 2 must have non-zero length")
         self.psi0 = math.atan2(tool[1, 0], tool[0, 0])
         t0 = tool[:2, 3] - P[2]  # tool point relative to axis 3 at q = 0
         self.t0 = (float(t0[0]), float(t0[1]))
 
-    @documented
+    @_documented
     def solve(self, t):
         x, y, phi = t[0], t[1], t[2]
         rot = phi - self.psi0  # q1 + q2 + q3
         c, s = np.cos(rot), np.sin(rot)
         t0x, t0y = self.t0
-        wx = x - (c * t0x - s * t0y) - self.base[0]
-        wy = y - (s * t0x + c * t0y) - self.base[1]
-        ok, distance, elbow, shoulder, direction = self.law.solve(wx, wy)
-        q = []
-        for sign in (-1.0, 1.0):  # elbow up: theta_b < 0
-            q1 = direction - sign * shoulder - self.g1
-            q2 = sign * elbow - (self.g2 - self.g1)
-            q.append((q1, q2, rot - q1 - q2))
-        return q, [ok, ok], distance
+        ok, distance, q = self.law.branches(x - (c * t0x - s * t0y) - self.base[0],
+                                            y - (s * t0x + c * t0y) - self.base[1])
+        return [(q1, q2, rot - q1 - q2) for q1, q2 in q], [ok, ok], distance

@@ -26,9 +26,11 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, _dot, floats, need_parallel, unit
-from labkit.kinematics._ik_solvers._scara import up_axis
+from labkit.kinematics._ik_solvers._family import Family, _documented
+from labkit.kinematics._ik_solvers._geometry import (
+    TOL, NotThisFamily, _dot, _floats, _in_chain_order, _need_parallel, _unit,
+)
+from labkit.kinematics._ik_solvers._scara import _up_axis
 
 
 class Cylindrical(Family):
@@ -41,23 +43,23 @@ class Cylindrical(Family):
 
     def __init__(self, robot, z, o, tool):
         rev = int(np.flatnonzero(robot.is_revolute)[0])
-        k, u, v = up_axis(robot, z[rev:])
+        k, u, v = _up_axis(robot, z[rev:])
         lift, radial = (int(j) for j in np.flatnonzero(~robot.is_revolute))
-        if abs(unit(z[lift]) @ k) < 1.0 - TOL:
+        if abs(_unit(z[lift]) @ k) < 1.0 - TOL:
             lift, radial = radial, lift
-        need_parallel(k, unit(z[lift]), "one prismatic axis must be parallel to the revolute one")
-        e = unit(z[radial])
+        _need_parallel(k, _unit(z[lift]), "one prismatic axis must be parallel to the revolute one")
+        e = _unit(z[radial])
         if abs(e @ k) > TOL or radial < rev:
             raise NotThisFamily("the other prismatic axis must be perpendicular to the revolute one and after it")
         self.order = (rev, lift, radial)
         self.s_rev, self.s_lift = (1.0 if z[j] @ k > 0 else -1.0 for j in (rev, lift))
-        self.k, self.u, self.v, self.O = floats(k), floats(u), floats(v), floats(o[rev])
+        self.k, self.u, self.v, self.O = _floats(k), _floats(u), _floats(v), _floats(o[rev])
         p0 = tool[:3, 3] - o[rev]
         f = np.cross(k, e)
         self.c, self.b, self.h0 = float(p0 @ e), float(p0 @ f), float(p0 @ k)
         self.E, self.F = (float(e @ u), float(e @ v)), (float(f @ u), float(f @ v))
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[i] - self.O[i] for i in range(3))
         x, y = _dot(self.u, d), _dot(self.v, d)
@@ -72,10 +74,7 @@ class Cylindrical(Family):
         for sign in (1.0, -1.0):
             along = sign * rho  # c + q: the tool point's distance along the radial direction
             turn = np.arctan2(y, x) - np.arctan2(along * ev + b * fv, along * eu + b * fu)
-            branch = [None] * 3
-            for j, value in zip(self.order, (self.s_rev * turn, lift, along - self.c)):
-                branch[j] = value
-            q.append(tuple(branch))
+            q.append(_in_chain_order(self.order, (self.s_rev * turn, lift, along - self.c)))
         return q, [ok, ok], distance
 
 
@@ -88,13 +87,13 @@ class Cartesian(Family):
     branches = ("unique",)
 
     def __init__(self, robot, z, o, tool):
-        E = np.column_stack([unit(a) for a in z])
+        E = np.column_stack([_unit(a) for a in z])
         if abs(np.linalg.det(E)) < math.sqrt(TOL):
             raise NotThisFamily("the three prismatic axes must be linearly independent")
-        self.inverse = tuple(floats(row) for row in np.linalg.inv(E))
-        self.p0 = floats(tool[:3, 3])
+        self.inverse = tuple(_floats(row) for row in np.linalg.inv(E))
+        self.p0 = _floats(tool[:3, 3])
 
-    @documented
+    @_documented
     def solve(self, t):
         d = tuple(t[i] - self.p0[i] for i in range(3))
         ok = np.full(np.shape(t[0]), True)

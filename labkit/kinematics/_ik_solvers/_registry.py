@@ -9,7 +9,7 @@ plain frozen data). Adding a family: one module with a
 
 from __future__ import annotations
 
-from labkit.kinematics._chain import by_content
+from labkit.kinematics._chain import _by_content
 from labkit.kinematics._ik_solvers._cartesian_yaw import CartesianYaw
 from labkit.kinematics._ik_solvers._planar_2r import Planar2R
 from labkit.kinematics._ik_solvers._planar_3r import Planar3R
@@ -28,21 +28,19 @@ FAMILIES = (Planar2R, Planar3R, YawPitchPitch, YawPitchPitchPitch, YawPitchPitch
 
 _BY_NAME = {f.name: f for f in FAMILIES}
 
-@by_content
+
+@_by_content
 def detect(robot):
-    """The closed-form solver for ``robot`` (the first family that fits) or None, cached by content.
+    """The first family that fits ``robot``, built on it (or None), cached by content.
 
     Parameters
     ----------
     robot : Robot
-        The arm whose geometry is inspected.
 
     Returns
     -------
-    solver : Family or None
-        The family built on the robot.
-    reasons : dict
-        For every family tried before, why it does not fit.
+    solver, reasons : Family or None, dict
+        The family, and why each family tried before does not fit.
     """
     reasons, found = {}, None
     for family in FAMILIES:
@@ -54,19 +52,15 @@ def detect(robot):
 
 
 def build(robot, name):
-    """The family ``name`` on ``robot``, or why it does not fit.
+    """The family ``name`` on ``robot``, or why it does not fit (:meth:`Family.fits`).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     name : str
-        A family name (``FAMILIES[k].name``).
 
     Returns
     -------
-    solver : Family or None
-    reason : str
-        Empty when it fits.
+    solver, reason : Family or None, str
     """
     return _BY_NAME[name].fits(robot)

@@ -1,17 +1,14 @@
 """Running a closed-form family on targets, and the one finishing step (private).
 
 :func:`solve` runs a family's formulas on the validated targets as numpy rows
-(one target is a batch of one) in cache-sized chunks, then every joint value
-goes through :func:`finish`: flipped joints negated, revolute angles wrapped
-into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and shifted by a turn
-where that enters the limits. Whether a configuration lies inside the limits
-is :meth:`labkit.robot.Robot.within_limits`, and which valid branch is nearest
-a preferred configuration is :func:`nearest`, both for every solver.
-
-No NaN ever leaves: where a branch cannot reach a target its ``reachable``
-flag is False and its ``q`` holds the finite configuration obtained by
-clipping the cosine-law arguments to [-1, 1] (the arm stretched or folded
-towards the target), a fill, not a solution.
+in cache-sized chunks (one target on Python floats, :mod:`._elementwise`), then
+every joint value goes through :func:`finish`: flipped joints negated, revolute
+angles wrapped into ``(-pi, pi]`` (:func:`labkit.rotations.wrap_angle`) and
+shifted by a turn where that enters the limits; no NaN leaves (an unreachable
+branch is a finite fill, :mod:`labkit.kinematics._ik`). Whether a configuration
+lies inside the limits is :meth:`labkit.robot.Robot.within_limits`, and which
+valid branch is nearest a preferred configuration is :func:`nearest`, both for
+every solver.
 """
 
 from __future__ import annotations
@@ -20,7 +17,7 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._chain import per_robot
+from labkit.kinematics._chain import _per_robot
 from labkit.rotations import wrap_angle
 
 #: targets per numpy call of a family
@@ -32,25 +29,21 @@ _SLACK = 1e-9
 
 
 def finish(robot, q, *, flipped=True, copy=True):
-    """Joint values from a solver as the robot's joint values.
+    """A solver's joint values [rad, m] as the robot's: revolute angles wrapped into (-pi, pi], then a turn
+    up or down where that enters the joint's limits; non-finite values replaced by 0.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     q : array_like, shape (..., n)
-        Joint values [rad, m], in the chain's sense with ``flipped`` (from a
-        closed-form family), else already the robot's (numeric IK).
     flipped : bool
-        Negate the flipped joints (``Link.flip``).
+        ``q`` is in the chain's sense (a closed-form family's): negate the flipped joints.
     copy : bool
-        Return a new array; False: overwrite ``q`` where it is a float array.
+        False: overwrite ``q`` where it is a float array.
 
     Returns
     -------
     ndarray, shape (..., n)
-        Revolute angles wrapped into (-pi, pi], then a turn up or down where
-        that enters the joint's limits; non-finite values replaced by 0.
     """
     q = np.array(q, dtype=float) if copy else np.asarray(q, dtype=float)
     flip, any_flip, rev, lo, hi, up, down = _joints(robot)
@@ -72,7 +65,7 @@ def finish(robot, q, *, flipped=True, copy=True):
     return q
 
 
-@per_robot
+@_per_robot
 def _joints(robot):
     """Flipped joints (and whether any), revolute ones (a slice of all when all are: a view, not a copy),
     their limits with slack [rad], and whether a wrapped angle v can go a turn up (v < lo needs lo > -pi;
@@ -84,26 +77,19 @@ def _joints(robot):
 
 
 def solve(robot, family, flat):
-    """Every branch of validated targets, finished.
+    """Every branch of validated targets (``_targets.validate_targets``), finished.
 
     Parameters
     ----------
     robot : Robot
-        The arm.
     family : Family
-        Its closed-form solver.
     flat : ndarray, shape (N, k) or (N, 4, 4)
-        Validated targets (:func:`labkit.kinematics._ik_solvers._targets.validate_targets`).
 
     Returns
     -------
-    q : ndarray, shape (N, m, n)
-        Joint values [rad, m] per branch (unreachable: a finite fill).
-    reachable : ndarray of bool, shape (N, m)
-    valid : ndarray of bool, shape (N, m)
-        Reachable and inside the joint limits.
-    distance : ndarray, shape (N,)
-        How far each target lies out of reach [m] (0 if any branch reaches it).
+    q, reachable, valid, distance : ndarray, shape (N, m, n), (N, m), (N, m), (N,)
+        Joint values [rad, m] per branch (unreachable: a finite fill), reachable, valid (reachable and
+        inside the limits), and how far each target lies out of reach [m] (0 if a branch reaches it).
     """
     N, m, n = flat.shape[0], len(family.branches), robot.n
     q, reach, distance = np.empty((N, m, n)), np.empty((N, m), dtype=bool), np.empty(N)
@@ -147,18 +133,16 @@ def nearest(robot, q, valid, q_near):
     Parameters
     ----------
     robot : Robot
-        The arm.
     q : ndarray, shape (N, m, n)
-        Joint values of every branch [rad, m].
+        Every branch [rad, m].
     valid : ndarray of bool, shape (N, m)
-        Which branches may be picked.
     q_near : ndarray, shape (N, n) or None
         Preferred configurations [rad, m]; None: the first valid branch.
 
     Returns
     -------
     ndarray of int, shape (N,)
-        The branch picked per target (0 where none is valid).
+        0 where none is valid.
     """
     if q_near is None or q.shape[1] == 1:
         return np.argmax(valid, axis=1)

@@ -9,7 +9,7 @@ centre of ``stanford``) may lie off the boom: at ``q = 0``,
 ``d2`` is ``off``, its ``a3`` is ``c_n``).
 
 Joint 1 as ``yaw_pitch_pitch``: the two arm planes through ``W`` at the
-lateral offset ``off`` (:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch.Shoulder`),
+lateral offset ``off`` (:class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch._Shoulder`),
 ``front`` then ``back``. In a plane, ``W`` lies ``rho`` from the shoulder's
 line, ``rho^2 = (c_e + q3)^2 + c_n^2``: the boom ``out`` (``c_e + q3 > 0``,
 ``W`` on the boom's positive side) or ``in`` (run back through the
@@ -31,88 +31,46 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, sqrt
-from labkit.kinematics._ik_solvers._family import Family, documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, NotThisFamily, feet, floats, length_scale, rotate, unit,
+    REACH_TOL, TOL, NotThisFamily, _feet, _floats, _length_scale, _rotate, _unit,
 )
 from labkit.kinematics._ik_solvers._spherical_wrist import SphericalWrist
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Shoulder
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Shoulder, YawPitchPitch, _joint2_middle
 
 
-class SphericalArm(Shoulder):
-    """Geometry of joints 1-3 of a spherical (RRP) arm: yaw, pitch, boom, placing a point ``W``.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm (its joint types and joint 2 limits).
-    z, o : ndarray, shape (n, 3)
-        Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
-    W0 : ndarray, shape (3,)
-        The point placed (tool point, wrist centre), at ``q = 0`` [m].
-
-    Raises
-    ------
-    NotThisFamily
-        Joints 1-3 are not such an arm.
-    """
+class _SphericalArm(_Shoulder):
+    """Geometry of joints 1-3 of a spherical (RRP) arm, yaw, pitch and boom, placing a point ``W`` (arguments
+    and :class:`NotThisFamily` as :class:`~labkit.kinematics._ik_solvers._yaw_pitch_pitch._Arm`)."""
 
     def __init__(self, robot, z, o, W0):
         if not (robot.is_revolute[0] and robot.is_revolute[1]) or robot.is_revolute[2]:
             raise NotThisFamily("joints 1 and 2 must be revolute and joint 3 prismatic")
-        a1, a2, e = (unit(v) for v in z[:3])
+        a1, a2, e = (_unit(v) for v in z[:3])
         if abs(a1 @ a2) > TOL:
             raise NotThisFamily("axis 2 must be perpendicular to axis 1")
-        S1, S2 = feet(o[0], a1, o[1], a2)
-        if np.linalg.norm(S2 - S1) > TOL * length_scale(robot):
+        S1, S2 = _feet(o[0], a1, o[1], a2)
+        if np.linalg.norm(S2 - S1) > TOL * _length_scale(robot):
             raise NotThisFamily("axes 1 and 2 must meet (the shoulder)")
         if abs(e @ a2) > TOL:
             raise NotThisFamily("the boom (joint 3) must be perpendicular to axis 2")
         er, n = np.cross(a2, a1), np.cross(a2, e)
         Wd = W0 - S1
         self.off, self.c_e, self.c_n = float(Wd @ a2), float(Wd @ e), float(Wd @ n)
-        self.S, self.a1, self.a2 = floats(S1), floats(a1), floats(a2)
-        self.planes_frame = (floats(er), self.a2, self.a1)
+        self.S, self.a1, self.a2 = _floats(S1), _floats(a1), _floats(a2)
+        self.planes_frame = (_floats(er), self.a2, self.a1)
         # in the plane perpendicular to a2, coordinates along (er, -a1), in which joint 2 turns positively
         self.e2, self.n2 = (float(e @ er), float(-(e @ a1))), (float(n @ er), float(-(n @ a1)))
-        lim = robot.joint_limits[1]
-        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
-        mid = -mid if robot.links[1].flip else mid  # the limits are on q, the geometry on the chain's theta
-        radial, = rotate(self.a2, mid, floats(e))
+        radial, = _rotate(self.a2, _joint2_middle(robot), _floats(e))
         radial = float(np.dot(radial, er))
         self.front = -1.0 if radial < -0.2 else 1.0
 
     def pitch(self, q2, q3):
-        """The turn about axis 2 of the joints after joint 1: joint 2's (the boom only slides) [rad].
-
-        Parameters
-        ----------
-        q2, q3 : ndarray or float
-            Joint 2 [rad] and the boom [m] in the chain's sense.
-
-        Returns
-        -------
-        ndarray or float
-        """
+        """The turn [rad] about axis 2 of the joints after joint 1: joint 2's (the boom ``q3`` [m] slides)."""
         return q2
 
     def solve(self, W):
-        """Joints 1-3 placing ``W`` (components), four branches.
-
-        Parameters
-        ----------
-        W : tuple
-            3 components of the point to place [m].
-
-        Returns
-        -------
-        q : list of tuple
-            ``(q1, q2, q3)`` [rad, rad, m] per branch: front out, front in, back out, back in.
-        reachable : list
-            Per branch.
-        distance : ndarray or float
-            How far ``W`` lies out of reach [m].
-        """
+        """``(q1, q2, q3)`` [rad, rad, m] placing ``W`` (3 components) [m] per branch (front out, front in, back
+        out, back in), whether each reaches it, and how far ``W`` lies out of reach [m]."""
         sides, w, shoulder_ok, lateral = self.planes(W)
         c_n, (ex, ey), (nx, ny) = self.c_n, self.e2, self.n2
         u = sides[0][2]
@@ -130,21 +88,14 @@ class SphericalArm(Shoulder):
         return q, reach, distance
 
 
-class SphericalRRP(Family):
+class SphericalRRP(YawPitchPitch):
     """Closed-form position IK of a spherical (RRP) arm: four branches."""
 
     name = "spherical_rrp"
-    kind = "position"
     joints, prismatic = 3, 1
     branches = ("front_out", "front_in", "back_out", "back_in")
     aliases = {"front": "front_out", "back": "back_out"}
-
-    def __init__(self, robot, z, o, tool):
-        self.arm = SphericalArm(robot, z, o, tool[:3, 3])
-
-    @documented
-    def solve(self, t):
-        return self.arm.solve(t)
+    arm_type = _SphericalArm
 
 
 class Stanford(SphericalWrist):
@@ -152,5 +103,5 @@ class Stanford(SphericalWrist):
 
     name = "stanford"
     prismatic = 1
-    arm_type, arm_branches = SphericalArm, (("front", "back"), ("out", "in"))
+    arm_type, arm_branches = _SphericalArm, (("front", "back"), ("out", "in"))
 

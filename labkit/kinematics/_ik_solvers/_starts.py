@@ -13,33 +13,19 @@ import dataclasses
 
 import numpy as np
 
-from labkit.kinematics._chain import by_content
+from labkit.kinematics._chain import _by_content
 from labkit.kinematics._ik_solvers._registry import detect
 from labkit.kinematics._ik_solvers._solve import solve as solve_family
 
 #: snapping thresholds tried in turn, as fractions of the arm's length scale (sum of |a| + |d|)
 SNAP_FRACTIONS = (1e-3, 1e-2, 3e-2)
-#: largest twist-angle error snapped to a multiple of pi/2 [rad] (3 deg)
+#: largest twist-angle error _snapped to a multiple of pi/2 [rad] (3 deg)
 SNAP_ALPHA = np.radians(3.0)
 
 
-def snapped(robot, fraction):
-    """Copy of ``robot`` with small DH lengths set to 0 and near-right twists made exact.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm to idealise.
-    fraction : float
-        Lengths ``a``, ``d`` with ``|value| <= fraction * L`` become 0, where
-        ``L`` is the sum of all ``|a| + |d|`` [m]; twists ``alpha`` within
-        :data:`SNAP_ALPHA` of a multiple of pi/2 become that multiple.
-
-    Returns
-    -------
-    Robot or None
-        The idealised copy, or None when nothing changed.
-    """
+def _snapped(robot, fraction):
+    """Copy of ``robot`` with DH lengths up to ``fraction`` of the sum of all ``|a| + |d|`` set to 0 and twists
+    within :data:`SNAP_ALPHA` of a multiple of pi/2 made that multiple; None when nothing changed."""
     scale = sum(abs(link.a) + abs(link.d) for link in robot.links)
     links, changed = [], False
     for link in robot.links:
@@ -54,25 +40,21 @@ def snapped(robot, fraction):
     return robot.replace(links=tuple(links)) if changed else None
 
 
-@by_content
+@_by_content
 def start_window(robot):
-    """Where random starts of numeric IK are drawn: the limits, revolute joints within half a turn of 0.
+    """Where random starts of numeric IK are drawn [rad, m] (cached by content).
 
-    A revolute joint's window is its limits cut to ``c +- pi``, ``c`` the point of
-    its range nearest 0 (0 when the range holds it): one turn, every angle
-    once, whether the range is continuous (infinite), +-1e300 deg or a few
-    degrees off 0. A prismatic joint's window is its limits (infinite ones as
-    +-2 pi [m]). Cached by the robot's content.
+    A revolute joint's window is its limits cut to ``c +- pi``, ``c`` the point of its range
+    nearest 0: one turn, whether the range is infinite, +-1e300 deg or a few degrees off 0. A
+    prismatic joint's window is its limits (infinite ones as +-2 pi [m]).
 
     Parameters
     ----------
     robot : Robot
-        The arm.
 
     Returns
     -------
     lo, hi : ndarray, shape (n,)
-        The window's ends [rad, m].
     """
     lim, rev = robot.joint_limits, robot.is_revolute
     centre = np.clip(0.0, lim[:, 0], lim[:, 1])
@@ -81,31 +63,25 @@ def start_window(robot):
     return lo, hi
 
 
-@by_content
+@_by_content
 def near_family(robot):
-    """The closed-form solver of the nearest idealised copy of ``robot`` (cached by content), or ``(None, None)``.
+    """The nearest idealised copy of ``robot`` that has a closed form, and that family, or ``(None, None)``.
 
-    A calibrated arm (small link offsets, twists a fraction of a degree off 90)
-    has no closed form, but its idealised copy (:func:`snapped`, the smallest
-    threshold of :data:`SNAP_FRACTIONS` that works) often has; its solutions
-    land millimetres from the target, which Levenberg-Marquardt then polishes
-    on the real arm in a few iterations.
+    A calibrated arm (small link offsets, twists a fraction of a degree off 90) has no closed form,
+    but its idealised copy (:func:`_snapped`, the smallest of :data:`SNAP_FRACTIONS` that works)
+    often has; its solutions land millimetres from the target, for LM to polish. Cached by content.
 
     Parameters
     ----------
     robot : Robot
-        An arm without a closed-form family of its own.
 
     Returns
     -------
-    ideal : Robot or None
-        The idealised copy.
-    solver : object or None
-        Its analytic solver.
+    ideal, solver : Robot or None, Family or None
     """
     result = (None, None)
     for fraction in SNAP_FRACTIONS:
-        ideal = snapped(robot, fraction)
+        ideal = _snapped(robot, fraction)
         if ideal is None:
             continue
         found, _ = detect(ideal)
@@ -117,47 +93,32 @@ def near_family(robot):
 
 @dataclasses.dataclass(frozen=True)
 class Starts:
-    """Ranked starting configurations of targets (:func:`analytic_seeds`).
-
-    Attributes
-    ----------
-    all : ndarray, shape (N, m, n)
-        Every start [rad, m], best first; rows of NaN after a target's last one.
-    found : ndarray of bool, shape (N,)
-        Which targets have a start (``all[:, 0]`` not NaN).
-    """
+    """Ranked starts (N, m, n) [rad, m] of targets, best first, rows of NaN after a target's last one
+    (``all``), and which targets have one (``found``, shape (N,))."""
 
     all: np.ndarray
     found: np.ndarray
 
 
 def analytic_seeds(robot, kind, target):
-    """Ranked starting configurations from a closed-form family of the robot or of its idealised copy, or None.
+    """Ranked starts from the closed form of the robot or of its idealised copy, or None when none applies.
 
-    When :func:`labkit.kinematics._ik_solvers._registry.detect` finds a solver for
-    ``robot`` whose targets are of ``kind``, its branches that are reachable
-    and inside the joint limits are the starts (so LM only polishes them).
-    Otherwise the same is done with the solver of the nearest idealised copy
-    of the robot (:func:`near_family`: small offsets removed), whose solutions
-    are millimetres from the real ones; there every branch is a start, ranked:
-    reachable and inside the limits first, then by how far it leaves the limits
-    (clipped into them), then the copy's closest approaches to targets just out
-    of its reach (the real arm may reach them). An attempt that stalls moves on
-    to the next start; a target without any starts from a random configuration.
+    With the robot's own family (for targets of ``kind``) the starts are its branches that are
+    reachable and inside the limits (LM only polishes them). With the idealised copy's
+    (:func:`near_family`) every branch is a start: reachable and inside the limits first, then by
+    how far it leaves them (clipped into them), then the copy's closest approaches to targets just
+    out of its reach (the real arm may reach them).
 
     Parameters
     ----------
     robot : Robot
-        The arm to seed (with a closed form of its own, or near one).
     kind : {"position", "planar", "pose"}
-        What the targets fix.
     target : ndarray, shape (N, 3) or (N, 4, 4)
         Targets [m, rad].
 
     Returns
     -------
     Starts or None
-        None when no closed form applies.
     """
     found, _ = detect(robot)
     exact = found is not None  # the robot's own family (else its idealised copy's)

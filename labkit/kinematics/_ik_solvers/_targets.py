@@ -1,9 +1,6 @@
-"""IK targets: the task rows of each target kind, validation, batch indices and
-descriptions for error messages (private; :func:`task_rows` is public from
-:mod:`labkit.kinematics`).
-
-Every solver, closed-form or numeric, takes its targets through
-:func:`validate_targets`.
+"""IK targets: the task rows of each target kind, validation (every solver's targets pass
+:func:`validate_targets`), batch indices and descriptions for error messages (private;
+:func:`task_rows` and :func:`target_components` are public from :mod:`labkit.kinematics`).
 """
 
 from __future__ import annotations
@@ -17,8 +14,7 @@ from labkit.kinematics._ik_solvers._elementwise import maximum
 from labkit.kinematics._ik_solvers._geometry import _cross, _dot
 from labkit.validation import as_batch
 
-__all__ = ["task_rows", "target_components", "batch_index", "describe_target", "validate_targets", "COMPONENTS",
-           "REDUCED", "target_words"]
+__all__ = ["task_rows", "target_components", "validate_targets", "COMPONENTS", "REDUCED"]
 
 #: the components of each vector target kind, in order (a ``"pose"`` is a 4 x 4 transform)
 COMPONENTS = {
@@ -44,21 +40,10 @@ _TASK_ROWS = {"position": (0, 1, 2), "planar": (0, 1, 5), "pose": (0, 1, 2, 3, 4
               "position_yaw": (0, 1, 2, 3, 4, 5)}
 
 
-def target_words(kind):
+def _target_words(kind):
     """What a target of ``kind`` is, in words for messages: ``"x y z pitch"``, ``"a 4 x 4 pose"`` ...
 
-    Parameters
-    ----------
-    kind : str
-        A target kind (:func:`labkit.kinematics.target_kind`).
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> target_words("position_pitch_roll")
+    >>> _target_words("position_pitch_roll")
     'x y z pitch roll'
     """
     if kind == "pose":
@@ -123,34 +108,30 @@ def task_rows(kind):
 
 
 def validate_targets(target, kind):
-    """Validate IK targets of one kind; flatten the batch.
+    """Validate IK targets of ``kind`` [m, rad] (poses also for the :data:`REDUCED` kinds); flatten the batch.
 
     Parameters
     ----------
     target : array_like, shape (..., k) or (..., 4, 4)
-        Positions or planar ``(x, y, phi)`` [m, rad], ``(x, y, z, pitch[, roll])``
-        [m, rad], or tool poses (also taken by the ``position_pitch[_roll]`` kinds).
     kind : str
-        What the targets fix (:func:`labkit.kinematics.target_kind`).
 
     Returns
     -------
     flat : ndarray, shape (N, k) or (N, 4, 4)
-        The targets, one per row.
     lead : tuple of int
         The batch shape.
 
     Raises
     ------
     ShapeError
-        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a
-        pose that is not a rigid transform (rotation columns orthonormal to
-        1e-6, det > 0, last row ``[0, 0, 0, 1]`` to 1e-12).
+        Wrong shape, non-finite values or values beyond :data:`FARTHEST`, or a pose that is not a
+        rigid transform (rotation columns orthonormal to 1e-6, det > 0, last row ``[0, 0, 0, 1]``
+        to 1e-12).
     """
     try:
         target = np.asarray(target, dtype=float)
     except (TypeError, ValueError) as exc:  # ragged lists, strings ...
-        raise ShapeError(f"expected the target as numbers ({target_words(kind)}), got {target!r:.80} ({exc})") \
+        raise ShapeError(f"expected the target as numbers ({_target_words(kind)}), got {target!r:.80} ({exc})") \
             from None
     if kind in REDUCED and target.shape[-2:] != (4, 4):
         return _vector_targets(target, kind)
@@ -158,12 +139,12 @@ def validate_targets(target, kind):
         T = _finite_and_near(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
-        defects = _rigid_defects(T)
-        bad = _is_bad(*defects).nonzero()[0]
+        err, det, last = _rigid_defects(T)
+        bad = ((err > 1e-6) | (det < 0) | (last > 1e-12)).nonzero()[0]
         if len(bad):
             i = int(bad[0])
-            err, det, _ = (d[i] for d in defects)
-            which = "the target" if not lead else f"target {batch_index(i, lead)}"
+            err, det = err[i], det[i]
+            which = "the target" if not lead else f"target {_batch_index(i, lead)}"
             raise ShapeError(
                 f"expected a rigid transform as target pose (orthonormal rotation, det +1, last row "
                 f"[0, 0, 0, 1]); {which} is not (max |R R^T - I| = {err:.2g}, det {det:.3g}, "
@@ -201,7 +182,7 @@ def _finite_and_near(target, last, name):
         rows = np.abs(arr.reshape(-1, *last)[:, :3, 3] if len(last) == 2 else arr.reshape(-1, last[0]))
         far = np.flatnonzero((rows > FARTHEST).any(axis=-1))
         if len(far):  # (a pose's far rotation entry is no rigid transform: refused after this)
-            which = "" if not lead else f" (target {batch_index(int(far[0]), lead)})"
+            which = "" if not lead else f" (target {_batch_index(int(far[0]), lead)})"
             raise ShapeError(f"expected {name} with every {'position ' * (len(last) == 2)}entry within "
                              f"+-{FARTHEST:.0e} (m, rad), got {rows[far[0]].max():.3g}{which}: a robot's "
                              f"workspace is metres across")
@@ -223,44 +204,15 @@ def _rigid_defects(T):
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
-def _is_bad(err, det, last):
-    return (err > 1e-6) | (det < 0) | (last > 1e-12)
-
-
-def batch_index(i, lead):
-    """Index of flat row ``i`` in the batch shape ``lead``.
-
-    Parameters
-    ----------
-    i : int
-        Row of the flattened batch.
-    lead : tuple of int
-        The batch shape (``()`` for one target).
-
-    Returns
-    -------
-    tuple of int or None
-        None for a single target.
-    """
+def _batch_index(i, lead):
+    """Index of flat row ``i`` in the batch shape ``lead`` (None for one target, ``lead = ()``)."""
     if not lead:
         return None
     return tuple(int(k) for k in np.unravel_index(i, lead))
 
 
-def describe_target(kind, t):
-    """A target in words for an error message (metres and degrees).
-
-    Parameters
-    ----------
-    kind : str
-        What the target fixes.
-    t : ndarray, shape (k,) or (4, 4)
-        The target [m, rad].
-
-    Returns
-    -------
-    str
-    """
+def _describe_target(kind, t):
+    """A target ``t`` (k,) or (4, 4) [m, rad] in words for an error message (metres and degrees)."""
     if kind in REDUCED and np.ndim(t) == 1:
         angles = ", ".join(f"{name} = {math.degrees(v):.4g} deg" for name, v in zip(COMPONENTS[kind][3:], t[3:]))
         return "({:.4g}, {:.4g}, {:.4g}) m, ".format(*t[:3]) + angles

@@ -30,30 +30,22 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, CosineLaw, NotThisFamily, angle_about, feet, floats, length_scale, need_parallel,
-    perpendicular, rotation_matrices, unit, wrist_branches,
+    REACH_TOL, TOL, _CosineLaw, NotThisFamily, _angle_about, _feet, _floats, _length_scale, _need_parallel,
+    _perpendicular, _pose_matrices, _rotation_matrices, _unit, _wrist_branches,
 )
 
 
 def _screw(axis, point, angle):
     """Homogeneous transforms ``e^[S] angle`` of a rotation about a line, (N,) -> (N, 4, 4)."""
-    R = rotation_matrices(axis, angle)
-    E = np.zeros(angle.shape + (4, 4))
-    E[..., :3, :3] = R
-    E[..., :3, 3] = point - R @ point
-    E[..., 3, 3] = 1.0
-    return E
+    R = _rotation_matrices(axis, angle)
+    return _pose_matrices(R, point - R @ point)
 
 
 def _inverse(E):
-    Ei = np.zeros_like(E)
     Rt = np.swapaxes(E[..., :3, :3], -1, -2)
-    Ei[..., :3, :3] = Rt
-    Ei[..., :3, 3] = -(Rt @ E[..., :3, 3, None])[..., 0]
-    Ei[..., 3, 3] = 1.0
-    return Ei
+    return _pose_matrices(Rt, -(Rt @ E[..., :3, 3, None])[..., 0])
 
 
 class ThreeParallel(Family):
@@ -64,16 +56,16 @@ class ThreeParallel(Family):
     joints = 6
 
     def __init__(self, robot, z, o, tool):
-        w = [unit(v) for v in z]
+        w = [_unit(v) for v in z]
         n = w[1]
         for k in (2, 3):
-            need_parallel(n, w[k], "axes 2, 3 and 4 must be parallel")
+            _need_parallel(n, w[k], "axes 2, 3 and 4 must be parallel")
         if abs(w[0] @ n) > TOL or abs(w[4] @ n) > TOL:
             raise NotThisFamily("axes 1 and 5 must be perpendicular to axes 2-4")
         if np.linalg.norm(np.cross(w[4], w[5])) < 1e-6:
             raise NotThisFamily("axis 6 must not be parallel to axis 5")
-        scale = length_scale(robot)
-        f5, f6 = feet(o[4], w[4], o[5], w[5])
+        scale = _length_scale(robot)
+        f5, f6 = _feet(o[4], w[4], o[5], w[5])
         if np.linalg.norm(f5 - f6) > TOL * scale:
             raise NotThisFamily("axes 5 and 6 must meet in a point")
         self.w, self.o, self.n = w, o, n
@@ -88,23 +80,19 @@ class ThreeParallel(Family):
         if math.hypot(self.a5, self.b5) < 1e-6:
             raise NotThisFamily("axis 6 must not stay perpendicular to axes 2-4")
         # planar 2R of a point on axis 4 about axes 2, 3 (in the plane perpendicular to n)
-        self.u = perpendicular(n)
+        self.u = _perpendicular(n)
         self.v = np.cross(n, self.u)
         e, f = o[2] - o[1], o[3] - o[2]
-        ex, ey, fx, fy = e @ self.u, e @ self.v, f @ self.u, f @ self.v
-        self.L1, self.L2 = math.hypot(ex, ey), math.hypot(fx, fy)
-        if self.L1 < TOL * scale or self.L2 < TOL * scale:
-            raise NotThisFamily("axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
-        self.g1, self.g2 = math.atan2(ey, ex), math.atan2(fy, fx)
-        self.law = CosineLaw(self.L1, self.L2)
-        self.branches, self.aliases = wrist_branches(("left", "right"))
+        self.law = _CosineLaw((e @ self.u, e @ self.v), (f @ self.u, f @ self.v), TOL * scale,
+                              "axes 2, 3 and 4 must be apart (non-zero upper arm and forearm)")
+        self.branches, self.aliases = _wrist_branches(("left", "right"))
 
-    @documented
+    @_documented
     def solve(self, t):
         T = np.moveaxis(np.atleast_3d(t), -1, 0)  # (one target's components are scalars)
         N = T.shape[0]
         w, o, n = self.w, self.o, self.n
-        w6, nf, uf = floats(w[5]), floats(n), floats(self.u)
+        w6, nf, uf = _floats(w[5]), _floats(n), _floats(self.u)
         X = T @ self.Minv  # = e^[S1] q1 ... e^[S6] q6
         P = T[:, :3, :3] @ self.p56_tool + T[:, :3, 3]
         z6 = T[:, :3, :3] @ self.z6_tool
@@ -127,23 +115,25 @@ class ThreeParallel(Family):
             ok5 = np.abs(c5) <= 1.0 + 1e-9
             acos5 = np.arccos(np.clip(c5, -1.0, 1.0))
             E1inv = _inverse(_screw(w[0], o[0], q1))
-            for elbow in (-1.0, 1.0):  # elbow up: relative angle < 0
-                for sign5 in (1.0, -1.0):
-                    q5 = base5 + sign5 * acos5
-                    # q6: Rot(w6, q6) v = Rot(w5, -q5) n with v = R^T n(q1)
-                    v = (np.swapaxes(X[:, :3, :3], -1, -2) @ nq[:, :, None])[:, :, 0]
-                    m = rotation_matrices(w[4], -q5) @ n
-                    q6 = angle_about(w6, tuple(v.T), tuple(m.T))
-                    vp = v - np.outer(v @ w[5], w[5])
-                    q6 = np.where(np.sqrt((vp * vp).sum(axis=1)) < 1e-12, 0.0, q6)  # wrist singularity
-                    G = E1inv @ X @ _inverse(_screw(w[5], o[5], q6)) @ _inverse(_screw(w[4], o[4], q5))
-                    # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
-                    phi = angle_about(nf, uf, tuple((G[:, :3, :3] @ self.u).T))
-                    p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
-                    ok, dist, bend, shoulder, direction = self.law.solve(p4 @ self.u, p4 @ self.v)
-                    distance = np.minimum(distance, np.maximum(dist1, dist))
-                    r2_ = direction - elbow * shoulder - self.g1  # rotations about n
-                    r3_ = elbow * bend - (self.g2 - self.g1)
-                    q.append((q1, self.s[0] * r2_, self.s[1] * r3_, self.s[2] * (phi - r2_ - r3_), q5, q6))
-                    reach.append(ok1 & ok5 & ok)
+            wrists = []
+            for sign5 in (1.0, -1.0):
+                q5 = base5 + sign5 * acos5
+                # q6: Rot(w6, q6) v = Rot(w5, -q5) n with v = R^T n(q1)
+                v = (np.swapaxes(X[:, :3, :3], -1, -2) @ nq[:, :, None])[:, :, 0]
+                m = _rotation_matrices(w[4], -q5) @ n
+                q6 = _angle_about(w6, tuple(v.T), tuple(m.T))
+                vp = v - np.outer(v @ w[5], w[5])
+                q6 = np.where(np.sqrt((vp * vp).sum(axis=1)) < 1e-12, 0.0, q6)  # wrist singularity
+                G = E1inv @ X @ _inverse(_screw(w[5], o[5], q6)) @ _inverse(_screw(w[4], o[4], q5))
+                # G = e^[S2] q2 e^[S3] q3 e^[S4] q4: rotation about n by phi, and a point of axis 4
+                phi = _angle_about(nf, uf, tuple((G[:, :3, :3] @ self.u).T))
+                p4 = (G[:, :3, :3] @ o[3]) + G[:, :3, 3] - o[1]
+                ok, dist, elbows = self.law.branches(p4 @ self.u, p4 @ self.v)  # rotations about n
+                distance = np.minimum(distance, np.maximum(dist1, dist))
+                wrists.append((q5, q6, phi, ok1 & ok5 & ok, elbows))
+            for elbow in range(2):  # elbow up, then down; noflip, then flip for each
+                for q5, q6, phi, ok, elbows in wrists:
+                    r2, r3 = elbows[elbow]
+                    q.append((q1, self.s[0] * r2, self.s[1] * r3, self.s[2] * (phi - r2 - r3), q5, q6))
+                    reach.append(ok)
         return q, reach, distance

@@ -4,7 +4,7 @@ Three revolute joints: axis 1, axis 2 perpendicular to axis 1 and either
 intersecting it or offset from it along their common normal (a *shoulder
 offset*, ``a_1`` of IRB140 / KR5 arms), axis 3 parallel to axis 2; the tool
 point may lie off the arm plane by a constant lateral offset. Target: tool
-position. :class:`Arm` (joints 1-3 placing a point) is also the first half of
+position. :class:`_Arm` (joints 1-3 placing a point) is also the first half of
 ``yaw_pitch_pitch_pitch`` and ``spherical_wrist``.
 
 Branch naming (geometric, so it does not depend on sign conventions):
@@ -26,13 +26,20 @@ import math
 import numpy as np
 
 from labkit.kinematics._ik_solvers._elementwise import arctan2, maximum, minimum, sqrt, where
-from labkit.kinematics._ik_solvers._family import Family, documented
+from labkit.kinematics._ik_solvers._family import Family, _documented
 from labkit.kinematics._ik_solvers._geometry import (
-    REACH_TOL, TOL, CosineLaw, NotThisFamily, feet, _matvec, floats, length_scale, need_parallel, unit,
+    REACH_TOL, TOL, _CosineLaw, NotThisFamily, _feet, _matvec, _floats, _length_scale, _need_parallel, _unit,
 )
 
 
-class Shoulder:
+def _joint2_middle(robot):
+    """The middle of joint 2's range in the chain's sense (0 for an unbounded range) [rad]."""
+    lim = robot.joint_limits[1]
+    mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
+    return -mid if robot.links[1].flip else mid  # the limits are on q, the geometry on the chain's theta
+
+
+class _Shoulder:
     """Joint 1 of an arm whose axis 2 is perpendicular to axis 1: the two arm planes through a point.
 
     Attributes read: ``S`` (the shoulder's foot on axis 1), ``planes_frame``
@@ -42,26 +49,11 @@ class Shoulder:
     """
 
     def planes(self, P):
-        """The two arm planes through the point ``P`` (components): front side, then back side.
-
-        Parameters
-        ----------
-        P : tuple
-            3 components of a point at the lateral offset of ``W`` [m].
-
-        Returns
-        -------
-        sides : list of tuple
-            ``(side, q1, u)`` per side: ``side`` the sign (a float constant) of
-            ``u``, the radial coordinate of ``P`` in that plane [m] (from axis 1,
-            along the plane's radial direction), and ``q1`` [rad].
-        w : ndarray or float
-            Height of ``P`` along axis 1 from the shoulder's foot on it [m].
-        shoulder_ok : ndarray of bool or bool
-            ``P`` lies at least the lateral offset from axis 1.
-        lateral : ndarray or float
-            How far it lies inside that offset [m].
-        """
+        """The two arm planes through the point ``P`` (3 components) [m], front side then back side:
+        ``sides`` ``[(side, q1, u), ...]`` (``side`` the sign of ``u``, the radial coordinate of ``P`` in
+        that plane from axis 1 [m]; ``q1`` [rad]), ``w`` the height of ``P`` along axis 1 from the
+        shoulder [m], ``shoulder_ok`` (``P`` at least the lateral offset from axis 1) and ``lateral``
+        (how far inside it [m])."""
         S = self.S
         d = (P[0] - S[0], P[1] - S[1], P[2] - S[2])
         hr, hn, w = _matvec(self.planes_frame, d)
@@ -77,51 +69,27 @@ class Shoulder:
             sides.append((side, az - arctan2(off, u), u))
         return sides, w, shoulder_ok, lateral
 
-
     def pitch(self, q2, q3):
-        """The turn about axis 2 of the joints after joint 1 (joints 2 and 3: their axes are parallel) [rad].
-
-        Parameters
-        ----------
-        q2, q3 : ndarray or float
-            Joints 2 and 3 [rad] in the chain's sense.
-
-        Returns
-        -------
-        ndarray or float
-        """
+        """The turn [rad] about axis 2 of the joints after joint 1, from joints 2 and 3 in the chain's sense."""
         return q2 + self.s3 * q3
 
 
-class Arm(Shoulder):
-    """Geometry of joints 1-3: base yaw, two parallel pitch axes, a point ``W`` they place.
-
-    Parameters
-    ----------
-    robot : Robot
-        The arm (for its joint 2 limits).
-    z, o : ndarray, shape (n, 3)
-        Joint axes and points on them at ``q = 0`` (:func:`joint_axes`).
-    W0 : ndarray, shape (3,)
-        The point placed (tool point, wrist centre), at ``q = 0`` [m].
-
-    Raises
-    ------
-    NotThisFamily
-        Axes 1-3 are not yaw-pitch-pitch.
-    """
+class _Arm(_Shoulder):
+    """Geometry of joints 1-3: base yaw, two parallel pitch axes, the point ``W`` (3,) they place (tool point,
+    wrist centre; ``W0`` at ``q = 0`` [m]), from the joint axes ``z`` and points ``o`` on them (n, 3) at
+    ``q = 0``; raises :class:`NotThisFamily` unless axes 1-3 are yaw-pitch-pitch."""
 
     def __init__(self, robot, z, o, W0):
-        a1, a2, a3 = (unit(v) for v in z[:3])
+        a1, a2, a3 = (_unit(v) for v in z[:3])
         if abs(a1 @ a2) > TOL:
             raise NotThisFamily("axis 2 must be perpendicular to axis 1")
-        need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
-        scale = length_scale(robot)
+        _need_parallel(a2, a3, "axis 3 must be parallel to axis 2")
+        scale = _length_scale(robot)
         er = np.cross(a2, a1)
         # the shoulder: foot of the common normal of axes 1 and 2 on axis 2, at the radial
         # distance Sr from axis 1 (the shoulder offset a_1 of IRB140 / KR5 arms; 0 for a PUMA)
-        S1, S2 = feet(o[0], a1, o[1], a2)
-        self.S = floats(S1)
+        S1, S2 = _feet(o[0], a1, o[1], a2)
+        self.S = _floats(S1)
         self.Sr = float((S2 - S1) @ er)
         self.s3 = 1.0 if a3 @ a2 > 0 else -1.0
         E = o[2] - S2
@@ -129,70 +97,30 @@ class Arm(Shoulder):
         Wd = W0 - S1
         Wr, Wv = Wd @ er, Wd @ a1
         self.off = float(Wd @ a2)
-        self.L1 = float(math.hypot(Er, Ev))
-        self.L2 = float(math.hypot(Wr - self.Sr - Er, Wv - Ev))
-        if self.L1 < TOL * scale or self.L2 < TOL * scale:
-            raise NotThisFamily("the elbow must be away from the shoulder and the wrist")
-        self.law = CosineLaw(self.L1, self.L2)
-        self.g1 = math.atan2(Ev, Er)
-        self.g2 = math.atan2(Wv - Ev, Wr - self.Sr - Er)
+        self.law = law = _CosineLaw((Er, Ev), (Wr - self.Sr - Er, Wv - Ev), TOL * scale,
+                                    "the elbow must be away from the shoulder and the wrist")
         # which sign of u is the "front" (q1 as atan2 of the target) and which side is "up"
         self.front = -1.0 if Wr < -TOL * scale else 1.0
-        lim = robot.joint_limits[1]
-        mid = 0.5 * (lim[0] + lim[1]) if np.all(np.isfinite(lim)) else 0.0
-        if robot.links[1].flip:  # limits are on q; the geometry here uses the chain's theta
-            mid = -mid
-        self.up = -1.0 if self.L1 * math.sin(self.g1 - mid) < -0.2 * self.L1 else 1.0
-        self.up_positive, self.g21 = self.up > 0, self.g2 - self.g1
-        self.a1, self.a2, self.er = floats(a1), floats(a2), floats(er)
+        self.up = -1.0 if law.L1 * math.sin(law.g1 - _joint2_middle(robot)) < -0.2 * law.L1 else 1.0
+        self.up_positive = self.up > 0
+        self.a1, self.a2, self.er = _floats(a1), _floats(a2), _floats(er)
         self.planes_frame = (self.er, self.a2, self.a1)  # rows: radial, lateral and height of a point
 
     def elbows(self, side, ur, w):
-        """Joints 2-3 placing ``W`` at ``(ur, w)`` in an arm plane, seen from the shoulder: both elbows.
-
-        Parameters
-        ----------
-        side : float
-            The plane's side (``planes``), for a point straight above the shoulder.
-        ur, w : ndarray or float
-            Radial coordinate from the shoulder and height of ``W`` [m].
-
-        Returns
-        -------
-        ok : ndarray of bool or bool
-            The cosine law reaches it.
-        distance : ndarray or float
-            How far it lies out of reach [m].
-        pairs : list of tuple
-            ``(q2, q3)`` [rad], elbow up then elbow down.
-        """
+        """Joints 2-3 [rad] placing ``W`` at ``(ur, w)`` [m] from the shoulder in the arm plane of ``side``:
+        ``ok``, ``distance`` out of reach [m] and ``[(q2, q3) elbow up, (q2, q3) elbow down]``."""
         ok, dist, elbow, shoulder, direction = self.law.solve(ur, w)
         # the shoulder -> W line points along +er' where ur > 0 (side when there is no offset)
         forward = where(abs(ur) > 1e-12, ur > 0, side > 0)
         # elbow above the shoulder->W line  <=>  (theta_b < 0) == (ur > 0), with up = +axis 1
         sign = where(forward == self.up_positive, -1.0, 1.0)  # the elbow below has -sign
         ss, se = sign * shoulder, sign * elbow
-        g1, g21, s3 = self.g1, self.g21, self.s3
+        g1, g21, s3 = self.law.g1, self.law.g21, self.s3
         return ok, dist, [(g1 - (direction - ss), s3 * (g21 - se)), (g1 - (direction + ss), s3 * (g21 + se))]
 
     def solve(self, W):
-        """Joints 1-3 placing ``W`` (components), four branches.
-
-        Returns
-        -------
-        q : list of tuple
-            ``(q1, q2, q3)`` [rad] per branch: front elbow up, front elbow down,
-            back elbow up, back elbow down.
-        reachable : list
-            Per branch.
-        distance : ndarray or float
-            How far ``W`` lies out of reach [m].
-
-        Parameters
-        ----------
-        W : tuple
-            3 components of the point to place [m].
-        """
+        """``(q1, q2, q3)`` [rad] placing ``W`` (3 components) [m] per branch (front elbow up, front down,
+        back up, back down), whether each reaches it, and how far ``W`` lies out of reach [m]."""
         sides, w, shoulder_ok, lateral = self.planes(W)
         q, reach, distance = [], [], None
         for side, q1, u in sides:
@@ -207,17 +135,19 @@ class Arm(Shoulder):
 
 
 class YawPitchPitch(Family):
-    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm)."""
+    """Closed-form position IK of a 3R yaw-pitch-pitch arm (seed 000's Arduino arm); the tool point placed
+    by ``arm_type`` (also the base of ``spherical_rrp``)."""
 
     name = "yaw_pitch_pitch"
     kind = "position"
     joints = 3
     branches = ("elbow_up", "elbow_down", "back_elbow_up", "back_elbow_down")
     aliases = {"up": "elbow_up", "down": "elbow_down"}
+    arm_type = _Arm
 
     def __init__(self, robot, z, o, tool):
-        self.arm = Arm(robot, z, o, tool[:3, 3])
+        self.arm = self.arm_type(robot, z, o, tool[:3, 3])
 
-    @documented
+    @_documented
     def solve(self, t):
         return self.arm.solve(t)

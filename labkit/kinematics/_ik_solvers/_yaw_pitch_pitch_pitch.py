@@ -34,9 +34,11 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import Family, documented
-from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, angle_about, need_parallel, rotation_matrices, unit
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch import Arm, YawPitchPitch
+from labkit.kinematics._ik_solvers._family import Family, _documented
+from labkit.kinematics._ik_solvers._geometry import (
+    TOL, NotThisFamily, _angle_about, _need_parallel, _pose_matrices, _rotation_matrices, _unit,
+)
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch import _Arm, YawPitchPitch
 from labkit.rotations import wrap_angle
 
 
@@ -50,11 +52,11 @@ class YawPitchPitchPitch(Family):
     aliases = {"up": "elbow_up", "down": "elbow_down"}
 
     def __init__(self, robot, z, o, tool):
-        a2, a4 = unit(z[1]), unit(z[3])
-        need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
+        a2, a4 = _unit(z[1]), _unit(z[3])
+        _need_parallel(a2, a4, "axis 4 must be parallel to axes 2 and 3")
         pt = tool[:3, 3]
         W0 = o[3] + a4 * ((pt - o[3]) @ a4)  # the wrist point: the tool point's foot on axis 4
-        self.arm = arm = Arm(robot, z, o, W0)
+        self.arm = arm = _Arm(robot, z, o, W0)
         self.s4 = 1.0 if a4 @ a2 > 0 else -1.0
         x0 = self._approach(robot, z, o, tool)
         if abs(x0 @ a2) > TOL:
@@ -71,7 +73,7 @@ class YawPitchPitchPitch(Family):
 
     def _approach(self, robot, z, o, tool):
         """The approach direction at ``q = 0`` (world): the tool x axis."""
-        return unit(tool[:3, 0])
+        return _unit(tool[:3, 0])
 
     def _arm_joints(self, x, y, z, pitch):
         """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
@@ -95,7 +97,7 @@ class YawPitchPitchPitch(Family):
                 signs.append(side)
         return q, reach, signs, distance
 
-    @documented
+    @_documented
     def solve(self, t):
         q, reach, _, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         return q, reach, distance
@@ -108,37 +110,30 @@ class YawPitchPitchPitch(Family):
         sides, _, _, _ = self.arm.planes(tuple(target[:, :3].T))
         q1 = next(q1 for side, q1, _ in sides if (side < 0) == back)
         pitch = self.sign * target[:, 3]
-        return rotation_matrices(self.arm.a1, q1) @ rotation_matrices(
+        return _rotation_matrices(self.arm.a1, q1) @ _rotation_matrices(
             self.arm.a2, self.psi0 - (math.pi - pitch if back else pitch))
 
     def pose(self, target, back=False):
-        """Tool poses of targets, on the side facing them or over the back (see the module docstring for pitch).
+        """Tool poses [m] of targets ``(x, y, z, pitch[, roll])`` [m, rad], facing them or over the back.
 
         Parameters
         ----------
         target : ndarray, shape (N, k)
-            ``(x, y, z, pitch)`` [m, rad] (``k = 4``; the 5-DOF family adds roll).
         back : bool
             The pose of the branches reaching over the back (base turned by half a turn).
 
         Returns
         -------
         ndarray, shape (N, 4, 4)
-            ``world_from_tool`` [m].
         """
-        T = np.zeros((target.shape[0], 4, 4))
-        T[:, :3, :3] = self._rest(target, back) @ self.R0
-        T[:, :3, 3] = target[:, :3]
-        T[:, 3, 3] = 1.0
-        return T
+        return _pose_matrices(self._rest(target, back) @ self.R0, target[:, :3])
 
     def poses(self, target):
-        """Every tool pose that reaches targets: facing them, then over the back, ``(N, 2, 4, 4)`` [m].
+        """Every tool pose [m] that reaches targets [m, rad]: facing them, then over the back.
 
         Parameters
         ----------
         target : ndarray, shape (N, k)
-            Targets [m, rad].
 
         Returns
         -------
@@ -147,27 +142,25 @@ class YawPitchPitchPitch(Family):
         return np.stack([self.pose(target), self.pose(target, back=True)], axis=1)
 
     def target_of(self, T):
-        """The targets that tool poses ``T`` reach (inverse of :meth:`pose` on the poses the arm takes).
+        """The targets [m, rad] (angles in (-pi, pi]) that tool poses [m] reach: :meth:`pose` inverted.
 
         Parameters
         ----------
         T : ndarray, shape (N, 4, 4)
-            Tool poses [m].
 
         Returns
         -------
         ndarray, shape (N, k)
-            ``(x, y, z, pitch)`` [m, rad] (and roll for the 5-DOF family), angles in (-pi, pi].
         """
         p = T[:, :3, 3]
         app = T[:, :3, :3] @ self.approach_tool
         sides, _, _, _ = self.arm.planes(tuple(p.T))
         (s_a, q1_a, _), (_, q1_b, _) = sides
-        normals = [rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
+        normals = [_rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2) for q1 in (q1_a, q1_b)]
         first = np.abs((app * normals[0]).sum(-1)) <= np.abs((app * normals[1]).sum(-1)) + 1e-12
         q1 = np.where(first, q1_a, q1_b)
         ahead = first == (s_a > 0)  # the target lies along +er of the chosen plane
-        er = rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
+        er = _rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.er)
         psi = np.arctan2(app @ np.array(self.arm.a1), (app * er).sum(-1))
         pitch = wrap_angle(self.sign * np.where(ahead, psi, math.pi - psi))
         out = [p, pitch[:, None]]
@@ -181,16 +174,6 @@ class YawPitchPitchPitch(Family):
         return None
 
 
-def roll_about(app, reference, actual):
-    """The angle about the approach directions ``app`` (N, 3) turning ``reference`` onto ``actual`` (N, 3) [rad].
-
-    Parameters
-    ----------
-    app, reference, actual : ndarray, shape (N, 3)
-        Unit approach directions and two vectors perpendicular to them.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-    """
-    return angle_about(tuple(app.T), tuple(reference.T), tuple(actual.T))
+def _roll_about(app, reference, actual):
+    """The angle [rad] about the unit approach directions ``app`` (N, 3) turning ``reference`` onto ``actual``."""
+    return _angle_about(tuple(app.T), tuple(reference.T), tuple(actual.T))

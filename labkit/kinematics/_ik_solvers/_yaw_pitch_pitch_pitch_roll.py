@@ -33,9 +33,9 @@ import math
 
 import numpy as np
 
-from labkit.kinematics._ik_solvers._family import documented
-from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, length_scale, rotation_matrices, unit
-from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch, roll_about
+from labkit.kinematics._ik_solvers._family import _documented
+from labkit.kinematics._ik_solvers._geometry import TOL, NotThisFamily, _length_scale, _rotation_matrices, _unit
+from labkit.kinematics._ik_solvers._yaw_pitch_pitch_pitch import YawPitchPitchPitch, _roll_about
 from labkit.rotations import wrap_angle
 
 
@@ -48,16 +48,16 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
 
     def _approach(self, robot, z, o, tool):
         """The approach direction at ``q = 0`` (world): ``+axis 5``, which must carry the tool point."""
-        a5 = unit(z[4])
+        a5 = _unit(z[4])
         ahead = tool[:3, 3] - o[4]
-        if np.linalg.norm(np.cross(ahead, a5)) > TOL * length_scale(robot):
+        if np.linalg.norm(np.cross(ahead, a5)) > TOL * _length_scale(robot):
             raise NotThisFamily("the tool point must lie on axis 5 (the roll axis)")
-        W0 = o[3] + unit(z[3]) * ((tool[:3, 3] - o[3]) @ unit(z[3]))
-        self.s5 = -1.0 if (tool[:3, 3] - W0) @ a5 < -TOL * length_scale(robot) else 1.0
+        W0 = o[3] + _unit(z[3]) * ((tool[:3, 3] - o[3]) @ _unit(z[3]))
+        self.s5 = -1.0 if (tool[:3, 3] - W0) @ a5 < -TOL * _length_scale(robot) else 1.0
         self.a5 = self.s5 * a5
         return self.a5
 
-    @documented
+    @_documented
     def solve(self, t):
         q, reach, signs, distance = self._arm_joints(t[0], t[1], t[2], t[3])
         roll = self.s5 * t[4]  # q5 about +axis 5
@@ -66,11 +66,12 @@ class YawPitchPitchPitchRoll(YawPitchPitchPitch):
 
     def _rest(self, target, back=False):
         """``Rot(a1, q1) Rot(a2, theta) Rot(a5, q5)`` of targets (N, 5) on one side, (N, 3, 3)."""
-        return super()._rest(target, back) @ rotation_matrices(tuple(self.a5), target[:, 4] + (math.pi if back else 0.0))
+        roll = target[:, 4] + (math.pi if back else 0.0)
+        return super()._rest(target, back) @ _rotation_matrices(tuple(self.a5), roll)
 
     def _roll_of(self, T, app, q1, psi, ahead):
         """Roll of poses: from the reference orientation (``q5 = 0``, the target ahead) about the approach."""
-        reference = rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2)  # a2 after joints 1-4
+        reference = _rotation_matrices(self.arm.a1, q1) @ np.array(self.arm.a2)  # a2 after joints 1-4
         actual = T[:, :3, :3] @ (self.R0.T @ np.array(self.arm.a2))
-        chain = roll_about(app, reference, actual)  # = q5 (chain sense) on this side
+        chain = _roll_about(app, reference, actual)  # = q5 (chain sense) on this side
         return wrap_angle(np.where(ahead, chain, chain - math.pi))

@@ -1,0 +1,114 @@
+"""The sandbox's watchdog while a kernel starts: it reads only the sandbox's RAM disks, and a limit it enforces
+before the kernel's first reply is what the result says.
+
+On a busy machine bubblewrap takes a while to move the sandbox's first process into its own root; until then that
+process sees the grader's root, whose ``/tmp`` is the host's (a disk of many GiB on CI). A watchdog that read the RAM
+disks through it killed an honest kernel for "memory" before its first reply, twice (start and retry), and the
+result said only that the kernel "did not start".
+"""
+
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from conftest import require
+from labkit.course._watchdog import _ram_disks, _tree, kill_tree
+
+# every test that grades shares one xdist group (tests/course/test_course.py says why)
+pytestmark = pytest.mark.xdist_group("grading")
+MIB = 2**20
+
+
+def _notebook(code="print(6 * 7)"):
+    nbformat = require("nbformat")
+    return nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(code)])
+
+
+def _counted_watchdogs(monkeypatch) -> list:
+    """The watchdogs the sandbox starts from now on (one per kernel started), in order."""
+    from labkit.course import _sandbox
+
+    starts = []
+
+    class Counted(_sandbox.Watchdog):
+        def start(self):
+            starts.append(self)
+            super().start()
+
+    monkeypatch.setattr(_sandbox, "Watchdog", Counted)
+    return starts
+
+
+def test_ram_disks_are_read_inside_the_sandbox_only(tmp_path):
+    """A process still on the grader's root is skipped; the sandbox's /tmp and /dev/shm are added up exactly."""
+    from labkit.course._sandbox import sandbox_args
+
+    (tmp_path / "home").mkdir()
+    (tmp_path / "private").mkdir()
+    host_side = subprocess.Popen(["sleep", "60"])  # what bwrap's child is until it enters the sandbox's root
+    write = "head -c 3145728 /dev/zero > /tmp/a && head -c 1048576 /dev/zero > /dev/shm/b && echo ready && sleep 60"
+    sandbox = subprocess.Popen([*sandbox_args(tmp_path / "home", tmp_path / "private", tmpfs_bytes=64 * MIB),
+                                "/bin/sh", "-c", write], stdout=subprocess.PIPE, text=True)
+    try:
+        assert sandbox.stdout.readline().strip() == "ready"
+        host = os.statvfs("/tmp")
+        assert (host.f_blocks - host.f_bfree) * host.f_frsize != 4 * MIB  # the host's /tmp would show
+        inside = _tree(sandbox.pid)
+        assert len(inside) >= 3  # bwrap, bwrap in the sandbox, the shell (and its sleep)
+        assert _ram_disks([inside[0], host_side.pid, *inside[1:]]) == 4 * MIB
+        assert _ram_disks([inside[0], host_side.pid]) == 0
+    finally:
+        host_side.kill()
+        kill_tree(sandbox.pid)
+        host_side.wait()
+        sandbox.wait()
+        sandbox.stdout.close()
+
+
+def test_an_honest_kernel_starts_while_bubblewrap_is_slow(tmp_path, monkeypatch):
+    """A slow start (a child outside the sandbox for 0.5 s, five of the watchdog's samples) under the watchdog's
+    memory limit: graded ok at the first start. Reading the host's /tmp through that child killed it (where the
+    host's /tmp holds more than the limit, as on CI)."""
+    from labkit.course import Limits, run_untrusted
+    from labkit.course import _sandbox
+
+    slow = tmp_path / "bin" / "bwrap"
+    slow.parent.mkdir()
+    slow.write_text(f'#!/bin/sh\nsleep 0.5\nexec {_sandbox.shutil.which("bwrap")} "$@"\n')
+    slow.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{slow.parent}{os.pathsep}{os.environ['PATH']}")
+    starts = _counted_watchdogs(monkeypatch)
+    nb = _notebook()
+    (tmp_path / "work").mkdir()
+    result = run_untrusted(nb, tmp_path / "work", limits=Limits(cpu_seconds=20, memory_bytes=int(1.5 * 2**30),
+                                                                wall_seconds=60, cgroup=False))
+    assert result.status == "ok", result.detail
+    assert nb.cells[0].outputs[0]["text"].strip() == "42"
+    assert len(starts) == 1 and starts[0].reason is None  # no kill, no second start
+
+
+@pytest.mark.parametrize("limit", ["cpu-time", "processes"])
+def test_a_limit_hit_before_the_first_reply_is_the_result(tmp_path, monkeypatch, limit):
+    """A kernel killed at a limit while it starts is graded for that limit, not as a kernel that "did not start",
+    and is not started twice. Start-up costs are simulated with a launcher (students cannot change it)."""
+    from labkit.course import Limits, run_untrusted
+    from labkit.course import _sandbox
+
+    if limit == "cpu-time":  # burns CPU before the kernel exists: the watchdog stops it at 0.3 s (else RLIMIT_CPU, 1 s)
+        monkeypatch.setattr(_sandbox, "KERNEL_MAIN", "import time\nt = time.process_time()\n"
+                            "while time.process_time() - t < 30:\n    pass\n" + _sandbox.KERNEL_MAIN)
+        limits, expected = Limits(cpu_seconds=0.3, wall_seconds=60), ("cpu-time", "killed at the CPU-time limit of 0.3 s")
+    else:  # bwrap, bwrap in the sandbox and the kernel: three processes, the limit is one
+        limits, expected = Limits(max_processes=1, wall_seconds=60), ("crash", "more than 1 processes at once")
+    starts = _counted_watchdogs(monkeypatch)
+    (tmp_path / "work").mkdir()
+    nb = _notebook()
+    t0 = time.monotonic()
+    status, detail, _ = run_untrusted(nb, tmp_path / "work", limits=limits)
+    assert (status, detail) == expected
+    assert not nb.cells[0].get("outputs") and time.monotonic() - t0 < 30
+    if limit == "processes":  # the watchdog's kill, seen at its first sample of the three: no second start
+        assert [dog.reason for dog in starts] == [expected]
