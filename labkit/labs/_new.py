@@ -60,14 +60,17 @@ _PARAM_DOC = {
 }
 #: mass at the tool the lab notebooks assume [kg]: the virtual arm's gripper (labkit.arm.PhysicsConfig.tool_mass)
 PAYLOAD_KG = 0.08
-#: templates only some robots get: stem -> (what the robot needs, why a lab without it leaves the notebook out)
-_NEEDS = {
-    "07_dynamics": (lambda robot: any(lk.inertial is not None for lk in robot.links),
-                    "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
+_ONE_CURVE = "a 1-DOF arm's tool moves on one curve (a circle about its joint or a line along it): no Cartesian path to plan"
+#: templates only some robots get: (stem, what the robot needs, why a lab without it leaves the notebook out)
+_NEEDS = (
+    ("04_trajectory", lambda robot: robot.n > 1, _ONE_CURVE),
+    ("07_dynamics", lambda robot: any(lk.inertial is not None for lk in robot.links),
+     "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
+    ("08_control", lambda robot: robot.n > 1, _ONE_CURVE + " (its last part tracks a line)"),
     # it identifies a servo's dynamics from its step response: a joint without a servo is an ideal actuator
-    "08_control": (lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
-                   "joints without a servo are ideal actuators: no servo dynamics to identify"),
-}
+    ("08_control", lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
+     "joints without a servo are ideal actuators: no servo dynamics to identify"),
+)
 
 
 @dataclass(frozen=True)
@@ -230,9 +233,8 @@ def _ik_targets(robot, kind, window, at, count=3, candidates=12, tries=200):
 def _conditioning(robot, q, kind):
     """The Jacobian's smallest relevant singular value at ``q`` over 5 % of the reach: above 1 is well-conditioned."""
     J = jacobian(robot, q)
-    rows = {"position": [0, 1, 2], "planar": [0, 1, 5], "pose": list(range(6))}.get(kind, [0, 1, 2])
-    if kind == "pose" and robot.n < 6:  # a 4-DOF arm's pose targets: the position part must stay well-conditioned
-        rows = [0, 1, 2]
+    # (a 4-DOF arm's pose targets: the position part must stay well-conditioned)
+    rows = {"planar": [0, 1, 5], "pose": list(range(6)) if robot.n >= 6 else [0, 1, 2]}.get(kind, [0, 1, 2])
     s = np.linalg.svd(J[rows], compute_uv=False)
     reach = max(robot_reach(robot), 1e-3)
     return float(s[min(len(rows), robot.n) - 1] / (0.05 * reach))
@@ -348,10 +350,11 @@ def lab_defaults(robot) -> LabDefaults:
             directions = [radial, -radial, up, -up]
             arc_normals = [np.cross(radial, up)]
     # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
-    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane)
-    digits = 6 if in_plane else 1
-    line_pts = arc_spec = None
-    for length in (0.15, 0.1, 0.05):
+    # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane),
+    # and a 1-DOF arm's, on one curve: a point off it by more than the numeric IK's 1e-10 m is out of reach
+    digits = 9 if n == 1 else 6 if in_plane else 1
+    line_pts = arc_spec = None  # a 1-DOF arm gets neither (its notebooks that need them are left out)
+    for length in (0.15, 0.1, 0.05) if n > 1 else ():
         for u in directions:
             end = p0 + length * reach * u
             if _cartesian_ok(robot, line_path(p0, end), home, window, 2.0):
@@ -359,7 +362,7 @@ def lab_defaults(robot) -> LabDefaults:
                 break
         if line_pts is not None:
             break
-    for radius in (0.1, 0.06, 0.03):
+    for radius in (0.1, 0.06, 0.03) if n > 1 else ():
         r = radius * reach
         for normal in arc_normals:
             u, v = arc_path(p0, r, 0.0, 1.0, normal=normal).plane_axes  # the plane's in-plane axes
@@ -380,22 +383,20 @@ def lab_defaults(robot) -> LabDefaults:
                 break
         if arc_spec:
             break
-    if line_pts is None or arc_spec is None:
+    if n > 1 and (line_pts is None or arc_spec is None):
         raise LabkitError(f"{who}: found no Cartesian line/arc from the home pose "
                           f"{joints_to_display(robot, home).round(1).tolist()} inside the joint window "
                           f"({_window_text(robot, window)})")
 
     def disp(q):
         return [round(float(v), 1) for v in joints_to_display(robot, q)]
-
     from labkit.motion import cartesian_trajectory, joint_trajectory
-
     plans = [joint_trajectory(robot, home, targets_q[0], 2.0, law=law, dt=0.02) for law in ("cubic", "quintic")]
-    arc_path_ = arc_path(np.asarray(arc_spec["center_mm"]) / 1e3, arc_spec["radius_mm"] / 1e3,
-                         math.radians(arc_spec["start_deg"]), math.radians(arc_spec["sweep_deg"]),
-                         normal=arc_spec.get("normal"))
-    for path in (line_path(*(line_pts / 1e3)), arc_path_):  # as the notebook plans them (dt = 0.02 s)
-        plans.append(cartesian_trajectory(robot, path, 2.0, dt=0.02, q_start=home))
+    if n > 1:
+        arc_path_ = arc_path(np.asarray(arc_spec["center_mm"]) / 1e3, arc_spec["radius_mm"] / 1e3, math.radians(
+            arc_spec["start_deg"]), math.radians(arc_spec["sweep_deg"]), normal=arc_spec.get("normal"))
+        for path in (line_path(*(line_pts / 1e3)), arc_path_):  # as the notebook plans them (dt = 0.02 s)
+            plans.append(cartesian_trajectory(robot, path, 2.0, dt=0.02, q_start=home))
 
     params = {
         "home": disp(home),
@@ -403,7 +404,7 @@ def lab_defaults(robot) -> LabDefaults:
         "targets": [[round(float(v), digits) for v in target_to_display(robot, fk(robot, q))]
                     for q in targets_q],
         "move": [disp(q) for q in move],
-        "line_mm": line_pts.tolist(),
+        "line_mm": None if line_pts is None else line_pts.tolist(),
         "arc": arc_spec,
         "duration": _duration(robot, plans),
         "readings": 2,
@@ -515,8 +516,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
     ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
-    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`)
-    with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos; neither it nor
+    ``04_trajectory`` for a 1-DOF arm, whose tool has no Cartesian line to follow) with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal
     actuator on the virtual arm (within the file's limits, at its speed limits; no servo window is
@@ -560,9 +561,10 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     templates = sorted(TEMPLATE_DIR.glob("[0-9][0-9]_*.ipynb"))
     if not templates:
         raise LabkitError(f"no lab templates in {TEMPLATE_DIR} (reinstall labkit)")
-    left_out = [(tpl, _NEEDS[tpl.stem][1]) for tpl in templates if tpl.stem in _NEEDS and not _NEEDS[tpl.stem][0](model)]
-    templates = [tpl for tpl in templates if tpl not in dict(left_out)]
-    skipped = tuple(f"{tpl.name}: left out, {why}" for tpl, why in left_out)
+    left_out = {tpl: why for tpl in templates  # template -> the first reason it does not apply
+                if (why := next((why for stem, needs, why in _NEEDS if stem == tpl.stem and not needs(model)), None))}
+    templates = [tpl for tpl in templates if tpl not in left_out]
+    skipped = tuple(f"{tpl.name}: left out, {why}" for tpl, why in left_out.items())
     folder.mkdir(parents=True, exist_ok=True)
     robot_file = folder / ROBOT_FILE
     if Path(user.path).resolve() != robot_file.resolve():
@@ -574,9 +576,8 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
         nb = nbformat.read(str(tpl), as_version=4)
         values = template_values(model, lab_file.name, tpl.stem, defaults)
         nb = _render_template(nb, values, title, model.title or model.name, {**_PARAM_DOC, "port": _port_doc(model)})
-        out = folder / tpl.name
-        nbformat.write(nb, str(out))
-        written.append(out)
+        written.append(folder / tpl.name)
+        nbformat.write(nb, str(written[-1]))
     added = "".join(f" {line}" for line in notes[1:])
     if model.bus is not None:
         protocol = model.bus.protocol
@@ -594,7 +595,6 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
           f"{where}). {real}.\n",
         encoding="utf-8")
     from labkit.reports import LabInfo, write_lab_info
-
     write_lab_info(folder, LabInfo(title=title, course="", team="", authors=(), date=""))  # title page
     return NewLab(folder.resolve(), robot_file.resolve(), tuple(p.resolve() for p in written), defaults.description,
                   lab_file.resolve(), notes + skipped)

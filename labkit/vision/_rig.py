@@ -15,12 +15,91 @@ import math
 
 import numpy as np
 
+from labkit.exceptions import ShapeError
 from labkit.robot import Robot
-from labkit.kinematics import fk_position
+from labkit.kinematics import fk, fk_position
 from labkit.vision._camera import Camera
 from labkit.vision._families import texture_extent
 
 __all__ = ["CameraRig", "look_at", "face_marker"]
+
+
+def _marker_sizes(camera, dist, marker_size, reference_size, standoff):
+    """The gripper's and the reference tags' sides and the tags' standoff [m] for a camera ``dist`` away [m]:
+    those given, else a gripper tag of at least 80 px (40 mm or more, in 5 mm steps; 40 mm when ``dist`` is None),
+    reference tags 1.5 times larger, the standoff half the gripper tag's printed side (a cube)."""
+    size = 0.04 if dist is None else max(0.04, math.ceil(80.0 * dist / camera.focal[0] / 0.005) * 0.005)
+    size = size if marker_size is None else marker_size
+    reference = 1.5 * size if reference_size is None else reference_size
+    return size, reference, texture_extent("tag36h11", size) / 2 if standoff is None else standoff
+
+
+#: the normals of the gripper cube's tags in the tool frame (ids 1-5: -z, -y, +z, +y, +x; none towards the arm)
+_FACES = np.array([[0, 0, -1], [0, -1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], dtype=float)
+
+
+def _place(camera, pts, up, x_axis, y_axis, direction, given, margin):
+    """Where a camera looking back along ``direction`` sees the tool points ``pts`` (shape (k, 3) [m]) with their tag
+    cubes and the reference sheet below them: ``(centre, distance, sizes, spots)``.
+
+    The gripper tags follow the distance (80 px, :func:`_marker_sizes` with the ``given`` sizes and standoff), the
+    distance their cubes; the reference tags are sized for the poses alone, then their sheet joins what the camera
+    must see (:func:`_fit_distance` with ``margin``)."""
+    marker_size, reference, standoff = given
+    middle = (pts.min(axis=0) + pts.max(axis=0)) / 2
+    dist, with_sheet = None, False
+    for _ in range(50):
+        sizes = _marker_sizes(camera, dist, marker_size, reference, standoff)
+        cube = math.hypot(sizes[2], texture_extent("tag36h11", sizes[0]) / math.sqrt(2))  # to a tag corner
+        spots, corners = _sheet(middle, float(np.min(pts @ up)) - cube - 0.02, up, x_axis, y_axis, sizes[1])
+        seen = np.vstack([pts, corners]) if with_sheet else pts
+        radii = np.r_[np.full(len(pts), cube), np.zeros(len(seen) - len(pts))]
+        centre = (np.min(seen - radii[:, None], axis=0) + np.max(seen + radii[:, None], axis=0)) / 2
+        needed = _fit_distance(camera, centre, direction, up, seen, radii, margin)
+        settled, dist = dist is not None and abs(needed - dist) <= 1e-3 * dist, needed
+        if settled and with_sheet:
+            break
+        with_sheet, reference = (True, sizes[1]) if settled else (with_sheet, reference)
+    return centre, dist, sizes, spots
+
+
+def _sheet(middle, low, up, x_axis, y_axis, reference):
+    """Centres (list of 4 of shape (3,)) and corners (shape (16, 3)) of the reference tags [m]: a sheet at height
+    ``low`` [m] along ``up``, under ``middle``, with tags of side ``reference`` [m] facing up."""
+    sheet = middle - (middle @ up) * up + low * up
+    ext = texture_extent("tag36h11", reference)
+    spots = [sheet + max(0.1, 1.2 * ext) * (sx * x_axis + sy * y_axis) for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    corners = np.array([c + ext / 2 * (ex * x_axis + ey * y_axis) for c in spots for ex in (-1, 1) for ey in (-1, 1)])
+    return spots, corners
+
+
+def _fit_distance(camera, centre, direction, up, points, radii, margin):
+    """How far from ``centre`` along ``direction`` a camera looking at it must stand for every point (a ball of
+    its radius) to lie inside its image, whose half-widths are divided by ``margin`` [m].
+
+    Parameters
+    ----------
+    camera : Camera
+    centre, direction, up : ndarray, shape (3,)
+        The point looked at [m], the unit direction from it to the camera, the world's up.
+    points : ndarray, shape (k, 3)
+        Points in the base frame [m].
+    radii : ndarray, shape (k,)
+        Radius of the ball around each point that must fit too [m].
+    margin : float
+
+    Returns
+    -------
+    float
+        The distance [m]: for a point at lateral offset ``x`` and height ``y`` in the image's axes and ``s`` towards
+        the camera, ``|x| + r <= t (D - s - r)`` with ``t`` the tangent of the half field of view.
+    """
+    R = look_at(centre + direction, centre, up)[:3, :3]  # the camera's axes, as it will be placed
+    rel = (points - centre) @ R  # x right, y down, z forward (away from the camera)
+    fov = camera.field_of_view()
+    t = np.tan(np.asarray(fov) / 2) / margin
+    lateral = np.maximum((np.abs(rel[:, 0]) + radii) / t[0], (np.abs(rel[:, 1]) + radii) / t[1])
+    return float(np.max(lateral - rel[:, 2] + radii))
 
 
 def look_at(eye, target, up):
@@ -104,19 +183,27 @@ class CameraRig:
     family: str = "tag36h11"
 
     @classmethod
-    def around(cls, robot, *, camera=None, marker_size=None, reference_size=None, standoff=None,
+    def around(cls, robot, poses=None, *, camera=None, marker_size=None, reference_size=None, standoff=None,
                distance_factor=1.25, seed=0):
-        """A default rig for an arm: the camera above and to the side of the workspace.
+        """A default rig for an arm: the camera above and to the side of the poses it measures.
 
         Five markers on the gripper sit on the faces of a cube around the tool point
         (ids 1-5 facing the tool's -z, -y, +z, +y and +x axes; ``standoff`` from the tool
         point), so one faces the camera in most orientations; four reference markers
-        (ids 10-13) lie on a sheet below the workspace, facing up. The camera is placed along the base's +y and up, far enough
-        for the sampled workspace to fit its vertical field of view.
+        (ids 10-13) lie on a sheet below the tool, facing up. The camera stands on the base's +y
+        side, above, looking down at the poses. Given ``poses``, it stands back just far enough for every pose's marker cube
+        and the reference sheet to lie inside its image, ``distance_factor`` inside the edges
+        (:meth:`in_view` checks a point), on the side (the default one, or turned about up in 45-degree
+        steps) from which the most poses show a gripper tag 20 to 70 degrees off its face (a tag seen
+        head-on has an ambiguous pose, one seen edge-on too few pixels per bit); without ``poses``, far
+        enough for the sphere holding 90 % of a sample of the workspace (an outstretched pose of a
+        long arm may leave the view).
 
         Parameters
         ----------
         robot : Robot or str
+        poses : array_like, shape (k, n), optional
+            Joint values [rad | m] of the poses the camera must see (a lab's measurement plan).
         camera : Camera, optional
             Default: a 1280x960 camera with f = 1000 px and a little barrel distortion.
         marker_size, reference_size : float, optional
@@ -127,51 +214,100 @@ class CameraRig:
             Distance of the gripper markers from the tool point [m] (default: half the
             printed side, so the markers are the faces of one cube around the tool point).
         distance_factor : float
-            Margin on the camera distance (1 = the workspace just fits).
+            Margin on the camera distance (1 = the workspace just fits); with ``poses``, the
+            image's half-widths are divided by it.
         seed : int
-            Seed of the joint samples that estimate the workspace.
+            Seed of the joint samples that estimate the workspace (without ``poses``).
 
         Returns
         -------
         CameraRig
+
+        Raises
+        ------
+        ShapeError
+            ``poses`` is not a non-empty (k, n) array of finite joint values.
         """
         robot = Robot.load(robot)
         if camera is None:
             camera = Camera.pinhole(1000.0, (1280, 960), distortion=[-0.08, 0.05, 0.0, 0.0, 0.0], name="virtual webcam")
-        lim = robot.joint_limits
-        q = np.random.default_rng(seed).uniform(lim[:, 0], lim[:, 1], (400, robot.n))
-        pts = fk_position(robot, q)
         up = np.asarray(robot.up, dtype=float)
-        centre = pts.mean(axis=0)
-        radius = float(np.percentile(np.linalg.norm(pts - centre, axis=1), 90))
+        x_axis = np.array([1.0, 0.0, 0.0]) - up * up[0]
+        x_axis /= np.linalg.norm(x_axis)
+        y_axis = np.cross(up, x_axis)
         side = np.array([0.1, 0.75, 0.0])
         side = side - (side @ up) * up
         direction = side / np.linalg.norm(side) * 0.75 + up * 0.65
         direction /= np.linalg.norm(direction)
-        fov_v = camera.field_of_view()[1]
-        dist = distance_factor * radius / np.tan(fov_v / 2)
+        if poses is None:
+            lim = robot.joint_limits
+            pts = fk_position(robot, np.random.default_rng(seed).uniform(lim[:, 0], lim[:, 1], (400, robot.n)))
+            centre = pts.mean(axis=0)
+            radius = float(np.percentile(np.linalg.norm(pts - centre, axis=1), 90))
+            dist = distance_factor * radius / np.tan(camera.field_of_view()[1] / 2)
+            sizes = _marker_sizes(camera, dist, marker_size, reference_size, standoff)
+            spots, _ = _sheet(centre, float(np.min(pts @ up)) - 0.02, up, x_axis, y_axis, sizes[1])
+        else:
+            q = np.asarray(poses, dtype=float)
+            if q.ndim != 2 or q.shape[1] != robot.n or len(q) == 0 or not np.all(np.isfinite(q)):
+                raise ShapeError(f"expected poses of shape (k, {robot.n}) with k >= 1 finite joint values, "
+                                 f"got shape {q.shape}")
+            T = fk(robot, q)
+            pts = T[:, :3, 3]
+            # the default side first; another where it sees more poses with a gripper tag at a readable angle
+            best = None
+            for turn in np.radians([0, 45, -45, 90, -90, 135, -135, 180]):
+                c, s_ = math.cos(turn), math.sin(turn)
+                d = direction * c + np.cross(up, direction) * s_ + up * (up @ direction) * (1 - c)  # Rodrigues about up
+                centre_, dist_, sizes_, spots_ = _place(camera, pts, up, x_axis, y_axis, d,
+                                                        (marker_size, reference_size, standoff), distance_factor)
+                eye = centre_ + dist_ * d
+                normals = np.einsum("kij,mj->kmi", T[:, :3, :3], _FACES)  # (k, 5, 3): the tags' normals in the base
+                rays = eye - pts
+                cosine = np.einsum("kmi,ki->km", normals, rays / np.linalg.norm(rays, axis=1, keepdims=True))
+                score = int(np.sum(np.any((cosine > math.cos(math.radians(70))) & (cosine < math.cos(math.radians(20))),
+                                          axis=1)))
+                if best is None or score > best[0]:
+                    best = (score, centre_, dist_, sizes_, spots_, d)
+            _, centre, dist, sizes, spots, direction = best
+        marker_size, reference_size, standoff = sizes
         eye = centre + dist * direction
-        if marker_size is None:
-            marker_size = max(0.04, math.ceil(80.0 * dist / camera.focal[0] / 0.005) * 0.005)
-        if reference_size is None:
-            reference_size = 1.5 * marker_size
-        if standoff is None:
-            standoff = texture_extent("tag36h11", marker_size) / 2
         base_from_camera = look_at(eye, centre, up)
-        low = float(np.min(pts @ up)) - 0.02
-        sheet = centre - (centre @ up) * up + low * up
-        x_axis = np.array([1.0, 0.0, 0.0]) - up * up[0]
-        y_axis = np.cross(up, x_axis / np.linalg.norm(x_axis))
-        base_markers = {}
-        for k, (sx, sy) in enumerate([(-1, -1), (1, -1), (1, 1), (-1, 1)]):
-            c = sheet + max(0.1, 1.2 * texture_extent("tag36h11", reference_size)) * (sx * x_axis / np.linalg.norm(x_axis) + sy * y_axis)
-            base_markers[10 + k] = face_marker(up, x_axis, c)
+        base_markers = {10 + k: face_marker(up, x_axis, c) for k, c in enumerate(spots)}
         # a cube around the tool point, a tag on each face but the one towards the arm (-x)
-        faces = {1: ([0, 0, -1], [1, 0, 0]), 2: ([0, -1, 0], [1, 0, 0]), 3: ([0, 0, 1], [1, 0, 0]),
-                 4: ([0, 1, 0], [1, 0, 0]), 5: ([1, 0, 0], [0, 1, 0])}
-        tool_markers = {k: face_marker(n, a, standoff * np.asarray(n, float)) for k, (n, a) in faces.items()}
+        along = {1: [1, 0, 0], 2: [1, 0, 0], 3: [1, 0, 0], 4: [1, 0, 0], 5: [0, 1, 0]}
+        tool_markers = {k: face_marker(n, along[k], standoff * n) for k, n in zip(along, _FACES)}
         size = {**{k: float(marker_size) for k in tool_markers}, **{k: float(reference_size) for k in base_markers}}
         return cls(camera, base_from_camera, tool_markers, base_markers, size)
+
+    def in_view(self, points, margin=0.0):
+        """Whether points lie in front of the camera and inside its image.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., 3)
+            Points in the base frame [m] (e.g. the tool points of a plan, ``fk_position(robot, q)``).
+        margin : float
+            Distance the points must keep from the image's edges [px].
+
+        Returns
+        -------
+        ndarray of bool, shape (...)
+        """
+        p = np.asarray(points, dtype=float)
+        if p.shape[-1:] != (3,):
+            raise ShapeError(f"expected points with shape (..., 3), got {p.shape}")
+        camera_from_base = np.linalg.inv(self.base_from_camera)
+        local = p @ camera_from_base[:3, :3].T + camera_from_base[:3, 3]
+        uv = self.camera.project(local)
+        w, h = self.camera.image_size
+        inside = (uv[..., 0] >= margin - 0.5) & (uv[..., 0] <= w - 0.5 - margin)
+        inside &= (uv[..., 1] >= margin - 0.5) & (uv[..., 1] <= h - 0.5 - margin)
+        # a ray wider than the image's corners can fold back into the image through the distortion polynomial
+        corners = self.camera.undistort_points(np.array([[-0.5, -0.5], [w - 0.5, -0.5], [-0.5, h - 0.5], [w - 0.5, h - 0.5]]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ray = np.linalg.norm(local[..., :2] / local[..., 2:], axis=-1)
+        return inside & (local[..., 2] > 0) & (ray <= np.linalg.norm(corners, axis=-1).max())
 
     def virtual_camera(self, arm, **options):
         """A :class:`VirtualCamera` of this rig on a virtual arm.

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from labkit.robot import Robot
+from labkit.robot import Robot, ServoCalibration
 from labkit.kinematics import fk_position
 from labkit.arm import ADC_MAX, ADC_VREF, ArmModel, FirmwareAdapter, PhysicsConfig, ServoBank, gravity_sag
 
@@ -101,6 +101,8 @@ def test_gravity_follows_the_robot_files_up():
     np.testing.assert_array_equal(gravity_sag(ARM, q), gravity_sag(ARM, q, PhysicsConfig(gravity=(0, 0, 9.81))))
     puma = Robot.load("puma560")  # stands on its base: up = +z0, so gravity is -z
     np.testing.assert_allclose(puma.up, [0, 0, 1])
+    for j in range(puma.n):  # driven by servos (its file's joints are ideal actuators, which do not yield)
+        puma = puma.with_link(j, servo=ServoCalibration(channel=j, zero=90.0))
     qp = np.radians([0, 0, -90, 0, 0, 0])  # rtb's "ready" pose rotated down: upper arm horizontal
     dq = gravity_sag(puma, qp)
     np.testing.assert_array_equal(dq, gravity_sag(puma, qp, PhysicsConfig(gravity=(0, 0, -9.81))))

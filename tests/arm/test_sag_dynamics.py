@@ -75,14 +75,42 @@ def test_torques_from_current_needs_a_torque_constant():
 
 
 def test_a_geared_drive_sags_by_the_compliance_over_its_gear_ratio_squared():
-    """The PUMA 560's motors (G = 53.7 to 107.8) hold its joints: sag = compliance / G^2 x gravity torque."""
+    """The PUMA 560's motors (G = 53.7 to 107.8), driven as servos, hold its joints: sag = compliance / G^2 x gravity
+    torque; as the robot file has it (no servo tables: ideal actuators) it does not yield at all."""
+    from labkit.robot import ServoCalibration
+
     puma = Robot.load("puma560")
     q = np.array([0.0, 0.4, -0.3, 0.0, 0.5, 0.0])
     config = PhysicsConfig(tool_mass=0.0)
+    assert np.array_equal(gravity_sag(puma, q, config), np.zeros(6))
+    servos = puma
+    for j in range(puma.n):
+        servos = servos.with_link(j, servo=ServoCalibration(channel=j, zero=90.0))
     gears = np.array([lk.motor.gear_ratio for lk in puma.links])
     expected = -config.joint_compliance / gears**2 * gravity_torques(puma, q)
-    np.testing.assert_allclose(gravity_sag(puma, q, config), expected, rtol=1e-12, atol=1e-15)
-    assert np.abs(gravity_sag(puma, q, config)).max() < np.radians(0.1)  # a PUMA barely yields
+    np.testing.assert_allclose(gravity_sag(servos, q, config), expected, rtol=1e-12, atol=1e-15)
+    assert 0 < np.abs(gravity_sag(servos, q, config)).max() < np.radians(0.1)  # a PUMA barely yields
+
+
+def test_an_ideal_actuator_holds_a_heavy_link_without_sagging(tmp_path):
+    """UR10-like links (12.7 kg, 0.61 m) on joints without a servo: a hobby servo's compliance (0.04 rad/(N m))
+    would sag them by radians (the FK check of such an arm was off by 0.6 m); an ideal actuator holds its joint,
+    while a servo on the same joint yields by its compliance times the gravity torque."""
+    from labkit.robot import ServoCalibration
+
+    text = ('format = "labkit-robot/1"\nname = "heavy2r"\nconvention = "standard"\n'
+            '[[joint]]\nalpha = 1.5707963267948966\nd = 0.1273\n'
+            '[[joint]]\na = -0.612\nmass = 12.7\ncom = [0.38, 0.0, 0.158]\n')
+    path = tmp_path / "heavy2r.toml"
+    path.write_text(text)
+    arm = Robot.load(path)
+    q = np.array([0.3, -1.0])
+    config = PhysicsConfig()
+    assert np.array_equal(gravity_sag(arm, q, config), np.zeros(2))
+    servo = arm.with_link(1, servo=ServoCalibration(channel=1, zero=90.0))
+    torque = gravity_torques(servo.with_payload(config.tool_mass), q)
+    np.testing.assert_allclose(gravity_sag(servo, q, config), [0.0, -config.joint_compliance * torque[1]], rtol=1e-12)
+    assert abs(torque[1]) > 10.0  # N m: what made the sag radians
 
 
 def test_link_masses_are_point_masses_at_mid_link_fed_to_the_dynamics(tmp_path):
@@ -92,8 +120,9 @@ def test_link_masses_are_point_masses_at_mid_link_fed_to_the_dynamics(tmp_path):
     path = tmp_path / "vertical2r.toml"
     path.write_text('format = "labkit-robot/1"\nname = "vertical2r"\nconvention = "standard"\n'
                     'units = { length = "mm", angle = "deg" }\nup = [0, 1, 0]\n'
-                    '[[joint]]\na = 300\nlimits = [-170, 170]\n[[joint]]\na = 200\nlimits = [-170, 170]\n')
-    arm = Robot.load(path)
+                    '[[joint]]\na = 300\nlimits = [-90, 90]\nservo = { channel = 0, zero = 90 }\n'
+                    '[[joint]]\na = 200\nlimits = [-90, 90]\nservo = { channel = 1, zero = 90 }\n')
+    arm = Robot.load(path)  # hobby servos (an ideal actuator does not yield)
     m1, m2, tool, l1, l2, g = 0.4, 0.25, 0.1, 0.3, 0.2, 9.81
     q = np.random.default_rng(3).uniform(-2.5, 2.5, (6, 2))
     c1, c12 = np.cos(q[:, 0]), np.cos(q[:, 0] + q[:, 1])

@@ -24,7 +24,9 @@ Model, per joint ``j`` (see ``docs/virtual-arm.md``):
 * the shaft position read by the servo's potentiometer is the model output;
   the **true joint** adds a per-joint **zero-offset** error (horn mounted one
   spline off, seeded) and the **gravity sag** of the links (joint compliance
-  times the gravity torque, quasi-static; the pot does not see it);
+  times the gravity torque, quasi-static; the pot does not see it); an ideal
+  actuator holds its joint where it is sent: it does not yield (a hobby servo's
+  0.04 rad/(N m) under a 12 kg industrial link would be a sag of radians);
 * the **feedback** is the pot voltage as 10-bit ADC counts with Gaussian noise;
 * the **ruler** returns the true end-effector position with reading noise,
   rounded to the ruler's resolution (seed 000: 0.5 mm).
@@ -85,7 +87,8 @@ class PhysicsConfig:
     zero_offsets : tuple of float or None
         Explicit zero-offset errors per joint [rad] (overrides the random ones).
     joint_compliance : float or tuple of float
-        Joint compliance [rad/(N m)] (scalar or per joint).
+        Joint compliance [rad/(N m)] (scalar or per joint) of the servos; an ideal actuator (a joint
+        without a servo) does not yield.
     link_masses : tuple of float or None
         Mass of each moving link [kg], a point at the middle of the link
         (:func:`point_mass_links`); ``None``: the
@@ -219,7 +222,7 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     payload at the tool point; without inertias (or with ``link_masses`` given) each link's mass
     is a point at the middle of the link (:func:`point_mass_links`). A joint whose file names a
     geared ``motor`` (ratio ``G``) has ``joint_compliance / G**2`` (the drive's loop holds the
-    motor shaft).
+    motor shaft); an ideal actuator (a joint without a servo or bus table) does not yield.
 
     Parameters
     ----------
@@ -252,7 +255,7 @@ def gravity_sag(robot, q, config=PhysicsConfig()):
     # a drive with a gearbox (the file's motor.gear_ratio G) holds its position loop at the motor: the
     # joint sees that compliance divided by G^2 (a hobby servo's compliance is already at its horn)
     gears = np.array([1.0 if lk.motor is None else float(lk.motor.gear_ratio) for lk in robot.links])
-    compliance = compliance / gears**2
+    compliance = compliance / gears**2 * [not is_ideal(lk) for lk in robot.links]
     return 0.0 - compliance * gravity_torques(held, q, gravity=g) * robot.is_revolute  # 0.0 -: no -0
 
 
