@@ -9,8 +9,8 @@ import numpy as np
 from labkit.exceptions import OptionError, RobotError, ShapeError, TrajectoryError
 
 
-def as_batch(x, last, name, *, finite=True):
-    """Return ``x`` as a float array of shape ``(..., *last)``.
+def as_batch(x, last, name, *, finite=True, batch=True, bools=False):
+    """Return ``x`` as a float array of shape ``(..., *last)`` (``batch=False``: exactly ``last``).
 
     Parameters
     ----------
@@ -22,6 +22,10 @@ def as_batch(x, last, name, *, finite=True):
         Argument name used in the error message.
     finite : bool
         Reject NaN/inf values.
+    batch : bool
+        Accept leading batch dimensions.
+    bools : bool
+        Accept booleans (as 0 and 1: a mask).
 
     Returns
     -------
@@ -35,7 +39,7 @@ def as_batch(x, last, name, *, finite=True):
     """
     try:
         arr = np.asarray(x)
-        why = ("booleans are not numbers" if arr.dtype.kind == "b" else
+        why = ("booleans are not numbers" if arr.dtype.kind == "b" and not bools else
                "None is not a number" if arr.dtype.kind == "O" and any(v is None for v in arr.flat) else None)
         if why is None:
             arr = arr.astype(float, copy=False)
@@ -45,8 +49,8 @@ def as_batch(x, last, name, *, finite=True):
         raise ShapeError(f"expected {name} as numbers, got {_received(x)} ({why})")
     last = tuple(last)
     k = len(last)
-    if arr.ndim < k or arr.shape[arr.ndim - k:] != last:
-        want = "(..., " + ", ".join(str(v) for v in last) + ")"
+    if arr.ndim < k or arr.shape[arr.ndim - k:] != last or (not batch and arr.ndim != k):
+        want = "(" + "..., " * batch + ", ".join(map(str, last)) + "," * (k == 1 and not batch) + ")"
         raise ShapeError(f"expected {name} with shape {want}, got {arr.shape}")
     if finite and not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))[0]
@@ -83,7 +87,7 @@ def as_vector(x, n, name, *, finite=True):
     return as_batch(x, (n,), name, finite=finite)
 
 
-def as_number(x, name, *, unit="", positive=False, error=ShapeError):
+def as_number(x, name, *, unit="", positive=False, minimum=None, error=ShapeError):
     """Return ``x`` as one finite float (``True`` and ``False`` are not numbers).
 
     Parameters
@@ -96,6 +100,8 @@ def as_number(x, name, *, unit="", positive=False, error=ShapeError):
         Its unit, shown in the message ("s").
     positive : bool
         Also reject zero and negative values.
+    minimum : float or None
+        Also reject values below it.
     error : type
         The :class:`~labkit.exceptions.LabkitError` subclass to raise.
 
@@ -108,12 +114,13 @@ def as_number(x, name, *, unit="", positive=False, error=ShapeError):
     ShapeError (or ``error``)
         With what was expected and what was received.
     """
-    what = f"{name} as a {'positive ' if positive else ''}finite number" + (f" [{unit}]" if unit else "")
+    what = (f"{name} as a {'positive ' if positive else ''}finite number" + (f" >= {minimum}" if minimum is not None
+            else "") + (f" [{unit}]" if unit else ""))
     try:
         out = math.nan if isinstance(x, (bool, np.bool_, str, bytes)) else float(x)
     except (TypeError, ValueError):
         out = math.nan
-    if not math.isfinite(out) or (positive and out <= 0.0):
+    if not math.isfinite(out) or (positive and out <= 0.0) or (minimum is not None and out < minimum):
         raise error(f"expected {what}, got {x!r}")
     return out
 
@@ -155,6 +162,56 @@ def as_count(x, name, *, minimum=0, maximum=None, error=OptionError):
         span = f"{minimum}..{maximum}" if maximum is not None else f">= {minimum}" if minimum is not None else ""
         raise error(f"expected {name} as an integer {span}".rstrip() + f", got {x!r}")
     return int(x)
+
+
+def as_seed(seed, name="seed"):
+    """Return ``seed`` if numpy's ``default_rng`` takes it: ``None`` (fresh entropy), an int >= 0 or a Generator.
+
+    Parameters
+    ----------
+    seed : int, numpy.random.Generator or None
+        Input.
+    name : str
+        Argument name used in the error message.
+
+    Returns
+    -------
+    int, numpy.random.Generator or None
+
+    Raises
+    ------
+    OptionError
+        With what was expected and what was received.
+    """
+    return seed if seed is None or isinstance(seed, np.random.Generator) else as_count(seed, name)
+
+
+def as_option(x, options, name, *, error=OptionError):
+    """Return ``x`` if it is one of the strings ``options``, else an OptionError that lists them.
+
+    Parameters
+    ----------
+    x : str
+        Input.
+    options : iterable of str
+        The valid values (a mapping: its keys).
+    name : str
+        Argument name used in the error message.
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    OptionError (or ``error``)
+        With the valid values and what was received.
+    """
+    if not (isinstance(x, str) and x in options):
+        raise error(f"expected {name} as one of {', '.join(map(repr, options))}, got {_received(x)}")
+    return x
 
 
 def check_robot(robot, name="robot", *, optional=False):

@@ -17,6 +17,8 @@ import pandas as pd
 
 import labkit.control as control
 import labkit.dynamics as dyn
+import labkit.kinematics as kin
+import labkit.kinematics.symbolic as sym
 import labkit.measure as measure
 import labkit.motion as motion
 import labkit.plotting as plotting
@@ -148,6 +150,63 @@ def _motion(f):
              v_max=1.0, a_max=4.0, dt=0.05, kinds="points:array v_max:positive a_max:positive dt:positive"),
         call("cartesian_blended_trajectory", motion.cartesian_blended_trajectory, arm, P, v_max=0.1, a_max=0.5,
              dt=0.1, kinds="robot:robot points:array v_max:positive a_max:positive dt:positive"),
+    ]
+
+
+def _kinematics(f):
+    arm, puma, omx = f["arm"], f["puma"], f["omx"]
+    J = kin.jacobian(arm, Q3)
+    p = kin.fk_position(arm, Q3)
+    T6 = kin.fk(puma, Q6)
+    t4 = kin.target_from_pose(omx, omx.fk([0.1, 0.2, 0.3, 0.4]))
+    ws = kin.workspace_points(arm, n=400)
+    rq = "robot:robot q:array"
+    return [
+        call("fk", kin.fk, arm, Q3, kinds=rq),
+        call("fk_position", kin.fk_position, arm, Q3, point=[0.0, 0.0, 0.01], kinds=f"{rq} point:array"),
+        call("fk_position_with", kin.fk_position_with, arm, Q3, a=[0.0, 0.1, 0.1], base_position=[0.0, 0.0, 0.1],
+             kinds=f"{rq} theta:array a:array d:array base_position:array tool_position:array"),
+        call("fk_frames", kin.fk_frames, arm, Q3, kinds=rq),
+        call("fk_frames_with", kin.fk_frames_with, arm, Q3, d=[0.05, 0.0, 0.0], kinds=f"{rq} d:array"),
+        call("jacobian", kin.jacobian, arm, Q3, point=[0.0, 0.0, 0.01], kinds=f"{rq} point:array frame:option"),
+        call("fk_jacobian", kin.fk_jacobian, arm, Q3, kinds=f"{rq} point:array frame:option"),
+        call("target_kind", kin.target_kind, arm, kinds="robot:robot"),
+        call("solver_for", kin.solver_for, arm, kinds="robot:robot"),
+        call("ik", kin.ik, arm, p, branch="elbow_up", kinds="robot:robot target:array branch:option solver:option"),
+        call("ik q_near", kin.ik, puma, T6, q_near=Q6, kinds="q_near:array"),
+        call("ik_all", kin.ik_all, arm, p, kinds="robot:robot target:array solver:option"),
+        call("ik_numeric", kin.ik_numeric, arm, p, Q3 + 0.05, mask=[1, 1, 1], restarts=2, seed=1,
+             kinds="robot:robot target:array q0:array kind:option mask:array tol:positive max_iter:count "
+                   "restarts:count seed:count"),
+        call("pose_from_position_pitch", kin.pose_from_position_pitch, omx, t4, kinds="robot:robot target:array"),
+        call("task_rows", kin.task_rows, "planar", kinds="kind:option"),
+        call("target_components", kin.target_components, "planar", kinds="kind:option"),
+        call("joint_torques", kin.joint_torques, J, np.ones(6), kinds="J:array wrench:array"),
+        call("wrench_transform_matrix", kin.wrench_transform_matrix, [0.1, 0.0, 0.0], R, kinds="p:array R:array"),
+        call("transform_wrench", kin.transform_wrench, np.ones(6), [0.1, 0.0, 0.0], R,
+             kinds="wrench:array p:array R:array"),
+        call("singular_values", kin.singular_values, J, "linear", kinds="J:array part:option"),
+        call("manipulability", kin.manipulability, J, "linear", kinds="J:array part:option"),
+        call("condition_number", kin.condition_number, J, "linear", kinds="J:array part:option"),
+        call("is_singular", kin.is_singular, J, "linear", kinds="J:array part:option tol:positive"),
+        call("damping_factor", kin.damping_factor, 0.005, 0.01, 0.05,
+             kinds="sigma_min:array epsilon:positive max_damping:positive"),
+        call("joint_rates", kin.joint_rates, J[:3], [0.01, 0.0, 0.0],
+             kinds="J:array twist:array epsilon:positive max_damping:positive"),
+        call("target_from_display", kin.target_from_display, arm, [100.0, 150.0, -200.0],
+             kinds="robot:robot row:array"),
+        call("target_to_display", kin.target_to_display, puma, T6, kinds="robot:robot T:array"),
+        call("target_error", kin.target_error, arm, Q3, p, kinds="robot:robot q:array target:array"),
+        call("target_from_pose", kin.target_from_pose, omx, omx.fk([0.1, 0.2, 0.3, 0.4]), kinds="robot:robot T:array"),
+        call("workspace_points", kin.workspace_points, arm, arm.joint_limits, n=50,
+             kinds="robot:robot joint_ranges:array n:count seed:count point:array"),
+        call("planar_region", kin.planar_region, ws, bins=30, kinds="workspace:object bins:count plane:option "
+                                                                     "close_gaps:count"),
+        call("symbolic.dh_matrix", sym.dh_matrix, 0.1, 0.0, 0.0, 0.3, kinds="convention:option"),
+        call("symbolic.forward_kinematics", sym.forward_kinematics, arm, simplify=False,
+             kinds="robot:robot length_unit:option"),
+        call("symbolic.geometric_jacobian", sym.geometric_jacobian, arm, simplify=False,
+             kinds="robot:robot length_unit:option point:array"),
     ]
 
 
@@ -322,5 +381,6 @@ def _tables(f):
 def all_calls():
     """Every working call of the sweep, by subpackage."""
     f = fixtures()
-    return {"rotations": _rotations(), "motion": _motion(f), "dynamics": _dynamics(f), "control": _control(f),
+    return {"rotations": _rotations(), "kinematics": _kinematics(f), "motion": _motion(f), "dynamics": _dynamics(f),
+            "control": _control(f),
             "measure": _measure(f), "plotting": _plotting(f), "robot": _robot(f), "tables": _tables(f)}

@@ -1,6 +1,6 @@
 """A sweep of bad input over the public Python API: a LabkitError that says what was expected, or a documented result.
 
-For each public function of rotations, motion, dynamics, control, measure, plotting, robot and tables,
+For each public function of rotations, kinematics, motion, dynamics, control, measure, plotting, robot and tables,
 tests/api_sweep_calls.py holds a working call; tests/api_sweep.py replaces one argument at a time by the
 bad values of its kind (NaN and inf in arrays, a scalar, one element too many, ragged lists, a string, None,
 a dict, an empty array, True where a number belongs, zero and negative durations and rates, unknown
@@ -36,6 +36,9 @@ ELEMENTWISE_NAN = "element-wise, like a numpy ufunc: NaN and inf in give NaN out
 MISSING_READING = "element-wise unit conversion: a missing reading (NaN) stays NaN, inf stays inf"
 ANY_VALUE = "formats any value as a table cell: words for missing values and booleans, str() of the rest"
 EMPTY_MAPPING = "an empty mapping or list: nothing to rename, mark or sweep"
+EXTRA_JOINT = "one more column of a Jacobian is one more joint"
+SEED = "numpy's default_rng seeds: 0, or None for fresh entropy (documented)"
+SOLVER_NONE = "None picks 'auto', as the default does"
 
 #: (call, argument) -> (bad-value labels that return a right result, why)
 ACCEPTED = {
@@ -47,6 +50,22 @@ ACCEPTED = {
     ("wrap_angle", "angle"): ({"empty", "longer", "scalar", "nan", "inf"}, f"{BATCH}; {ELEMENTWISE_NAN}"),
     ("slerp", "s"): ({"empty", "longer", "scalar"}, BATCH),
     ("is_rotation", "R"): ({"nan", "inf"}, PREDICATE),
+    ("ik", "solver"): ({"none"}, SOLVER_NONE),
+    ("ik_all", "solver"): ({"none"}, SOLVER_NONE),
+    ("ik_numeric", "restarts"): ({"zero"}, "0 restarts: the first start only"),
+    ("ik_numeric", "seed"): ({"none", "zero"}, SEED),
+    ("joint_torques", "J"): ({"longer"}, EXTRA_JOINT),
+    ("singular_values", "J"): ({"longer"}, EXTRA_JOINT),
+    ("manipulability", "J"): ({"longer"}, EXTRA_JOINT),
+    ("condition_number", "J"): ({"longer"}, EXTRA_JOINT),
+    ("is_singular", "J"): ({"longer"}, EXTRA_JOINT),
+    ("is_singular", "tol"): ({"zero"}, "tol 0: singular only where the smallest singular value is exactly 0"),
+    ("damping_factor", "sigma_min"): ({"empty"}, BATCH),
+    ("damping_factor", "max_damping"): ({"zero"}, "max_damping 0: no damping (the plain pseudo-inverse)"),
+    ("joint_rates", "J"): ({"longer"}, EXTRA_JOINT),
+    ("joint_rates", "max_damping"): ({"zero"}, "max_damping 0: no damping (the plain pseudo-inverse)"),
+    ("workspace_points", "seed"): ({"none", "zero"}, SEED),
+    ("planar_region", "close_gaps"): ({"zero"}, "0 disables the closing (documented)"),
     ("cubic_law", "q0"): ({"empty"}, BROADCAST),
     ("cubic_law", "qf"): ({"empty"}, BROADCAST),
     ("cubic_law", "v0"): ({"empty"}, BROADCAST),
@@ -165,4 +184,4 @@ def test_bad_input_is_a_labkit_error_that_says_what_was_expected(c):
 def test_every_accepted_case_names_a_call_of_the_sweep():
     names = {c.name for c in CALLS}
     assert {name for name, _ in ACCEPTED} <= names
-    assert len(CALLS) >= 140
+    assert len(CALLS) >= 170

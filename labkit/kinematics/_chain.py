@@ -20,7 +20,7 @@ import numpy as np
 
 from labkit.kinematics._program import _chain_structure
 from labkit.robot.types import Convention
-from labkit.validation import as_vector
+from labkit.validation import as_vector, check_robot
 
 
 #: contents a :func:`_by_content` cache keeps
@@ -35,8 +35,8 @@ def _per_robot(func):
     def cached(robot):
         try:
             return cache[robot]
-        except KeyError:
-            value = cache[robot] = func(robot)
+        except (KeyError, TypeError):  # not cached yet, or no robot at all (a str cannot be weakly referenced)
+            value = cache[robot] = func(check_robot(robot))
             return value
 
     return cached

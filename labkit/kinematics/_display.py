@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from labkit.exceptions import LabkitError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik import target_kind
 from labkit.kinematics._ik_solvers import COMPONENTS, REDUCED, detect, target_components
+from labkit.validation import as_batch
 
 __all__ = ["target_from_display", "target_to_display", "target_error", "target_from_pose"]
 
@@ -49,7 +49,7 @@ def target_from_pose(robot, T):
     [0.16, 0.0, 0.0615, -1.5708]
     """
     kind = target_kind(robot)
-    T = np.asarray(T, dtype=float)
+    T = as_batch(T, (4, 4), "T")
     if kind == "position":
         return T[..., :3, 3].copy()
     if kind == "planar":
@@ -80,10 +80,8 @@ def target_from_display(robot, row):
     from labkit.rotations import matrix_from_rpy
 
     kind = target_kind(robot)
-    row = np.asarray(row, dtype=float)
     names = target_components(kind)
-    if row.shape != (len(names),):
-        raise LabkitError(f"{robot.name} takes {' '.join(names)} ({len(names)} numbers), got shape {row.shape}")
+    row = as_batch(row, (len(names),), f"row ({' '.join(names)} for {robot.name})", batch=False)
     if kind != "pose":  # lengths, then angles
         n = 2 if kind == "planar" else 3
         return np.concatenate([row[:n] / 1000.0, np.radians(row[n:])])
@@ -112,7 +110,7 @@ def target_to_display(robot, T):
     from labkit.rotations import rpy_from_matrix
 
     kind = target_kind(robot)
-    T = np.asarray(T, dtype=float)
+    T = as_batch(T, (4, 4), "T", batch=False)
     if kind != "pose":  # lengths, then angles
         t, n = target_from_pose(robot, T), 2 if kind == "planar" else 3
         return np.concatenate([t[:n] * 1000.0, np.degrees(t[n:])])
@@ -140,11 +138,11 @@ def target_error(robot, q, target):
     """
     from labkit.rotations import wrap_angle
 
-    T = fk(robot, q)
-    target = np.asarray(target, dtype=float)
+    T, kind, target = fk(robot, q), target_kind(robot), as_batch(target, (), "target")
     if target.shape == (4, 4):
         return float(np.abs(T - target).max())
-    kind = target_kind(robot)
+    target = as_batch(target, (len(COMPONENTS[kind]) if kind == "planar" or kind in REDUCED else 3,), "target",
+                      batch=False)
     if kind == "planar" or kind in REDUCED:
         d = target_from_pose(robot, T) - target
         angles = slice(2 if kind == "planar" else 3, None)

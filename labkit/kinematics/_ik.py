@@ -27,7 +27,7 @@ from enum import Enum
 
 import numpy as np
 
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_count, as_number, as_seed
 from labkit.exceptions import JointLimitError, OptionError, ShapeError, UnknownBranchError, UnreachableError
 from labkit.kinematics._forward import fk
 from labkit.kinematics._ik_solvers import (
@@ -320,7 +320,7 @@ def _per_target(q, n, lead, name):
 
 
 def _branch_index(impl_branches, aliases, branch):
-    name = aliases.get(branch, branch)
+    name = aliases.get(branch, branch) if isinstance(branch, str) else branch
     if name not in impl_branches:
         extra = f" (aliases: {', '.join(sorted(aliases))})" if aliases else ""
         raise OptionError(f"unknown branch {branch!r}; expected one of {', '.join(impl_branches)}{extra}")
@@ -424,7 +424,7 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
         kind = "pose"
     rows = task_rows(kind)
     if mask is not None:
-        mask = np.asarray(mask, dtype=bool).reshape(-1)
+        mask = as_batch(mask, (), "mask", bools=True).astype(bool).reshape(-1)
         if mask.shape != (len(rows),):
             raise ShapeError(f"expected mask with {len(rows)} entries for {kind} targets, got {mask.shape}")
         rows = tuple(r for r, keep in zip(rows, mask) if keep)
@@ -479,8 +479,8 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         Success threshold on the residual [m, rad].
     max_iter, restarts : int
         Iterations per attempt and number of random restarts.
-    seed : int
-        Seed of the random initial guesses.
+    seed : int >= 0, numpy.random.Generator or None
+        Seed of the random initial guesses (None: fresh entropy).
 
     Returns
     -------
@@ -514,7 +514,8 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
     n = robot.n
     if q0 is not None:
         q0 = _per_target(q0, n, lead, "q0")
-    q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=tol, max_iter=max_iter, restarts=restarts, seed=seed)
+    q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=as_number(tol, "tol", positive=True), seed=as_seed(seed),
+                              max_iter=as_count(max_iter, "max_iter", minimum=1), restarts=as_count(restarts, "restarts"))
     return IKResult(q.reshape(lead + (n,)), ok.reshape(lead), it.reshape(lead), res.reshape(lead))
 
 
@@ -558,7 +559,7 @@ def pose_from_position_pitch(robot, target):
             f"{robot.name}: (x, y, z, pitch[, roll]) targets need a 4-DOF yaw-pitch-pitch-pitch or 5-DOF "
             f"yaw-pitch-pitch-pitch-roll arm ({reasons.get('yaw_pitch_pitch_pitch', 'its solver is ' + repr(getattr(found, 'name', None)))})"
         )
-    t, lead = validate_targets(np.asarray(target, dtype=float), found.kind)
+    t, lead = validate_targets(target, found.kind)
     if t.ndim == 3:
         raise ShapeError(f"expected {_target_words(found.kind)} targets, got poses")
     return found.pose(t).reshape(lead + (4, 4))

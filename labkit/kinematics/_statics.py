@@ -24,13 +24,12 @@ directions of ``v`` are still met exactly.
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 import numpy as np
 
 from labkit.rotations import skew
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_number, as_option
 from labkit.exceptions import OptionError, ShapeError
 
 __all__ = ["joint_torques", "wrench_transform_matrix", "transform_wrench", "singular_values", "manipulability",
@@ -42,13 +41,7 @@ _PARTS = {"full": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}
 
 def _positive(value, name, *, zero=False):
     """A finite number > 0 (``zero``: >= 0), else :class:`OptionError` saying what came."""
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        out = math.nan
-    if not (math.isfinite(out) and (out >= 0 if zero else out > 0)):
-        raise OptionError(f"expected {name} as a finite number {'>=' if zero else '>'} 0, got {value!r}")
-    return out
+    return as_number(value, name, positive=not zero, minimum=0.0 if zero else None, error=OptionError)
 
 
 def _jac(J, rows=6):
@@ -63,9 +56,7 @@ def _jac(J, rows=6):
 
 
 def _select(J, part):
-    if not isinstance(part, str) or part not in _PARTS:
-        raise OptionError(f"expected part in {sorted(_PARTS)}, got {part!r}")
-    return _jac(J)[..., _PARTS[part], :]
+    return _jac(J)[..., _PARTS[as_option(part, _PARTS, "part")], :]
 
 
 def joint_torques(J, wrench):

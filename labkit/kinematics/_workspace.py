@@ -17,6 +17,7 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics._forward import fk_position
+from labkit.validation import as_batch, as_count, as_option, as_seed, as_vector, check_robot
 
 __all__ = ["Workspace", "workspace_points", "PlanarRegion", "planar_region"]
 
@@ -63,11 +64,7 @@ class Workspace:
 def _ranges(robot, joint_ranges):
     if joint_ranges is None:
         return robot.joint_limits
-    r = np.asarray(joint_ranges, dtype=float)
-    if r.shape != (robot.n, 2):
-        raise ShapeError(f"expected joint_ranges with shape ({robot.n}, 2) [lower, upper] per joint, got {r.shape}")
-    if not np.all(np.isfinite(r)):
-        raise ShapeError("expected finite joint_ranges, got a non-finite value")
+    r = as_batch(joint_ranges, (robot.n, 2), "joint_ranges", batch=False)
     bad = np.flatnonzero(r[:, 0] > r[:, 1])
     if bad.size:
         j = int(bad[0])
@@ -89,8 +86,8 @@ def workspace_points(robot, joint_ranges=None, *, n=100_000, grid=False, seed=0,
         ``N = k ** n_joints`` samples are returned.
     grid : bool
         Regular grid (including the range ends) instead of uniform random samples.
-    seed : int or numpy.random.Generator
-        Seed of the random samples (ignored with ``grid=True``).
+    seed : int >= 0, numpy.random.Generator or None
+        Seed of the random samples (None: fresh entropy; ignored with ``grid=True``).
     point : array_like, shape (3,), optional
         Point in tool coordinates [m] (default the tool-frame origin).
 
@@ -101,8 +98,8 @@ def workspace_points(robot, joint_ranges=None, *, n=100_000, grid=False, seed=0,
 
     Raises
     ------
-    ShapeError, ValueError
-        For malformed ``joint_ranges`` or ``n < 1``.
+    ShapeError, OptionError
+        For malformed ``joint_ranges``, ``n < 1`` or a bad ``seed``.
 
     Examples
     --------
@@ -113,17 +110,14 @@ def workspace_points(robot, joint_ranges=None, *, n=100_000, grid=False, seed=0,
     >>> bool(np.all(np.linalg.norm(ws.points, axis=1) <= 0.47 + 1e-12))
     True
     """
-    r = _ranges(robot, joint_ranges)
-    n = int(n)
-    if n < 1:
-        raise OptionError(f"expected n >= 1 samples, got {n}")
+    r, n = _ranges(check_robot(robot), joint_ranges), as_count(n, "n", minimum=1)
     dof = robot.n
     if grid:
         k = max(2, int(round(n ** (1.0 / dof))))
         axes = [np.linspace(lo, hi, k) for lo, hi in r]
         q = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dof)
     else:
-        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        rng = np.random.default_rng(as_seed(seed))  # a Generator is returned as it is
         q = r[:, 0] + rng.random((n, dof)) * (r[:, 1] - r[:, 0])
     return Workspace(q=q, points=fk_position(robot, q, point=point))
 
@@ -179,9 +173,7 @@ class PlanarRegion:
         -------
         inside : ndarray of bool, shape (...)
         """
-        xy = np.asarray(xy, dtype=float)
-        if xy.shape[-1:] != (2,):
-            raise ShapeError(f"expected xy with shape (..., 2), got {xy.shape}")
+        xy = as_vector(xy, 2, "xy", finite=False)  # a non-finite point is in no cell
         i = np.searchsorted(self.x_edges, xy[..., 0], side="right") - 1
         j = np.searchsorted(self.y_edges, xy[..., 1], side="right") - 1
         ny, nx = self.occupied.shape
@@ -236,20 +228,17 @@ def planar_region(
     import contourpy
     from scipy import ndimage
 
-    pts = workspace.points if isinstance(workspace, Workspace) else np.asarray(workspace, dtype=float)
+    pts = as_batch(workspace.points if isinstance(workspace, Workspace) else workspace, (), "workspace points")
     if pts.ndim != 2 or pts.shape[1] not in (2, 3) or len(pts) == 0:
         raise ShapeError(f"expected points with shape (N, 3) or (N, 2), N >= 1, got {pts.shape}")
-    if plane not in _PLANES:
-        raise OptionError(f"expected plane in {sorted(_PLANES)}, got {plane!r}")
+    plane = as_option(plane, _PLANES, "plane")
     xy = pts if pts.shape[1] == 2 else pts[:, _PLANES[plane]]
-    if not np.all(np.isfinite(xy)):
-        raise ShapeError("expected finite points, got a non-finite value")
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     span = float(max(hi - lo)) or 1e-3
-    if bins is None:
-        bins = int(np.clip(0.5 * np.sqrt(len(xy)), 20, 400))
-    cell = span / int(bins)
-    pad = (int(close_gaps) + 2) * cell
+    bins = int(np.clip(0.5 * np.sqrt(len(xy)), 20, 400)) if bins is None else as_count(bins, "bins", minimum=1)
+    close_gaps = as_count(close_gaps, "close_gaps")
+    cell = span / bins
+    pad = (close_gaps + 2) * cell
     edges = []
     for k in range(2):
         m = int(np.ceil((hi[k] - lo[k] + 2 * pad) / cell))
@@ -257,7 +246,7 @@ def planar_region(
     H, _, _ = np.histogram2d(xy[:, 0], xy[:, 1], bins=edges)
     occ = H.T > 0
     if close_gaps:
-        occ = ndimage.binary_closing(occ, structure=np.ones((3, 3), bool), iterations=int(close_gaps))
+        occ = ndimage.binary_closing(occ, structure=np.ones((3, 3), bool), iterations=close_gaps)
     xc = 0.5 * (edges[0][1:] + edges[0][:-1])
     yc = 0.5 * (edges[1][1:] + edges[1][:-1])
     gen = contourpy.contour_generator(xc, yc, occ.astype(float), line_type="Separate")

@@ -33,6 +33,7 @@ import numpy as np
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics._program import PLAIN, walk
 from labkit.robot.types import Convention
+from labkit.validation import as_option, check_robot
 
 __all__ = [
     "dh_matrix",
@@ -94,7 +95,7 @@ def dh_matrix(a, alpha, d, theta, convention="standard"):
     [         0, 0,           0,            1]])
     """
     sp = _sp()
-    conv = Convention(convention)
+    conv = Convention(as_option(convention, [c.value for c in Convention], "convention"))
     a, d, alpha, theta = _exact(a), _exact(d), _exact(alpha, angle=True), _exact(theta, angle=True)
     identity = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0))
     step = (True, a, sp.cos(alpha), sp.sin(alpha), d, None, None)
@@ -146,10 +147,8 @@ def joint_symbols(robot, q=None):
 
 def _length_mapper(lengths, unit):
     """Function (value_in_m, default_name) -> sympy length in ``unit``."""
-    if unit not in _LENGTH_SCALE:
-        raise OptionError(f"expected length_unit in {sorted(_LENGTH_SCALE)}, got {unit!r}")
     sp = _sp()
-    scale = _LENGTH_SCALE[unit]
+    scale = _LENGTH_SCALE[as_option(unit, _LENGTH_SCALE, "length_unit")]
     named = {}
     if isinstance(lengths, Mapping):
         named = {float(v): sp.Symbol(str(k), positive=True) for k, v in lengths.items() if float(v) != 0.0}
@@ -210,7 +209,7 @@ def link_transforms(robot, *, q=None, lengths=None, length_unit="m"):
 
 def _links(robot, q, L):
     """Per link ``(revolute, a, alpha, d, theta)`` on sympy, the joint variable in ``theta`` or ``d``."""
-    mod = robot.convention is Convention.MODIFIED
+    mod = check_robot(robot).convention is Convention.MODIFIED
     out = []
     for i, (lk, qi) in enumerate(zip(robot.links, joint_symbols(robot, q)), start=1):
         if lk.flip:  # the variable enters negated (Link.flip)
@@ -321,8 +320,8 @@ def _point(point, length_unit):
     sp = _sp()
     if point is None:
         return sp.Matrix([0, 0, 0, 1])
-    if len(point) != 3:
-        raise ShapeError(f"expected point with 3 coordinates, got {len(point)}")
+    if np.asarray(point, dtype=object).shape != (3,):
+        raise ShapeError(f"expected point with 3 coordinates, got {point!r}")
     scale = _LENGTH_SCALE[length_unit]
     vals = [v if isinstance(v, sp.Basic) else _exact(float(v) * scale) for v in point]
     return sp.Matrix([*vals, 1])

@@ -120,7 +120,7 @@ def test_singular_configurations_detected():
 
 
 def test_part_validation():
-    with pytest.raises(ValueError, match=r"\['angular', 'full', 'linear'\], got 'xyz'"):
+    with pytest.raises(ValueError, match=r"expected part as one of 'full', 'linear', 'angular', got 'xyz'"):
         manipulability(np.zeros((6, 3)), "xyz")
     with pytest.raises(ShapeError, match=r"\(\.\.\., 6, n\), got \(3, 3\)"):
         manipulability(np.zeros((3, 3)))

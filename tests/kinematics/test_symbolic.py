@@ -169,7 +169,7 @@ def test_latex_and_errors():
     assert r"\sin{\left(\theta_{1} \right)}" in text and r"\begin{matrix}" in text
     with pytest.raises(ValueError, match="expected 3 joint symbols"):
         joint_symbols(arm, ["a", "b"])
-    with pytest.raises(ValueError, match=r"length_unit in \['cm', 'm', 'mm'\], got 'in'"):
+    with pytest.raises(ValueError, match=r"expected length_unit as one of 'm', 'mm', 'cm', got 'in'"):
         forward_kinematics(arm, length_unit="in")
     with pytest.raises(ValueError, match="lengths None, 'numeric', 'symbolic'"):
         forward_kinematics(arm, lengths="exact")

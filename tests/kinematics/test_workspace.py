@@ -69,7 +69,7 @@ def test_bad_ranges_raise_clear_errors():
         workspace_points(arm, [[0, 1], [1, 0], [0, 1]])
     with pytest.raises(ShapeError, match="finite"):
         workspace_points(arm, [[0, 1], [0, np.nan], [0, 1]])
-    with pytest.raises(ValueError, match="n >= 1"):
+    with pytest.raises(ValueError, match="expected n as an integer >= 1, got 0"):
         workspace_points(arm, n=0)
 
 
@@ -105,7 +105,7 @@ def test_planar_region_projection_and_input_checks():
     side = planar_region(ws, plane="xz")
     assert side.plane == "xz" and side.area > 0
     assert planar_region(ws.points[:, :2]).area > 0
-    with pytest.raises(ValueError, match=r"\['xy', 'xz', 'yz'\], got 'ab'"):
+    with pytest.raises(ValueError, match=r"expected plane as one of 'xy', 'xz', 'yz', got 'ab'"):
         planar_region(ws, plane="ab")
     with pytest.raises(ShapeError, match=r"\(N, 3\) or \(N, 2\)"):
         planar_region(np.zeros((10, 4)))

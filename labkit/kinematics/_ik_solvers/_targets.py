@@ -12,7 +12,7 @@ import numpy as np
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics._ik_solvers._elementwise import maximum
 from labkit.kinematics._ik_solvers._geometry import _cross, _dot
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_option
 
 __all__ = ["task_rows", "target_components", "validate_targets", "COMPONENTS", "REDUCED"]
 
@@ -69,7 +69,7 @@ def target_components(kind):
     >>> target_components("planar")
     ('x', 'y', 'phi')
     """
-    return ("x", "y", "z", "roll", "pitch", "yaw") if kind == "pose" else COMPONENTS[kind]
+    return ("x", "y", "z", "roll", "pitch", "yaw") if as_option(kind, _TASK_ROWS, "kind") == "pose" else COMPONENTS[kind]
 
 
 def task_rows(kind):
