@@ -36,6 +36,15 @@ def _arm4():
     return Robot("arm4", links)
 
 
+def _arm4_noa():
+    """arm4 with an n-o-a tool frame: the tool z axis (the approach) along the wrist link, x across the arm's plane."""
+    arm = _arm4()
+    tool = np.eye(4)
+    tool[:3, :3] = matrix_from_rpy([0.0, np.pi / 2, 0.0])
+    tool[:3, 3] = [0.02, 0.0, 0.01]
+    return Robot("arm4_noa", arm.links, tool=tool)
+
+
 #: robot-file fixtures of the SCARA, cylindrical and Cartesian families
 FIXTURES = Path(__file__).resolve().parent / "robots"
 
@@ -88,6 +97,7 @@ ROBOTS = {
     "planar3r_seed004": (lambda: Robot.load("planar3r_seed004"), "planar_3r"),
     "puma560": (lambda: Robot.load("puma560"), "spherical_wrist"),
     "arm4": (_arm4, "yaw_pitch_pitch_pitch"),
+    "arm4_noa": (_arm4_noa, "yaw_pitch_pitch_pitch"),
     "planar_2r_tilted": (_planar_2r, "planar_2r"),
     "irb140": (lambda: Robot.load("irb140"), "spherical_wrist"),
     "kr5": (lambda: Robot.load("kr5"), "spherical_wrist"),
@@ -406,3 +416,15 @@ def test_spherical_arm_branches_front_back_and_boom_out_in():
     assert not sols.reachable.any() and sols.distance > 0.05
     with pytest.raises(UnreachableError, match="out of reach by"):
         ik(rrp, S + [0.0, 0.0, 0.01])
+
+
+@pytest.mark.parametrize("make", [_arm4, _arm4_noa])
+def test_4dof_pitch_is_the_elevation_of_the_tool_x_or_n_o_a_approach_axis(make):
+    robot = make()
+    q = np.radians([[0.0, 0.0, 0.0, 0.0], [30.0, -90.0, 0.0, -90.0], [0.0, -90.0, 0.0, 0.0]])
+    T = fk(robot, q)
+    axis = T[..., :3, 0] if robot.name == "arm4" else T[..., :3, 2]  # the approach direction
+    assert target_kind(robot) == "position_pitch"
+    pitch = target_from_pose(robot, T)[:, 3]
+    assert np.allclose(pitch, np.arcsin(axis[:, 2]), atol=1e-12)  # elevation above the horizontal (axis 1 is up)
+    assert np.allclose(np.degrees(pitch), [90.0, -90.0, 0.0], atol=1e-9)

@@ -7,7 +7,8 @@ axes 2 and 3 (a wrist pitch). Such an arm reaches a tool point and one angle
 of its tool: targets ``(x, y, z, pitch)`` [m, rad].
 
 The approach direction
-    The tool ``x`` axis; it must lie in the arm's plane (perpendicular to axis 2).
+    The tool ``x`` axis, or the tool ``z`` axis (the approach vector of the n-o-a
+    convention) when only that one lies in the arm's plane (perpendicular to axis 2).
 Pitch
     The elevation of the approach direction above the plane perpendicular to
     axis 1, measured in the arm's plane, positive upwards (towards the side of
@@ -60,7 +61,7 @@ class YawPitchPitchPitch(Family):
         self.s4 = 1.0 if a4 @ a2 > 0 else -1.0
         x0 = self._approach(robot, z, o, tool)
         if abs(x0 @ a2) > TOL:
-            raise NotThisFamily("the approach direction (tool x axis) must lie in the arm's plane (perpendicular "
+            raise NotThisFamily("the approach direction (tool x or z axis) must lie in the arm's plane (perpendicular "
                                 "to axis 2)")
         er, a1 = np.array(arm.er), np.array(arm.a1)
         self.psi0 = math.atan2(float(x0 @ a1), float(x0 @ er))  # elevation of the approach at q = 0
@@ -72,8 +73,9 @@ class YawPitchPitchPitch(Family):
         self.approach_tool = self.R0.T @ x0  # the approach direction in tool coordinates
 
     def _approach(self, robot, z, o, tool):
-        """The approach direction at ``q = 0`` (world): the tool x axis."""
-        return _unit(tool[:3, 0])
+        """The approach direction at ``q = 0`` (world): the tool x axis, else its z axis if only that lies in the plane."""
+        x, a, a2 = _unit(tool[:3, 0]), _unit(tool[:3, 2]), _unit(z[1])
+        return a if abs(x @ a2) > TOL and abs(a @ a2) <= TOL else x
 
     def _arm_joints(self, x, y, z, pitch):
         """Per branch ``(q1, q2, q3, q4)``, reachable, the side's sign, and the distance out of reach."""
