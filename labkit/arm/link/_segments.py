@@ -93,10 +93,10 @@ def _fitting_pieces(rows, dur_ms, order, start, end):
     searched by doubling, then bisected; ``None`` if even pieces of 1 ms (the shortest ``SEG``) do not fit."""
     fits = lambda m: all(_line_fits(seg) for seg in _split(rows, dur_ms, order, start, end, m))  # noqa: E731
     low, high = 0, 1  # low does not fit (0 pieces: nothing tried yet)
-    while high < dur_ms and not fits(high):
+    while not fits(high):
+        if high >= dur_ms:
+            return None
         low, high = high, min(2 * high, dur_ms)
-    if not fits(high):
-        return None
     while high - low > 1:
         mid = (low + high) // 2
         low, high = (low, mid) if fits(mid) else (mid, high)
