@@ -31,3 +31,27 @@ def test_an_active_virtualenv_is_used_as_it_is(tmp_path):
     out = _dry_run("reports", VIRTUAL_ENV=str(venv))
     assert " -m venv " not in out and ".venv" not in out
     assert f"{venv}/bin/python -m pip install" in out and f"{venv}/bin/python -m labkit render" in out
+
+
+def _readme_setup_commands():
+    """The commands of the README's set-up block ("make reports", "make test"), in order."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    block = readme.split("## Set up", 1)[1].split("```sh\n", 1)[1].split("```", 1)[0]
+    return [line.split("#")[0].strip() for line in block.splitlines() if line.strip()]
+
+
+def test_ci_runs_the_readmes_commands_as_a_newcomer_with_debians_python():
+    """.ci/run runs the README's set-up commands, in its order, with the distribution's externally managed
+    /usr/bin/python3 first on PATH and no virtualenv active: what CI proves is the project-.venv path."""
+    commands = _readme_setup_commands()
+    assert commands == ["make reports", "make test"], commands
+    ci = (REPO / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    makes = [line.removeprefix("exec ") for line in ci if line.removeprefix("exec ").startswith("make ")]
+    assert makes == [f"{c} BASE_PYTHON=/usr/bin/python3" for c in commands], makes
+    first_make = ci.index(next(line for line in ci if line.removeprefix("exec ").startswith("make ")))
+    assert ci.index('export PATH="/usr/bin:/bin:$PATH"') < first_make
+    assert ci.index("unset VIRTUAL_ENV PYTHONPATH") < first_make
+    assert "set -eu" in ci  # make reports failing stops the run
+    stdlib = subprocess.run(["/usr/bin/python3", "-c", "import sysconfig; print(sysconfig.get_path('stdlib'))"],
+                            capture_output=True, text=True, timeout=60, check=True).stdout.strip()
+    assert (Path(stdlib) / "EXTERNALLY-MANAGED").is_file(), f"{stdlib}: /usr/bin/python3 is not externally managed here"
