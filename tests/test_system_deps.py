@@ -40,7 +40,7 @@ done
 }
 
 
-def _run(tmp_path, mode, installed=(), clang=14):
+def _run(tmp_path, mode, installed=(), clang=14, distro="debian"):
     """Run the script as `sh install-system-deps.sh MODE`; ``installed`` lists "package|its dependencies"."""
     fake = tmp_path / "fake"
     bin_dir = fake / "bin"
@@ -48,9 +48,12 @@ def _run(tmp_path, mode, installed=(), clang=14):
     for name, text in STUBS.items():
         (bin_dir / name).write_text(text)
         (bin_dir / name).chmod(0o755)
-    (fake / "installed").write_text("\n".join(p if "|" in p else p + "|" for p in installed) + "\n" if installed else "")
+    listed = [p if "|" in p else p + "|" for p in installed]
+    (fake / "installed").write_text("".join(line + "\n" for line in listed))
     (fake / "log").write_text("")
-    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "FAKE": str(fake), "CLANG": str(clang)}
+    (fake / "os-release").write_text(f'NAME="{distro.title()}"\nID={distro}\n')
+    env = {"PATH": f"{bin_dir}:/usr/bin:/bin", "FAKE": str(fake), "CLANG": str(clang),
+           "OS_RELEASE": str(fake / "os-release")}
     run = subprocess.run(["sh", str(SCRIPT), *mode.split()], env=env, capture_output=True, text=True, timeout=60)
     return run, (fake / "log").read_text().splitlines()
 
@@ -61,12 +64,15 @@ def _installs(log):
             for line in log if line.startswith("apt-get") and " install " in line]
 
 
-@pytest.mark.parametrize("clang", [14, 18])  # Debian 12's clang, Ubuntu 24.04's
-def test_a_fresh_machine_gets_the_fuzzing_runtime_of_its_own_clang(tmp_path, clang):
-    run, log = _run(tmp_path, "test", clang=clang)
+@pytest.mark.parametrize("distro, clang, chromium", [("debian", 14, "chromium"), ("ubuntu", 18, "chromium-browser")])
+def test_a_fresh_machine_gets_its_own_clangs_fuzzing_runtime_and_chromium(tmp_path, distro, clang, chromium):
+    """Debian 12: clang-14 and the package chromium; Ubuntu 24.04: clang-18, and chromium-browser (no `chromium`
+    there: apt-get would stop with "Package 'chromium' has no installation candidate")."""
+    run, log = _run(tmp_path, "test", clang=clang, distro=distro)
     assert run.returncode == 0, run.stderr
     first, runtime = _installs(log)
-    assert {"clang", "simavr", "bubblewrap", "chromium", "gcc-avr"} <= set(first)
+    assert {"clang", "simavr", "bubblewrap", chromium, "gcc-avr"} <= set(first)
+    assert {"chromium", "chromium-browser"} & set(first) == {chromium}, first
     assert not any(p.startswith("libclang-rt") for p in first), first
     assert runtime == [f"libclang-rt-{clang}-dev"], log
     assert sum(line.startswith("apt-get") and " update" in line for line in log) == 1, log  # one update, first

@@ -6,9 +6,13 @@
 #                                            carries ensurepip; the distribution's python3 lacks it)
 # As root, or through sudo. apt waits up to 10 minutes for a dpkg lock another apt holds.
 set -eu
+# Chromium: Debian's package `chromium`; Ubuntu has none of that name, its `chromium-browser` installs the snap
+chromium=chromium
+[ "$(. "${OS_RELEASE:-/etc/os-release}" 2>/dev/null && echo "${ID:-}")" = ubuntu ] && chromium=chromium-browser
 case "${1:-test}" in
-  test)    pkgs="bubblewrap util-linux passwd procps gcc-avr avr-libc arduino-core-avr arduino-builder libsimavr-dev simavr clang chromium fonts-dejavu-core make" ;;
-  reports) pkgs="chromium fonts-dejavu-core" ;;
+  test)    pkgs="bubblewrap util-linux passwd procps gcc-avr avr-libc arduino-core-avr arduino-builder libsimavr-dev simavr
+                 clang $chromium fonts-dejavu-core make" ;;
+  reports) pkgs="$chromium fonts-dejavu-core" ;;
   venv)
     python="${2:-python3}"
     "$python" -c "import ensurepip, venv" 2>/dev/null && { echo "python venv: present"; exit 0; }
