@@ -2,6 +2,7 @@
 
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -55,3 +56,18 @@ def test_ci_runs_the_readmes_commands_as_a_newcomer_with_debians_python():
     stdlib = subprocess.run(["/usr/bin/python3", "-c", "import sysconfig; print(sysconfig.get_path('stdlib'))"],
                             capture_output=True, text=True, timeout=60, check=True).stdout.strip()
     assert (Path(stdlib) / "EXTERNALLY-MANAGED").is_file(), f"{stdlib}: /usr/bin/python3 is not externally managed here"
+
+
+def test_an_active_virtualenv_without_pip_gets_pip(tmp_path):
+    """A virtualenv made without pip (`python -m venv --without-pip`, `uv venv`) is used too: make installs pip into
+    it with ensurepip before installing labkit."""
+    venv = tmp_path / "bare"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    python = str(venv / "bin" / "python")
+    assert subprocess.run([python, "-m", "pip", "--version"], capture_output=True).returncode != 0
+    base = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MAKELEVEL", "PYTHONPATH")}
+    out = subprocess.run(["make", "-C", str(REPO), "pip"], env={**base, "VIRTUAL_ENV": str(venv)},
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    pip = subprocess.run([python, "-m", "pip", "--version"], capture_output=True, text=True)
+    assert pip.returncode == 0 and str(venv) in pip.stdout, pip.stdout + pip.stderr
