@@ -1,6 +1,7 @@
 """The README's commands install into the right Python: the active virtualenv, else the project's own .venv/."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -47,12 +48,13 @@ def test_ci_runs_the_readmes_commands_as_a_newcomer_with_debians_python():
     commands = _readme_setup_commands()
     assert commands == ["make reports", "make test"], commands
     ci = (REPO / ".ci" / "run").read_text(encoding="utf-8").splitlines()
-    makes = [line.removeprefix("exec ") for line in ci if line.removeprefix("exec ").startswith("make ")]
-    assert makes == [f"{c} BASE_PYTHON=/usr/bin/python3" for c in commands], makes
-    first_make = ci.index(next(line for line in ci if line.removeprefix("exec ").startswith("make ")))
+    runs = [(i, m.group(1)) for i, m in enumerate(re.match(r"(?:exec )?(make \S+ BASE_PYTHON=\S+)( \|\| status=\$\?)?$",
+                                                           line) for line in ci) if m]
+    assert [run for _, run in runs] == [f"{c} BASE_PYTHON=/usr/bin/python3" for c in commands], runs
+    assert ci[-1] == "exit $status" and "set -eu" in ci  # both run; the run fails if either fails
+    first_make = runs[0][0]
     assert ci.index('export PATH="/usr/bin:/bin:$PATH"') < first_make
     assert ci.index("unset VIRTUAL_ENV PYTHONPATH") < first_make
-    assert "set -eu" in ci  # make reports failing stops the run
     stdlib = subprocess.run(["/usr/bin/python3", "-c", "import sysconfig; print(sysconfig.get_path('stdlib'))"],
                             capture_output=True, text=True, timeout=60, check=True).stdout.strip()
     assert (Path(stdlib) / "EXTERNALLY-MANAGED").is_file(), f"{stdlib}: /usr/bin/python3 is not externally managed here"
