@@ -126,7 +126,8 @@ class StepRecord:
         if not isinstance(system, control.LTI) or system.ninputs != 1 or system.noutputs != 1:
             raise OptionError(f"expected a python-control system with one input and one output, got {system!r}")
         delay = as_number(delay, "delay", unit="s", minimum=0.0, error=OptionError)
-        step = min(1e-3, float(np.diff(self.t).min()) / 2) if self.t.size > 1 else 1e-3
+        gaps = np.diff(self.t)[np.diff(self.t) > 0]  # a grid finer than the samples (and than 1 ms)
+        step = min(1e-3, float(gaps.min()) / 2) if gaps.size else 1e-3
         grid = np.arange(self.t[0], self.t[-1] + step / 2, step)
         command = np.interp(grid - delay, self.t, self.u) - self.u[0]
         _, y = control.forced_response(system, T=grid - grid[0], U=command)
