@@ -11,6 +11,7 @@ import re
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import require
@@ -130,9 +131,47 @@ def test_check_table_digits_roundoff_and_typo():
     c.check("L1 [mm]", 94.00012, 94, tol=0.5)
     c.typo("T06 (sec. 2.2)", [1.0, 2.0], [1.0, 2.0, 3.0], "published with a missing row")
     df = c.to_dataframe()
-    assert list(df["reproduced"])[:2] == ["[0.123457, 0]", "94.0001"]  # 6 significant digits, round-off is 0
-    assert list(df["tolerance"]) == ["1e-9", "0.5", "typo"] and list(df["max |diff|"])[0] == "0"
+    # 6 significant digits, the same decimals across a vector and beside the published value; round-off is 0
+    assert list(df["reproduced"])[:2] == ["(0.123457, 0.000000)", "94.0001"]
+    assert list(df["published / expected"])[:2] == ["(0.123457, 0.000000)", "94.0000"]
+    assert list(df["tolerance"]) == ["1.0e-9", "0.50", "typo"] and list(df["max |diff|"])[:2] == ["0", "1.20e-4"]
     assert "nan" not in df.to_string().lower() and "e-17" not in df.to_string()
+
+
+def test_check_cells_are_printed_by_the_tables_rule():
+    """One rule for printed numbers: a check row's cells are labkit.tables.format_value's, not a rule of their own."""
+    from labkit.reports import Checks
+    from labkit.tables import format_value
+
+    c = Checks(display=False)
+    c.check("x [mm]", [0.01200, -0.0016, 0.0], [0.012, -0.0016, 0.0], tol=1e-6)  # not 0.012, -0.0016, 0
+    c.check("flag", 1.0, 1.0, tol=0)  # whole numbers (a flag, a count) print as integers
+    c.check("count", [3.0, 4.0], [3, 5], tol=0)
+    c.check("long", np.arange(10.0) + 0.5, np.arange(10.0) + 0.5, tol=1e-9)
+    c.check("missing", float("nan"), 2.0, tol=1.0)
+    rows = c.to_dataframe().to_dict(orient="records")
+    assert rows[0]["reproduced"] == format_value([0.012, -0.0016, 0.0], digits=6) == "(0.0120000, -0.0016000, 0.0000000)"
+    assert (rows[1]["reproduced"], rows[1]["tolerance"], rows[1]["max |diff|"]) == ("1", "0", "0")
+    assert (rows[2]["reproduced"], rows[2]["published / expected"], rows[2]["max |diff|"]) == ("(3, 4)", "(3, 5)", "1")
+    assert rows[3]["reproduced"] == "(0.50000, 1.50000, 2.50000, 3.50000, 4.50000, 5.50000, 6.50000, 7.50000, ...)"
+    assert (rows[4]["reproduced"], rows[4]["published / expected"], rows[4]["max |diff|"]) == ("–", "2.00000", "–")
+
+
+def test_checks_show_one_table_in_a_notebook(monkeypatch, capsys):
+    """In a notebook the rows are shown once, as assert_all's report table (no printed rows before it)."""
+    from labkit.reports import _nbtools
+
+    shown = []
+    monkeypatch.setattr(_nbtools, "_in_ipython", lambda: True)
+    monkeypatch.setattr(_nbtools, "_display_raw", lambda bundle: shown.append(bundle) or True)
+    c = _nbtools.Checks("Seed 000: reach")
+    c.check("reach [mm]", 274.0, 274, tol=0.5, note="L1 + L2")
+    c.typo("a_1 [mm]", 94, 0, note="text says a_1 = L1")
+    c.assert_all()
+    assert capsys.readouterr().out == ""
+    assert len(shown) == 1 and 'class="lk-report-table"' in shown[0]["text/html"]
+    assert shown[0]["text/html"].count("<tr>") == 3 and "<caption>Seed 000: reach</caption>" in shown[0]["text/html"]
+    assert [r["result"] for r in shown[0][_nbtools.CHECKS_MIME]["rows"]] == ["pass", "published typo"]
 
 
 def test_error_names_the_notebook_one_cell_and_the_line():
