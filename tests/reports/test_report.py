@@ -75,6 +75,18 @@ def test_references_are_resolved_and_unknown_ones_reported():
     assert "\\tag{1}" in resolve_references("$$ a $$ {#eq-a}", labels)
 
 
+def test_an_equation_labelled_by_a_hidden_anchor_is_numbered_and_referenced():
+    """``$$ ... $$ <a id="eq-x"></a>``: a live notebook shows nothing of the label (Quarto's ``{#eq-x}`` it shows
+    as text); the report numbers it as Quarto's form and leaves no anchor text behind."""
+    from labkit.reports._numbering import number_notebooks, resolve_references
+
+    nb = _nb([("md", "# One"), ("md", '$$ u = a t $$ {#eq-a}\n\n$$ v = b t $$ <a id="eq-b"></a>\n\nSee [Equation](#eq-b).')])
+    labels = number_notebooks([nb], chapters=False)["labels"]
+    assert (labels["eq-a"].text, labels["eq-b"].text) == ("Equation (1)", "Equation (2)")
+    text = resolve_references(nb.cells[1].source, labels)
+    assert "\\tag{2}" in text and "<a id=" not in text and "[Equation (2)](#eq-b)" in text
+
+
 def test_per_notebook_html_numbers_captions_and_references(tmp_path):
     require("nbconvert")
     from labkit.reports import export_html
@@ -429,6 +441,10 @@ def test_every_lab_notebook_has_captions_and_resolved_references(path):
     refs = [m.group("label") or m.group("linked") for c in nb.cells if c.cell_type == "markdown"
             for m in REFERENCE.finditer(c.source)]
     assert refs and all(r in labels for r in refs), [r for r in refs if r not in labels]
+    # what JupyterLab would show as raw text: Quarto's @fig-x references and {#eq-x} / {#sec-x} attributes
+    raw = [m.group(0) for c in nb.cells if c.cell_type == "markdown"
+           for m in re.finditer(r"\{#(?:eq|sec)-[\w-]+\}|(?<![\w@/.#\[(])@(?:fig|tbl|eq|sec)-[\w-]+", c.source)]
+    assert raw == [], f"label syntax a live notebook shows as text: {raw}"
     # a caption that names a seed table or figure says so ("the seed's Table 4")
     for lab in labels.values():
         if re.search(r"\b(Table|Figure)s? \d", lab.caption):
