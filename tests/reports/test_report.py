@@ -186,6 +186,21 @@ def test_checks_show_one_table_in_a_notebook(monkeypatch, capsys):
     assert [r["result"] for r in shown[0][_nbtools.CHECKS_MIME]["rows"]] == ["pass", "published typo"]
 
 
+def test_the_code_appendix_leaves_out_where_the_build_writes_files():
+    """The lab's parameters stay in the appendix; output_dir (the build's "../../reports/..." path) does not."""
+    from labkit.reports._document import _chapter
+    from labkit.reports._numbering import number_notebooks
+
+    nb = _nb([("md", "# Demo"), ("code", 'output_dir = "../../reports/demo/files"\nport = "sim://"'),
+              ("code", '# Parameters\noutput_dir = "/tmp/build/x_files"\nrepeats = 3'), ("code", "x = 1")])
+    nb.cells[1].metadata["tags"] = ["parameters"]
+    nb.cells[2].metadata["tags"] = ["injected-parameters"]
+    chapter = _chapter(0, nb, "demo", number_notebooks([nb]), show_code=False, unresolved=[])
+    listing = "\n".join(chapter.code)
+    assert "output_dir" not in listing and "reports/" not in listing and "/tmp" not in listing
+    assert 'port = "sim://"' in listing and "repeats = 3" in listing and "x = 1" in listing
+
+
 def test_error_names_the_notebook_one_cell_and_the_line():
     from labkit.reports._execute import _first_error
 
