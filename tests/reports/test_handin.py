@@ -103,11 +103,14 @@ def audit_problems(lab, text):
 
 
 def table_problems(html):
-    """Report tables in ``html`` that print a raw value (NaN, True, ...) or a pandas index column."""
+    """Report tables in ``html`` not printed by report_table, or that print a raw value (NaN, True, ...) or a pandas
+    index column."""
     body = re.sub(r"<(script|style)\b.*?</\1>", "", html, flags=re.S)
     body = re.sub(r'<section class="lk-appendix".*?</section>', "", body, flags=re.S)
     problems = []
     for k, table in enumerate(re.findall(r"<table\b.*?</table>", body, flags=re.S), start=1):
+        if not re.match(r'<table class="(?:lk-report-table|lk-verify)\b', table):
+            problems.append(f"table {k}: not printed by report_table")
         cells = [_html.unescape(re.sub(r"<[^>]+>", "", c)).strip()
                  for c in re.findall(r"<t[dh]\b[^>]*>(.*?)</t[dh]>", table, flags=re.S)]
         raw = sorted({c for c in cells if _RAW.match(c)})
@@ -141,7 +144,8 @@ def raw_reprs(html):
 def test_the_checks_find_what_they_look_for():
     index_table = ("<table><thead><tr><th></th><th>x</th></tr></thead><tbody><tr><th>0</th><td>1.0</td></tr>"
                    "<tr><th>1</th><td>NaN</td></tr></tbody></table>")
-    assert table_problems(index_table) == ["table 1: NaN", "table 1: a pandas index column 0..1"]
+    assert table_problems(index_table) == ["table 1: not printed by report_table", "table 1: NaN",
+                                           "table 1: a pandas index column 0..1"]
     import pandas as pd
 
     from labkit.reports import report_table

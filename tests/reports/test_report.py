@@ -5,6 +5,7 @@ long code line, a figure, an equation, cross-references between chapters, a fail
 closing check with round-off and a published typo, and an absolute path printed by the code.
 """
 
+import ast
 import html as _html
 import logging
 import re
@@ -460,6 +461,23 @@ def test_every_lab_notebook_has_captions_and_resolved_references(path):
     raw = [m.group(0) for c in nb.cells if c.cell_type == "markdown"
            for m in re.finditer(r"\{#(?:eq|sec)-[\w-]+\}|(?<![\w@/.#\[(])@(?:fig|tbl|eq|sec)-[\w-]+", c.source)]
     assert raw == [], f"label syntax a live notebook shows as text: {raw}"
+    # a table a cell shows is a report table: no DataFrame left as a cell's value without report_table
+    raw_tables = []
+    for c in nb.cells:
+        if c.cell_type != "code":
+            continue
+        try:
+            tree = ast.parse("\n".join(line for line in c.source.splitlines() if not line.startswith(("%", "!"))))
+        except SyntaxError:
+            continue
+        shown = [s.value for s in tree.body[-1:] if isinstance(s, ast.Expr)]
+        shown += [a for s in tree.body for n in ast.walk(s) if isinstance(n, ast.Call)
+                  and getattr(n.func, "id", "") == "display" for a in n.args]
+        for e in shown:
+            names = {getattr(n, "id", None) or getattr(n, "attr", None) for n in ast.walk(e)}
+            if "DataFrame" in names and not names & {"report_table", "error_report_table"}:
+                raw_tables.append(c.get("id"))
+    assert raw_tables == [], f"cells that show a DataFrame as pandas prints it: {raw_tables}"
     # a caption that names a seed table or figure says so ("the seed's Table 4")
     for lab in labels.values():
         if re.search(r"\b(Table|Figure)s? \d", lab.caption):
