@@ -154,6 +154,17 @@ class Comparison:
     typo: bool = False
     relative: bool = False
 
+    def shortfall(self) -> str:
+        """The comparison in one line, its difference and tolerance as the check table prints them.
+
+        Returns
+        -------
+        str
+            ``"name: max |diff| 0.100 > tol 0.050"`` (what a failed check says).
+        """
+        cells = _row_cells(self)
+        return f"{self.name}: max |diff| {cells['max |diff|']} > tol {cells['tolerance']}"
+
 
 def _roundoff(a, tol=None, scale=None):
     """Threshold below which a number is round-off: min(tol, 1e-9 * scale), scale >= 1."""
@@ -351,7 +362,7 @@ class Checks:
                 print(table.to_text())
         if self.failures:
             raise CheckFailed("reproduced numbers disagree with the published ones: " + "; ".join(
-                f"{r.name} (max |diff| {r.error:.3g} > tol {r.tol:g})" for r in self.failures))
+                r.shortfall() for r in self.failures))
 
 
 def check(name, value, published, tol, note="", *, relative=False) -> Comparison:
