@@ -67,9 +67,9 @@ _NEEDS = (
     ("07_dynamics", lambda robot: any(lk.inertial is not None for lk in robot.links),
      "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
     ("08_control", lambda robot: robot.n > 1, _ONE_CURVE + " (its last part tracks a line)"),
-    # it identifies a servo's dynamics from its step response: a joint without a servo is an ideal actuator
-    ("08_control", lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
-     "joints without a servo are ideal actuators: no servo dynamics to identify"),
+    ("08_control", lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links)
+     or all(lk.inertial is not None for lk in robot.links),
+     "joints without a servo are ideal actuators (no servo dynamics to identify) and not every link has an inertia"),
 )
 
 
@@ -516,7 +516,7 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
     ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
-    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos; neither it nor
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos or inertias; neither it nor
     ``04_trajectory`` for a 1-DOF arm, whose tool has no Cartesian line to follow) with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal
