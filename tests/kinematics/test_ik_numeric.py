@@ -214,3 +214,41 @@ def test_numeric_ik_takes_the_closed_form_target_kind(name):
     other = "position_yaw" if name != "scara" else "position_pitch"
     with pytest.raises(OptionError, match="targets are defined by the closed form"):
         ik_numeric(robot, np.zeros(4), kind=other)
+
+
+def _scaled(robot, s):
+    """``robot`` with every length (DH a and d, prismatic limits, base and tool offsets) times ``s``."""
+    import dataclasses
+
+    links = tuple(dataclasses.replace(lk, a=lk.a * s, d=lk.d * s,
+                                      limits=lk.limits if lk.is_revolute else (lk.limits[0] * s, lk.limits[1] * s))
+                  for lk in robot.links)
+    base, tool = robot.base.copy(), robot.tool.copy()
+    base[:3, 3] *= s
+    tool[:3, 3] *= s
+    return robot.replace(links=links, base=base, tool=tool)
+
+
+@pytest.mark.parametrize("reach", [0.05, 7.0])
+@pytest.mark.parametrize("make", [lambda: Robot.load("ur5").with_link(4, a=0.002),
+                                  lambda: Robot.load("rpp_seed002").with_link(1, alpha=0.01)],
+                         ids=["bent ur5", "tilted rpp"])
+def test_the_default_tolerance_scales_with_the_arm(bent, make, reach):
+    """A 5 cm micro-arm and a 7 m arm of the same shape (no closed form: plain LM) solve the same targets
+    to the same precision relative to their reach (1e-10 of it)."""
+    robot = make()
+    small = _scaled(robot, reach / robot.reach)
+    assert small.reach == pytest.approx(reach)
+    rng = np.random.default_rng(5)
+    lim = robot.joint_limits
+    q = rng.uniform(np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi), size=(60, robot.n))
+    kind = "pose" if robot.n == 6 else "position"
+    for arm, scale in ((robot, 1.0), (small, reach / robot.reach)):
+        T = fk(arm, np.where(arm.is_revolute, q, q * scale))
+        res = ik_numeric(arm, T if kind == "pose" else T[:, :3, 3], kind=kind)
+        assert res.success.all()
+        assert res.residual.max() <= 1e-10 * arm.reach
+    # the closed-form answer of ik/ik_all on a numeric arm reaches its target to the same relative precision
+    sols = ik_all(small, fk(small, np.where(small.is_revolute, q[0], q[0] * reach / robot.reach))[:3, 3]
+                  if kind == "position" else fk(small, q[0]))
+    assert sols.reachable.all() and sols.distance == 0.0
