@@ -38,9 +38,6 @@ from labkit.kinematics._ik_solvers import (
 __all__ = ["Solver", "IKSolutions", "IKResult", "target_kind", "solver_for", "ik", "ik_all", "ik_numeric",
            "pose_from_position_pitch"]
 
-#: numeric IK's default success threshold on the residual, per metre of the arm's reach [m, rad per m]
-TOL_PER_METRE = 1e-10
-
 #: IK solver choice: ``AUTO`` picks the closed-form family that fits the robot, else ``NUMERIC``;
 #: one member per family of the registry
 Solver = Enum("Solver", [("AUTO", "auto"), *((f.name.upper(), f.name) for f in FAMILIES), ("NUMERIC", "numeric")],
@@ -417,7 +414,6 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
 
 
 def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
-    tol = TOL_PER_METRE * max(robot.reach, 1e-3) if tol is None else tol
     sides = 1
     if kind in REDUCED:  # x y z pitch [roll] / yaw: every tool pose that reaches them (front, back), as poses
         if flat.ndim == 2:

@@ -235,7 +235,7 @@ def _scaled(robot, s):
                          ids=["bent ur5", "tilted rpp"])
 def test_the_default_tolerance_scales_with_the_arm(bent, make, reach):
     """A 5 cm micro-arm and a 7 m arm of the same shape (no closed form: plain LM) solve the same targets
-    to the same precision relative to their reach (1e-10 of it)."""
+    to the same precision relative to their reach (1e-10 of it), in the same iterations."""
     robot = make()
     small = _scaled(robot, reach / robot.reach)
     assert small.reach == pytest.approx(reach)
@@ -243,11 +243,14 @@ def test_the_default_tolerance_scales_with_the_arm(bent, make, reach):
     lim = robot.joint_limits
     q = rng.uniform(np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi), size=(60, robot.n))
     kind = "pose" if robot.n == 6 else "position"
+    iterations = []
     for arm, scale in ((robot, 1.0), (small, reach / robot.reach)):
         T = fk(arm, np.where(arm.is_revolute, q, q * scale))
         res = ik_numeric(arm, T if kind == "pose" else T[:, :3, 3], kind=kind)
         assert res.success.all()
         assert res.residual.max() <= 1e-10 * arm.reach
+        iterations.append(res.iterations)
+    assert abs(iterations[0].mean() - iterations[1].mean()) <= 0.5  # lengths count in units of the reach
     # the closed-form answer of ik/ik_all on a numeric arm reaches its target to the same relative precision
     sols = ik_all(small, fk(small, np.where(small.is_revolute, q[0], q[0] * reach / robot.reach))[:3, 3]
                   if kind == "position" else fk(small, q[0]))
