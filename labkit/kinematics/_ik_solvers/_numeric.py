@@ -86,8 +86,9 @@ class _Problem:
         ``e.e / 2`` (k,) of the scaled error at ``q`` (k, n)."""
         T, J = self.kernel(q)
         e, res = task_error(self.kind, T, target, self.rows)
-        e = e * self.row_scale
-        J = (J if len(self.rows) == 6 else J[:, self.rows]) * self.row_scale[:, None] * self.joint_scale
+        e *= self.row_scale  # (both fresh arrays: scaled in place)
+        J = J if len(self.rows) == 6 else J[:, self.rows]
+        J *= self.row_scale[:, None] * self.joint_scale
         return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
 
 
