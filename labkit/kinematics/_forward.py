@@ -332,7 +332,7 @@ def _evaluate(c, prog, q2, outs):
             inputs, rows, scratch = inputs[:, :k], rows[:, :k], scratch[:, :k]
             bound = None if direct else prog.bind(inputs, list(rows), scratch)
         _program_inputs(c, qc, inputs)
-        _run(bound or prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch))
+        _run(prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch) if direct else bound)
         if not direct:
             _copy_out(outs, s, rows)
 
