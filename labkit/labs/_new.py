@@ -351,7 +351,7 @@ def lab_defaults(robot) -> LabDefaults:
             arc_normals = [np.cross(radial, up)]
     # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
     # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane),
-    # and a 1-DOF arm's, on one curve: a point off it by more than the numeric IK's 1e-10 m is out of reach
+    # and a 1-DOF arm's, on one curve: a point off it by more than the numeric IK's tolerance (1e-10 of the reach) is out of reach
     digits = 9 if n == 1 else 6 if in_plane else 1
     line_pts = arc_spec = None  # a 1-DOF arm gets neither (its notebooks that need them are left out)
     for length in (0.15, 0.1, 0.05) if n > 1 else ():

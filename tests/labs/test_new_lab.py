@@ -320,6 +320,16 @@ def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot
     for r in results:
         assert r.html.is_file() and r.notebook.is_file()
         assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"
+    # issue 42's arms (SCARA RRPR, RPP, PPP, planar RP) also make the one hand-in report; the SCARA's IK
+    # notebook shows both elbows
+    from labkit.cli import main
+
+    for key in ("cobra600_scara", "gantry_ppp", "cylindrical_rpp", "planar_rp"):
+        assert main(["report", str(tmp_path / "labs" / key), "--executed", str(tmp_path / "reports" / key),
+                     "--to", "html", "-o", str(tmp_path / "book" / key)]) == 0, key
+        assert (tmp_path / "book" / f"{key}.html").is_file(), key
+    ik_outputs = (tmp_path / "reports" / "cobra600_scara" / "03_ik_check.ipynb").read_text(encoding="utf-8")
+    assert "elbow_left" in ik_outputs and "elbow_right" in ik_outputs
     with capsys.disabled():
         print(f"\n{len(RENDERED)} labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
               f"({time.perf_counter() - t0:.1f} s with the index)")
