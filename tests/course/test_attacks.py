@@ -451,7 +451,8 @@ def test_huge_outputs_keep_the_grader_small(tmp_path):
     honest, chatty, huge = runs["honest"], runs["chatty"], runs["huge"]
     assert (honest["points"], honest["status"]) == (4, "ok"), honest
     assert (chatty["points"], chatty["status"]) == (4, "ok"), chatty  # the values still reach the checks
-    assert "output over the limit of 262144 bytes per cell dropped: 8 message(s)" in chatty["detail"], chatty
+    assert "output over the limit of 262144 bytes per cell (16777216 per notebook) dropped: 8 message(s)" \
+        in chatty["detail"], chatty
     assert huge["status"] == "crash" and "over the limit of 1048576 bytes" in huge["detail"], huge
     assert huge["points"] == 0, huge
     for run in (chatty, huge):
