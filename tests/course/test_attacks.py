@@ -545,6 +545,7 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
                  "runtime_escape": at.runtime_escape_code(append_to, overwrite, secret)}
         for name in ("patch_assert_all", "write_outside", "orphan_process", "process_flood", "baseline_values"):
             codes[name] = at.CHECKS_ATTACKS[name]
+        codes["deep_tree"] = at.deep_tree_code()  # removed afterwards though this user may not enter its folders
         for name, code in codes.items():
             cl.write_submission(base / "student", subs / name, code)
         home = base / "home"
@@ -564,6 +565,7 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
         uid, mechanism = json.loads(probe.stdout.strip().splitlines()[-1])
         assert uid != 0
         memory = "0.5" if mechanism != "watchdog" else "1.5"
+        tmp_before = set(Path(tempfile.gettempdir()).glob("labkit-*"))
         run = _as_grader_user([sys.executable, "-m", "labkit", "grade", str(subs), "--lab", str(lab), "-o",
                                str(base / "out" / "gradebook.csv"), "--jobs", "2", "--cpu", "20", "--memory", memory,
                                "--wall", "90"], env, base)  # wide limits: a loaded CI machine starts kernels slowly
@@ -580,6 +582,8 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
         assert set(table["memory_limit"]) == {mechanism}
         assert append_to.read_text() == "untouched\n" and overwrite.read_text() == "{}"
         assert "TOP-SECRET-CANARY" not in (base / "out" / "gradebook.csv").read_text()
+        left = [p for p in set(Path(tempfile.gettempdir()).glob("labkit-*")) - tmp_before if p.lstat().st_uid == uid]
+        assert uid == os.geteuid() or not left, f"the grading user's temporary folders outlived the batch: {left}"
         if os.geteuid() == 0:
             rows = subprocess.run(["ps", "-o", "stat=,pid=,args=", "-u", GRADER_USER], capture_output=True,
                                   text=True).stdout.splitlines()
