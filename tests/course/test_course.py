@@ -19,10 +19,8 @@ from tests.course import course_lab as cl
 from conftest import require
 from labkit.exceptions import LabkitError
 
-# every grading test shares one xdist group with the attack batches (tests/course/test_attacks.py, which look for
-# their orphan processes by name): side by side on a loaded 2-core machine, a kernel of the unprivileged batch
-# died before its first reply once in four CI runs, so grading runs one batch at a time
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading")]
+# the course loop's grading tests: one xdist group, beside the attack batches' (tests/course/test_attacks.py says why)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading-loop")]
 REMOTE = re.compile(r"""<(?:script|link|img)\b[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", re.IGNORECASE)
 LIMITS = dict(cpu_seconds=4, memory_bytes=2 * 2**30, wall_seconds=120)
 
@@ -218,6 +216,7 @@ def dask_cluster(tmp_path_factory):
         log.close()
 
 
+@pytest.mark.xdist_group("grading-batches")  # with the next test: one dask cluster (module fixture) for both
 def test_render_on_dask_sends_reports_back(tmp_path, dask_cluster):
     """labkit render --scheduler: notebooks shipped to the workers, reports and their files written by the driver."""
     nbformat = require("nbformat")
@@ -242,6 +241,7 @@ def test_render_on_dask_sends_reports_back(tmp_path, dask_cluster):
     assert "2 notebooks, 2 passed, 0 failed" in index
 
 
+@pytest.mark.xdist_group("grading-batches")  # kills a grader outright: with the attack batches' cgroup check
 def test_grade_on_dask_survives_a_killed_worker(course, tmp_path, dask_cluster):
     """Grading on a real scheduler + 2 TCP workers; one worker is killed mid-batch: its task reruns elsewhere."""
     from distributed import Client

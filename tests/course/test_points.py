@@ -108,7 +108,7 @@ def test_seed004_checks_rest_on_trusted_values_and_without_them_the_rule_still_h
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("grading")  # one grading batch at a time (tests/course/test_course.py says why)
+@pytest.mark.xdist_group("grading-loop")  # beside the attack batches (tests/course/test_attacks.py says why)
 def test_faking_q_and_the_steps_earns_no_more_than_untouched(ik_lab, tmp_path):
     """Graded for real (sandbox, checker, baseline): the derivation lab's faked submission scores what the untouched
     one scores (0), honest work 3 / 3, the half-done one keeps the hidden row it earned; one maximum everywhere."""

@@ -17,8 +17,8 @@ import pytest
 from conftest import require
 from labkit.course._watchdog import _ram_disks, _tree, kill_tree
 
-# every test that grades shares one xdist group (tests/course/test_course.py says why)
-pytestmark = pytest.mark.xdist_group("grading")
+# with the attack batches (tests/course/test_attacks.py says why there are two groups)
+pytestmark = pytest.mark.xdist_group("grading-batches")
 MIB = 2**20
 
 
