@@ -87,7 +87,8 @@ def unpack_dir(files, dest) -> Path:
     return write_tree(files, dest, replace=True)
 
 
-def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None) -> list:
+def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None,
+              on_lost=None) -> list:
     """Run ``fn(*args)`` for every args tuple; results in input order.
 
     Parameters
@@ -106,6 +107,12 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
         Show one tqdm progress bar for the batch (on stderr).
     on_result : callable, optional
         Called as ``on_result(index, result)`` in the driver as each task finishes.
+    on_lost : callable, optional
+        ``on_lost(index, reason)`` gives the result of a task whose worker process died under it
+        (killed, out of memory, a crash in C), or that failed on every try on dask; default: such a
+        task stops the batch with a LabkitError. On the local pool the tasks a dying worker took down
+        with it (every task of a broken pool) are run again, one at a time in a pool of their own:
+        the task that kills that pool too is the one lost; the others finish.
 
     Returns
     -------
@@ -115,7 +122,8 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     Raises
     ------
     LabkitError
-        If ``jobs < 1``, the scheduler cannot be reached, or a task failed on every try.
+        If ``jobs < 1``, the scheduler cannot be reached, or (without ``on_lost``) a task's worker died or a
+        task failed on every try.
     """
     from tqdm.auto import tqdm
 
@@ -129,18 +137,19 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
         if on_result is not None:
             on_result(i, value)
 
+    def lost(i, why):
+        if on_lost is None:
+            raise LabkitError(f"task {i} of {desc!r} ({fn.__name__}) was lost: {why}")
+        done(i, on_lost(i, why))
+
     try:
         if scheduler is None:
             if jobs < 1:
                 raise LabkitError(f"expected jobs >= 1, got {jobs}")
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(argsets))),
-                                     mp_context=multiprocessing.get_context("spawn")) as pool:
-                futures = {pool.submit(fn, *args): i for i, args in enumerate(argsets)}
-                for fut in as_completed(futures):
-                    done(futures[fut], fut.result())
+            broken = _local_pool(fn, argsets, range(len(argsets)), jobs, done)
+            for i in broken:  # each alone: a pool that breaks now broke for this task
+                for j in _local_pool(fn, argsets, [i], 1, done):
+                    lost(j, "its worker process died (killed, out of memory, or a crash)")
         else:
             with needs_extra("course"):
                 from distributed import Client, as_completed
@@ -158,13 +167,42 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
                     try:
                         value = fut.result()
                     except Exception as exc:
-                        raise LabkitError(f"task {fut.key} failed on every try: {type(exc).__name__}: {exc}") from exc
+                        lost(index[fut.key], f"it failed on every try: {type(exc).__name__}: {exc}")
+                        continue
                     done(index[fut.key], value)
             finally:
                 client.close()
     finally:
         bar.close()
     return results
+
+
+def _local_pool(fn, argsets, indices, jobs, done) -> list:
+    """Run the tasks ``indices`` on a new pool of ``jobs`` spawned processes; the indices lost to a broken pool."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    indices, broken = list(indices), []
+    if not indices:
+        return broken
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(indices))),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {}
+        for k, i in enumerate(indices):
+            try:
+                futures[pool.submit(fn, *argsets[i])] = i
+            except BrokenProcessPool:  # broken before every task was handed in
+                broken += indices[k:]
+                break
+        for fut in as_completed(futures):
+            try:
+                value = fut.result()
+            except BrokenProcessPool:
+                broken.append(futures[fut])
+                continue
+            done(futures[fut], value)
+    return sorted(broken)
 
 
 #: set once this process has checked that bubblewrap starts here (a pool or dask worker)
@@ -303,8 +341,11 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
             remove_tree(page)
         unpack_dir(result.files, page)
 
+    def lost(i, why):  # the grading process died under this submission: its row, never the class's stop
+        return _failed(argsets[i][0], lab_files, free, "crash", f"grading failed: {why}")
+
     results = run_tasks(_grade_task, argsets, scheduler=scheduler, jobs=jobs, desc="grading", progress=progress,
-                        on_result=write) if argsets else []
+                        on_result=write, on_lost=lost) if argsets else []
     results = sorted([replace(r, files={}) for r in results] + list(early.values()), key=lambda r: r.student)
     if html:
         write_class_index(results, out, title=f"Gradebook: {lab.name}")
@@ -355,9 +396,11 @@ def _inert(value):
 
 def _inert_frame(frame):
     """``frame`` with every text cell, the index and the column names made :func:`_inert`."""
+    import pandas as pd
+
     frame = frame.copy()
-    for column in frame.columns:
-        if frame[column].dtype == object:
+    for column in frame.columns:  # text columns are "str" (pandas 3) or object: every column that is not numbers
+        if not pd.api.types.is_numeric_dtype(frame[column]) or frame[column].dtype == object:
             frame[column] = frame[column].map(_inert)
     frame.index = frame.index.map(_inert)
     frame.index.name = _inert(frame.index.name)

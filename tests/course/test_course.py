@@ -290,6 +290,22 @@ def test_run_tasks_local_pool_keeps_input_order():
         run_tasks(json.dumps, [(1,)], jobs=0, progress=False)
 
 
+def test_a_worker_that_dies_loses_only_its_own_task():
+    """A task that kills its worker process (as the OOM killer or a crash in C would) breaks the local pool: the
+    tasks it took down with it are run again one at a time, and only the one that kills its pool alone is lost
+    (``on_lost`` gives its result: labkit grade's row for that student); without ``on_lost`` the batch stops with a
+    LabkitError naming the task."""
+    from tests.course import attacks as at
+    from labkit.course import run_tasks
+
+    argsets = [(i, i == 2) for i in range(5)]
+    results = run_tasks(at.task_dies_on, argsets, jobs=2, progress=False, on_lost=lambda i, why: ("lost", i, why))
+    assert results[:2] + results[3:] == [0, 1, 3, 4], results
+    assert results[2][:2] == ("lost", 2) and "worker process died" in results[2][2], results[2]
+    with pytest.raises(LabkitError, match="task 1 of 'tasks' .*was lost"):
+        run_tasks(at.task_dies_on, [(0, False), (1, True)], jobs=1, progress=False)
+
+
 def test_seed004_is_a_worked_assignment(tmp_path):
     """The worked example: seed 004's lab tagged; its student version keeps hints and checks, not answers."""
     nbformat = require("nbformat")
