@@ -2,7 +2,9 @@
 
 A task carries its inputs as file contents (relative path -> bytes) and sends its
 outputs back the same way, so workers on other machines need labkit installed but
-share no folder with the driver; only the driver writes files. The default
+share no folder with the driver; only the driver writes files. (A grading task on the
+local pool gets its submission's folder and reads it itself, under the same caps: the
+driver never holds a class's submissions at once.) The default
 engine is a local pool of worker processes; ``scheduler="tcp://host:port"`` runs
 the same tasks on a dask.distributed cluster, where a task whose worker is lost is
 rerun on another worker (each task has one result slot, so nothing is lost or
@@ -210,13 +212,19 @@ _WORKER_CHECKED = []
 
 
 def _grade_task(student, submission_files, lab_files, limits, html, free):
-    """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``.
+    """Worker side of :func:`grade`: unpack (or read the folder, given its path), grade, pack the feedback into
+    ``result.files``.
 
     Whatever goes wrong becomes this student's row (status ``"crash"``), never the batch's failure.
     """
     from dataclasses import replace
 
     t0 = time.perf_counter()
+    if isinstance(submission_files, str):  # the folder itself (a worker of the local pool): read it here
+        try:
+            submission_files = _pack_submission(submission_files)
+        except Exception as exc:  # noqa: BLE001 - whatever the folder holds, it is this student's row
+            return _failed(student, lab_files, free, "invalid", f"{type(exc).__name__}: {exc}", t0)
     try:
         if limits.sandbox and not _WORKER_CHECKED:  # a worker on another machine: its bubblewrap, once
             check_sandbox()
@@ -231,6 +239,11 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
             return replace(result, files=files)
     except Exception as exc:  # noqa: BLE001 - one student's row, never the class's crash
         return _failed(student, lab_files, free, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
+
+
+def _pack_submission(path) -> dict:
+    """A submission folder's files under the caps of a submission (depth, entries, bytes)."""
+    return pack_dir(path, limit=MAX_SUBMISSION_BYTES, max_depth=MAX_DEPTH, max_entries=MAX_ENTRIES)
 
 
 def _failed(student, lab_files, free, status, why, t0=None):
@@ -329,7 +342,8 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
             if entry.is_symlink() or not entry.is_dir(follow_symlinks=False):
                 early[student] = _failed(student, lab_files, free, "invalid", "not a folder (a file or a symlink)")
                 continue
-            files = pack_dir(entry.path, limit=MAX_SUBMISSION_BYTES, max_depth=MAX_DEPTH, max_entries=MAX_ENTRIES)
+            # the local pool's workers read the folder themselves: the driver never holds a class's files at once
+            files = entry.path if scheduler is None else _pack_submission(entry.path)
         except Exception as exc:  # noqa: BLE001 - whatever the entry holds, it is this student's row
             early[student] = _failed(student, lab_files, free, "invalid", f"{type(exc).__name__}: {exc}")
             continue

@@ -31,12 +31,13 @@ from tests.course import attacks as at
 from tests.course import course_lab as cl
 
 # The grading tests run in two xdist groups side by side (`pytest -n 2 --dist loadgroup`): "grading-batches" (this
-# file, test_cgroup.py, test_watchdog.py, test_safefs.py and test_course.py's two dask tests) and "grading-loop"
-# (the rest of test_course.py, test_points.py). The batches share a group: both plant an orphan `sleep 987654` and
+# file and test_dask.py) and "grading-loop" (test_course.py, test_points.py, test_cgroup.py, test_watchdog.py,
+# test_safefs.py). A test has one group: xdist joins the names of every xdist_group marker on it into a new group,
+# so a file's tests stay in its module's group. The batches share a group: both plant an orphan `sleep 987654` and
 # look for it by name. The cgroup check below ignores cgroups made by a live grader that is not this test's; a grader
-# killed outright leaves its cgroup until the next run sweeps it, so the one test that does that
-# (test_grade_on_dask_survives_a_killed_worker) is in this group. Kernels side by side on a loaded machine: the one
-# that died before its first reply in CI was the watchdog reading the host's /tmp (test_watchdog.py).
+# killed outright leaves its cgroup until the next run sweeps it, so test_dask.py, which kills one, is in this group.
+# Kernels side by side on a loaded machine: the one that died before its first reply in CI was the watchdog reading
+# the host's /tmp (test_watchdog.py).
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading-batches")]
 LIMITS = dict(cpu_seconds=10, wall_seconds=25)
 HONEST = ("honest_a", "honest_b", "honest_c")

@@ -60,7 +60,7 @@ def test_remove_tree_of_any_depth_never_follows_a_link(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("grading-batches")  # tests/course/test_attacks.py says why
+@pytest.mark.xdist_group("grading-loop")  # beside the attack batches (tests/course/test_attacks.py says why)
 def test_a_kernels_deep_tree_is_removed_after_grading(tmp_path, monkeypatch):
     """A kernel that leaves a tree 3,000 folders deep (and folders it made unreadable) in its working copy and its
     socket folder gets its row, like any submission, and the grader's temporary folders are gone afterwards (as a

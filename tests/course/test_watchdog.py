@@ -17,8 +17,8 @@ import pytest
 from conftest import require
 from labkit.course._watchdog import _ram_disks, _tree, kill_tree
 
-# with the attack batches (tests/course/test_attacks.py says why there are two groups)
-pytestmark = pytest.mark.xdist_group("grading-batches")
+# beside the attack batches (tests/course/test_attacks.py says why there are two groups)
+pytestmark = pytest.mark.xdist_group("grading-loop")
 MIB = 2**20
 
 
