@@ -300,12 +300,12 @@ def remove_tree(path) -> None:
         A folder the grader made (itself not a link: then nothing is removed).
     """
     with _inside():
-        path = os.fspath(path)
-        try:
-            parent = _open_dir(os.path.dirname(os.path.abspath(path)) or "/")
+        path = os.path.abspath(os.fspath(path))
+        try:  # the folders above are the grader's (a TMPDIR that is a link is followed); the folder itself is not
+            parent = _open_dir(os.path.realpath(os.path.dirname(path)))
         except OSError:
             return
-        name = os.path.basename(os.path.abspath(path))
+        name = os.path.basename(path)
         try:
             top = _open_dir_owned(name, parent)
             if top is None:

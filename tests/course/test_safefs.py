@@ -57,6 +57,10 @@ def test_remove_tree_of_any_depth_never_follows_a_link(tmp_path):
     link.symlink_to(outside, target_is_directory=True)
     remove_tree(link)  # a link is not a folder of the grader's: nothing removed through it
     assert (outside / "keep.txt").read_text() == "kept" and link.is_symlink()
+    (tmp_path / "real_tmp" / "run").mkdir(parents=True)
+    (tmp_path / "tmp_link").symlink_to(tmp_path / "real_tmp", target_is_directory=True)
+    remove_tree(tmp_path / "tmp_link" / "run")  # a TMPDIR that is a link: the folder in it goes
+    assert not (tmp_path / "real_tmp" / "run").exists()
 
 
 @pytest.mark.slow
