@@ -14,7 +14,12 @@ from __future__ import annotations
 
 from labkit.exceptions import needs_extra
 
-__all__ = ["ChannelClosed", "KERNEL_MAIN", "client_class"]
+__all__ = ["ChannelClosed", "KERNEL_MAIN", "client_class", "runtime_folder"]
+
+#: longest path of a Unix socket the kernel can bind (``sun_path`` is 108 bytes with its NUL) [bytes]
+_MAX_SOCKET_PATH = 107
+#: the longest socket name in a runtime folder: ``sockets/kernel-<port>`` (jupyter_client's ipc names)
+_SOCKET_NAME = "sockets/kernel-65535"
 
 
 class ChannelClosed(Exception):
@@ -134,6 +139,46 @@ def client_class():
             return super().process_message(msg, cell, cell_index)
 
     return CappedClient
+
+
+def runtime_folder(private=None):
+    """A new folder of the grader's (``0700``) for one kernel's connection file and socket folder.
+
+    Made in ``private`` (default the system's temporary folder), unless the kernel's socket paths
+    would be too long for a Unix socket there (a long ``TMPDIR``, such as a Slurm job's): then in
+    the first of ``/tmp``, ``/var/tmp``, ``/dev/shm`` where they fit.
+
+    Parameters
+    ----------
+    private : str or os.PathLike, optional
+        Where to make it.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    LabkitError
+        If no such folder gives short enough paths.
+    """
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from labkit.exceptions import LabkitError
+
+    def fits(folder):
+        return len(os.fsencode(os.path.join(folder, "labkit-run-xxxxxxxx", _SOCKET_NAME))) <= _MAX_SOCKET_PATH
+
+    chosen = private if private is not None else tempfile.gettempdir()
+    if not fits(os.path.abspath(chosen)):
+        short = [d for d in ("/tmp", "/var/tmp", "/dev/shm") if os.path.isdir(d) and os.access(d, os.W_OK | os.X_OK)]
+        if not short:
+            raise LabkitError(f"expected a folder for the kernel's sockets whose paths fit a Unix socket "
+                              f"({_MAX_SOCKET_PATH} bytes), got {chosen!r}; set TMPDIR to a short folder")
+        chosen = short[0]
+    return Path(tempfile.mkdtemp(prefix="labkit-run-", dir=chosen))
 
 
 def _disconnect_monitor(sock):

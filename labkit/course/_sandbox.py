@@ -58,7 +58,7 @@ from typing import NamedTuple
 
 from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._cgroup import memory_cgroup
-from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class
+from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class, runtime_folder
 from labkit.course._safefs import remove_tree, socket_ready
 from labkit.course._watchdog import Watchdog, kill_tree
 from labkit.course._wire import MAX_EXPORT_BYTES
@@ -424,7 +424,8 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
         runtime folder (default: the system's temporary folder). The runtime folder holds the
         connection file (read-only in the sandbox) and the socket folder (the only part the
         sandbox can write); the kernel's stderr goes to an unnamed file; all of it is removed
-        when the run ends. Each run starts from a new runtime folder.
+        when the run ends. Each run starts from a new runtime folder (elsewhere if its socket paths
+        would not fit a Unix socket: :func:`labkit.course._client.runtime_folder`).
 
     Returns
     -------
@@ -460,7 +461,7 @@ def _execute(nb, work, limits, hide, private, cgroup):
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     work = Path(work).resolve()
-    runtime = Path(tempfile.mkdtemp(prefix="labkit-run-", dir=private))  # new for every run, the grader's (0700)
+    runtime = runtime_folder(private)  # new for every run, the grader's (0700), its socket paths short enough
     (runtime / "sockets").mkdir()
     log = tempfile.TemporaryFile(dir=runtime)  # noqa: SIM115 - the kernel's stderr, no name anyone can link
     launched, dogs, client = [], [], None

@@ -70,3 +70,30 @@ def test_a_check_cell_hands_out_one_message_worth_of_values():
         _send(client, nb, 1, "display_data", {"data": {MIME: "v" * 1400}, "metadata": {}})
     held = [o for o in nb.cells[1].outputs if o.get("output_type") == "display_data"]
     assert len(held) == 2 and len(client.dropped) == 18, (len(held), client.dropped)
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("grading-loop")  # beside the attack batches (tests/course/test_attacks.py says why)
+def test_a_long_tmpdir_still_runs_kernels(tmp_path, monkeypatch):
+    """A TMPDIR too long for a Unix socket's path (a Slurm job's, say): the kernel's runtime folder goes to a short
+    system folder and the notebook runs (ZeroMQ refused the socket: every kernel failed to start)."""
+    nbformat = require("nbformat")
+    import tempfile
+
+    from labkit.course import Limits, run_untrusted
+    from labkit.course._client import runtime_folder
+    from labkit.course._safefs import remove_tree
+
+    long = tmp_path / ("slurm-job-" + "7" * 60) / "tmp"
+    long.mkdir(parents=True)
+    monkeypatch.setattr(tempfile, "tempdir", str(long))
+    folder = runtime_folder()
+    try:
+        assert folder.parent != long and len(str(folder / "sockets" / "kernel-65535")) <= 107, folder
+    finally:
+        remove_tree(folder)
+    assert runtime_folder(tmp_path).parent == tmp_path  # short enough: where it was asked for
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("print(6 * 7)")])
+    status, detail, _ = run_untrusted(nb, tmp_path, private=long,
+                                      limits=Limits(cpu_seconds=20, memory_bytes=2 * 2**30, wall_seconds=60))
+    assert (status, nb.cells[0].outputs[0]["text"]) == ("ok", "42\n"), detail
