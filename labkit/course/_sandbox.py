@@ -564,6 +564,8 @@ def _execute(nb, work, limits, hide, private, cgroup):
         except RuntimeError as exc:  # the kernel did not start: the limit it hit on the way, else a crash
             return died(lambda code: f"the kernel did not start: {type(exc).__name__}: {exc} {_tail(log)}"[:400],
                         wait=0)
+        if dogs:  # a last sample: what is over a limit as the notebook ends counts (a burst between samples may not)
+            dogs[0].check()
         if reason():
             return reason()
         if client.closed():
