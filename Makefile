@@ -18,7 +18,7 @@ PIP = $(PYTHON) -m pip
 export PATH := $(VENV)/bin:$(PATH)
 export VIRTUAL_ENV := $(VENV)
 
-.PHONY: reports test install install-test venv firmware
+.PHONY: reports test install install-test venv pip firmware
 
 # a virtualenv to install into (none is made when one is active); Debian/Ubuntu need python3.X-venv for it
 $(VENV)/bin/python:
@@ -27,11 +27,17 @@ $(VENV)/bin/python:
 
 venv: $(VENV)/bin/python
 
+# pip inside that environment: an active one made without it (`python -m venv --without-pip`, `uv venv`) gets it
+# from ensurepip (which Debian/Ubuntu ship in python3.X-venv)
+pip: venv
+	$(PYTHON) -m pip --version >/dev/null 2>&1 || \
+	  { tools/install-system-deps.sh venv $(PYTHON) && $(PYTHON) -m ensurepip --upgrade --default-pip; }
+
 # labkit with every extra: notebooks and reports, JupyterLab, the course tools, the camera, servo buses, URDF.
 # Editable through a path entry (editable_mode=compat), not an import hook: from the clone's parent folder, where
 # Python sees the clone's own folder "labkit" as a namespace package, `from labkit import Robot` still works
 EDITABLE = --config-settings editable_mode=compat -e
-install: venv
+install: pip
 	tools/install-system-deps.sh reports
 	$(PIP) install -q $(EDITABLE) '.[all]'
 
@@ -49,7 +55,7 @@ reports: install
 firmware:
 	$(MAKE) -C firmware
 
-install-test: venv
+install-test: pip
 	tools/install-system-deps.sh test
 	$(PIP) install -q $(EDITABLE) '.[all,test,crosscheck]'
 

@@ -92,7 +92,7 @@ def check_cell(plan, values, base) -> list:
             failed = [r for c, n in before for r in c.rows[n:] if not r.passed]
             failed += [r for c in _checks_objects(ns) if all(c is not b for b, _ in before) for r in c.rows
                        if not r.passed]
-            error = "; ".join(f"{r.name}: max |diff| {r.error:.3g} > tol {r.tol:g}" for r in failed)
+            error = "; ".join(r.shortfall() for r in failed)
             where = line
         except Exception as exc:
             error = f"{type(exc).__name__}: {exc}" if str(exc) else f"{type(exc).__name__} (no message)"

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from labkit.exceptions import CheckFailed, ShapeError, needs_extra
+from labkit.tables import format_value, report_table
 
 __all__ = ["Comparison", "Checks", "check", "show_latex", "matrix_latex"]
 
@@ -153,6 +154,17 @@ class Comparison:
     typo: bool = False
     relative: bool = False
 
+    def shortfall(self) -> str:
+        """The comparison in one line, its difference and tolerance as the check table prints them.
+
+        Returns
+        -------
+        str
+            ``"name: max |diff| 0.100 > tol 0.050"`` (what a failed check says).
+        """
+        cells = _row_cells(self)
+        return f"{self.name}: max |diff| {cells['max |diff|']} > tol {cells['tolerance']}"
+
 
 def _roundoff(a, tol=None, scale=None):
     """Threshold below which a number is round-off: min(tol, 1e-9 * scale), scale >= 1."""
@@ -160,27 +172,32 @@ def _roundoff(a, tol=None, scale=None):
     return min(float(tol), 1e-9 * scale) if tol is not None and tol > 0 else 1e-12 * scale
 
 
-def _num(v, digits=6, zero=0.0) -> str:
-    """One number with ``digits`` significant digits, ``0`` below ``zero``, exponents short (``1e-9``)."""
-    v = float(v)
-    if not np.isfinite(v):
-        return "-" if np.isnan(v) else ("inf" if v > 0 else "-inf")
-    if abs(v) <= zero:
-        return "0"
-    text = f"{v:.{digits}g}"
-    if "e" in text:
-        mant, exp = text.split("e")
-        text = f"{mant}e{int(exp)}"
-    return text
+#: significant digits of a check's numbers, of its difference and of its tolerance
+_DIGITS = {"value": 6, "error": 3, "tol": 2}
+#: no tolerance is round-off: the smallest positive float as the zero of its cell
+_TINY = float(np.finfo(float).tiny)
+#: a vector's items a check row shows (the rest as "...")
+_SHOWN = 8
 
 
-def _fmt(a, digits=6, zero=0.0):
-    """A number or a short list of numbers (at most 8 shown) for a check row."""
-    a = np.asarray(a, dtype=float)
-    if a.size == 1:
-        return _num(a.item(), digits, zero)
-    flat = ", ".join(_num(v, digits, zero) for v in a.ravel()[:8])
-    return f"[{flat}{', ...' if a.size > 8 else ''}]"
+def _whole(a):
+    """``a`` as integers when every number in it is whole (a count, a flag as 1.0), else unchanged."""
+    a = np.asarray(a)
+    if a.dtype.kind == "f" and a.size and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+        a = a.astype(np.int64)
+    return a[()] if a.ndim == 0 else a
+
+
+def _fmt(a, zero=1e-12, like=None):
+    """A check's number or numbers (at most :data:`_SHOWN` of them) as :func:`labkit.tables.format_value`
+    prints them: six significant digits on the largest magnitude of ``a`` and ``like`` together."""
+    a = np.asarray(a)
+    flat = a.ravel()
+    beside = flat if like is None else np.concatenate([flat, np.asarray(like).ravel()])
+    if a.ndim == 0 or a.size == 1:
+        return format_value(flat[0] if a.size else a, digits=_DIGITS["value"], zero=zero, like=beside)
+    text = format_value(flat[:_SHOWN], digits=_DIGITS["value"], zero=zero, like=beside)
+    return text[:-1] + ", ...)" if a.size > _SHOWN else text
 
 
 #: MIME type of the rows a :meth:`Checks.assert_all` table carries for ``labkit report``
@@ -188,19 +205,27 @@ CHECKS_MIME = "application/vnd.labkit.checks+json"
 
 
 def _row_cells(r) -> dict:
-    """The displayed cells of one comparison: significant digits, round-off as 0, "typo"."""
+    """The displayed cells of one comparison, printed by :func:`labkit.tables.format_value`.
+
+    Reproduced and published share their decimals (six significant digits on the row's largest
+    magnitude), numbers that are all whole print as integers, round-off (below the tolerance and
+    1e-9 of the published magnitude) as 0, a missing difference as a dash, a typo's tolerance as "typo".
+    """
     published = np.asarray(r.published, dtype=float)
     scale = float(np.max(np.abs(published))) if published.size and np.all(np.isfinite(published)) else 1.0
     zero = _roundoff(None, None, scale)
     if not r.typo:
         zero = _roundoff(None, r.tol, scale)
-        tol = _num(r.tol, 3) + (" (rel.)" if getattr(r, "relative", False) else "")
+        tol = format_value(_whole(r.tol), digits=_DIGITS["tol"], zero=_TINY) + (" (rel.)" if getattr(r, "relative", False) else "")
         result = "pass" if r.passed else "FAIL"
     else:
         tol, result = "typo", "published typo"
-    return {"quantity": r.name, "reproduced": _fmt(r.value, zero=zero),
-            "published / expected": _fmt(r.published, zero=zero),
-            "max |diff|": _num(r.error, 3, zero) if np.isfinite(r.error) else "-",
+    value = np.asarray(r.value, dtype=float)
+    whole = value.shape == published.shape and _whole(np.concatenate([value.ravel(), published.ravel()])).dtype.kind == "i"
+    shown_value, shown_published = (_whole(value), _whole(published)) if whole else (value, published)
+    return {"quantity": r.name, "reproduced": _fmt(shown_value, zero, like=shown_published),
+            "published / expected": _fmt(shown_published, zero, like=shown_value),
+            "max |diff|": format_value(_whole(r.error) if whole else r.error, digits=_DIGITS["error"], zero=zero),
             "tolerance": tol, "result": result, "note": r.note}
 
 
@@ -308,9 +333,12 @@ class Checks:
         -------
         pandas.DataFrame
             Columns ``quantity``, ``reproduced``, ``published / expected``,
-            ``max |diff|``, ``tolerance``, ``result`` and ``note``, as display text: six
-            significant digits, round-off (below the tolerance and 1e-9 of the published
-            magnitude) shown as ``0``, and ``"typo"`` as the tolerance of a published typo.
+            ``max |diff|``, ``tolerance``, ``result`` and ``note``, as display text printed by
+            :func:`labkit.tables.format_value`: reproduced and published with the same decimals
+            (six significant digits on the row's largest magnitude; integers when all are whole),
+            the difference to three and the tolerance to two, round-off (below the tolerance and
+            1e-9 of the published magnitude) as ``0``, and ``"typo"`` as the tolerance of a
+            published typo.
         """
         import pandas as pd
 
@@ -327,14 +355,14 @@ class Checks:
         """Show the table (in a notebook); raise :class:`~labkit.exceptions.CheckFailed` if any check failed."""
         if self.display and self.rows:
             df = self.to_dataframe()
-            html = df.style.set_caption(self.title).hide(axis="index").to_html()
-            bundle = {"text/html": html, "text/plain": df.to_string(index=False),
+            table = report_table(df, caption=self.title)  # the cells are text already: printed as they are
+            bundle = {"text/html": table.to_html(), "text/plain": table.to_text(),
                       CHECKS_MIME: {"title": self.title, "rows": df.to_dict(orient="records")}}
             if not _display_raw(bundle):
-                print(df.to_string(index=False))
+                print(table.to_text())
         if self.failures:
             raise CheckFailed("reproduced numbers disagree with the published ones: " + "; ".join(
-                f"{r.name} (max |diff| {r.error:.3g} > tol {r.tol:g})" for r in self.failures))
+                r.shortfall() for r in self.failures))
 
 
 def check(name, value, published, tol, note="", *, relative=False) -> Comparison:

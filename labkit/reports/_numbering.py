@@ -7,8 +7,9 @@ A code cell opens with cell options, one per line::
 
 ``fig-cap`` numbers the cell's figures ("Figure 2.1"), ``tbl-cap`` its tables ("Table 2.1",
 the caption above the table); a list gives one caption per figure or table of the cell. A
-display equation in markdown is labelled after its closing ``$$``: ``$$ ... $$ {#eq-fk}``;
-a heading with ``{#sec-name}``. Markdown refers to them as ``[Figure](#fig-fk-error)``,
+display equation in markdown is labelled after its closing ``$$``: ``$$ ... $$ <a id="eq-fk"></a>``
+(an anchor a live notebook hides) or Quarto's ``$$ ... $$ {#eq-fk}`` (which it shows as text); a heading
+with ``{#sec-name}``. Markdown refers to them as ``[Figure](#fig-fk-error)``,
 ``[Table](#tbl-...)``, ``[Equation](#eq-...)``, ``[Chapter](#sec-...)`` (a link that reads well in a
 live notebook) or Quarto's ``@fig-fk-error``; :func:`number_notebooks` gives every label its number
 and :func:`resolve_references` writes the references as "Figure 2.1" (a link).
@@ -32,7 +33,15 @@ __all__ = ["Label", "cell_options", "number_notebooks", "resolve_references", "K
 #: printed name of each label kind
 KIND_NAMES = {"fig": "Figure", "tbl": "Table", "eq": "Equation", "sec": "Chapter"}
 _OPTION = re.compile(r"^#\|\s?(.*)$")
-_EQUATION = re.compile(r"\$\$(?P<tex>.+?)\$\$[ \t]*\{#(?P<label>eq-[\w-]+)\}", re.DOTALL)
+#: a labelled display equation: ``$$ ... $$ {#eq-x}`` (Quarto's), or ``$$ ... $$ <a id="eq-x"></a>``, an
+#: anchor a live notebook hides where it shows Quarto's attribute as text
+_EQUATION = re.compile(r"\$\$(?P<tex>.+?)\$\$[ \t]*(?:\{#(?P<label>eq-[\w-]+)\}|<a id=\"(?P<anchor>eq-[\w-]+)\"></a>)",
+                       re.DOTALL)
+
+
+def _equation_label(m):
+    """The label of an :data:`_EQUATION` match, in either of its forms."""
+    return m.group("label") or m.group("anchor")
 _HEADING_LABEL = re.compile(r"^(?P<head>#{1,6} .*?)[ \t]*\{#(?P<label>sec-[\w-]+)\}[ \t]*$", re.MULTILINE)
 #: a reference: ``@fig-x`` (Quarto's), or ``[Figure](#fig-x)``, which reads as a link in a live notebook
 REFERENCE = re.compile(r"\[[^\]\n]*\]\(#(?P<linked>(?:fig|tbl|eq|sec)-[\w-]*\w)\)"
@@ -188,7 +197,7 @@ def number_notebooks(notebooks, *, chapters=True, first_chapter=1) -> dict:
                     add(Label(m.group("label"), "sec", str(chapter), "", k, i, anchor(m.group("label"))), where)
                 for m in _EQUATION.finditer(cell.source):
                     count["eq"] += 1
-                    add(Label(m.group("label"), "eq", f"{prefix}{count['eq']}", "", k, i, anchor(m.group("label"))),
+                    add(Label(_equation_label(m), "eq", f"{prefix}{count['eq']}", "", k, i, anchor(_equation_label(m))),
                         where)
                 continue
             if cell.cell_type != "code":
@@ -248,9 +257,9 @@ def resolve_references(markdown: str, labels: dict, *, link=True, unresolved=Non
         return f"[{item.text}](#{item.anchor or item.label})" if link else item.text
 
     def equation(m):
-        item = labels.get(m.group("label"))
+        item = labels.get(_equation_label(m))
         number = item.number if item else "?"
-        anchor = f'<span id="{item.anchor if item else m.group("label")}"></span>\n\n' if link else ""
+        anchor = f'<span id="{item.anchor if item else _equation_label(m)}"></span>\n\n' if link else ""
         return f"{anchor}$${m.group('tex').rstrip()} \\tag{{{number}}}$$"
 
     text = _EQUATION.sub(equation, markdown)

@@ -17,6 +17,7 @@ import numbers
 import numpy as np
 
 from labkit.exceptions import OptionError
+from labkit.validation import as_count, as_number
 
 __all__ = ["format_value", "latex_escape", "css_to_latex"]
 
@@ -188,22 +189,7 @@ def _cell_text(v, decimals, scientific, words=BOOLEANS, missing=MISSING, zero=1e
     return str(v)
 
 
-def _check_positive(value, name):
-    """``value`` as a positive finite float; else an OptionError saying what was expected."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value < math.inf:
-        raise OptionError(f"{name} expects a positive number, got {value!r}")
-    return float(value)
-
-
-def _check_digits(value, name="digits", least=1):
-    """``value`` as an int of at least ``least``; else an OptionError saying what was expected."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < least:
-        kind = "a positive integer" if least == 1 else "a non-negative integer"
-        raise OptionError(f"{name} expects {kind}, got {value!r}")
-    return int(value)
-
-
-def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
+def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9, like=None) -> str:
     """A number or a vector as prose prints it, the way :func:`report_table` prints a cell.
 
     Parameters
@@ -218,6 +204,10 @@ def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
         Appended after a space ("mm", "deg").
     zero : float
         Round-off: a magnitude at most this prints as 0.
+    like : array_like, optional
+        Numbers printed beside ``value`` (the published value beside a reproduced one, a
+        vector's items left out): the decimals come from ``value`` and ``like`` together, as
+        down one column, so the two read digit for digit.
 
     Returns
     -------
@@ -235,15 +225,18 @@ def format_value(value, *, digits=4, decimals=None, unit="", zero=1e-9) -> str:
     '(0.5236, 0.1497, 0.0000) rad'
     >>> format_value(1.1e-13, unit="mm")
     '0 mm'
+    >>> format_value(94.0, digits=6, like=94.00012)
+    '94.0000'
     """
-    _check_digits(digits)
-    zero = _check_positive(zero, "zero")
+    digits = as_count(digits, "digits", minimum=1)
+    zero = as_number(zero, "zero", positive=True, error=OptionError)
     if decimals is not None:
-        _check_digits(decimals, "decimals", least=0)
+        decimals = as_count(decimals, "decimals", minimum=0)
     arr = np.asarray(value, dtype=object)
     flat = list(arr.ravel()) if arr.ndim else [value]
     if decimals is None:
-        dec, scientific = _column_style(flat, int(digits), zero)
+        beside = [] if like is None else list(np.asarray(like, dtype=object).ravel())
+        dec, scientific = _column_style(flat + beside, digits, zero)
     else:
         dec, scientific = int(decimals), False
     if arr.ndim == 0:

@@ -13,8 +13,8 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.tables._table import HIGHLIGHT, ReportTable, report_table
+from labkit.validation import as_number
 
-from labkit.tables._cells import _check_positive
 __all__ = ["error_report_table"]
 
 #: the columns of a measured-versus-calculated error table (``labkit.measure.ErrorTable.table``) a reader needs
@@ -88,7 +88,7 @@ def error_report_table(errors, *, unit=None, scale=1.0, pose="command", digits=N
 
     if pose not in ("command", "pose_id"):
         raise OptionError(f"pose expects 'command' or 'pose_id', got {pose!r}")
-    scale = _check_positive(scale, "scale")
+    scale = as_number(scale, "scale", positive=True, error=OptionError)
     if unit is not None and not isinstance(unit, str):
         raise OptionError(f"unit expects the printed unit as a string ('mm'), got {unit!r}")
     table = getattr(errors, "table", errors)

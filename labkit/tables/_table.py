@@ -33,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
-from labkit.tables._cells import (BOOLEANS, MISSING, _cell_text, _check_digits, _column_style, css_to_latex, _is_missing,
+from labkit.validation import as_count
+from labkit.tables._cells import (BOOLEANS, MISSING, _cell_text, _column_style, css_to_latex, _is_missing,
                                   _is_number_text, latex_escape, _numbers_of)
 
 __all__ = ["ReportTable", "report_table", "LONG_TABLE_ROWS", "HIGHLIGHT"]
@@ -349,7 +350,7 @@ def report_table(df, *, columns=None, digits=3, caption="", index=None, units=No
         raise OptionError(f"digits names {', '.join(map(str, unknown))}, which the table does not have")
     default = per_column.get("*", 3)
     for value in [default, *per_column.values()]:
-        _check_digits(value)
+        as_count(value, "digits", minimum=1)
     group = [] if group is None else [group] if isinstance(group, str) else list(group)
     for name in group:
         if name not in df.columns or columns.get(name, name) is None:

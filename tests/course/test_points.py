@@ -174,7 +174,7 @@ def test_a_failing_row_names_the_values_it_read():
     rows = check_cell(plan, {"t3": 3.24, "q": [0.0, 0.0, 0.0]}, {"checks": Checks("x", display=False)})
     assert [r["passed"] for r in rows] == [False, False]
     assert rows[0]["error"] == "AssertionError (no message) (t3 = 3.24)", rows[0]
-    assert rows[1]["error"].startswith("q: max |diff| 0.3 > tol 1e-12 (q = [0"), rows[1]
+    assert rows[1]["error"].startswith("q: max |diff| 0.300 > tol 1.0e-12 (q = [0"), rows[1]
 
 
 def test_the_gradebook_writer_makes_every_text_cell_inert(tmp_path):

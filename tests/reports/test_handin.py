@@ -103,11 +103,14 @@ def audit_problems(lab, text):
 
 
 def table_problems(html):
-    """Report tables in ``html`` that print a raw value (NaN, True, ...) or a pandas index column."""
+    """Report tables in ``html`` not printed by report_table, or that print a raw value (NaN, True, ...) or a pandas
+    index column."""
     body = re.sub(r"<(script|style)\b.*?</\1>", "", html, flags=re.S)
     body = re.sub(r'<section class="lk-appendix".*?</section>', "", body, flags=re.S)
     problems = []
     for k, table in enumerate(re.findall(r"<table\b.*?</table>", body, flags=re.S), start=1):
+        if not re.match(r'<table class="(?:lk-report-table|lk-verify)\b', table):
+            problems.append(f"table {k}: not printed by report_table")
         cells = [_html.unescape(re.sub(r"<[^>]+>", "", c)).strip()
                  for c in re.findall(r"<t[dh]\b[^>]*>(.*?)</t[dh]>", table, flags=re.S)]
         raw = sorted({c for c in cells if _RAW.match(c)})
@@ -124,18 +127,25 @@ def table_problems(html):
 _REPR = re.compile(r"\b(?:array\(|np\.float64\(|Comparison\(|<pandas\.|DataFrame\()|\[ *-?\d+\. +-?\d")
 
 
+#: what a printed Python value looks like in a notebook's output: a bool, or a list of numbers
+_OUTPUT_REPR = re.compile(r"\b(?:True|False)\b|\[(?=[^\]]*\d\.\d)-?\d+(?:\.\d+)?(?:, -?\d+(?:\.\d+)?)+\]")
+
+
 def raw_reprs(html):
-    """Python reprs printed in the body of a report (outside the code appendix): numpy arrays, objects."""
+    """Python reprs printed in the body of a report (outside the code appendix): numpy arrays, objects,
+    and in the printed output of a cell a bool or a list of numbers (prose says "yes", a vector "(x, y)")."""
     body = re.sub(r"<(script|style)\b.*?</\1>", "", html, flags=re.S)
     body = re.sub(r'<section class="lk-appendix".*?</section>', "", body, flags=re.S)
     text = _html.unescape(re.sub(r"<[^>]+>", " ", body))
-    return sorted({m.group(0) for m in _REPR.finditer(text)})
+    printed = _html.unescape(" ".join(re.findall(r'<pre class="lk-output">(.*?)</pre>', body, flags=re.S)))
+    return sorted({m.group(0) for m in _REPR.finditer(text)} | {m.group(0) for m in _OUTPUT_REPR.finditer(printed)})
 
 
 def test_the_checks_find_what_they_look_for():
     index_table = ("<table><thead><tr><th></th><th>x</th></tr></thead><tbody><tr><th>0</th><td>1.0</td></tr>"
                    "<tr><th>1</th><td>NaN</td></tr></tbody></table>")
-    assert table_problems(index_table) == ["table 1: NaN", "table 1: a pandas index column 0..1"]
+    assert table_problems(index_table) == ["table 1: not printed by report_table", "table 1: NaN",
+                                           "table 1: a pandas index column 0..1"]
     import pandas as pd
 
     from labkit.reports import report_table
@@ -146,6 +156,9 @@ def test_the_checks_find_what_they_look_for():
     assert table_problems(code) == []
     assert raw_reprs("<pre>FK at q = 0 [mm]: [274.   0.   0.]</pre><p>Comparison(name='x')</p>") == ["Comparison(", "[274.   0"]
     assert raw_reprs('<p>(274.0, 0.0, 0.0) mm</p><section class="lk-appendix">array([1.])</section>') == []
+    printed = '<pre class="lk-output">reachable? False (distance 0.287 m)\nz readings [m]: [-0.21, -0.21]</pre>'
+    assert raw_reprs(printed) == ["False", "[-0.21, -0.21]"]
+    assert raw_reprs('<p>plot_arm(..., frames=True)</p><pre class="lk-output">z [m]: (-0.21, -0.21)</pre>') == []
 
 
 def _pdf(path, pages):

@@ -178,7 +178,7 @@ def test_checks_pass_fail_and_typos():
     c.typo("M", [0.16976], [0.0816], note="double counted")
     df = c.to_dataframe()
     assert list(df["result"]) == ["pass", "FAIL", "published typo"]
-    with pytest.raises(AssertionError, match=r"x \(max \|diff\| 0.1 > tol 0.05\)"):
+    with pytest.raises(AssertionError, match=r"x: max \|diff\| 0.100 > tol 0.050"):
         c.assert_all()
     with pytest.raises(AssertionError, match="differs from published"):
         check("pi", 3.0, np.pi, tol=1e-3)

@@ -5,12 +5,14 @@ long code line, a figure, an equation, cross-references between chapters, a fail
 closing check with round-off and a published typo, and an absolute path printed by the code.
 """
 
+import ast
 import html as _html
 import logging
 import re
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import require
@@ -74,6 +76,18 @@ def test_references_are_resolved_and_unknown_ones_reported():
     assert "\\tag{1}" in resolve_references("$$ a $$ {#eq-a}", labels)
 
 
+def test_an_equation_labelled_by_a_hidden_anchor_is_numbered_and_referenced():
+    """``$$ ... $$ <a id="eq-x"></a>``: a live notebook shows nothing of the label (Quarto's ``{#eq-x}`` it shows
+    as text); the report numbers it as Quarto's form and leaves no anchor text behind."""
+    from labkit.reports._numbering import number_notebooks, resolve_references
+
+    nb = _nb([("md", "# One"), ("md", '$$ u = a t $$ {#eq-a}\n\n$$ v = b t $$ <a id="eq-b"></a>\n\nSee [Equation](#eq-b).')])
+    labels = number_notebooks([nb], chapters=False)["labels"]
+    assert (labels["eq-a"].text, labels["eq-b"].text) == ("Equation (1)", "Equation (2)")
+    text = resolve_references(nb.cells[1].source, labels)
+    assert "\\tag{2}" in text and "<a id=" not in text and "[Equation (2)](#eq-b)" in text
+
+
 def test_per_notebook_html_numbers_captions_and_references(tmp_path):
     require("nbconvert")
     from labkit.reports import export_html
@@ -130,9 +144,62 @@ def test_check_table_digits_roundoff_and_typo():
     c.check("L1 [mm]", 94.00012, 94, tol=0.5)
     c.typo("T06 (sec. 2.2)", [1.0, 2.0], [1.0, 2.0, 3.0], "published with a missing row")
     df = c.to_dataframe()
-    assert list(df["reproduced"])[:2] == ["[0.123457, 0]", "94.0001"]  # 6 significant digits, round-off is 0
-    assert list(df["tolerance"]) == ["1e-9", "0.5", "typo"] and list(df["max |diff|"])[0] == "0"
+    # 6 significant digits, the same decimals across a vector and beside the published value; round-off is 0
+    assert list(df["reproduced"])[:2] == ["(0.123457, 0.000000)", "94.0001"]
+    assert list(df["published / expected"])[:2] == ["(0.123457, 0.000000)", "94.0000"]
+    assert list(df["tolerance"]) == ["1.0e-9", "0.50", "typo"] and list(df["max |diff|"])[:2] == ["0", "1.20e-4"]
     assert "nan" not in df.to_string().lower() and "e-17" not in df.to_string()
+
+
+def test_check_cells_are_printed_by_the_tables_rule():
+    """One rule for printed numbers: a check row's cells are labkit.tables.format_value's, not a rule of their own."""
+    from labkit.reports import Checks
+    from labkit.tables import format_value
+
+    c = Checks(display=False)
+    c.check("x [mm]", [0.01200, -0.0016, 0.0], [0.012, -0.0016, 0.0], tol=1e-6)  # not 0.012, -0.0016, 0
+    c.check("flag", 1.0, 1.0, tol=0)  # whole numbers (a flag, a count) print as integers
+    c.check("count", [3.0, 4.0], [3, 5], tol=0)
+    c.check("long", np.arange(10.0) + 0.5, np.arange(10.0) + 0.5, tol=1e-9)
+    c.check("missing", float("nan"), 2.0, tol=1.0)
+    rows = c.to_dataframe().to_dict(orient="records")
+    assert rows[0]["reproduced"] == format_value([0.012, -0.0016, 0.0], digits=6) == "(0.0120000, -0.0016000, 0.0000000)"
+    assert (rows[1]["reproduced"], rows[1]["tolerance"], rows[1]["max |diff|"]) == ("1", "0", "0")
+    assert (rows[2]["reproduced"], rows[2]["published / expected"], rows[2]["max |diff|"]) == ("(3, 4)", "(3, 5)", "1")
+    assert rows[3]["reproduced"] == "(0.50000, 1.50000, 2.50000, 3.50000, 4.50000, 5.50000, 6.50000, 7.50000, ...)"
+    assert (rows[4]["reproduced"], rows[4]["published / expected"], rows[4]["max |diff|"]) == ("–", "2.00000", "–")
+
+
+def test_checks_show_one_table_in_a_notebook(monkeypatch, capsys):
+    """In a notebook the rows are shown once, as assert_all's report table (no printed rows before it)."""
+    from labkit.reports import _nbtools
+
+    shown = []
+    monkeypatch.setattr(_nbtools, "_in_ipython", lambda: True)
+    monkeypatch.setattr(_nbtools, "_display_raw", lambda bundle: shown.append(bundle) or True)
+    c = _nbtools.Checks("Seed 000: reach")
+    c.check("reach [mm]", 274.0, 274, tol=0.5, note="L1 + L2")
+    c.typo("a_1 [mm]", 94, 0, note="text says a_1 = L1")
+    c.assert_all()
+    assert capsys.readouterr().out == ""
+    assert len(shown) == 1 and 'class="lk-report-table"' in shown[0]["text/html"]
+    assert shown[0]["text/html"].count("<tr>") == 3 and "<caption>Seed 000: reach</caption>" in shown[0]["text/html"]
+    assert [r["result"] for r in shown[0][_nbtools.CHECKS_MIME]["rows"]] == ["pass", "published typo"]
+
+
+def test_the_code_appendix_leaves_out_where_the_build_writes_files():
+    """The lab's parameters stay in the appendix; output_dir (the build's "../../reports/..." path) does not."""
+    from labkit.reports._document import _chapter
+    from labkit.reports._numbering import number_notebooks
+
+    nb = _nb([("md", "# Demo"), ("code", 'output_dir = "../../reports/demo/files"\nport = "sim://"'),
+              ("code", '# Parameters\noutput_dir = "/tmp/build/x_files"\nrepeats = 3'), ("code", "x = 1")])
+    nb.cells[1].metadata["tags"] = ["parameters"]
+    nb.cells[2].metadata["tags"] = ["injected-parameters"]
+    chapter = _chapter(0, nb, "demo", number_notebooks([nb]), show_code=False, unresolved=[])
+    listing = "\n".join(chapter.code)
+    assert "output_dir" not in listing and "reports/" not in listing and "/tmp" not in listing
+    assert 'port = "sim://"' in listing and "repeats = 3" in listing and "x = 1" in listing
 
 
 def test_error_names_the_notebook_one_cell_and_the_line():
@@ -390,6 +457,27 @@ def test_every_lab_notebook_has_captions_and_resolved_references(path):
     refs = [m.group("label") or m.group("linked") for c in nb.cells if c.cell_type == "markdown"
             for m in REFERENCE.finditer(c.source)]
     assert refs and all(r in labels for r in refs), [r for r in refs if r not in labels]
+    # what JupyterLab would show as raw text: Quarto's @fig-x references and {#eq-x} / {#sec-x} attributes
+    raw = [m.group(0) for c in nb.cells if c.cell_type == "markdown"
+           for m in re.finditer(r"\{#(?:eq|sec)-[\w-]+\}|(?<![\w@/.#\[(])@(?:fig|tbl|eq|sec)-[\w-]+", c.source)]
+    assert raw == [], f"label syntax a live notebook shows as text: {raw}"
+    # a table a cell shows is a report table: no DataFrame left as a cell's value without report_table
+    raw_tables = []
+    for c in nb.cells:
+        if c.cell_type != "code":
+            continue
+        try:
+            tree = ast.parse("\n".join(line for line in c.source.splitlines() if not line.startswith(("%", "!"))))
+        except SyntaxError:
+            continue
+        shown = [s.value for s in tree.body[-1:] if isinstance(s, ast.Expr)]
+        shown += [a for s in tree.body for n in ast.walk(s) if isinstance(n, ast.Call)
+                  and getattr(n.func, "id", "") == "display" for a in n.args]
+        for e in shown:
+            names = {getattr(n, "id", None) or getattr(n, "attr", None) for n in ast.walk(e)}
+            if "DataFrame" in names and not names & {"report_table", "error_report_table"}:
+                raw_tables.append(c.get("id"))
+    assert raw_tables == [], f"cells that show a DataFrame as pandas prints it: {raw_tables}"
     # a caption that names a seed table or figure says so ("the seed's Table 4")
     for lab in labels.values():
         if re.search(r"\b(Table|Figure)s? \d", lab.caption):

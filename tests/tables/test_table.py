@@ -90,7 +90,7 @@ def test_bad_input_says_what_was_expected():
         report_table([1, 2])
     with pytest.raises(OptionError, match="columns names b, which the table does not have"):
         report_table(df, columns={"b": "B"})
-    with pytest.raises(OptionError, match="digits expects a positive integer, got 0"):
+    with pytest.raises(OptionError, match="expected digits as an integer >= 1, got 0"):
         report_table(df, digits=0)
     with pytest.raises(OptionError, match="digits names c"):
         report_table(df, digits={"c": 2})
@@ -120,7 +120,11 @@ def test_format_value_prints_prose_numbers_like_the_table_cells():
     assert format_value(5.6e-17, unit="m") == "0 m"  # round-off, not 5.6e-17
     assert format_value(np.array([[1.0, -2.0], [3.0, 4.0]]), decimals=1) == "((1.0, -2.0), (3.0, 4.0))"
     assert format_value(True) == "yes" and format_value(float("nan")) == "–"
-    with pytest.raises(OptionError, match="decimals expects a non-negative integer, got -1"):
+    assert format_value(94.0, digits=6, like=[94.00012]) == "94.0000"  # the decimals of the values beside it
+    assert format_value(94.0, digits=6) == "94.0000" and format_value(0.5, digits=3, like=[1.25]) == "0.50"
+    with pytest.raises(OptionError, match="expected zero as a positive finite number, got 0"):
+        format_value(1.0, zero=0)
+    with pytest.raises(OptionError, match="expected decimals as an integer >= 0, got -1"):
         format_value(1.0, decimals=-1)
 
 
@@ -193,7 +197,7 @@ def test_error_report_table_says_what_it_expected():
     assert error_report_table(mixed).header[2] == "calculated"  # several units, none claimed
     with pytest.raises(OptionError, match="pose expects 'command' or 'pose_id', got 'row'"):
         error_report_table(mixed, pose="row")
-    with pytest.raises(OptionError, match="scale expects a positive number"):
+    with pytest.raises(OptionError, match="expected scale as a positive finite number, got 0"):
         error_report_table(mixed, scale=0)
 
 
