@@ -358,11 +358,11 @@ def numeric_ik(args):
     n1 = 5 if args.smoke else 20 if args.quick else 100
     nb = 50 if args.smoke else 200 if args.quick else 1000
     T = fk(puma, rng.uniform(lim[:, 0], lim[:, 1], size=(nb, 6)))
-    res = [ik_numeric(puma, T[k]) for k in range(n1)]
-    one = seconds(lambda: [ik_numeric(puma, T[k]) for k in range(n1)], 1, 2) / n1
+    res = [ik_numeric(puma, T[k], tol=1e-10) for k in range(n1)]
+    one = seconds(lambda: [ik_numeric(puma, T[k], tol=1e-10) for k in range(n1)], 1, 2) / n1
     ok1 = np.mean([r.success for r in res])
-    resb = ik_numeric(puma, T)
-    batch = nb / seconds(lambda: ik_numeric(puma, T), 1, 2)
+    resb = ik_numeric(puma, T, tol=1e-10)
+    batch = nb / seconds(lambda: ik_numeric(puma, T, tol=1e-10), 1, 2)
     peers = rtb_models(puma)
     lm = lm_ok = None
     if peers:
@@ -383,20 +383,20 @@ def numeric_ik(args):
     # the same arm with a 2 mm offset a5: no closed form; LM starts from the closed form of its idealised copy (a5 = 0)
     bent = puma.with_link(4, a=0.002)
     Tb = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(nb, 6)))
-    res = [ik_numeric(bent, Tb[k]) for k in range(n1)]
+    res = [ik_numeric(bent, Tb[k], tol=1e-10) for k in range(n1)]
     ets_b = rtb_models(bent)[1] if peers else None
     rounds = 2 if args.smoke else 7
 
     def labkit_one():
-        return [ik_numeric(bent, Tb[k]) for k in range(n1)]
+        return [ik_numeric(bent, Tb[k], tol=1e-10) for k in range(n1)]
 
     if ets_b:  # one target at a time, on the same targets, labkit and ik_LM taking turns in the same run
         one, same = (t / n1 for t in paired_seconds(
             [labkit_one, lambda: [ets_b.ik_LM(Tb[k], tol=1e-10) for k in range(n1)]], rounds))
     else:
         one = seconds(labkit_one, 1, rounds) / n1
-    resb = ik_numeric(bent, Tb)
-    batch = nb / seconds(lambda: ik_numeric(bent, Tb), 1, 2)
+    resb = ik_numeric(bent, Tb, tol=1e-10)
+    batch = nb / seconds(lambda: ik_numeric(bent, Tb, tol=1e-10), 1, 2)
     lm = None
     if peers:
         m = 10 if args.smoke else 50 if args.quick else 200

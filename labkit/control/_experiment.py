@@ -80,6 +80,93 @@ class StepRecord:
         """
         return fit_step_response(self.t, self.y, u=self.u, order=order)
 
+    def rest(self):
+        """The sensed value before the first step [rad, m]: the mean of ``y`` over ``t < 0`` (``y[0]`` if none).
+
+        Returns
+        -------
+        float
+        """
+        before = self.y[self.t < 0]
+        return float(before.mean()) if before.size else float(self.y[0])
+
+    def response(self, system, *, delay=0.0):
+        """What a linear model of the joint predicts for this record: its output for the recorded command.
+
+        The model starts at rest on :meth:`rest` (a static offset of the sensor, or a droop under load, is
+        not the model's to explain) and is driven by ``u - u[0]``, ``delay`` seconds late.
+
+        Parameters
+        ----------
+        system : control.LTI
+            Command -> joint value, one input and one output (e.g. a servo's closed position loop).
+        delay : float
+            Dead time [s], >= 0 (the bus's or the board's latency, e.g. a :class:`StepFit`'s ``delay``).
+
+        Returns
+        -------
+        y : ndarray, shape (N,)
+            Predicted joint value at the record's times ``t`` [rad, m].
+
+        Raises
+        ------
+        OptionError
+            ``system`` is not a single-input single-output python-control system.
+
+        Examples
+        --------
+        >>> import control
+        >>> t = np.arange(-10, 60) * 0.01
+        >>> rec = StepRecord("j", t, np.zeros(70), np.where(t >= 0, 0.1, 0.0), 0.1, None)
+        >>> round(float(rec.response(control.tf([1], [0.05, 1]))[-1]), 4)
+        0.1
+        """
+        import control
+
+        if not isinstance(system, control.LTI) or system.ninputs != 1 or system.noutputs != 1:
+            raise OptionError(f"expected a python-control system with one input and one output, got {system!r}")
+        delay = as_number(delay, "delay", unit="s", minimum=0.0, error=OptionError)
+        gaps = np.diff(self.t)[np.diff(self.t) > 0]  # a grid finer than the samples (and than 1 ms)
+        step = min(1e-3, float(gaps.min()) / 2) if gaps.size else 1e-3
+        grid = np.arange(self.t[0], self.t[-1] + step / 2, step)
+        command = np.interp(grid - delay, self.t, self.u) - self.u[0]
+        _, y = control.forced_response(system, T=grid - grid[0], U=command)
+        return self.rest() + np.interp(self.t, grid, np.asarray(y, dtype=float))
+
+    def overshoot(self, y=None):
+        """How far the joint went past the first step's end value, in percent of the step.
+
+        The end value is :meth:`rest` plus ``amplitude``; the window is from the step until the command
+        starts back.
+
+        Parameters
+        ----------
+        y : array_like, shape (N,), optional
+            A response at the record's times (:meth:`response`); default the sensed ``y``.
+
+        Returns
+        -------
+        float
+            Largest excursion past the end value [% of the step]; negative: it stayed short by that much.
+
+        Examples
+        --------
+        >>> t = np.arange(-2, 8) * 0.1
+        >>> u = np.where((t >= 0) & (t < 0.5), 1.0, 0.0)
+        >>> y = np.array([0, 0, 0, 0.8, 1.2, 1.05, 1.0, 0.3, 0.0, 0.0])
+        >>> round(StepRecord("j", t, y, u, 1.0, None).overshoot(), 6)
+        20.0
+        """
+        y = self.y if y is None else as_batch(y, (), "y (a response at the record's times)")
+        if y.shape != self.t.shape:
+            raise ShapeError(f"expected y with shape {self.t.shape} (one value per sample of the record), got {y.shape}")
+        sign, size = math.copysign(1.0, self.amplitude), abs(self.amplitude)
+        reached = sign * (self.u - self.u[0]) >= size * (1 - 1e-9)
+        first = int(np.argmax(reached))
+        left = np.flatnonzero(~reached[first:])
+        window = slice(first, first + int(left[0]) if left.size else None)
+        return float(100.0 * (sign * (y[window] - self.rest()) - size).max() / size)
+
     def to_dataframe(self):
         """The record as a table: ``t [s]``, ``command`` and ``sensed`` [rad].
 

@@ -141,12 +141,9 @@ def target_error(robot, q, target):
     T, kind, target = fk(robot, q), target_kind(robot), as_batch(target, (), "target")
     if target.shape == (4, 4):
         return float(np.abs(T - target).max())
-    target = as_batch(target, (len(COMPONENTS[kind]) if kind == "planar" or kind in REDUCED else 3,), "target",
-                      batch=False)
-    if kind == "planar" or kind in REDUCED:
-        d = target_from_pose(robot, T) - target
-        angles = slice(2 if kind == "planar" else 3, None)
-        d[angles] = wrap_angle(d[angles])
-        return float(np.abs(d).max())
-    return float(np.abs(T[:3, 3] - target).max())
+    target = as_batch(target, (len(COMPONENTS.get(kind, "xyz")),), "target", batch=False)  # (a pose: its point)
+    d = (T[:3, 3] if kind == "pose" else target_from_pose(robot, T)) - target
+    angles = slice(2 if kind == "planar" else 3, None)
+    d[angles] = wrap_angle(d[angles])
+    return float(np.abs(d).max())
 

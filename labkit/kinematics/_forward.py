@@ -317,33 +317,24 @@ def _evaluate(c, prog, q2, outs):
     if N <= SMALL_BATCH:
         _copy_out(outs, 0, _small(prog, q2).T)
         return
-    if prog.n_rows <= _DIRECT_ROWS or N * prog.n_rows <= _DIRECT_ENTRIES:
-        # the calls write straight into the outputs' (strided) rows: a few rows per configuration
-        # in chunks, or one chunk whose output stays in the cache
-        m = min(N, _DIRECT_BATCH)
-        inputs, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_scratch, m))
-        for s in range(0, N, m):
-            qc = q2[s:s + m]
-            k = qc.shape[0]
-            if k < m:
-                inputs, scratch = inputs[:, :k], scratch[:, :k]
-            _program_inputs(c, qc, inputs)
-            _run(prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch))
-        return
-    # chunks: contiguous output rows (the calls stay in the cache), copied out transposed
-    chunk = max(256, _PROGRAM_CHUNK_ENTRIES // c.n)
-    m = min(N, chunk)
-    inputs, rows, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_rows, m)), np.empty((prog.n_scratch, m))
-    bound = prog.bind(inputs, list(rows), scratch)
-    for s in range(0, N, chunk):
-        qc = q2[s:s + chunk]
+    # the calls write straight into the outputs' (strided) rows: a few rows per configuration in chunks,
+    # or one chunk whose output stays in the cache; else into contiguous rows (the calls stay in the cache),
+    # copied out transposed
+    direct = prog.n_rows <= _DIRECT_ROWS or N * prog.n_rows <= _DIRECT_ENTRIES
+    m = min(N, _DIRECT_BATCH if direct else max(256, _PROGRAM_CHUNK_ENTRIES // c.n))
+    inputs, rows, scratch = np.empty((prog.n_inputs, m)), np.empty((prog.n_rows, 0 if direct else m)), \
+        np.empty((prog.n_scratch, m))
+    bound = None if direct else prog.bind(inputs, list(rows), scratch)
+    for s in range(0, N, m):
+        qc = q2[s:s + m]
         k = qc.shape[0]
         if k < m:  # the last, shorter chunk
             inputs, rows, scratch = inputs[:, :k], rows[:, :k], scratch[:, :k]
-            bound = prog.bind(inputs, list(rows), scratch)
+            bound = None if direct else prog.bind(inputs, list(rows), scratch)
         _program_inputs(c, qc, inputs)
-        _run(bound)
-        _copy_out(outs, s, rows)
+        _run(prog.bind(inputs, [row for o in outs for row in o[s:s + k].T], scratch) if direct else bound)
+        if not direct:
+            _copy_out(outs, s, rows)
 
 
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):

@@ -251,7 +251,7 @@ def _solutions(robot, family, kind, flat, q0=None):
         if kind in REDUCED and flat.ndim == 3:
             return _pose_solutions(robot, family, flat)
         return (*solve_closed_form(robot, family, flat), tuple(family.branches))
-    q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=1e-10, max_iter=50, restarts=10, seed=0)
+    q, ok, _, res = _numeric(robot, kind, flat, q0, None, tol=None, max_iter=50, restarts=10, seed=0)
     q = q[:, None, :]
     return q, ok[:, None], ok[:, None] & robot.within_limits(q), np.where(ok, 0.0, res), ("numeric",)
 
@@ -450,7 +450,7 @@ def _reduced_family(robot, kind):
     return found
 
 
-def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_iter=50, restarts=10, seed=0):
+def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=None, max_iter=50, restarts=10, seed=0):
     """Batched damped-least-squares (Levenberg-Marquardt) IK for any robot.
 
     All targets iterate together on arrays (one batched FK + Jacobian per
@@ -475,8 +475,10 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
         Which task coordinates to match: 3 entries for position/planar
         targets, 6 (``x, y, z, rx, ry, rz``) for poses and the kinds with
         angles - e.g. for an under-actuated arm, ``[1, 1, 1, 0, 0, 1]``.
-    tol : float
-        Success threshold on the residual [m, rad].
+    tol : float, optional
+        Success threshold on the residual [m, rad]. Default: 1e-10 times the
+        arm's reach (:attr:`Robot.reach`, at least 1 mm), the same relative precision for a 5 cm and a
+        7 m arm.
     max_iter, restarts : int
         Iterations per attempt and number of random restarts.
     seed : int >= 0, numpy.random.Generator or None
@@ -514,7 +516,8 @@ def ik_numeric(robot, target, q0=None, *, kind=None, mask=None, tol=1e-10, max_i
     n = robot.n
     if q0 is not None:
         q0 = _per_target(q0, n, lead, "q0")
-    q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=as_number(tol, "tol", positive=True), seed=as_seed(seed),
+    tol = None if tol is None else as_number(tol, "tol", positive=True)
+    q, ok, it, res = _numeric(robot, kind, flat, q0, mask, tol=tol, seed=as_seed(seed),
                               max_iter=as_count(max_iter, "max_iter", minimum=1), restarts=as_count(restarts, "restarts"))
     return IKResult(q.reshape(lead + (n,)), ok.reshape(lead), it.reshape(lead), res.reshape(lead))
 

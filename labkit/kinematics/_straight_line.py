@@ -281,41 +281,6 @@ def _python_function(prog):
     return namespace["f"]
 
 
-def _negate(ops, producer, used, reg):
-    """Rewrite the calls producing ``reg`` so that it holds its negative, if that costs nothing.
-
-    Only values read exactly once (by the caller) may be rewritten:
-    ``x - y -> y - x``, ``x * c -> x * (-c)``, ``x * y -> (-x) * y``,
-    ``x + y -> (-x) - y``, ``x + c -> (-x) + (-c)``. Each is exact in IEEE
-    arithmetic. Returns whether it succeeded.
-    """
-    k = producer.get(reg)
-    if k is None or used.get(reg) != 1:
-        return False
-    f, x, y, o = ops[k]
-    if f is np.subtract:
-        ops[k] = (f, y, x, o)
-        return True
-    if f is np.multiply:
-        if not isinstance(y, int):
-            ops[k] = (f, x, -y, o)
-            return True
-        return _negate(ops, producer, used, x) or _negate(ops, producer, used, y)
-    if f is np.add:
-        if not isinstance(y, int):
-            if _negate(ops, producer, used, x):
-                ops[k] = (f, x, -y, o)
-                return True
-            return False
-        if _negate(ops, producer, used, x):
-            ops[k] = (np.subtract, x, y, o)
-            return True
-        if _negate(ops, producer, used, y):
-            ops[k] = (np.subtract, y, x, o)
-            return True
-    return False
-
-
 def _compile(b, outputs, n_rows, joints):
     """Dead-code elimination, output placement and scratch allocation of a recorded walk."""
     producer = {op[3]: k for k, op in enumerate(b.ops)}
@@ -332,22 +297,11 @@ def _compile(b, outputs, n_rows, joints):
     ops = [op for op in b.ops if op[3] in live]
     # each output row is written by the call producing its value (if positive and not yet placed)
     loc = {r: ("i", r) for r in range(b.n_inputs)}
-    producer = {op[3]: k for k, op in enumerate(ops)}
-    used = {}
-    for _, x, y, _ in ops:
-        for v in (x, y):
-            if isinstance(v, int):
-                used[v] = used.get(v, 0) + 1
-    for _, v in outputs:
-        if isinstance(v, _Sym):
-            used[v.k] = used.get(v.k, 0) + 1
     constants, tail = [], []
     for row, v in outputs:
         if not isinstance(v, _Sym):
             constants.append((row, v if isinstance(v, _Number) else float(v)))
             continue
-        if v.k not in loc and v.sign < 0 and _negate(ops, producer, used, v.k):
-            v = _Sym(v.k)
         if v.sign > 0 and v.k not in loc:
             loc[v.k] = ("o", row)
         else:

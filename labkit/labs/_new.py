@@ -67,9 +67,9 @@ _NEEDS = (
     ("07_dynamics", lambda robot: any(lk.inertial is not None for lk in robot.links),
      "the robot file has no inertias (mass, com, inertia per joint; docs/robot-files.md)"),
     ("08_control", lambda robot: robot.n > 1, _ONE_CURVE + " (its last part tracks a line)"),
-    # it identifies a servo's dynamics from its step response: a joint without a servo is an ideal actuator
-    ("08_control", lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links),
-     "joints without a servo are ideal actuators: no servo dynamics to identify"),
+    ("08_control", lambda robot: all(lk.servo is not None or lk.bus is not None for lk in robot.links)
+     or all(lk.inertial is not None for lk in robot.links),
+     "joints without a servo are ideal actuators (no servo dynamics to identify) and not every link has an inertia"),
 )
 
 
@@ -351,7 +351,7 @@ def lab_defaults(robot) -> LabDefaults:
             arc_normals = [np.cross(radial, up)]
     # display precision [mm, deg]: 0.1, except for an arm held in its vertical plane (a 4-DOF arm's pitch
     # targets), whose orientation and position must agree to 1e-6 rad (a rounded point leaves the plane),
-    # and a 1-DOF arm's, on one curve: a point off it by more than the numeric IK's 1e-10 m is out of reach
+    # and a 1-DOF arm's, on one curve: a point off it by more than the numeric IK's tolerance (1e-10 of the reach) is out of reach
     digits = 9 if n == 1 else 6 if in_plane else 1
     line_pts = arc_spec = None  # a 1-DOF arm gets neither (its notebooks that need them are left out)
     for length in (0.15, 0.1, 0.05) if n > 1 else ():
@@ -516,7 +516,7 @@ def new_lab(robot, lab_dir, *, title=None, force=False) -> NewLab:
     the notebooks ``01_robot_dh``, ``02_fk_check``, ``03_ik_check``, ``04_trajectory``,
     ``05_calibration``, ``06_camera_fk_check`` (the FK check with a camera, :mod:`labkit.vision`),
     ``07_dynamics`` (:mod:`labkit.dynamics`; only for a robot file with inertias), ``08_control``
-    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos; neither it nor
+    (identification, PID, computed torque, resolved rate: :mod:`labkit.control`; only with servos or inertias; neither it nor
     ``04_trajectory`` for a 1-DOF arm, whose tool has no Cartesian line to follow) with their parameters picked by :func:`lab_defaults`, plus a ``README.md`` and the title
     page of ``labkit report`` (``lab.toml``: course, team, authors and date to fill in).
     The notebooks use ``robot.toml`` itself: a joint without a servo or bus table is an ideal

@@ -131,9 +131,8 @@ def robot_reach(robot):
     Returns
     -------
     float
-        ``sum |a| + sum |d| + sum of the prismatic joints' largest |limit| + |tool translation|`` [m].
+        ``sum |a| + sum |d| + sum of the prismatic joints' largest finite |limit| + |tool translation|`` [m]
+        (:attr:`Robot.reach`).
     """
-    robot = Robot.load(robot)
-    stroke = sum(max(abs(lo), abs(hi)) for (lo, hi), rev in zip(robot.joint_limits, robot.is_revolute) if not rev)
-    return float(np.sum(np.abs(robot.a)) + np.sum(np.abs(robot.d)) + stroke + np.linalg.norm(robot.tool[:3, 3]))
+    return Robot.load(robot).reach
 

@@ -212,6 +212,14 @@ class Robot:
         """Joint limits, shape (n, 2) [rad or m] (read-only)."""
         return _frozen(np.array([lk.limits for lk in self.links], dtype=float))
 
+    @cached_property
+    def reach(self):
+        """A bound of the reach [m]: ``sum |a| + sum |d|``, each prismatic joint's largest finite ``|limit|`` and
+        ``|tool translation|`` (the length numeric tolerances scale with)."""
+        lim = self.joint_limits[~self.is_revolute]
+        stroke = np.abs(lim[np.isfinite(lim).all(axis=1)]).max(axis=1, initial=0.0).sum()
+        return float(np.abs(self.a).sum() + np.abs(self.d).sum() + stroke + np.linalg.norm(self.tool[:3, 3]))
+
     @property
     def joint_names(self):
         """Joint names, tuple of str."""

@@ -231,3 +231,96 @@ def test_pinocchio_on_urdfs_with_fixed_joints_and_branches(tmp_path):
         robot = Robot.from_urdf(path, base_link="base", tip_link="tool")
         assert robot.n == n
         _pinocchio_check(path, robot, rng, lock=("finger_joint",))
+
+
+def _random_rtb_robot(rtb, SE3, rng, modified):
+    """A random roboticstoolbox DHRobot built from its own DH rows: prismatic joints, motors with friction, a
+    rotated base and tool (no flipped joints: roboticstoolbox's ``rne`` ignores ``flip``, checked below)."""
+    links = []
+    for _ in range(int(rng.integers(2, 7))):
+        A = rng.normal(size=(3, 3)) * 0.05
+        kw = dict(a=rng.uniform(-0.5, 0.5), alpha=float(rng.choice([0.0, np.pi / 2, -np.pi / 2, rng.uniform(-3, 3)])),
+                  m=rng.uniform(0.2, 3.0), r=rng.uniform(-0.2, 0.2, 3), I=A @ A.T + 1e-3 * np.eye(3),
+                  Jm=rng.uniform(0, 1e-3), G=rng.uniform(-80, 80), B=rng.uniform(0, 1e-3),
+                  Tc=[rng.uniform(0, 0.3), -rng.uniform(0, 0.3)])
+        if rng.random() < 0.3:
+            kind = rtb.PrismaticMDH if modified else rtb.PrismaticDH
+            links.append(kind(theta=rng.uniform(-3, 3), offset=rng.uniform(-0.3, 0.3), qlim=[-1, 1], **kw))
+        else:
+            kind = rtb.RevoluteMDH if modified else rtb.RevoluteDH
+            links.append(kind(d=rng.uniform(-0.5, 0.5), offset=rng.uniform(-3, 3), qlim=[-3, 3], **kw))
+    base = SE3.Rx(rng.uniform(-3, 3)) * SE3.Ry(rng.uniform(-3, 3)) * SE3(*rng.uniform(-0.3, 0.3, 3))
+    tool = SE3.Rz(rng.uniform(-3, 3)) * SE3(*rng.uniform(-0.1, 0.1, 3))
+    return rtb.DHRobot(links, base=base, tool=tool, gravity=rng.normal(size=3) * 5, name="random")
+
+
+@pytest.mark.parametrize("modified", [False, True], ids=["standard", "modified"])
+def test_random_dh_robots_built_in_roboticstoolbox(modified):
+    """Independent of labkit's frames: the robot is built in roboticstoolbox from DH rows (both conventions) and
+    converted field by field; its Python ``rne`` (the compiled one is wrong for a prismatic joint after a rotated
+    base, see C_RNE_WRONG) drives ``inertia``, ``coriolis``, ``gravload`` and ``accel``."""
+    rtb = require("roboticstoolbox")
+    from spatialmath import SE3
+
+    rng = np.random.default_rng(3839 + modified)
+    for _ in range(6):
+        model = _random_rtb_robot(rtb, SE3, rng, modified)
+        model.rne = model.rne_python
+        robot = _from_rtb(model)
+        assert robot.convention is (Convention.MODIFIED if modified else Convention.STANDARD)
+        g = np.asarray(model.gravity, dtype=float)
+        q, qd, qdd = (rng.uniform(-1.5, 1.5, size=(3, robot.n)) for _ in range(3))
+        tau, M = D.inverse_dynamics(robot, q, qd, qdd, gravity=g), D.mass_matrix(robot, q)
+        C, G = D.coriolis_matrix(robot, q, qd), D.gravity_torques(robot, q, gravity=g)
+        torque = rng.uniform(-20, 20, size=(3, robot.n))
+        acc = D.forward_dynamics(robot, q, qd, torque, gravity=g)
+        for k in range(len(q)):
+            assert _rel(tau[k], model.rne(q[k], qd[k], qdd[k], gravity=g)) < REL
+            assert _rel(M[k], model.inertia(q[k])) < REL
+            if not (modified and not model.links[0].isrevolute):  # see the next test
+                assert _rel(C[k], model.coriolis(q[k], qd[k])) < REL
+            assert _rel(C[k], _christoffel(model, q[k], qd[k])) < 1e-6  # central differences of rtb's inertia
+            assert _rel(G[k], model.gravload(q[k], gravity=g)) < REL
+            assert _rel(acc[k], model.accel(q[k], qd[k], torque[k], gravity=g)) < REL
+
+
+def _christoffel(model, q, qd, h=1e-6):
+    """``C[i, j] = sum_k Gamma_ijk qd_k`` from central differences of roboticstoolbox's ``inertia``."""
+    dM = np.array([(model.inertia(q + h * e) - model.inertia(q - h * e)) / (2 * h) for e in np.eye(model.n)])  # k, i, j
+    gamma = 0.5 * (np.einsum("kij->ijk", dM) + np.einsum("jik->ijk", dM) - np.einsum("ijk->ijk", dM))
+    return gamma @ qd
+
+
+def test_roboticstoolbox_coriolis_is_off_for_a_modified_dh_arm_whose_first_joint_slides():
+    """Finding: roboticstoolbox 1.5's ``coriolis`` of a modified-DH arm with a prismatic first joint is not the
+    Christoffel matrix of its own ``inertia`` (its standard-DH twin and other joint orders are); labkit's is."""
+    rtb = require("roboticstoolbox")
+    rng = np.random.default_rng(1)
+    links = [rtb.PrismaticMDH(theta=0.4, qlim=[-1, 1], a=0.2, alpha=0.7, m=1.0, r=[0.05, 0.02, -0.03],
+                              I=np.diag([2e-3, 3e-3, 4e-3]))]
+    links += [rtb.RevoluteMDH(d=0.1, a=0.2, alpha=0.7, m=1.0, r=[0.05, 0.02, -0.03], I=np.diag([2e-3, 3e-3, 4e-3]))
+              for _ in range(2)]
+    model = rtb.DHRobot(links)
+    model.rne = model.rne_python
+    q, qd = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3)
+    truth = _christoffel(model, q, qd)
+    assert _rel(model.coriolis(q, qd), truth) > 1e-3
+    assert _rel(D.coriolis_matrix(_from_rtb(model), q, qd), truth) < 1e-6
+
+
+def test_roboticstoolbox_rne_ignores_a_flipped_joint_which_labkit_runs_backwards():
+    """Why no flipped joint is compared with roboticstoolbox: its kinematics turns a flipped joint backwards
+    (``fkine(q)`` of the flipped arm is ``fkine(-q)`` of the plain one) but its ``rne`` does not; labkit's
+    dynamics of the flipped arm are the plain arm's run backwards, as its kinematics."""
+    rtb = require("roboticstoolbox")
+
+    def arm(flip):
+        return rtb.DHRobot([rtb.RevoluteDH(a=0.3, alpha=0.4, m=1.0, r=[0.1, 0.05, 0.0], I=np.eye(3) * 1e-2, flip=flip)
+                            for _ in range(2)])
+
+    plain, flipped = arm(False), arm(True)
+    q, qd, qdd = np.array([0.3, -0.7]), np.array([0.5, 0.2]), np.array([0.1, -0.3])
+    assert np.allclose(flipped.fkine(q).A, plain.fkine(-q).A)
+    backwards = -plain.rne_python(-q, -qd, -qdd)
+    assert _rel(flipped.rne_python(q, qd, qdd), backwards) > 0.1  # roboticstoolbox: not the plain arm backwards
+    assert _rel(D.inverse_dynamics(_from_rtb(flipped), q, qd, qdd, gravity=plain.gravity), backwards) < REL

@@ -2,7 +2,8 @@
 
 * roboticstoolbox-python: FK and geometric Jacobian of random robots of both DH
   conventions (revolute and prismatic joints, offsets, base and tool) to 1e-12;
-  the PUMA 560 closed-form IK branch by branch against ``Puma560.ikine_a``.
+  the PUMA 560 closed-form IK branch by branch against ``Puma560.ikine_a``; every one of its 24 DH
+  models (FK, Jacobian, IK and numeric IK of the arm's own target kind).
 * modern_robotics: FK and space Jacobian from the product of exponentials built
   from labkit's own joint axes at ``q = 0``.
 """
@@ -464,3 +465,46 @@ def test_spherical_arms_closed_form_reaches_roboticstoolbox_poses(convention, wr
         assert diff.min() > 1e-9
         gap = np.abs(np.remainder(sols.q - q[:, None] + np.pi, 2 * np.pi) - np.pi).max(axis=-1)
         assert gap.min(axis=1).max() < 1e-7
+
+
+#: every DH model roboticstoolbox-python ships (``rtb.models.DH``)
+RTB_DH_MODELS = ("AL5D", "Ball", "Baxter", "Cobra600", "Coil", "Hyper", "Hyper3d", "IRB140", "Jaco", "KR5", "LWR4",
+                 "Mico", "Orion5", "P8", "Panda", "Planar2", "Planar3", "Puma560", "Sawyer", "Stanford", "TwoLink",
+                 "UR10", "UR3", "UR5")
+
+
+def test_the_list_of_rtb_dh_models_is_complete():
+    import inspect
+
+    rtb = require("roboticstoolbox")
+    assert set(RTB_DH_MODELS) == {name for name, _ in inspect.getmembers(rtb.models.DH, inspect.isclass)}
+
+
+@pytest.mark.parametrize("name", RTB_DH_MODELS)
+def test_every_rtb_dh_model_fk_jacobian_and_ik(name):
+    """Each of roboticstoolbox's 24 DH models: labkit's FK and Jacobian equal rtb's ``fkine`` and ``jacob0``
+    at random in-limit configurations; IK of the arm's own target kind (its closed form, or numeric IK) reaches
+    every target, each reachable branch's FK on the target; ``ik_numeric`` takes the same target."""
+    from labkit.kinematics import ik_numeric, target_error, target_from_pose
+    from tests.dynamics.test_crosscheck import _from_rtb
+
+    rtb = require("roboticstoolbox")
+    model = getattr(rtb.models.DH, name)()
+    robot = _from_rtb(model)  # (its inertias and motors play no part here)
+    rng = np.random.default_rng(sum(map(ord, name)))
+    lim = robot.joint_limits
+    q = rng.uniform(np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi), size=(8, robot.n))
+    T, J = fk(robot, q), jacobian(robot, q)
+    scale = max(robot.reach, 1.0)
+    for k in range(len(q)):
+        assert np.abs(T[k] - model.fkine(q[k]).A).max() < 1e-12 * scale
+        assert np.abs(J[k] - model.jacob0(q[k])).max() < 1e-12 * scale
+    target = target_from_pose(robot, T[:6])  # (not 4 targets: 4 x 4 would be one pose)
+    sols = ik_all(robot, target)
+    assert sols.reachable.any(axis=-1).all()
+    for k in range(len(target)):
+        for b in np.flatnonzero(sols.reachable[k]):
+            assert target_error(robot, sols.q[k, b], target[k]) < 1e-8 * scale
+    res = ik_numeric(robot, target, seed=1)
+    assert res.success.all() and robot.within_limits(res.q).all()
+    assert max(target_error(robot, qk, t) for qk, t in zip(res.q, target)) < 1e-8 * scale

@@ -46,11 +46,11 @@ def test_lm_keeps_full_success_without_a_closed_form(bent):
     lim = bent.joint_limits
     T = fk(bent, rng.uniform(lim[:, 0], lim[:, 1], size=(150, 6)))
     res = ik_numeric(bent, T)
-    assert res.success.all() and res.residual.max() < 1e-10
+    assert res.success.all() and res.residual.max() < 1e-10 * bent.reach  # the default tolerance
     assert bent.within_limits(res.q).all() and np.abs(fk(bent, res.q) - T).max() < 1e-9
     for k in range(3):  # one target at a time: a batch of one
         one = ik_numeric(bent, T[k])
-        assert one.success and one.residual < 1e-10 and np.abs(fk(bent, one.q) - T[k]).max() < 1e-9
+        assert one.success and one.residual < 1e-10 * bent.reach and np.abs(fk(bent, one.q) - T[k]).max() < 1e-9
 
 
 def calibrated_puma():
@@ -80,7 +80,7 @@ def test_an_idealised_copy_seeds_an_arm_a_little_off_a_closed_form(make):
     off = np.abs(fk(robot, np.nan_to_num(starts[:, 0]))[:, :3, 3] - T[:, :3, 3]).max(axis=1)
     assert np.median(off) < 0.005  # millimetres from the target before any iteration
     seeded = ik_numeric(robot, T)
-    assert seeded.success.all() and seeded.residual.max() < 1e-10
+    assert seeded.success.all() and seeded.residual.max() < 1e-10 * robot.reach
     assert robot.within_limits(seeded.q).all() and np.abs(fk(robot, seeded.q) - T).max() < 1e-9
     plain = ik_numeric(robot, T, q0=np.random.default_rng(2).uniform(lim[:, 0], lim[:, 1], size=(300, 6)))
     assert plain.success.all()
@@ -96,7 +96,7 @@ def test_no_idealised_copy_for_an_arm_far_from_every_family():
     lim = far.joint_limits
     T = fk(far, rng.uniform(lim[:, 0], lim[:, 1], size=(60, 6)))
     res = ik_numeric(far, T)  # plain LM from random starts
-    assert res.success.all() and res.residual.max() < 1e-10 and far.within_limits(res.q).all()
+    assert res.success.all() and res.residual.max() < 1e-10 * far.reach and far.within_limits(res.q).all()
 
 
 def _flipped(robot, joints):
@@ -214,3 +214,44 @@ def test_numeric_ik_takes_the_closed_form_target_kind(name):
     other = "position_yaw" if name != "scara" else "position_pitch"
     with pytest.raises(OptionError, match="targets are defined by the closed form"):
         ik_numeric(robot, np.zeros(4), kind=other)
+
+
+def _scaled(robot, s):
+    """``robot`` with every length (DH a and d, prismatic limits, base and tool offsets) times ``s``."""
+    import dataclasses
+
+    links = tuple(dataclasses.replace(lk, a=lk.a * s, d=lk.d * s,
+                                      limits=lk.limits if lk.is_revolute else (lk.limits[0] * s, lk.limits[1] * s))
+                  for lk in robot.links)
+    base, tool = robot.base.copy(), robot.tool.copy()
+    base[:3, 3] *= s
+    tool[:3, 3] *= s
+    return robot.replace(links=links, base=base, tool=tool)
+
+
+@pytest.mark.parametrize("reach", [0.05, 7.0])
+@pytest.mark.parametrize("make", [lambda: Robot.load("ur5").with_link(4, a=0.002),
+                                  lambda: Robot.load("rpp_seed002").with_link(1, alpha=0.01)],
+                         ids=["bent ur5", "tilted rpp"])
+def test_the_default_tolerance_scales_with_the_arm(bent, make, reach):
+    """A 5 cm micro-arm and a 7 m arm of the same shape (no closed form: plain LM) solve the same targets
+    to the same precision relative to their reach (1e-10 of it), in the same iterations."""
+    robot = make()
+    small = _scaled(robot, reach / robot.reach)
+    assert small.reach == pytest.approx(reach)
+    rng = np.random.default_rng(5)
+    lim = robot.joint_limits
+    q = rng.uniform(np.maximum(lim[:, 0], -np.pi), np.minimum(lim[:, 1], np.pi), size=(60, robot.n))
+    kind = "pose" if robot.n == 6 else "position"
+    iterations = []
+    for arm, scale in ((robot, 1.0), (small, reach / robot.reach)):
+        T = fk(arm, np.where(arm.is_revolute, q, q * scale))
+        res = ik_numeric(arm, T if kind == "pose" else T[:, :3, 3], kind=kind)
+        assert res.success.all()
+        assert res.residual.max() <= 1e-10 * arm.reach
+        iterations.append(res.iterations)
+    assert abs(iterations[0].mean() - iterations[1].mean()) <= 0.5  # lengths count in units of the reach
+    # the closed-form answer of ik/ik_all on a numeric arm reaches its target to the same relative precision
+    sols = ik_all(small, fk(small, np.where(small.is_revolute, q[0], q[0] * reach / robot.reach))[:3, 3]
+                  if kind == "position" else fk(small, q[0]))
+    assert sols.reachable.all() and sols.distance == 0.0

@@ -117,8 +117,9 @@ def test_both_bus_labs_render_with_every_check_passing_on_checked_sdk_packets(tm
     seen = [json.loads(line) for line in log.read_text().splitlines()]
     for kind in BUS_ARMS.values():
         runs = [s for s in seen if s["kind"] == kind]
-        # one bus per `with Arm(...)`: 02, 03, 04, 05, 06 and 07 open the arm once each, 08 twice
-        assert len(runs) == 8, (kind, runs)
+        # one bus per `with Arm(...)`: 02, 03, 04, 05, 06 and 07 open the arm once each, 08 three times (the step,
+        # the servo's own loop with its gains changed, the resolved-rate line)
+        assert len(runs) == 9, (kind, runs)
         for s in runs:
             assert s["rejected"] == [], s  # every packet the SDK sent was intact
             assert s["packets"] > 100 and s["sync_writes"] > 10, s

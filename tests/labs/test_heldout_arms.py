@@ -52,7 +52,8 @@ def test_heldout_robot_files_are_the_toolbox_models(arm):
 def _expected(robot):
     inertias = any(lk.inertial is not None for lk in robot.links)
     servos = all(lk.servo is not None or lk.bus is not None for lk in robot.links)
-    return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (servos and robot.n > 1 or t != "08_control")
+    control = servos or all(lk.inertial is not None for lk in robot.links)  # servos to identify or dynamics to control
+    return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (control and robot.n > 1 or t != "08_control")
             and (robot.n > 1 or t != "04_trajectory")]
 
 

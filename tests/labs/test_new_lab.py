@@ -177,6 +177,22 @@ def test_new_lab_refuses_a_non_empty_folder_and_rejects_a_missing_robot(tmp_path
         new_lab(tmp_path / "no_such_robot.toml", tmp_path / "other")
 
 
+def test_an_arm_of_ideal_actuators_gets_the_control_lab_when_every_link_has_an_inertia(tmp_path):
+    """The PUMA 560 (no servo tables: ideal actuators on sim://, Armstrong/Corke inertias) gets 08_control without its
+    servo identification (PID on a joint's dynamics, computed torque, resolved rate); without inertias it is left out."""
+    from labkit.labs import new_lab
+    from labkit.reports import notebook_parameters
+
+    puma = new_lab("puma560", tmp_path / "puma")
+    assert "08_control" in [p.stem for p in puma.notebooks]
+    assert not any("08_control" in note for note in puma.notes)
+    assert ast.literal_eval(notebook_parameters(puma.folder / "08_control.ipynb")["robot"]) == "robot.toml"
+    gantry = new_lab("gantry_ppp", tmp_path / "gantry")
+    assert "08_control" not in [p.stem for p in gantry.notebooks]
+    assert any(note.startswith("08_control.ipynb: left out, joints without a servo are ideal actuators") and
+               "not every link has an inertia" in note for note in gantry.notes)
+
+
 def test_cli_new_writes_the_lab(tmp_path, capsys, robot_files):
     from labkit.cli import main
     from labkit.reports import notebook_parameters
@@ -254,8 +270,9 @@ def test_new_lab_keeps_the_robot_file_byte_for_byte_and_says_what_it_adds(tmp_pa
     user = Robot.load(source)
     servos = all(lk.servo is not None or lk.bus is not None for lk in user.links)
     has_inertias = any(lk.inertial is not None for lk in user.links)
+    control = servos or all(lk.inertial is not None for lk in user.links)  # servos to identify or dynamics to control
     assert sorted(p.stem for p in lab.glob("*.ipynb")) == [t for t in TEMPLATES if (has_inertias or t != "07_dynamics")
-                                                           and (servos or t != "08_control")]
+                                                           and (control or t != "08_control")]
     assert ("07_dynamics.ipynb: left out, the robot file has no inertias" in out) == (not has_inertias)
     params = notebook_parameters(lab / "03_ik_check.ipynb")
     if user.bus is not None or all(lk.servo is not None for lk in user.links):  # bus servos or hobby servos: nothing to add
@@ -291,17 +308,28 @@ def test_eight_labs_scaffold_and_render_with_every_check_passing(tmp_path, robot
     failed = [f"{r.lab}/{r.name}: {r.error}" for r in results if not r.ok]
     assert not failed, "\n".join(failed)
 
-    def expected(lab):  # the dynamics lab needs inertias, the control lab servos (ideal actuators have no dynamics)
-        robot = Robot.load(lab.robot_file)
+    def expected(lab):  # the dynamics lab needs inertias, the control lab servos (ideal actuators have no servo
+        robot = Robot.load(lab.robot_file)  # dynamics) or inertias on every link (the PUMA: computed torque, PID)
         servos = all(lk.servo is not None or lk.bus is not None for lk in robot.links)
         inertias = any(lk.inertial is not None for lk in robot.links)
-        return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (servos or t != "08_control")]
+        control = servos or all(lk.inertial is not None for lk in robot.links)
+        return [t for t in TEMPLATES if (inertias or t != "07_dynamics") and (control or t != "08_control")]
 
     assert [sorted(p.stem for p in lab.notebooks) for lab in labs] == [expected(lab) for lab in labs]
     assert len(results) == sum(len(lab.notebooks) for lab in labs)
     for r in results:
         assert r.html.is_file() and r.notebook.is_file()
         assert (tmp_path / "reports" / r.lab / f"{r.name}_files").is_dir(), "output_dir points into the reports"
+    # issue 42's arms (SCARA RRPR, RPP, PPP, planar RP) also make the one hand-in report; the SCARA's IK
+    # notebook shows both elbows
+    from labkit.cli import main
+
+    for key in ("cobra600_scara", "gantry_ppp", "cylindrical_rpp", "planar_rp"):
+        assert main(["report", str(tmp_path / "labs" / key), "--executed", str(tmp_path / "reports" / key),
+                     "--to", "html", "-o", str(tmp_path / "book" / key)]) == 0, key
+        assert (tmp_path / "book" / f"{key}.html").is_file(), key
+    ik_outputs = (tmp_path / "reports" / "cobra600_scara" / "03_ik_check.ipynb").read_text(encoding="utf-8")
+    assert "elbow_left" in ik_outputs and "elbow_right" in ik_outputs
     with capsys.disabled():
         print(f"\n{len(RENDERED)} labs, {len(results)} notebooks rendered (--jobs 2, --no-pdf) in {wall:.1f} s "
               f"({time.perf_counter() - t0:.1f} s with the index)")

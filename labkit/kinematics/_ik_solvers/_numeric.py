@@ -5,6 +5,8 @@ Per iteration the targets still active make one
 :func:`labkit.kinematics._forward._fk_jacobian_kernel` call and one batched
 linear solve (:mod:`labkit.kinematics._ik_solvers._lm`: the task error, the
 damped step and the damping rule). Steps are clipped into the joint limits.
+Lengths count in units of the arm's reach (position errors divided by it,
+prismatic steps made in it), so a 5 cm and a 7 m arm of one shape iterate alike.
 
 A target leaves the active set when it converges, when it stalls (squared
 error not down 100x in 8 iterations; from a closed-form start, also in its
@@ -35,6 +37,8 @@ from labkit.kinematics._ik_solvers._starts import analytic_seeds, start_window
 
 #: iterations between stall tests; damping of a random start and of a closed-form one
 CHECK_EVERY, LAMBDA_RANDOM, LAMBDA_NEAR = 8, 1e-2, 1e-6
+#: the default success threshold on the residual, per metre of the arm's reach (``Robot.reach``)
+TOL_PER_METRE = 1e-10
 #: most copies of a failing target in a multi-start round (at most about 8192 copies in all)
 MULTISTART = 64
 
@@ -67,6 +71,8 @@ class _Problem:
     kernel: object
     lo: np.ndarray
     hi: np.ndarray
+    row_scale: np.ndarray
+    joint_scale: np.ndarray
 
     def random_q(self, size):
         """``(size, n)`` uniform in the start window (:func:`start_window`); no draw for ``size = 0``."""
@@ -76,10 +82,14 @@ class _Problem:
         return lo + (hi - lo) * self.rng.random((size, lo.size))
 
     def evaluate(self, q, target):
-        """Jacobian task rows (k, m, n), error (k, m), residual (k,) and ``e.e / 2`` (k,) at ``q`` (k, n)."""
+        """Jacobian task rows (k, m, n) and error (k, m) in units of the reach, residual (k,) [m, rad] and
+        ``e.e / 2`` (k,) of the scaled error at ``q`` (k, n)."""
         T, J = self.kernel(q)
         e, res = task_error(self.kind, T, target, self.rows)
-        return (J if len(self.rows) == 6 else J[:, self.rows]), e, res, 0.5 * np.einsum("ij,ij->i", e, e)
+        e *= self.row_scale  # (both fresh arrays: scaled in place)
+        J = J if len(self.rows) == 6 else J[:, self.rows]
+        J *= self.row_scale[:, None] * self.joint_scale
+        return J, e, res, 0.5 * np.einsum("ij,ij->i", e, e)
 
 
 @dataclasses.dataclass
@@ -148,16 +158,18 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
     rows : tuple of int
         Rows of the 6 x n Jacobian the task constrains.
     tol, max_iter, restarts, rng
-        Residual of success [m, rad], LM iterations per attempt, restarts, the random generator.
+        Residual of success [m, rad] (None: :data:`TOL_PER_METRE` times the reach, at least 1 mm), LM
+        iterations per attempt, restarts, the random generator.
 
     Returns
     -------
     q, success, iterations, residual : ndarray, shape (N, n), (N,), (N,), (N,)
         Joint values [rad, m], converged, iterations, final task error norm [m, rad].
     """
-    lim = robot.joint_limits
-    p = _Problem(robot, kind, tuple(rows), target, tol, max_iter, rng, _fk_jacobian_kernel(robot),
-                 lim[:, 0], lim[:, 1])
+    lim, size = robot.joint_limits, max(robot.reach, 1e-3)  # lengths in units of the reach: any size iterates alike
+    p = _Problem(robot, kind, tuple(rows), target, TOL_PER_METRE * size if tol is None else tol, max_iter, rng,
+                 _fk_jacobian_kernel(robot), lim[:, 0], lim[:, 1], np.where(np.array(rows) < 3, 1.0 / size, 1.0),
+                 np.where(robot.is_revolute, 1.0, size))
     starts = analytic_seeds(robot, kind, target) if q0 is None else None
     if starts is not None:
         q0 = starts.all[:, 0].copy()
@@ -261,7 +273,7 @@ def _attempt(p, out, a, *, free):
 
 def _step(p, a, lo, hi):
     """One LM iteration of the active rows: the damped step, clipped, kept where it lowers the error."""
-    q = np.clip(a.q + damped_step(a.J, a.e, a.lam), lo, hi)
+    q = np.clip(a.q + damped_step(a.J, a.e, a.lam) * p.joint_scale, lo, hi)
     J, e, res, E = p.evaluate(q, a.target)
     better = E < a.E
     a.lam = damping(a.lam, better)
