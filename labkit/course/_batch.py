@@ -2,7 +2,9 @@
 
 A task carries its inputs as file contents (relative path -> bytes) and sends its
 outputs back the same way, so workers on other machines need labkit installed but
-share no folder with the driver; only the driver writes files. The default
+share no folder with the driver; only the driver writes files. (A grading task on the
+local pool gets its submission's folder and reads it itself, under the same caps: the
+driver never holds a class's submissions at once.) The default
 engine is a local pool of worker processes; ``scheduler="tcp://host:port"`` runs
 the same tasks on a dask.distributed cluster, where a task whose worker is lost is
 rerun on another worker (each task has one result slot, so nothing is lost or
@@ -87,7 +89,8 @@ def unpack_dir(files, dest) -> Path:
     return write_tree(files, dest, replace=True)
 
 
-def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None) -> list:
+def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=True, on_result=None,
+              on_lost=None) -> list:
     """Run ``fn(*args)`` for every args tuple; results in input order.
 
     Parameters
@@ -106,6 +109,12 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
         Show one tqdm progress bar for the batch (on stderr).
     on_result : callable, optional
         Called as ``on_result(index, result)`` in the driver as each task finishes.
+    on_lost : callable, optional
+        ``on_lost(index, reason)`` gives the result of a task whose worker process died under it
+        (killed, out of memory, a crash in C), or that failed on every try on dask; default: such a
+        task stops the batch with a LabkitError. On the local pool the tasks a dying worker took down
+        with it (every task of a broken pool) are run again, one at a time in a pool of their own:
+        the task that kills that pool too is the one lost; the others finish.
 
     Returns
     -------
@@ -115,7 +124,8 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     Raises
     ------
     LabkitError
-        If ``jobs < 1``, the scheduler cannot be reached, or a task failed on every try.
+        If ``jobs < 1``, the scheduler cannot be reached, or (without ``on_lost``) a task's worker died or a
+        task failed on every try.
     """
     from tqdm.auto import tqdm
 
@@ -129,18 +139,19 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
         if on_result is not None:
             on_result(i, value)
 
+    def lost(i, why):
+        if on_lost is None:
+            raise LabkitError(f"task {i} of {desc!r} ({fn.__name__}) was lost: {why}")
+        done(i, on_lost(i, why))
+
     try:
         if scheduler is None:
             if jobs < 1:
                 raise LabkitError(f"expected jobs >= 1, got {jobs}")
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(argsets))),
-                                     mp_context=multiprocessing.get_context("spawn")) as pool:
-                futures = {pool.submit(fn, *args): i for i, args in enumerate(argsets)}
-                for fut in as_completed(futures):
-                    done(futures[fut], fut.result())
+            broken = _local_pool(fn, argsets, range(len(argsets)), jobs, done)
+            for i in broken:  # each alone: a pool that breaks now broke for this task
+                for j in _local_pool(fn, argsets, [i], 1, done):
+                    lost(j, "its worker process died (killed, out of memory, or a crash)")
         else:
             with needs_extra("course"):
                 from distributed import Client, as_completed
@@ -158,7 +169,8 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
                     try:
                         value = fut.result()
                     except Exception as exc:
-                        raise LabkitError(f"task {fut.key} failed on every try: {type(exc).__name__}: {exc}") from exc
+                        lost(index[fut.key], f"it failed on every try: {type(exc).__name__}: {exc}")
+                        continue
                     done(index[fut.key], value)
             finally:
                 client.close()
@@ -167,18 +179,52 @@ def run_tasks(fn, argsets, *, scheduler=None, jobs=2, desc="tasks", progress=Tru
     return results
 
 
+def _local_pool(fn, argsets, indices, jobs, done) -> list:
+    """Run the tasks ``indices`` on a new pool of ``jobs`` spawned processes; the indices lost to a broken pool."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    indices, broken = list(indices), []
+    if not indices:
+        return broken
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(indices))),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {}
+        for k, i in enumerate(indices):
+            try:
+                futures[pool.submit(fn, *argsets[i])] = i
+            except BrokenProcessPool:  # broken before every task was handed in
+                broken += indices[k:]
+                break
+        for fut in as_completed(futures):
+            try:
+                value = fut.result()
+            except BrokenProcessPool:
+                broken.append(futures[fut])
+                continue
+            done(futures[fut], value)
+    return sorted(broken)
+
+
 #: set once this process has checked that bubblewrap starts here (a pool or dask worker)
 _WORKER_CHECKED = []
 
 
 def _grade_task(student, submission_files, lab_files, limits, html, free):
-    """Worker side of :func:`grade`: unpack, grade, pack the feedback into ``result.files``.
+    """Worker side of :func:`grade`: unpack (or read the folder, given its path), grade, pack the feedback into
+    ``result.files``.
 
     Whatever goes wrong becomes this student's row (status ``"crash"``), never the batch's failure.
     """
     from dataclasses import replace
 
     t0 = time.perf_counter()
+    if isinstance(submission_files, str):  # the folder itself (a worker of the local pool): read it here
+        try:
+            submission_files = _pack_submission(submission_files)
+        except Exception as exc:  # noqa: BLE001 - whatever the folder holds, it is this student's row
+            return _failed(student, lab_files, free, "invalid", f"{type(exc).__name__}: {exc}", t0)
     try:
         if limits.sandbox and not _WORKER_CHECKED:  # a worker on another machine: its bubblewrap, once
             check_sandbox()
@@ -193,6 +239,11 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
             return replace(result, files=files)
     except Exception as exc:  # noqa: BLE001 - one student's row, never the class's crash
         return _failed(student, lab_files, free, "crash", f"grading failed: {type(exc).__name__}: {exc}", t0)
+
+
+def _pack_submission(path) -> dict:
+    """A submission folder's files under the caps of a submission (depth, entries, bytes)."""
+    return pack_dir(path, limit=MAX_SUBMISSION_BYTES, max_depth=MAX_DEPTH, max_entries=MAX_ENTRIES)
 
 
 def _failed(student, lab_files, free, status, why, t0=None):
@@ -291,7 +342,8 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
             if entry.is_symlink() or not entry.is_dir(follow_symlinks=False):
                 early[student] = _failed(student, lab_files, free, "invalid", "not a folder (a file or a symlink)")
                 continue
-            files = pack_dir(entry.path, limit=MAX_SUBMISSION_BYTES, max_depth=MAX_DEPTH, max_entries=MAX_ENTRIES)
+            # the local pool's workers read the folder themselves: the driver never holds a class's files at once
+            files = entry.path if scheduler is None else _pack_submission(entry.path)
         except Exception as exc:  # noqa: BLE001 - whatever the entry holds, it is this student's row
             early[student] = _failed(student, lab_files, free, "invalid", f"{type(exc).__name__}: {exc}")
             continue
@@ -303,8 +355,11 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
             remove_tree(page)
         unpack_dir(result.files, page)
 
+    def lost(i, why):  # the grading process died under this submission: its row, never the class's stop
+        return _failed(argsets[i][0], lab_files, free, "crash", f"grading failed: {why}")
+
     results = run_tasks(_grade_task, argsets, scheduler=scheduler, jobs=jobs, desc="grading", progress=progress,
-                        on_result=write) if argsets else []
+                        on_result=write, on_lost=lost) if argsets else []
     results = sorted([replace(r, files={}) for r in results] + list(early.values()), key=lambda r: r.student)
     if html:
         write_class_index(results, out, title=f"Gradebook: {lab.name}")
@@ -355,9 +410,11 @@ def _inert(value):
 
 def _inert_frame(frame):
     """``frame`` with every text cell, the index and the column names made :func:`_inert`."""
+    import pandas as pd
+
     frame = frame.copy()
-    for column in frame.columns:
-        if frame[column].dtype == object:
+    for column in frame.columns:  # text columns are "str" (pandas 3) or object: every column that is not numbers
+        if not pd.api.types.is_numeric_dtype(frame[column]) or frame[column].dtype == object:
             frame[column] = frame[column].map(_inert)
     frame.index = frame.index.map(_inert)
     frame.index.name = _inert(frame.index.name)

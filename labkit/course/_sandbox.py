@@ -58,7 +58,7 @@ from typing import NamedTuple
 
 from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._cgroup import memory_cgroup
-from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class
+from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class, runtime_folder
 from labkit.course._safefs import remove_tree, socket_ready
 from labkit.course._watchdog import Watchdog, kill_tree
 from labkit.course._wire import MAX_EXPORT_BYTES
@@ -74,6 +74,8 @@ _ETC = ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "localtime", "fonts", "alte
         "nsswitch.conf", "mime.types")
 #: largest output a cell may send to the grader [bytes]; more is dropped with a note
 MAX_CELL_OUTPUT = 2 * 2**20
+#: largest output a whole notebook may send to the grader [bytes]; more is dropped with a note
+MAX_NOTEBOOK_OUTPUT = 16 * 2**20
 #: largest single message the grader accepts from a kernel [bytes]: an export of the checks' values and room
 MAX_MESSAGE_BYTES = MAX_EXPORT_BYTES + 2**20
 #: the matplotlib and IPython folders inside the sandbox (on its RAM disk: fresh for every kernel)
@@ -104,6 +106,10 @@ class Limits:
     output_bytes : int
         Output a cell may send to the grader [bytes]: each message is measured as it arrives,
         and one that would take the cell over this is dropped (the run's detail says so).
+    notebook_output_bytes : int
+        Output the whole notebook may send to the grader [bytes], the same way (a notebook of
+        many cells, each under ``output_bytes``). With ``message_bytes`` it bounds what the
+        grader holds of a run: about ``notebook_output_bytes + message_bytes`` characters.
     message_bytes : int
         Largest single message the grader's sockets accept [bytes] (a larger one closes the
         kernel's channel: ZeroMQ's ``ZMQ_MAXMSGSIZE``; the run is graded ``crash`` and says
@@ -118,9 +124,11 @@ class Limits:
     cgroup: bool = True
     output_bytes: int = MAX_CELL_OUTPUT
     message_bytes: int = MAX_MESSAGE_BYTES
+    notebook_output_bytes: int = MAX_NOTEBOOK_OUTPUT
 
     def __post_init__(self):
-        for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes", "output_bytes", "message_bytes"):
+        for name in ("cpu_seconds", "memory_bytes", "wall_seconds", "max_processes", "output_bytes", "message_bytes",
+                     "notebook_output_bytes"):
             value = getattr(self, name)
             if not value > 0:
                 raise LabkitError(f"expected {name} > 0, got {value!r}")
@@ -416,7 +424,8 @@ def run_untrusted(nb, work, *, limits=None, hide=(), private=None) -> RunResult:
         runtime folder (default: the system's temporary folder). The runtime folder holds the
         connection file (read-only in the sandbox) and the socket folder (the only part the
         sandbox can write); the kernel's stderr goes to an unnamed file; all of it is removed
-        when the run ends. Each run starts from a new runtime folder.
+        when the run ends. Each run starts from a new runtime folder (elsewhere if its socket paths
+        would not fit a Unix socket: :func:`labkit.course._client.runtime_folder`).
 
     Returns
     -------
@@ -452,7 +461,7 @@ def _execute(nb, work, limits, hide, private, cgroup):
         from nbclient.exceptions import CellTimeoutError, DeadKernelError
 
     work = Path(work).resolve()
-    runtime = Path(tempfile.mkdtemp(prefix="labkit-run-", dir=private))  # new for every run, the grader's (0700)
+    runtime = runtime_folder(private)  # new for every run, the grader's (0700), its socket paths short enough
     (runtime / "sockets").mkdir()
     log = tempfile.TemporaryFile(dir=runtime)  # noqa: SIM115 - the kernel's stderr, no name anyone can link
     launched, dogs, client = [], [], None
@@ -467,7 +476,9 @@ def _execute(nb, work, limits, hide, private, cgroup):
             km, launched, dogs = _kernel_manager(work, runtime, limits, hide, log, cgroup)
             client = client_class()(nb, km=km, timeout=int(limits.wall_seconds), allow_errors=True,
                                      startup_timeout=60, resources={"metadata": {"path": cwd}},
-                                     output_bytes=limits.output_bytes)
+                                     output_bytes=limits.output_bytes,
+                                     notebook_output_bytes=limits.notebook_output_bytes,
+                                     message_bytes=limits.message_bytes)
 
         interrupted = []
 
@@ -506,7 +517,8 @@ def _execute(nb, work, limits, hide, private, cgroup):
             if not client.dropped:
                 return ""
             ids = list(dict.fromkeys(str(nb.cells[i].get("id")) for i, _ in client.dropped))
-            return (f"output over the limit of {limits.output_bytes} bytes per cell dropped: "
+            return (f"output over the limit of {limits.output_bytes} bytes per cell "
+                    f"({limits.notebook_output_bytes} per notebook) dropped: "
                     f"{len(client.dropped)} message(s) (largest {max(n for _, n in client.dropped)} characters) "
                     f"in the cell(s) with id {', '.join(ids[:5])}{' ...' if len(ids) > 5 else ''}")
 
@@ -552,6 +564,8 @@ def _execute(nb, work, limits, hide, private, cgroup):
         except RuntimeError as exc:  # the kernel did not start: the limit it hit on the way, else a crash
             return died(lambda code: f"the kernel did not start: {type(exc).__name__}: {exc} {_tail(log)}"[:400],
                         wait=0)
+        if dogs:  # a last sample: what is over a limit as the notebook ends counts (a burst between samples may not)
+            dogs[0].check()
         if reason():
             return reason()
         if client.closed():

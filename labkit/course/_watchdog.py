@@ -97,36 +97,49 @@ class Watchdog(threading.Thread):
     def run(self):
         """Sample every ``period`` s until the sandbox ends, is killed over a limit, or ``stop`` is set."""
         while not self.stop.is_set() and self.proc.poll() is None:
-            # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
-            pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
-                else _tree(self.proc.pid)
-            memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
-            kills = self.cgroup.oom_kills() if self.cgroup else 0
-            self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
-            self.peak_memory = max(self.peak_memory, memory)
-            reason = None
-            if kills:
-                reason = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
-                                    f"{self.limits.memory_bytes / 2**30:g} GiB: the kernel's OOM killer killed "
-                                    f"{kills} process(es) ({self.cgroup.mechanism}), then the whole sandbox")
-            elif memory > self.limits.memory_bytes:
-                reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
-                                    f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
-            elif self.cpu > self.limits.cpu_seconds:
-                reason = "cpu-time", f"killed at the CPU-time limit of {self.limits.cpu_seconds:g} s"
-            elif len(pids) - 1 > self.limits.max_processes:
-                reason = "crash", f"more than {self.limits.max_processes} processes at once"
-            if reason:
-                self.reason = reason
-                for p in reversed(pids):
-                    try:
-                        os.kill(p, signal.SIGKILL)
-                    except OSError:
-                        pass
-                if self.cgroup:
-                    self.cgroup.kill()
+            if self.check():
                 return
             self.stop.wait(self.period)
+
+    def check(self):
+        """One sample (also the run's last, once its notebook has ended): over a limit, kill the sandbox.
+
+        Returns
+        -------
+        tuple of (str, str) or None
+            ``(status, detail)`` of the limit reached (also kept in ``reason``), else None.
+        """
+        if self.reason or self.proc.poll() is not None:
+            return self.reason
+        # the cgroup's list is one file read; psutil's tree scans all of /proc (every 0.1 s, per submission)
+        pids = ([self.proc.pid] + [p for p in self.cgroup.pids() if p != self.proc.pid]) if self.cgroup \
+            else _tree(self.proc.pid)
+        memory = 0 if self.cgroup else sum(_pss(p) for p in pids) + (_ram_disks(pids) if self.sandboxed else 0)
+        kills = self.cgroup.oom_kills() if self.cgroup else 0
+        self.cpu = max(self.cpu, sum(_cpu(p) for p in pids))
+        self.peak_memory = max(self.peak_memory, memory)
+        reason = None
+        if kills:
+            reason = "memory", (f"the submission (its processes and RAM disks) reached the memory limit of "
+                                f"{self.limits.memory_bytes / 2**30:g} GiB: the kernel's OOM killer killed "
+                                f"{kills} process(es) ({self.cgroup.mechanism}), then the whole sandbox")
+        elif memory > self.limits.memory_bytes:
+            reason = "memory", (f"the submission used {memory / 2**30:.2f} GiB (processes and RAM disks), "
+                                f"over the limit of {self.limits.memory_bytes / 2**30:g} GiB")
+        elif self.cpu > self.limits.cpu_seconds:
+            reason = "cpu-time", f"killed at the CPU-time limit of {self.limits.cpu_seconds:g} s"
+        elif len(pids) - 1 > self.limits.max_processes:
+            reason = "crash", f"more than {self.limits.max_processes} processes at once"
+        if reason:
+            self.reason = reason
+            for p in reversed(pids):
+                try:
+                    os.kill(p, signal.SIGKILL)
+                except OSError:
+                    pass
+            if self.cgroup:
+                self.cgroup.kill()
+        return reason
 
 
 def kill_tree(pid) -> None:

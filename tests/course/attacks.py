@@ -250,3 +250,34 @@ if runtime and links:
         os.symlink(links[i % len(links)], path)
     os._exit(0)
 """
+
+
+def deep_tree_code(depth=3000) -> str:
+    """Leave trees ``depth`` folders deep in the working copy and the socket folder, with folders this user may not
+    enter, list or change at the bottom and the working copy itself read-only: what the grader removes afterwards."""
+    return f"""
+import os
+for start in ('.', os.environ.get('JUPYTER_RUNTIME_DIR', '.')):
+    fd = os.open(start, os.O_RDONLY | os.O_DIRECTORY)
+    for _ in range({depth}):
+        os.mkdir('d', dir_fd=fd)
+        child = os.open('d', os.O_RDONLY | os.O_DIRECTORY, dir_fd=fd)
+        os.close(fd)
+        fd = child
+    os.mkdir('locked', dir_fd=fd)
+    open(os.open('locked/f', os.O_WRONLY | os.O_CREAT, 0o600, dir_fd=fd), 'w').write('x')
+    os.chmod(f'/proc/self/fd/{{fd}}/locked', 0)
+    os.chmod(f'/proc/self/fd/{{fd}}', 0o500)
+    os.close(fd)
+os.chmod('.', 0o500)
+"""
+
+
+def task_dies_on(value, die):
+    """A batch task (labkit.course.run_tasks) that returns ``value``, or kills its own worker process if ``die``."""
+    import os
+    import signal
+
+    if die:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return value

@@ -30,10 +30,15 @@ from labkit.course import _safefs
 from tests.course import attacks as at
 from tests.course import course_lab as cl
 
-# the attack batches share one xdist group with every grading test (tests/course/test_cgroup.py, test_course.py,
-# test_points.py): they look for the orphan processes they planted by name, and grading runs one batch at a time;
-# the cgroup check below still ignores cgroups made by a live grader that is not this test's
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading")]
+# The grading tests run in two xdist groups side by side (`pytest -n 2 --dist loadgroup`): "grading-batches" (this
+# file and test_dask.py) and "grading-loop" (test_course.py, test_points.py, test_cgroup.py, test_watchdog.py,
+# test_safefs.py). A test has one group: xdist joins the names of every xdist_group marker on it into a new group,
+# so a file's tests stay in its module's group. The batches share a group: both plant an orphan `sleep 987654` and
+# look for it by name. The cgroup check below ignores cgroups made by a live grader that is not this test's; a grader
+# killed outright leaves its cgroup until the next run sweeps it, so test_dask.py, which kills one, is in this group.
+# Kernels side by side on a loaded machine: the one that died before its first reply in CI was the watchdog reading
+# the host's /tmp (test_watchdog.py).
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("grading-batches")]
 LIMITS = dict(cpu_seconds=10, wall_seconds=25)
 HONEST = ("honest_a", "honest_b", "honest_c")
 
@@ -451,7 +456,8 @@ def test_huge_outputs_keep_the_grader_small(tmp_path):
     honest, chatty, huge = runs["honest"], runs["chatty"], runs["huge"]
     assert (honest["points"], honest["status"]) == (4, "ok"), honest
     assert (chatty["points"], chatty["status"]) == (4, "ok"), chatty  # the values still reach the checks
-    assert "output over the limit of 262144 bytes per cell dropped: 8 message(s)" in chatty["detail"], chatty
+    assert "output over the limit of 262144 bytes per cell (16777216 per notebook) dropped: 8 message(s)" \
+        in chatty["detail"], chatty
     assert huge["status"] == "crash" and "over the limit of 1048576 bytes" in huge["detail"], huge
     assert huge["points"] == 0, huge
     for run in (chatty, huge):
@@ -544,6 +550,7 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
                  "runtime_escape": at.runtime_escape_code(append_to, overwrite, secret)}
         for name in ("patch_assert_all", "write_outside", "orphan_process", "process_flood", "baseline_values"):
             codes[name] = at.CHECKS_ATTACKS[name]
+        codes["deep_tree"] = at.deep_tree_code()  # removed afterwards though this user may not enter its folders
         for name, code in codes.items():
             cl.write_submission(base / "student", subs / name, code)
         home = base / "home"
@@ -563,6 +570,7 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
         uid, mechanism = json.loads(probe.stdout.strip().splitlines()[-1])
         assert uid != 0
         memory = "0.5" if mechanism != "watchdog" else "1.5"
+        tmp_before = set(Path(tempfile.gettempdir()).glob("labkit-*"))
         run = _as_grader_user([sys.executable, "-m", "labkit", "grade", str(subs), "--lab", str(lab), "-o",
                                str(base / "out" / "gradebook.csv"), "--jobs", "2", "--cpu", "20", "--memory", memory,
                                "--wall", "90"], env, base)  # wide limits: a loaded CI machine starts kernels slowly
@@ -579,6 +587,8 @@ def test_attack_and_normal_batches_as_an_unprivileged_user(tmp_path):
         assert set(table["memory_limit"]) == {mechanism}
         assert append_to.read_text() == "untouched\n" and overwrite.read_text() == "{}"
         assert "TOP-SECRET-CANARY" not in (base / "out" / "gradebook.csv").read_text()
+        left = [p for p in set(Path(tempfile.gettempdir()).glob("labkit-*")) - tmp_before if p.lstat().st_uid == uid]
+        assert uid == os.geteuid() or not left, f"the grading user's temporary folders outlived the batch: {left}"
         if os.geteuid() == 0:
             rows = subprocess.run(["ps", "-o", "stat=,pid=,args=", "-u", GRADER_USER], capture_output=True,
                                   text=True).stdout.splitlines()

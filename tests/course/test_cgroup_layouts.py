@@ -182,3 +182,24 @@ def test_a_dead_graders_empty_cgroup_is_swept(tmp_path, monkeypatch, owner_alive
     left.mkdir()
     cgroup = memory_cgroup(LIMIT)
     assert cgroup is not None and left.exists() == owner_alive
+
+
+def test_v2_kill_peak_and_remove(tmp_path, monkeypatch):
+    """A run's cgroup v2: killed through cgroup.kill (one write, no pid signalled), its peak read from memory.peak,
+    and removed once the kernel has taken its files away."""
+    fs = tmp_path / "sys_fs_cgroup"
+    unified = _v2_folder(fs, "/grading", subtree="memory")
+    _layout(tmp_path, monkeypatch, ["0::/grading"], [(fs, "/", "cgroup2", "rw")])
+    _kernel_files(monkeypatch, fs, ["memory.peak", "cgroup.kill", "cgroup.procs"])
+    cgroup = memory_cgroup(LIMIT)
+    assert cgroup is not None and cgroup.version == 2 and cgroup.path.parent == unified
+    (cgroup.path / "cgroup.procs").write_text("4242\n")
+    (cgroup.path / "memory.peak").write_text(f"{123 * 2**20}\n")
+    signalled = []
+    monkeypatch.setattr(os, "kill", lambda pid, sig: signalled.append(pid))
+    cgroup.kill()
+    assert (cgroup.path / "cgroup.kill").read_text() == "1" and not signalled
+    assert cgroup.peak_bytes() == 123 * 2**20 and cgroup.pids() == [4242]
+    for f in list(cgroup.path.iterdir()):
+        f.unlink()  # what the kernel does when the last process has left
+    assert cgroup.remove() and not cgroup.path.exists()

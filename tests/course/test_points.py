@@ -108,7 +108,7 @@ def test_seed004_checks_rest_on_trusted_values_and_without_them_the_rule_still_h
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("grading")  # one grading batch at a time (tests/course/test_course.py says why)
+@pytest.mark.xdist_group("grading-loop")  # beside the attack batches (tests/course/test_attacks.py says why)
 def test_faking_q_and_the_steps_earns_no_more_than_untouched(ik_lab, tmp_path):
     """Graded for real (sandbox, checker, baseline): the derivation lab's faked submission scores what the untouched
     one scores (0), honest work 3 / 3, the half-done one keeps the hidden row it earned; one maximum everywhere."""
@@ -175,3 +175,24 @@ def test_a_failing_row_names_the_values_it_read():
     assert [r["passed"] for r in rows] == [False, False]
     assert rows[0]["error"] == "AssertionError (no message) (t3 = 3.24)", rows[0]
     assert rows[1]["error"].startswith("q: max |diff| 0.300 > tol 1.0e-12 (q = [0"), rows[1]
+
+
+def test_the_gradebook_writer_makes_every_text_cell_inert(tmp_path):
+    """write_gradebook on its own: text columns (pandas 3 makes them "str", not object) lose their control characters
+    and a leading ``=``, ``+``, ``-``, ``@`` is quoted, in the CSV and the Excel file; numbers stay numbers."""
+    pd = require("pandas")
+    openpyxl = require("openpyxl")
+    import csv
+
+    from labkit.course import write_gradebook
+
+    frame = pd.DataFrame({"student": ["a", "b"], "status": ["ok", "=1+2"], "points": [1.0, -2.0],
+                          "detail": ["-2+3 \x1b[31mred\x07", "@SUM(A1)\x00"]}).set_index("student")
+    write_gradebook(frame, tmp_path / "g.csv")
+    with open(tmp_path / "g.csv", newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["status"], r["detail"], float(r["points"])) for r in rows] == [
+        ("ok", "'-2+3 red", 1.0), ("'=1+2", "'@SUM(A1)", -2.0)], rows
+    sheet = openpyxl.load_workbook(tmp_path / "g.xlsx").active
+    assert [[c.value for c in row] for row in sheet.iter_rows(min_row=2)] == [
+        ["a", "ok", 1, "'-2+3 red"], ["b", "'=1+2", -2, "'@SUM(A1)"]]

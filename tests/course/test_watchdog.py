@@ -17,8 +17,8 @@ import pytest
 from conftest import require
 from labkit.course._watchdog import _ram_disks, _tree, kill_tree
 
-# every test that grades shares one xdist group (tests/course/test_course.py says why)
-pytestmark = pytest.mark.xdist_group("grading")
+# beside the attack batches (tests/course/test_attacks.py says why there are two groups)
+pytestmark = pytest.mark.xdist_group("grading-loop")
 MIB = 2**20
 
 
@@ -112,3 +112,19 @@ def test_a_limit_hit_before_the_first_reply_is_the_result(tmp_path, monkeypatch,
     assert not nb.cells[0].get("outputs") and time.monotonic() - t0 < 30
     if limit == "processes":  # the watchdog's kill, seen at its first sample of the three: no second start
         assert [dog.reason for dog in starts] == [expected]
+
+
+def test_processes_over_the_limit_as_the_notebook_ends_count(tmp_path, monkeypatch):
+    """The watchdog samples once more when the notebook has ended: 40 processes started by the last cell are over the
+    limit of 32 however the samples fell (one at the start here, the next an hour later: a loaded machine's worst)."""
+    from labkit.course import Limits, _sandbox, run_untrusted
+
+    class Slow(_sandbox.Watchdog):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **{**kwargs, "period": 3600})
+
+    monkeypatch.setattr(_sandbox, "Watchdog", Slow)
+    nb = _notebook("import subprocess\nps = [subprocess.Popen(['sleep', '30']) for _ in range(40)]")
+    status, detail, _ = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=20, memory_bytes=2 * 2**30,
+                                                                  wall_seconds=60))
+    assert (status, detail) == ("crash", "more than 32 processes at once"), detail
