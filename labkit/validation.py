@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 
@@ -214,6 +216,32 @@ def as_option(x, options, name, *, error=OptionError):
     if not (isinstance(x, str) and x in options):
         raise error(f"expected {name} as one of {', '.join(map(repr, options))}, got {_received(x)}")
     return x
+
+
+def as_path(x, name, *, error=OptionError):
+    """Return ``x`` as a :class:`pathlib.Path` if it is a ``str`` or ``os.PathLike`` (bytes and numbers are not paths).
+
+    Parameters
+    ----------
+    x : str or os.PathLike
+        Input.
+    name : str
+        What the path is of, for the message ("the camera file").
+    error : type
+        The :class:`~labkit.exceptions.LabkitError` subclass to raise.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OptionError (or ``error``)
+        With what was expected and what was received.
+    """
+    if isinstance(x, str) and x or isinstance(x, os.PathLike) and isinstance(os.fspath(x), str):
+        return Path(x)
+    raise error(f"expected {name} as a path (str or os.PathLike), got {_received(x)}")
 
 
 def check_robot(robot, name="robot", *, optional=False):

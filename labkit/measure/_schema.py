@@ -31,13 +31,11 @@ import csv
 import dataclasses
 import io
 import math
-import os
 import re
 import zlib
-from pathlib import Path
 
 from labkit.exceptions import MeasurementError, MeasurementWarning
-from labkit.validation import as_batch
+from labkit.validation import as_batch, as_path
 
 try:  # advisory lock against a second writer (POSIX only)
     import fcntl
@@ -149,9 +147,7 @@ def _unit(unit, **where):
 
 def _path(path, what):
     """``path`` as a :class:`pathlib.Path`; anything but a str or os.PathLike is a MeasurementError."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise MeasurementError(f"expected {what} as a file path (str or os.PathLike), got {path!r}")
-    return Path(path)
+    return as_path(path, what, error=MeasurementError)
 
 
 def parse_numbers(text):

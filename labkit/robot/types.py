@@ -345,7 +345,8 @@ class BusServo:
         JointLimitError
             A value that is not finite or many turns away (no servo position, nor a 64-bit integer).
         """
-        t = self.zero + self.direction * np.asarray(q, dtype=float) * self.resolution / (2 * math.pi)
+        with np.errstate(over="ignore", invalid="ignore"):  # a value past float range is refused below, not warned
+            t = self.zero + self.direction * np.asarray(q, dtype=float) * self.resolution / (2 * math.pi)
         if not np.all(np.abs(t) < 2.0 ** 62):
             raise JointLimitError(f"BusServo {self.id}: expected finite joint values within a few turns, got "
                                   f"{float(np.ravel(q)[~(np.abs(np.ravel(t)) < 2.0 ** 62)][0]):g} rad")

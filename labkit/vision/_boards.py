@@ -18,10 +18,35 @@ import functools
 import numpy as np
 
 from labkit.exceptions import OptionError, needs_extra
-from labkit.vision._families import dictionary, family_info
+from labkit.validation import as_count, as_number
+from labkit.vision._families import as_length, dictionary, family_info
 from labkit.vision._images import as_gray
 
 __all__ = ["Checkerboard", "CharucoBoard"]
+
+#: the most inner corners (or squares) along a side, and white margin in squares, a board takes
+MAX_SIDE_COUNT = 100
+MAX_MARGIN = 10.0
+#: the most texture pixels per square (a texture's side stays under OpenCV's 32767 px for boards up to 30 squares)
+MAX_PIXELS_PER_SQUARE = 1024
+
+
+def _check_board(board, least, lengths):
+    """Check and normalise a board's counts (at least ``least`` a side), ``lengths`` [m] and margin in place."""
+    owner = type(board).__name__
+    for field in ("columns", "rows"):
+        value = as_count(getattr(board, field), f"{owner} {field}", minimum=least, maximum=MAX_SIDE_COUNT)
+        object.__setattr__(board, field, value)
+    for field in lengths:
+        object.__setattr__(board, field, as_length(getattr(board, field), f"{owner} {field}"))
+    margin = as_number(board.margin, f"{owner} margin (in squares)", minimum=0.0, error=OptionError)
+    if margin > MAX_MARGIN:
+        raise OptionError(f"expected {owner} margin (in squares) at most {MAX_MARGIN:g}, got {margin:g}")
+    object.__setattr__(board, "margin", margin)
+
+
+def _pixels_per_square(value):
+    return as_count(value, "pixels_per_square", minimum=1, maximum=MAX_PIXELS_PER_SQUARE)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,8 +69,7 @@ class Checkerboard:
     margin: float = 1.0
 
     def __post_init__(self):
-        if self.columns < 2 or self.rows < 2 or not self.square > 0:
-            raise OptionError(f"expected at least 2x2 inner corners and square > 0, got {self}")
+        _check_board(self, 2, ("square",))
 
     @property
     def extent(self):
@@ -70,12 +94,13 @@ class Checkerboard:
         Parameters
         ----------
         pixels_per_square : int
+            Texture pixels per square (1 to :data:`MAX_PIXELS_PER_SQUARE`).
 
         Returns
         -------
         ndarray, shape (h, w), float32
         """
-        p = int(pixels_per_square)
+        p = _pixels_per_square(pixels_per_square)
         m = int(round(self.margin * p))
         i, j = np.meshgrid(np.arange(self.columns + 1), np.arange(self.rows + 1))
         squares = ((i + j) % 2).astype(np.float32)  # top-left square black
@@ -136,9 +161,14 @@ class CharucoBoard:
     margin: float = 0.5
 
     def __post_init__(self):
-        family_info(self.family)
-        if self.columns < 3 or self.rows < 3 or not 0 < self.marker < self.square:
-            raise OptionError(f"expected at least 3x3 squares and 0 < marker < square, got {self}")
+        info = family_info(self.family)
+        _check_board(self, 3, ("square", "marker"))
+        if not self.marker < self.square:
+            raise OptionError(f"expected CharucoBoard marker < square, got marker {self.marker:g} m, "
+                              f"square {self.square:g} m")
+        if self.columns * self.rows // 2 > info.count:
+            raise OptionError(f"expected at most {info.count} white squares ({self.family} has {info.count} "
+                              f"markers), got {self.columns} x {self.rows} squares")
 
     @property
     def extent(self):
@@ -154,14 +184,29 @@ class CharucoBoard:
         Parameters
         ----------
         pixels_per_square : int
+            Texture pixels per square (up to :data:`MAX_PIXELS_PER_SQUARE`; enough for a pixel per marker bit).
+
+        Raises
+        ------
+        OptionError
+            A count out of range, or too few pixels for OpenCV to draw the markers (the message names one that
+            does).
 
         Returns
         -------
         ndarray, shape (h, w), float32
         """
-        p = int(pixels_per_square)
+        with needs_extra("vision"):
+            import cv2
+
+        p = _pixels_per_square(pixels_per_square)
         m = int(round(self.margin * p))
-        img = self._cv().generateImage((self.columns * p, self.rows * p), marginSize=0, borderBits=1)
+        try:
+            img = self._cv().generateImage((self.columns * p, self.rows * p), marginSize=0, borderBits=1)
+        except cv2.error:  # OpenCV rounds each marker to whole pixels: too few to draw one, or it leaves its square
+            raise OptionError(f"expected pixels_per_square enough to draw this board's {self.family} markers "
+                              f"({family_info(self.family).bits + 2} bits a side, {self.marker / self.square:.2f} of "
+                              f"a square), got {p}; try {_least_drawable(self, p)}") from None
         return np.pad(img.astype(np.float32) / 255.0, m, constant_values=1.0)
 
     def detect(self, image):
@@ -192,6 +237,20 @@ class CharucoBoard:
         w, h = self.columns * self.square, self.rows * self.square
         obj = np.column_stack([obj[:, 0] - w / 2, h / 2 - obj[:, 1], np.zeros(len(obj))])
         return obj, img.reshape(-1, 2).astype(float)
+
+
+def _least_drawable(board, p):
+    """The first pixels-per-square count above ``p`` at which OpenCV draws ``board`` (``p`` itself: none found)."""
+    with needs_extra("vision"):
+        import cv2
+
+    for q in range(p + 1, MAX_PIXELS_PER_SQUARE + 1):
+        try:
+            board._cv().generateImage((board.columns * q, board.rows * q), marginSize=0, borderBits=1)
+            return q
+        except cv2.error:
+            continue
+    return p
 
 
 @functools.lru_cache(maxsize=16)

@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import tomllib
-from pathlib import Path
 
 import numpy as np
 
 from labkit.exceptions import ShapeError, needs_extra
 from labkit.exceptions import CalibrationImageError, VisionError
+from labkit.validation import as_batch, as_number, as_path
 from labkit.vision._images import as_gray, image_size as _checked_size
 
 __all__ = ["Camera", "CameraCalibration", "calibrate_camera", "MIN_IMAGES"]
@@ -115,6 +114,7 @@ class Camera:
         Camera
         """
         w, h = _checked_size(image_size)
+        focal = as_number(focal, "focal", unit="px", positive=True)
         K = [[focal, 0.0, (w - 1) / 2], [0.0, focal, (h - 1) / 2], [0.0, 0.0, 1.0]]
         D = _numbers(distortion, "distortion coefficients").reshape(-1)
         return cls(K, D if D.size else np.zeros(5), (w, h), name)
@@ -147,10 +147,9 @@ class Camera:
         with needs_extra("vision"):
             import cv2
 
-        p = np.asarray(points, dtype=float)
-        if p.shape[-1:] != (3,):
-            raise ShapeError(f"expected points with shape (..., 3), got {p.shape}")
-        T = np.eye(4) if camera_from_points is None else np.asarray(camera_from_points, float)
+        p = as_batch(points, (3,), "points")
+        T = np.eye(4) if camera_from_points is None else as_batch(camera_from_points, (4, 4), "camera_from_points",
+                                                                     batch=False)
         rvec, _ = cv2.Rodrigues(T[:3, :3])
         uv, _ = cv2.projectPoints(p.reshape(-1, 1, 3), rvec, T[:3, 3], self.matrix, self.distortion)
         return uv.reshape(p.shape[:-1] + (2,))
@@ -171,9 +170,7 @@ class Camera:
         with needs_extra("vision"):
             import cv2
 
-        uv = np.asarray(pixels, dtype=float)
-        if uv.shape[-1:] != (2,):
-            raise ShapeError(f"expected pixels with shape (..., 2), got {uv.shape}")
+        uv = as_batch(pixels, (2,), "pixels")
         crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
         xy = cv2.undistortPointsIter(uv.reshape(-1, 1, 2), self.matrix, self.distortion, None, None, crit)
         return xy.reshape(uv.shape)
@@ -231,8 +228,13 @@ class Camera:
         -------
         pathlib.Path
             The path written.
+
+        Raises
+        ------
+        VisionError
+            A path that is not one, a key that is not a name, a value that is neither text nor a finite number.
         """
-        path = Path(path)
+        path = as_path(path, "the camera file to write", error=VisionError)
         lines = [f'format = "{_FORMAT}"', f"name = {_toml_str(self.name)}"]
         if self.image_size is not None:
             lines.append(f"image_size = [{self.image_size[0]}, {self.image_size[1]}]   # width, height [px]")
@@ -246,7 +248,11 @@ class Camera:
             lines.append("")
             lines.append("[calibration]")
             for key, value in extra.items():
-                lines.append(f"{key} = {_toml_str(value) if isinstance(value, str) else repr(float(value))}")
+                if not key.isidentifier():
+                    raise VisionError(f"expected [calibration] keys as names (letters, digits, _), got {key!r}")
+                if not isinstance(value, str):
+                    value = as_number(value, f"[calibration] {key}", error=VisionError)
+                lines.append(f"{key} = {_toml_str(value) if isinstance(value, str) else repr(value)}")
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
 
@@ -267,9 +273,7 @@ class Camera:
         VisionError
             The file is not a ``labkit-camera/1`` file or lacks ``matrix``.
         """
-        if not isinstance(path, (str, os.PathLike)):
-            raise VisionError(f"expected the path of a camera file, got {path!r}")
-        path = Path(path)
+        path = as_path(path, "the camera file", error=VisionError)
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:

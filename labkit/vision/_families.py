@@ -18,6 +18,7 @@ import functools
 import numpy as np
 
 from labkit.exceptions import OptionError, needs_extra
+from labkit.validation import as_count, as_number
 
 __all__ = ["FAMILIES", "MarkerFamily", "family_info", "marker_texture"]
 
@@ -55,6 +56,36 @@ FAMILIES = {f.name: f for f in (
 
 #: white quiet zone printed around a marker [bits]
 QUIET_ZONE_BITS = 2
+#: the most texture pixels per bit and quiet-zone bits a marker texture takes (a 36h11 texture stays under 4,000 px)
+MAX_PIXELS_PER_BIT = 256
+MAX_QUIET_ZONE_BITS = 16
+#: the longest printed side a marker or board square takes [m] (a sheet of paper is 0.3 m; a wall poster 2 m)
+MAX_PRINTED = 10.0
+
+
+def as_length(value, name):
+    """``value`` as a printed length [m]: a finite number in (0, :data:`MAX_PRINTED`].
+
+    Parameters
+    ----------
+    value : float
+        A marker's black square or a board's square [m].
+    name : str
+        What it is, for the message.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    OptionError
+        Not a number, not finite, not positive or longer than :data:`MAX_PRINTED`.
+    """
+    out = as_number(value, name, unit="m", positive=True, error=OptionError)
+    if out > MAX_PRINTED:
+        raise OptionError(f"expected {name} at most {MAX_PRINTED:g} m (a printed marker or board), got {value!r}")
+    return out
 
 
 def family_info(family):
@@ -106,9 +137,9 @@ def marker_texture(family, marker_id, *, pixels_per_bit=16, quiet_zone=QUIET_ZON
     family : str
     marker_id : int
     pixels_per_bit : int
-        Texture pixels per bit.
+        Texture pixels per bit (1 to :data:`MAX_PIXELS_PER_BIT`).
     quiet_zone : int
-        White bits around the black border.
+        White bits around the black border (0 to :data:`MAX_QUIET_ZONE_BITS`).
 
     Returns
     -------
@@ -119,14 +150,15 @@ def marker_texture(family, marker_id, *, pixels_per_bit=16, quiet_zone=QUIET_ZON
     Raises
     ------
     OptionError
-        An id outside the family.
+        An id outside the family, or a pixel count or quiet zone that is not a whole number in range.
     """
     with needs_extra("vision"):
         import cv2
 
     info = family_info(family)
-    if not 0 <= int(marker_id) < info.count:
-        raise OptionError(f"expected a {family} id in 0..{info.count - 1}, got {marker_id}")
+    marker_id = as_count(marker_id, f"a {family} id", maximum=info.count - 1)
+    pixels_per_bit = as_count(pixels_per_bit, "pixels_per_bit", minimum=1, maximum=MAX_PIXELS_PER_BIT)
+    quiet_zone = as_count(quiet_zone, "quiet_zone", maximum=MAX_QUIET_ZONE_BITS)
     side = (info.bits + 2) * pixels_per_bit
     img = cv2.aruco.generateImageMarker(dictionary(family), int(marker_id), side, borderBits=1)
     pad = quiet_zone * pixels_per_bit

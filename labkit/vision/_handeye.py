@@ -26,8 +26,10 @@ import warnings
 
 import numpy as np
 
-from labkit.exceptions import OptionError, ShapeError, needs_extra
+from labkit.exceptions import ShapeError, needs_extra
 from labkit.exceptions import HandEyeWarning, VisionError
+from labkit.rotations import check_rotation, is_rotation
+from labkit.validation import as_batch, as_number, as_option
 
 __all__ = ["HandEyeResult", "hand_eye", "rotation_spread", "SETUPS", "STARTS", "MIN_ROTATION_SPREAD"]
 
@@ -41,6 +43,8 @@ STARTS = {"park": ("hand_eye", "CALIB_HAND_EYE_PARK"), "tsai": ("hand_eye", "CAL
            "li": ("robot_world", "CALIB_ROBOT_WORLD_HAND_EYE_LI")}
 #: the second principal spread of the tool orientations below which hand_eye warns [rad]
 MIN_ROTATION_SPREAD = 0.3
+#: how far from orthonormal a pose's rotation part may be (a pose read from a file with few digits)
+ROTATION_TOL = 1e-3
 _ANGLE_SCALE = 0.1  # m per rad: weighs rotation residuals against position residuals
 
 
@@ -81,6 +85,13 @@ def rotation_spread(base_from_tool):
     ndarray, shape (3,)
         [rad]
 
+    Raises
+    ------
+    ShapeError
+        Not a non-empty (n, 4, 4) array of finite numbers.
+    RotationMatrixError
+        A rotation part that is not a rotation (within :data:`ROTATION_TOL`).
+
     Examples
     --------
     >>> import numpy as np
@@ -92,7 +103,10 @@ def rotation_spread(base_from_tool):
     """
     from scipy.spatial.transform import Rotation
 
-    R = Rotation.from_matrix(np.asarray(base_from_tool, float)[:, :3, :3])
+    T = as_batch(base_from_tool, (4, 4), "base_from_tool")
+    if T.ndim != 3 or len(T) == 0:
+        raise ShapeError(f"expected base_from_tool with shape (n, 4, 4), n >= 1, got {T.shape}")
+    R = Rotation.from_matrix(check_rotation(T[:, :3, :3], tol=ROTATION_TOL))
     mean = R.mean()
     v = (mean.inv() * R).as_rotvec()
     return np.linalg.svd(v, compute_uv=False) / np.sqrt(len(v))
@@ -149,15 +163,14 @@ class HandEyeResult:
 
 def _as_mapping(poses, name):
     if isinstance(poses, dict):
-        out = {str(k): np.asarray(v, float) for k, v in poses.items()}
+        out = {str(k): as_batch(v, (4, 4), f"{name}[{k!r}]", batch=False) for k, v in poses.items()}
     else:
-        arr = np.asarray(poses, float)
+        arr = as_batch(poses, (4, 4), name)
         if arr.ndim != 3:
             raise ShapeError(f"expected {name} as {{pose_id: 4x4}} or shape (n, 4, 4), got shape {arr.shape}")
         out = {str(k): T for k, T in enumerate(arr)}
     for k, T in out.items():
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise ShapeError(f"expected {name}[{k!r}] as a finite 4x4 transform, got shape {T.shape}")
+        check_rotation(T[:3, :3], tol=ROTATION_TOL)
     return out
 
 
@@ -205,6 +218,9 @@ def _start(setup, start, A, B):
     robot_side = tool_from_base if setup == "eye_to_hand" else A
     R, t = cv2.calibrateHandEye(robot_side[:, :3, :3], robot_side[:, :3, 3], B[:, :3, :3], B[:, :3, 3],
                                 method=getattr(cv2, flag))
+    if not is_rotation(np.asarray(R, float), tol=ROTATION_TOL):
+        raise VisionError(f"expected views of one rigid {setup} setup, got views OpenCV's {start!r} start finds no "
+                          f"rotation for (the other setup? views paired with the wrong pose ids, a marker that moved?)")
     X = np.eye(4)
     X[:3, :3], X[:3, 3] = R, np.asarray(t).reshape(3)
     # the other unknown from every view, averaged
@@ -245,18 +261,23 @@ def hand_eye(base_from_tool, camera_from_marker, *, setup="eye_to_hand", start="
     ------
     OptionError
         Unknown setup or start.
+    ShapeError
+        A pose that is not a finite 4x4 transform, a ``min_spread`` that is not a finite number in 0..pi.
+    RotationMatrixError
+        A pose whose rotation part is not a rotation (within :data:`ROTATION_TOL`).
     VisionError
-        Fewer than 3 paired views.
+        Fewer than 3 paired views, or views that fit no rigid setup (the start finds no rotation).
 
     Warns
     -----
     HandEyeWarning
         The views' orientations are too alike.
     """
-    if setup not in SETUPS:
-        raise OptionError(f"expected setup one of {SETUPS}, got {setup!r}")
-    if start not in STARTS:
-        raise OptionError(f"expected start one of {sorted(STARTS)}, got {start!r}")
+    setup = as_option(setup, SETUPS, "setup")
+    start = as_option(start, STARTS, "start")
+    min_spread = as_number(min_spread, "min_spread", unit="rad", minimum=0.0)
+    if min_spread > np.pi:
+        raise ShapeError(f"expected min_spread at most pi rad (no spread of rotations is larger), got {min_spread:g}")
     robot = _as_mapping(base_from_tool, "base_from_tool")
     seen = _as_mapping(camera_from_marker, "camera_from_marker")
     ids = [k for k in robot if k in seen]

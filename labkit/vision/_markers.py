@@ -30,10 +30,12 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError, needs_extra
 from labkit.exceptions import AmbiguousPoseError, MarkerNotFoundError, WrongMarkerError
-from labkit.vision._families import dictionary, family_info
+from labkit.validation import as_count, as_number, as_option
+from labkit.vision._camera import Camera
+from labkit.vision._families import as_length, dictionary, family_info
 from labkit.vision._images import as_gray as _gray
 
-__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "quad_bit_width",
+__all__ = ["MarkerDetection", "marker_poses", "detect_markers", "marker_corners", "marker_size", "quad_bit_width",
            "DEFAULT_CORNER_SIGMA", "AMBIGUITY_RATIO", "MIN_BIT_WIDTH"]
 
 #: a-priori standard deviation of a refined corner [px] (the floor of the noise model)
@@ -71,8 +73,34 @@ def marker_corners(size):
     >>> marker_corners(0.04)[0]
     array([-0.02,  0.02,  0.  ])
     """
-    s = float(size) / 2
+    s = as_length(size, "size (the black square)") / 2
     return np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+
+
+def marker_size(size, marker_id):
+    """The side of marker ``marker_id``'s black square [m]: ``size`` itself or its entry ``{id: size}``.
+
+    Parameters
+    ----------
+    size : float or dict of int to float
+        Side of every marker's black square, or of each one's [m].
+    marker_id : int or None
+        The marker (``None``: ``size`` must be one number).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    OptionError
+        A size that is not a positive finite number, or a mapping without that marker.
+    """
+    if isinstance(size, dict):
+        if marker_id not in size:
+            raise OptionError(f"expected a size for marker {marker_id} in {size!r}")
+        return as_length(size[marker_id], f"the size of marker {marker_id}")
+    return as_length(size, "size")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -298,6 +326,8 @@ def detect_markers(image, family="tag36h11", camera=None):
 
     info = family_info(family)
     gray = _gray(image)
+    if camera is not None and not isinstance(camera, Camera):
+        raise OptionError(f"expected camera as a labkit.vision.Camera or None, got {camera!r}")
     detector = _detector(info.name)
     corners, ids = None, None
     if max(gray.shape) >= _DOWNSCALE_ABOVE:
@@ -406,14 +436,24 @@ def marker_poses(image, camera, size, family="tag36h11", *, ids=None, corner_sig
     >>> d.id, bool(np.linalg.norm(d.position - pose[:3, 3]) < 1e-3)
     (7, True)
     """
-    if on_ambiguous not in _ON_AMBIGUOUS:
-        raise OptionError(f"expected on_ambiguous one of {_ON_AMBIGUOUS}, got {on_ambiguous!r}")
+    on_ambiguous = as_option(on_ambiguous, _ON_AMBIGUOUS, "on_ambiguous")
+    corner_sigma = as_number(corner_sigma, "corner_sigma", unit="px", positive=True, error=OptionError)
+    ambiguity_ratio = as_number(ambiguity_ratio, "ambiguity_ratio", positive=True, error=OptionError)
+    count = family_info(family).count
+    if ids is not None:
+        try:
+            listed = [ids] if np.ndim(ids) == 0 else list(ids)
+        except (TypeError, ValueError):  # ragged, or nothing numpy can size
+            listed = [ids]
+        ids = [as_count(i, f"ids as {family} ids", maximum=count - 1) for i in listed]
+    if not isinstance(size, dict):
+        marker_size(size, None)
     found_ids, corners = detect_markers(image, family, camera)
     if not len(found_ids):
         raise MarkerNotFoundError(f"expected at least one {family} marker in the image, found none "
                                   "(check focus, light, the family and that the whole marker with its white "
                                   "border is in view)")
-    wanted = None if ids is None else {int(ids)} if np.ndim(ids) == 0 else {int(i) for i in ids}
+    wanted = None if ids is None else set(ids)
     keep = [k for k, i in enumerate(found_ids) if wanted is None or i in wanted]
     if not keep:
         raise WrongMarkerError(f"expected {family} marker id(s) {sorted(wanted)}, found id(s) "
@@ -421,9 +461,7 @@ def marker_poses(image, camera, size, family="tag36h11", *, ids=None, corner_sig
     out = []
     for k in keep:
         mid = int(found_ids[k])
-        s = float(size[mid]) if isinstance(size, dict) else float(size)
-        if not s > 0:
-            raise OptionError(f"expected a marker size > 0 [m], got {s!r} for id {mid}")
+        s = marker_size(size, mid)
         pose, cov, err, alt, sigma = _pose_from_corners(corners[k], camera, s, corner_sigma)
         ambiguous = bool(alt < ambiguity_ratio * max(err, corner_sigma))
         if ambiguous and on_ambiguous == "raise":

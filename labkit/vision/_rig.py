@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from labkit.exceptions import ShapeError
+from labkit.validation import as_batch, as_number, as_seed
 from labkit.robot import Robot
 from labkit.kinematics import fk, fk_position
 from labkit.vision._camera import Camera
@@ -102,6 +103,39 @@ def _fit_distance(camera, centre, direction, up, points, radii, margin):
     return float(np.max(lateral - rel[:, 2] + radii))
 
 
+#: the largest margin on the camera distance of :meth:`CameraRig.around` (more leaves the arm a few pixels)
+MAX_DISTANCE_FACTOR = 100.0
+#: the farthest coordinate a rig's points take [m] (a lab is metres across; beyond it a difference may overflow)
+FARTHEST = 1e9
+
+
+def _point(value, name):
+    """``value`` as a finite point of shape (3,) within :data:`FARTHEST` [m], or a ShapeError."""
+    p = as_batch(value, (3,), name, batch=False)
+    if np.abs(p).max() > FARTHEST:
+        raise ShapeError(f"expected {name} within +-{FARTHEST:g} m, got {p.tolist()}")
+    return p
+
+
+def _direction(value, name):
+    """``value`` as a unit vector of shape (3,), or a ShapeError (a zero or non-finite vector has no direction)."""
+    v = as_batch(value, (3,), name, batch=False)
+    scale = np.abs(v).max()
+    if not scale > 0:
+        raise ShapeError(f"expected {name} as a non-zero direction, got {v.tolist()}")
+    v = v / scale  # no overflow in the norm of a huge vector
+    return v / np.linalg.norm(v)
+
+
+def _across(a, b, name):
+    """The unit vector ``a x b`` (a and b unit vectors), or a ShapeError when they are parallel."""
+    c = np.cross(a, b)
+    norm = np.linalg.norm(c)
+    if not norm > 1e-9:
+        raise ShapeError(f"expected {name}, got parallel directions {a.tolist()} and {b.tolist()}")
+    return c / norm
+
+
 def look_at(eye, target, up):
     """Pose of a camera at ``eye`` looking at ``target`` (OpenCV camera axes: z forward, y down).
 
@@ -116,12 +150,15 @@ def look_at(eye, target, up):
     -------
     ndarray, shape (4, 4)
         ``world_from_camera``.
+
+    Raises
+    ------
+    ShapeError
+        Not three finite numbers each, a target at the eye, or ``up`` along the line of sight.
     """
-    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
-    z = target - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, up)
-    x /= np.linalg.norm(x)
+    eye, target = _point(eye, "eye"), _point(target, "target")
+    z = _direction(target - eye, "target - eye (a target away from the eye)")
+    x = _across(z, _direction(up, "up"), "an up direction not along the line of sight")
     y = np.cross(z, x)
     T = np.eye(4)
     T[:3, :3] = np.column_stack([x, y, z])
@@ -143,15 +180,18 @@ def face_marker(normal, along, centre):
     -------
     ndarray, shape (4, 4)
         ``parent_from_marker``.
+
+    Raises
+    ------
+    ShapeError
+        Not three finite numbers each, a zero direction, or ``along`` parallel to ``normal``.
     """
-    z = np.asarray(normal, dtype=float)
-    z = z / np.linalg.norm(z)
-    x = np.asarray(along, dtype=float)
-    x = x - (x @ z) * z
-    x /= np.linalg.norm(x)
+    z = _direction(normal, "normal")
+    y = _across(z, _direction(along, "along"), "along not parallel to normal")
+    x = np.cross(y, z)  # along made orthogonal to normal
     T = np.eye(4)
-    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    T[:3, 3] = centre
+    T[:3, :3] = np.column_stack([x, y, z])
+    T[:3, 3] = _point(centre, "centre")
     return T
 
 
@@ -226,9 +266,22 @@ class CameraRig:
         Raises
         ------
         ShapeError
-            ``poses`` is not a non-empty (k, n) array of finite joint values.
+            ``poses`` is not a non-empty (k, n) array of finite joint values; a size, standoff or
+            ``distance_factor`` (at most :data:`MAX_DISTANCE_FACTOR`) that is not a positive finite number, a
+            camera that is not a :class:`Camera`.
+        OptionError
+            A seed that is not an integer >= 0, a Generator or None.
         """
         robot = Robot.load(robot)
+        distance_factor = as_number(distance_factor, "distance_factor", positive=True)
+        if distance_factor > MAX_DISTANCE_FACTOR:
+            raise ShapeError(f"expected distance_factor at most {MAX_DISTANCE_FACTOR:g}, got {distance_factor:g}")
+        seed = as_seed(seed)
+        for name, value in (("marker_size", marker_size), ("reference_size", reference_size), ("standoff", standoff)):
+            if value is not None:
+                as_number(value, name, unit="m", positive=True)
+        if camera is not None and not isinstance(camera, Camera):
+            raise ShapeError(f"expected camera as a labkit.vision.Camera or None, got {camera!r}")
         if camera is None:
             camera = Camera.pinhole(1000.0, (1280, 960), distortion=[-0.08, 0.05, 0.0, 0.0, 0.0], name="virtual webcam")
         up = np.asarray(robot.up, dtype=float)
@@ -248,8 +301,8 @@ class CameraRig:
             sizes = _marker_sizes(camera, dist, marker_size, reference_size, standoff)
             spots, _ = _sheet(centre, float(np.min(pts @ up)) - 0.02, up, x_axis, y_axis, sizes[1])
         else:
-            q = np.asarray(poses, dtype=float)
-            if q.ndim != 2 or q.shape[1] != robot.n or len(q) == 0 or not np.all(np.isfinite(q)):
+            q = as_batch(poses, (robot.n,), "poses")
+            if q.ndim != 2 or len(q) == 0:
                 raise ShapeError(f"expected poses of shape (k, {robot.n}) with k >= 1 finite joint values, "
                                  f"got shape {q.shape}")
             T = fk(robot, q)

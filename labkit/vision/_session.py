@@ -19,15 +19,19 @@ pose id, so a missing image never shifts the pairing).
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
 from labkit.exceptions import DeviceError, OptionError, needs_extra
 from labkit.measure import MeasurementSession
+from labkit.validation import as_count, as_number, as_path
 from labkit.exceptions import MarkerNotFoundError, VisionError, WrongMarkerError
+from labkit.vision._camera import Camera
 from labkit.vision._locate import locate_camera
 from labkit.vision._markers import MIN_BIT_WIDTH, marker_poses
+from labkit.vision._rig import CameraRig
 
 __all__ = ["CameraSession", "VideoSource", "FolderSource", "tool_point_in_base"]
 
@@ -63,6 +67,9 @@ class VideoSource:
     ------
     DeviceError
         The device cannot be opened, or it delivers another resolution than requested.
+    OptionError
+        A device that is neither a camera index nor a path; a size, stale, warmup or retries that is not a whole
+        number in range.
 
     Attributes
     ----------
@@ -74,9 +81,15 @@ class VideoSource:
         with needs_extra("vision"):
             import cv2
 
-        if int(warmup) < 0 or int(retries) < 0 or (stale is not None and int(stale) < 0):
-            raise OptionError(f"expected stale, warmup and retries >= 0, got {stale}, {warmup}, {retries}")
-        self.device = device if isinstance(device, int) else str(device)
+        warmup, retries = as_count(warmup, "warmup"), as_count(retries, "retries")
+        stale = None if stale is None else as_count(stale, "stale")
+        width, height = (None if v is None else as_count(v, name, minimum=1) for v, name in ((width, "width"),
+                                                                                          (height, "height")))
+        if isinstance(device, os.PathLike):
+            device = os.fspath(device)
+        if not (isinstance(device, str) and device):
+            device = as_count(device, "device (a camera index or a path)")
+        self.device = device
         is_file = not isinstance(device, int) and Path(device).is_file()
         self.capture = cv2.VideoCapture(str(device) if is_file else device)
         if not self.capture.isOpened():
@@ -169,7 +182,7 @@ class FolderSource:
     """
 
     def __init__(self, folder):
-        self.folder = Path(folder)
+        self.folder = as_path(folder, "a folder of images", error=VisionError)
         if not self.folder.is_dir():
             raise VisionError(f"expected a folder of images, got {self.folder}")
 
@@ -184,6 +197,8 @@ class FolderSource:
         -------
         list of pathlib.Path
         """
+        if not (isinstance(pose_id, str) and pose_id):
+            raise VisionError(f"expected pose_id as the text the image names start with, got {pose_id!r}")
         return sorted(p for p in self.folder.glob(f"{pose_id}_*") if p.suffix.lower() in _IMAGE_SUFFIXES
                       and p.stem[len(pose_id) + 1:].isdigit())
 
@@ -207,7 +222,7 @@ class FolderSource:
         with needs_extra("vision"):
             import cv2
 
-        paths = self.paths(pose_id)[: int(count)]
+        paths = self.paths(pose_id)[: as_count(count, "count", minimum=1)]
         if not paths:
             raise VisionError(f"expected images {pose_id}_<k>.png in {self.folder}, found none")
         return [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in paths]
@@ -289,8 +304,15 @@ class CameraSession:
 
     def __init__(self, arm, log, source, rig, *, camera=None, frames=5, coverage=2.0,
                  settle_tol=math.radians(1.0), settle_time=0.5, operator=""):
-        if int(frames) < 1:
-            raise OptionError(f"expected frames >= 1, got {frames}")
+        frames = as_count(frames, "frames", minimum=1)
+        coverage = as_number(coverage, "coverage", positive=True)
+        if not hasattr(source, "frames"):
+            raise OptionError(f"expected source as a frame source (VideoSource, FolderSource, a VirtualCamera), "
+                              f"got {source!r}")
+        if not isinstance(rig, CameraRig):
+            raise OptionError(f"expected rig as a CameraRig, got {rig!r}")
+        if camera is not None and not isinstance(camera, Camera):
+            raise OptionError(f"expected camera as a labkit.vision.Camera or None, got {camera!r}")
         self._moves = MeasurementSession(arm, log, source="feedback", readings=1, settle_tol=settle_tol,
                                          settle_time=settle_time, operator=operator)
         self.arm = arm

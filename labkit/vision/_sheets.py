@@ -11,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from labkit.exceptions import OptionError
-from labkit.vision._families import family_info, marker_texture, texture_extent
+from labkit.validation import as_count, as_number, as_option, as_path
+from labkit.vision._boards import CharucoBoard, Checkerboard
+from labkit.vision._families import as_length, family_info, marker_texture, texture_extent
 
 __all__ = ["marker_sheet", "board_sheet", "PAPER"]
 
@@ -23,10 +25,7 @@ _INCH = 0.0254
 def _page(paper):
     from matplotlib.figure import Figure
 
-    try:
-        w, h = PAPER[paper]
-    except KeyError:
-        raise OptionError(f"expected paper one of {sorted(PAPER)}, got {paper!r}") from None
+    w, h = PAPER[as_option(paper, PAPER, "paper")]
     return Figure(figsize=(w / _INCH, h / _INCH)), w, h
 
 
@@ -71,14 +70,23 @@ def marker_sheet(path, ids, size, family="tag36h11", *, paper="a4", gap=0.01):
     Raises
     ------
     OptionError
-        A marker does not fit on the paper, or an unknown family, id or paper.
+        A marker does not fit on the paper, or an unknown family, id or paper; a size or gap that is not a
+        finite length, a path that is not one.
     """
-    from pathlib import Path
-
     from matplotlib.backends.backend_pdf import PdfPages
 
-    ids = [int(ids)] if np.ndim(ids) == 0 else [int(i) for i in ids]
-    family_info(family)
+    path = as_path(path, "the PDF to write")
+    info = family_info(family)
+    what = f"ids as {family} ids 0..{info.count - 1} (one or a sequence)"
+    try:
+        ids = [ids] if np.ndim(ids) == 0 else list(ids)
+    except (TypeError, ValueError):  # a ragged list or an object numpy will not size
+        raise OptionError(f"expected {what}, got {ids!r}") from None
+    if not ids:
+        raise OptionError(f"expected {what}, got none")
+    ids = [as_count(i, f"{family} ids", maximum=info.count - 1) for i in ids]
+    size = as_length(size, "size (the black square)")
+    gap = as_number(gap, "gap", unit="m", minimum=0.0, error=OptionError)
     side = texture_extent(family, size)
     fig, w, h = _page(paper)
     margin = 0.015
@@ -86,7 +94,6 @@ def marker_sheet(path, ids, size, family="tag36h11", *, paper="a4", gap=0.01):
     rows = int((h - 2 * margin - 0.02 + gap) // (side + gap + 0.006))
     if cols < 1 or rows < 1:
         raise OptionError(f"expected a marker that fits on {paper} paper, got {side * 1e3:.0f} mm with its border")
-    path = Path(path)
     with PdfPages(path) as pdf:
         for start in range(0, len(ids), cols * rows):
             fig, w, h = _page(paper)
@@ -117,16 +124,16 @@ def board_sheet(path, board, *, paper="a4"):
     Raises
     ------
     OptionError
-        The board does not fit on the paper.
+        The board does not fit on the paper, or is not a board; an unknown paper or a path that is not one.
     """
-    from pathlib import Path
-
+    path = as_path(path, "the PDF to write")
+    if not isinstance(board, (Checkerboard, CharucoBoard)):
+        raise OptionError(f"expected board as a Checkerboard or a CharucoBoard, got {board!r}")
     fig, w, h = _page(paper)
     bw, bh = board.extent
     if bw > w - 0.01 or bh > h - 0.04:
         raise OptionError(f"expected a board that fits on {paper} paper, got {bw * 1e3:.0f} x {bh * 1e3:.0f} mm")
     _place(fig, board.texture(), (w - bw) / 2, (h - bh) / 2, bw, bh, w, h)
     _check_line(fig, w, h, f"{type(board).__name__}: {board}")
-    path = Path(path)
     fig.savefig(path, format="pdf")
     return path

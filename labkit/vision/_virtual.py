@@ -16,7 +16,11 @@ import numpy as np
 
 from labkit.exceptions import OptionError, ShapeError
 from labkit.kinematics import fk
+from labkit.validation import as_batch, as_count, as_number, as_seed
+from labkit.vision._boards import CharucoBoard, Checkerboard
+from labkit.vision._camera import Camera
 from labkit.vision._families import family_info, marker_texture, texture_extent
+from labkit.vision._markers import marker_size
 from labkit.vision._render import Plane, RayMap, draw_planes, expose
 
 __all__ = ["VirtualCamera"]
@@ -27,10 +31,22 @@ _RAY_MAPS = {}
 
 
 def _pose(T, name):
-    T = np.asarray(T, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise ShapeError(f"expected {name} as a finite 4x4 transform, got shape {T.shape}")
-    return T
+    return as_batch(T, (4, 4), f"{name} as a finite 4x4 transform", batch=False)
+
+
+def _markers(markers, name):
+    """``{id: pose}`` checked: a mapping of marker ids (integers >= 0) to finite 4x4 transforms."""
+    if not isinstance(markers, dict):
+        raise OptionError(f"expected {name} as a mapping {{id: 4x4 pose}}, got {markers!r}")
+    return {as_count(k, f"{name} ids"): _pose(v, f"{name}[{k!r}]") for k, v in markers.items()}
+
+
+def _fraction(value, name):
+    """``value`` as a finite number in 0..1, or a ShapeError."""
+    out = as_number(value, f"{name} in 0..1", minimum=0.0)
+    if out > 1.0:
+        raise ShapeError(f"expected {name} in 0..1, got {value!r}")
+    return out
 
 
 class VirtualCamera:
@@ -78,6 +94,8 @@ class VirtualCamera:
     def __init__(self, camera, *, arm=None, base_from_camera=None, tool_markers=None, base_markers=None,
                  size=0.04, family="tag36h11", noise=1.5, blur=0.6, gain=0.8, offset=0.05,
                  gradient=(0.25, 0.1), background=0.45, seed=0):
+        if not isinstance(camera, Camera):
+            raise OptionError(f"expected camera as a labkit.vision.Camera, got {camera!r}")
         if camera.image_size is None:
             raise ShapeError("expected a camera with image_size (width, height), got None")
         family_info(family)
@@ -88,14 +106,18 @@ class VirtualCamera:
         self.base_from_camera = None if base_from_camera is None else _pose(base_from_camera, "base_from_camera")
         if (arm is not None or base_markers) and self.base_from_camera is None:
             raise OptionError("expected base_from_camera with an arm or base markers, got None")
-        self.tool_markers = {int(k): _pose(v, f"tool marker {k}") for k, v in (tool_markers or {}).items()}
-        self.base_markers = {int(k): _pose(v, f"base marker {k}") for k, v in (base_markers or {}).items()}
+        self.tool_markers = _markers(tool_markers or {}, "tool_markers")
+        self.base_markers = _markers(base_markers or {}, "base_markers")
         self.size = size
         self.family = family
-        self.noise, self.blur = float(noise), float(blur)
-        self.gain, self.offset, self.gradient = float(gain), float(offset), tuple(gradient)
-        self.background = float(background)
-        self.rng = np.random.default_rng(seed)
+        for marker_id in {*self.tool_markers, *self.base_markers} if isinstance(size, dict) else (None,):
+            self._marker_size(marker_id)
+        self.noise = as_number(noise, "noise", unit="grey levels", minimum=0.0)
+        self.blur = as_number(blur, "blur", unit="px", minimum=0.0)
+        self.gain, self.offset = _fraction(gain, "gain"), _fraction(offset, "offset")
+        self.gradient = tuple(as_batch(gradient, (2,), "gradient (x, y)", batch=False).tolist())
+        self.background = _fraction(background, "background")
+        self.rng = np.random.default_rng(as_seed(seed))
         self._rays = None
         self._textures = {}
 
@@ -132,8 +154,7 @@ class VirtualCamera:
                       noise=self.noise, rng=self.rng)
 
     def _marker_size(self, marker_id, size=None):
-        size = self.size if size is None else size
-        return float(size[marker_id]) if isinstance(size, dict) else float(size)
+        return marker_size(self.size if size is None else size, marker_id)
 
     def marker_plane(self, marker_id, camera_from_marker, size=None, family=None):
         """The printed sheet of one marker (with its white quiet zone) at a pose.
@@ -153,7 +174,7 @@ class VirtualCamera:
         Plane
         """
         family = self.family if family is None else family
-        key = (family, int(marker_id))
+        key = (family, as_count(marker_id, f"a {family} id", maximum=family_info(family).count - 1))
         if key not in self._textures:
             self._textures[key] = marker_texture(family, marker_id)
         s = texture_extent(family, self._marker_size(marker_id, size))
@@ -174,6 +195,7 @@ class VirtualCamera:
         -------
         ndarray, shape (height, width), uint8
         """
+        poses = _markers(poses, "poses")
         return self.render([self.marker_plane(k, T, size, family) for k, T in poses.items()])
 
     def render_board(self, board, camera_from_board, pixels_per_square=None):
@@ -191,6 +213,8 @@ class VirtualCamera:
         -------
         ndarray, shape (height, width), uint8
         """
+        if not isinstance(board, (Checkerboard, CharucoBoard)):
+            raise OptionError(f"expected board as a Checkerboard or a CharucoBoard, got {board!r}")
         key = ("board", board, pixels_per_square)
         if key not in self._textures:
             self._textures[key] = board.texture() if pixels_per_square is None else board.texture(pixels_per_square)

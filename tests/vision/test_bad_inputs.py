@@ -31,7 +31,7 @@ def test_bad_camera_files_are_refused(tmp_path, data, match):
 
 
 def test_a_camera_file_needs_a_path():
-    with pytest.raises(VisionError, match="expected the path of a camera file, got None"):
+    with pytest.raises(VisionError, match=r"expected the camera file as a path \(str or os.PathLike\), got None"):
         Camera.load(None)
 
 
@@ -129,3 +129,31 @@ def test_any_bytes_as_a_camera_file_give_a_camera_or_a_labkit_error(tmp_path_fac
         Camera.load(path)
     except LabkitError as exc:
         assert "expected" in str(exc), str(exc)
+
+
+def test_views_that_fit_no_rigid_setup_are_a_vision_error():
+    from scipy.spatial.transform import Rotation
+
+    from labkit.vision import hand_eye
+
+    def unrelated(seed):
+        rng = np.random.default_rng(seed)
+        T = np.tile(np.eye(4), (6, 1, 1))
+        T[:, :3, :3] = Rotation.from_rotvec(rng.uniform(-0.6, 0.6, (6, 3))).as_matrix()
+        T[:, :3, 3] = rng.uniform(-0.2, 0.2, (6, 3))
+        return T
+
+    poses = unrelated(1), unrelated(2)
+    with pytest.raises(VisionError, match="expected views of one rigid eye_to_hand setup"):
+        hand_eye(poses[0], poses[1], start="park", min_spread=0.0)  # unrelated poses: OpenCV's start is no rotation
+
+
+def test_a_charuco_texture_too_coarse_for_its_markers_names_a_count_that_works():
+    from labkit.exceptions import OptionError
+    from labkit.vision import CharucoBoard
+
+    board = CharucoBoard(5, 4, 0.03, 0.022)
+    with pytest.raises(OptionError, match=r"got 8; try (\d+)") as info:
+        board.texture(8)
+    works = int(info.value.args[0].rsplit("try ", 1)[1])
+    assert board.texture(works).shape == (4 * works + 2 * round(0.5 * works), 5 * works + 2 * round(0.5 * works))

@@ -90,7 +90,7 @@ def test_robot_world_start_gives_the_same_calibration(setup):
 
 def test_unknown_setup_and_method_are_rejected():
     tools, seen = _views(5, 0.8, seed=7)
-    with pytest.raises(LabkitError, match="setup one of"):
+    with pytest.raises(LabkitError, match="setup as one of"):
         hand_eye(tools, seen, setup="eye_on_hand")
-    with pytest.raises(LabkitError, match="start one of"):
+    with pytest.raises(LabkitError, match="start as one of"):
         hand_eye(tools, seen, start="guess")

@@ -8,8 +8,9 @@ SDK so that the host always knows what the servos hold:
   of times, only the servos whose status packet did not come back intact (a short, stale or corrupt
   packet counts as lost);
 - :func:`write_confirmed` sync-writes a register of several servos, reads it back and writes again to
-  the servos that do not hold their value, a bounded number of times, and raises a :class:`BusFault`
-  naming the servos that still do not; :func:`write_unconfirmed` is the same returning them instead
+  the servos that do not hold their value, a bounded number of times (after a resend to some servos only,
+  every servo is read back once more: a damaged resend that passes the checksum may have landed on another),
+  and raises a :class:`BusFault` naming the servos that still do not; :func:`write_unconfirmed` is the same returning them instead
   (torque off after a fault, which must never raise).
 
 Every register write that matters goes through :func:`write_confirmed`: goal positions every servo
@@ -149,29 +150,44 @@ def write_unconfirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=RE
         ``check_error`` and a servo reports a hardware error.
     """
     address, size = driver.table[field]
-    mask = (1 << 8 * size) - 1
-    pending, last = dict(values), {}
+    pending, last, resent = dict(values), {}, False
     for _ in range(max(1, int(tries))):
         result = _sync_write(driver, address, size, pending)
         if result != driver.sdk.COMM_SUCCESS:
             last = {i: f"sync write not sent: {driver._comm(result)}" for i in pending}
             continue
-        held = {}
-        for _ in range(max(1, int(read_tries))):  # a lost read-back is read again, not written again
-            got, why = _read_round(driver, address, size, [i for i in pending if i not in held], check_error)
-            held.update(got)
-            last.update({i: f"no intact status packet to its read-back ({w})" for i, w in why.items()})
-            if len(held) == len(pending):
-                break
-        for servo_id, data in held.items():
-            value = int.from_bytes(bytes(data), "little")
-            if value == pending[servo_id] & mask:
-                del pending[servo_id]
-            else:
-                last[servo_id] = f"holds {value}"
+        resent = resent or len(pending) < len(values)
+        pending = _not_holding(driver, address, size, pending, read_tries, check_error, last)
+        if not pending and resent:
+            # a resend went to some servos only: a damaged one that passed the checksum (8 bits on a Feetech bus)
+            # may have written another servo's register, so every servo is read back once more
+            pending = _not_holding(driver, address, size, values, read_tries, check_error, last)
+            resent = False
         if not pending:
             return {}
     return {i: last.get(i, "?") for i in pending}
+
+
+def _not_holding(driver, address, size, values, read_tries, check_error, last):
+    """The servos of ``values`` whose register does not read back as their value (or whose read-back is lost);
+    what each showed goes into ``last``."""
+    mask = (1 << 8 * size) - 1
+    held = {}
+    for _ in range(max(1, int(read_tries))):  # a lost read-back is read again, not written again
+        got, why = _read_round(driver, address, size, [i for i in values if i not in held], check_error)
+        held.update(got)
+        last.update({i: f"no intact status packet to its read-back ({w})" for i, w in why.items()})
+        if len(held) == len(values):
+            break
+    pending = {}
+    for servo_id, value in values.items():
+        data = held.get(servo_id)
+        if data is not None and int.from_bytes(bytes(data), "little") == value & mask:
+            continue
+        if data is not None:
+            last[servo_id] = f"holds {int.from_bytes(bytes(data), 'little')}"
+        pending[servo_id] = value
+    return pending
 
 
 def write_confirmed(driver, field, values, *, tries=WRITE_TRIES, read_tries=READBACK_TRIES, check_error=True):

@@ -104,7 +104,7 @@ def test_robot_files_with_huge_bus_numbers_are_refused_at_load_without_numpy_war
             Robot.load(str(path))
 
 
-@pytest.mark.parametrize("q", [math.nan, math.inf, 1e300, [0.0, 1e300]])
+@pytest.mark.parametrize("q", [math.nan, math.inf, 1e300, [0.0, 1e300], 1e308, [0.0, -1.7e308]])  # 1e308 rad overflows in ticks
 def test_bus_servo_ticks_of_a_value_no_servo_can_reach_is_a_joint_limit_error(q):
     with warnings.catch_warnings():
         warnings.simplefilter("error")

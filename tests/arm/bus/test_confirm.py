@@ -53,6 +53,28 @@ def test_a_goal_a_servo_missed_is_sent_again(bus, monkeypatch):
     assert last[2][2 * emu.bus.ADDRESS_BYTES] == servo  # the resend goes to that servo only
 
 
+def test_a_resend_that_lands_on_another_servo_is_caught_by_reading_every_servo_back(bus, monkeypatch):
+    """A resend of one servo's goal, damaged on the way so that it passes the checksum (Feetech's is 8 bits) but
+    writes another servo's goal register, must not leave that servo (confirmed earlier) with a wrong goal."""
+    emu, driver = bus
+    missed, hit = emu.ids[2], emu.ids[0]
+    _ignore_writes(monkeypatch, emu, missed, "goal_position", times=1)
+    address, size = emu.bus.TABLE["goal_position"]
+    apply, writes = emu._apply_write, [0]
+
+    def apply_write(sid, start, data):
+        if start == address and sid == missed:
+            writes[0] += 1
+            if writes[0] == 2:  # the resend to that servo alone, its bytes also taken as a write to another
+                apply(hit, start, list((1234).to_bytes(size, "little")))
+        apply(sid, start, data)
+
+    monkeypatch.setattr(emu, "_apply_write", apply_write)
+    goal = [2000, 2100, 1900, 2050]
+    driver.write_goals(goal)
+    assert writes[0] >= 2 and _goals(emu) == goal
+
+
 def test_a_servo_that_never_takes_its_goal_is_a_bus_fault_naming_it(bus, monkeypatch):
     emu, driver = bus
     servo = emu.ids[1]
