@@ -109,7 +109,7 @@ def test_the_camera_sees_the_outstretched_poses_of_a_long_arm_it_is_given():
     assert not rig.in_view(points + 30.0 * right).any() and not rig.in_view(points - 30.0 * right).any()
     behind = rig.base_from_camera[:3, 3] - (points - rig.base_from_camera[:3, 3])  # mirrored through the camera
     assert not rig.in_view(behind).any()
-    with pytest.raises(ShapeError, match=r"expected poses of shape \(k, 6\)"):
+    with pytest.raises(ShapeError, match=r"expected poses with shape \(\.\.\., 6\), got \(13, 5\)"):
         CameraRig.around(robot, q[:, :5])
 
 
