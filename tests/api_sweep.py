@@ -131,3 +131,40 @@ def outcome(func, args, kwargs):
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
     return "nan" if _has_nan(out) else "ok"
+
+
+def sweep(c, accepted, *, nan_passes=(), after=None):
+    """Run every bad variant of call ``c``; return what went wrong and the accepted cases that no longer return.
+
+    Parameters
+    ----------
+    c : Call
+        A working call (:func:`call`).
+    accepted : dict
+        ``(call name, argument) -> (labels, reason)``: variants whose normal return is right.
+    nan_passes : set of (str, str), optional
+        ``(call name, argument)`` pairs where NaN out of a NaN-labelled variant is right.
+    after : callable, optional
+        Run after each variant (e.g. closing figures).
+
+    Returns
+    -------
+    failures : list of str
+        ``"name(arg=label): outcome"`` for each variant that was neither a LabkitError nor accepted.
+    stale : list of (str, str)
+        Accepted ``(arg, label)`` cases of this call that no longer return.
+    """
+    failures, returned = [], set()
+    for arg, label, args, kwargs in variants(c):
+        out = outcome(c.func, args, kwargs)
+        if after is not None:
+            after()
+        if out == "labkit":
+            continue
+        labels, _ = accepted.get((c.name, arg), ((), ""))
+        if label in labels and (out == "ok" or (out == "nan" and (c.name, arg) in nan_passes)):
+            returned.add((arg, label))
+            continue
+        failures.append(f"{c.name}({arg}={label}): {out}")
+    stale = {(arg, label) for (name, arg), (labels, _) in accepted.items() if name == c.name for label in labels}
+    return failures, sorted(stale - returned)

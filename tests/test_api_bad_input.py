@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pytest  # noqa: E402
 
-from tests.api_sweep import outcome, variants  # noqa: E402
+from tests.api_sweep import outcome, sweep  # noqa: E402
 from tests.api_sweep_calls import all_calls  # noqa: E402
 
 BATCH = "a batch of any shape: a scalar, a longer or an empty array is a batch (the result has its shape)"
@@ -164,21 +164,9 @@ def test_the_working_call_of_the_sweep_works(c):
 
 @pytest.mark.parametrize("c", CALLS, ids=lambda c: c.name)
 def test_bad_input_is_a_labkit_error_that_says_what_was_expected(c):
-    failures, returned = [], set()
-    for arg, label, args, kwargs in variants(c):
-        out = outcome(c.func, args, kwargs)
-        plt.close("all")
-        labels, _ = ACCEPTED.get((c.name, arg), ((), ""))
-        if out == "labkit":
-            continue
-        if label in labels and (out == "ok" or (out == "nan" and (c.name, arg) in NAN_PASSES)):
-            returned.add((arg, label))
-            continue
-        failures.append(f"{c.name}({arg}={label}): {out}")
+    failures, stale = sweep(c, ACCEPTED, nan_passes=NAN_PASSES, after=lambda: plt.close("all"))
     assert not failures, "\n".join(failures)
-    stale = {(arg, label) for (name, arg), (labels, _) in ACCEPTED.items() if name == c.name
-             for label in labels} - returned
-    assert not stale, f"accepted but no longer returning (drop them from ACCEPTED): {sorted(stale)}"
+    assert not stale, f"accepted but no longer returning (drop them from ACCEPTED): {stale}"
 
 
 def test_every_accepted_case_names_a_call_of_the_sweep():

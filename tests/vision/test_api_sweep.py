@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from labkit import vision
-from tests.api_sweep import call, outcome, variants
+from tests.api_sweep import call, outcome, sweep
 
 K = [[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]]
 CAMERA = vision.Camera(K, image_size=(640, 480))
@@ -125,20 +125,9 @@ def test_the_working_call_of_the_vision_sweep_works(c):
 
 @pytest.mark.parametrize("c", CALLS, ids=lambda c: c.name)
 def test_bad_vision_input_is_a_labkit_error_that_says_what_was_expected(c):
-    failures, returned = [], set()
-    for arg, label, args, kwargs in variants(c):
-        out = outcome(c.func, args, kwargs)
-        if out == "labkit":
-            continue
-        labels, _ = ACCEPTED.get((c.name, arg), ((), ""))
-        if label in labels and out == "ok":
-            returned.add((arg, label))
-            continue
-        failures.append(f"{c.name}({arg}={label}): {out}")
+    failures, stale = sweep(c, ACCEPTED)
     assert not failures, "\n".join(failures)
-    stale = {(arg, label) for (name, arg), (labels, _) in ACCEPTED.items() if name == c.name
-             for label in labels} - returned
-    assert not stale, f"accepted but no longer returning (drop them from ACCEPTED): {sorted(stale)}"
+    assert not stale, f"accepted but no longer returning (drop them from ACCEPTED): {stale}"
 
 
 def test_every_accepted_case_names_a_call_of_the_vision_sweep():
