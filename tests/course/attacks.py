@@ -5,6 +5,20 @@ the work honestly, so each must score 0 points, and the honest submissions grade
 the same batch must keep their 4 points. ``docs/course.md`` lists them.
 """
 
+import os
+
+
+def deep_folder(top, depth) -> int:
+    """Make ``top/d/d/.../d`` ``depth`` folders deep under descriptors (the path is longer than PATH_MAX); return an
+    open descriptor of the deepest folder (the caller closes it)."""
+    fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
+    for _ in range(depth):
+        os.mkdir("d", dir_fd=fd)
+        child = os.open("d", os.O_RDONLY | os.O_DIRECTORY, dir_fd=fd)
+        os.close(fd)
+        fd = child
+    return fd
+
 
 #: the honest answer, computed only where an attack found the instructor's solution or a victim's work
 _USE_FOUND = """

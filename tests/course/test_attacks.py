@@ -321,19 +321,8 @@ def test_grader_modules_copy_and_remove_only_through_the_helper():
     assert not any(offenders.values()), offenders
 
 
-def _deep_folder(top: Path, depth: int):
-    """``top/d/d/.../d`` ``depth`` folders deep, made under descriptors (the path is longer than PATH_MAX)."""
-    fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
-    for _ in range(depth):
-        os.mkdir("d", dir_fd=fd)
-        child = os.open("d", os.O_RDONLY | os.O_DIRECTORY, dir_fd=fd)
-        os.close(fd)
-        fd = child
-    os.close(fd)
-
-
 def _remove_deep(top: Path):
-    """Undo :func:`_deep_folder` one level at a time (``shutil.rmtree`` recurses)."""
+    """Undo :func:`attacks.deep_folder` one level at a time (``shutil.rmtree`` recurses)."""
     fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
     try:
         while True:
@@ -373,7 +362,7 @@ def test_names_and_trees_never_stop_the_gradebook(tmp_path, capsys):
     os.mkdir(latin1)
     shutil.copy(subs / "honest" / cl.NOTEBOOK, os.fsdecode(os.path.join(latin1, cl.NOTEBOOK.encode())))
     cl.write_submission(student, subs / "deep", cl.SOLUTION)
-    _deep_folder(subs / "deep", 1100)
+    os.close(at.deep_folder(subs / "deep", 1100))
     cl.write_submission(student, subs / "many_files", cl.SOLUTION)
     for i in range(6000):
         (subs / "many_files" / f"f{i}").touch()

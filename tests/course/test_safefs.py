@@ -13,17 +13,6 @@ from tests.course import course_lab as cl
 DEPTH = 1500  # past Python's recursion limit (1000): shutil.rmtree stops there and leaves the tree
 
 
-def _chain(top, depth):
-    """``top/d/d/.../d`` ``depth`` folders deep, made under descriptors (the path is longer than PATH_MAX)."""
-    fd = os.open(top, os.O_RDONLY | os.O_DIRECTORY)
-    for _ in range(depth):
-        os.mkdir("d", dir_fd=fd)
-        child = os.open("d", os.O_RDONLY | os.O_DIRECTORY, dir_fd=fd)
-        os.close(fd)
-        fd = child
-    return fd
-
-
 def test_remove_tree_of_any_depth_never_follows_a_link(tmp_path):
     """A tree deeper than Python's recursion limit, with links to a folder and a file outside at the bottom, folders
     the kernel made unreadable, and files beside: all of it goes, nothing outside is touched, nothing raises."""
@@ -37,7 +26,7 @@ def test_remove_tree_of_any_depth_never_follows_a_link(tmp_path):
     top = tmp_path / "work"
     top.mkdir()
     (top / "f.txt").write_text("x")
-    bottom = _chain(top, DEPTH)
+    bottom = at.deep_folder(top, DEPTH)
     try:
         os.symlink(str(outside), "to_folder", dir_fd=bottom)
         os.symlink(str(victim), "to_file", dir_fd=bottom)
