@@ -19,7 +19,7 @@ import numpy as np
 
 from labkit.exceptions import BusFault, BusWarning, DeviceError
 from labkit.robot import BusGripper
-from labkit.arm.bus._adapter import advice, latency_note, latency_timer
+from labkit.arm.bus._adapter import advice, latency_note, latency_timer, paced_by, served_by
 from labkit.arm.bus._confirm import READ_TRIES, read_registers, write_confirmed, write_unconfirmed
 
 __all__ = ["BusFault", "BusReading"]
@@ -120,6 +120,9 @@ class BusDriver:
             latency = getattr(robot.bus, "latency", None)
         if latency is not None:
             port_class = _with_latency(port_class, float(latency))
+        emulator = served_by(device)
+        if emulator is not None:  # a virtual bus of this process: timeouts from when it has the request
+            port_class = paced_by(port_class, emulator)
         #: the adapter latency the status timeouts allow for [ms]; the adapter's USB latency timer [ms] or None
         self.latency = float(latency) if latency is not None else float(_sdk_latency(port_class))
         self.latency_timer = latency_timer(device)
