@@ -88,7 +88,8 @@ class BusDriver:
     latency : float, optional
         The adapter's latency [ms] in the SDK's status-packet timeout (``2 * latency + 2 ms`` plus the packet's
         wire time); default the robot file's ``[bus] latency``, else the SDK's 16 ms (an FTDI adapter's default
-        latency timer); the virtual bus uses more, as a loaded host may take longer than a servo to answer.
+        latency timer). On a virtual bus of this process (:class:`BusEmulator`) the timeout starts once the
+        emulator has the request: a loaded host delays its thread, not a servo.
         An adapter whose USB latency timer (read from sysfs on Linux) is above it gives a :class:`BusWarning`
         with the one-line fix, and every message about lost status packets repeats it.
 
