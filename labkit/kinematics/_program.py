@@ -183,19 +183,15 @@ def walk(b, modified, base, steps, trig, joint_value):
         else:
             ct, st = cth, sth
             d = joint_value(i, d)
-        if modified:
+        if modified:  # Rx(alpha) Tx(a) first (Craig), else last
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
             if a != 0:
                 p = b.axpy(p, c0, a)
-            axes.append((c2, p))
-            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
-            if not rev or d != 0:
-                p = b.axpy(p, c2, d)
-        else:
-            axes.append((c2, p))
-            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
-            if not rev or d != 0:
-                p = b.axpy(p, c2, d)
+        axes.append((c2, p))
+        c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))  # Rz(theta) Tz(d)
+        if not rev or d != 0:
+            p = b.axpy(p, c2, d)
+        if not modified:
             if a != 0:
                 p = b.axpy(p, c0, a)
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
