@@ -430,10 +430,8 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
     q, ok, it, res = solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
     if sides == 1:
         return q, ok, it, res
-    q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
-    pick = _first_success(ok, res)  # the first pose reached
-    each = np.arange(q.shape[0])
-    return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
+    q, ok, _, res = _first_success(sides, q, ok, it, res)  # the first pose reached (iterations: all poses')
+    return q, ok, it.reshape(-1, sides).sum(axis=1), res
 
 
 def _reduced_family(robot, kind):
