@@ -242,14 +242,8 @@ def _build(c, skeleton, n_numbers, output, tool_frame, want_T):
             outputs += _pose_rows(16 * (i + 1), frame)
         return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2), joints)
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)
-    lin, ang = [], []
-    for (z, o), step in zip(axes, steps):
-        if not step[0]:
-            lin.append(z)
-            ang.append((0.0, 0.0, 0.0))
-            continue
-        lin.append(_cross_lever(b, z, p, o))
-        ang.append(z)
+    lin = [_cross_lever(b, z, p, o) if step[0] else z for (z, o), step in zip(axes, steps)]
+    ang = [z if step[0] else (0.0, 0.0, 0.0) for (z, _), step in zip(axes, steps)]
     if tool_frame:  # rows of R^T J: tool axis k dotted with each column
         def rotate(v):
             return tuple(b.add(b.add(b.mul(v[0], t[0]), b.mul(v[1], t[1])), b.mul(v[2], t[2])) for t in cols)
