@@ -183,7 +183,7 @@ def walk(b, modified, base, steps, trig, joint_value):
         else:
             ct, st = cth, sth
             d = joint_value(i, d)
-        if modified:  # Rx(alpha) Tx(a) first (Craig), else last
+        if modified:  # Craig: Rx(alpha) Tx(a) before Rz(theta) Tz(d); standard DH: Tx(a) Rx(alpha) after them
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
             if a != 0:
                 p = b.axpy(p, c0, a)
