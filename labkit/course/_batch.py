@@ -204,8 +204,8 @@ def _local_pool(fn, argsets, indices, jobs, done) -> list:
                 broken.append(futures[fut])
                 continue
             done(futures[fut], value)
-    if broken:  # its workers are gone (one died, the pool stopped the rest): their folders and cgroups go now
-        remove_leftovers()
+    if broken:  # its workers are gone (one died, the pool stopped the rest): their folders go now, their cgroups
+        remove_leftovers()  # beside the next run's (labkit.course.memory_cgroup)
     return sorted(broken)
 
 

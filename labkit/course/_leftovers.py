@@ -13,8 +13,9 @@ and ``start`` its start time (clock ticks after boot, field 22 of ``/proc/<pid>/
 the kernel has since given to another process has another start time. :func:`sweep` removes the
 entries of a folder whose maker is dead (or a zombie) and nothing else: a name that is not
 exactly of that form, an entry that is not a folder (a symbolic link is never followed), a
-folder of another user, and a folder whose maker still runs are left alone. The grader sweeps
-the temporary folders at the start of every batch, and when a worker of its local pool dies
+folder of another user, and a folder whose maker still runs are left alone. The driver of a
+batch sweeps the temporary folders as the batch starts and as soon as a worker of its local pool
+dies, and every pool or dask worker at its first task, on its own machine
 (:func:`remove_leftovers`, through :func:`labkit.course._safefs.remove_tree`, which never follows
 a link however deep: a kernel may have left links and odd names inside); each run sweeps the
 empty memory cgroups of dead graders beside its own (:mod:`labkit.course._cgroup`).
@@ -199,7 +200,7 @@ def remove_leftovers() -> list:
     Returns
     -------
     list of pathlib.Path
-        The folders removed.
+        The folders handed to :func:`remove_tree` (it leaves what it cannot remove, and never raises).
     """
     places = dict.fromkeys(os.path.realpath(p) for p in (tempfile.gettempdir(), *TEMP_PLACES))
     return [path for place in places for path in sweep(place, FOLDER_KINDS, remove_tree)]
