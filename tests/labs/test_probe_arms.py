@@ -8,7 +8,9 @@ What they found: the joint move and the Cartesian line were planned faster than 
 robot file gives no speed limits (a UR-like wrist at 110 deg/s against the ideal actuator's 90 deg/s: 22 deg
 behind); an ideal actuator braked to a stop at every 20 ms servo frame of a streamed plan, so it lagged v^2 / 2a
 behind it (a gantry axis 22 mm, a rail 33 mm, within its limits); the FK plan's "joint moved" poses sat 2-3 deg from
-home where home was near 30 % or 70 % of a joint's window.
+home where home was near 30 % or 70 % of a joint's window; a gantry with joints named z, y, x lost its joint columns
+in 01_robot_dh's FK table to the tool position's x, y, z (the calibration table and ``labkit fk``'s round-off are
+tested in tests/measure and tests/cli).
 """
 
 import math
@@ -98,3 +100,28 @@ def test_a_lab_joint_move_streamed_to_the_virtual_arm_is_followed_without_lag(ar
     planned = np.column_stack([np.interp(s[:, 0], traj.t, traj.q[:, j]) for j in range(robot.n)])
     lag = np.abs(s[:, 1:] - planned).max(axis=0)
     assert len(s) > 20 and np.all(lag < 2 * settle_tolerance(robot)), dict(zip(robot.joint_names, lag.round(4)))
+
+
+@pytest.mark.slow
+@pytest.mark.notebooks
+def test_a_gantry_whose_joints_are_named_x_y_z_keeps_its_joint_columns(tmp_path):
+    """01_robot_dh's FK table put the tool position into columns "x [mm]", "y [mm]", "z [mm]": on a gantry whose
+    joints are named z, y, x they replaced the joint values (a three-column table of tool positions)."""
+    import pandas as pd
+    from conftest import require
+
+    require("papermill")
+    from labkit.kinematics import fk_position
+    from labkit.labs import new_lab
+    from labkit.reports import render
+
+    lab = new_lab(PROBE / "gantry_reversed.toml", tmp_path / "lab")
+    results, _ = render([str(lab.folder / "01_robot_dh.ipynb")], tmp_path / "reports", jobs=1, pdf=False,
+                        progress=None, timeout=300)
+    assert results[0].ok, results[0].error
+    table = pd.read_csv(tmp_path / "reports" / "lab" / "01_robot_dh_files" / "fk_poses.csv")
+    robot = Robot.load(lab.robot_file)
+    joints = [f"{name} [mm]" for name in robot.joint_names]
+    assert joints == ["z [mm]", "y [mm]", "x [mm]"] and list(table.columns[:3]) == joints
+    q = joints_from_display(robot, table[joints].to_numpy())
+    assert np.allclose(table.iloc[:, 3:].to_numpy(), fk_position(robot, q) * 1e3, atol=0.01)
