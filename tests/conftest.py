@@ -91,7 +91,8 @@ def _ends_with(me, proc):
 def _describe(proc):
     try:
         cmd = " ".join(proc.cmdline()) or proc.name()
-        return f"pid {proc.pid} (parent {proc.ppid()}): {cmd[:300]}"
+        test = proc.environ().get("PYTEST_CURRENT_TEST", "").rsplit(" ", 1)[0]  # the test that started it, if known
+        return f"pid {proc.pid} (parent {proc.ppid()}){f', started by {test}' if test else ''}: {cmd[:300]}"
     except Exception:  # noqa: BLE001 - gone while we looked
         return f"pid {proc.pid}"
 

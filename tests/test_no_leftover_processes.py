@@ -37,8 +37,10 @@ def test_a_run_that_leaves_a_process_behind_fails_naming_it(tmp_path):
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-2000:]
     assert "3 passed" in run.stdout and "processes that outlived the suite" in run.stdout, run.stdout[-3000:]
     named = [line for line in run.stdout.splitlines() if line.startswith("  pid ")]
-    for seconds in ("97", "98", "99"):
-        assert any(f"sleep {seconds}" in line for line in named), run.stdout[-3000:]
+    for seconds, test in (("97", "test_leaves_a_child"), ("98", "test_leaves_an_orphan")):  # and the test that did
+        assert any(f"sleep {seconds}" in line and f"started by test_leaks.py::{test}:" in line
+                   for line in named), run.stdout[-3000:]
+    assert any("sleep 99" in line for line in named), run.stdout[-3000:]  # its environment is empty: no test named
     left = [p.pid for p in psutil.process_iter(["cmdline"]) if (p.info["cmdline"] or [])[:2] in (
         ["sleep", "97"], ["sleep", "98"], ["sleep", "99"])]
     assert not left, f"the check names them and stops them: {left} still alive"

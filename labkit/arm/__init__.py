@@ -18,6 +18,7 @@ from labkit.arm.board import PhysicsConfig, ServoBank, gravity_sag, ADC_VREF, AD
 from labkit.arm.simavr import FIRMWARE_DIR, FirmwareSim, PulseEvent, build, default_elf, harness_path, SimavrPort
 from labkit.exceptions import PortURLError, PortError, PortClosedError
 from labkit.arm._faults import PortWrapper, FaultConfig, FaultyPort, Direction
+from labkit.arm._actuator import is_ideal, ideal_speed_limits
 
 __all__ = [
     "checksum",
@@ -69,4 +70,6 @@ __all__ = [
     "FaultConfig",
     "FaultyPort",
     "Direction",
+    "is_ideal",
+    "ideal_speed_limits",
 ]

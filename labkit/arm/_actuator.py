@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import math
 
-from labkit.exceptions import RobotError
-from labkit.robot import ServoCalibration
+from labkit.exceptions import RobotError, ShapeError
+from labkit.robot import Link, Robot, ServoCalibration
+from labkit.validation import as_count
 
 __all__ = ["is_ideal", "joint_sensor", "ideal_speed_limits", "IDEAL_VELOCITY", "IDEAL_ACCELERATION"]
 
@@ -44,7 +45,14 @@ def is_ideal(link):
     Returns
     -------
     bool
+
+    Raises
+    ------
+    ShapeError
+        ``link`` is not a :class:`labkit.robot.Link`.
     """
+    if not isinstance(link, Link):
+        raise ShapeError(f"expected a labkit.robot.Link (robot.links[j]), got {type(link).__name__}")
     return link.servo is None and link.bus is None
 
 
@@ -91,7 +99,15 @@ def ideal_speed_limits(robot, j):
     -------
     tuple of float
         ``(max_velocity, max_acceleration)`` [rad/s, rad/s^2 | m/s, m/s^2].
+
+    Raises
+    ------
+    ShapeError
+        ``robot`` is not a :class:`labkit.robot.Robot`, or ``j`` not a joint index 0..n-1.
     """
+    if not isinstance(robot, Robot):
+        raise ShapeError(f"expected a labkit.robot.Robot, got {type(robot).__name__}")
+    j = as_count(j, "j (a joint index)", maximum=robot.n - 1, error=ShapeError)
     lk = robot.links[j]
     rev = bool(robot.is_revolute[j])
     return (IDEAL_VELOCITY[rev] if lk.max_velocity is None else float(lk.max_velocity),

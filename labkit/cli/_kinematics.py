@@ -91,11 +91,15 @@ def _joint_values(robot, values, deg, mm):
 def _print_pose(T, args):
     s = _len_scale(args)
     unit = "mm" if args.mm else "m"
-    p = T[:3, 3] * s
+
+    def clean(v, zero):  # the DH walk's round-off (and -0.0) prints as 0, never as -1.66533e-16 or -0.000000
+        return 0.0 if abs(v) <= zero else float(v)
+
+    p = [clean(v, 1e-9 * s) for v in T[:3, 3] * s]  # below a nanometre
     print(f"position [{unit}]:  x = {p[0]:.6g}   y = {p[1]:.6g}   z = {p[2]:.6g}")
     print("transform (rotation | position [" + unit + "]):")
     for i in range(4):
-        row = [f"{T[i, j]: .6f}" for j in range(3)] + [f"{T[i, 3] * (s if i < 3 else 1): .6g}"]
+        row = [f"{clean(T[i, j], 1e-12): .6f}" for j in range(3)] + [f"{p[i] if i < 3 else 1.0: .6g}"]
         print("  [" + "  ".join(row) + "]")
 
 

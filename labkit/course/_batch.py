@@ -25,13 +25,13 @@ Example
 from __future__ import annotations
 
 import os
-import tempfile
 import time
 from pathlib import Path
 
 from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._grade import grade_submission
 from labkit.course._feedback import student_folder
+from labkit.course._leftovers import remove_leftovers, temporary_folder
 from labkit.course._safefs import read_tree, remove_tree, write_tree
 from labkit.course._submission import MAX_DEPTH, MAX_ENTRIES, MAX_SUBMISSION_BYTES, clean_text, student_label
 from labkit.course._sandbox import Limits, check_sandbox
@@ -204,11 +204,23 @@ def _local_pool(fn, argsets, indices, jobs, done) -> list:
                 broken.append(futures[fut])
                 continue
             done(futures[fut], value)
+    if broken:  # its workers are gone (one died, the pool stopped the rest): their folders go now, their cgroups
+        remove_leftovers()  # beside the next run's (labkit.course.memory_cgroup)
     return sorted(broken)
 
 
 #: set once this process has checked that bubblewrap starts here (a pool or dask worker)
 _WORKER_CHECKED = []
+#: set once this process (a pool or dask worker) has removed what dead graders left on its machine
+_WORKER_SWEPT = []
+
+
+def _sweep_once():
+    """On a worker's first task: remove the temporary folders of dead graders and workers on its machine (a dask
+    worker on another machine, whose killed predecessor's folders the driver cannot reach)."""
+    if not _WORKER_SWEPT:
+        _WORKER_SWEPT.append(True)
+        remove_leftovers()
 
 
 def _grade_task(student, submission_files, lab_files, limits, html, free):
@@ -220,6 +232,7 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
     from dataclasses import replace
 
     t0 = time.perf_counter()
+    _sweep_once()
     if isinstance(submission_files, str):  # the folder itself (a worker of the local pool): read it here
         try:
             submission_files = _pack_submission(submission_files)
@@ -229,10 +242,10 @@ def _grade_task(student, submission_files, lab_files, limits, html, free):
         if limits.sandbox and not _WORKER_CHECKED:  # a worker on another machine: its bubblewrap, once
             check_sandbox()
             _WORKER_CHECKED.append(True)
-        with tempfile.TemporaryDirectory(prefix="labkit-task-") as tmp:
-            sub = unpack_dir(submission_files, Path(tmp) / "submissions" / "submission")  # a name of ours
-            lab = unpack_dir(lab_files, Path(tmp) / "lab")
-            out = Path(tmp) / "feedback"
+        with temporary_folder("task") as tmp:
+            sub = unpack_dir(submission_files, tmp / "submissions" / "submission")  # a name of ours
+            lab = unpack_dir(lab_files, tmp / "lab")
+            out = tmp / "feedback"
             result = grade_submission(sub, lab, out, limits=limits, html=html, free=free, student=student)
             page = out / student_folder(student)
             files = pack_dir(page) if page.is_dir() else {}
@@ -330,6 +343,7 @@ def grade(submissions_dir, lab_dir, output_dir, *, limits=None, scheduler=None, 
     limits = limits or Limits()
     if limits.sandbox and scheduler is None:  # here, before anything runs (dask workers check their own)
         check_sandbox()
+    remove_leftovers()  # what graders and workers killed outright left here (their folders are named after them)
     lab_files = pack_dir(lab)
     free = {} if count_free else baseline(lab, limits=limits).free
     argsets, early, seen = [], {}, set()
@@ -462,9 +476,10 @@ def write_gradebook(frame, path) -> list:
 
 def _render_task(lab, name, lab_files, no_input, pdf, parameters, timeout):
     """Worker side of :func:`render_batch`: render one notebook, send back its report files."""
-    with tempfile.TemporaryDirectory(prefix="labkit-render-") as tmp:
-        nb = unpack_dir(lab_files, Path(tmp) / "notebooks" / lab) / f"{name}.ipynb"
-        out = Path(tmp) / "reports"
+    _sweep_once()
+    with temporary_folder("render") as tmp:
+        nb = unpack_dir(lab_files, tmp / "notebooks" / lab) / f"{name}.ipynb"
+        out = tmp / "reports"
         r = render_one(nb, out, no_input=no_input, pdf=pdf, parameters=parameters, timeout=timeout)
         files = {rel: data for rel, data in pack_dir(out / lab).items() if rel.split("/")[0].startswith(name)}
         return r, files
@@ -510,6 +525,7 @@ def render_batch(notebooks=None, output_dir="reports", *, scheduler=None, jobs=2
         raise LabkitError("no notebooks to render")
     if pdf and scheduler is None:
         find_chromium()
+    remove_leftovers()  # what renders and gradings killed outright left here
     out = Path(output_dir).resolve()
     labs = {}
     for p in paths:

@@ -19,7 +19,7 @@ Where the cgroup is made, in that order:
   ``Delegate=yes``, such as ``systemd-run --user --scope -p Delegate=yes labkit grade ...``)
   where the controller is available (``cgroup.controllers``) but not yet enabled, the
   grader first moves the cgroup's processes into a leaf child of its own
-  (``labkit-<pid>-grader``: a cgroup v2 with processes cannot enable controllers for its
+  (``labkit-mem-<pid>-<start>-grader``: a cgroup v2 with processes cannot enable controllers for its
   children) and enables ``memory`` there; the runs' cgroups are then siblings of that leaf;
 * **cgroup v1**: a child of its own cgroup in the ``memory`` hierarchy, with
   ``memory.limit_in_bytes`` (and ``memory.memsw.limit_in_bytes`` where swap is accounted);
@@ -28,7 +28,8 @@ Where the cgroup is made, in that order:
 
 The cgroup is removed (its processes killed first) when the run ends, however it ends;
 one left behind by a grader that was killed outright is removed by the next run that
-finds it empty.
+finds it empty (cgroups are named after their maker, ``labkit-mem-<pid>-<start>-<random>``, and
+swept as temporary folders are: :mod:`labkit.course._leftovers`).
 
 Example
 -------
@@ -45,16 +46,20 @@ import time
 import uuid
 from pathlib import Path
 
+from labkit.course._leftovers import owner_of, owner_prefix, sweep
+
 __all__ = ["MemoryCgroup", "memory_cgroup", "memory_mechanism"]
 
 #: how the memory limit of a submission is enforced (values of :func:`memory_mechanism`)
 MemoryMechanism = ("cgroup v2", "cgroup v1", "watchdog")
-_PREFIX = "labkit-"
+#: the kind of a memory cgroup's name (:func:`labkit.course._leftovers.owner_prefix`)
+_KIND = "mem"
 
 
 #: where this process's mounts and cgroups are read (tests point it at a made-up layout)
 _PROC_SELF = Path("/proc/self")
-_LEAF = "-grader"
+#: the random part of the name of the leaf a delegated cgroup's processes move to
+_LEAF = "grader"
 _DELEGATE_XATTRS = ("user.delegate", "trusted.delegate")
 
 
@@ -121,7 +126,7 @@ def _v2_parent(folder):
 
     Inside a leaf made by :func:`_enable_memory` the parent is that leaf's parent.
     """
-    if folder.name.startswith(_PREFIX) and folder.name.endswith(_LEAF):
+    if owner_of(folder.name, (_KIND,)) is not None and folder.name.endswith(f"-{_LEAF}"):
         folder = folder.parent
     if "memory" in _words(folder / "cgroup.subtree_control"):
         return folder
@@ -145,7 +150,7 @@ def _enable_memory(folder) -> bool:
     """
     if "memory" in _words(folder / "cgroup.subtree_control"):
         return True
-    leaf = folder / f"{_PREFIX}{os.getpid()}{_LEAF}"
+    leaf = folder / f"{owner_prefix(_KIND)}{_LEAF}"
     for _ in range(5):  # a process forked meanwhile is moved on the next round
         try:
             leaf.mkdir(exist_ok=True)
@@ -307,35 +312,11 @@ class MemoryCgroup:
         return True
 
 
-def _alive(pid) -> bool:
+def _rmdir(path):
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
+        path.rmdir()  # fails for a cgroup that still holds a process
     except OSError:
         pass
-    return True
-
-
-def _sweep(parent):
-    """Remove the empty cgroups that graders killed outright left behind (their pid is gone)."""
-    try:
-        entries = list(parent.iterdir())
-    except OSError:
-        return
-    for entry in entries:
-        name = entry.name
-        if not (name.startswith(_PREFIX) and entry.is_dir()):
-            continue
-        try:
-            owner = int(name[len(_PREFIX):].split("-", 1)[0])
-        except ValueError:
-            continue
-        if owner != os.getpid() and not _alive(owner):
-            try:
-                entry.rmdir()
-            except OSError:
-                pass
 
 
 def memory_cgroup(limit_bytes):
@@ -354,8 +335,8 @@ def memory_cgroup(limit_bytes):
     for version, parent in _parents():
         if version == 2 and not _enable_memory(parent):
             continue
-        path = parent / f"{_PREFIX}{os.getpid()}-{uuid.uuid4().hex[:12]}"
-        _sweep(parent)
+        path = parent / f"{owner_prefix(_KIND)}{uuid.uuid4().hex[:12]}"
+        sweep(parent, (_KIND,), _rmdir)  # the empty cgroups of graders killed outright
         try:
             path.mkdir()
         except OSError:

@@ -236,7 +236,9 @@ def run_checker(job, private, *, limits, sandbox_args=None) -> dict:
     job_path.write_text(json.dumps(job), encoding="utf-8")
     flags = ["-P"] if sys.version_info >= (3, 11) else []
     cmd = [sys.executable, *flags, "-s", "-m", "labkit.course._checker", str(job_path), str(result_path)]
-    prefix = ["prlimit", f"--as={int(max(limits.memory_bytes, 2 * 2**30))}", "--"]
+    from labkit.course._watchdog import dies_with_this_process
+
+    prefix = [*dies_with_this_process(), "prlimit", f"--as={int(max(limits.memory_bytes, 2 * 2**30))}", "--"]
     env = None
     if sandbox_args:
         cmd = [*prefix, *sandbox_args, *cmd]

@@ -20,6 +20,8 @@ __all__ = ["ChannelClosed", "KERNEL_MAIN", "client_class", "runtime_folder"]
 _MAX_SOCKET_PATH = 107
 #: the longest socket name in a runtime folder: ``sockets/kernel-<port>`` (jupyter_client's ipc names)
 _SOCKET_NAME = "sockets/kernel-65535"
+#: the name of a runtime folder inside a folder of the grader's (gone with it: no owner in the name)
+_PRIVATE_PREFIX = "labkit-run-"
 
 
 class ChannelClosed(Exception):
@@ -146,12 +148,15 @@ def runtime_folder(private=None):
 
     Made in ``private`` (default the system's temporary folder), unless the kernel's socket paths
     would be too long for a Unix socket there (a long ``TMPDIR``, such as a Slurm job's): then in
-    the first of ``/tmp``, ``/var/tmp``, ``/dev/shm`` where they fit.
+    the first of ``/tmp``, ``/var/tmp``, ``/dev/shm`` (:data:`labkit.course._leftovers.TEMP_PLACES`).
+    One made in a shared temporary folder is named after this process
+    (:func:`labkit.course._leftovers.new_folder`), so a later batch removes it if this process is
+    killed outright; in ``private`` it goes with that folder.
 
     Parameters
     ----------
     private : str or os.PathLike, optional
-        Where to make it.
+        A folder of the grader's where to make it.
 
     Returns
     -------
@@ -166,19 +171,23 @@ def runtime_folder(private=None):
     import tempfile
     from pathlib import Path
 
+    from labkit.course._leftovers import TEMP_PLACES, new_folder, owner_prefix
     from labkit.exceptions import LabkitError
 
-    def fits(folder):
-        return len(os.fsencode(os.path.join(folder, "labkit-run-xxxxxxxx", _SOCKET_NAME))) <= _MAX_SOCKET_PATH
+    def fits(folder, prefix):
+        name = prefix + "x" * 8  # mkdtemp's random part
+        return len(os.fsencode(os.path.join(os.path.abspath(folder), name, _SOCKET_NAME))) <= _MAX_SOCKET_PATH
 
-    chosen = private if private is not None else tempfile.gettempdir()
-    if not fits(os.path.abspath(chosen)):
-        short = [d for d in ("/tmp", "/var/tmp", "/dev/shm") if os.path.isdir(d) and os.access(d, os.W_OK | os.X_OK)]
+    if private is not None and fits(private, _PRIVATE_PREFIX):
+        return Path(tempfile.mkdtemp(prefix=_PRIVATE_PREFIX, dir=private))
+    chosen = tempfile.gettempdir()
+    if private is not None or not fits(chosen, owner_prefix("run")):
+        short = [d for d in TEMP_PLACES if os.path.isdir(d) and os.access(d, os.W_OK | os.X_OK)]
         if not short:
             raise LabkitError(f"expected a folder for the kernel's sockets whose paths fit a Unix socket "
-                              f"({_MAX_SOCKET_PATH} bytes), got {chosen!r}; set TMPDIR to a short folder")
+                              f"({_MAX_SOCKET_PATH} bytes), got {private or chosen!r}; set TMPDIR to a short folder")
         chosen = short[0]
-    return Path(tempfile.mkdtemp(prefix="labkit-run-", dir=chosen))
+    return new_folder("run", chosen)
 
 
 def _disconnect_monitor(sock):

@@ -38,7 +38,6 @@ Example
 from __future__ import annotations
 
 import copy
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +46,7 @@ from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._assign import (HIDDEN_TESTS_TAG, PARAMETERS_TAG, REFERENCE_TAG, SOLUTION_TAG, TESTS_TAG, cell_role,
                                    graded_cells, student_notebook)
 from labkit.course._checker import run_checker
+from labkit.course._leftovers import new_folder, temporary_folder
 from labkit.course._plan import plan_check, prelude_source, python_source
 from labkit.course._points import score_notebook, unscored
 from labkit.course._sandbox import SANDBOX_HOME, Limits, check_sandbox, run_untrusted, sandbox_args
@@ -303,7 +303,7 @@ def grade_submission(submission, lab_dir, output_dir, *, limits=None, hide=(), h
     if submission.is_symlink() or not submission.is_dir():
         return _invalid(student, sources, free, "the submission is not a folder (a symlink or a file)", t0)
     hide = [submission.resolve().parent, lab, out, *hide]
-    root = Path(tempfile.mkdtemp(prefix="labkit-grade-"))
+    root = new_folder("grade")  # named after this process: a later batch removes it if this one is killed
     statuses, details, scores, pages, mechanisms = [], [], [], [], []
     try:
         work = root / "home"
@@ -442,8 +442,8 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
     lab = Path(lab_dir).resolve()
     if (limits or Limits()).sandbox:
         check_sandbox()  # a refused user namespace is the machine's, not the lab's: say so before grading
-    with tempfile.TemporaryDirectory(prefix="labkit-baseline-") as tmp:
-        sub = Path(tmp) / "untouched"
+    with temporary_folder("baseline") as tmp:
+        sub = tmp / "untouched"
         sub.mkdir()
         solved, sources = {}, {}
         for p in sorted(lab.glob("*.ipynb")):
@@ -453,7 +453,7 @@ def baseline(lab_dir, *, limits=None) -> Baseline:
             nbformat.write(student_notebook(nb), str(sub / p.name))
             solved[p.name] = {n for c in nb.cells if cell_role(c) == SOLUTION_TAG
                               for n in _assigned(python_source(c.source))}
-        result = grade_submission(sub, lab, Path(tmp) / "feedback", limits=limits, html=False, free={})
+        result = grade_submission(sub, lab, tmp / "feedback", limits=limits, html=False, free={})
     if result.status not in ("ok", "error"):
         raise LabkitError(f"expected the untouched student version of {lab.name} to run to its end (its checks tell "
                           f"which rows are free), got status {result.status!r}: {result.detail[:300]}; "

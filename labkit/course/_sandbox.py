@@ -60,7 +60,7 @@ from labkit.exceptions import LabkitError, needs_extra
 from labkit.course._cgroup import memory_cgroup
 from labkit.course._client import KERNEL_MAIN, ChannelClosed, client_class, runtime_folder
 from labkit.course._safefs import remove_tree, socket_ready
-from labkit.course._watchdog import Watchdog, kill_tree
+from labkit.course._watchdog import Watchdog, dies_with_this_process, kill_tree
 from labkit.course._wire import MAX_EXPORT_BYTES
 from labkit.reports import kernel_manager_class
 
@@ -334,7 +334,7 @@ def _kernel_manager(work: Path, runtime: Path, limits: Limits, hide, log, cgroup
     sockets, connection = runtime / "sockets", runtime / "kernel.json"
     cpu = int(max(1, round(limits.cpu_seconds)))
     address_space = int(limits.memory_bytes) + (2**30 if cgroup is not None else 0)
-    prefix = cgroup.enter_prefix() if cgroup is not None else []
+    prefix = dies_with_this_process() + (cgroup.enter_prefix() if cgroup is not None else [])
     prefix += ["prlimit", f"--cpu={cpu}:{cpu + 5}", f"--as={address_space}",
                f"--fsize={int(max(limits.memory_bytes, 2**30))}", "--"]
     if limits.sandbox:
@@ -351,7 +351,7 @@ def _kernel_manager(work: Path, runtime: Path, limits: Limits, hide, log, cgroup
                    for c in super().format_kernel_cmd(extra_arguments)]
             if cmd[1:3] == ["-m", "ipykernel_launcher"]:
                 cmd[1:3] = ["-s", "-P", "-c", KERNEL_MAIN]
-            return [*prefix, *cmd]  # sh execs prlimit execs bwrap: the launched process is the sandbox
+            return [*prefix, *cmd]  # setpriv, sh, prlimit exec in turn: the launched process is the sandbox
 
         async def _async_launch_kernel(self, kernel_cmd, **kw):
             kw["stdout"] = subprocess.DEVNULL  # ipykernel's banner; the notebook's output goes over ZMQ

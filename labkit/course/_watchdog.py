@@ -154,3 +154,21 @@ def kill_tree(pid) -> None:
             os.kill(p, signal.SIGKILL)
         except OSError:
             pass
+
+
+def dies_with_this_process() -> list:
+    """A command prefix that ties the command's life to this process (``exec``: no process of its own).
+
+    bubblewrap's ``--die-with-parent`` takes effect only after it has made its namespaces (tens of
+    milliseconds, longer under load); a grader or worker killed before then leaves the sandbox
+    running with no parent. This prefix asks for SIGKILL on the parent's death (``setpriv
+    --pdeathsig``) before anything else runs, then checks that the parent is still this process:
+    if it died in between, the command never starts.
+
+    Returns
+    -------
+    list of str
+        ``["setpriv", "--pdeathsig", "KILL", "--", "/bin/sh", "-c", ..., "<this pid>"]``.
+    """
+    return ["setpriv", "--pdeathsig", "KILL", "--", "/bin/sh", "-c", '[ "$PPID" = "$0" ] && exec "$@"',
+            str(os.getpid())]

@@ -115,7 +115,7 @@ def fk(robot, q, *, out=None):
     array([0.273 , 0.0239, 0.    ])
     """
     c, q2, lead = prepare(robot, q)
-    return _result(c, _default_program(c, _program.POSE), q2, lead + (4, 4), out)
+    return _result(c, _point_program(c, _program.POSE), q2, lead + (4, 4), out)
 
 
 def fk_position(robot, q, point=None, *, out=None):
@@ -147,11 +147,7 @@ def fk_position(robot, q, point=None, *, out=None):
 
 
 def _position(c, q2, lead, point, out):
-    if point is None:
-        prog = _default_program(c, _program.POSITION)
-    else:
-        prog = _program.program(c, _program.POSITION, _tool_offset(c, _as_point(point)))
-    return _result(c, prog, q2, lead + (3,), out)
+    return _result(c, _point_program(c, _program.POSITION, point), q2, lead + (3,), out)
 
 
 def fk_position_with(robot, q, *, theta=None, a=None, d=None, base_position=None, tool_position=None):
@@ -269,7 +265,7 @@ def fk_frames_with(robot, q, *, theta=None, a=None, d=None, base_position=None, 
 
 
 def _frames(c, q2, lead):
-    return _result(c, _default_program(c, _program.FRAMES), q2, lead + (c.n + 2, 4, 4))
+    return _result(c, _point_program(c, _program.FRAMES), q2, lead + (c.n + 2, 4, 4))
 
 
 def _program_inputs(c, qc, inputs):
@@ -340,12 +336,8 @@ def _evaluate(c, prog, q2, outs):
 def _jacobian_call(robot, q, point, frame, want_T, out_T, out_J):
     if frame not in ("base", "tool"):
         raise OptionError(f"expected frame 'base' or 'tool', got {frame!r}")
-    tool = frame == "tool"
     c, q2, lead = prepare(robot, q)
-    if point is None:
-        prog = _default_program(c, _program.JACOBIAN, tool, want_T)
-    else:
-        prog = _program.program(c, _program.JACOBIAN, _tool_offset(c, _as_point(point)), tool, want_T)
+    prog = _point_program(c, _program.JACOBIAN, point, frame == "tool", want_T)
     return _jacobian_result(c, prog, q2, lead, want_T, out_T, out_J)
 
 
@@ -367,7 +359,7 @@ def _fk_jacobian_kernel(robot):
     """``f(q)``: :func:`fk_jacobian` without the checks, for a solver's own finite float64 ``q`` (N, n):
     poses (N, 4, 4) and base-frame Jacobians of the tool point (N, 6, n)."""
     c = chain(robot)
-    prog = _default_program(c, _program.JACOBIAN, False, True)
+    prog = _point_program(c, _program.JACOBIAN, None, False, True)
 
     def f(q):
         if c.flipped.size:  # theta_i = -q_i + theta_i, as prepare() does
@@ -378,8 +370,10 @@ def _fk_jacobian_kernel(robot):
     return f
 
 
-def _default_program(c, output, tool_frame=False, want_T=False):
-    """The program of ``output`` for the tool point (no ``point`` argument), kept on the chain."""
+def _point_program(c, output, point=None, tool_frame=False, want_T=False):
+    """The program of ``output`` for ``point`` [m] in tool coordinates (None: the tool point's, kept on the chain)."""
+    if point is not None:
+        return _program.program(c, output, _tool_offset(c, _as_point(point)), tool_frame, want_T)
     key = (output, tool_frame, want_T)
     prog = c.programs.get(key)
     if prog is None:

@@ -319,12 +319,12 @@ def _per_target(q, n, lead, name):
     return np.broadcast_to(as_batch(q, (n,), name), lead + (n,)).reshape(-1, n)
 
 
-def _branch_index(impl_branches, aliases, branch):
+def _branch_index(branches, aliases, branch):
     name = aliases.get(branch, branch) if isinstance(branch, str) else branch
-    if name not in impl_branches:
+    if name not in branches:
         extra = f" (aliases: {', '.join(sorted(aliases))})" if aliases else ""
-        raise OptionError(f"unknown branch {branch!r}; expected one of {', '.join(impl_branches)}{extra}")
-    return impl_branches.index(name)
+        raise OptionError(f"unknown branch {branch!r}; expected one of {', '.join(branches)}{extra}")
+    return branches.index(name)
 
 
 def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
@@ -371,12 +371,8 @@ def ik(robot, target, *, branch=None, q_near=None, solver="auto"):
     kind = target_kind(robot)
     family = _family(robot, solver)
     n = robot.n
-    if family is None:
-        if branch not in (None, "numeric"):
-            raise OptionError(f"{robot.name}: the numeric solver has one branch, 'numeric'; got branch {branch!r}")
-        idx = None
-    else:
-        idx = None if branch is None else _branch_index(family.branches, family.aliases, branch)
+    branches, aliases = (("numeric",), {}) if family is None else (family.branches, family.aliases)
+    idx = None if branch is None else _branch_index(branches, aliases, branch)
     flat, lead = validate_targets(target, kind)
     qn = None if q_near is None else _per_target(q_near, n, lead, "q_near")
     q, reach, valid, dist, branches = _solutions(robot, family, kind, flat, qn)
@@ -434,10 +430,8 @@ def _numeric(robot, kind, flat, q0, mask, *, tol, max_iter, restarts, seed):
     q, ok, it, res = solve_numeric(robot, kind, flat, q0, rows, tol=tol, max_iter=max_iter, restarts=restarts, rng=rng)
     if sides == 1:
         return q, ok, it, res
-    q, ok, it, res = q.reshape(-1, sides, robot.n), ok.reshape(-1, sides), it.reshape(-1, sides), res.reshape(-1, sides)
-    pick = _first_success(ok, res)  # the first pose reached
-    each = np.arange(q.shape[0])
-    return q[each, pick], ok[each, pick], it.sum(axis=1), res[each, pick]
+    q, ok, _, res = _first_success(sides, q, ok, it, res)  # the first pose reached (iterations: all poses')
+    return q, ok, it.reshape(-1, sides).sum(axis=1), res
 
 
 def _reduced_family(robot, kind):

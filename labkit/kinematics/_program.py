@@ -183,19 +183,15 @@ def walk(b, modified, base, steps, trig, joint_value):
         else:
             ct, st = cth, sth
             d = joint_value(i, d)
-        if modified:
+        if modified:  # Craig: Rx(alpha) Tx(a) before Rz(theta) Tz(d); standard DH: Tx(a) Rx(alpha) after them
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
             if a != 0:
                 p = b.axpy(p, c0, a)
-            axes.append((c2, p))
-            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
-            if not rev or d != 0:
-                p = b.axpy(p, c2, d)
-        else:
-            axes.append((c2, p))
-            c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))
-            if not rev or d != 0:
-                p = b.axpy(p, c2, d)
+        axes.append((c2, p))
+        c0, c1 = b.comb(c0, ct, c1, st), b.comb(c1, ct, c0, b.neg(st))  # Rz(theta) Tz(d)
+        if not rev or d != 0:
+            p = b.axpy(p, c2, d)
+        if not modified:
             if a != 0:
                 p = b.axpy(p, c0, a)
             c1, c2 = _rotate_x(b, c1, c2, ca, sa)
@@ -246,14 +242,8 @@ def _build(c, skeleton, n_numbers, output, tool_frame, want_T):
             outputs += _pose_rows(16 * (i + 1), frame)
         return _compile(b, outputs + _pose_rows(16 * (n + 1), cols + (p,)), 16 * (n + 2), joints)
     # Jacobian columns: z_i x (p_e - o_i) and z_i (revolute), z_i and 0 (prismatic)
-    lin, ang = [], []
-    for (z, o), step in zip(axes, steps):
-        if not step[0]:
-            lin.append(z)
-            ang.append((0.0, 0.0, 0.0))
-            continue
-        lin.append(_cross_lever(b, z, p, o))
-        ang.append(z)
+    lin = [_cross_lever(b, z, p, o) if step[0] else z for (z, o), step in zip(axes, steps)]
+    ang = [z if step[0] else (0.0, 0.0, 0.0) for (z, _), step in zip(axes, steps)]
     if tool_frame:  # rows of R^T J: tool axis k dotted with each column
         def rotate(v):
             return tuple(b.add(b.add(b.mul(v[0], t[0]), b.mul(v[1], t[1])), b.mul(v[2], t[2])) for t in cols)

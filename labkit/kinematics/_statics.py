@@ -338,10 +338,9 @@ def joint_rates(J, twist, *, epsilon=1e-2, max_damping=5e-2):
     True
     """
     J = _jac(J, rows=None)
-    _positive(epsilon, "epsilon"), _positive(max_damping, "max_damping", zero=True)
     v = as_batch(twist, (J.shape[-2],), "twist")
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
-    lam = damping_factor(s, epsilon, max_damping)  # per singular direction: zero where s_i >= epsilon
+    lam = damping_factor(s, epsilon, max_damping)  # per singular direction (zero where s_i >= epsilon); checks both
     denom = s**2 + lam**2
     with np.errstate(divide="ignore", invalid="ignore"):
         gain = np.where(denom > 0, s / denom, 0.0)

@@ -306,7 +306,7 @@ def _compile(b, outputs, n_rows, joints):
             loc[v.k] = ("o", row)
         else:
             tail.append((np.multiply, v.k, v.sign, ("o", row)))  # a copy, negated or not (exact)
-    seq = [(f, x, y, o) for f, x, y, o in ops] + tail
+    seq = ops + tail
     last = {}
     for k, (_, x, y, _) in enumerate(seq):
         for v in (x, y):

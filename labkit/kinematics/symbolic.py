@@ -370,10 +370,8 @@ def geometric_jacobian(robot, *, point=None, q=None, lengths=None, length_unit="
     for (z, o), lk in zip(axes, robot.links):
         z, o = sp.Matrix(z), sp.Matrix(o)
         sign = -1 if lk.flip else 1  # d/dq = -d/dtheta for a flipped joint
-        if lk.is_revolute:
-            cols.append(sign * sp.Matrix.vstack(z.cross(pe - o), z))
-        else:
-            cols.append(sign * sp.Matrix.vstack(z, sp.zeros(3, 1)))
+        linear, angular = (z.cross(pe - o), z) if lk.is_revolute else (z, sp.zeros(3, 1))
+        cols.append(sign * sp.Matrix.vstack(linear, angular))
     J = sp.Matrix.hstack(*cols)
     return _simplify_matrix(J) if simplify else J
 

@@ -255,10 +255,11 @@ def _cartesian_ok(robot, path, q_start, window, duration):
 
 
 def _duration(robot, plans, base=2.0, margin=1.25):
-    """The moves' duration [s]: ``base``, or longer (in 0.5 s steps) where a plan at ``base`` would exceed the
-    robot file's ``max_velocity`` / ``max_acceleration`` of a joint (with ``margin``)."""
-    vmax = np.array([np.inf if lk.max_velocity is None else lk.max_velocity for lk in robot.links])
-    amax = np.array([np.inf if lk.max_acceleration is None else lk.max_acceleration for lk in robot.links])
+    """The moves' duration [s]: ``base``, or longer (in 0.5 s steps) where a plan would exceed (with ``margin``) a
+    joint's speed limits: the robot file's, else the virtual arm's for an ideal actuator (``ideal_speed_limits``)."""
+    from labkit.arm import ideal_speed_limits, is_ideal
+    vmax, amax = np.array([ideal_speed_limits(robot, j) if is_ideal(lk) else (lk.max_velocity or np.inf,
+                           lk.max_acceleration or np.inf) for j, lk in enumerate(robot.links)]).T
     stretch = 1.0
     for traj in plans:
         stretch = max(stretch, margin * float(np.max(np.abs(traj.qd) / vmax)),
@@ -272,12 +273,11 @@ def lab_defaults(robot) -> LabDefaults:
     Poses are fractions of the joint window (the limits, within a hobby servo's travel where a
     joint has one, see :func:`servo_window`; a revolute joint within a turn either side of zero),
     rounded to whole degrees / millimetres: a home pose (the first of a few spread patterns that is
-    well-conditioned, else the best-conditioned one) and each joint moved both ways from it (30 % and 70 % of a revolute joint's window, 15 % and
-    85 % of a prismatic joint's travel). IK targets are the FK of well-conditioned poses in the
-    middle 60 % of the window whose targets the robot's IK solves inside it, preferring targets
-    with every IK branch inside the window, spread apart over the workspace (farthest-point
-    picking). The line and the arc start at the home pose and are planned (IK at every sample)
-    before they are accepted.
+    well-conditioned, else the best-conditioned one) and each joint moved both ways from it (30 % and 70 % of a
+    revolute joint's window, 15 % and 85 % of a prismatic joint's travel, at least 20 % of it away from home).
+    IK targets are the FK of well-conditioned poses in the middle 60 % of the window whose targets the robot's IK
+    solves inside it, preferring targets with every IK branch inside the window, spread apart over the workspace
+    (farthest-point picking). The line and the arc start at the home pose and are planned (IK at every sample).
 
     Parameters
     ----------
@@ -294,7 +294,7 @@ def lab_defaults(robot) -> LabDefaults:
         The arm has no length, or no well-conditioned pose, reachable target or feasible path was
         found (the message names the robot file and the joint window).
     """
-    from labkit.motion import arc_path, line_path
+    from labkit.motion import arc_path, cartesian_trajectory, joint_trajectory, line_path
 
     robot = Robot.load(robot)
     who = robot.path or robot.name  # errors name the robot file
@@ -320,10 +320,11 @@ def lab_defaults(robot) -> LabDefaults:
                 max((at(f) for f in patterns), key=lambda q: _conditioning(robot, q, kind)))
     poses = [home]
     for j in range(n):
-        # each joint away from home both ways, well inside its window; a prismatic joint over most of its travel
+        # each joint away from home both ways, well inside its window, at least a fifth of it from home
+        f_home = (home[j] - lo[j]) / (hi[j] - lo[j])
         for f in ((0.3, 0.7) if robot.is_revolute[j] else (0.15, 0.85)):
             q = home.copy()
-            q[j] = at(np.full(n, f))[j]
+            q[j] = at(np.full(n, np.clip(min(f, f_home - 0.2) if f < 0.5 else max(f, f_home + 0.2), 0.05, 0.95)))[j]
             poses.append(q)
     targets_q = _ik_targets(robot, kind, window, at)
     if len(targets_q) < 3:
@@ -390,7 +391,6 @@ def lab_defaults(robot) -> LabDefaults:
 
     def disp(q):
         return [round(float(v), 1) for v in joints_to_display(robot, q)]
-    from labkit.motion import cartesian_trajectory, joint_trajectory
     plans = [joint_trajectory(robot, home, targets_q[0], 2.0, law=law, dt=0.02) for law in ("cubic", "quintic")]
     if n > 1:
         arc_path_ = arc_path(np.asarray(arc_spec["center_mm"]) / 1e3, arc_spec["radius_mm"] / 1e3, math.radians(

@@ -203,6 +203,33 @@ class CalibrationResult:
             ))
         return pd.DataFrame(rows).set_index("parameter")
 
+    def parameters_table(self, caption=""):
+        """:meth:`parameters` as a report table: each value to the decimals its smallest standard error needs.
+
+        A column of values is otherwise printed to 3 significant digits of its largest (a 120 mm quill offset
+        beside a 0.1 deg joint offset printed that joint's fit and interval as 0 .. 0).
+
+        Parameters
+        ----------
+        caption : str
+
+        Returns
+        -------
+        labkit.tables.ReportTable
+        """
+        from labkit.tables import report_table
+
+        table = self.parameters()
+        error = np.abs(table["std_error"].to_numpy(float))
+        error = error[error > 0].min(initial=np.inf)
+        # two significant digits of the smallest standard error, at most 6 decimals (deg, mm)
+        decimals = min(6, 1 - math.floor(math.log10(error))) if math.isfinite(error) else 1
+        digits = {"*": 3}
+        for c in ("nominal", "fitted", "change", "ci_low", "ci_high"):  # report_table's digits: of a column's largest
+            top = np.abs(table[c].to_numpy(float)).max(initial=0.0)
+            digits[c] = max(3, decimals + 1 + math.floor(math.log10(top))) if top > 0 else 3
+        return report_table(table, digits=digits, caption=caption)
+
     def _prismatic(self, name):
         m = _NAME.match(name)
         return m.group(1) == "offset" and not self.robot.links[int(m.group(2)) - 1].is_revolute

@@ -138,3 +138,19 @@ def test_a_long_prismatic_axis_settles_within_a_millimetre_or_its_feedback_count
         arm.wait_settled(q, tol=[0.01, 0.01, 0.01, 0.1])  # one tolerance per joint [m, m, m, rad]
         with pytest.raises(OptionError, match="expected tol as one number or 4"):
             arm.wait_settled(q, tol=[0.01, 0.01])
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda lab: lab.ideal_speed_limits(RPP, 3), r"expected j \(a joint index\) as an integer 0\.\.2, got 3"),
+    (lambda lab: lab.ideal_speed_limits(RPP, "1"), r"as an integer 0\.\.2, got '1'"),
+    (lambda lab: lab.ideal_speed_limits("cylindrical_rpp", 0), r"expected a labkit\.robot\.Robot, got str"),
+    (lambda lab: lab.is_ideal(RPP), r"expected a labkit\.robot\.Link \(robot\.links\[j\]\), got Robot"),
+])
+def test_the_ideal_actuator_helpers_labkit_new_uses_refuse_bad_input(call, message):
+    """``labkit.arm.ideal_speed_limits`` and ``is_ideal`` are public (``labkit new`` times its moves with them)."""
+    import labkit.arm
+
+    assert labkit.arm.ideal_speed_limits(RPP, 0) == (math.radians(90.0), math.radians(360.0))  # the file's 90 deg/s, the default 360 deg/s^2
+    assert labkit.arm.ideal_speed_limits(RPP, 1) == (0.1, 2.0)  # the file's 100 mm/s, 2000 mm/s^2
+    with pytest.raises(LabkitError, match=message):
+        call(labkit.arm)

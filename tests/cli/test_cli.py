@@ -1,6 +1,7 @@
 """Tests of the ``labkit robots`` and ``labkit fk`` subcommands."""
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -94,3 +95,25 @@ def test_fk_requires_joint_values():
     with pytest.raises(SystemExit) as info:
         main(["fk", "arduino_arm_3dof"])
     assert info.value.code == 2
+
+
+@pytest.mark.parametrize("argv", [
+    ["tests/labs/robots/probe42/ur_like_mod.toml", "0", "-90", "0", "-90", "0", "0", "--deg"],  # x is 1.7e-16 m
+    ["tests/labs/robots/probe42/prrr_rail.toml", "500", "0", "90", "-45", "--mm", "--deg"],  # a bottom row of -0.0
+])
+def test_fk_prints_round_off_as_zero(argv, capsys):
+    """A coordinate the DH walk leaves at 1e-16 printed as ``x = -1.66533e-16``, rotation entries of -6e-17 and a
+    bottom row of -0.0 as ``-0.000000``."""
+    from labkit.kinematics import fk
+    from labkit.robot import Robot, joints_from_display
+
+    path = Path(__file__).parents[2] / argv[0]
+    assert main(["fk", str(path), *argv[1:]]) == 0
+    out = capsys.readouterr().out
+    assert "e-" not in out and "-0.000000" not in out, out
+    robot, mm = Robot.load(path), "--mm" in argv
+    q = joints_from_display(robot, [float(v) for v in argv[1:1 + robot.n]])  # both arms: degrees, millimetres
+    rows = np.array([_numbers(line) for line in out.splitlines()[2:6]])
+    assert np.allclose(rows[:3, :3], fk(robot, q)[:3, :3], atol=1e-6)
+    assert np.allclose(rows[:3, 3], fk(robot, q)[:3, 3] * (1e3 if mm else 1.0), atol=1e-3)
+    assert rows[3].tolist() == [0, 0, 0, 1]

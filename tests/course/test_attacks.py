@@ -70,17 +70,19 @@ def _ancestors(pid) -> set:
 def _outlived(new) -> set:
     """The new cgroups that outlived their run: every one but those of a live grader outside this test.
 
-    A cgroup is named after the process that made it (``labkit-<pid>-...``). One whose maker is alive
+    A cgroup is named after the process that made it (``labkit-mem-<pid>-<start>-...``). One whose maker is alive
     and not this test's descendant belongs to a grading test on the other xdist worker.
     """
+    from labkit.course._leftovers import owner_of
+
     me = os.getpid()
     left = set()
     for path in new:
-        try:
-            maker = int(path.name.split("-")[1])
-        except (IndexError, ValueError):
+        owner = owner_of(path.name, ("mem",))
+        if owner is None:
             left.add(path)
             continue
+        maker = owner[0]
         ancestors = _ancestors(maker)
         if maker == me or me in ancestors or not ancestors:  # ours, or its maker is gone
             if path.exists():

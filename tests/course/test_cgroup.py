@@ -66,7 +66,7 @@ def test_ctrl_c_removes_the_cgroup_and_the_sandbox(tmp_path):
         assert subprocess.run(["pgrep", "-f", "sleep 987123"], capture_output=True).stdout, "the cell never ran"
         # the cgroups this run made: named after their creator, the grader process (other tests on the
         # other xdist worker may be making their own at the same time)
-        mine = {p for p in _labkit_cgroups() - before if p.name.startswith(f"labkit-{proc.pid}-")}
+        mine = {p for p in _labkit_cgroups() - before if p.name.startswith(f"labkit-mem-{proc.pid}-")}
         assert len(mine) == (0 if memory_mechanism() == "watchdog" else 1), mine
         proc.send_signal(signal.SIGINT)
         code = proc.wait(30)
@@ -76,7 +76,7 @@ def test_ctrl_c_removes_the_cgroup_and_the_sandbox(tmp_path):
             proc.kill()
     assert "KeyboardInterrupt" in proc.stderr.read().decode(errors="replace").strip().splitlines()[-1]
     assert not (mine & _labkit_cgroups()), "a cgroup outlived its run"
-    assert not any(p.name.startswith(f"labkit-{proc.pid}-") for p in _labkit_cgroups()), "a cgroup outlived its run"
+    assert not any(p.name.startswith(f"labkit-mem-{proc.pid}-") for p in _labkit_cgroups()), "a cgroup outlived its run"
     time.sleep(0.5)
     assert not subprocess.run(["pgrep", "-f", "sleep 987123"], capture_output=True).stdout, "a process outlived it"
 

@@ -12,6 +12,7 @@ import os
 import pytest
 
 from labkit.course import _cgroup, memory_cgroup, memory_mechanism
+from labkit.course._leftovers import process_start
 
 LIMIT = 300 * 2**20
 
@@ -154,7 +155,7 @@ def test_v2_delegated_scope_moves_its_processes_to_a_leaf(tmp_path, monkeypatch)
 
     monkeypatch.setattr(_cgroup, "_write", write)
     cgroup = memory_cgroup(LIMIT)
-    leaf = scope / f"labkit-{os.getpid()}-grader"
+    leaf = scope / f"labkit-mem-{os.getpid()}-{process_start(os.getpid())}-grader"
     assert cgroup is not None and cgroup.mechanism == "cgroup v2" and cgroup.path.parent == scope
     assert sorted(moved) == sorted([os.getpid(), 4242]) and leaf.is_dir()
     assert (scope / "cgroup.subtree_control").read_text().split() == ["memory"]
@@ -169,19 +170,24 @@ def test_no_cgroup_file_system_at_all(tmp_path, monkeypatch):
     assert _cgroup._parents() == [] and memory_cgroup(LIMIT) is None and memory_mechanism() == "watchdog"
 
 
-@pytest.mark.parametrize("owner_alive", [True, False])
-def test_a_dead_graders_empty_cgroup_is_swept(tmp_path, monkeypatch, owner_alive):
-    """A cgroup left by a grader killed outright (its pid gone) is removed by the next run; a live one's is kept."""
+@pytest.mark.parametrize("owner", ["alive", "dead", "pid reused"])
+def test_a_dead_graders_empty_cgroup_is_swept(tmp_path, monkeypatch, owner):
+    """A cgroup left by a grader killed outright (its pid gone, or given to a process started later) is removed by
+    the next run; a live one's is kept, and so is anything not named exactly as labkit names its cgroups."""
     fs = tmp_path / "sys_fs_cgroup"
     own = fs / "memory" / "g"
     own.mkdir(parents=True)
     (own / "memory.limit_in_bytes").write_text("1\n")
     _layout(tmp_path, monkeypatch, ["4:memory:/g"], [(fs / "memory", "/", "cgroup", "rw,memory")])
-    owner = os.getppid() if owner_alive else 2**22 + 12345  # above pid_max's default: no such process
-    left = own / f"labkit-{owner}-deadbeef"
-    left.mkdir()
+    pid = os.getppid() if owner != "dead" else 2**22 + 12345  # above pid_max's default: no such process
+    start = process_start(os.getppid()) + (1 if owner == "pid reused" else 0)
+    left = own / f"labkit-mem-{pid}-{start}-deadbeef"
+    others = [own / f"labkit-{pid}-deadbeef", own / f"labkit-grade-{pid}-{start}-deadbeef", own / "labkit-mem-x"]
+    for path in [left, *others]:
+        path.mkdir()
     cgroup = memory_cgroup(LIMIT)
-    assert cgroup is not None and left.exists() == owner_alive
+    assert cgroup is not None and left.exists() == (owner == "alive")
+    assert all(p.exists() for p in others)
 
 
 def test_v2_kill_peak_and_remove(tmp_path, monkeypatch):

@@ -124,3 +124,22 @@ def test_grade_on_dask_survives_a_killed_worker(tmp_path, dask_cluster):
         assert r.points == (4 if int(r.student[1:]) % 2 == 0 else 2), r
         assert (tmp_path / "feedback" / "students" / r.student / "index.html").is_file()
     assert sorted(p.name for p in (tmp_path / "feedback" / "students").iterdir() if p.is_dir()) == sorted(codes)
+    assert not _orphaned_sandboxes(), "a sandbox of the killed worker outlived it"
+
+
+def _orphaned_sandboxes(wait=10.0) -> list:
+    """Command lines of this run's bubblewrap sandboxes whose grader is gone (handed to PID 1), after ``wait`` s."""
+    import psutil
+
+    marker, deadline = os.environ["LABKIT_TEST_SESSION"], time.monotonic() + wait
+    while True:
+        found = []
+        for proc in psutil.process_iter():
+            try:
+                if proc.ppid() == 1 and proc.name() == "bwrap" and proc.environ().get("LABKIT_TEST_SESSION") == marker:
+                    found.append(" ".join(proc.cmdline())[:200])
+            except psutil.Error:
+                continue
+        if not found or time.monotonic() > deadline:
+            return found
+        time.sleep(0.2)

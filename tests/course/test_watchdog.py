@@ -15,7 +15,7 @@ import time
 import pytest
 
 from conftest import require
-from labkit.course._watchdog import _ram_disks, _tree, kill_tree
+from labkit.course._watchdog import _ram_disks, _tree, dies_with_this_process, kill_tree
 
 # beside the attack batches (tests/course/test_attacks.py says why there are two groups)
 pytestmark = pytest.mark.xdist_group("grading-loop")
@@ -128,3 +128,53 @@ def test_processes_over_the_limit_as_the_notebook_ends_count(tmp_path, monkeypat
     status, detail, _ = run_untrusted(nb, tmp_path, limits=Limits(cpu_seconds=20, memory_bytes=2 * 2**30,
                                                                   wall_seconds=60))
     assert (status, detail) == ("crash", "more than 32 processes at once"), detail
+
+
+def test_a_command_tied_to_the_grader_never_starts_once_the_grader_is_gone(tmp_path):
+    """The guard's check: run by this process the command starts; run on behalf of a parent that is not its
+    parent (the grader died before the guard looked: the command was handed to PID 1) it never does."""
+    guard = dies_with_this_process()
+    assert guard[-1] == str(os.getpid())
+    subprocess.run([*guard, "touch", str(tmp_path / "ran")], check=True, timeout=30)
+    assert (tmp_path / "ran").exists()
+    orphaned = subprocess.run([*guard[:-1], "1", "touch", str(tmp_path / "orphan")], timeout=30)
+    assert orphaned.returncode != 0 and not (tmp_path / "orphan").exists()
+
+
+def test_a_command_tied_to_the_grader_dies_when_the_grader_is_killed():
+    """A grader SIGKILLed while its command runs (a dask worker killed mid-batch) takes the command with it."""
+    grader = subprocess.Popen([sys.executable, "-c", (
+        "import os, signal, subprocess, sys\n"
+        "from labkit.course._watchdog import dies_with_this_process\n"
+        "child = subprocess.Popen([*dies_with_this_process(), 'sleep', '977'])\n"
+        "print(child.pid, flush=True)\n"
+        "sys.stdin.readline()\n"
+        "os.kill(os.getpid(), signal.SIGKILL)\n")], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    pid = int(grader.stdout.readline())
+    try:
+        _killed_grader_takes_along(grader, pid)
+    finally:
+        grader.kill()
+        grader.wait()
+        kill_tree(pid)
+
+
+def _killed_grader_takes_along(grader, pid):
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and "sleep" not in _cmdline(pid):  # the guard has exec'd the command
+        time.sleep(0.02)
+    assert "977" in _cmdline(pid)
+    grader.stdin.write("\n")
+    grader.stdin.flush()
+    assert grader.wait(10) == -9
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and _cmdline(pid):
+        time.sleep(0.02)
+    assert not _cmdline(pid), "the command outlived its grader"
+
+
+def _cmdline(pid) -> str:
+    try:
+        return open(f"/proc/{pid}/cmdline", "rb").read().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""

@@ -228,3 +228,24 @@ def test_default_gravity_is_minus_robot_up(arm, rng):
     assert np.allclose(flipped.sag, -explicit.sag, atol=1e-9)
     with pytest.raises(MeasurementError, match="gravity"):
         calibrate(arm, (q, x), params=("gravity_sag",), gravity=(0, 0, 0))
+
+
+def test_the_parameter_table_prints_each_fit_to_its_standard_error(rng):
+    """A cylindrical arm's quill offset (d = 120 mm) beside its turn's offset (0 deg): the table printed every value
+    column to 3 significant digits of 120, so the turn's fit of 0.1 deg and its interval read 0, 0 .. 0."""
+    from pathlib import Path
+
+    arm = Robot.load(Path(__file__).parents[1] / "labs" / "robots" / "probe42" / "cyl_negquill.toml")
+    names = ("offset[1]", "offset[2]", "offset[3]")
+    truth = apply_parameters(arm, names, [math.radians(0.1), 0.0002, arm.links[2].d + 0.0001])  # d: the quill's
+    q = rng.uniform(*arm.joint_limits.T, size=(30, 3))
+    x = predict_positions(truth, q) + rng.normal(0.0, 0.0002, size=(30, 3))
+    result = calibrate(arm, (q, x), params=names)
+    table = result.parameters()
+    rows = [line.split() for line in result.parameters_table().to_text().splitlines()[1:]]
+    assert [r[0] for r in rows] == list(names) and abs(table.nominal.iloc[2]) == pytest.approx(120.0)
+    for row, (_, want) in zip(rows, table.iterrows()):
+        nominal, fitted, change, std_error, ci_low, ci_high = map(float, row[2:])
+        decimals = len(row[3].partition(".")[2])
+        assert 10.0 ** -decimals <= want.std_error / 2, row  # the last digit printed is finer than the error
+        assert fitted == pytest.approx(want.fitted, abs=10.0 ** -decimals) and ci_low < fitted < ci_high, row

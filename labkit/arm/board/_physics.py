@@ -58,6 +58,9 @@ __all__ = ["PhysicsConfig", "ServoBank", "gravity_sag", "point_mass_links", "ADC
 
 #: reference voltage and full scale of the board's 10-bit ADC (Arduino Uno)
 ADC_VREF = 5.0
+#: an ideal actuator's command that changes again within this time [s] is a moving reference (a streamed
+#: trajectory changes it every 20 ms servo frame); one changed after a longer pause is a new goal to stop at
+RATE_WINDOW = 0.1
 ADC_MAX = 1023
 
 
@@ -339,6 +342,11 @@ class ServoBank:
         self._y = list(q)
         self._yprev = list(q)
         self._v = [0.0] * len(q)
+        # an ideal actuator's reference rate [rad/s | m/s]: a command that keeps moving (a streamed trajectory, a
+        # new value every servo frame) is followed at its own speed, a held one braked on (see _step_ideal)
+        self._rate = [0.0] * len(q)
+        self._t_cmd = [-math.inf] * len(q)  # when each command last changed [s]
+        self._gap = [math.inf] * len(q)  # the time between its last two changes [s]
 
     def command(self, q):
         """Set the commanded shaft positions [rad] (shape (n,)).
@@ -355,6 +363,10 @@ class ServoBank:
         for j, c in enumerate(new):
             if c != self._cmd[j]:
                 self._target[j] = c if self._ideal[j] or abs(c - self._y[j]) > self._deadband[j] else self._y[j]
+                gap = self.time - self._t_cmd[j]
+                # the rate of a command that changed twice within RATE_WINDOW (a one-off jump: rate 0)
+                self._rate[j] = (c - self._cmd[j]) / gap if 0.0 < gap <= RATE_WINDOW else 0.0
+                self._t_cmd[j], self._gap[j] = self.time, gap
         self._cmd = new
 
     @property
@@ -399,10 +411,10 @@ class ServoBank:
         """
         A, B, C, D = self._A, self._B, self._C, self._D
         n = self.robot.n
-        for _ in range(int(steps)):
+        for k in range(int(steps)):
             for j in range(n):
                 if self._ideal[j]:
-                    self._step_ideal(j)
+                    self._step_ideal(j, self.time + (k + 1) * self.config.dt)
                     continue
                 d = self._target[j] - self._ref[j]
                 m = self._max_step[j]
@@ -415,18 +427,25 @@ class ServoBank:
                 self._y[j] = y
         self.time += steps * self.config.dt
 
-    def _step_ideal(self, j):
-        """One step of an ideal actuator: the speed that still stops at the target, reached within the acceleration."""
-        d = self._target[j] - self._y[j]
+    def _step_ideal(self, j, t):
+        """One step of an ideal actuator: the speed that still stops at the target, reached within the acceleration.
+
+        A moving command (changed again within 1.5 of its last gap) is extrapolated at its rate and its rate fed
+        forward, so a streamed plan within the speed limits is followed without lag, not braked on at every frame."""
         dt, dv = self.config.dt, self._max_dv[j]
+        since = t - dt - self._t_cmd[j]  # from the command's change to this step's start
+        rate = self._rate[j] if self._rate[j] and since + dt <= 1.5 * self._gap[j] else 0.0
+        e = self._target[j] + (rate * since if rate else 0.0) - self._y[j]  # behind the moving command
         # the largest step from which steps shrinking by a dt^2 at every step end on the target (a discrete
         # braking curve: s + (s - k) + (s - 2k) + ... = |d| with k = a dt^2), capped by the speed and the distance
         k = dv * dt
-        brake = k * (math.sqrt(0.25 + 2.0 * abs(d) / k) - 0.5) if math.isfinite(k) and k > 0 else math.inf
-        v_goal = math.copysign(min(self._max_step[j], brake, abs(d)), d) / dt
+        brake = k * (math.sqrt(0.25 + 2.0 * abs(e) / k) - 0.5) if math.isfinite(k) and k > 0 else math.inf
+        v_goal = rate + math.copysign(min(self._max_step[j], brake, abs(e)), e) / dt
+        v_goal = max(-self._max_step[j] / dt, min(self._max_step[j] / dt, v_goal))
         v = self._v[j]
         v = v + max(-dv, min(dv, v_goal - v))
         step = v * dt
+        d = e + rate * dt  # to where the command is at the step's end
         if abs(d - step) < 1e-12:
             step, v = d, 0.0 if abs(d) < 1e-12 else v
         self._v[j] = v

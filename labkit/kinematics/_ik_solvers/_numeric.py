@@ -183,9 +183,13 @@ def solve(robot, kind, target, q0, rows, *, tol, max_iter, restarts, rng):
     return out.q, out.success, out.iterations, out.residual
 
 
-def _first_success(ok, res):
-    """Per row of copies (N, K) of a target the first that succeeded, else the one of least residual."""
-    return np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+def _first_success(K, q, ok, it, res):
+    """Per target of ``K`` consecutive copies (rows of ``q`` (N K, n), ``ok``, ``it``, ``res`` (N K,)) the first
+    copy that succeeded, else the one of least residual: its ``q`` (N, n), ``ok``, ``it`` and ``res`` (N,)."""
+    ok, it, res = ok.reshape(-1, K), it.reshape(-1, K), res.reshape(-1, K)
+    pick = np.where(ok.any(axis=1), np.argmax(ok, axis=1), np.argmin(res, axis=1))
+    each = np.arange(ok.shape[0])
+    return q.reshape(-1, K, q.shape[-1])[each, pick], ok[each, pick], it[each, pick], res[each, pick]
 
 
 def _multistart_round(p, out):
@@ -196,14 +200,11 @@ def _multistart_round(p, out):
         return False
     copies = dataclasses.replace(p, target=np.repeat(p.target[fail], K, axis=0))
     got = _attempts(copies, copies.random_q(fail.size * K), 1, None, group=K)
-    ok, res = got.success.reshape(-1, K), got.residual.reshape(-1, K)
-    pick = _first_success(ok, res)
-    each = np.arange(fail.size)
-    q, res = got.q.reshape(-1, K, got.q.shape[1])[each, pick], res[each, pick]
-    out.iterations[fail] += got.iterations.reshape(-1, K)[each, pick]
-    improve = ok.any(axis=1) | (res < out.residual[fail])
+    q, ok, it, res = _first_success(K, got.q, got.success, got.iterations, got.residual)
+    out.iterations[fail] += it
+    improve = ok | (res < out.residual[fail])
     out.q[fail[improve]], out.residual[fail[improve]] = q[improve], res[improve]
-    out.success[fail] = ok.any(axis=1)
+    out.success[fail] = ok
     return True
 
 

@@ -133,9 +133,7 @@ def validate_targets(target, kind):
     except (TypeError, ValueError) as exc:  # ragged lists, strings ...
         raise ShapeError(f"expected the target as numbers ({_target_words(kind)}), got {target!r:.80} ({exc})") \
             from None
-    if kind in REDUCED and target.shape[-2:] != (4, 4):
-        return _vector_targets(target, kind)
-    if kind in ("pose", *REDUCED):
+    if kind == "pose" or (kind in REDUCED and target.shape[-2:] == (4, 4)):
         T = _finite_and_near(target, (4, 4), "target pose")
         lead = T.shape[:-2]
         T = T.reshape(-1, 4, 4)
