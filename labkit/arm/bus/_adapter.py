@@ -8,16 +8,31 @@ arrive after the SDK gave up, the "There is no status packet" / "Incorrect statu
 DynamixelSDK users report most. On Linux the timer is
 ``/sys/bus/usb-serial/devices/<tty>/latency_timer``; :func:`latency_timer` reads it and :func:`advice`
 puts it, with the one-line fix, in every message about a silent or damaged bus.
+
+A virtual bus (:class:`labkit.arm.bus.BusEmulator`) is a thread of this process: how soon it answers is
+how soon the host's CPU runs it, which on a loaded machine can be seconds, not how a servo behaves (a
+servo answers within its return delay, well under a millisecond). A pseudo-terminal that an emulator of
+this process serves is :func:`served_by` it, and a driver on it starts each status-packet timeout only
+once the emulator has read and answered every byte the host sent (:func:`paced_by`): a status packet the
+emulator drops or never sends is still a timeout, one that the host's load delays is not.
 """
 
 from __future__ import annotations
 
 import os
+import time
+import weakref
 
-__all__ = ["SYSFS", "latency_timer", "latency_note", "advice"]
+__all__ = ["SYSFS", "VIRTUAL_WAIT_LIMIT", "latency_timer", "latency_note", "advice", "serve", "served_by",
+           "paced_by"]
 
 #: where Linux shows the USB serial adapters (a test points it at a fake tree)
 SYSFS = "/sys"
+#: longest wait [s of wall time] for a virtual bus to read what the host sent before a status timeout runs anyway
+#: (an emulator whose thread has died, or bytes that never reached it)
+VIRTUAL_WAIT_LIMIT = 120.0
+
+_SERVED = weakref.WeakValueDictionary()  # pseudo-terminal -> the BusEmulator of this process serving it
 
 
 def _sysfs_file(device, sysfs):
@@ -108,3 +123,82 @@ def advice(driver):
             + (note + "; otherwise " if note else "")
             + f"check the cable and its connectors, that every servo is set to {driver.baudrate} bit/s and "
               f"powered, and that no other program has the port open")
+
+
+def serve(path, emulator):
+    """Record that ``emulator`` (a :class:`BusEmulator` of this process) serves pseudo-terminal ``path``
+    (``emulator=None``: no longer).
+
+    Parameters
+    ----------
+    path : str
+    emulator : BusEmulator or None
+    """
+    key = os.path.realpath(path)
+    if emulator is None:
+        _SERVED.pop(key, None)
+    else:
+        _SERVED[key] = emulator
+
+
+def served_by(device):
+    """The :class:`BusEmulator` of this process that serves ``device``, or ``None`` (a real adapter).
+
+    Parameters
+    ----------
+    device : str
+
+    Returns
+    -------
+    BusEmulator or None
+
+    Examples
+    --------
+    >>> served_by("/dev/ttyUSB0") is None
+    True
+    """
+    return _SERVED.get(os.path.realpath(str(device)))
+
+
+def paced_by(port_class, emulator):
+    """The SDK's ``PortHandler`` whose status timeouts start once ``emulator`` has handled every byte sent.
+
+    ``emulator.handled`` counts the bytes its thread has read and answered; the port counts the bytes it
+    wrote. While the first is behind, no time has passed for the virtual servos and the timeout's clock is
+    held at its start (at most :data:`VIRTUAL_WAIT_LIMIT` s); then the usual timeout (``2 x latency + 2 ms``
+    plus the packet's wire time) runs, as on a real bus from the moment a servo has the request.
+
+    Parameters
+    ----------
+    port_class : type
+        The SDK's ``PortHandler`` (or a subclass).
+    emulator : BusEmulator
+
+    Returns
+    -------
+    type
+    """
+
+    class Port(port_class):
+        def openPort(self):
+            self.sent = 0
+            self.base = emulator.handled  # bytes an earlier host sent this bus
+            self.behind_since = None
+            return super().openPort()
+
+        def writePort(self, packet):
+            written = super().writePort(packet)
+            self.sent += written or 0
+            return written
+
+        def isPacketTimeout(self):
+            now = time.monotonic()
+            if emulator.handled - self.base < self.sent and emulator.serving:
+                self.behind_since = self.behind_since or now
+                if now - self.behind_since < VIRTUAL_WAIT_LIMIT:
+                    self.packet_start_time = self.getCurrentTime()  # the servos have not got the request yet
+                    return False
+            self.behind_since = None
+            return super().isPacketTimeout()
+
+    return Port

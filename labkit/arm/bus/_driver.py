@@ -19,7 +19,7 @@ import numpy as np
 
 from labkit.exceptions import BusFault, BusWarning, DeviceError
 from labkit.robot import BusGripper
-from labkit.arm.bus._adapter import advice, latency_note, latency_timer
+from labkit.arm.bus._adapter import advice, latency_note, latency_timer, paced_by, served_by
 from labkit.arm.bus._confirm import READ_TRIES, read_registers, write_confirmed, write_unconfirmed
 
 __all__ = ["BusFault", "BusReading"]
@@ -88,7 +88,8 @@ class BusDriver:
     latency : float, optional
         The adapter's latency [ms] in the SDK's status-packet timeout (``2 * latency + 2 ms`` plus the packet's
         wire time); default the robot file's ``[bus] latency``, else the SDK's 16 ms (an FTDI adapter's default
-        latency timer); the virtual bus uses more, as a loaded host may take longer than a servo to answer.
+        latency timer). On a virtual bus of this process (:class:`BusEmulator`) the timeout starts once the
+        emulator has the request: a loaded host delays its thread, not a servo.
         An adapter whose USB latency timer (read from sysfs on Linux) is above it gives a :class:`BusWarning`
         with the one-line fix, and every message about lost status packets repeats it.
 
@@ -120,6 +121,9 @@ class BusDriver:
             latency = getattr(robot.bus, "latency", None)
         if latency is not None:
             port_class = _with_latency(port_class, float(latency))
+        emulator = served_by(device)
+        if emulator is not None:  # a virtual bus of this process: timeouts from when it has the request
+            port_class = paced_by(port_class, emulator)
         #: the adapter latency the status timeouts allow for [ms]; the adapter's USB latency timer [ms] or None
         self.latency = float(latency) if latency is not None else float(_sdk_latency(port_class))
         self.latency_timer = latency_timer(device)

@@ -11,6 +11,10 @@ its shaft angles, the present current its gravity torque over the servo's torque
 Faults are set on :attr:`BusEmulator.faults` while it runs: status packets dropped or corrupted,
 a servo silent, a servo in overload (hardware error, torque off, as a real servo protects itself).
 
+A driver of this process on :attr:`BusEmulator.path` starts each status timeout once the emulator has
+answered what it sent (:attr:`BusEmulator.handled`, :func:`labkit.arm.bus._adapter.paced_by`): a loaded host
+delays the emulator's thread, not a servo's answer.
+
 The physics runs on the clock of whoever drives it: :class:`BusBoard` advances the model to its
 board time before each bus transaction (so ``sim://...?bus=dynamixel&clock=lockstep`` stays
 deterministic); with ``wall_clock=True`` the emulator advances it to the wall clock itself.
@@ -29,6 +33,7 @@ import numpy as np
 from labkit.exceptions import OptionError
 from labkit.robot import BusGripper, Robot
 from labkit.arm.board import ArmModel, PhysicsConfig, gravity_sag
+from labkit.arm.bus._adapter import serve
 from labkit.arm.bus._registry import bus_module
 from labkit.arm.bus._servo_loop import PositionLoops
 from labkit.arm.bus._gripper import VirtualGripper, limit_torque
@@ -167,8 +172,11 @@ class BusEmulator:
 
         tty.setraw(self._slave)
         self.path = os.ttyname(self._slave)
+        #: bytes read from the host and answered (a driver of this process starts its status timeouts from here)
+        self.handled = 0
         self._thread = threading.Thread(target=self._serve, name=f"labkit {self.bus.PROTOCOL} bus", daemon=True)
         self._thread.start()
+        serve(self.path, self)
 
     # -- control tables ---------------------------------------------------------------------------
     def _put(self, servo_id, name, value):
@@ -301,6 +309,7 @@ class BusEmulator:
                             os.write(self._master, out)
                         except OSError:
                             return
+                self.handled += len(data)
 
     def handle(self, servo_id, instruction, params):
         """Run one intact instruction packet; return the bytes of the status packets that answer it.
@@ -391,8 +400,15 @@ class BusEmulator:
         return True
 
     # -- life -----------------------------------------------------------------------------------------
+    @property
+    def serving(self):
+        """Whether the bus still reads and answers packets (not closed, its thread alive)."""
+        return not self._stop.is_set() and self._thread.is_alive()
+
     def close(self):
         """Stop serving and close the pseudo-terminal (idempotent)."""
+        if self._master != -1:
+            serve(self.path, None)
         self._stop.set()
         if self._thread.is_alive() and self._thread is not threading.current_thread():
             self._thread.join(1.0)

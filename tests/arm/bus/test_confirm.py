@@ -194,3 +194,31 @@ def test_a_gain_write_a_servo_missed_is_sent_again(bus, monkeypatch):
     kp = book.read(1).kp + 3
     assert book.write(1, kp=kp).kp == kp
     assert emu.get(emu.ids[1], field) == kp
+
+
+def test_a_virtual_bus_slower_than_the_status_timeout_is_waited_for_and_a_lost_packet_is_not(bus, monkeypatch):
+    """The emulator is a thread of this process: on a loaded machine it answers seconds late. The driver's timeout
+    starts once the emulator has the request, so a late answer is taken at the first sync read, while a status
+    packet the emulator drops is still a timeout (read again)."""
+    import time
+
+    emu, driver = bus
+    handle = emu.handle
+
+    def slow(*args):  # the emulator's thread held up for longer than the 202 ms status timeout
+        time.sleep(0.6)
+        return handle(*args)
+
+    monkeypatch.setattr(emu, "handle", slow)
+    sent, send = [], driver._sync_read_tx
+
+    def counted(*args):  # the sync reads the host sends
+        sent.append(args)
+        return send(*args)
+
+    monkeypatch.setattr(driver, "_sync_read_tx", counted)
+    driver.read_state()
+    assert len(sent) == 1  # no retry: nothing was lost
+    emu.faults.drop_status = 1  # the first servo's answer lost: a timeout, then the servos without one asked again
+    driver.read_state()
+    assert len(sent) == 3
