@@ -188,7 +188,7 @@ def _local_pool(fn, argsets, indices, jobs, done) -> list:
     indices, broken = list(indices), []
     if not indices:
         return broken
-    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(indices))),
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(indices))), initializer=_on_the_drivers_machine,
                              mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = {}
         for k, i in enumerate(indices):
@@ -209,10 +209,18 @@ def _local_pool(fn, argsets, indices, jobs, done) -> list:
     return sorted(broken)
 
 
-#: set once this process has checked that bubblewrap starts here (a pool or dask worker)
+#: set once this process has checked that bubblewrap starts here (a dask worker; a pool worker from the start)
 _WORKER_CHECKED = []
-#: set once this process (a pool or dask worker) has removed what dead graders left on its machine
+#: set once this process has removed what dead graders left on its machine (a dask worker; a pool worker from the
+#: start)
 _WORKER_SWEPT = []
+
+
+def _on_the_drivers_machine():
+    """A local pool worker's start: its machine is the driver's, which the driver has checked (bubblewrap starts)
+    and swept (:func:`remove_leftovers`) before the batch, and sweeps again if a worker dies."""
+    _WORKER_CHECKED.append(True)
+    _WORKER_SWEPT.append(True)
 
 
 def _sweep_once():
