@@ -43,6 +43,7 @@ import tempfile
 from pathlib import Path
 
 from labkit.course._safefs import remove_tree
+from labkit.course._watchdog import stat_fields
 
 __all__ = ["FOLDER_KINDS", "TEMP_PLACES", "owner_prefix", "owner_of", "process_start", "new_folder",
            "temporary_folder", "sweep", "remove_leftovers"]
@@ -69,7 +70,7 @@ def process_start(pid):
         process, it is a zombie, or ``/proc`` does not say.
     """
     try:
-        fields = Path(f"/proc/{int(pid)}/stat").read_bytes().rsplit(b")", 1)[1].split()
+        fields = stat_fields(pid)
         return None if fields[0] in (b"Z", b"X") else int(fields[19])
     except (OSError, ValueError, IndexError):
         return None

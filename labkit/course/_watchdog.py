@@ -39,9 +39,29 @@ def _pss(pid) -> int:
     return 0
 
 
+def stat_fields(pid) -> list:
+    """The fields of ``/proc/<pid>/stat`` after the command name (which may hold spaces and parentheses).
+
+    Parameters
+    ----------
+    pid : int
+
+    Returns
+    -------
+    list of bytes
+        ``[state, ppid, ...]``: field ``k`` of proc(5) (1-based) at index ``k - 3``.
+
+    Raises
+    ------
+    OSError
+        No such process (or no ``/proc``).
+    """
+    return Path(f"/proc/{int(pid)}/stat").read_bytes().rsplit(b")", 1)[1].split()
+
+
 def _cpu(pid) -> float:
     try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        fields = stat_fields(pid)
         return sum(int(f) for f in fields[11:15]) / os.sysconf("SC_CLK_TCK")
     except (OSError, ValueError, IndexError):
         return 0.0
